@@ -1,0 +1,137 @@
+//! Pure view math: poses, FOV tangents, projections, frusta, superfrusta and
+//! cones. Nothing here knows about Vulkan or OpenXR: every rig (a runtime, an
+//! HMD profile, a test) is expressed as poses plus four FOV angles per view.
+
+pub mod profile;
+pub mod projection;
+
+use glam::{DQuat, DVec3};
+
+/// Field of view of one view as four signed angles in radians, in OpenXR's
+/// `XrFovf` convention: `left` and `down` are usually negative, `right` and
+/// `up` positive; the view looks down -Z with +X right and +Y up.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Fov {
+    /// Angle of the left edge (radians, negative to the left of the axis).
+    pub left: f64,
+    /// Angle of the right edge (radians, positive to the right).
+    pub right: f64,
+    /// Angle of the top edge (radians, positive up).
+    pub up: f64,
+    /// Angle of the bottom edge (radians, negative down).
+    pub down: f64,
+}
+
+impl Fov {
+    /// A symmetric FOV with the given horizontal and vertical half-angles.
+    pub fn symmetric(half_h: f64, half_v: f64) -> Self {
+        Fov { left: -half_h, right: half_h, up: half_v, down: -half_v }
+    }
+
+    /// Tangents of the four angles: (left, right, up, down), signed.
+    pub fn tangents(&self) -> [f64; 4] {
+        [self.left.tan(), self.right.tan(), self.up.tan(), self.down.tan()]
+    }
+
+    /// Checks that the angles are finite, inside (-90°, 90°) and that each
+    /// pair spans a non-empty range.
+    pub fn validate(&self) -> Result<(), String> {
+        let lim = std::f64::consts::FRAC_PI_2;
+        for (name, a) in [("left", self.left), ("right", self.right), ("up", self.up), ("down", self.down)] {
+            if !a.is_finite() || a.abs() >= lim {
+                return Err(format!("fov.{name} = {a} is not an angle inside (-90°, 90°)"));
+            }
+        }
+        if self.right <= self.left {
+            return Err(format!("fov.right ({}) must be greater than fov.left ({})", self.right, self.left));
+        }
+        if self.up <= self.down {
+            return Err(format!("fov.up ({}) must be greater than fov.down ({})", self.up, self.down));
+        }
+        Ok(())
+    }
+}
+
+/// A rigid transform in double precision: where a head or eye is and where it
+/// looks. Orientation is a unit quaternion.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Pose {
+    /// Position in metres.
+    pub position: DVec3,
+    /// Orientation as a unit quaternion.
+    pub orientation: DQuat,
+}
+
+impl Default for Pose {
+    fn default() -> Self {
+        Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY }
+    }
+}
+
+impl Pose {
+    /// Composes `self` (parent) with `child` expressed in the parent's space.
+    pub fn compose(&self, child: &Pose) -> Pose {
+        Pose {
+            position: self.position + self.orientation * child.position,
+            orientation: (self.orientation * child.orientation).normalize(),
+        }
+    }
+
+    /// A head pose from a position and yaw/pitch/roll in degrees (yaw about
+    /// +Y, then pitch about +X, then roll about -Z), the CLI's `--pose`.
+    pub fn from_euler_deg(position: DVec3, yaw: f64, pitch: f64, roll: f64) -> Pose {
+        let q = DQuat::from_rotation_y(yaw.to_radians())
+            * DQuat::from_rotation_x(pitch.to_radians())
+            * DQuat::from_rotation_z(roll.to_radians());
+        Pose { position, orientation: q }
+    }
+
+    /// Rejects poses the math cannot use: non-finite components or an
+    /// orientation whose norm is not within 1e-3 of one.
+    pub fn validate(&self) -> Result<(), String> {
+        if !self.position.is_finite() {
+            return Err(format!("pose position {:?} is not finite", self.position));
+        }
+        let q = self.orientation;
+        if !q.is_finite() {
+            return Err(format!("pose orientation {q:?} is not finite"));
+        }
+        if (q.length() - 1.0).abs() > 1e-3 {
+            return Err(format!("pose orientation {q:?} is not a unit quaternion (norm {})", q.length()));
+        }
+        Ok(())
+    }
+
+    /// The view direction (-Z of the pose) in world space.
+    pub fn forward(&self) -> DVec3 {
+        self.orientation * DVec3::NEG_Z
+    }
+}
+
+/// One rendered view: a world-space eye pose and its FOV.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct View {
+    /// Eye pose in world space.
+    pub pose: Pose,
+    /// The eye's four FOV angles.
+    pub fov: Fov,
+}
+
+/// A head and its views (left first), as delivered by a runtime or built
+/// from an HMD profile.
+#[derive(Clone, Debug, PartialEq)]
+pub struct StereoRig {
+    /// Head pose in world space.
+    pub head: Pose,
+    /// Per-view world poses and FOVs, left eye first.
+    pub views: Vec<View>,
+}
+
+impl StereoRig {
+    /// Builds world-space views from a head pose and per-eye poses given in
+    /// head space.
+    pub fn from_head(head: Pose, eyes: &[(Pose, Fov)]) -> StereoRig {
+        let views = eyes.iter().map(|(p, fov)| View { pose: head.compose(p), fov: *fov }).collect();
+        StereoRig { head, views }
+    }
+}
