@@ -1,1 +1,215 @@
-fn main() {}
+//! The `vergence` command line.
+
+use anyhow::Context as _;
+use clap::{Parser, Subcommand};
+use glam::DVec3;
+use std::path::PathBuf;
+use std::process::ExitCode;
+use vergence::config::{RenderConfig, StereoMode};
+use vergence::scene::Scene;
+use vergence::targets::headless::{self, RenderJob};
+use vergence::view::profile::DEFAULT_PROFILE;
+use vergence::view::Pose;
+
+/// Stereo VR rendering of very large scenes, with measured stereo optimizations.
+#[derive(Parser)]
+#[command(name = "vergence", version, about)]
+struct Cli {
+    #[command(subcommand)]
+    command: Command,
+}
+
+#[derive(Subcommand)]
+enum Command {
+    /// Render one stereo frame headless into DIR/left.png, DIR/right.png and DIR/stats.json.
+    Render(RenderArgs),
+    /// Print a scene's nodes, meshes, triangles, materials, textures, instances and bounds.
+    Inspect {
+        /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+        scene: String,
+    },
+}
+
+#[derive(clap::Args)]
+struct RenderArgs {
+    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    #[arg(long, default_value = "factory")]
+    scene: String,
+    /// HMD profile: a name in manifests/hmd/ (monado-sim, valve-index, quest-3, pimax-wide) or a path.
+    #[arg(long, default_value = DEFAULT_PROFILE)]
+    hmd: String,
+    /// Head pose: x,y,z (metres), yaw, pitch, roll (degrees).
+    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+    pose: Option<Pose>,
+    /// Stereo mode.
+    #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
+    stereo: StereoMode,
+    /// MSAA samples: 1 or 4.
+    #[arg(long, default_value_t = 4)]
+    msaa: u32,
+    /// Per-eye width in pixels (default: the profile's).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Per-eye height in pixels (default: the profile's).
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Comma-separated optimizations (e.g. multiview,two-pass,no-msaa).
+    #[arg(long, default_value = "")]
+    opt: String,
+    /// Output folder.
+    #[arg(long)]
+    out: PathBuf,
+}
+
+fn parse_pose(s: &str) -> Result<Pose, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{p}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.len() != 6 {
+        return Err(format!(
+            "expected 6 numbers x,y,z,yaw,pitch,roll, got {}",
+            v.len()
+        ));
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err("pose values must be finite".into());
+    }
+    Ok(Pose::from_euler_deg(
+        DVec3::new(v[0], v[1], v[2]),
+        v[3],
+        v[4],
+        v[5],
+    ))
+}
+
+/// Default head pose: standing at the hall's entrance, looking in.
+fn default_pose() -> Pose {
+    Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0)
+}
+
+fn run(cli: Cli) -> anyhow::Result<()> {
+    match cli.command {
+        Command::Render(a) => {
+            let mut config = RenderConfig {
+                stereo: a.stereo,
+                msaa: a.msaa,
+                ..RenderConfig::default()
+            };
+            config.apply_opts(&a.opt, &["none"])?;
+            let job = RenderJob {
+                scene: a.scene,
+                hmd: a.hmd,
+                pose: a.pose.unwrap_or_else(default_pose),
+                config,
+                size: a.width.zip(a.height),
+                out: a.out,
+            };
+            let stats = headless::render_to_dir(&job)?;
+            println!(
+                "rendered {} at {}x{} per eye ({}, {}x MSAA): {} draw calls, {} instances, {} triangles; wrote {}",
+                stats.scene.name,
+                stats.resolution[0],
+                stats.resolution[1],
+                stats.config.stereo.name(),
+                stats.config.msaa,
+                stats.draw_calls,
+                stats.instances_drawn,
+                stats.triangles,
+                job.out.display()
+            );
+            if stats.validation_messages > 0 {
+                anyhow::bail!(
+                    "{} Vulkan validation messages (see log)",
+                    stats.validation_messages
+                );
+            }
+        }
+        Command::Inspect { scene } => {
+            let (s, ms) = headless::load_scene(&scene)?;
+            inspect(&s, ms);
+        }
+    }
+    Ok(())
+}
+
+fn inspect(s: &Scene, load_ms: f64) {
+    let c = headless::SceneCounts::of(s);
+    let (lo, hi) = s.bounds();
+    println!("scene       {}", c.name);
+    println!("loaded in   {load_ms:.1} ms");
+    println!("nodes       {}", c.nodes);
+    println!("meshes      {} ({} primitives)", c.meshes, c.primitives);
+    println!(
+        "triangles   {} (instanced), {} (unique)",
+        c.triangles,
+        s.primitives.iter().map(|p| p.triangles()).sum::<usize>()
+    );
+    println!("materials   {}", c.materials);
+    println!("textures    {}", c.textures);
+    println!("instances   {}", c.instances);
+    println!(
+        "bounds      min [{:.3}, {:.3}, {:.3}] max [{:.3}, {:.3}, {:.3}]",
+        lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
+    );
+    println!("features    {:?}", c.features);
+    for (i, m) in s.meshes.iter().enumerate().take(20) {
+        let tris: usize = m
+            .primitives
+            .iter()
+            .map(|&p| s.primitives[p as usize].triangles())
+            .sum();
+        println!(
+            "  mesh {i:3} {:24} {} primitives, {tris} triangles",
+            m.name,
+            m.primitives.len()
+        );
+    }
+    if s.meshes.len() > 20 {
+        println!("  ... {} more meshes", s.meshes.len() - 20);
+    }
+    for (i, m) in s.materials.iter().enumerate().take(20) {
+        println!(
+            "  material {i:3} {:24} {:?}{}{}",
+            m.name,
+            m.alpha_mode,
+            if m.double_sided { " double-sided" } else { "" },
+            if m.unlit { " unlit" } else { "" }
+        );
+    }
+}
+
+fn main() -> ExitCode {
+    tracing_subscriber::fmt()
+        .with_env_filter(
+            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+        )
+        .with_writer(std::io::stderr)
+        .init();
+    let cli = Cli::parse();
+    match run(cli).context("vergence") {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("error: {:#}", e.root_cause_chain());
+            ExitCode::FAILURE
+        }
+    }
+}
+
+trait RootChain {
+    fn root_cause_chain(&self) -> String;
+}
+
+impl RootChain for anyhow::Error {
+    fn root_cause_chain(&self) -> String {
+        self.chain()
+            .skip(1)
+            .map(|e| e.to_string())
+            .collect::<Vec<_>>()
+            .join(": ")
+    }
+}

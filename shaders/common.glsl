@@ -1,0 +1,36 @@
+// Shared declarations for the scene shaders (set 0).
+struct InstanceData {
+    vec4 row0;      // linear part row 0, translation (high f32 part) in w
+    vec4 row1;
+    vec4 row2;
+    vec4 trans_lo;  // translation low f32 part (xyz)
+};
+
+struct MaterialData {
+    vec4 base_color;
+    vec4 emissive_cutoff;  // rgb emissive, a alpha cutoff
+    vec4 mr_scales;        // metallic, roughness, normal scale, occlusion strength
+    ivec4 tex0;            // base colour, metallic-roughness, normal, occlusion (-1 = none)
+    ivec4 tex1;            // emissive, uv-set mask (bit i: slot i uses UV1), flags, unused
+};
+
+layout(set = 0, binding = 0) uniform FrameData {
+    mat4 view_proj[2];
+    mat4 eye_rot[2];       // eye orientation (world from eye), rotation only
+    vec4 tangents[2];      // tan(left), tan(right), tan(up), tan(down)
+    vec4 eye_rel[2];       // eye position relative to the render origin
+    vec4 origin_hi;        // render origin, high f32 part
+    vec4 origin_lo;        // render origin, low f32 part
+    vec4 sun_dir;          // towards the sun, world space
+    vec4 sun_color;
+    vec4 sky_zenith;
+    vec4 sky_horizon;
+    vec4 ground;
+} frame;
+
+layout(push_constant) uniform Push {
+    uint material;
+    uint view_offset;  // added to gl_ViewIndex: 0 under multiview, the eye in two-pass
+    uint unused0;
+    uint unused1;
+} pc;

@@ -1,0 +1,102 @@
+//! `RenderConfig`: one field per optimization, parsed from the CLI (`--stereo`,
+//! `--msaa`, `--opt LIST`) and from config files.
+
+use crate::error::{Error, Result};
+
+/// How the two eyes are rendered.
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum StereoMode {
+    /// One render pass with view mask 0b11 over 2-layer images (VK_KHR_multiview).
+    #[default]
+    Multiview,
+    /// One render pass per eye: the naive baseline.
+    TwoPass,
+}
+
+impl StereoMode {
+    /// The CLI name.
+    pub fn name(self) -> &'static str {
+        match self {
+            StereoMode::Multiview => "multiview",
+            StereoMode::TwoPass => "two-pass",
+        }
+    }
+}
+
+/// Everything that changes how a frame is rendered.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RenderConfig {
+    /// Stereo mode.
+    pub stereo: StereoMode,
+    /// MSAA samples (1 or 4).
+    pub msaa: u32,
+    /// Near plane in metres (reverse-Z, infinite far plane).
+    pub near: f64,
+    /// Culling strategy name (`none` draws every instance).
+    pub cull: String,
+    /// Draw distance in metres for distance culling (None: unlimited).
+    pub draw_distance: Option<f64>,
+}
+
+impl Default for RenderConfig {
+    fn default() -> Self {
+        RenderConfig {
+            stereo: StereoMode::Multiview,
+            msaa: 4,
+            near: 0.05,
+            cull: "none".into(),
+            draw_distance: None,
+        }
+    }
+}
+
+impl RenderConfig {
+    /// Validates value ranges.
+    pub fn validate(&self) -> Result<()> {
+        if !matches!(self.msaa, 1 | 4) {
+            return Err(Error::config(
+                "--msaa",
+                format!("{} (supported: 1, 4)", self.msaa),
+            ));
+        }
+        if !(self.near.is_finite() && self.near > 0.0) {
+            return Err(Error::config(
+                "near plane",
+                format!("{} must be a positive number", self.near),
+            ));
+        }
+        Ok(())
+    }
+
+    /// Applies a comma-separated `--opt` list (e.g. `multiview,superfrustum`).
+    /// Names it does not know are an error naming them.
+    pub fn apply_opts(&mut self, list: &str, cull_names: &[&str]) -> Result<()> {
+        for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            match item {
+                "multiview" => self.stereo = StereoMode::Multiview,
+                "two-pass" => self.stereo = StereoMode::TwoPass,
+                "msaa" | "msaa4" => self.msaa = 4,
+                "no-msaa" => self.msaa = 1,
+                name if cull_names.contains(&name) => self.cull = name.to_string(),
+                other => {
+                    return Err(Error::config(
+                        "--opt",
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, {})", cull_names.join(", ")),
+                    ))
+                }
+            }
+        }
+        Ok(())
+    }
+}

@@ -1,0 +1,97 @@
+//! The library's error type. Every expected failure (bad file, bad profile,
+//! missing device) becomes one of these with a message naming the input and
+//! the problem; `main` prints it and exits non-zero.
+
+use std::path::PathBuf;
+
+/// Errors produced by the vergence library.
+#[derive(Debug, thiserror::Error)]
+pub enum Error {
+    /// A file could not be read.
+    #[error("{path}: cannot read file: {source}")]
+    Io {
+        /// The file that failed.
+        path: PathBuf,
+        /// The underlying I/O error.
+        source: std::io::Error,
+    },
+    /// A scene file (glTF, GLB, manifest) is malformed or unsupported.
+    #[error("{path}: {message}")]
+    Scene {
+        /// The scene file (or the resource it references).
+        path: PathBuf,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// An HMD profile is unknown or malformed.
+    #[error("HMD profile {name}: {message}")]
+    Profile {
+        /// The profile name or path.
+        name: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A command-line or configuration value is invalid.
+    #[error("invalid {what}: {message}")]
+    Config {
+        /// Which option or setting.
+        what: String,
+        /// What is wrong with it.
+        message: String,
+    },
+    /// A Vulkan call failed.
+    #[error("Vulkan: {context}: {result}")]
+    Vulkan {
+        /// What vergence was doing.
+        context: String,
+        /// The Vulkan result code.
+        result: ash::vk::Result,
+    },
+    /// The GPU layer could not be set up (no loader, no device, missing feature).
+    #[error("GPU: {0}")]
+    Gpu(String),
+    /// Writing an output file failed.
+    #[error("{path}: cannot write: {message}")]
+    Output {
+        /// The output file.
+        path: PathBuf,
+        /// What went wrong.
+        message: String,
+    },
+}
+
+/// Result alias used throughout the library.
+pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+impl Error {
+    /// Shorthand for a scene error about `path`.
+    pub fn scene(path: impl Into<PathBuf>, message: impl Into<String>) -> Error {
+        Error::Scene {
+            path: path.into(),
+            message: message.into(),
+        }
+    }
+
+    /// Shorthand for a configuration error.
+    pub fn config(what: impl Into<String>, message: impl Into<String>) -> Error {
+        Error::Config {
+            what: what.into(),
+            message: message.into(),
+        }
+    }
+}
+
+/// Adds context to a raw Vulkan result.
+pub trait VkContext<T> {
+    /// Wraps a `vk::Result` error with what vergence was doing.
+    fn vk(self, context: &str) -> Result<T>;
+}
+
+impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
+    fn vk(self, context: &str) -> Result<T> {
+        self.map_err(|result| Error::Vulkan {
+            context: context.to_string(),
+            result,
+        })
+    }
+}

@@ -1,0 +1,354 @@
+//! Buffers and images with their memory. Creation goes through a plain
+//! description; destruction is explicit (`destroy`) so owners can defer it to
+//! the frame ring.
+
+use super::Context;
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocation, AllocationCreateDesc, AllocationScheme};
+use gpu_allocator::MemoryLocation;
+
+/// Where a resource's memory lives.
+#[derive(Debug)]
+enum Memory {
+    Allocator(Allocation),
+    /// A dedicated LAZILY_ALLOCATED allocation (transient attachments).
+    Lazy(vk::DeviceMemory),
+}
+
+/// A buffer and its memory.
+#[derive(Debug)]
+pub struct Buffer {
+    /// The Vulkan buffer.
+    pub buffer: vk::Buffer,
+    /// Size in bytes.
+    pub size: u64,
+    memory: Memory,
+    category: &'static str,
+}
+
+/// Description of a buffer to create.
+pub struct BufferDesc<'a> {
+    /// Debug name.
+    pub name: &'a str,
+    /// Size in bytes (> 0).
+    pub size: u64,
+    /// Usage flags.
+    pub usage: vk::BufferUsageFlags,
+    /// Memory location (GPU-only, CPU-to-GPU, GPU-to-CPU).
+    pub location: MemoryLocation,
+    /// Statistics category (e.g. "vertex", "texture").
+    pub category: &'static str,
+}
+
+fn alloc_err(what: &str, e: gpu_allocator::AllocationError) -> Error {
+    Error::Gpu(format!(
+        "out of GPU memory or allocation failed for {what}: {e}"
+    ))
+}
+
+impl Buffer {
+    /// Creates a buffer as described.
+    pub fn new(ctx: &Context, desc: &BufferDesc) -> Result<Buffer> {
+        let d = &ctx.device;
+        let info = vk::BufferCreateInfo::default()
+            .size(desc.size.max(4))
+            .usage(desc.usage);
+        // SAFETY: valid create info on a live device.
+        let buffer = unsafe { d.create_buffer(&info, None) }
+            .vk(&format!("creating buffer {}", desc.name))?;
+        // SAFETY: buffer belongs to this device.
+        let requirements = unsafe { d.get_buffer_memory_requirements(buffer) };
+        let alloc = ctx.allocator.lock().ok().and_then(|mut a| {
+            a.as_mut().map(|a| {
+                a.allocate(&AllocationCreateDesc {
+                    name: desc.name,
+                    requirements,
+                    location: desc.location,
+                    linear: true,
+                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+                })
+            })
+        });
+        let alloc = match alloc {
+            Some(Ok(a)) => a,
+            other => {
+                // SAFETY: the buffer is unused.
+                unsafe { d.destroy_buffer(buffer, None) };
+                return Err(match other {
+                    Some(Err(e)) => alloc_err(desc.name, e),
+                    _ => Error::Gpu("allocator unavailable".into()),
+                });
+            }
+        };
+        // SAFETY: memory from the allocator for this buffer's requirements.
+        unsafe { d.bind_buffer_memory(buffer, alloc.memory(), alloc.offset()) }
+            .vk("binding buffer memory")?;
+        ctx.set_name(buffer, desc.name);
+        ctx.track_memory(desc.category, alloc.size() as i64);
+        Ok(Buffer {
+            buffer,
+            size: desc.size,
+            memory: Memory::Allocator(alloc),
+            category: desc.category,
+        })
+    }
+
+    /// Creates a host-visible buffer and fills it with `data`.
+    pub fn with_data(ctx: &Context, desc: &BufferDesc, data: &[u8]) -> Result<Buffer> {
+        let mut b = Buffer::new(
+            ctx,
+            &BufferDesc {
+                size: data.len().max(4) as u64,
+                ..*desc
+            },
+        )?;
+        b.write(0, data)?;
+        Ok(b)
+    }
+
+    /// The mapped bytes of a host-visible buffer.
+    pub fn mapped(&mut self) -> Option<&mut [u8]> {
+        match &mut self.memory {
+            Memory::Allocator(a) => a.mapped_slice_mut(),
+            Memory::Lazy(_) => None,
+        }
+    }
+
+    /// Writes `data` at `offset` into a host-visible buffer.
+    pub fn write(&mut self, offset: usize, data: &[u8]) -> Result<()> {
+        let m = self
+            .mapped()
+            .ok_or_else(|| Error::Gpu("buffer is not host-visible".into()))?;
+        let end = offset + data.len();
+        if end > m.len() {
+            return Err(Error::Gpu(format!(
+                "buffer write of {end} bytes exceeds {} bytes",
+                m.len()
+            )));
+        }
+        m[offset..end].copy_from_slice(data);
+        Ok(())
+    }
+
+    /// Destroys the buffer and frees its memory.
+    pub fn destroy(self, ctx: &Context) {
+        // SAFETY: the caller guarantees the GPU no longer uses the buffer
+        // (frame ring fence passed or device idle).
+        unsafe { ctx.device.destroy_buffer(self.buffer, None) };
+        free(ctx, self.memory, self.category);
+    }
+}
+
+fn free(ctx: &Context, memory: Memory, category: &'static str) {
+    match memory {
+        Memory::Allocator(a) => {
+            ctx.track_memory(category, -(a.size() as i64));
+            if let Ok(mut al) = ctx.allocator.lock() {
+                if let Some(al) = al.as_mut() {
+                    let _ = al.free(a);
+                }
+            }
+        }
+        // SAFETY: dedicated memory whose only user was destroyed.
+        Memory::Lazy(m) => unsafe { ctx.device.free_memory(m, None) },
+    }
+}
+
+/// An image, its memory and one view over all its layers (2D for one
+/// layer, 2D array otherwise).
+#[derive(Debug)]
+pub struct Image {
+    /// The Vulkan image.
+    pub image: vk::Image,
+    /// A view over all layers (2D array).
+    pub view: vk::ImageView,
+    /// Format.
+    pub format: vk::Format,
+    /// Size in pixels.
+    pub extent: vk::Extent2D,
+    /// Array layers.
+    pub layers: u32,
+    /// Mip levels.
+    pub mips: u32,
+    /// Whether the memory is lazily allocated (transient attachment).
+    pub lazy: bool,
+    memory: Memory,
+    category: &'static str,
+}
+
+/// Description of an image to create.
+pub struct ImageDesc<'a> {
+    /// Debug name.
+    pub name: &'a str,
+    /// Format.
+    pub format: vk::Format,
+    /// Size in pixels.
+    pub extent: vk::Extent2D,
+    /// Array layers (2 for multiview targets).
+    pub layers: u32,
+    /// Mip levels.
+    pub mips: u32,
+    /// Samples per pixel.
+    pub samples: vk::SampleCountFlags,
+    /// Usage flags. With TRANSIENT_ATTACHMENT, lazily allocated memory is
+    /// used when the device has it.
+    pub usage: vk::ImageUsageFlags,
+    /// Aspect of the view.
+    pub aspect: vk::ImageAspectFlags,
+    /// Statistics category.
+    pub category: &'static str,
+}
+
+impl Image {
+    /// Creates an image and a 2D-array view over all its layers and mips.
+    pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image> {
+        let d = &ctx.device;
+        let info = vk::ImageCreateInfo::default()
+            .image_type(vk::ImageType::TYPE_2D)
+            .format(desc.format)
+            .extent(vk::Extent3D {
+                width: desc.extent.width,
+                height: desc.extent.height,
+                depth: 1,
+            })
+            .mip_levels(desc.mips)
+            .array_layers(desc.layers)
+            .samples(desc.samples)
+            .tiling(vk::ImageTiling::OPTIMAL)
+            .usage(desc.usage)
+            .initial_layout(vk::ImageLayout::UNDEFINED);
+        // SAFETY: valid create info on a live device.
+        let image =
+            unsafe { d.create_image(&info, None) }.vk(&format!("creating image {}", desc.name))?;
+        // SAFETY: image belongs to this device.
+        let req = unsafe { d.get_image_memory_requirements(image) };
+        let lazy_type = if desc
+            .usage
+            .contains(vk::ImageUsageFlags::TRANSIENT_ATTACHMENT)
+        {
+            lazy_memory_type(ctx, req.memory_type_bits)
+        } else {
+            None
+        };
+        let memory = match lazy_type {
+            Some(t) => {
+                let ai = vk::MemoryAllocateInfo::default()
+                    .allocation_size(req.size)
+                    .memory_type_index(t);
+                // SAFETY: a memory type the image accepts.
+                let m = unsafe { d.allocate_memory(&ai, None) }
+                    .vk("allocating lazily allocated memory")?;
+                // SAFETY: fresh memory of sufficient size.
+                unsafe { d.bind_image_memory(image, m, 0) }.vk("binding image memory")?;
+                Memory::Lazy(m)
+            }
+            None => {
+                let alloc = ctx
+                    .allocator
+                    .lock()
+                    .ok()
+                    .and_then(|mut a| {
+                        a.as_mut().map(|a| {
+                            a.allocate(&AllocationCreateDesc {
+                                name: desc.name,
+                                requirements: req,
+                                location: MemoryLocation::GpuOnly,
+                                linear: false,
+                                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+                            })
+                        })
+                    })
+                    .ok_or_else(|| Error::Gpu("allocator unavailable".into()))?
+                    .map_err(|e| {
+                        // SAFETY: the image is unused.
+                        unsafe { d.destroy_image(image, None) };
+                        alloc_err(desc.name, e)
+                    })?;
+                // SAFETY: allocator memory for this image's requirements.
+                unsafe { d.bind_image_memory(image, alloc.memory(), alloc.offset()) }
+                    .vk("binding image memory")?;
+                ctx.track_memory(desc.category, alloc.size() as i64);
+                Memory::Allocator(alloc)
+            }
+        };
+        let view_type = if desc.layers == 1 {
+            vk::ImageViewType::TYPE_2D
+        } else {
+            vk::ImageViewType::TYPE_2D_ARRAY
+        };
+        let view = Self::make_view(
+            ctx,
+            image,
+            desc.format,
+            desc.aspect,
+            view_type,
+            0,
+            desc.layers,
+            desc.mips,
+        )?;
+        ctx.set_name(image, desc.name);
+        Ok(Image {
+            image,
+            view,
+            format: desc.format,
+            extent: desc.extent,
+            layers: desc.layers,
+            mips: desc.mips,
+            lazy: lazy_type.is_some(),
+            memory,
+            category: desc.category,
+        })
+    }
+
+    /// Creates a view of `count` layers starting at `first`.
+    #[allow(clippy::too_many_arguments)]
+    pub fn make_view(
+        ctx: &Context,
+        image: vk::Image,
+        format: vk::Format,
+        aspect: vk::ImageAspectFlags,
+        view_type: vk::ImageViewType,
+        first: u32,
+        count: u32,
+        mips: u32,
+    ) -> Result<vk::ImageView> {
+        let info = vk::ImageViewCreateInfo::default()
+            .image(image)
+            .view_type(view_type)
+            .format(format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: aspect,
+                base_mip_level: 0,
+                level_count: mips,
+                base_array_layer: first,
+                layer_count: count,
+            });
+        // SAFETY: valid view of a live image.
+        unsafe { ctx.device.create_image_view(&info, None) }.vk("creating an image view")
+    }
+
+    /// Destroys the view, image and memory.
+    pub fn destroy(self, ctx: &Context) {
+        // SAFETY: the caller guarantees the GPU no longer uses the image.
+        unsafe {
+            ctx.device.destroy_image_view(self.view, None);
+            ctx.device.destroy_image(self.image, None);
+        }
+        free(ctx, self.memory, self.category);
+    }
+}
+
+fn lazy_memory_type(ctx: &Context, bits: u32) -> Option<u32> {
+    // SAFETY: valid physical device.
+    let mem = unsafe {
+        ctx.instance
+            .get_physical_device_memory_properties(ctx.physical_device)
+    };
+    (0..mem.memory_type_count).find(|&i| {
+        bits & (1 << i) != 0
+            && mem.memory_types[i as usize]
+                .property_flags
+                .contains(vk::MemoryPropertyFlags::LAZILY_ALLOCATED)
+    })
+}

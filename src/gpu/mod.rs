@@ -1,0 +1,476 @@
+//! The Vulkan layer (ash): instance and device, memory, frame ring with
+//! deferred destruction, queries and pipelines described as plain data. Raw
+//! Vulkan calls live here and in `render/`'s recording code only through the
+//! handles exposed by [`Context`].
+
+pub mod memory;
+pub mod pipeline;
+pub mod query;
+pub mod ring;
+pub mod validation;
+
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::vulkan::{Allocator, AllocatorCreateDesc};
+use std::collections::BTreeMap;
+use std::ffi::{CStr, CString};
+use std::sync::Mutex;
+use validation::ValidationLog;
+
+const VALIDATION_LAYER: &CStr = c"VK_LAYER_KHRONOS_validation";
+
+/// How the Vulkan validation layer is used.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Validation {
+    /// Not loaded.
+    Off,
+    /// Loaded when installed, with synchronization validation.
+    IfAvailable,
+    /// Loaded, and an error when it is not installed.
+    Required,
+}
+
+impl Validation {
+    /// From `VERGENCE_VALIDATION` (`0`, `1`, `required`); default: on in
+    /// debug builds when available, off in release builds.
+    pub fn from_env() -> Validation {
+        match std::env::var("VERGENCE_VALIDATION").as_deref() {
+            Ok("0") | Ok("off") => Validation::Off,
+            Ok("required") => Validation::Required,
+            Ok(_) => Validation::IfAvailable,
+            Err(_) if cfg!(debug_assertions) => Validation::IfAvailable,
+            Err(_) => Validation::Off,
+        }
+    }
+}
+
+/// Optional device capabilities the renderer may use.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Capabilities {
+    /// Pipeline-statistics queries are available.
+    pub pipeline_statistics: bool,
+    /// Nanoseconds per timestamp tick (0 when timestamps are unsupported).
+    pub timestamp_period_ns: f32,
+    /// A LAZILY_ALLOCATED memory type exists (transient attachments).
+    pub lazily_allocated_memory: bool,
+    /// Largest sample count usable for colour and depth together.
+    pub max_samples: u32,
+    /// Depth-stencil format chosen for the depth attachment.
+    #[serde(skip)]
+    pub depth_format: vk::Format,
+}
+
+/// The Vulkan instance, device, queue and allocator.
+pub struct Context {
+    /// Loader entry points.
+    pub entry: ash::Entry,
+    /// The instance.
+    pub instance: ash::Instance,
+    /// The physical device in use.
+    pub physical_device: vk::PhysicalDevice,
+    /// The logical device.
+    pub device: ash::Device,
+    /// The graphics queue.
+    pub queue: vk::Queue,
+    /// Its family index.
+    pub queue_family: u32,
+    /// Device name as the driver reports it.
+    pub device_name: String,
+    /// Driver name and version info.
+    pub driver: String,
+    /// Optional capabilities.
+    pub caps: Capabilities,
+    /// The memory allocator (behind a mutex: allocation happens at init only).
+    pub allocator: Mutex<Option<Allocator>>,
+    /// Bytes allocated per category (vertex, index, texture, ...).
+    pub memory_by_category: Mutex<BTreeMap<&'static str, u64>>,
+    debug_utils_device: Option<ash::ext::debug_utils::Device>,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation_log: Box<ValidationLog>,
+    validation_enabled: bool,
+}
+
+impl Context {
+    /// Creates a headless context (no surface) on the first suitable device;
+    /// `VERGENCE_DEVICE=<index>` picks another.
+    pub fn new_headless(validation: Validation) -> Result<Context> {
+        // SAFETY: loading the Vulkan loader library; failure is reported.
+        let entry = unsafe { ash::Entry::load() }
+            .map_err(|e| Error::Gpu(format!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver (e.g. mesa-vulkan-drivers)")))?;
+        // SAFETY: plain enumeration call on a loaded entry.
+        let layers = unsafe { entry.enumerate_instance_layer_properties() }
+            .vk("enumerating instance layers")?;
+        let has_layer = layers
+            .iter()
+            .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+        let validation_enabled = match validation {
+            Validation::Off => false,
+            Validation::IfAvailable => has_layer,
+            Validation::Required if has_layer => true,
+            Validation::Required => {
+                return Err(Error::Gpu("VK_LAYER_KHRONOS_validation is required but not installed (apt-get install vulkan-validationlayers)".into()))
+            }
+        };
+        let app_name = c"vergence";
+        let app = vk::ApplicationInfo::default()
+            .application_name(app_name)
+            .engine_name(app_name)
+            .api_version(vk::API_VERSION_1_3);
+        let mut layer_names = Vec::new();
+        let mut ext_names = Vec::new();
+        // SAFETY: plain enumeration call.
+        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+            .vk("enumerating instance extensions")?;
+        let has_debug_utils = exts
+            .iter()
+            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
+        if has_debug_utils {
+            ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        if validation_enabled {
+            layer_names.push(VALIDATION_LAYER.as_ptr());
+        }
+        let enables = [vk::ValidationFeatureEnableEXT::SYNCHRONIZATION_VALIDATION];
+        let mut vfeatures =
+            vk::ValidationFeaturesEXT::default().enabled_validation_features(&enables);
+        let validation_log = Box::<ValidationLog>::default();
+        let mut messenger_info = vk::DebugUtilsMessengerCreateInfoEXT::default()
+            .message_severity(
+                vk::DebugUtilsMessageSeverityFlagsEXT::ERROR
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                    | vk::DebugUtilsMessageSeverityFlagsEXT::INFO,
+            )
+            .message_type(
+                vk::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                    | vk::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                    | vk::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE,
+            )
+            .pfn_user_callback(Some(validation::callback))
+            .user_data(&*validation_log as *const ValidationLog as *mut std::ffi::c_void);
+        let mut info = vk::InstanceCreateInfo::default()
+            .application_info(&app)
+            .enabled_layer_names(&layer_names)
+            .enabled_extension_names(&ext_names);
+        if validation_enabled {
+            info = info.push_next(&mut vfeatures);
+        }
+        if has_debug_utils {
+            info = info.push_next(&mut messenger_info);
+        }
+        // SAFETY: all pointers in `info` reference locals that outlive the call.
+        let instance =
+            unsafe { entry.create_instance(&info, None) }.vk("creating the Vulkan instance")?;
+        let debug = if has_debug_utils {
+            let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
+            let info = vk::DebugUtilsMessengerCreateInfoEXT {
+                p_next: std::ptr::null(),
+                ..messenger_info
+            };
+            // SAFETY: valid create info without a pNext chain; the user-data
+            // box lives in `Context`.
+            let m = unsafe { du.create_debug_utils_messenger(&info, None) }
+                .vk("creating the debug messenger")?;
+            Some((du, m))
+        } else {
+            None
+        };
+        let mut ctx_partial = PartialInstance {
+            entry,
+            instance,
+            debug,
+            validation_log,
+            validation_enabled,
+        };
+        let dev = ctx_partial.pick_device(has_debug_utils);
+        match dev {
+            Ok(c) => Ok(c),
+            Err(e) => {
+                ctx_partial.destroy();
+                Err(e)
+            }
+        }
+    }
+
+    /// Number of validation warnings/errors reported so far.
+    pub fn validation_messages(&self) -> usize {
+        self.validation_log.count()
+    }
+
+    /// The first validation messages, for test failure output.
+    pub fn validation_log(&self) -> Vec<String> {
+        self.validation_log.messages()
+    }
+
+    /// Whether the validation layer is loaded.
+    pub fn validation_enabled(&self) -> bool {
+        self.validation_enabled
+    }
+
+    /// Gives a Vulkan object a debug name (shown by validation and tools).
+    pub fn set_name<H: vk::Handle>(&self, handle: H, name: &str) {
+        if let Some(du) = &self.debug_utils_device {
+            if let Ok(cname) = CString::new(name) {
+                let info = vk::DebugUtilsObjectNameInfoEXT::default()
+                    .object_handle(handle)
+                    .object_name(&cname);
+                // SAFETY: the handle belongs to this device; the name outlives the call.
+                let _ = unsafe { du.set_debug_utils_object_name(&info) };
+            }
+        }
+    }
+
+    /// Records `bytes` under `category` in the memory statistics.
+    pub fn track_memory(&self, category: &'static str, bytes: i64) {
+        if let Ok(mut m) = self.memory_by_category.lock() {
+            let e = m.entry(category).or_insert(0);
+            *e = (*e as i64 + bytes).max(0) as u64;
+        }
+    }
+
+    /// Runs `record` in a one-time command buffer and waits for it.
+    pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
+        let d = &self.device;
+        // SAFETY: creating, recording, submitting and waiting on objects of
+        // this device; everything is destroyed before returning.
+        unsafe {
+            let pool = d
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default().queue_family_index(self.queue_family),
+                    None,
+                )
+                .vk("creating an upload command pool")?;
+            let cb = d
+                .allocate_command_buffers(
+                    &vk::CommandBufferAllocateInfo::default()
+                        .command_pool(pool)
+                        .command_buffer_count(1),
+                )
+                .vk("allocating an upload command buffer")?[0];
+            d.begin_command_buffer(
+                cb,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .vk("beginning an upload")?;
+            record(cb);
+            d.end_command_buffer(cb).vk("ending an upload")?;
+            let fence = d
+                .create_fence(&vk::FenceCreateInfo::default(), None)
+                .vk("creating a fence")?;
+            let cbs = [cb];
+            let submit = vk::SubmitInfo::default().command_buffers(&cbs);
+            let r = d
+                .queue_submit(self.queue, &[submit], fence)
+                .vk("submitting an upload");
+            let w = r.and_then(|_| {
+                d.wait_for_fences(&[fence], true, u64::MAX)
+                    .vk("waiting for an upload")
+            });
+            d.destroy_fence(fence, None);
+            d.destroy_command_pool(pool, None);
+            w
+        }
+    }
+}
+
+impl Drop for Context {
+    fn drop(&mut self) {
+        // SAFETY: shutdown in reverse creation order after the device is idle;
+        // every resource created from this context has been destroyed by its
+        // owner (the renderer drops before the context).
+        unsafe {
+            let _ = self.device.device_wait_idle();
+            if let Ok(mut a) = self.allocator.lock() {
+                a.take();
+            }
+            self.device.destroy_device(None);
+            if let Some((du, m)) = self.debug.take() {
+                du.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+}
+
+struct PartialInstance {
+    entry: ash::Entry,
+    instance: ash::Instance,
+    debug: Option<(ash::ext::debug_utils::Instance, vk::DebugUtilsMessengerEXT)>,
+    validation_log: Box<ValidationLog>,
+    validation_enabled: bool,
+}
+
+impl PartialInstance {
+    fn destroy(&mut self) {
+        // SAFETY: nothing was created from the instance except the messenger.
+        unsafe {
+            if let Some((du, m)) = self.debug.take() {
+                du.destroy_debug_utils_messenger(m, None);
+            }
+            self.instance.destroy_instance(None);
+        }
+    }
+
+    fn pick_device(&mut self, has_debug_utils: bool) -> Result<Context> {
+        let inst = &self.instance;
+        // SAFETY: enumeration on a valid instance.
+        let devices = unsafe { inst.enumerate_physical_devices() }.vk("enumerating GPUs")?;
+        if devices.is_empty() {
+            return Err(Error::Gpu(
+                "no Vulkan device found (install mesa-vulkan-drivers for a CPU device)".into(),
+            ));
+        }
+        let wanted: Option<usize> = std::env::var("VERGENCE_DEVICE")
+            .ok()
+            .and_then(|v| v.parse().ok());
+        let mut candidates: Vec<(usize, vk::PhysicalDevice, vk::PhysicalDeviceProperties)> =
+            devices
+                .iter()
+                .enumerate()
+                // SAFETY: valid physical device handles from enumeration.
+                .map(|(i, &pd)| (i, pd, unsafe { inst.get_physical_device_properties(pd) }))
+                .filter(|(_, _, p)| p.api_version >= vk::API_VERSION_1_3)
+                .collect();
+        if let Some(w) = wanted {
+            candidates.retain(|(i, _, _)| *i == w);
+        }
+        candidates.sort_by_key(|(_, _, p)| match p.device_type {
+            vk::PhysicalDeviceType::DISCRETE_GPU => 0,
+            vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
+            _ => 2,
+        });
+        let Some(&(_, pd, props)) = candidates.first() else {
+            return Err(Error::Gpu(
+                "no Vulkan 1.3 device found (or VERGENCE_DEVICE names none)".into(),
+            ));
+        };
+        // SAFETY: valid physical device.
+        let families = unsafe { inst.get_physical_device_queue_family_properties(pd) };
+        let queue_family = families
+            .iter()
+            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS))
+            .ok_or_else(|| Error::Gpu("the device has no graphics queue".into()))?
+            as u32;
+        let timestamp_ok = families[queue_family as usize].timestamp_valid_bits > 0;
+
+        let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
+        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut f2 = vk::PhysicalDeviceFeatures2::default()
+            .push_next(&mut f11)
+            .push_next(&mut f13);
+        // SAFETY: valid physical device and a correctly chained query struct.
+        unsafe { inst.get_physical_device_features2(pd, &mut f2) };
+        let base = f2.features;
+        if f11.multiview == 0 || f13.dynamic_rendering == 0 || f13.synchronization2 == 0 {
+            return Err(Error::Gpu(
+                "the device lacks multiview, dynamic rendering or synchronization2".into(),
+            ));
+        }
+        let pipeline_statistics = base.pipeline_statistics_query != 0;
+        let features = vk::PhysicalDeviceFeatures::default()
+            .pipeline_statistics_query(pipeline_statistics)
+            .shader_sampled_image_array_dynamic_indexing(
+                base.shader_sampled_image_array_dynamic_indexing != 0,
+            )
+            .sampler_anisotropy(base.sampler_anisotropy != 0);
+        let mut e11 = vk::PhysicalDeviceVulkan11Features::default().multiview(true);
+        let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
+            .dynamic_rendering(true)
+            .synchronization2(true);
+        let prio = [1.0f32];
+        let qinfo = [vk::DeviceQueueCreateInfo::default()
+            .queue_family_index(queue_family)
+            .queue_priorities(&prio)];
+        let dinfo = vk::DeviceCreateInfo::default()
+            .queue_create_infos(&qinfo)
+            .enabled_features(&features)
+            .push_next(&mut e11)
+            .push_next(&mut e13);
+        // SAFETY: create info references locals alive for the call.
+        let device =
+            unsafe { inst.create_device(pd, &dinfo, None) }.vk("creating the Vulkan device")?;
+        // SAFETY: the family/index pair was requested at device creation.
+        let queue = unsafe { device.get_device_queue(queue_family, 0) };
+        // SAFETY: valid physical device.
+        let mem = unsafe { inst.get_physical_device_memory_properties(pd) };
+        let lazily_allocated_memory = mem.memory_types[..mem.memory_type_count as usize]
+            .iter()
+            .any(|t| {
+                t.property_flags
+                    .contains(vk::MemoryPropertyFlags::LAZILY_ALLOCATED)
+            });
+        let lim = props.limits;
+        let samples = lim.framebuffer_color_sample_counts & lim.framebuffer_depth_sample_counts;
+        let max_samples = [8u32, 4, 2, 1]
+            .into_iter()
+            .find(|&s| samples.contains(vk::SampleCountFlags::from_raw(s)))
+            .unwrap_or(1);
+        let depth_format = [
+            vk::Format::D32_SFLOAT_S8_UINT,
+            vk::Format::D24_UNORM_S8_UINT,
+        ]
+        .into_iter()
+        .find(|&f| {
+            // SAFETY: valid physical device.
+            let p = unsafe { inst.get_physical_device_format_properties(pd, f) };
+            p.optimal_tiling_features
+                .contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT)
+        })
+        .ok_or_else(|| Error::Gpu("no depth-stencil format with stencil is supported".into()))?;
+        let caps = Capabilities {
+            pipeline_statistics,
+            timestamp_period_ns: if timestamp_ok {
+                lim.timestamp_period
+            } else {
+                0.0
+            },
+            lazily_allocated_memory,
+            max_samples,
+            depth_format,
+        };
+        let allocator = Allocator::new(&AllocatorCreateDesc {
+            instance: inst.clone(),
+            device: device.clone(),
+            physical_device: pd,
+            debug_settings: Default::default(),
+            buffer_device_address: false,
+            allocation_sizes: Default::default(),
+        })
+        .map_err(|e| Error::Gpu(format!("creating the memory allocator: {e}")))?;
+        let device_name = props
+            .device_name_as_c_str()
+            .map(|s| s.to_string_lossy().into_owned())
+            .unwrap_or_default();
+        let driver = format!(
+            "Vulkan {}.{}.{}, driver version {:#x}, vendor {:#06x}",
+            vk::api_version_major(props.api_version),
+            vk::api_version_minor(props.api_version),
+            vk::api_version_patch(props.api_version),
+            props.driver_version,
+            props.vendor_id
+        );
+        let debug_utils_device =
+            has_debug_utils.then(|| ash::ext::debug_utils::Device::new(inst, &device));
+        tracing::info!(
+            "GPU: {device_name} ({driver}), validation {}",
+            if self.validation_enabled { "on" } else { "off" }
+        );
+        Ok(Context {
+            entry: self.entry.clone(),
+            instance: self.instance.clone(),
+            physical_device: pd,
+            device,
+            queue,
+            queue_family,
+            device_name,
+            driver,
+            caps,
+            allocator: Mutex::new(Some(allocator)),
+            memory_by_category: Mutex::new(BTreeMap::new()),
+            debug_utils_device,
+            debug: self.debug.take(),
+            validation_log: std::mem::take(&mut self.validation_log),
+            validation_enabled: self.validation_enabled,
+        })
+    }
+}

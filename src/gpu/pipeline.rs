@@ -1,0 +1,179 @@
+//! Graphics pipelines described as plain data and created at init, never
+//! inside a measured frame. Pipelines target dynamic rendering, so a
+//! description names its attachment formats and multiview mask.
+
+use super::Context;
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+
+/// Everything needed to build one graphics pipeline.
+#[derive(Clone)]
+pub struct GraphicsPipelineDesc<'a> {
+    /// Debug name.
+    pub name: &'a str,
+    /// Vertex shader SPIR-V.
+    pub vertex: &'a [u32],
+    /// Fragment shader SPIR-V.
+    pub fragment: &'a [u32],
+    /// Specialization constants (id, value) shared by both stages.
+    pub specialization: Vec<(u32, u32)>,
+    /// Vertex buffer bindings.
+    pub bindings: Vec<vk::VertexInputBindingDescription>,
+    /// Vertex attributes.
+    pub attributes: Vec<vk::VertexInputAttributeDescription>,
+    /// Face culling.
+    pub cull_mode: vk::CullModeFlags,
+    /// Depth test on.
+    pub depth_test: bool,
+    /// Depth writes on.
+    pub depth_write: bool,
+    /// Depth comparison (GREATER for reverse-Z).
+    pub depth_compare: vk::CompareOp,
+    /// Stencil test state for both faces (None: stencil off).
+    pub stencil: Option<vk::StencilOpState>,
+    /// Premultiplied-free "over" alpha blending.
+    pub blend: bool,
+    /// Colour writes on.
+    pub color_write: bool,
+    /// Rasterization samples.
+    pub samples: vk::SampleCountFlags,
+    /// Colour attachment format.
+    pub color_format: vk::Format,
+    /// Depth-stencil attachment format.
+    pub depth_format: vk::Format,
+    /// Multiview mask (0 = no multiview).
+    pub view_mask: u32,
+    /// Pipeline layout.
+    pub layout: vk::PipelineLayout,
+}
+
+fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
+    if code.is_empty() {
+        return Err(Error::Gpu(format!("{what}: empty SPIR-V")));
+    }
+    // SAFETY: SPIR-V words validated by the build (spirv-val in tests).
+    unsafe {
+        ctx.device
+            .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None)
+    }
+    .vk(&format!("creating shader module for {what}"))
+}
+
+impl GraphicsPipelineDesc<'_> {
+    /// Creates the pipeline.
+    pub fn build(&self, ctx: &Context) -> Result<vk::Pipeline> {
+        let vs = module(ctx, self.vertex, self.name)?;
+        let fs = match module(ctx, self.fragment, self.name) {
+            Ok(m) => m,
+            Err(e) => {
+                // SAFETY: unused module.
+                unsafe { ctx.device.destroy_shader_module(vs, None) };
+                return Err(e);
+            }
+        };
+        let entries: Vec<vk::SpecializationMapEntry> = self
+            .specialization
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: 4 * i as u32,
+                size: 4,
+            })
+            .collect();
+        let data: Vec<u8> = self
+            .specialization
+            .iter()
+            .flat_map(|(_, v)| v.to_ne_bytes())
+            .collect();
+        let spec = vk::SpecializationInfo::default()
+            .map_entries(&entries)
+            .data(&data);
+        let stages = [
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::VERTEX)
+                .module(vs)
+                .name(c"main")
+                .specialization_info(&spec),
+            vk::PipelineShaderStageCreateInfo::default()
+                .stage(vk::ShaderStageFlags::FRAGMENT)
+                .module(fs)
+                .name(c"main")
+                .specialization_info(&spec),
+        ];
+        let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
+            .vertex_binding_descriptions(&self.bindings)
+            .vertex_attribute_descriptions(&self.attributes);
+        let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
+            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let viewport = vk::PipelineViewportStateCreateInfo::default()
+            .viewport_count(1)
+            .scissor_count(1);
+        let raster = vk::PipelineRasterizationStateCreateInfo::default()
+            .polygon_mode(vk::PolygonMode::FILL)
+            .cull_mode(self.cull_mode)
+            .front_face(vk::FrontFace::COUNTER_CLOCKWISE)
+            .line_width(1.0);
+        let multisample =
+            vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(self.samples);
+        let stencil = self.stencil.unwrap_or_default();
+        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(self.depth_test)
+            .depth_write_enable(self.depth_write)
+            .depth_compare_op(self.depth_compare)
+            .stencil_test_enable(self.stencil.is_some())
+            .front(stencil)
+            .back(stencil);
+        let mask = if self.color_write {
+            vk::ColorComponentFlags::RGBA
+        } else {
+            vk::ColorComponentFlags::empty()
+        };
+        let attachment = [vk::PipelineColorBlendAttachmentState::default()
+            .blend_enable(self.blend)
+            .src_color_blend_factor(vk::BlendFactor::SRC_ALPHA)
+            .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .color_blend_op(vk::BlendOp::ADD)
+            .src_alpha_blend_factor(vk::BlendFactor::ONE)
+            .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .alpha_blend_op(vk::BlendOp::ADD)
+            .color_write_mask(mask)];
+        let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachment);
+        let dynamic = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
+        let formats = [self.color_format];
+        let mut rendering = vk::PipelineRenderingCreateInfo::default()
+            .view_mask(self.view_mask)
+            .color_attachment_formats(&formats)
+            .depth_attachment_format(self.depth_format)
+            .stencil_attachment_format(self.depth_format);
+        let info = vk::GraphicsPipelineCreateInfo::default()
+            .stages(&stages)
+            .vertex_input_state(&vertex_input)
+            .input_assembly_state(&input_assembly)
+            .viewport_state(&viewport)
+            .rasterization_state(&raster)
+            .multisample_state(&multisample)
+            .depth_stencil_state(&depth)
+            .color_blend_state(&blend)
+            .dynamic_state(&dynamic)
+            .layout(self.layout)
+            .push_next(&mut rendering);
+        // SAFETY: all referenced state lives until the call returns; modules
+        // are destroyed after creation, which Vulkan permits.
+        let result = unsafe {
+            ctx.device
+                .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
+        };
+        // SAFETY: modules are no longer needed once the pipeline exists.
+        unsafe {
+            ctx.device.destroy_shader_module(vs, None);
+            ctx.device.destroy_shader_module(fs, None);
+        }
+        let pipeline = result
+            .map_err(|(_, e)| e)
+            .vk(&format!("creating pipeline {}", self.name))?[0];
+        ctx.set_name(pipeline, self.name);
+        Ok(pipeline)
+    }
+}

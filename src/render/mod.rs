@@ -1,0 +1,1019 @@
+//! The stereo forward renderer. `Renderer::render` takes a rig (views) and
+//! an optional visible-instance list, records one frame (multiview or
+//! two-pass), submits it, waits, and returns the frame's statistics.
+//! Everything it needs is created in `Renderer::new`; nothing is compiled or
+//! allocated inside a measured frame except growing the visible buffer.
+
+pub mod attachments;
+pub mod batches;
+pub mod scene_gpu;
+
+use crate::config::{RenderConfig, StereoMode};
+use crate::error::{Error, Result, VkContext};
+use crate::gpu::memory::{Buffer, BufferDesc};
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::query::{PipelineStats, Queries};
+use crate::gpu::ring::{FrameRing, Garbage};
+use crate::gpu::Context;
+use crate::scene::Scene;
+use crate::view::{projection, StereoRig};
+use ash::vk;
+use attachments::{Attachments, COLOR_FORMAT};
+use batches::{Batcher, Batches, PipelineKey};
+use glam::{DMat3, Mat4, Vec4};
+use gpu_allocator::MemoryLocation;
+use scene_gpu::{split_dvec3, SceneGpu, STREAMS};
+use std::collections::{BTreeMap, HashMap};
+use std::sync::Arc;
+use std::time::Instant;
+
+const FRAMES_IN_FLIGHT: usize = 2;
+const UBO_SIZE: u64 = 432;
+
+macro_rules! spirv {
+    ($name:literal) => {{
+        static BYTES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/", $name, ".spv"));
+        BYTES
+    }};
+}
+
+/// Every SPIR-V module the renderer uses, by file name (for validation tests).
+pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
+    vec![
+        ("scene.vert", spirv!("scene.vert")),
+        ("scene.frag", spirv!("scene.frag")),
+        ("fullscreen.vert", spirv!("fullscreen.vert")),
+        ("sky.frag", spirv!("sky.frag")),
+        ("floor.vert", spirv!("floor.vert")),
+        ("flat.frag", spirv!("flat.frag")),
+    ]
+}
+
+fn words(bytes: &[u8]) -> Vec<u32> {
+    bytes
+        .chunks_exact(4)
+        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+        .collect()
+}
+
+/// CPU time per phase of one frame, in milliseconds.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct CpuTimes {
+    /// Building draw batches from the visible list.
+    pub batch: f64,
+    /// Recording the command buffer.
+    pub record: f64,
+    /// vkQueueSubmit.
+    pub submit: f64,
+    /// Waiting for the GPU (fence).
+    pub wait: f64,
+}
+
+/// Statistics of one rendered frame.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameStats {
+    /// Draw calls recorded (over both eyes in two-pass mode).
+    pub draw_calls: u64,
+    /// Instance-primitive pairs drawn (per frame, not per eye).
+    pub instances_drawn: u64,
+    /// Triangles submitted per frame (not per eye).
+    pub triangles: u64,
+    /// CPU times.
+    pub cpu_ms: CpuTimes,
+    /// GPU milliseconds per pass (timestamps).
+    pub gpu_ms: BTreeMap<String, f64>,
+    /// Pipeline statistics of the frame (both eyes).
+    pub pipeline: Option<PipelineStats>,
+}
+
+/// What the floor measurements draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloorKind {
+    /// Clear the attachments only.
+    Clear,
+    /// One full-screen triangle with a trivial fragment shader.
+    FullscreenTriangle,
+}
+
+/// The stereo renderer.
+pub struct Renderer {
+    ctx: Arc<Context>,
+    /// The configuration it was built for.
+    pub config: RenderConfig,
+    extent: vk::Extent2D,
+    scene: Option<SceneGpu>,
+    targets: Option<Attachments>,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    sets: Vec<vk::DescriptorSet>,
+    ubos: Vec<Buffer>,
+    visible: Vec<Option<Buffer>>,
+    pipelines: HashMap<PipelineKey, vk::Pipeline>,
+    sky: vk::Pipeline,
+    flat: vk::Pipeline,
+    ring: Option<FrameRing>,
+    queries: Vec<Option<Queries>>,
+    slot: usize,
+    readback: Option<Buffer>,
+    batcher: Batcher,
+    batches: Batches,
+}
+
+impl Renderer {
+    /// Creates a renderer for `scene` at `extent` pixels per eye.
+    pub fn new(
+        ctx: Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+    ) -> Result<Renderer> {
+        config.validate()?;
+        if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384
+        {
+            return Err(Error::config(
+                "image size",
+                format!(
+                    "{}x{} must be within 1..=16384",
+                    extent.width, extent.height
+                ),
+            ));
+        }
+        let samples = config.msaa.min(ctx.caps.max_samples);
+        let scene_gpu = SceneGpu::new(&ctx, scene)?;
+        let texture_count = scene_gpu.textures.len() as u32;
+        let d = &ctx.device;
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let bindings = [
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(1)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(2)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(3)
+                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                .descriptor_count(1)
+                .stage_flags(stages),
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(4)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(texture_count)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
+        ];
+        // SAFETY: plain object creation on a live device; objects are owned by
+        // the renderer and destroyed in `Drop`.
+        let (set_layout, layout, pool, sets) = unsafe {
+            let set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("creating the descriptor set layout")?;
+            let ranges = [vk::PushConstantRange {
+                stage_flags: stages,
+                offset: 0,
+                size: 16,
+            }];
+            let set_layouts = [set_layout];
+            let layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&ranges),
+                    None,
+                )
+                .vk("creating the pipeline layout")?;
+            let n = FRAMES_IN_FLIGHT as u32;
+            let sizes = [
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::UNIFORM_BUFFER,
+                    descriptor_count: n,
+                },
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::STORAGE_BUFFER,
+                    descriptor_count: 3 * n,
+                },
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                    descriptor_count: texture_count * n,
+                },
+            ];
+            let pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(n)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("creating the descriptor pool")?;
+            let layouts = vec![set_layout; FRAMES_IN_FLIGHT];
+            let sets = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(pool)
+                        .set_layouts(&layouts),
+                )
+                .vk("allocating descriptor sets")?;
+            (set_layout, layout, pool, sets)
+        };
+        let mut ubos = Vec::new();
+        for i in 0..FRAMES_IN_FLIGHT {
+            ubos.push(Buffer::new(
+                &ctx,
+                &BufferDesc {
+                    name: &format!("frame data {i}"),
+                    size: UBO_SIZE,
+                    usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "per-frame",
+                },
+            )?);
+        }
+        let ring = FrameRing::new(&ctx, FRAMES_IN_FLIGHT)?;
+        let mut queries = Vec::new();
+        for _ in 0..FRAMES_IN_FLIGHT {
+            queries.push(Some(Queries::new(&ctx, 8)?));
+        }
+        let batcher = Batcher::new(scene);
+        let mut r = Renderer {
+            ctx: ctx.clone(),
+            config: RenderConfig {
+                msaa: samples,
+                ..config.clone()
+            },
+            extent,
+            scene: Some(scene_gpu),
+            targets: None,
+            set_layout,
+            layout,
+            pool,
+            sets,
+            ubos,
+            visible: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
+            pipelines: HashMap::new(),
+            sky: vk::Pipeline::null(),
+            flat: vk::Pipeline::null(),
+            ring: Some(ring),
+            queries,
+            slot: 0,
+            readback: None,
+            batcher,
+            batches: Batches::default(),
+        };
+        r.targets = Some(Attachments::new(
+            &ctx,
+            extent,
+            samples,
+            config.stereo == StereoMode::Multiview,
+        )?);
+        r.build_pipelines()?;
+        for i in 0..FRAMES_IN_FLIGHT {
+            r.ensure_visible_capacity(i, scene.instances.len().max(1))?;
+        }
+        Ok(r)
+    }
+
+    /// The device context.
+    pub fn context(&self) -> &Arc<Context> {
+        &self.ctx
+    }
+
+    /// Per-eye image size.
+    pub fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    fn view_mask(&self) -> u32 {
+        match self.config.stereo {
+            StereoMode::Multiview => 0b11,
+            StereoMode::TwoPass => 0,
+        }
+    }
+
+    fn build_pipelines(&mut self) -> Result<()> {
+        let ctx = &self.ctx;
+        let scene = self.scene.as_ref().expect("scene present until drop");
+        let features = scene.features;
+        let vs = words(spirv!("scene.vert"));
+        let fs = words(spirv!("scene.frag"));
+        let full = words(spirv!("fullscreen.vert"));
+        let sky = words(spirv!("sky.frag"));
+        let floor_vs = words(spirv!("floor.vert"));
+        let flat = words(spirv!("flat.frag"));
+        let used = [
+            true,
+            true,
+            features.tangents,
+            features.uv0 || features.uv1,
+            features.uv1,
+            features.colors,
+        ];
+        let formats = [
+            vk::Format::R32G32B32_SFLOAT,
+            vk::Format::R32G32B32_SFLOAT,
+            vk::Format::R32G32B32A32_SFLOAT,
+            vk::Format::R32G32_SFLOAT,
+            vk::Format::R32G32_SFLOAT,
+            vk::Format::R32G32B32A32_SFLOAT,
+        ];
+        let bindings: Vec<_> = (0..6)
+            .map(|i| vk::VertexInputBindingDescription {
+                binding: i as u32,
+                stride: if used[i] { STREAMS[i].1 } else { 0 },
+                input_rate: vk::VertexInputRate::VERTEX,
+            })
+            .collect();
+        let attributes: Vec<_> = (0..6)
+            .map(|i| vk::VertexInputAttributeDescription {
+                location: i as u32,
+                binding: i as u32,
+                format: formats[i],
+                offset: 0,
+            })
+            .collect();
+        let base = GraphicsPipelineDesc {
+            name: "scene",
+            vertex: &vs,
+            fragment: &fs,
+            specialization: Vec::new(),
+            bindings,
+            attributes,
+            cull_mode: vk::CullModeFlags::BACK,
+            depth_test: true,
+            depth_write: true,
+            depth_compare: vk::CompareOp::GREATER,
+            stencil: None,
+            blend: false,
+            color_write: true,
+            samples: vk::SampleCountFlags::from_raw(self.config.msaa),
+            color_format: COLOR_FORMAT,
+            depth_format: ctx.caps.depth_format,
+            view_mask: self.view_mask(),
+            layout: self.layout,
+        };
+        let mut keys: Vec<PipelineKey> = self.batcher.keys.clone();
+        keys.sort();
+        keys.dedup();
+        for key in keys {
+            let name = format!(
+                "scene alpha={} double_sided={} unlit={}",
+                key.alpha, key.double_sided, key.unlit
+            );
+            let desc = GraphicsPipelineDesc {
+                name: &name,
+                specialization: vec![
+                    (0, scene.textures.len() as u32),
+                    (1, key.alpha as u32),
+                    (2, features.tangents as u32),
+                    (3, key.unlit as u32),
+                ],
+                cull_mode: if key.double_sided {
+                    vk::CullModeFlags::NONE
+                } else {
+                    vk::CullModeFlags::BACK
+                },
+                depth_write: key.alpha < 2,
+                blend: key.alpha == 2,
+                ..base.clone()
+            };
+            self.pipelines.insert(key, desc.build(ctx)?);
+        }
+        let fullscreen = GraphicsPipelineDesc {
+            name: "sky",
+            vertex: &full,
+            fragment: &sky,
+            bindings: Vec::new(),
+            attributes: Vec::new(),
+            cull_mode: vk::CullModeFlags::NONE,
+            depth_write: false,
+            depth_compare: vk::CompareOp::GREATER_OR_EQUAL,
+            ..base.clone()
+        };
+        self.sky = fullscreen.build(ctx)?;
+        self.flat = GraphicsPipelineDesc {
+            name: "raster floor",
+            vertex: &floor_vs,
+            fragment: &flat,
+            depth_test: false,
+            ..fullscreen
+        }
+        .build(ctx)?;
+        Ok(())
+    }
+
+    fn ensure_visible_capacity(&mut self, slot: usize, ids: usize) -> Result<()> {
+        let need = (ids.max(1) * 4) as u64;
+        if self.visible[slot].as_ref().is_some_and(|b| b.size >= need) {
+            return Ok(());
+        }
+        let size = need.next_power_of_two().max(1024);
+        let buf = Buffer::new(
+            &self.ctx,
+            &BufferDesc {
+                name: "visible instances",
+                size,
+                usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                location: MemoryLocation::CpuToGpu,
+                category: "per-frame",
+            },
+        )?;
+        if let Some(old) = self.visible[slot].replace(buf) {
+            match self.ring.as_mut() {
+                Some(r) => r.defer(Garbage::Buffer(old)),
+                None => old.destroy(&self.ctx),
+            }
+        }
+        self.write_descriptors(slot);
+        Ok(())
+    }
+
+    fn write_descriptors(&self, slot: usize) {
+        let scene = self.scene.as_ref().expect("scene present until drop");
+        let Some(visible) = &self.visible[slot] else {
+            return;
+        };
+        let ubo = [vk::DescriptorBufferInfo {
+            buffer: self.ubos[slot].buffer,
+            offset: 0,
+            range: UBO_SIZE,
+        }];
+        let inst = [vk::DescriptorBufferInfo {
+            buffer: scene.instances.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let vis = [vk::DescriptorBufferInfo {
+            buffer: visible.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let mats = [vk::DescriptorBufferInfo {
+            buffer: scene.materials.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
+        let images: Vec<vk::DescriptorImageInfo> = scene
+            .textures
+            .iter()
+            .zip(&scene.texture_samplers)
+            .map(|(t, &s)| vk::DescriptorImageInfo {
+                sampler: s,
+                image_view: t.view,
+                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            })
+            .collect();
+        let set = self.sets[slot];
+        let w = |b: u32, ty| {
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(b)
+                .descriptor_type(ty)
+        };
+        let writes = [
+            w(0, vk::DescriptorType::UNIFORM_BUFFER).buffer_info(&ubo),
+            w(1, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&inst),
+            w(2, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&vis),
+            w(3, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&mats),
+            w(4, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&images),
+        ];
+        // SAFETY: the set is not in use by a pending frame (its slot's fence
+        // was waited on, or it was never submitted).
+        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    fn frame_data(&self, rig: &StereoRig) -> Vec<f32> {
+        let origin = rig.head.position;
+        let mut f: Vec<f32> = Vec::with_capacity(UBO_SIZE as usize / 4);
+        let views = [rig.views[0], *rig.views.get(1).unwrap_or(&rig.views[0])];
+        for v in &views {
+            f.extend(
+                projection::view_projection_f32(&v.pose, &v.fov, self.config.near, origin)
+                    .to_cols_array(),
+            );
+        }
+        for v in &views {
+            f.extend(
+                Mat4::from_mat3(DMat3::from_quat(v.pose.orientation).as_mat3()).to_cols_array(),
+            );
+        }
+        for v in &views {
+            f.extend(v.fov.tangents().map(|t| t as f32));
+        }
+        for v in &views {
+            f.extend((v.pose.position - origin).as_vec3().extend(1.0).to_array());
+        }
+        let (hi, lo) = split_dvec3(origin);
+        f.extend([hi[0], hi[1], hi[2], 0.0, lo[0], lo[1], lo[2], 0.0]);
+        let sun = glam::Vec3::new(0.35, 0.8, 0.45).normalize();
+        f.extend(sun.extend(0.0).to_array());
+        f.extend([2.6, 2.45, 2.2, 0.0]);
+        f.extend(Vec4::new(0.30, 0.45, 0.75, 1.0).to_array());
+        f.extend(Vec4::new(0.75, 0.80, 0.85, 1.0).to_array());
+        f.extend(Vec4::new(0.25, 0.22, 0.20, 1.0).to_array());
+        f
+    }
+
+    /// Renders one stereo frame of `rig` drawing the instances in `visible`
+    /// (None: all), waits for it and returns its statistics. With
+    /// `readback`, the frame is copied for [`Renderer::read_images`].
+    pub fn render(
+        &mut self,
+        rig: &StereoRig,
+        visible: Option<&[u32]>,
+        readback: bool,
+    ) -> Result<FrameStats> {
+        for v in &rig.views {
+            v.pose
+                .validate()
+                .map_err(|m| Error::config("view pose", m))?;
+            v.fov.validate().map_err(|m| Error::config("view fov", m))?;
+        }
+        if rig.views.len() != 2 {
+            return Err(Error::config(
+                "views",
+                format!("the stereo renderer takes 2 views, got {}", rig.views.len()),
+            ));
+        }
+        let mut stats = FrameStats::default();
+        let t0 = Instant::now();
+        let mut batches = std::mem::take(&mut self.batches);
+        self.batcher.build(visible, rig.head.position, &mut batches);
+        stats.instances_drawn = batches.instances_drawn;
+        stats.triangles = batches.triangles;
+        let slot = self.slot;
+        let cmd = self
+            .ring
+            .as_mut()
+            .expect("ring present until drop")
+            .begin(&self.ctx)?;
+        self.ensure_visible_capacity(slot, batches.ids.len())?;
+        let ids: &[u8] = bytemuck_u32(&batches.ids);
+        self.visible[slot]
+            .as_mut()
+            .expect("allocated above")
+            .write(0, ids)?;
+        let data = self.frame_data(rig);
+        self.ubos[slot].write(0, bytemuck_f32(&data))?;
+        let t1 = Instant::now();
+        stats.cpu_ms.batch = ms(t0, t1);
+
+        let mut queries = self.queries[slot]
+            .take()
+            .expect("queries present until drop");
+        queries.reset(&self.ctx, cmd);
+        stats.draw_calls = self.record(cmd, &batches, &mut queries, None);
+        if readback {
+            self.record_readback(cmd)?;
+        }
+        let t2 = Instant::now();
+        stats.cpu_ms.record = ms(t1, t2);
+        let submit = self
+            .ring
+            .as_mut()
+            .expect("ring present until drop")
+            .submit(&self.ctx);
+        let t3 = Instant::now();
+        stats.cpu_ms.submit = ms(t2, t3);
+        submit?;
+        self.ring
+            .as_mut()
+            .expect("ring present until drop")
+            .wait_all(&self.ctx)?;
+        let t4 = Instant::now();
+        stats.cpu_ms.wait = ms(t3, t4);
+        let (passes, pipeline) = queries.read(&self.ctx)?;
+        for (name, ms) in passes {
+            *stats.gpu_ms.entry(name.to_string()).or_insert(0.0) += ms;
+        }
+        stats.pipeline = pipeline;
+        self.queries[slot] = Some(queries);
+        self.batches = batches;
+        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
+        Ok(stats)
+    }
+
+    /// Renders a floor frame (clear only, or one full-screen triangle with a
+    /// trivial shader) and returns its GPU milliseconds.
+    pub fn render_floor(&mut self, kind: FloorKind) -> Result<f64> {
+        let slot = self.slot;
+        let cmd = self
+            .ring
+            .as_mut()
+            .expect("ring present until drop")
+            .begin(&self.ctx)?;
+        let mut queries = self.queries[slot]
+            .take()
+            .expect("queries present until drop");
+        queries.reset(&self.ctx, cmd);
+        self.record(cmd, &Batches::default(), &mut queries, Some(kind));
+        self.ring
+            .as_mut()
+            .expect("ring present until drop")
+            .submit(&self.ctx)?;
+        self.ring
+            .as_mut()
+            .expect("ring present until drop")
+            .wait_all(&self.ctx)?;
+        let (passes, _) = queries.read(&self.ctx)?;
+        self.queries[slot] = Some(queries);
+        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
+        Ok(passes.iter().map(|p| p.1).sum())
+    }
+
+    fn record(
+        &self,
+        cmd: vk::CommandBuffer,
+        batches: &Batches,
+        q: &mut Queries,
+        floor: Option<FloorKind>,
+    ) -> u64 {
+        let ctx = &self.ctx;
+        let d = &ctx.device;
+        let targets = self.targets.as_ref().expect("targets present until drop");
+        let scene = self.scene.as_ref().expect("scene present until drop");
+        let barriers = targets.begin_barriers();
+        let mut draw_calls = 0u64;
+        // SAFETY: recording into a command buffer begun by the ring; every
+        // handle is owned by this renderer and outlives the submission.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+            );
+            q.begin_stats(ctx, cmd);
+            let passes: Vec<(attachments::TargetViews, u32, u32, &'static str)> =
+                match self.config.stereo {
+                    StereoMode::Multiview => vec![(targets.sets[0].views(), 0b11, 0, "forward")],
+                    StereoMode::TwoPass => vec![
+                        (targets.sets[0].views(), 0, 0, "forward"),
+                        (targets.sets[1].views(), 0, 1, "forward"),
+                    ],
+                };
+            for (views, mask, eye, name) in passes {
+                q.begin_pass(ctx, cmd, name);
+                let clear_color = vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: [0.0, 0.0, 0.0, 1.0],
+                    },
+                };
+                let mut color = vk::RenderingAttachmentInfo::default()
+                    .image_view(views.color)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(clear_color);
+                if let Some(r) = views.resolve {
+                    color = color
+                        .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                        .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                        .resolve_image_view(r)
+                        .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+                }
+                let depth = vk::RenderingAttachmentInfo::default()
+                    .image_view(views.depth)
+                    .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .clear_value(vk::ClearValue {
+                        depth_stencil: vk::ClearDepthStencilValue {
+                            depth: 0.0,
+                            stencil: 0,
+                        },
+                    });
+                let colors = [color];
+                let info = vk::RenderingInfo::default()
+                    .render_area(vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent: self.extent,
+                    })
+                    .layer_count(1)
+                    .view_mask(mask)
+                    .color_attachments(&colors)
+                    .depth_attachment(&depth)
+                    .stencil_attachment(&depth);
+                d.cmd_begin_rendering(cmd, &info);
+                let (w, h) = (self.extent.width as f32, self.extent.height as f32);
+                d.cmd_set_viewport(
+                    cmd,
+                    0,
+                    &[vk::Viewport {
+                        x: 0.0,
+                        y: 0.0,
+                        width: w,
+                        height: h,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                d.cmd_set_scissor(
+                    cmd,
+                    0,
+                    &[vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent: self.extent,
+                    }],
+                );
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout,
+                    0,
+                    &[self.sets[self.slot]],
+                    &[],
+                );
+                let push = |material: u32| {
+                    let pc = [material, eye, 0, 0];
+                    d.cmd_push_constants(
+                        cmd,
+                        self.layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck_u32(&pc),
+                    );
+                };
+                match floor {
+                    Some(FloorKind::Clear) => {}
+                    Some(FloorKind::FullscreenTriangle) => {
+                        d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.flat);
+                        push(0);
+                        d.cmd_bind_index_buffer(
+                            cmd,
+                            scene.indices.buffer,
+                            0,
+                            vk::IndexType::UINT32,
+                        );
+                        d.cmd_draw_indexed(cmd, 3, 1, scene.fullscreen_first_index, 0, 0);
+                        draw_calls += 1;
+                    }
+                    None => {
+                        let buffers: Vec<vk::Buffer> = scene
+                            .streams
+                            .iter()
+                            .map(|s| s.as_ref().map_or(scene.defaults.buffer, |b| b.buffer))
+                            .collect();
+                        let offsets: Vec<u64> = scene
+                            .streams
+                            .iter()
+                            .enumerate()
+                            .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
+                            .collect();
+                        d.cmd_bind_vertex_buffers(cmd, 0, &buffers, &offsets);
+                        d.cmd_bind_index_buffer(
+                            cmd,
+                            scene.indices.buffer,
+                            0,
+                            vk::IndexType::UINT32,
+                        );
+                        let mut bound = None;
+                        let mut sky_drawn = false;
+                        for draw in &batches.draws {
+                            let key = self.batcher.keys[draw.primitive as usize];
+                            if key.alpha == 2 && !sky_drawn {
+                                self.draw_sky(cmd, &push);
+                                draw_calls += 1;
+                                sky_drawn = true;
+                                bound = None;
+                            }
+                            if bound != Some(key) {
+                                d.cmd_bind_pipeline(
+                                    cmd,
+                                    vk::PipelineBindPoint::GRAPHICS,
+                                    self.pipelines[&key],
+                                );
+                                bound = Some(key);
+                            }
+                            let r = scene.ranges[draw.primitive as usize];
+                            push(r.material);
+                            d.cmd_draw_indexed(
+                                cmd,
+                                r.index_count,
+                                draw.count,
+                                r.first_index,
+                                r.vertex_offset,
+                                draw.first,
+                            );
+                            draw_calls += 1;
+                        }
+                        if !sky_drawn {
+                            self.draw_sky(cmd, &push);
+                            draw_calls += 1;
+                        }
+                    }
+                }
+                d.cmd_end_rendering(cmd);
+                q.end_pass(ctx, cmd);
+            }
+            q.end_stats(ctx, cmd);
+        }
+        draw_calls
+    }
+
+    fn draw_sky(&self, cmd: vk::CommandBuffer, push: &dyn Fn(u32)) {
+        // SAFETY: inside a rendering scope begun by `record`.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.sky);
+            push(0);
+            let first = self
+                .scene
+                .as_ref()
+                .expect("scene present until drop")
+                .fullscreen_first_index;
+            self.ctx.device.cmd_draw_indexed(cmd, 3, 1, first, 0, 0);
+        }
+    }
+
+    fn record_readback(&mut self, cmd: vk::CommandBuffer) -> Result<()> {
+        let (w, h) = (self.extent.width as u64, self.extent.height as u64);
+        let size = w * h * 4 * 2;
+        if self.readback.as_ref().is_none_or(|b| b.size < size) {
+            if let Some(old) = self.readback.take() {
+                self.ring
+                    .as_mut()
+                    .expect("ring present until drop")
+                    .defer(Garbage::Buffer(old));
+            }
+            self.readback = Some(Buffer::new(
+                &self.ctx,
+                &BufferDesc {
+                    name: "readback",
+                    size,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "readback",
+                },
+            )?);
+        }
+        let targets = self.targets.as_ref().expect("targets present until drop");
+        let buf = self.readback.as_ref().expect("created above").buffer;
+        let d = &self.ctx.device;
+        let mut to_src = Vec::new();
+        let mut copies = Vec::new();
+        let mut offset = 0u64;
+        for set in &targets.sets {
+            let layers = set.resolve.layers;
+            let range = vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: layers,
+            };
+            to_src.push(
+                vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+                    .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)
+                    .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+                    .image(set.resolve.image)
+                    .subresource_range(range),
+            );
+            let copy = vk::BufferImageCopy::default()
+                .buffer_offset(offset)
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: layers,
+                })
+                .image_extent(vk::Extent3D {
+                    width: w as u32,
+                    height: h as u32,
+                    depth: 1,
+                });
+            copies.push((set.resolve.image, copy));
+            offset += w * h * 4 * layers as u64;
+        }
+        let to_host = [vk::BufferMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)
+            .buffer(buf)
+            .size(vk::WHOLE_SIZE)];
+        // SAFETY: recording after the rendering scope; buffer large enough for both layers.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
+            );
+            for (image, copy) in copies {
+                d.cmd_copy_image_to_buffer(
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buf,
+                    &[copy],
+                );
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().buffer_memory_barriers(&to_host),
+            );
+        }
+        Ok(())
+    }
+
+    /// The last read-back frame as two RGBA8 (sRGB) images, left then right.
+    pub fn read_images(&mut self) -> Result<[image::RgbaImage; 2]> {
+        let (w, h) = (self.extent.width, self.extent.height);
+        let layer = (w * h * 4) as usize;
+        let buf = self
+            .readback
+            .as_mut()
+            .ok_or_else(|| Error::Gpu("no frame was read back".into()))?;
+        let data = buf
+            .mapped()
+            .ok_or_else(|| Error::Gpu("readback buffer is not mapped".into()))?;
+        let left = image::RgbaImage::from_raw(w, h, data[..layer].to_vec());
+        let right = image::RgbaImage::from_raw(w, h, data[layer..2 * layer].to_vec());
+        match (left, right) {
+            (Some(l), Some(r)) => Ok([l, r]),
+            _ => Err(Error::Gpu("readback buffer too small".into())),
+        }
+    }
+
+    /// Whether the transient attachments use lazily allocated memory.
+    pub fn lazily_allocated(&self) -> bool {
+        self.targets.as_ref().is_some_and(|t| t.lazily_allocated())
+    }
+}
+
+/// Offset of each stream's default value inside the defaults buffer.
+fn default_offset(stream: usize) -> u64 {
+    match stream {
+        2 => 0,
+        3 | 4 => 16,
+        5 => 32,
+        _ => 48,
+    }
+}
+
+fn ms(a: Instant, b: Instant) -> f64 {
+    (b - a).as_secs_f64() * 1e3
+}
+
+fn bytemuck_u32(v: &[u32]) -> &[u8] {
+    // SAFETY: u32 slices are plain bytes.
+    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
+}
+
+fn bytemuck_f32(v: &[f32]) -> &[u8] {
+    // SAFETY: f32 slices are plain bytes.
+    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
+}
+
+impl Drop for Renderer {
+    fn drop(&mut self) {
+        let ctx = self.ctx.clone();
+        // SAFETY: wait for the GPU, then destroy in reverse creation order.
+        unsafe {
+            let _ = ctx.device.device_wait_idle();
+        }
+        if let Some(r) = self.ring.take() {
+            r.destroy(&ctx);
+        }
+        for q in self.queries.drain(..).flatten() {
+            q.destroy(&ctx);
+        }
+        // SAFETY: the device is idle; these objects belong to this renderer.
+        unsafe {
+            for p in self.pipelines.values().chain([&self.sky, &self.flat]) {
+                ctx.device.destroy_pipeline(*p, None);
+            }
+            ctx.device.destroy_descriptor_pool(self.pool, None);
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+        for b in self
+            .visible
+            .drain(..)
+            .flatten()
+            .chain(self.ubos.drain(..))
+            .chain(self.readback.take())
+        {
+            b.destroy(&ctx);
+        }
+        if let Some(t) = self.targets.take() {
+            t.destroy(&ctx);
+        }
+        if let Some(s) = self.scene.take() {
+            s.destroy(&ctx);
+        }
+    }
+}

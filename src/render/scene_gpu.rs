@@ -1,0 +1,521 @@
+//! A scene's GPU resources: vertex streams (only those the scene uses),
+//! indices, per-instance transforms, materials and textures. Uploaded once at
+//! load through staging buffers.
+
+use crate::error::{Result, VkContext};
+use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
+use crate::gpu::Context;
+use crate::scene::{AlphaMode, Scene, SceneFeatures};
+use ash::vk;
+use glam::DVec3;
+use gpu_allocator::MemoryLocation;
+
+/// Per-primitive draw parameters.
+#[derive(Clone, Copy, Debug)]
+pub struct DrawRange {
+    /// First index in the shared index buffer.
+    pub first_index: u32,
+    /// Index count.
+    pub index_count: u32,
+    /// Offset added to indices (first vertex in the shared streams).
+    pub vertex_offset: i32,
+    /// Material index.
+    pub material: u32,
+}
+
+/// Vertex stream slots, in shader location order.
+pub const STREAMS: [(&str, u32); 6] = [
+    ("position", 12),
+    ("normal", 12),
+    ("tangent", 16),
+    ("uv0", 8),
+    ("uv1", 8),
+    ("color", 16),
+];
+
+/// GPU copy of a scene.
+pub struct SceneGpu {
+    /// One buffer per used vertex stream (None: bound to the default buffer).
+    pub streams: [Option<Buffer>; 6],
+    /// 64 bytes of default attribute values for unused streams, read with stride 0.
+    pub defaults: Buffer,
+    /// All indices (u32).
+    pub indices: Buffer,
+    /// Per-instance transforms (`InstanceData` in shaders/common.glsl).
+    pub instances: Buffer,
+    /// Materials (`MaterialData`).
+    pub materials: Buffer,
+    /// Textures (a 1×1 white texture when the scene has none).
+    pub textures: Vec<Image>,
+    /// One sampler per texture.
+    pub texture_samplers: Vec<vk::Sampler>,
+    samplers: Vec<vk::Sampler>,
+    /// Draw range of each primitive.
+    pub ranges: Vec<DrawRange>,
+    /// Features in use.
+    pub features: SceneFeatures,
+    /// First index of the triangle (0, 1, 2) used for full-screen draws.
+    pub fullscreen_first_index: u32,
+}
+
+/// Splits a double into a high f32 and a low f32 remainder.
+pub fn split_f64(v: f64) -> (f32, f32) {
+    let hi = v as f32;
+    (hi, (v - hi as f64) as f32)
+}
+
+/// Splits a vector into high and low f32 parts.
+pub fn split_dvec3(v: DVec3) -> ([f32; 3], [f32; 3]) {
+    let (x, y, z) = (split_f64(v.x), split_f64(v.y), split_f64(v.z));
+    ([x.0, y.0, z.0], [x.1, y.1, z.1])
+}
+
+fn upload(
+    ctx: &Context,
+    name: &str,
+    usage: vk::BufferUsageFlags,
+    category: &'static str,
+    bytes: &[u8],
+) -> Result<Buffer> {
+    let size = bytes.len().max(4) as u64;
+    let staging = Buffer::with_data(
+        ctx,
+        &BufferDesc {
+            name: "staging",
+            size,
+            usage: vk::BufferUsageFlags::TRANSFER_SRC,
+            location: MemoryLocation::CpuToGpu,
+            category: "staging",
+        },
+        bytes,
+    )?;
+    let dst = Buffer::new(
+        ctx,
+        &BufferDesc {
+            name,
+            size,
+            usage: usage | vk::BufferUsageFlags::TRANSFER_DST,
+            location: MemoryLocation::GpuOnly,
+            category,
+        },
+    )?;
+    let r = ctx.one_shot(|cb| {
+        // SAFETY: both buffers are live and at least `size` bytes.
+        unsafe {
+            ctx.device.cmd_copy_buffer(
+                cb,
+                staging.buffer,
+                dst.buffer,
+                &[vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size,
+                }],
+            )
+        };
+    });
+    staging.destroy(ctx);
+    r?;
+    Ok(dst)
+}
+
+fn bytes_of<T: Copy>(v: &[T]) -> &[u8] {
+    // SAFETY: plain-old-data arrays of f32/u32/i32 viewed as bytes.
+    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
+}
+
+impl SceneGpu {
+    /// Uploads `scene`.
+    pub fn new(ctx: &Context, scene: &Scene) -> Result<SceneGpu> {
+        let features = scene.features();
+        let used = [
+            true,
+            true,
+            features.tangents,
+            features.uv0 || features.uv1,
+            features.uv1,
+            features.colors,
+        ];
+        let mut data: [Vec<f32>; 6] = Default::default();
+        let mut indices: Vec<u32> = Vec::new();
+        let mut ranges = Vec::new();
+        let mut vertex_count = 0usize;
+        for p in &scene.primitives {
+            let n = p.positions.len();
+            ranges.push(DrawRange {
+                first_index: indices.len() as u32,
+                index_count: p.indices.len() as u32,
+                vertex_offset: vertex_count as i32,
+                material: p.material,
+            });
+            indices.extend_from_slice(&p.indices);
+            data[0].extend(p.positions.iter().flatten());
+            data[1].extend(p.normals.iter().flatten());
+            if used[2] {
+                match &p.tangents {
+                    Some(t) => data[2].extend(t.iter().flatten()),
+                    None => data[2].extend(std::iter::repeat_n([1.0, 0.0, 0.0, 1.0], n).flatten()),
+                }
+            }
+            if used[3] {
+                match &p.uv0 {
+                    Some(t) => data[3].extend(t.iter().flatten()),
+                    None => data[3].extend(std::iter::repeat_n(0.0, 2 * n)),
+                }
+            }
+            if used[4] {
+                match &p.uv1 {
+                    Some(t) => data[4].extend(t.iter().flatten()),
+                    None => data[4].extend(std::iter::repeat_n(0.0, 2 * n)),
+                }
+            }
+            if used[5] {
+                match &p.colors {
+                    Some(t) => data[5].extend(t.iter().flatten()),
+                    None => data[5].extend(std::iter::repeat_n(1.0, 4 * n)),
+                }
+            }
+            vertex_count += n;
+        }
+        let mut streams: [Option<Buffer>; 6] = Default::default();
+        for (i, (name, _)) in STREAMS.iter().enumerate() {
+            if used[i] {
+                streams[i] = Some(upload(
+                    ctx,
+                    &format!("vertex {name}"),
+                    vk::BufferUsageFlags::VERTEX_BUFFER,
+                    "vertex",
+                    bytes_of(&data[i]),
+                )?);
+            }
+        }
+        // Defaults read at stride 0: tangent +X, uv 0, colour white.
+        let defaults_data: [f32; 16] = [
+            1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+        ];
+        let defaults = upload(
+            ctx,
+            "vertex defaults",
+            vk::BufferUsageFlags::VERTEX_BUFFER,
+            "vertex",
+            bytes_of(&defaults_data),
+        )?;
+        // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
+        // drops non-indexed draws from every view but the first under multiview.
+        let fullscreen_first_index = indices.len() as u32;
+        indices.extend_from_slice(&[0, 1, 2]);
+        let indices = upload(
+            ctx,
+            "indices",
+            vk::BufferUsageFlags::INDEX_BUFFER,
+            "index",
+            bytes_of(&indices),
+        )?;
+
+        let mut inst: Vec<f32> = Vec::with_capacity(scene.instances.len() * 16);
+        for i in &scene.instances {
+            let m = i.transform.matrix3;
+            let (hi, lo) = split_dvec3(i.transform.translation);
+            for r in 0..3 {
+                inst.extend_from_slice(&[
+                    m.x_axis[r] as f32,
+                    m.y_axis[r] as f32,
+                    m.z_axis[r] as f32,
+                    hi[r],
+                ]);
+            }
+            inst.extend_from_slice(&[lo[0], lo[1], lo[2], 0.0]);
+        }
+        let instances = upload(
+            ctx,
+            "instances",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            "instance",
+            bytes_of(&inst),
+        )?;
+
+        let mut mats: Vec<u32> = Vec::new();
+        for m in &scene.materials {
+            let f = |v: f32| v.to_bits();
+            let t = |r: Option<u32>| r.map_or(-1i32, |x| x as i32) as u32;
+            mats.extend(m.base_color.map(f));
+            mats.extend([
+                f(m.emissive[0]),
+                f(m.emissive[1]),
+                f(m.emissive[2]),
+                f(m.alpha_cutoff),
+            ]);
+            let ns = m.normal_tex.map_or(1.0, |(_, s)| s);
+            let os = m.occlusion_tex.map_or(1.0, |(_, s)| s);
+            mats.extend([f(m.metallic), f(m.roughness), f(ns), f(os)]);
+            let slots = [
+                m.base_color_tex,
+                m.metallic_roughness_tex,
+                m.normal_tex.map(|x| x.0),
+                m.occlusion_tex.map(|x| x.0),
+                m.emissive_tex,
+            ];
+            let uv_mask = slots.iter().enumerate().fold(0u32, |acc, (i, s)| {
+                acc | (s.is_some_and(|s| s.tex_coord == 1) as u32) << i
+            });
+            let flags = (m.unlit as u32)
+                | (m.double_sided as u32) << 1
+                | ((m.alpha_mode == AlphaMode::Mask) as u32) << 2;
+            mats.extend(slots[..4].iter().map(|s| t(s.map(|s| s.texture))));
+            mats.extend([t(slots[4].map(|s| s.texture)), uv_mask, flags, 0]);
+        }
+        let materials = upload(
+            ctx,
+            "materials",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            "material",
+            bytes_of(&mats),
+        )?;
+
+        let mut samplers = Vec::new();
+        for (repeat, linear) in [(false, false), (false, true), (true, false), (true, true)] {
+            let address = if repeat {
+                vk::SamplerAddressMode::REPEAT
+            } else {
+                vk::SamplerAddressMode::CLAMP_TO_EDGE
+            };
+            let filter = if linear {
+                vk::Filter::LINEAR
+            } else {
+                vk::Filter::NEAREST
+            };
+            let info = vk::SamplerCreateInfo::default()
+                .mag_filter(filter)
+                .min_filter(filter)
+                .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                .address_mode_u(address)
+                .address_mode_v(address)
+                .address_mode_w(address)
+                .max_lod(vk::LOD_CLAMP_NONE);
+            // SAFETY: valid sampler create info.
+            samplers
+                .push(unsafe { ctx.device.create_sampler(&info, None) }.vk("creating a sampler")?);
+        }
+        let mut textures = Vec::new();
+        let mut texture_samplers = Vec::new();
+        if scene.textures.is_empty() {
+            textures.push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
+            texture_samplers.push(samplers[0]);
+        }
+        for t in &scene.textures {
+            textures.push(upload_texture(
+                ctx, &t.name, t.width, t.height, t.srgb, &t.rgba8,
+            )?);
+            texture_samplers.push(samplers[(t.repeat as usize) * 2 + t.linear as usize]);
+        }
+        Ok(SceneGpu {
+            streams,
+            defaults,
+            indices,
+            instances,
+            materials,
+            textures,
+            texture_samplers,
+            samplers,
+            ranges,
+            features,
+            fullscreen_first_index,
+        })
+    }
+
+    /// Destroys every resource (device must be idle).
+    pub fn destroy(self, ctx: &Context) {
+        for b in self.streams.into_iter().flatten() {
+            b.destroy(ctx);
+        }
+        for b in [self.defaults, self.indices, self.instances, self.materials] {
+            b.destroy(ctx);
+        }
+        for t in self.textures {
+            t.destroy(ctx);
+        }
+        for s in self.samplers {
+            // SAFETY: the device is idle.
+            unsafe { ctx.device.destroy_sampler(s, None) };
+        }
+    }
+}
+
+fn mip_levels(w: u32, h: u32) -> u32 {
+    32 - w.max(h).max(1).leading_zeros()
+}
+
+/// Uploads an RGBA8 texture and builds its mip chain with linear blits.
+fn upload_texture(
+    ctx: &Context,
+    name: &str,
+    w: u32,
+    h: u32,
+    srgb: bool,
+    rgba: &[u8],
+) -> Result<Image> {
+    let format = if srgb {
+        vk::Format::R8G8B8A8_SRGB
+    } else {
+        vk::Format::R8G8B8A8_UNORM
+    };
+    // SAFETY: valid physical device.
+    let props = unsafe {
+        ctx.instance
+            .get_physical_device_format_properties(ctx.physical_device, format)
+    };
+    let can_blit = props.optimal_tiling_features.contains(
+        vk::FormatFeatureFlags::BLIT_SRC
+            | vk::FormatFeatureFlags::BLIT_DST
+            | vk::FormatFeatureFlags::SAMPLED_IMAGE_FILTER_LINEAR,
+    );
+    let mips = if can_blit { mip_levels(w, h) } else { 1 };
+    let image = Image::new(
+        ctx,
+        &ImageDesc {
+            name,
+            format,
+            extent: vk::Extent2D {
+                width: w,
+                height: h,
+            },
+            layers: 1,
+            mips,
+            samples: vk::SampleCountFlags::TYPE_1,
+            usage: vk::ImageUsageFlags::SAMPLED
+                | vk::ImageUsageFlags::TRANSFER_DST
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            aspect: vk::ImageAspectFlags::COLOR,
+            category: "texture",
+        },
+    )?;
+    let staging = Buffer::with_data(
+        ctx,
+        &BufferDesc {
+            name: "texture staging",
+            size: rgba.len() as u64,
+            usage: vk::BufferUsageFlags::TRANSFER_SRC,
+            location: MemoryLocation::CpuToGpu,
+            category: "staging",
+        },
+        rgba,
+    )?;
+    let d = &ctx.device;
+    let barrier = |level: u32,
+                   old: vk::ImageLayout,
+                   new: vk::ImageLayout,
+                   src: vk::AccessFlags2,
+                   dst: vk::AccessFlags2| {
+        vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+            .src_access_mask(src)
+            .dst_access_mask(dst)
+            .old_layout(old)
+            .new_layout(new)
+            .image(image.image)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                base_mip_level: level,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: 1,
+            })
+    };
+    let r = ctx.one_shot(|cb| {
+        // SAFETY: recording transfers on live objects; layouts tracked per level.
+        unsafe {
+            let mut pre = Vec::new();
+            for l in 0..mips {
+                pre.push(barrier(
+                    l,
+                    vk::ImageLayout::UNDEFINED,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::AccessFlags2::NONE,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ));
+            }
+            d.cmd_pipeline_barrier2(
+                cb,
+                &vk::DependencyInfo::default().image_memory_barriers(&pre),
+            );
+            let copy = vk::BufferImageCopy::default()
+                .image_subresource(vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                })
+                .image_extent(vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                });
+            d.cmd_copy_buffer_to_image(
+                cb,
+                staging.buffer,
+                image.image,
+                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                &[copy],
+            );
+            let (mut mw, mut mh) = (w as i32, h as i32);
+            for l in 1..mips {
+                let b = [barrier(
+                    l - 1,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                    vk::AccessFlags2::TRANSFER_READ,
+                )];
+                d.cmd_pipeline_barrier2(
+                    cb,
+                    &vk::DependencyInfo::default().image_memory_barriers(&b),
+                );
+                let (nw, nh) = ((mw / 2).max(1), (mh / 2).max(1));
+                let sub = |level| vk::ImageSubresourceLayers {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    mip_level: level,
+                    base_array_layer: 0,
+                    layer_count: 1,
+                };
+                let blit = vk::ImageBlit::default()
+                    .src_subresource(sub(l - 1))
+                    .src_offsets([vk::Offset3D::default(), vk::Offset3D { x: mw, y: mh, z: 1 }])
+                    .dst_subresource(sub(l))
+                    .dst_offsets([vk::Offset3D::default(), vk::Offset3D { x: nw, y: nh, z: 1 }]);
+                d.cmd_blit_image(
+                    cb,
+                    image.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    image.image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[blit],
+                    vk::Filter::LINEAR,
+                );
+                (mw, mh) = (nw, nh);
+            }
+            let mut post = Vec::new();
+            for l in 0..mips {
+                let old = if l + 1 < mips {
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+                } else {
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL
+                };
+                post.push(barrier(
+                    l,
+                    old,
+                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                    vk::AccessFlags2::SHADER_READ,
+                ));
+            }
+            d.cmd_pipeline_barrier2(
+                cb,
+                &vk::DependencyInfo::default().image_memory_barriers(&post),
+            );
+        }
+    });
+    staging.destroy(ctx);
+    r?;
+    Ok(image)
+}

@@ -1,0 +1,163 @@
+//! Scene manifests (TOML, `manifests/scenes/`): compose glTF files and
+//! procedural content, optionally instanced on a grid, into one scene.
+//!
+//! ```toml
+//! name = "ufo-fleet"
+//! [[gltf]]
+//! file = "../../assets/retroufo/retroufo.glb"   # relative to the manifest
+//! translation = [0.0, 0.0, -10.0]
+//! yaw_deg = 0.0
+//! scale = 1.0
+//! grid = { count = [40, 1, 50], spacing = [6.0, 0.0, 6.0] }
+//! [[procedural]]
+//! kind = "factory"
+//! instances = 10000
+//! seed = 1
+//! ```
+
+use super::{factory, gltf_load, Scene};
+use crate::error::{Error, Result};
+use glam::{DAffine3, DQuat, DVec3};
+use serde::Deserialize;
+use std::path::Path;
+
+/// Most placements a manifest may ask for (grid cells × entries).
+pub const MAX_PLACEMENTS: u64 = 20_000_000;
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Grid {
+    count: [u32; 3],
+    spacing: [f64; 3],
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Placement {
+    #[serde(default)]
+    translation: [f64; 3],
+    #[serde(default)]
+    yaw_deg: f64,
+    #[serde(default = "one")]
+    scale: f64,
+    grid: Option<Grid>,
+}
+
+fn one() -> f64 {
+    1.0
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct GltfEntry {
+    file: String,
+    #[serde(flatten)]
+    place: Placement,
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ProceduralEntry {
+    kind: String,
+    instances: usize,
+    #[serde(default = "default_seed")]
+    seed: u64,
+    #[serde(flatten)]
+    place: Placement,
+}
+
+fn default_seed() -> u64 {
+    factory::DEFAULT_SEED
+}
+
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Manifest {
+    name: String,
+    #[serde(default)]
+    gltf: Vec<GltfEntry>,
+    #[serde(default)]
+    procedural: Vec<ProceduralEntry>,
+}
+
+fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
+    let err = |m: String| Error::scene(path, format!("{what}: {m}"));
+    if !(p.scale.is_finite() && p.scale > 0.0) {
+        return Err(err(format!("scale {} must be a positive number", p.scale)));
+    }
+    if !p.translation.iter().all(|v| v.is_finite()) || !p.yaw_deg.is_finite() {
+        return Err(err("translation and yaw_deg must be finite".into()));
+    }
+    let base = DAffine3::from_scale_rotation_translation(
+        DVec3::splat(p.scale),
+        DQuat::from_rotation_y(p.yaw_deg.to_radians()),
+        DVec3::from_array(p.translation),
+    );
+    let Some(g) = &p.grid else {
+        return Ok(vec![base]);
+    };
+    let cells = g.count.iter().map(|&c| c as u64).product::<u64>();
+    if cells == 0 || cells > MAX_PLACEMENTS {
+        return Err(err(format!(
+            "grid count {:?} must give 1..={MAX_PLACEMENTS} cells",
+            g.count
+        )));
+    }
+    if !g.spacing.iter().all(|v| v.is_finite()) {
+        return Err(err("grid spacing must be finite".into()));
+    }
+    let mut out = Vec::with_capacity(cells as usize);
+    for z in 0..g.count[2] {
+        for y in 0..g.count[1] {
+            for x in 0..g.count[0] {
+                let off = DVec3::new(
+                    x as f64 * g.spacing[0],
+                    y as f64 * g.spacing[1],
+                    -(z as f64) * g.spacing[2],
+                );
+                out.push(DAffine3::from_translation(off) * base);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// Loads a scene manifest; relative file paths resolve against its folder.
+pub fn load(path: &Path) -> Result<Scene> {
+    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    })?;
+    let m: Manifest = toml::from_str(&text)
+        .map_err(|e| Error::scene(path, format!("malformed scene manifest: {}", e.message())))?;
+    if m.gltf.is_empty() && m.procedural.is_empty() {
+        return Err(Error::scene(
+            path,
+            "manifest lists no [[gltf]] or [[procedural]] entries",
+        ));
+    }
+    let dir = path.parent().unwrap_or(Path::new(""));
+    let mut scene = Scene {
+        name: m.name.clone(),
+        ..Scene::default()
+    };
+    for (i, g) in m.gltf.iter().enumerate() {
+        let place = placements(path, &format!("gltf[{i}]"), &g.place)?;
+        let sub = gltf_load::load(&dir.join(&g.file))?;
+        scene.append(&sub, &place);
+    }
+    for (i, p) in m.procedural.iter().enumerate() {
+        let place = placements(path, &format!("procedural[{i}]"), &p.place)?;
+        let sub = match p.kind.as_str() {
+            "factory" => factory::generate(p.instances, p.seed)?,
+            other => {
+                return Err(Error::scene(
+                    path,
+                    format!("procedural[{i}]: unknown kind '{other}' (known: factory)"),
+                ))
+            }
+        };
+        scene.append(&sub, &place);
+    }
+    Ok(scene)
+}

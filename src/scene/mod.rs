@@ -1,0 +1,396 @@
+//! Scenes: geometry, materials, textures and instances in a GPU-agnostic form.
+//! Loaders (glTF, the procedural `factory`, TOML manifests) all produce a
+//! [`Scene`]; the renderer uploads only what the scene uses.
+
+pub mod factory;
+pub mod gltf_load;
+pub mod manifest;
+pub mod shapes;
+
+use crate::error::{Error, Result};
+use glam::{DAffine3, DVec3, Vec3};
+use std::path::Path;
+
+/// How a material's alpha is interpreted (glTF `alphaMode`).
+#[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
+pub enum AlphaMode {
+    /// Alpha ignored.
+    Opaque,
+    /// Fragments with alpha below the cutoff are discarded.
+    Mask,
+    /// Alpha-blended, drawn after opaque geometry without depth writes.
+    Blend,
+}
+
+/// A reference from a material slot to a texture and a UV set.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TexRef {
+    /// Index into [`Scene::textures`].
+    pub texture: u32,
+    /// UV set (0 or 1).
+    pub tex_coord: u32,
+}
+
+/// A PBR metallic-roughness material (glTF 2.0 core) or an unlit one.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Material {
+    /// Name for diagnostics.
+    pub name: String,
+    /// Linear base colour factor (RGBA).
+    pub base_color: [f32; 4],
+    /// Metallic factor.
+    pub metallic: f32,
+    /// Roughness factor.
+    pub roughness: f32,
+    /// Linear emissive factor.
+    pub emissive: [f32; 3],
+    /// Base colour texture (sRGB).
+    pub base_color_tex: Option<TexRef>,
+    /// Metallic (B) / roughness (G) texture (linear).
+    pub metallic_roughness_tex: Option<TexRef>,
+    /// Tangent-space normal map (linear) and its scale.
+    pub normal_tex: Option<(TexRef, f32)>,
+    /// Occlusion texture (R, linear) and its strength.
+    pub occlusion_tex: Option<(TexRef, f32)>,
+    /// Emissive texture (sRGB).
+    pub emissive_tex: Option<TexRef>,
+    /// Alpha mode.
+    pub alpha_mode: AlphaMode,
+    /// Alpha cutoff for [`AlphaMode::Mask`].
+    pub alpha_cutoff: f32,
+    /// Whether back faces are drawn (and lit with a flipped normal).
+    pub double_sided: bool,
+    /// Unlit (no lighting; base colour only).
+    pub unlit: bool,
+}
+
+impl Default for Material {
+    fn default() -> Self {
+        Material {
+            name: "default".into(),
+            base_color: [1.0; 4],
+            metallic: 1.0,
+            roughness: 1.0,
+            emissive: [0.0; 3],
+            base_color_tex: None,
+            metallic_roughness_tex: None,
+            normal_tex: None,
+            occlusion_tex: None,
+            emissive_tex: None,
+            alpha_mode: AlphaMode::Opaque,
+            alpha_cutoff: 0.5,
+            double_sided: false,
+            unlit: false,
+        }
+    }
+}
+
+/// A decoded texture image, RGBA8.
+#[derive(Clone, Debug)]
+pub struct Texture {
+    /// Name (source URI or index) for diagnostics.
+    pub name: String,
+    /// Width in pixels.
+    pub width: u32,
+    /// Height in pixels.
+    pub height: u32,
+    /// Whether texels are sRGB-encoded colour (base colour, emissive).
+    pub srgb: bool,
+    /// Whether the sampler repeats (else clamps).
+    pub repeat: bool,
+    /// Whether the sampler filters linearly (else nearest).
+    pub linear: bool,
+    /// RGBA8 texels, row-major.
+    pub rgba8: Vec<u8>,
+}
+
+/// One drawable: a vertex/index range with one material.
+#[derive(Clone, Debug, Default)]
+pub struct Primitive {
+    /// Positions (object space).
+    pub positions: Vec<[f32; 3]>,
+    /// Normals (always present; generated flat when the source has none).
+    pub normals: Vec<[f32; 3]>,
+    /// Tangents (xyz, w = handedness), present when the material has a normal map.
+    pub tangents: Option<Vec<[f32; 4]>>,
+    /// First UV set.
+    pub uv0: Option<Vec<[f32; 2]>>,
+    /// Second UV set.
+    pub uv1: Option<Vec<[f32; 2]>>,
+    /// Linear vertex colours.
+    pub colors: Option<Vec<[f32; 4]>>,
+    /// Triangle list indices (u16 sources are widened on load).
+    pub indices: Vec<u32>,
+    /// Index into [`Scene::materials`].
+    pub material: u32,
+    /// Object-space bounds (min, max).
+    pub bounds: (Vec3, Vec3),
+}
+
+impl Primitive {
+    /// Recomputes [`Primitive::bounds`] from the positions.
+    pub fn compute_bounds(&mut self) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for p in &self.positions {
+            lo = lo.min(Vec3::from_array(*p));
+            hi = hi.max(Vec3::from_array(*p));
+        }
+        if self.positions.is_empty() {
+            lo = Vec3::ZERO;
+            hi = Vec3::ZERO;
+        }
+        self.bounds = (lo, hi);
+    }
+
+    /// Number of triangles.
+    pub fn triangles(&self) -> usize {
+        self.indices.len() / 3
+    }
+}
+
+/// A mesh: primitives drawn together under one transform.
+#[derive(Clone, Debug, Default)]
+pub struct Mesh {
+    /// Name for diagnostics.
+    pub name: String,
+    /// Indices into [`Scene::primitives`].
+    pub primitives: Vec<u32>,
+}
+
+/// One placed copy of a mesh.
+#[derive(Clone, Copy, Debug)]
+pub struct Instance {
+    /// Index into [`Scene::meshes`].
+    pub mesh: u32,
+    /// Object-to-world transform in double precision.
+    pub transform: DAffine3,
+}
+
+/// Per-instance world bounds.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct WorldBounds {
+    /// Axis-aligned box minimum.
+    pub min: DVec3,
+    /// Axis-aligned box maximum.
+    pub max: DVec3,
+    /// Bounding sphere centre (box centre).
+    pub center: DVec3,
+    /// Bounding sphere radius (half the box diagonal).
+    pub radius: f64,
+}
+
+/// A loaded scene.
+#[derive(Clone, Debug, Default)]
+pub struct Scene {
+    /// Scene name (file name, `factory:N`, manifest name).
+    pub name: String,
+    /// Node count of the source (glTF nodes, or generated placements).
+    pub nodes: usize,
+    /// Drawables.
+    pub primitives: Vec<Primitive>,
+    /// Meshes.
+    pub meshes: Vec<Mesh>,
+    /// Materials.
+    pub materials: Vec<Material>,
+    /// Textures (decoded).
+    pub textures: Vec<Texture>,
+    /// Placed mesh instances.
+    pub instances: Vec<Instance>,
+}
+
+/// Which optional vertex streams and pipeline features a scene uses; the
+/// renderer creates only these.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct SceneFeatures {
+    /// Some primitive has tangents.
+    pub tangents: bool,
+    /// Some primitive has UV set 0.
+    pub uv0: bool,
+    /// Some primitive has UV set 1.
+    pub uv1: bool,
+    /// Some primitive has vertex colours.
+    pub colors: bool,
+    /// Some material is alpha-masked.
+    pub alpha_mask: bool,
+    /// Some material is alpha-blended.
+    pub alpha_blend: bool,
+    /// Some material is double-sided.
+    pub double_sided: bool,
+    /// Some material is unlit.
+    pub unlit: bool,
+}
+
+impl Scene {
+    /// Loads a scene from a `--scene` argument: `factory`, `factory:N`, a
+    /// `.gltf`/`.glb` file or a `.toml` scene manifest.
+    pub fn load(spec: &str) -> Result<Scene> {
+        if let Some(rest) = spec.strip_prefix("factory") {
+            let n = match rest.strip_prefix(':') {
+                None if rest.is_empty() => factory::DEFAULT_INSTANCES,
+                Some(n) => n.replace('_', "").parse::<usize>().map_err(|_| {
+                    Error::config(
+                        "--scene",
+                        format!("'{spec}': expected factory or factory:N with N a count"),
+                    )
+                })?,
+                None => {
+                    return Err(Error::config(
+                        "--scene",
+                        format!("'{spec}': unknown built-in scene"),
+                    ))
+                }
+            };
+            return factory::generate(n, factory::DEFAULT_SEED);
+        }
+        let path = Path::new(spec);
+        match path
+            .extension()
+            .and_then(|e| e.to_str())
+            .map(|e| e.to_ascii_lowercase())
+        {
+            Some(e) if e == "toml" => manifest::load(path),
+            _ => gltf_load::load(path),
+        }
+    }
+
+    /// Total triangles over all instances.
+    pub fn instanced_triangles(&self) -> usize {
+        let per_mesh: Vec<usize> = self
+            .meshes
+            .iter()
+            .map(|m| {
+                m.primitives
+                    .iter()
+                    .map(|&p| self.primitives[p as usize].triangles())
+                    .sum()
+            })
+            .collect();
+        self.instances
+            .iter()
+            .map(|i| per_mesh[i.mesh as usize])
+            .sum()
+    }
+
+    /// Object-space bounds of a mesh (union of its primitives).
+    pub fn mesh_bounds(&self, mesh: u32) -> (Vec3, Vec3) {
+        let mut lo = Vec3::splat(f32::INFINITY);
+        let mut hi = Vec3::splat(f32::NEG_INFINITY);
+        for &p in &self.meshes[mesh as usize].primitives {
+            let (a, b) = self.primitives[p as usize].bounds;
+            lo = lo.min(a);
+            hi = hi.max(b);
+        }
+        if lo.x > hi.x {
+            return (Vec3::ZERO, Vec3::ZERO);
+        }
+        (lo, hi)
+    }
+
+    /// World AABB and bounding sphere of every instance (Arvo's method for
+    /// transforming an AABB: "Transforming Axis-Aligned Bounding Boxes",
+    /// Graphics Gems, 1990 — the extent along each world axis is the sum of
+    /// the absolute matrix entries times the half-extents).
+    pub fn world_bounds(&self) -> Vec<WorldBounds> {
+        let mesh_bounds: Vec<(Vec3, Vec3)> = (0..self.meshes.len() as u32)
+            .map(|m| self.mesh_bounds(m))
+            .collect();
+        self.instances
+            .iter()
+            .map(|inst| {
+                let (lo, hi) = mesh_bounds[inst.mesh as usize];
+                let c = (lo + hi).as_dvec3() * 0.5;
+                let h = (hi - lo).as_dvec3() * 0.5;
+                let m = inst.transform.matrix3;
+                let wc = inst.transform.transform_point3(c);
+                let abs = glam::DMat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+                let wh = abs * h;
+                WorldBounds {
+                    min: wc - wh,
+                    max: wc + wh,
+                    center: wc,
+                    radius: wh.length(),
+                }
+            })
+            .collect()
+    }
+
+    /// World AABBs as (min, max) pairs, the culling module's input.
+    pub fn world_aabbs(&self) -> Vec<(DVec3, DVec3)> {
+        self.world_bounds()
+            .into_iter()
+            .map(|b| (b.min, b.max))
+            .collect()
+    }
+
+    /// Bounds of the whole scene.
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for b in self.world_bounds() {
+            lo = lo.min(b.min);
+            hi = hi.max(b.max);
+        }
+        if lo.x > hi.x {
+            return (DVec3::ZERO, DVec3::ZERO);
+        }
+        (lo, hi)
+    }
+
+    /// The features the renderer must support for this scene.
+    pub fn features(&self) -> SceneFeatures {
+        let mut f = SceneFeatures::default();
+        for p in &self.primitives {
+            f.tangents |= p.tangents.is_some();
+            f.uv0 |= p.uv0.is_some();
+            f.uv1 |= p.uv1.is_some();
+            f.colors |= p.colors.is_some();
+        }
+        for m in &self.materials {
+            f.alpha_mask |= m.alpha_mode == AlphaMode::Mask;
+            f.alpha_blend |= m.alpha_mode == AlphaMode::Blend;
+            f.double_sided |= m.double_sided;
+            f.unlit |= m.unlit;
+        }
+        f
+    }
+
+    /// Appends `other` (re-indexing its meshes, primitives, materials and
+    /// textures), placing its instances with `place` applied after their own
+    /// transforms, once per entry of `placements`.
+    pub fn append(&mut self, other: &Scene, placements: &[DAffine3]) {
+        let p0 = self.primitives.len() as u32;
+        let m0 = self.meshes.len() as u32;
+        let mat0 = self.materials.len() as u32;
+        let t0 = self.textures.len() as u32;
+        self.textures.extend(other.textures.iter().cloned());
+        self.materials.extend(other.materials.iter().map(|m| {
+            let mut m = m.clone();
+            let shift = |t: &mut TexRef| t.texture += t0;
+            m.base_color_tex.as_mut().map(shift);
+            m.metallic_roughness_tex.as_mut().map(shift);
+            m.normal_tex.as_mut().map(|(t, _)| shift(t));
+            m.occlusion_tex.as_mut().map(|(t, _)| shift(t));
+            m.emissive_tex.as_mut().map(shift);
+            m
+        }));
+        self.primitives.extend(other.primitives.iter().map(|p| {
+            let mut p = p.clone();
+            p.material += mat0;
+            p
+        }));
+        self.meshes.extend(other.meshes.iter().map(|m| Mesh {
+            name: m.name.clone(),
+            primitives: m.primitives.iter().map(|p| p + p0).collect(),
+        }));
+        for place in placements {
+            for inst in &other.instances {
+                self.instances.push(Instance {
+                    mesh: inst.mesh + m0,
+                    transform: *place * inst.transform,
+                });
+            }
+        }
+        self.nodes += other.nodes * placements.len();
+    }
+}

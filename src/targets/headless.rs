@@ -1,0 +1,212 @@
+//! Headless rendering into PNG files plus a `stats.json`: the `vergence
+//! render` command.
+
+use crate::config::RenderConfig;
+use crate::error::{Error, Result};
+use crate::gpu::{Context, Validation};
+use crate::render::{FrameStats, Renderer};
+use crate::scene::{Scene, SceneFeatures};
+use crate::view::profile::HmdProfile;
+use crate::view::Pose;
+use ash::vk;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What to render.
+#[derive(Clone, Debug)]
+pub struct RenderJob {
+    /// `--scene` value.
+    pub scene: String,
+    /// HMD profile name or path.
+    pub hmd: String,
+    /// Head pose.
+    pub pose: Pose,
+    /// Renderer configuration.
+    pub config: RenderConfig,
+    /// Per-eye size override (else the profile's resolution).
+    pub size: Option<(u32, u32)>,
+    /// Output folder.
+    pub out: PathBuf,
+}
+
+/// Scene counts reported in stats.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct SceneCounts {
+    /// Scene name.
+    pub name: String,
+    /// Source nodes.
+    pub nodes: usize,
+    /// Meshes.
+    pub meshes: usize,
+    /// Primitives.
+    pub primitives: usize,
+    /// Materials.
+    pub materials: usize,
+    /// Textures.
+    pub textures: usize,
+    /// Instances.
+    pub instances: usize,
+    /// Triangles over all instances.
+    pub triangles: usize,
+    /// Features the renderer built pipelines and streams for.
+    pub features: SceneFeatures,
+}
+
+impl SceneCounts {
+    /// Counts of `scene`.
+    pub fn of(scene: &Scene) -> SceneCounts {
+        SceneCounts {
+            name: scene.name.clone(),
+            nodes: scene.nodes,
+            meshes: scene.meshes.len(),
+            primitives: scene.primitives.len(),
+            materials: scene.materials.len(),
+            textures: scene.textures.len(),
+            instances: scene.instances.len(),
+            triangles: scene.instanced_triangles(),
+            features: scene.features(),
+        }
+    }
+}
+
+/// The contents of `stats.json`.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct RenderStats {
+    /// Scene counts.
+    pub scene: SceneCounts,
+    /// HMD profile name.
+    pub hmd: String,
+    /// Per-eye resolution.
+    pub resolution: [u32; 2],
+    /// Configuration used.
+    pub config: RenderConfig,
+    /// GPU name.
+    pub device: String,
+    /// Driver description.
+    pub driver: String,
+    /// Draw calls.
+    pub draw_calls: u64,
+    /// Instances drawn.
+    pub instances_drawn: u64,
+    /// Triangles submitted.
+    pub triangles: u64,
+    /// CPU ms per phase (load, cull, batch, record, submit, wait).
+    pub cpu_ms: BTreeMap<String, f64>,
+    /// GPU ms per pass.
+    pub gpu_ms: BTreeMap<String, f64>,
+    /// Fragment-shader invocations (pipeline statistics; null if unsupported).
+    pub fragment_invocations: Option<u64>,
+    /// Vertex-shader invocations.
+    pub vertex_invocations: Option<u64>,
+    /// GPU memory in bytes per category.
+    pub gpu_memory: BTreeMap<String, u64>,
+    /// Whether transient attachments got lazily allocated memory.
+    pub lazily_allocated_attachments: bool,
+    /// Validation messages seen (0 when validation is off or clean).
+    pub validation_messages: usize,
+}
+
+/// Loads a scene with a spinner when it takes more than a moment.
+pub fn load_scene(spec: &str) -> Result<(Scene, f64)> {
+    let t = Instant::now();
+    let bar = indicatif::ProgressBar::new_spinner();
+    bar.set_message(format!("loading {spec}"));
+    bar.enable_steady_tick(std::time::Duration::from_millis(120));
+    let scene = Scene::load(spec);
+    bar.finish_and_clear();
+    let ms = t.elapsed().as_secs_f64() * 1e3;
+    let scene = scene?;
+    tracing::info!(
+        "loaded {} ({} instances) in {ms:.1} ms",
+        scene.name,
+        scene.instances.len()
+    );
+    Ok((scene, ms))
+}
+
+/// Per-eye size from the override or the profile.
+pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
+    let (w, h) = size.unwrap_or((
+        profile.views[0].resolution[0],
+        profile.views[0].resolution[1],
+    ));
+    vk::Extent2D {
+        width: w,
+        height: h,
+    }
+}
+
+/// Renders one frame as `job` says and writes `left.png`, `right.png` and
+/// `stats.json` into `job.out`.
+pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
+    let profile = HmdProfile::load(&job.hmd)?;
+    if profile.views.len() != 2 {
+        return Err(Error::Profile {
+            name: job.hmd.clone(),
+            message: "the renderer needs exactly 2 views".into(),
+        });
+    }
+    job.config.validate()?;
+    let (scene, load_ms) = load_scene(&job.scene)?;
+    let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
+    let extent = eye_extent(&profile, job.size);
+    let mut renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
+    let rig = profile.rig(job.pose);
+    let frame: FrameStats = renderer.render(&rig, None, true)?;
+    let [left, right] = renderer.read_images()?;
+    std::fs::create_dir_all(&job.out).map_err(|e| Error::Output {
+        path: job.out.clone(),
+        message: e.to_string(),
+    })?;
+    save_png(&left, &job.out.join("left.png"))?;
+    save_png(&right, &job.out.join("right.png"))?;
+    let mut cpu_ms = BTreeMap::new();
+    cpu_ms.insert("load".to_string(), load_ms);
+    cpu_ms.insert("batch".to_string(), frame.cpu_ms.batch);
+    cpu_ms.insert("record".to_string(), frame.cpu_ms.record);
+    cpu_ms.insert("submit".to_string(), frame.cpu_ms.submit);
+    cpu_ms.insert("wait".to_string(), frame.cpu_ms.wait);
+    let stats = RenderStats {
+        scene: SceneCounts::of(&scene),
+        hmd: profile.name.clone(),
+        resolution: [extent.width, extent.height],
+        config: renderer.config.clone(),
+        device: ctx.device_name.clone(),
+        driver: ctx.driver.clone(),
+        draw_calls: frame.draw_calls,
+        instances_drawn: frame.instances_drawn,
+        triangles: frame.triangles,
+        cpu_ms,
+        gpu_ms: frame.gpu_ms.clone(),
+        fragment_invocations: frame.pipeline.map(|p| p.fragment_invocations),
+        vertex_invocations: frame.pipeline.map(|p| p.vertex_invocations),
+        gpu_memory: ctx
+            .memory_by_category
+            .lock()
+            .map(|m| m.iter().map(|(k, v)| (k.to_string(), *v)).collect())
+            .unwrap_or_default(),
+        lazily_allocated_attachments: renderer.lazily_allocated(),
+        validation_messages: ctx.validation_messages(),
+    };
+    drop(renderer);
+    let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {
+        path: job.out.join("stats.json"),
+        message: e.to_string(),
+    })?;
+    let stats_path = job.out.join("stats.json");
+    std::fs::write(&stats_path, json).map_err(|e| Error::Output {
+        path: stats_path,
+        message: e.to_string(),
+    })?;
+    Ok(stats)
+}
+
+/// Writes an RGBA image as PNG.
+pub fn save_png(img: &image::RgbaImage, path: &Path) -> Result<()> {
+    img.save(path).map_err(|e| Error::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}

@@ -1,0 +1,4 @@
+//! Where frames go: headless images (here), an OpenXR swapchain or a mirror
+//! window (later issues).
+
+pub mod headless;
