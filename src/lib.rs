@@ -14,3 +14,4 @@ pub mod config;
 pub mod gpu;
 pub mod render;
 pub mod targets;
+pub mod bench;

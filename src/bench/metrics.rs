@@ -1,0 +1,111 @@
+//! Image-error metrics against a reference frame: FLIP (Andersson et al.,
+//! "FLIP: A Difference Evaluator for Alternating Images", HPG 2020; the
+//! `flip-rs` port of the reference implementation) and PSNR.
+
+use crate::error::{Error, Result};
+
+/// Pixels per degree of a typical desktop monitor (FLIP's default), for
+/// images that are not viewed in a headset.
+pub const DESKTOP_PPD: f32 = flip_rs::DEFAULT_PPD;
+
+/// Pixels per degree of a headset view: horizontal pixels over the
+/// horizontal FOV in degrees.
+pub fn headset_ppd(width_px: u32, fov_left: f64, fov_right: f64) -> f32 {
+    (width_px as f64 / (fov_right - fov_left).to_degrees()) as f32
+}
+
+/// FLIP result for one image pair.
+#[derive(Clone, Debug)]
+pub struct FlipResult {
+    /// Mean FLIP error (0 = identical, 1 = maximal).
+    pub mean: f32,
+    /// 99th percentile of the per-pixel error (unweighted).
+    pub p99: f32,
+    /// Largest per-pixel error.
+    pub max: f32,
+    /// Per-pixel error map, row-major.
+    pub errors: Vec<f32>,
+    /// Width of the map.
+    pub width: u32,
+    /// Height of the map.
+    pub height: u32,
+}
+
+fn rgb(img: &image::RgbaImage) -> Result<flip_rs::RgbImage<u8>> {
+    let px: Vec<u8> = img.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
+    flip_rs::RgbImage::new(img.width() as usize, img.height() as usize, px).map_err(|e| Error::config("image", format!("{e:?}")))
+}
+
+/// LDR FLIP between a reference and a test image of the same size (sRGB).
+pub fn flip(reference: &image::RgbaImage, test: &image::RgbaImage, ppd: f32) -> Result<FlipResult> {
+    if reference.dimensions() != test.dimensions() {
+        return Err(Error::config(
+            "images",
+            format!("sizes differ: {:?} vs {:?}", reference.dimensions(), test.dimensions()),
+        ));
+    }
+    let map = flip_rs::ldr_flip(&rgb(reference)?, &rgb(test)?, ppd).map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
+    let stats = map.statistics();
+    let p99 = map.percentile(0.99, flip_rs::Weighting::Unweighted).map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
+    let errors = map.pixels().to_vec();
+    let max = errors.iter().copied().fold(0.0f32, f32::max);
+    Ok(FlipResult { mean: stats.mean, p99, max, errors, width: reference.width(), height: reference.height() })
+}
+
+impl FlipResult {
+    /// The error map as a heat-map image (magma colour map).
+    pub fn heatmap(&self) -> image::RgbaImage {
+        let map = flip_rs::ErrorMap::new(self.width as usize, self.height as usize, self.errors.clone());
+        let colors = map.and_then(|m| m.colorize()).map(|c| c.into_pixels()).unwrap_or_default();
+        image::RgbaImage::from_fn(self.width, self.height, |x, y| {
+            let i = 3 * (y * self.width + x) as usize;
+            let c = |k: usize| (colors.get(i + k).copied().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8;
+            image::Rgba([c(0), c(1), c(2), 255])
+        })
+    }
+}
+
+/// Peak signal-to-noise ratio in dB over RGB (infinite for identical images).
+pub fn psnr(reference: &image::RgbaImage, test: &image::RgbaImage) -> f64 {
+    let mut se = 0.0f64;
+    let mut n = 0usize;
+    for (a, b) in reference.pixels().zip(test.pixels()) {
+        for c in 0..3 {
+            let d = a[c] as f64 - b[c] as f64;
+            se += d * d;
+            n += 1;
+        }
+    }
+    if se == 0.0 || n == 0 {
+        return f64::INFINITY;
+    }
+    10.0 * (255.0f64 * 255.0 / (se / n as f64)).log10()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn identical_images_have_zero_error() {
+        let a = image::RgbaImage::from_fn(32, 32, |x, y| image::Rgba([(x * 8) as u8, (y * 8) as u8, 128, 255]));
+        let r = flip(&a, &a, DESKTOP_PPD).unwrap();
+        assert_eq!(r.mean, 0.0);
+        assert!(psnr(&a, &a).is_infinite());
+    }
+
+    #[test]
+    fn a_changed_block_shows_up() {
+        let a = image::RgbaImage::from_pixel(32, 32, image::Rgba([100, 100, 100, 255]));
+        let mut b = a.clone();
+        for y in 8..16 {
+            for x in 8..16 {
+                b.put_pixel(x, y, image::Rgba([255, 0, 0, 255]));
+            }
+        }
+        let r = flip(&a, &b, DESKTOP_PPD).unwrap();
+        assert!(r.mean > 0.01 && r.max > 0.5, "{} {}", r.mean, r.max);
+        assert!(psnr(&a, &b) < 30.0);
+        assert!(flip(&a, &image::RgbaImage::new(8, 8), 10.0).is_err());
+    }
+}

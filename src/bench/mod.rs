@@ -1,0 +1,3 @@
+//! Measurement: image metrics now; runner, statistics and reports later.
+
+pub mod metrics;

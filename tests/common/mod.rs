@@ -1,0 +1,63 @@
+//! Shared helpers for integration tests: render a scene through the library
+//! with validation on and fail on any validation message.
+
+#![allow(dead_code)]
+
+use std::path::PathBuf;
+use std::sync::Arc;
+use vergence::config::{RenderConfig, StereoMode};
+use vergence::gpu::{Context, Validation};
+use vergence::render::{FrameStats, Renderer};
+use vergence::scene::Scene;
+use vergence::view::profile::HmdProfile;
+use vergence::view::{frame_bounds, Pose};
+
+/// Repository root.
+pub fn root() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+}
+
+/// Validation must be on in tests; `VERGENCE_VALIDATION=required` (set by
+/// `cargo xtask test`) makes a missing layer an error.
+pub fn context() -> Arc<Context> {
+    let v = match Validation::from_env() {
+        Validation::Off => Validation::IfAvailable,
+        other => other,
+    };
+    Arc::new(Context::new_headless(v).expect("a Vulkan device (lavapipe) is available"))
+}
+
+/// One rendered stereo frame.
+pub struct Frame {
+    /// Left and right images.
+    pub images: [image::RgbaImage; 2],
+    /// Frame statistics.
+    pub stats: FrameStats,
+}
+
+/// Loads a scene by `--scene` spec, relative paths from the repo root.
+pub fn load(spec: &str) -> Scene {
+    let path = root().join(spec);
+    let spec = if path.exists() { path.to_string_lossy().into_owned() } else { spec.to_string() };
+    Scene::load(&spec).unwrap_or_else(|e| panic!("{e}"))
+}
+
+/// A pose framing the whole scene from the front, slightly above.
+pub fn framing_pose(scene: &Scene, profile: &HmdProfile) -> Pose {
+    let (lo, hi) = scene.bounds();
+    frame_bounds(lo, hi, &profile.views[0].fov, -10.0)
+}
+
+/// Renders `scene` from `pose` and checks the frame is validation-clean.
+pub fn render(ctx: &Arc<Context>, scene: &Scene, profile: &HmdProfile, pose: Pose, stereo: StereoMode, msaa: u32, size: u32) -> Frame {
+    let config = RenderConfig { stereo, msaa, ..RenderConfig::default() };
+    let before = ctx.validation_messages();
+    let extent = ash::vk::Extent2D { width: size, height: size };
+    let mut r = Renderer::new(ctx.clone(), scene, &config, extent).unwrap_or_else(|e| panic!("{e}"));
+    let stats = r.render(&profile.rig(pose), None, true).unwrap_or_else(|e| panic!("{e}"));
+    let images = r.read_images().unwrap();
+    drop(r);
+    let after = ctx.validation_messages();
+    assert_eq!(after, before, "Vulkan validation messages: {:#?}", ctx.validation_log());
+    Frame { images, stats }
+}
