@@ -10,8 +10,8 @@ pub mod scene;
 pub mod view;
 
 pub use error::{Error, Result};
+pub mod bench;
 pub mod config;
 pub mod gpu;
 pub mod render;
 pub mod targets;
-pub mod bench;

@@ -33,7 +33,8 @@ pub struct FlipResult {
 
 fn rgb(img: &image::RgbaImage) -> Result<flip_rs::RgbImage<u8>> {
     let px: Vec<u8> = img.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
-    flip_rs::RgbImage::new(img.width() as usize, img.height() as usize, px).map_err(|e| Error::config("image", format!("{e:?}")))
+    flip_rs::RgbImage::new(img.width() as usize, img.height() as usize, px)
+        .map_err(|e| Error::config("image", format!("{e:?}")))
 }
 
 /// LDR FLIP between a reference and a test image of the same size (sRGB).
@@ -41,25 +42,48 @@ pub fn flip(reference: &image::RgbaImage, test: &image::RgbaImage, ppd: f32) -> 
     if reference.dimensions() != test.dimensions() {
         return Err(Error::config(
             "images",
-            format!("sizes differ: {:?} vs {:?}", reference.dimensions(), test.dimensions()),
+            format!(
+                "sizes differ: {:?} vs {:?}",
+                reference.dimensions(),
+                test.dimensions()
+            ),
         ));
     }
-    let map = flip_rs::ldr_flip(&rgb(reference)?, &rgb(test)?, ppd).map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
+    let map = flip_rs::ldr_flip(&rgb(reference)?, &rgb(test)?, ppd)
+        .map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
     let stats = map.statistics();
-    let p99 = map.percentile(0.99, flip_rs::Weighting::Unweighted).map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
+    let p99 = map
+        .percentile(0.99, flip_rs::Weighting::Unweighted)
+        .map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
     let errors = map.pixels().to_vec();
     let max = errors.iter().copied().fold(0.0f32, f32::max);
-    Ok(FlipResult { mean: stats.mean, p99, max, errors, width: reference.width(), height: reference.height() })
+    Ok(FlipResult {
+        mean: stats.mean,
+        p99,
+        max,
+        errors,
+        width: reference.width(),
+        height: reference.height(),
+    })
 }
 
 impl FlipResult {
     /// The error map as a heat-map image (magma colour map).
     pub fn heatmap(&self) -> image::RgbaImage {
-        let map = flip_rs::ErrorMap::new(self.width as usize, self.height as usize, self.errors.clone());
-        let colors = map.and_then(|m| m.colorize()).map(|c| c.into_pixels()).unwrap_or_default();
+        let map = flip_rs::ErrorMap::new(
+            self.width as usize,
+            self.height as usize,
+            self.errors.clone(),
+        );
+        let colors = map
+            .and_then(|m| m.colorize())
+            .map(|c| c.into_pixels())
+            .unwrap_or_default();
         image::RgbaImage::from_fn(self.width, self.height, |x, y| {
             let i = 3 * (y * self.width + x) as usize;
-            let c = |k: usize| (colors.get(i + k).copied().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8;
+            let c = |k: usize| {
+                (colors.get(i + k).copied().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8
+            };
             image::Rgba([c(0), c(1), c(2), 255])
         })
     }
@@ -88,7 +112,9 @@ mod tests {
 
     #[test]
     fn identical_images_have_zero_error() {
-        let a = image::RgbaImage::from_fn(32, 32, |x, y| image::Rgba([(x * 8) as u8, (y * 8) as u8, 128, 255]));
+        let a = image::RgbaImage::from_fn(32, 32, |x, y| {
+            image::Rgba([(x * 8) as u8, (y * 8) as u8, 128, 255])
+        });
         let r = flip(&a, &a, DESKTOP_PPD).unwrap();
         assert_eq!(r.mean, 0.0);
         assert!(psnr(&a, &a).is_infinite());

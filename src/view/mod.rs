@@ -180,9 +180,15 @@ impl StereoRig {
 pub fn frame_bounds(lo: DVec3, hi: DVec3, fov: &Fov, pitch_deg: f64) -> Pose {
     let center = (lo + hi) * 0.5;
     let radius = ((hi - lo).length() * 0.5).max(1e-3);
-    let half = [-fov.left, fov.right, fov.up, -fov.down].into_iter().fold(f64::INFINITY, f64::min).max(0.05);
+    let half = [-fov.left, fov.right, fov.up, -fov.down]
+        .into_iter()
+        .fold(f64::INFINITY, f64::min)
+        .max(0.05);
     let distance = radius / half.sin() * 1.05;
     let orientation = DQuat::from_rotation_x(pitch_deg.to_radians());
     let position = center - orientation * DVec3::NEG_Z * distance;
-    Pose { position, orientation }
+    Pose {
+        position,
+        orientation,
+    }
 }

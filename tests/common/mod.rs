@@ -38,7 +38,11 @@ pub struct Frame {
 /// Loads a scene by `--scene` spec, relative paths from the repo root.
 pub fn load(spec: &str) -> Scene {
     let path = root().join(spec);
-    let spec = if path.exists() { path.to_string_lossy().into_owned() } else { spec.to_string() };
+    let spec = if path.exists() {
+        path.to_string_lossy().into_owned()
+    } else {
+        spec.to_string()
+    };
     Scene::load(&spec).unwrap_or_else(|e| panic!("{e}"))
 }
 
@@ -49,15 +53,38 @@ pub fn framing_pose(scene: &Scene, profile: &HmdProfile) -> Pose {
 }
 
 /// Renders `scene` from `pose` and checks the frame is validation-clean.
-pub fn render(ctx: &Arc<Context>, scene: &Scene, profile: &HmdProfile, pose: Pose, stereo: StereoMode, msaa: u32, size: u32) -> Frame {
-    let config = RenderConfig { stereo, msaa, ..RenderConfig::default() };
+pub fn render(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    profile: &HmdProfile,
+    pose: Pose,
+    stereo: StereoMode,
+    msaa: u32,
+    size: u32,
+) -> Frame {
+    let config = RenderConfig {
+        stereo,
+        msaa,
+        ..RenderConfig::default()
+    };
     let before = ctx.validation_messages();
-    let extent = ash::vk::Extent2D { width: size, height: size };
-    let mut r = Renderer::new(ctx.clone(), scene, &config, extent).unwrap_or_else(|e| panic!("{e}"));
-    let stats = r.render(&profile.rig(pose), None, true).unwrap_or_else(|e| panic!("{e}"));
+    let extent = ash::vk::Extent2D {
+        width: size,
+        height: size,
+    };
+    let mut r =
+        Renderer::new(ctx.clone(), scene, &config, extent).unwrap_or_else(|e| panic!("{e}"));
+    let stats = r
+        .render(&profile.rig(pose), None, true)
+        .unwrap_or_else(|e| panic!("{e}"));
     let images = r.read_images().unwrap();
     drop(r);
     let after = ctx.validation_messages();
-    assert_eq!(after, before, "Vulkan validation messages: {:#?}", ctx.validation_log());
+    assert_eq!(
+        after,
+        before,
+        "Vulkan validation messages: {:#?}",
+        ctx.validation_log()
+    );
     Frame { images, stats }
 }
