@@ -109,6 +109,16 @@ fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
         }
         gltf::Error::Deserialize(d) => format!("invalid glTF JSON: {d}"),
         gltf::Error::Validation(v) => {
+            if let Some((p, _)) = v
+                .iter()
+                .find(|(p, _)| p.as_str().starts_with("extensionsRequired"))
+            {
+                let name = p.as_str().split('"').nth(1).unwrap_or("?").to_string();
+                return format!(
+                    "requires glTF extension {name}, which vergence does not support (supported: {})",
+                    SUPPORTED_REQUIRED.join(", ")
+                );
+            }
             let list: Vec<String> = v
                 .iter()
                 .take(5)

@@ -1,1 +1,234 @@
-fn main() {}
+//! `cargo xtask`: the README's commands.
+//!
+//! - `setup`: installs what is missing (Debian/Ubuntu packages as root, or
+//!   prints the exact command) and builds the Debian 13 root in
+//!   `target/xr-root` (Mesa 25 lavapipe, Vulkan validation layers, Monado).
+//! - `demo`: renders the built-in factory scene in stereo into `demo-output/`.
+//! - `test`: the whole suite (fmt, clippy, tests inside the root).
+
+use std::path::{Path, PathBuf};
+use std::process::{Command, ExitCode};
+
+/// Host packages: shader compiler, SPIR-V validator, Vulkan loader,
+/// lavapipe, validation layers, and debootstrap for the test root.
+const HOST_PACKAGES: &[&str] = &[
+    "glslc",
+    "spirv-tools",
+    "libvulkan1",
+    "mesa-vulkan-drivers",
+    "vulkan-validationlayers",
+    "debootstrap",
+];
+/// Packages inside the Debian 13 root: a current lavapipe (Mesa 22.3 in
+/// Debian 12 misroutes some multiview draws), validation layers, and the
+/// OpenXR runtime Monado with its loader and validation layer.
+const ROOT_PACKAGES: &[&str] = &[
+    "mesa-vulkan-drivers",
+    "vulkan-validationlayers",
+    "libvulkan1",
+    "spirv-tools",
+    "monado-service",
+    "libopenxr1-monado",
+    "libopenxr-loader1",
+    "openxr-layer-corevalidation",
+    "libopenxr-utils",
+];
+const ROOT_SUITE: &str = "trixie";
+
+fn repo() -> PathBuf {
+    PathBuf::from(env!("CARGO_MANIFEST_DIR"))
+        .parent()
+        .expect("xtask lives in the repo")
+        .to_path_buf()
+}
+
+fn is_root() -> bool {
+    Command::new("id")
+        .arg("-u")
+        .output()
+        .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).trim() == "0")
+}
+
+fn run(cmd: &mut Command) -> Result<(), String> {
+    eprintln!("xtask: running {cmd:?}");
+    let status = cmd
+        .status()
+        .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+    if status.success() {
+        Ok(())
+    } else {
+        Err(format!("{cmd:?} failed with {status}"))
+    }
+}
+
+fn missing_packages(list: &[&str]) -> Vec<String> {
+    list.iter()
+        .filter(|p| {
+            !Command::new("dpkg-query")
+                .args(["-W", "-f=${Status}", p])
+                .output()
+                .is_ok_and(|o| String::from_utf8_lossy(&o.stdout).contains("install ok installed"))
+        })
+        .map(|p| p.to_string())
+        .collect()
+}
+
+fn setup_host() -> Result<(), String> {
+    if Command::new("dpkg-query")
+        .arg("--version")
+        .output()
+        .is_err()
+    {
+        return Err(format!(
+            "this is not a Debian/Ubuntu system: install the equivalents of {} by hand",
+            HOST_PACKAGES.join(" ")
+        ));
+    }
+    let missing = missing_packages(HOST_PACKAGES);
+    if missing.is_empty() {
+        return Ok(());
+    }
+    let cmd = format!(
+        "apt-get update && apt-get install -y --no-install-recommends {}",
+        missing.join(" ")
+    );
+    if !is_root() {
+        return Err(format!(
+            "missing packages; run as root:\n    sudo sh -c '{cmd}'"
+        ));
+    }
+    run(Command::new("sh")
+        .args(["-c", &cmd])
+        .env("DEBIAN_FRONTEND", "noninteractive"))
+}
+
+fn root_dir() -> PathBuf {
+    std::env::var_os("VERGENCE_XR_ROOT")
+        .map(PathBuf::from)
+        .unwrap_or_else(|| repo().join("target/xr-root"))
+}
+
+fn root_ready(root: &Path) -> bool {
+    root.join("usr/bin/monado-service").exists()
+        && root.join("usr/bin/spirv-val").exists()
+        && root.join(".vergence-ready").exists()
+}
+
+fn setup_root() -> Result<(), String> {
+    let root = root_dir();
+    if root_ready(&root) {
+        return Ok(());
+    }
+    if !is_root() {
+        return Err(format!(
+            "the test root {} is missing; as root run: cargo xtask setup (it runs debootstrap --variant=minbase {ROOT_SUITE})",
+            root.display()
+        ));
+    }
+    if root.exists() {
+        let _ = std::fs::remove_dir_all(&root);
+    }
+    std::fs::create_dir_all(&root).map_err(|e| format!("{}: {e}", root.display()))?;
+    run(Command::new("debootstrap")
+        .args(["--variant=minbase", ROOT_SUITE])
+        .arg(&root)
+        .arg("http://deb.debian.org/debian"))?;
+    let install = format!(
+        "apt-get update -qq && apt-get install -y -qq --no-install-recommends {}",
+        ROOT_PACKAGES.join(" ")
+    );
+    run(Command::new("chroot")
+        .arg(&root)
+        .args(["sh", "-c", &install])
+        .env("DEBIAN_FRONTEND", "noninteractive"))?;
+    std::fs::write(root.join(".vergence-ready"), ROOT_PACKAGES.join("\n"))
+        .map_err(|e| e.to_string())?;
+    Ok(())
+}
+
+fn setup() -> Result<(), String> {
+    setup_host()?;
+    setup_root()
+}
+
+fn cargo() -> Command {
+    Command::new(std::env::var("CARGO").unwrap_or_else(|_| "cargo".into()))
+}
+
+fn runner_env(cmd: &mut Command) -> &mut Command {
+    cmd.env(
+        "CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER",
+        repo().join("scripts/in-root"),
+    )
+    .env("VERGENCE_XR_ROOT", root_dir())
+}
+
+fn test(args: &[String]) -> Result<(), String> {
+    setup()?;
+    let r = repo();
+    run(cargo()
+        .current_dir(&r)
+        .args(["fmt", "--all", "--", "--check"]))?;
+    run(cargo().current_dir(&r).args([
+        "clippy",
+        "--workspace",
+        "--all-targets",
+        "--",
+        "-D",
+        "warnings",
+    ]))?;
+    let mut cmd = cargo();
+    cmd.current_dir(&r)
+        .args(["test", "--workspace"])
+        .args(args)
+        .env("VERGENCE_VALIDATION", "required")
+        .env("VERGENCE_REQUIRE_SPIRV_VAL", "1");
+    run(runner_env(&mut cmd))
+}
+
+fn demo(args: &[String]) -> Result<(), String> {
+    setup()?;
+    let r = repo();
+    run(cargo()
+        .current_dir(&r)
+        .args(["build", "--release", "--bin", "vergence"]))?;
+    let out = r.join("demo-output");
+    let mut cmd = Command::new(r.join("scripts/in-root"));
+    cmd.current_dir(&r)
+        .arg(r.join("target/release/vergence"))
+        .args(["render", "--scene", "factory", "--out"])
+        .arg(&out)
+        .args(args);
+    run(&mut cmd)?;
+    eprintln!(
+        "xtask: demo rendered the built-in factory scene (100,000 instances) headless on lavapipe with the default \
+         profile; images and stats are in {}",
+        out.display()
+    );
+    Ok(())
+}
+
+fn main() -> ExitCode {
+    let args: Vec<String> = std::env::args().skip(1).collect();
+    let (cmd, rest) = match args.split_first() {
+        Some((c, r)) => (c.as_str(), r.to_vec()),
+        None => ("help", Vec::new()),
+    };
+    let rest: Vec<String> = rest.into_iter().filter(|a| a != "--").collect();
+    let result = match cmd {
+        "setup" => setup(),
+        "test" => test(&rest),
+        "demo" => demo(&rest),
+        _ => {
+            eprintln!("usage: cargo xtask <setup|demo|test> [-- ARGS]");
+            return ExitCode::from(2);
+        }
+    };
+    match result {
+        Ok(()) => ExitCode::SUCCESS,
+        Err(e) => {
+            eprintln!("xtask: {e}");
+            ExitCode::FAILURE
+        }
+    }
+}
