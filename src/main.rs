@@ -59,6 +59,10 @@ struct RenderArgs {
     /// Output folder.
     #[arg(long)]
     out: PathBuf,
+    /// Frames to render; above 1, stats.json holds medians over the frames
+    /// (after 2 warm-up frames) and the clear / full-screen-triangle floors.
+    #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+    frames: u32,
 }
 
 fn parse_pose(s: &str) -> Result<Pose, String> {
@@ -108,6 +112,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 config,
                 size: a.width.zip(a.height),
                 out: a.out,
+                frames: a.frames,
             };
             let stats = headless::render_to_dir(&job)?;
             println!(
@@ -122,6 +127,22 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 stats.triangles,
                 job.out.display()
             );
+            if stats.frames > 1 {
+                let floors = stats.floor_gpu_ms.map(|f| {
+                    format!(
+                        ", floors: clear {:.3} ms, full-screen triangle {:.3} ms",
+                        f.clear.median, f.fullscreen_triangle.median
+                    )
+                });
+                println!(
+                    "{} frames: GPU {:.3} ms median ({:.3} p95), CPU batch+record+submit {:.3} ms median{}",
+                    stats.frames,
+                    stats.gpu_frame_ms.median,
+                    stats.gpu_frame_ms.p95,
+                    stats.cpu_frame_ms.median,
+                    floors.unwrap_or_default()
+                );
+            }
             if stats.validation_messages > 0 {
                 anyhow::bail!(
                     "{} Vulkan validation messages (see log)",

@@ -24,6 +24,9 @@ const STATS: vk::QueryPipelineStatisticFlags = vk::QueryPipelineStatisticFlags::
         | vk::QueryPipelineStatisticFlags::FRAGMENT_SHADER_INVOCATIONS.as_raw(),
 );
 
+/// GPU milliseconds per named pass and the frame's pipeline statistics.
+pub type FrameQueries = (Vec<(&'static str, f64)>, Option<PipelineStats>);
+
 /// Timestamp and statistics pools for one frame slot.
 pub struct Queries {
     timestamps: Option<vk::QueryPool>,
@@ -135,7 +138,7 @@ impl Queries {
 
     /// Reads GPU milliseconds per pass and the statistics after the frame's
     /// fence has signalled.
-    pub fn read(&self, ctx: &Context) -> Result<(Vec<(&'static str, f64)>, Option<PipelineStats>)> {
+    pub fn read(&self, ctx: &Context) -> Result<FrameQueries> {
         let mut passes = Vec::new();
         if let (Some(p), n) = (self.timestamps, self.names.len()) {
             if n > 0 {

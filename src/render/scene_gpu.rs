@@ -216,12 +216,12 @@ impl SceneGpu {
         for i in &scene.instances {
             let m = i.transform.matrix3;
             let (hi, lo) = split_dvec3(i.transform.translation);
-            for r in 0..3 {
+            for (r, h) in hi.iter().enumerate() {
                 inst.extend_from_slice(&[
                     m.x_axis[r] as f32,
                     m.y_axis[r] as f32,
                     m.z_axis[r] as f32,
-                    hi[r],
+                    *h,
                 ]);
             }
             inst.extend_from_slice(&[lo[0], lo[1], lo[2], 0.0]);

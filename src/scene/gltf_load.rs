@@ -261,28 +261,26 @@ fn texture(
         });
     }
     let img = tex.source();
-    let name;
-    if !cache.images.contains_key(&img.index()) {
-        let (bytes, label) = match img.source() {
-            gltf::image::Source::Uri { uri, .. } => (
-                read_uri(ctx, uri, &format!("image {}", img.index()))?,
-                uri.to_string(),
-            ),
+    let name = match img.source() {
+        gltf::image::Source::Uri { uri, .. } => uri.to_string(),
+        gltf::image::Source::View { view, .. } => {
+            format!("image {} (bufferView {})", img.index(), view.index())
+        }
+    };
+    if let std::collections::hash_map::Entry::Vacant(slot) = cache.images.entry(img.index()) {
+        let bytes = match img.source() {
+            gltf::image::Source::Uri { uri, .. } => {
+                read_uri(ctx, uri, &format!("image {}", img.index()))?
+            }
             gltf::image::Source::View { view, .. } => {
                 let b = &ctx.buffers[view.buffer().index()];
-                (
-                    b[view.offset()..view.offset() + view.length()].to_vec(),
-                    format!("image {} (bufferView {})", img.index(), view.index()),
-                )
+                b[view.offset()..view.offset() + view.length()].to_vec()
             }
         };
         let decoded = image::load_from_memory(&bytes)
-            .map_err(|e| ctx.err(format!("image '{label}' cannot be decoded: {e}")))?
+            .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?
             .to_rgba8();
-        cache.images.insert(img.index(), decoded);
-        name = label;
-    } else {
-        name = format!("image {}", img.index());
+        slot.insert(decoded);
     }
     let rgba = &cache.images[&img.index()];
     let sampler = tex.sampler();

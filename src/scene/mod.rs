@@ -366,12 +366,16 @@ impl Scene {
         self.textures.extend(other.textures.iter().cloned());
         self.materials.extend(other.materials.iter().map(|m| {
             let mut m = m.clone();
-            let shift = |t: &mut TexRef| t.texture += t0;
-            m.base_color_tex.as_mut().map(shift);
-            m.metallic_roughness_tex.as_mut().map(shift);
-            m.normal_tex.as_mut().map(|(t, _)| shift(t));
-            m.occlusion_tex.as_mut().map(|(t, _)| shift(t));
-            m.emissive_tex.as_mut().map(shift);
+            let slots = [
+                m.base_color_tex.as_mut(),
+                m.metallic_roughness_tex.as_mut(),
+                m.normal_tex.as_mut().map(|(t, _)| t),
+                m.occlusion_tex.as_mut().map(|(t, _)| t),
+                m.emissive_tex.as_mut(),
+            ];
+            for t in slots.into_iter().flatten() {
+                t.texture += t0;
+            }
             m
         }));
         self.primitives.extend(other.primitives.iter().map(|p| {

@@ -4,7 +4,7 @@
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
-use crate::render::{FrameStats, Renderer};
+use crate::render::{FloorKind, FrameStats, Renderer};
 use crate::scene::{Scene, SceneFeatures};
 use crate::view::profile::HmdProfile;
 use crate::view::Pose;
@@ -29,6 +29,9 @@ pub struct RenderJob {
     pub size: Option<(u32, u32)>,
     /// Output folder.
     pub out: PathBuf,
+    /// Frames to render (>1 measures: medians over frames after 2 warm-up
+    /// frames, plus the raster floors).
+    pub frames: u32,
 }
 
 /// Scene counts reported in stats.
@@ -106,6 +109,48 @@ pub struct RenderStats {
     pub lazily_allocated_attachments: bool,
     /// Validation messages seen (0 when validation is off or clean).
     pub validation_messages: usize,
+    /// Frames measured (stats are medians when > 1).
+    pub frames: u32,
+    /// GPU ms of the whole frame (sum of passes): median and 95th percentile.
+    pub gpu_frame_ms: Percentiles,
+    /// CPU ms to batch, record and submit a frame: median and 95th percentile.
+    pub cpu_frame_ms: Percentiles,
+    /// The floors at the same resolution and MSAA (measured when frames > 1).
+    pub floor_gpu_ms: Option<Floors>,
+}
+
+/// Median and 95th percentile of a series.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Percentiles {
+    /// Median.
+    pub median: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+}
+
+impl Percentiles {
+    /// Of `v` (unsorted).
+    pub fn of(v: &[f64]) -> Percentiles {
+        if v.is_empty() {
+            return Percentiles::default();
+        }
+        let mut s = v.to_vec();
+        s.sort_by(f64::total_cmp);
+        let rank = |q: f64| s[((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1];
+        Percentiles {
+            median: rank(0.5),
+            p95: rank(0.95),
+        }
+    }
+}
+
+/// GPU ms of the floor frames.
+#[derive(Clone, Copy, Debug, serde::Serialize)]
+pub struct Floors {
+    /// Clearing the attachments (and resolving) only.
+    pub clear: Percentiles,
+    /// One full-screen triangle with a trivial fragment shader.
+    pub fullscreen_triangle: Percentiles,
 }
 
 /// Loads a scene with a spinner when it takes more than a moment.
@@ -154,7 +199,49 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let extent = eye_extent(&profile, job.size);
     let mut renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
     let rig = profile.rig(job.pose);
-    let frame: FrameStats = renderer.render(&rig, None, true)?;
+    let frames = job.frames.max(1);
+    let warmup = if frames > 1 { 2 } else { 0 };
+    let mut all: Vec<FrameStats> = Vec::new();
+    for i in 0..warmup + frames {
+        let f = renderer.render(&rig, None, i + 1 == warmup + frames)?;
+        if i >= warmup {
+            all.push(f);
+        }
+    }
+    let gpu_frame: Vec<f64> = all.iter().map(|f| f.gpu_ms.values().sum()).collect();
+    let cpu_frame: Vec<f64> = all
+        .iter()
+        .map(|f| f.cpu_ms.batch + f.cpu_ms.record + f.cpu_ms.submit)
+        .collect();
+    let median_of = |get: &dyn Fn(&FrameStats) -> f64| {
+        Percentiles::of(&all.iter().map(get).collect::<Vec<_>>()).median
+    };
+    let mut frame = all.last().cloned().unwrap_or_default();
+    frame.cpu_ms.batch = median_of(&|f| f.cpu_ms.batch);
+    frame.cpu_ms.record = median_of(&|f| f.cpu_ms.record);
+    frame.cpu_ms.submit = median_of(&|f| f.cpu_ms.submit);
+    frame.cpu_ms.wait = median_of(&|f| f.cpu_ms.wait);
+    for (name, v) in frame.gpu_ms.iter_mut() {
+        *v = median_of(&|f| f.gpu_ms.get(name).copied().unwrap_or(0.0));
+    }
+    let floor_gpu_ms = if frames > 1 {
+        let mut measure = |kind| -> Result<Percentiles> {
+            let mut v = Vec::new();
+            for i in 0..warmup + frames {
+                let ms = renderer.render_floor(kind)?;
+                if i >= warmup {
+                    v.push(ms);
+                }
+            }
+            Ok(Percentiles::of(&v))
+        };
+        Some(Floors {
+            clear: measure(FloorKind::Clear)?,
+            fullscreen_triangle: measure(FloorKind::FullscreenTriangle)?,
+        })
+    } else {
+        None
+    };
     let [left, right] = renderer.read_images()?;
     std::fs::create_dir_all(&job.out).map_err(|e| Error::Output {
         path: job.out.clone(),
@@ -189,6 +276,10 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
             .unwrap_or_default(),
         lazily_allocated_attachments: renderer.lazily_allocated(),
         validation_messages: ctx.validation_messages(),
+        frames,
+        gpu_frame_ms: Percentiles::of(&gpu_frame),
+        cpu_frame_ms: Percentiles::of(&cpu_frame),
+        floor_gpu_ms,
     };
     drop(renderer);
     let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {
