@@ -1,1 +1,4 @@
-//! vergence
+//! vergence: stereo VR renderer for very large enterprise scenes.
+
+pub mod cull;
+pub mod view;

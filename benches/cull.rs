@@ -1,0 +1,26 @@
+//! Criterion benches of BVH build and the main culling strategies on the
+//! stand-in hall (100k instances).
+
+use std::hint::black_box;
+
+use criterion::{criterion_group, criterion_main, Criterion};
+use vergence::cull::bench::{builtin_eyes, head_path, stand_in_hall_layout};
+use vergence::cull::{cull, Bvh, CullParams, Strategy, DEFAULT_LEAF_SIZE};
+use vergence::view::StereoRig;
+
+fn benches(c: &mut Criterion) {
+    let bounds = stand_in_hall_layout(100_000, 1);
+    let eyes = builtin_eyes(None).expect("built-in rig");
+    c.bench_function("bvh_build_100k", |b| b.iter(|| Bvh::build(black_box(&bounds), DEFAULT_LEAF_SIZE)));
+    let bvh = Bvh::build(&bounds, DEFAULT_LEAF_SIZE).expect("valid bounds");
+    let rig = StereoRig::from_head(head_path(10, 1), &eyes);
+    let params = CullParams::default();
+    for s in [Strategy::PerEye, Strategy::Superfrustum, Strategy::ConicalSuperfrustum, Strategy::PerEyeBrute] {
+        c.bench_function(&format!("cull_100k_{}", s.name()), |b| {
+            b.iter(|| cull(s, black_box(&rig), 0, &bvh, &params).map(|o| o.visible.len()))
+        });
+    }
+}
+
+criterion_group!(cull_benches, benches);
+criterion_main!(cull_benches);

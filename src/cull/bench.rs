@@ -1,0 +1,287 @@
+//! `vergence cull-bench`: times every culling strategy along a deterministic
+//! head path and compares each frame's result with exact per-eye culling.
+//!
+//! The caller supplies the scene boxes and the eyes in head space, so the
+//! CLI can feed the real scene (`factory:N`) and HMD profiles; until those
+//! are wired in, [`stand_in_hall_layout`] and [`builtin_eyes`] provide a
+//! stand-in hall and rig.
+
+use std::time::Instant;
+
+use glam::DVec3;
+
+use super::{compare, cull, exact_per_eye, Bvh, BvhError, CullError, CullParams, Strategy, DEFAULT_LEAF_SIZE};
+use crate::view::{Fov, Pose, StereoRig};
+
+/// Command-line arguments of `cull-bench`.
+#[derive(clap::Args, Clone, Debug)]
+pub struct CullBenchArgs {
+    /// Number of instances in the scene.
+    #[arg(long, default_value_t = 100_000)]
+    pub instances: usize,
+    /// Comma-separated strategies to time (default: all).
+    #[arg(long, value_delimiter = ',')]
+    pub strategies: Vec<String>,
+    /// HMD profile giving the eye poses and FOVs (resolved by the caller).
+    #[arg(long)]
+    pub hmd: Option<String>,
+    /// Frames along the head path.
+    #[arg(long, default_value_t = 200)]
+    pub frames: u64,
+    /// Worker threads of the culling thread pool.
+    #[arg(long, default_value_t = 2)]
+    pub threads: usize,
+    /// Seed of the head path (and of the stand-in scene).
+    #[arg(long, default_value_t = 1)]
+    pub seed: u64,
+    /// Print one JSON object instead of a table.
+    #[arg(long)]
+    pub json: bool,
+    /// Draw distance in metres (far plane along each eye's view axis).
+    #[arg(long)]
+    pub draw_distance: Option<f64>,
+    /// Near plane in metres.
+    #[arg(long, default_value_t = 0.05)]
+    pub near: f64,
+    /// Largest number of instances per hierarchy leaf.
+    #[arg(long, default_value_t = DEFAULT_LEAF_SIZE)]
+    pub leaf_size: usize,
+    /// Skip the exact per-eye comparison (false positives/negatives read 0).
+    #[arg(long)]
+    pub no_compare: bool,
+}
+
+/// Errors of the bench.
+#[derive(Debug, thiserror::Error)]
+pub enum CullBenchError {
+    /// Bad scene bounds.
+    #[error(transparent)]
+    Bvh(#[from] BvhError),
+    /// Bad strategy name or rig.
+    #[error(transparent)]
+    Cull(#[from] CullError),
+    /// The thread pool could not be created.
+    #[error("thread pool: {0}")]
+    Pool(String),
+    /// Bad arguments.
+    #[error("{0}")]
+    Args(String),
+}
+
+/// Results of one strategy.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct StrategyReport {
+    /// Strategy name.
+    pub name: String,
+    /// Median cull time per frame in milliseconds.
+    pub median_ms: f64,
+    /// 95th percentile cull time per frame in milliseconds.
+    pub p95_ms: f64,
+    /// Mean volume tests per frame.
+    pub tests_per_frame: f64,
+    /// Mean visible instances per frame.
+    pub visible: f64,
+    /// Mean false positives per frame against exact per-eye culling.
+    pub false_positives: f64,
+    /// Mean false negatives per frame against exact per-eye culling.
+    pub false_negatives: f64,
+    /// Total false negatives over all frames (never rounded to zero).
+    pub false_negatives_total: u64,
+    /// Frames that fell back to per-eye volumes.
+    pub fallbacks: u64,
+}
+
+/// The whole report; serialises to the `--json` object.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CullBenchReport {
+    /// Number of instances.
+    pub instances: usize,
+    /// Worker threads.
+    pub threads: usize,
+    /// Frames timed per strategy.
+    pub frames: u64,
+    /// Hierarchy build time in milliseconds (in the same pool).
+    pub bvh_build_ms: f64,
+    /// Hierarchy node count.
+    pub bvh_nodes: usize,
+    /// Mean exact per-eye visible instances per frame.
+    pub exact_visible: f64,
+    /// Per-strategy results.
+    pub strategies: Vec<StrategyReport>,
+}
+
+impl CullBenchReport {
+    /// A plain-text table of the report.
+    pub fn to_table(&self) -> String {
+        let mut s = format!(
+            "cull-bench: {} instances, {} threads, {} frames, BVH build {:.1} ms ({} nodes), exact visible {:.0}/frame\n",
+            self.instances, self.threads, self.frames, self.bvh_build_ms, self.bvh_nodes, self.exact_visible
+        );
+        s += &format!(
+            "{:<22} {:>9} {:>9} {:>12} {:>10} {:>10} {:>10} {:>9}\n",
+            "strategy", "median ms", "p95 ms", "tests/frame", "visible", "false pos", "false neg", "fallbacks"
+        );
+        for r in &self.strategies {
+            s += &format!(
+                "{:<22} {:>9.3} {:>9.3} {:>12.0} {:>10.0} {:>10.1} {:>10.1} {:>9}\n",
+                r.name, r.median_ms, r.p95_ms, r.tests_per_frame, r.visible, r.false_positives, r.false_negatives, r.fallbacks
+            );
+        }
+        s
+    }
+}
+
+/// Head pose of frame `f` on the deterministic path: a slow Lissajous walk
+/// at standing height through the 100 m hall, turning and nodding.
+pub fn head_path(frame: u64, seed: u64) -> Pose {
+    let t = frame as f64 / 90.0;
+    let ph = (seed % 1000) as f64 * 0.618;
+    let tau = std::f64::consts::TAU;
+    let pos = DVec3::new(
+        50.0 + 35.0 * (tau * t / 23.0 + ph).sin(),
+        1.7 + 0.05 * (tau * t * 1.7).sin(),
+        50.0 + 35.0 * (tau * t / 17.0 + 2.0 * ph).sin(),
+    );
+    let yaw = (360.0 * t / 9.0 + ph.to_degrees()) % 360.0;
+    let pitch = 15.0 * (tau * t / 5.0).sin();
+    let roll = 3.0 * (tau * t / 3.0).sin();
+    Pose::from_euler_deg(pos, yaw, pitch, roll)
+}
+
+/// Built-in eyes in head space: `index` (default; IPD 0.063 m, about ±0.96
+/// rad horizontal, ±0.98 vertical, no cant) or `monado` (Monado's simulated
+/// HMD FOV: ±0.7418 horizontal, ±0.7788 vertical).
+pub fn builtin_eyes(name: Option<&str>) -> Result<Vec<(Pose, Fov)>, CullBenchError> {
+    let (ipd, fov) = match name.unwrap_or("index") {
+        "index" => (0.063, Fov { left: -0.96, right: 0.96, up: 0.98, down: -0.98 }),
+        "monado" => (0.063, Fov { left: -0.7418, right: 0.7418, up: 0.7788, down: -0.7788 }),
+        other => return Err(CullBenchError::Args(format!("unknown built-in HMD '{other}' (index, monado)"))),
+    };
+    let eye = |x: f64| (Pose { position: DVec3::new(x, 0.0, 0.0), ..Pose::default() }, fov);
+    Ok(vec![eye(-ipd / 2.0), eye(ipd / 2.0)])
+}
+
+/// Stand-in scene used only until the real `factory:N` scene is merged: an
+/// industrial hall of 100 m × 100 m with rows of racks 3 m apart (x along
+/// the row), boxes of 0.2–3 m on shelves every 2 m from 0 to 10 m height.
+/// Instances are emitted row by row, as a procedural generator would.
+pub fn stand_in_hall_layout(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
+    let mut state = seed ^ 0x9E37_79B9_7F4A_7C15;
+    // SplitMix64 (Steele, Lea & Flood, 2014).
+    let mut rnd = move || {
+        state = state.wrapping_add(0x9E37_79B9_7F4A_7C15);
+        let mut z = state;
+        z = (z ^ (z >> 30)).wrapping_mul(0xBF58_476D_1CE4_E5B9);
+        z = (z ^ (z >> 27)).wrapping_mul(0x94D0_49BB_1331_11EB);
+        ((z ^ (z >> 31)) >> 11) as f64 / (1u64 << 53) as f64
+    };
+    let rows = 33usize;
+    let mut out = Vec::with_capacity(n);
+    for i in 0..n {
+        let row = i * rows / n.max(1);
+        let row_start = row * n / rows;
+        let row_len = ((row + 1) * n / rows - row_start).max(1);
+        let k = i - row_start;
+        let zc = 1.5 + 3.0 * row as f64;
+        let x = 1.0 + 98.0 * (k as f64 + rnd()) / row_len as f64;
+        let level = (rnd() * 5.0).floor().min(4.0);
+        let w = 0.2 + 2.8 * rnd().powi(3);
+        let h = (0.2 + 1.8 * rnd().powi(2)).min(2.0);
+        let d = (0.2 + 1.0 * rnd()).min(1.2);
+        let zj = (rnd() - 0.5) * (1.2 - d);
+        let min = DVec3::new(x - w / 2.0, level * 2.0, zc + zj - d / 2.0);
+        out.push((min, min + DVec3::new(w, h, d)));
+    }
+    out
+}
+
+fn percentile(sorted: &[f64], q: f64) -> f64 {
+    if sorted.is_empty() {
+        return 0.0;
+    }
+    let idx = ((sorted.len() - 1) as f64 * q).round() as usize;
+    sorted[idx]
+}
+
+/// Runs the bench on `bounds` with `eyes` (poses relative to the head, left
+/// first) in a pool of `args.threads` threads. Each frame computes exact
+/// per-eye culling once (untimed), then times every strategy on it.
+pub fn run(args: &CullBenchArgs, bounds: &[(DVec3, DVec3)], eyes: &[(Pose, Fov)]) -> Result<CullBenchReport, CullBenchError> {
+    let strategies: Vec<Strategy> = if args.strategies.is_empty() {
+        Strategy::ALL.to_vec()
+    } else {
+        args.strategies.iter().map(|s| s.parse()).collect::<Result<_, _>>()?
+    };
+    if args.threads == 0 || args.frames == 0 {
+        return Err(CullBenchError::Args("--threads and --frames must be at least 1".into()));
+    }
+    let pool = rayon::ThreadPoolBuilder::new()
+        .num_threads(args.threads)
+        .build()
+        .map_err(|e| CullBenchError::Pool(e.to_string()))?;
+    pool.install(|| {
+        let params = CullParams { near: args.near, draw_distance: args.draw_distance, ..CullParams::default() };
+        let t0 = Instant::now();
+        let bvh = Bvh::build(bounds, args.leaf_size)?;
+        let bvh_build_ms = t0.elapsed().as_secs_f64() * 1e3;
+        let mut times = vec![Vec::with_capacity(args.frames as usize); strategies.len()];
+        let mut tests = vec![0u64; strategies.len()];
+        let mut visible = vec![0u64; strategies.len()];
+        let mut fps = vec![0u64; strategies.len()];
+        let mut fns = vec![0u64; strategies.len()];
+        let mut falls = vec![0u64; strategies.len()];
+        let mut exact_total = 0u64;
+        // Warm-up: touch every code path and page once before timing.
+        for &s in &strategies {
+            let rig = StereoRig::from_head(head_path(0, args.seed), eyes);
+            cull(s, &rig, 0, &bvh, &params)?;
+        }
+        for f in 0..args.frames {
+            let rig = StereoRig::from_head(head_path(f, args.seed), eyes);
+            let exact = if args.no_compare { None } else { Some(exact_per_eye(&rig, &bvh, &params)?) };
+            exact_total += exact.as_ref().map_or(0, |e| e.len() as u64);
+            for (k, &s) in strategies.iter().enumerate() {
+                let t = Instant::now();
+                let out = cull(s, &rig, f, &bvh, &params)?;
+                times[k].push(t.elapsed().as_secs_f64() * 1e3);
+                tests[k] += out.stats.tests;
+                visible[k] += out.visible.len() as u64;
+                falls[k] += out.stats.fallbacks;
+                if let Some(e) = &exact {
+                    let (fp, fneg) = compare(&out.visible, e);
+                    fps[k] += fp;
+                    fns[k] += fneg;
+                }
+            }
+        }
+        let fr = args.frames as f64;
+        let reports = strategies
+            .iter()
+            .enumerate()
+            .map(|(k, s)| {
+                let mut t = times[k].clone();
+                t.sort_by(f64::total_cmp);
+                StrategyReport {
+                    name: s.name().to_string(),
+                    median_ms: percentile(&t, 0.5),
+                    p95_ms: percentile(&t, 0.95),
+                    tests_per_frame: tests[k] as f64 / fr,
+                    visible: visible[k] as f64 / fr,
+                    false_positives: fps[k] as f64 / fr,
+                    false_negatives: fns[k] as f64 / fr,
+                    false_negatives_total: fns[k],
+                    fallbacks: falls[k],
+                }
+            })
+            .collect();
+        Ok(CullBenchReport {
+            instances: bounds.len(),
+            threads: args.threads,
+            frames: args.frames,
+            bvh_build_ms,
+            bvh_nodes: bvh.node_count(),
+            exact_visible: exact_total as f64 / fr,
+            strategies: reports,
+        })
+    })
+}

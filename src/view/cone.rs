@@ -1,0 +1,201 @@
+//! View cones: a circular cone per eye enclosing its FOV rectangle (or a
+//! lens-visible circle), and one cone enclosing several eye cones (the
+//! conical superfrustum). A cone test costs one dot product, one cross
+//! product and a compare, against five or six plane tests for a frustum.
+
+use glam::DVec3;
+
+use super::frustum::{checked_tangents, validate_clip, VolumeError};
+use super::View;
+
+/// Half-angles at or above this (radians, just under 90°) make a cone
+/// useless for culling; building one fails instead.
+const MAX_HALF_ANGLE: f64 = std::f64::consts::FRAC_PI_2 - 1e-7;
+
+/// A convex circular cone with an optional bounding ball for distance culling.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Cone {
+    /// Apex in world space.
+    pub apex: DVec3,
+    /// Unit axis.
+    pub axis: DVec3,
+    /// Half-angle in radians, below 90°.
+    pub half_angle: f64,
+    /// `cos(half_angle)`.
+    pub cos: f64,
+    /// `sin(half_angle)`.
+    pub sin: f64,
+    /// Distance culling ball (world centre, radius) containing the culled
+    /// volume; `None` when there is no draw distance.
+    pub ball: Option<(DVec3, f64)>,
+}
+
+/// Angle between two non-zero vectors, accurate at small and large angles
+/// (`atan2(|a × b|, a · b)`, Kahan's recommendation over `acos`).
+pub fn angle_between(a: DVec3, b: DVec3) -> f64 {
+    a.cross(b).length().atan2(a.dot(b))
+}
+
+impl Cone {
+    fn new(apex: DVec3, axis: DVec3, half_angle: f64, ball: Option<(DVec3, f64)>) -> Result<Cone, VolumeError> {
+        if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < MAX_HALF_ANGLE) {
+            return Err(VolumeError::NoCombinedVolume(format!("cone half-angle {half_angle} rad is not below 90°")));
+        }
+        if !apex.is_finite() || !axis.is_finite() {
+            return Err(VolumeError::NoCombinedVolume("non-finite cone".into()));
+        }
+        Ok(Cone { apex, axis, half_angle, cos: half_angle.cos(), sin: half_angle.sin(), ball })
+    }
+
+    /// The cone of one eye: apex at the eye, axis through the centre of the
+    /// FOV's tangent rectangle, half-angle the largest angle from that axis
+    /// to a corner ray, so the cone contains the whole rectangular frustum
+    /// (the four corner rays span it and a cone is convex). With a draw
+    /// distance `far` (depth along -Z) the frustum lies within
+    /// `far · max |corner ray|` of the apex (rays scaled to unit depth), which
+    /// becomes the distance ball.
+    pub fn from_view(view: &View, far: Option<f64>) -> Result<Cone, VolumeError> {
+        view.pose.validate().map_err(VolumeError::InvalidPose)?;
+        let [tl, tr, tu, td] = checked_tangents(&view.fov)?;
+        validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
+        let q = view.pose.orientation.normalize();
+        let axis = (q * DVec3::new(0.5 * (tl + tr), 0.5 * (tu + td), -1.0)).normalize();
+        let rays = [(tl, td), (tr, td), (tr, tu), (tl, tu)].map(|(x, y)| q * DVec3::new(x, y, -1.0));
+        let half = rays.iter().map(|r| angle_between(axis, *r)).fold(0.0, f64::max);
+        let reach = rays.iter().map(|r| r.length()).fold(0.0, f64::max);
+        let ball = far.map(|f| (view.pose.position, f * reach));
+        Cone::new(view.pose.position, axis, half + 1e-12, ball)
+    }
+
+    /// The cone of the lens-visible circle: apex at the eye, axis the view
+    /// direction, the given half-angle. This is usually narrower than the FOV
+    /// rectangle's cone, so it can reject what the frustum keeps; strategies
+    /// using it report those misses as false negatives.
+    pub fn from_lens(view: &View, lens_half_angle: f64, far: Option<f64>) -> Result<Cone, VolumeError> {
+        view.pose.validate().map_err(VolumeError::InvalidPose)?;
+        validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
+        let axis = view.pose.orientation.normalize() * DVec3::NEG_Z;
+        let ball = far.map(|f| (view.pose.position, f / lens_half_angle.cos().max(1e-300)));
+        Cone::new(view.pose.position, axis, lens_half_angle, ball)
+    }
+
+    /// One cone containing every cone in `cones` (the conical superfrustum).
+    ///
+    /// Derivation: cone `i` (apex `a_i`, direction cap `(v_i, θ_i)`) lies in
+    /// cone `C` when `C` contains `a_i` and every direction of cap `i`
+    /// (a convex cone is closed under adding its directions). Directions: the
+    /// smallest cap containing two caps lies on the great circle through
+    /// their axes with `θ = (α + θ_1 + θ_2) / 2`, `α` the angle between the
+    /// axes (the spherical analogue of the smallest circle enclosing two
+    /// circles); more caps are merged one at a time. Apex: start from the
+    /// mean apex `m` and recede along the axis by
+    /// `t = max_i(ρ_i / tan θ - h_i, 0)`, where `h_i`, `ρ_i` are the axial and
+    /// radial offsets of `a_i` from `m`, so each `a_i` sits on or inside the
+    /// surface. The distance ball is centred on `m` with radius
+    /// `max_i(|a_i - m| + r_i)`.
+    pub fn enclosing(cones: &[Cone]) -> Result<Cone, VolumeError> {
+        let first = cones.first().ok_or_else(|| VolumeError::NoCombinedVolume("no cones".into()))?;
+        let (mut axis, mut theta) = (first.axis, first.half_angle);
+        for c in &cones[1..] {
+            let alpha = angle_between(axis, c.axis);
+            if alpha + c.half_angle <= theta {
+                continue;
+            }
+            if alpha + theta <= c.half_angle {
+                axis = c.axis;
+                theta = c.half_angle;
+                continue;
+            }
+            let new_theta = 0.5 * (alpha + theta + c.half_angle);
+            if new_theta >= MAX_HALF_ANGLE {
+                return Err(VolumeError::NoCombinedVolume(format!(
+                    "enclosing cone half-angle {:.3}° reaches 90°",
+                    new_theta.to_degrees()
+                )));
+            }
+            let w = c.axis - axis * axis.dot(c.axis);
+            let wl = w.length();
+            if wl < 1e-300 {
+                return Err(VolumeError::NoCombinedVolume("opposite cone axes".into()));
+            }
+            let beta = new_theta - theta;
+            axis = (axis * beta.cos() + (w / wl) * beta.sin()).normalize();
+            theta = new_theta;
+        }
+        // Rounding slack: a hair wider, then re-check every cap.
+        theta += 1e-12;
+        for c in cones {
+            theta = theta.max(angle_between(axis, c.axis) + c.half_angle + 1e-12);
+        }
+        if theta >= MAX_HALF_ANGLE {
+            return Err(VolumeError::NoCombinedVolume(format!(
+                "enclosing cone half-angle {:.3}° reaches 90°",
+                theta.to_degrees()
+            )));
+        }
+        let m = cones.iter().map(|c| c.apex).sum::<DVec3>() / cones.len() as f64;
+        let tan = theta.tan();
+        let mut t: f64 = 0.0;
+        let mut extent: f64 = 0.0;
+        for c in cones {
+            let off = c.apex - m;
+            let h = off.dot(axis);
+            let rho = off.cross(axis).length();
+            t = t.max(rho / tan - h);
+            extent = extent.max(off.length());
+        }
+        let t = t + 1e-9 + 1e-12 * extent;
+        let ball = if cones.iter().all(|c| c.ball.is_some()) {
+            let r = cones
+                .iter()
+                .filter_map(|c| c.ball.map(|(bc, br)| (bc - m).length() + br))
+                .fold(0.0, f64::max);
+            Some((m, r * (1.0 + 1e-12) + 1e-9))
+        } else {
+            None
+        };
+        Cone::new(m - axis * t, axis, theta, ball)
+    }
+
+    /// Signed distance bound of a camera-relative point `d` (from the apex)
+    /// to the cone: `P cos θ - L sin θ`, the distance to the plane tangent to
+    /// the cone along the generatrix at `d`'s azimuth, with `L` the axial and
+    /// `P` the radial component (Eberly, "Intersection of a Sphere and a
+    /// Cone"; the cone is on the negative side of every tangent plane, and
+    /// this bound is 1-Lipschitz in `d`). Positive outside, and for points
+    /// inside with `L > 0` its negation is the distance to the surface.
+    #[inline]
+    pub fn surface_bound(&self, d: DVec3) -> f64 {
+        let l = d.dot(self.axis);
+        let p = d.cross(self.axis).length();
+        p * self.cos - l * self.sin
+    }
+
+    /// Keeps a sphere (camera-relative centre `d` from the apex, radius `r`)
+    /// unless it lies entirely outside a tangent plane or beyond the
+    /// distance ball. `slack` widens the test to absorb rounding.
+    #[inline]
+    pub fn keeps_sphere(&self, world_center_minus_apex: DVec3, r: f64, slack: f64) -> bool {
+        if self.surface_bound(world_center_minus_apex) > r + slack {
+            return false;
+        }
+        match self.ball {
+            Some((c, br)) => (world_center_minus_apex + (self.apex - c)).length() - r <= br + slack,
+            None => true,
+        }
+    }
+
+    /// Conservative test of a world box through its circumscribed sphere.
+    pub fn keeps_box(&self, min: DVec3, max: DVec3) -> bool {
+        let (a, b) = (min - self.apex, max - self.apex);
+        let d = (a + b) * 0.5;
+        let r = (b - a).length() * 0.5;
+        self.keeps_sphere(d, r, sphere_slack(d, r))
+    }
+}
+
+/// Rounding slack used by the per-instance cone test.
+#[inline]
+pub fn sphere_slack(d: DVec3, r: f64) -> f64 {
+    1e-12 * (1.0 + d.length() + r)
+}
