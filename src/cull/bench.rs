@@ -10,7 +10,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::{compare, cull, exact_per_eye, Bvh, BvhError, CullError, CullParams, Strategy, DEFAULT_LEAF_SIZE};
+use super::{compare, exact_per_eye, Culler, Bvh, BvhError, CullError, CullParams, Strategy, DEFAULT_LEAF_SIZE};
 use crate::view::{Fov, Pose, StereoRig};
 
 /// Command-line arguments of `cull-bench`.
@@ -232,9 +232,10 @@ pub fn run(args: &CullBenchArgs, bounds: &[(DVec3, DVec3)], eyes: &[(Pose, Fov)]
         let mut falls = vec![0u64; strategies.len()];
         let mut exact_total = 0u64;
         // Warm-up: touch every code path and page once before timing.
-        for &s in &strategies {
+        let mut cullers: Vec<Culler> = strategies.iter().map(|_| Culler::new()).collect();
+        for (k, &s) in strategies.iter().enumerate() {
             let rig = StereoRig::from_head(head_path(0, args.seed), eyes);
-            cull(s, &rig, 0, &bvh, &params)?;
+            cullers[k].cull(s, &rig, 0, &bvh, &params)?;
         }
         for f in 0..args.frames {
             let rig = StereoRig::from_head(head_path(f, args.seed), eyes);
@@ -242,7 +243,7 @@ pub fn run(args: &CullBenchArgs, bounds: &[(DVec3, DVec3)], eyes: &[(Pose, Fov)]
             exact_total += exact.as_ref().map_or(0, |e| e.len() as u64);
             for (k, &s) in strategies.iter().enumerate() {
                 let t = Instant::now();
-                let out = cull(s, &rig, f, &bvh, &params)?;
+                let out = cullers[k].cull(s, &rig, f, &bvh, &params)?;
                 times[k].push(t.elapsed().as_secs_f64() * 1e3);
                 tests[k] += out.stats.tests;
                 visible[k] += out.visible.len() as u64;

@@ -135,6 +135,15 @@ pub struct Bvh {
     pub count: Vec<u32>,
     /// Right child of each inner node (0 for leaves).
     pub right: Vec<u32>,
+    /// Precomputed bitset words of the block roots (the largest nodes of at
+    /// most [`SORT_BLOCK`] instances): `(word index, bits)` pairs in word
+    /// order. Accepting a node at or above block level ORs its pairs in, one
+    /// atomic per word instead of one bit write per instance; with
+    /// instances numbered in spatial order that is ~30× fewer writes.
+    pub block_words: Vec<(u32, u64)>,
+    /// Per node, the range of `block_words` covering it, or `None` below
+    /// block level.
+    pub node_words: Vec<Option<(u32, u32)>>,
 }
 
 /// Centroid record sorted during the build (f32 relative to the scene
@@ -146,6 +155,62 @@ struct Rec {
 }
 
 const PAR_SPLIT: usize = 8192;
+
+/// Largest number of instances in a block root (see [`Bvh::block_words`]).
+pub const SORT_BLOCK: u32 = 256;
+
+type BlockWords = (Vec<(u32, u64)>, Vec<Option<(u32, u32)>>);
+
+/// Builds [`Bvh::block_words`] and [`Bvh::node_words`].
+fn block_words(order: &[u32], first: &[u32], count: &[u32], right: &[u32], leaf: usize) -> BlockWords {
+    let mut node_words = vec![None; first.len()];
+    if order.is_empty() {
+        return (Vec::new(), node_words);
+    }
+    let mut roots = Vec::new();
+    let mut stack = vec![0usize];
+    while let Some(i) = stack.pop() {
+        if count[i] <= SORT_BLOCK || count[i] as usize <= leaf {
+            roots.push(i);
+        } else {
+            stack.push(i + 1);
+            stack.push(right[i] as usize);
+        }
+    }
+    roots.sort_unstable_by_key(|&i| first[i]);
+    let per_root: Vec<Vec<(u32, u64)>> = roots
+        .par_iter()
+        .map(|&i| {
+            let s = first[i] as usize;
+            let mut ids = order[s..s + count[i] as usize].to_vec();
+            ids.sort_unstable();
+            let mut pairs: Vec<(u32, u64)> = Vec::new();
+            for id in ids {
+                let (w, b) = (id >> 6, 1u64 << (id & 63));
+                match pairs.last_mut() {
+                    Some(last) if last.0 == w => last.1 |= b,
+                    _ => pairs.push((w, b)),
+                }
+            }
+            pairs
+        })
+        .collect();
+    let mut words = Vec::with_capacity(per_root.iter().map(Vec::len).sum());
+    for (&i, pairs) in roots.iter().zip(per_root) {
+        let start = words.len() as u32;
+        words.extend(pairs);
+        node_words[i] = Some((start, words.len() as u32));
+    }
+    // Ancestors of block roots cover the contiguous run of their roots.
+    for i in (0..first.len()).rev() {
+        if node_words[i].is_none() && count[i] > SORT_BLOCK && count[i] as usize > leaf {
+            if let (Some(l), Some(r)) = (node_words[i + 1], node_words[right[i] as usize]) {
+                node_words[i] = Some((l.0, r.1));
+            }
+        }
+    }
+    (words, node_words)
+}
 
 fn order_rec(recs: &mut [Rec], leaf: usize) {
     if recs.len() <= leaf {
@@ -223,7 +288,9 @@ impl Bvh {
         let (instances, ordered) =
             rayon::join(|| SoaBounds::gather(bounds, None), || SoaBounds::gather(bounds, Some(&order)));
         let nodes = SoaBounds::zeroed(first.len());
-        let mut bvh = Bvh { leaf_size: leaf, instances, ordered, order, nodes, first, count, right };
+        let (block_words, node_words) = block_words(&order, &first, &count, &right, leaf);
+        let mut bvh =
+            Bvh { leaf_size: leaf, instances, ordered, order, nodes, first, count, right, block_words, node_words };
         bvh.refit_nodes();
         Ok(bvh)
     }

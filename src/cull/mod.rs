@@ -33,7 +33,7 @@ use crate::view::superfrustum::Superfrustum;
 use crate::view::StereoRig;
 
 pub use bvh::{Bvh, BvhError};
-use traverse::{brute, traverse, Hits};
+use traverse::{brute, traverse, Marks};
 
 /// Leaf size used by the bench and recommended for callers.
 pub const DEFAULT_LEAF_SIZE: usize = 4;
@@ -235,33 +235,95 @@ fn volumes(strategy: Strategy, rig: &StereoRig, frame: u64, p: &CullParams) -> R
     })
 }
 
-fn hierarchy<V: volume::Volume>(bvh: &Bvh, vols: &[V]) -> Hits {
-    vols.iter().map(|v| traverse(bvh, v)).reduce(Hits::merge).unwrap_or_else(|| Hits::empty(bvh.len()))
+fn hierarchy<V: volume::Volume>(bvh: &Bvh, vols: &[V], marks: &Marks) -> u64 {
+    vols.iter().map(|v| traverse(bvh, v, marks)).sum()
 }
 
-fn finish(bvh: &Bvh, rig: &StereoRig, hits: Hits, fallback: bool, p: &CullParams) -> Result<CullOutput, CullError> {
-    let visible = hits.to_sorted_indices();
-    let mut stats = CullStats {
-        tests: hits.tests,
-        accepted: visible.len() as u64,
-        rejected: (bvh.len() - visible.len()) as u64,
-        fallbacks: u64::from(fallback),
-        false_positives: None,
-        false_negatives: None,
-    };
-    if p.compare_exact {
-        let exact = exact_per_eye(rig, bvh, p)?;
-        let (fp, fneg) = compare(&visible, &exact);
-        stats.false_positives = Some(fp);
-        stats.false_negatives = Some(fneg);
+/// Per-frame culling context: owns the visibility bitset and the output
+/// list, reused from frame to frame so a frame allocates nothing once the
+/// buffers have grown (DESIGN rule 2). One per render thread.
+#[derive(Debug, Default)]
+pub struct Culler {
+    marks: Marks,
+    out: CullOutput,
+}
+
+impl Culler {
+    /// An empty context; buffers grow on first use.
+    pub fn new() -> Culler {
+        Culler::default()
     }
-    Ok(CullOutput { visible, stats })
+
+    /// Culls `bvh` for one frame with `strategy` and returns the result,
+    /// valid until the next call. `frame_index` picks the eye of the
+    /// round-robin strategies. `PerEyeBrute` ignores the hierarchy and scans
+    /// every instance. Invalid poses, FOVs or distances return an error and
+    /// cull nothing. Runs in the current rayon pool.
+    pub fn cull(
+        &mut self,
+        strategy: Strategy,
+        rig: &StereoRig,
+        frame_index: u64,
+        bvh: &Bvh,
+        params: &CullParams,
+    ) -> Result<&CullOutput, CullError> {
+        self.run(strategy, rig, frame_index, bvh, params, strategy == Strategy::PerEyeBrute)
+    }
+
+    /// Like [`Culler::cull`] but testing every instance without the
+    /// hierarchy, with the same volumes: the reference the hierarchy must
+    /// match exactly.
+    pub fn cull_flat(
+        &mut self,
+        strategy: Strategy,
+        rig: &StereoRig,
+        frame_index: u64,
+        bvh: &Bvh,
+        params: &CullParams,
+    ) -> Result<&CullOutput, CullError> {
+        self.run(strategy, rig, frame_index, bvh, params, true)
+    }
+
+    fn run(
+        &mut self,
+        strategy: Strategy,
+        rig: &StereoRig,
+        frame: u64,
+        bvh: &Bvh,
+        p: &CullParams,
+        flat: bool,
+    ) -> Result<&CullOutput, CullError> {
+        let (vols, fallback) = volumes(strategy, rig, frame, p)?;
+        self.marks.reset(bvh.len());
+        let tests = match (&vols, flat) {
+            (Volumes::Planes(v), false) => hierarchy(bvh, v, &self.marks),
+            (Volumes::Cones(v), false) => hierarchy(bvh, v, &self.marks),
+            (Volumes::Planes(v), true) => brute(bvh, v, &self.marks),
+            (Volumes::Cones(v), true) => brute(bvh, v, &self.marks),
+        };
+        self.marks.extract_into(&mut self.out.visible);
+        let visible = &self.out.visible;
+        let mut stats = CullStats {
+            tests,
+            accepted: visible.len() as u64,
+            rejected: (bvh.len() - visible.len()) as u64,
+            fallbacks: u64::from(fallback),
+            false_positives: None,
+            false_negatives: None,
+        };
+        if p.compare_exact {
+            let exact = exact_per_eye(rig, bvh, p)?;
+            let (fp, fneg) = compare(visible, &exact);
+            stats.false_positives = Some(fp);
+            stats.false_negatives = Some(fneg);
+        }
+        self.out.stats = stats;
+        Ok(&self.out)
+    }
 }
 
-/// Culls `bvh` for one frame with `strategy`. `frame_index` picks the eye of
-/// the round-robin strategies. `PerEyeBrute` ignores the hierarchy and scans
-/// every instance. Invalid poses, FOVs or distances return an error and cull
-/// nothing. Runs in the current rayon pool.
+/// One-shot [`Culler::cull`] (allocates its buffers; renderers should keep
+/// a [`Culler`]).
 pub fn cull(
     strategy: Strategy,
     rig: &StereoRig,
@@ -269,20 +331,12 @@ pub fn cull(
     bvh: &Bvh,
     params: &CullParams,
 ) -> Result<CullOutput, CullError> {
-    if strategy == Strategy::PerEyeBrute {
-        return cull_flat(strategy, rig, frame_index, bvh, params);
-    }
-    let (vols, fallback) = volumes(strategy, rig, frame_index, params)?;
-    let hits = match &vols {
-        Volumes::Planes(v) => hierarchy(bvh, v),
-        Volumes::Cones(v) => hierarchy(bvh, v),
-    };
-    finish(bvh, rig, hits, fallback, params)
+    let mut c = Culler::new();
+    c.cull(strategy, rig, frame_index, bvh, params)?;
+    Ok(c.out)
 }
 
-/// The same tests as [`cull`] but against every instance, no hierarchy: the
-/// reference the hierarchy must match exactly, and the `per-eye-brute`
-/// strategy when called with `PerEye` or `PerEyeBrute`.
+/// One-shot [`Culler::cull_flat`].
 pub fn cull_flat(
     strategy: Strategy,
     rig: &StereoRig,
@@ -290,12 +344,9 @@ pub fn cull_flat(
     bvh: &Bvh,
     params: &CullParams,
 ) -> Result<CullOutput, CullError> {
-    let (vols, fallback) = volumes(strategy, rig, frame_index, params)?;
-    let hits = match &vols {
-        Volumes::Planes(v) => brute(bvh, v),
-        Volumes::Cones(v) => brute(bvh, v),
-    };
-    finish(bvh, rig, hits, fallback, params)
+    let mut c = Culler::new();
+    c.cull_flat(strategy, rig, frame_index, bvh, params)?;
+    Ok(c.out)
 }
 
 /// Exact per-eye culling, the ground truth for false positives and
