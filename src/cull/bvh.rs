@@ -54,12 +54,6 @@ pub struct SoaBounds {
 }
 
 impl SoaBounds {
-    /// Boxes with every coordinate zeroed.
-    pub fn zeroed(n: usize) -> SoaBounds {
-        let z = || vec![0.0; n];
-        SoaBounds { min: [z(), z(), z()], max: [z(), z(), z()] }
-    }
-
     /// Number of boxes.
     pub fn len(&self) -> usize {
         self.min[0].len()
@@ -77,14 +71,6 @@ impl SoaBounds {
             DVec3::new(self.min[0][i], self.min[1][i], self.min[2][i]),
             DVec3::new(self.max[0][i], self.max[1][i], self.max[2][i]),
         )
-    }
-
-    #[inline]
-    fn set(&mut self, i: usize, (lo, hi): (DVec3, DVec3)) {
-        for a in 0..3 {
-            self.min[a][i] = lo[a];
-            self.max[a][i] = hi[a];
-        }
     }
 
     /// Boxes gathered as `self[idx[k]]`, built in parallel.
@@ -114,9 +100,9 @@ fn validate(bounds: &[(DVec3, DVec3)]) -> Result<(), BvhError> {
     }
 }
 
-/// The hierarchy. Node `i` covers `order[first[i] .. first[i] + count[i]]`;
-/// it is a leaf when `count[i] <= leaf_size`, otherwise its children are
-/// `i + 1` and `right[i]`.
+/// The hierarchy. Node `i` covers `order[first .. first + count]` of
+/// `nodes[i]`; it is a leaf when `count <= leaf_size`, otherwise its
+/// children are `i + 1` and `right`.
 #[derive(Clone, Debug)]
 pub struct Bvh {
     /// Largest number of instances in a leaf.
@@ -127,14 +113,8 @@ pub struct Bvh {
     pub ordered: SoaBounds,
     /// Instance index at each hierarchy position.
     pub order: Vec<u32>,
-    /// Node bounds.
-    pub nodes: SoaBounds,
-    /// First hierarchy position of each node's range.
-    pub first: Vec<u32>,
-    /// Number of instances under each node.
-    pub count: Vec<u32>,
-    /// Right child of each inner node (0 for leaves).
-    pub right: Vec<u32>,
+    /// Nodes in depth-first order, one cache line each.
+    pub nodes: Vec<Node>,
     /// Precomputed bitset words of the block roots (the largest nodes of at
     /// most [`SORT_BLOCK`] instances): `(word index, bits)` pairs in word
     /// order. Accepting a node at or above block level ORs its pairs in, one
@@ -144,6 +124,26 @@ pub struct Bvh {
     /// Per node, the range of `block_words` covering it, or `None` below
     /// block level.
     pub node_words: Vec<Option<(u32, u32)>>,
+}
+
+/// One hierarchy node: bounds and topology packed into one 64-byte cache
+/// line. Instance bounds are structure-of-arrays (scanned linearly by brute
+/// force and leaves), but a traversal visits nodes sparsely, and one line
+/// per node costs one memory access where six coordinate arrays cost six.
+#[derive(Clone, Copy, Debug, PartialEq)]
+#[repr(C, align(64))]
+pub struct Node {
+    /// Box minimum.
+    pub lo: DVec3,
+    /// Box maximum.
+    pub hi: DVec3,
+    /// First hierarchy position of the node's range in `order`.
+    pub first: u32,
+    /// Number of instances under the node.
+    pub count: u32,
+    /// Right child of an inner node (its left child is the next node); 0
+    /// for leaves.
+    pub right: u32,
 }
 
 /// Centroid record sorted during the build (f32 relative to the scene
@@ -157,7 +157,7 @@ struct Rec {
 const PAR_SPLIT: usize = 8192;
 
 /// Largest number of instances in a block root (see [`Bvh::block_words`]).
-pub const SORT_BLOCK: u32 = 256;
+pub const SORT_BLOCK: u32 = 2048;
 
 type BlockWords = (Vec<(u32, u64)>, Vec<Option<(u32, u32)>>);
 
@@ -287,10 +287,11 @@ impl Bvh {
         let order: Vec<u32> = recs.into_iter().map(|r| r.idx).collect();
         let (instances, ordered) =
             rayon::join(|| SoaBounds::gather(bounds, None), || SoaBounds::gather(bounds, Some(&order)));
-        let nodes = SoaBounds::zeroed(first.len());
         let (block_words, node_words) = block_words(&order, &first, &count, &right, leaf);
-        let mut bvh =
-            Bvh { leaf_size: leaf, instances, ordered, order, nodes, first, count, right, block_words, node_words };
+        let nodes = (0..first.len())
+            .map(|i| Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: first[i], count: count[i], right: right[i] })
+            .collect();
+        let mut bvh = Bvh { leaf_size: leaf, instances, ordered, order, nodes, block_words, node_words };
         bvh.refit_nodes();
         Ok(bvh)
     }
@@ -307,13 +308,13 @@ impl Bvh {
 
     /// Number of nodes.
     pub fn node_count(&self) -> usize {
-        self.first.len()
+        self.nodes.len()
     }
 
     /// True when node `i` is a leaf.
     #[inline]
     pub fn is_leaf(&self, i: usize) -> bool {
-        self.count[i] as usize <= self.leaf_size
+        self.nodes[i].count as usize <= self.leaf_size
     }
 
     /// Replaces every instance's bounds (instances moved) and refits the
@@ -341,8 +342,8 @@ impl Bvh {
                 if !self.is_leaf(i) {
                     return None;
                 }
-                let s = self.first[i] as usize;
-                let e = s + self.count[i] as usize;
+                let s = self.nodes[i].first as usize;
+                let e = s + self.nodes[i].count as usize;
                 let mut acc = (DVec3::INFINITY, DVec3::NEG_INFINITY);
                 for k in s..e {
                     let (lo, hi) = self.ordered.get(k);
@@ -355,12 +356,12 @@ impl Bvh {
             let b = match leaf_boxes[i] {
                 Some(b) => b,
                 None => {
-                    let (l0, l1) = self.nodes.get(i + 1);
-                    let (r0, r1) = self.nodes.get(self.right[i] as usize);
-                    (l0.min(r0), l1.max(r1))
+                    let (l, r) = (&self.nodes[i + 1], &self.nodes[self.nodes[i].right as usize]);
+                    (l.lo.min(r.lo), l.hi.max(r.hi))
                 }
             };
-            self.nodes.set(i, b);
+            self.nodes[i].lo = b.0;
+            self.nodes[i].hi = b.1;
         }
     }
 }

@@ -5,54 +5,69 @@
 //! [`super::Culler`] and is reused frame after frame, so a frame allocates
 //! nothing once the buffers have grown.
 
-use std::sync::atomic::{AtomicU64, Ordering::Relaxed};
+use std::sync::{Mutex, MutexGuard};
 
 use rayon::prelude::*;
 
 use super::bvh::Bvh;
 use super::volume::{Class, Volume};
 
-/// Visibility bits over instance indices, shared by the worker threads.
+/// Visibility bits over instance indices: one private bitset per worker
+/// thread (plain stores, no atomics; a slot is locked once per task,
+/// uncontended), OR-ed together when the list is extracted.
 #[derive(Debug, Default)]
 pub struct Marks {
-    bits: Vec<AtomicU64>,
+    slots: Vec<Mutex<Vec<u64>>>,
+    words: usize,
 }
 
 impl Marks {
-    /// Clears the bits and sizes them for `n` instances.
+    /// Clears the bits and sizes them for `n` instances and the current
+    /// rayon pool (one slot per worker; a caller outside the pool shares
+    /// slot 0 through its lock).
     pub fn reset(&mut self, n: usize) {
         let words = n.div_ceil(64);
-        if self.bits.len() != words {
-            self.bits = (0..words).map(|_| AtomicU64::new(0)).collect();
+        let slots = rayon::current_num_threads().max(1);
+        if self.words != words || self.slots.len() != slots {
+            self.slots = (0..slots).map(|_| Mutex::new(vec![0; words])).collect();
+            self.words = words;
         } else {
-            self.bits.par_chunks(4096).for_each(|c| c.iter().for_each(|w| w.store(0, Relaxed)));
+            self.slots.par_iter_mut().for_each(|s| lock_mut(s).fill(0));
         }
+    }
+
+    /// The calling thread's slot, locked.
+    fn slot(&self) -> MutexGuard<'_, Vec<u64>> {
+        let i = rayon::current_thread_index().unwrap_or(0) % self.slots.len();
+        self.slots[i].lock().unwrap_or_else(|e| e.into_inner())
     }
 
     /// Writes the kept instance indices, ascending, into `out` (replacing its
     /// contents), in parallel over blocks of the bitset.
-    pub fn extract_into(&self, out: &mut Vec<u32>) {
+    pub fn extract_into(&mut self, out: &mut Vec<u32>) {
         const WORDS: usize = 1024;
-        let counts: Vec<usize> = self
-            .bits
-            .par_chunks(WORDS)
-            .map(|c| c.iter().map(|w| w.load(Relaxed).count_ones() as usize).sum())
+        let slots: Vec<&Vec<u64>> = self.slots.iter_mut().map(|s| &*lock_mut(s)).collect();
+        let word = |i: usize| slots.iter().fold(0u64, |a, s| a | s[i]);
+        let n_chunks = self.words.div_ceil(WORDS);
+        let counts: Vec<usize> = (0..n_chunks)
+            .into_par_iter()
+            .map(|c| (c * WORDS..((c + 1) * WORDS).min(self.words)).map(|i| word(i).count_ones() as usize).sum())
             .collect();
         let total = counts.iter().sum();
-        out.clear();
+        // Only growth is zero-filled; every kept element is overwritten.
         out.resize(total, 0);
-        let mut slices = Vec::with_capacity(counts.len());
+        let mut pieces = Vec::with_capacity(counts.len());
         let mut rest: &mut [u32] = out;
         for &c in &counts {
             let (head, tail) = rest.split_at_mut(c);
-            slices.push(head);
+            pieces.push(head);
             rest = tail;
         }
-        self.bits.par_chunks(WORDS).zip(slices).enumerate().for_each(|(ci, (words, dst))| {
+        pieces.into_par_iter().enumerate().for_each(|(ci, dst)| {
             let mut k = 0;
-            for (wi, w) in words.iter().enumerate() {
-                let base = ((ci * WORDS + wi) * 64) as u32;
-                let mut w = w.load(Relaxed);
+            for wi in ci * WORDS..((ci + 1) * WORDS).min(self.words) {
+                let base = (wi * 64) as u32;
+                let mut w = word(wi);
                 if w == u64::MAX {
                     // Whole word visible: a straight run of 64 indices.
                     for (j, d) in dst[k..k + 64].iter_mut().enumerate() {
@@ -71,37 +86,20 @@ impl Marks {
     }
 }
 
-/// Per-task writer: gathers bits of the current word in a register and
-/// publishes them with one atomic OR when the word changes, so coherent
-/// index runs cost one atomic per 64 instances.
+fn lock_mut(m: &mut Mutex<Vec<u64>>) -> &mut Vec<u64> {
+    m.get_mut().unwrap_or_else(|e| e.into_inner())
+}
+
+/// Per-task writer into the worker's private bitset.
 struct Writer<'a> {
-    bits: &'a [AtomicU64],
-    word: usize,
-    val: u64,
+    bits: &'a mut [u64],
     tests: u64,
 }
 
-impl<'a> Writer<'a> {
-    fn new(bits: &'a [AtomicU64]) -> Self {
-        Writer { bits, word: 0, val: 0, tests: 0 }
-    }
-
+impl Writer<'_> {
     #[inline]
     fn set(&mut self, i: u32) {
-        let w = (i >> 6) as usize;
-        if w != self.word {
-            self.flush();
-            self.word = w;
-        }
-        self.val |= 1u64 << (i & 63);
-    }
-
-    #[inline]
-    fn flush(&mut self) {
-        if self.val != 0 {
-            self.bits[self.word].fetch_or(self.val, Relaxed);
-            self.val = 0;
-        }
+        self.bits[(i >> 6) as usize] |= 1u64 << (i & 63);
     }
 }
 
@@ -117,27 +115,27 @@ enum Task {
 fn accept(bvh: &Bvh, node: usize, w: &mut Writer) {
     if let Some((s, e)) = bvh.node_words[node] {
         for &(word, bits) in &bvh.block_words[s as usize..e as usize] {
-            w.bits[word as usize].fetch_or(bits, Relaxed);
+            w.bits[word as usize] |= bits;
         }
         return;
     }
-    let s = bvh.first[node] as usize;
-    let e = s + bvh.count[node] as usize;
+    let s = bvh.nodes[node].first as usize;
+    let e = s + bvh.nodes[node].count as usize;
     for &i in &bvh.order[s..e] {
         w.set(i);
     }
 }
 
 fn walk<V: Volume>(bvh: &Bvh, vol: &V, node: usize, mask: u8, w: &mut Writer) {
-    let (lo, hi) = bvh.nodes.get(node);
+    let (lo, hi) = (bvh.nodes[node].lo, bvh.nodes[node].hi);
     w.tests += 1;
     match vol.classify(lo, hi, mask) {
         Class::Outside => {}
         Class::Inside => accept(bvh, node, w),
         Class::Partial(m) => {
             if bvh.is_leaf(node) {
-                let s = bvh.first[node] as usize;
-                let e = s + bvh.count[node] as usize;
+                let s = bvh.nodes[node].first as usize;
+                let e = s + bvh.nodes[node].count as usize;
                 w.tests += (e - s) as u64;
                 for k in s..e {
                     let (a, b) = bvh.ordered.get(k);
@@ -147,19 +145,21 @@ fn walk<V: Volume>(bvh: &Bvh, vol: &V, node: usize, mask: u8, w: &mut Writer) {
                 }
             } else {
                 walk(bvh, vol, node + 1, m, w);
-                walk(bvh, vol, bvh.right[node] as usize, m, w);
+                walk(bvh, vol, bvh.nodes[node].right as usize, m, w);
             }
         }
     }
 }
 
-fn run_task<V: Volume>(bvh: &Bvh, vol: &V, t: Task, bits: &[AtomicU64]) -> u64 {
-    let mut w = Writer::new(bits);
+fn run_task<V: Volume>(bvh: &Bvh, vol: &V, t: Task, marks: &Marks) -> u64 {
+    // No rayon calls below, so this thread cannot pick up another task
+    // while holding its slot.
+    let mut slot = marks.slot();
+    let mut w = Writer { bits: &mut slot, tests: 0 };
     match t {
         Task::Walk(node, mask) => walk(bvh, vol, node as usize, mask, &mut w),
         Task::Accept(node) => accept(bvh, node as usize, &mut w),
     }
-    w.flush();
     w.tests
 }
 
@@ -177,26 +177,25 @@ pub fn traverse<V: Volume>(bvh: &Bvh, vol: &V, marks: &Marks) -> u64 {
     let mut serial_tests = 0u64;
     let mut stack = vec![(0usize, vol.full_mask())];
     while let Some((node, mask)) = stack.pop() {
-        if bvh.count[node] <= grain || bvh.is_leaf(node) {
+        if bvh.nodes[node].count <= grain || bvh.is_leaf(node) {
             tasks.push(Task::Walk(node as u32, mask));
             continue;
         }
-        let (lo, hi) = bvh.nodes.get(node);
+        let (lo, hi) = (bvh.nodes[node].lo, bvh.nodes[node].hi);
         serial_tests += 1;
         match vol.classify(lo, hi, mask) {
             Class::Outside => {}
             Class::Inside => tasks.push(Task::Accept(node as u32)),
             Class::Partial(m) => {
-                stack.push((bvh.right[node] as usize, m));
+                stack.push((bvh.nodes[node].right as usize, m));
                 stack.push((node + 1, m));
             }
         }
     }
-    let bits = &marks.bits[..];
     let tests: u64 = if threads == 1 {
-        tasks.iter().map(|t| run_task(bvh, vol, *t, bits)).sum()
+        tasks.iter().map(|t| run_task(bvh, vol, *t, marks)).sum()
     } else {
-        tasks.par_iter().map(|t| run_task(bvh, vol, *t, bits)).sum()
+        tasks.par_iter().map(|t| run_task(bvh, vol, *t, marks)).sum()
     };
     tests + serial_tests
 }
@@ -207,23 +206,17 @@ pub fn traverse<V: Volume>(bvh: &Bvh, vol: &V, marks: &Marks) -> u64 {
 /// 4096 instances.
 pub fn brute<V: Volume>(bvh: &Bvh, vols: &[V], marks: &Marks) -> u64 {
     let n = bvh.len();
-    const BLOCK_WORDS: usize = 64;
+    const BLOCK: usize = 4096;
     let inst = &bvh.instances;
-    marks.bits.par_chunks(BLOCK_WORDS).enumerate().for_each(|(bi, words)| {
-        let start = bi * BLOCK_WORDS * 64;
-        let end = (start + BLOCK_WORDS * 64).min(n);
-        let mut val = 0u64;
-        for i in start..end {
-            let (a, b) = inst.get(i);
+    (0..n.div_ceil(BLOCK)).into_par_iter().for_each(|b| {
+        let mut slot = marks.slot();
+        for i in b * BLOCK..((b + 1) * BLOCK).min(n) {
+            let (a, bb) = inst.get(i);
             let mut keep = false;
             for v in vols {
-                keep |= v.keeps(a, b, v.full_mask());
+                keep |= v.keeps(a, bb, v.full_mask());
             }
-            val |= u64::from(keep) << (i & 63);
-            if i & 63 == 63 || i + 1 == end {
-                words[(i - start) >> 6].fetch_or(val, Relaxed);
-                val = 0;
-            }
+            slot[i >> 6] |= u64::from(keep) << (i & 63);
         }
     });
     (n * vols.len()) as u64

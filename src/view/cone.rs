@@ -47,8 +47,9 @@ impl Cone {
         Ok(Cone { apex, axis, half_angle, cos: half_angle.cos(), sin: half_angle.sin(), ball })
     }
 
-    /// The cone of one eye: apex at the eye, axis through the centre of the
-    /// FOV's tangent rectangle, half-angle the largest angle from that axis
+    /// The cone of one eye: apex at the eye, axis the best of a few
+    /// candidates (centre of the FOV's tangent rectangle, mean corner
+    /// direction, view axis), half-angle the largest angle from that axis
     /// to a corner ray, so the cone contains the whole rectangular frustum
     /// (the four corner rays span it and a cone is convex). With a draw
     /// distance `far` (depth along -Z) the frustum lies within
@@ -59,9 +60,24 @@ impl Cone {
         let [tl, tr, tu, td] = checked_tangents(&view.fov)?;
         validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
         let q = view.pose.orientation.normalize();
-        let axis = (q * DVec3::new(0.5 * (tl + tr), 0.5 * (tu + td), -1.0)).normalize();
         let rays = [(tl, td), (tr, td), (tr, tu), (tl, tu)].map(|(x, y)| q * DVec3::new(x, y, -1.0));
-        let half = rays.iter().map(|r| angle_between(axis, *r)).fold(0.0, f64::max);
+        // Candidate axes: the centre of the tangent rectangle (tight for
+        // moderate FOVs), the mean corner direction, and the view axis
+        // (always within 90° of every corner, so a cone always exists).
+        let mean_dir: DVec3 = rays.iter().map(|r| r.normalize()).sum();
+        let candidates = [
+            q * DVec3::new(0.5 * (tl + tr), 0.5 * (tu + td), -1.0),
+            mean_dir,
+            q * DVec3::NEG_Z,
+        ];
+        let (axis, half) = candidates
+            .into_iter()
+            .filter(|a| a.length() > 1e-12)
+            .map(|a| {
+                let a = a.normalize();
+                (a, rays.iter().map(|r| angle_between(a, *r)).fold(0.0, f64::max))
+            })
+            .fold((q * DVec3::NEG_Z, f64::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
         let reach = rays.iter().map(|r| r.length()).fold(0.0, f64::max);
         let ball = far.map(|f| (view.pose.position, f * reach));
         Cone::new(view.pose.position, axis, half + 1e-12, ball)
