@@ -11,11 +11,18 @@ use vergence::view::StereoRig;
 fn benches(c: &mut Criterion) {
     let bounds = stand_in_hall_layout(100_000, 1);
     let eyes = builtin_eyes(None).expect("built-in rig");
-    c.bench_function("bvh_build_100k", |b| b.iter(|| Bvh::build(black_box(&bounds), DEFAULT_LEAF_SIZE)));
+    c.bench_function("bvh_build_100k", |b| {
+        b.iter(|| Bvh::build(black_box(&bounds), DEFAULT_LEAF_SIZE))
+    });
     let bvh = Bvh::build(&bounds, DEFAULT_LEAF_SIZE).expect("valid bounds");
     let rig = StereoRig::from_head(head_path(10, 1), &eyes);
     let params = CullParams::default();
-    for s in [Strategy::PerEye, Strategy::Superfrustum, Strategy::ConicalSuperfrustum, Strategy::PerEyeBrute] {
+    for s in [
+        Strategy::PerEye,
+        Strategy::Superfrustum,
+        Strategy::ConicalSuperfrustum,
+        Strategy::PerEyeBrute,
+    ] {
         c.bench_function(&format!("cull_100k_{}", s.name()), |b| {
             b.iter(|| cull(s, black_box(&rig), 0, &bvh, &params).map(|o| o.visible.len()))
         });

@@ -26,10 +26,13 @@ fn fov() -> impl proptest::strategy::Strategy<Value = Fov> {
 }
 
 fn quat() -> impl proptest::strategy::Strategy<Value = DQuat> {
-    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_filter_map("zero quaternion", |(x, y, z, w)| {
-        let q = DQuat::from_xyzw(x, y, z, w);
-        (q.length() > 0.1).then(|| q.normalize())
-    })
+    (-1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0, -1.0f64..1.0).prop_filter_map(
+        "zero quaternion",
+        |(x, y, z, w)| {
+            let q = DQuat::from_xyzw(x, y, z, w);
+            (q.length() > 0.1).then(|| q.normalize())
+        },
+    )
 }
 
 prop_compose! {
@@ -73,17 +76,31 @@ prop_compose! {
     }
 }
 
-fn rig_and_scene() -> impl proptest::strategy::Strategy<Value = (StereoRig, Vec<(DVec3, DVec3)>, CullParams, usize)> {
+fn rig_and_scene(
+) -> impl proptest::strategy::Strategy<Value = (StereoRig, Vec<(DVec3, DVec3)>, CullParams, usize)>
+{
     rig().prop_flat_map(|r| {
         let c = r.head.position;
         (
             Just(r),
             scene(c),
-            (prop_oneof![Just(1e-5), 1e-4f64..0.5], prop::option::of(1.0f64..60.0)),
+            (
+                prop_oneof![Just(1e-5), 1e-4f64..0.5],
+                prop::option::of(1.0f64..60.0),
+            ),
             1usize..9,
         )
             .prop_map(|(r, s, (near, far), leaf)| {
-                (r, s, CullParams { near, draw_distance: far, ..CullParams::default() }, leaf)
+                (
+                    r,
+                    s,
+                    CullParams {
+                        near,
+                        draw_distance: far,
+                        ..CullParams::default()
+                    },
+                    leaf,
+                )
             })
     })
 }

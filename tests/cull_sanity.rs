@@ -27,9 +27,16 @@ fn front_kept_back_and_sides_rejected() {
         let out = cull(s, &rig, 0, &bvh, &CullParams::default()).unwrap();
         assert!(out.visible.contains(&0), "{s}");
         assert!(!out.visible.contains(&1), "{s}");
-        assert!(!out.visible.contains(&2) && !out.visible.contains(&3), "{s}: {:?}", out.visible);
+        assert!(
+            !out.visible.contains(&2) && !out.visible.contains(&3),
+            "{s}: {:?}",
+            out.visible
+        );
     }
-    assert_eq!(exact_per_eye(&rig, &bvh, &CullParams::default()).unwrap(), vec![0, 6]);
+    assert_eq!(
+        exact_per_eye(&rig, &bvh, &CullParams::default()).unwrap(),
+        vec![0, 6]
+    );
 }
 
 #[test]
@@ -49,6 +56,12 @@ fn hall_fraction() {
                 c.normalize().dot(fwd) > 0.0
             })
             .count();
-        println!("frame {f}: head {:?} fwd {:?} exact {} in-front-half {}", head.position, fwd, e.len(), naive);
+        println!(
+            "frame {f}: head {:?} fwd {:?} exact {} in-front-half {}",
+            head.position,
+            fwd,
+            e.len(),
+            naive
+        );
     }
 }

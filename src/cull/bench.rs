@@ -10,7 +10,10 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::{compare, exact_per_eye, Culler, Bvh, BvhError, CullError, CullParams, Strategy, DEFAULT_LEAF_SIZE};
+use super::{
+    compare, exact_per_eye, Bvh, BvhError, CullError, CullParams, Culler, Strategy,
+    DEFAULT_LEAF_SIZE,
+};
 use crate::view::{Fov, Pose, StereoRig};
 
 /// Command-line arguments of `cull-bench`.
@@ -119,12 +122,26 @@ impl CullBenchReport {
         );
         s += &format!(
             "{:<22} {:>9} {:>9} {:>12} {:>10} {:>10} {:>10} {:>9}\n",
-            "strategy", "median ms", "p95 ms", "tests/frame", "visible", "false pos", "false neg", "fallbacks"
+            "strategy",
+            "median ms",
+            "p95 ms",
+            "tests/frame",
+            "visible",
+            "false pos",
+            "false neg",
+            "fallbacks"
         );
         for r in &self.strategies {
             s += &format!(
                 "{:<22} {:>9.3} {:>9.3} {:>12.0} {:>10.0} {:>10.1} {:>10.1} {:>9}\n",
-                r.name, r.median_ms, r.p95_ms, r.tests_per_frame, r.visible, r.false_positives, r.false_negatives, r.fallbacks
+                r.name,
+                r.median_ms,
+                r.p95_ms,
+                r.tests_per_frame,
+                r.visible,
+                r.false_positives,
+                r.false_negatives,
+                r.fallbacks
             );
         }
         s
@@ -153,11 +170,39 @@ pub fn head_path(frame: u64, seed: u64) -> Pose {
 /// HMD FOV: ±0.7418 horizontal, ±0.7788 vertical).
 pub fn builtin_eyes(name: Option<&str>) -> Result<Vec<(Pose, Fov)>, CullBenchError> {
     let (ipd, fov) = match name.unwrap_or("index") {
-        "index" => (0.063, Fov { left: -0.96, right: 0.96, up: 0.98, down: -0.98 }),
-        "monado" => (0.063, Fov { left: -0.7418, right: 0.7418, up: 0.7788, down: -0.7788 }),
-        other => return Err(CullBenchError::Args(format!("unknown built-in HMD '{other}' (index, monado)"))),
+        "index" => (
+            0.063,
+            Fov {
+                left: -0.96,
+                right: 0.96,
+                up: 0.98,
+                down: -0.98,
+            },
+        ),
+        "monado" => (
+            0.063,
+            Fov {
+                left: -0.7418,
+                right: 0.7418,
+                up: 0.7788,
+                down: -0.7788,
+            },
+        ),
+        other => {
+            return Err(CullBenchError::Args(format!(
+                "unknown built-in HMD '{other}' (index, monado)"
+            )))
+        }
     };
-    let eye = |x: f64| (Pose { position: DVec3::new(x, 0.0, 0.0), ..Pose::default() }, fov);
+    let eye = |x: f64| {
+        (
+            Pose {
+                position: DVec3::new(x, 0.0, 0.0),
+                ..Pose::default()
+            },
+            fov,
+        )
+    };
     Ok(vec![eye(-ipd / 2.0), eye(ipd / 2.0)])
 }
 
@@ -206,21 +251,34 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 /// Runs the bench on `bounds` with `eyes` (poses relative to the head, left
 /// first) in a pool of `args.threads` threads. Each frame computes exact
 /// per-eye culling once (untimed), then times every strategy on it.
-pub fn run(args: &CullBenchArgs, bounds: &[(DVec3, DVec3)], eyes: &[(Pose, Fov)]) -> Result<CullBenchReport, CullBenchError> {
+pub fn run(
+    args: &CullBenchArgs,
+    bounds: &[(DVec3, DVec3)],
+    eyes: &[(Pose, Fov)],
+) -> Result<CullBenchReport, CullBenchError> {
     let strategies: Vec<Strategy> = if args.strategies.is_empty() {
         Strategy::ALL.to_vec()
     } else {
-        args.strategies.iter().map(|s| s.parse()).collect::<Result<_, _>>()?
+        args.strategies
+            .iter()
+            .map(|s| s.parse())
+            .collect::<Result<_, _>>()?
     };
     if args.threads == 0 || args.frames == 0 {
-        return Err(CullBenchError::Args("--threads and --frames must be at least 1".into()));
+        return Err(CullBenchError::Args(
+            "--threads and --frames must be at least 1".into(),
+        ));
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()
         .map_err(|e| CullBenchError::Pool(e.to_string()))?;
     pool.install(|| {
-        let params = CullParams { near: args.near, draw_distance: args.draw_distance, ..CullParams::default() };
+        let params = CullParams {
+            near: args.near,
+            draw_distance: args.draw_distance,
+            ..CullParams::default()
+        };
         let t0 = Instant::now();
         let bvh = Bvh::build(bounds, args.leaf_size)?;
         let bvh_build_ms = t0.elapsed().as_secs_f64() * 1e3;
@@ -239,7 +297,11 @@ pub fn run(args: &CullBenchArgs, bounds: &[(DVec3, DVec3)], eyes: &[(Pose, Fov)]
         }
         for f in 0..args.frames {
             let rig = StereoRig::from_head(head_path(f, args.seed), eyes);
-            let exact = if args.no_compare { None } else { Some(exact_per_eye(&rig, &bvh, &params)?) };
+            let exact = if args.no_compare {
+                None
+            } else {
+                Some(exact_per_eye(&rig, &bvh, &params)?)
+            };
             exact_total += exact.as_ref().map_or(0, |e| e.len() as u64);
             for (k, &s) in strategies.iter().enumerate() {
                 let t = Instant::now();

@@ -78,7 +78,11 @@ impl SoaBounds {
         let n = src.len();
         let pick = |k: usize| idx.map_or(k, |o| o[k] as usize);
         let col = |f: &(dyn Fn(&(DVec3, DVec3)) -> f64 + Sync)| -> Vec<f64> {
-            (0..n).into_par_iter().with_min_len(4096).map(|k| f(&src[pick(k)])).collect()
+            (0..n)
+                .into_par_iter()
+                .with_min_len(4096)
+                .map(|k| f(&src[pick(k)]))
+                .collect()
         };
         SoaBounds {
             min: [col(&|b| b.0.x), col(&|b| b.0.y), col(&|b| b.0.z)],
@@ -95,7 +99,11 @@ fn validate(bounds: &[(DVec3, DVec3)]) -> Result<(), BvhError> {
         .par_iter()
         .position_any(|(lo, hi)| !(lo.is_finite() && hi.is_finite() && lo.cmple(*hi).all()))
     {
-        Some(index) => Err(BvhError::InvalidBounds { index, min: bounds[index].0, max: bounds[index].1 }),
+        Some(index) => Err(BvhError::InvalidBounds {
+            index,
+            min: bounds[index].0,
+            max: bounds[index].1,
+        }),
         None => Ok(()),
     }
 }
@@ -162,7 +170,13 @@ pub const SORT_BLOCK: u32 = 2048;
 type BlockWords = (Vec<(u32, u64)>, Vec<Option<(u32, u32)>>);
 
 /// Builds [`Bvh::block_words`] and [`Bvh::node_words`].
-fn block_words(order: &[u32], first: &[u32], count: &[u32], right: &[u32], leaf: usize) -> BlockWords {
+fn block_words(
+    order: &[u32],
+    first: &[u32],
+    count: &[u32],
+    right: &[u32],
+    leaf: usize,
+) -> BlockWords {
     let mut node_words = vec![None; first.len()];
     if order.is_empty() {
         return (Vec::new(), node_words);
@@ -224,7 +238,13 @@ fn order_rec(recs: &mut [Rec], leaf: usize) {
         }
     }
     let ext = [hi[0] - lo[0], hi[1] - lo[1], hi[2] - lo[2]];
-    let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] { 0 } else if ext[1] >= ext[2] { 1 } else { 2 };
+    let axis = if ext[0] >= ext[1] && ext[0] >= ext[2] {
+        0
+    } else if ext[1] >= ext[2] {
+        1
+    } else {
+        2
+    };
     let mid = recs.len() / 2;
     recs.select_nth_unstable_by(mid, |a, b| a.c[axis].total_cmp(&b.c[axis]));
     let (l, r) = recs.split_at_mut(mid);
@@ -236,7 +256,14 @@ fn order_rec(recs: &mut [Rec], leaf: usize) {
     }
 }
 
-fn topology(first: u32, count: u32, leaf: u32, f: &mut Vec<u32>, c: &mut Vec<u32>, r: &mut Vec<u32>) {
+fn topology(
+    first: u32,
+    count: u32,
+    leaf: u32,
+    f: &mut Vec<u32>,
+    c: &mut Vec<u32>,
+    r: &mut Vec<u32>,
+) {
     let me = f.len();
     f.push(first);
     c.push(count);
@@ -260,10 +287,10 @@ impl Bvh {
         let center = if n == 0 {
             DVec3::ZERO
         } else {
-            let (lo, hi) = bounds
-                .par_iter()
-                .map(|b| (b.0, b.1))
-                .reduce(|| (DVec3::INFINITY, DVec3::NEG_INFINITY), |a, b| (a.0.min(b.0), a.1.max(b.1)));
+            let (lo, hi) = bounds.par_iter().map(|b| (b.0, b.1)).reduce(
+                || (DVec3::INFINITY, DVec3::NEG_INFINITY),
+                |a, b| (a.0.min(b.0), a.1.max(b.1)),
+            );
             (lo + hi) * 0.5
         };
         let mut recs: Vec<Rec> = bounds
@@ -272,26 +299,49 @@ impl Bvh {
             .with_min_len(4096)
             .map(|(i, (lo, hi))| {
                 let c = (*lo + *hi) * 0.5 - center;
-                Rec { c: [c.x as f32, c.y as f32, c.z as f32], idx: i as u32 }
+                Rec {
+                    c: [c.x as f32, c.y as f32, c.z as f32],
+                    idx: i as u32,
+                }
             })
             .collect();
         let ((), (first, count, right)) = rayon::join(
             || order_rec(&mut recs, leaf),
             || {
                 let cap = if n == 0 { 1 } else { 2 * n.div_ceil(leaf) + 1 };
-                let (mut f, mut c, mut r) = (Vec::with_capacity(cap), Vec::with_capacity(cap), Vec::with_capacity(cap));
+                let (mut f, mut c, mut r) = (
+                    Vec::with_capacity(cap),
+                    Vec::with_capacity(cap),
+                    Vec::with_capacity(cap),
+                );
                 topology(0, n as u32, leaf as u32, &mut f, &mut c, &mut r);
                 (f, c, r)
             },
         );
         let order: Vec<u32> = recs.into_iter().map(|r| r.idx).collect();
-        let (instances, ordered) =
-            rayon::join(|| SoaBounds::gather(bounds, None), || SoaBounds::gather(bounds, Some(&order)));
+        let (instances, ordered) = rayon::join(
+            || SoaBounds::gather(bounds, None),
+            || SoaBounds::gather(bounds, Some(&order)),
+        );
         let (block_words, node_words) = block_words(&order, &first, &count, &right, leaf);
         let nodes = (0..first.len())
-            .map(|i| Node { lo: DVec3::ZERO, hi: DVec3::ZERO, first: first[i], count: count[i], right: right[i] })
+            .map(|i| Node {
+                lo: DVec3::ZERO,
+                hi: DVec3::ZERO,
+                first: first[i],
+                count: count[i],
+                right: right[i],
+            })
             .collect();
-        let mut bvh = Bvh { leaf_size: leaf, instances, ordered, order, nodes, block_words, node_words };
+        let mut bvh = Bvh {
+            leaf_size: leaf,
+            instances,
+            ordered,
+            order,
+            nodes,
+            block_words,
+            node_words,
+        };
         bvh.refit_nodes();
         Ok(bvh)
     }
@@ -321,12 +371,17 @@ impl Bvh {
     /// node bounds; the topology is kept.
     pub fn refit(&mut self, bounds: &[(DVec3, DVec3)]) -> Result<(), BvhError> {
         if bounds.len() != self.len() {
-            return Err(BvhError::CountMismatch { expected: self.len(), got: bounds.len() });
+            return Err(BvhError::CountMismatch {
+                expected: self.len(),
+                got: bounds.len(),
+            });
         }
         validate(bounds)?;
         let order = &self.order;
-        let (instances, ordered) =
-            rayon::join(|| SoaBounds::gather(bounds, None), || SoaBounds::gather(bounds, Some(order)));
+        let (instances, ordered) = rayon::join(
+            || SoaBounds::gather(bounds, None),
+            || SoaBounds::gather(bounds, Some(order)),
+        );
         self.instances = instances;
         self.ordered = ordered;
         self.refit_nodes();
@@ -356,7 +411,10 @@ impl Bvh {
             let b = match leaf_boxes[i] {
                 Some(b) => b,
                 None => {
-                    let (l, r) = (&self.nodes[i + 1], &self.nodes[self.nodes[i].right as usize]);
+                    let (l, r) = (
+                        &self.nodes[i + 1],
+                        &self.nodes[self.nodes[i].right as usize],
+                    );
                     (l.lo.min(r.lo), l.hi.max(r.hi))
                 }
             };

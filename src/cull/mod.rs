@@ -146,7 +146,12 @@ pub struct CullParams {
 
 impl Default for CullParams {
     fn default() -> Self {
-        CullParams { near: 0.05, draw_distance: None, lens_half_angle: None, compare_exact: false }
+        CullParams {
+            near: 0.05,
+            draw_distance: None,
+            lens_half_angle: None,
+            compare_exact: false,
+        }
     }
 }
 
@@ -190,7 +195,10 @@ fn eye_frusta(rig: &StereoRig, p: &CullParams) -> Result<Vec<Frustum>, CullError
     rig.views
         .iter()
         .enumerate()
-        .map(|(i, v)| Frustum::from_view(v, p.near, p.draw_distance).map_err(|e| CullError::Volume { view: i, source: e }))
+        .map(|(i, v)| {
+            Frustum::from_view(v, p.near, p.draw_distance)
+                .map_err(|e| CullError::Volume { view: i, source: e })
+        })
         .collect()
 }
 
@@ -210,7 +218,12 @@ fn eye_cones(rig: &StereoRig, p: &CullParams) -> Result<Vec<Cone>, CullError> {
 
 /// Builds the volumes of `strategy` for this frame; the bool is true when a
 /// combined volume was impossible and per-eye volumes replace it.
-fn volumes(strategy: Strategy, rig: &StereoRig, frame: u64, p: &CullParams) -> Result<(Volumes, bool), CullError> {
+fn volumes(
+    strategy: Strategy,
+    rig: &StereoRig,
+    frame: u64,
+    p: &CullParams,
+) -> Result<(Volumes, bool), CullError> {
     // Frusta are always built: they validate every pose, FOV and distance,
     // so invalid input fails the same way for every strategy.
     let frusta = eye_frusta(rig, p)?;
@@ -267,7 +280,14 @@ impl Culler {
         bvh: &Bvh,
         params: &CullParams,
     ) -> Result<&CullOutput, CullError> {
-        self.run(strategy, rig, frame_index, bvh, params, strategy == Strategy::PerEyeBrute)
+        self.run(
+            strategy,
+            rig,
+            frame_index,
+            bvh,
+            params,
+            strategy == Strategy::PerEyeBrute,
+        )
     }
 
     /// Like [`Culler::cull`] but testing every instance without the
@@ -353,7 +373,11 @@ pub fn cull_flat(
 /// negatives: instance `i` is kept when its box intersects some eye's
 /// frustum (near plane, optional draw distance), decided by the separating
 /// axis test of [`Frustum::intersects_box_exact`]. Parallel, no hierarchy.
-pub fn exact_per_eye(rig: &StereoRig, bvh: &Bvh, params: &CullParams) -> Result<Vec<u32>, CullError> {
+pub fn exact_per_eye(
+    rig: &StereoRig,
+    bvh: &Bvh,
+    params: &CullParams,
+) -> Result<Vec<u32>, CullError> {
     let frusta = eye_frusta(rig, params)?;
     let inst = &bvh.instances;
     let kept: Vec<u32> = (0..bvh.len())
@@ -401,5 +425,9 @@ pub fn compare(visible: &[u32], exact: &[u32]) -> (u64, u64) {
 /// World boxes `(min, max)` from centre points and half extents; a helper
 /// for tests and benches.
 pub fn boxes_from_centers(centers: &[DVec3], half: &[DVec3]) -> Vec<(DVec3, DVec3)> {
-    centers.iter().zip(half).map(|(c, h)| (*c - *h, *c + *h)).collect()
+    centers
+        .iter()
+        .zip(half)
+        .map(|(c, h)| (*c - *h, *c + *h))
+        .collect()
 }

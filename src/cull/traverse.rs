@@ -51,7 +51,11 @@ impl Marks {
         let n_chunks = self.words.div_ceil(WORDS);
         let counts: Vec<usize> = (0..n_chunks)
             .into_par_iter()
-            .map(|c| (c * WORDS..((c + 1) * WORDS).min(self.words)).map(|i| word(i).count_ones() as usize).sum())
+            .map(|c| {
+                (c * WORDS..((c + 1) * WORDS).min(self.words))
+                    .map(|i| word(i).count_ones() as usize)
+                    .sum()
+            })
             .collect();
         let total = counts.iter().sum();
         // Only growth is zero-filled; every kept element is overwritten.
@@ -155,7 +159,10 @@ fn run_task<V: Volume>(bvh: &Bvh, vol: &V, t: Task, marks: &Marks) -> u64 {
     // No rayon calls below, so this thread cannot pick up another task
     // while holding its slot.
     let mut slot = marks.slot();
-    let mut w = Writer { bits: &mut slot, tests: 0 };
+    let mut w = Writer {
+        bits: &mut slot,
+        tests: 0,
+    };
     match t {
         Task::Walk(node, mask) => walk(bvh, vol, node as usize, mask, &mut w),
         Task::Accept(node) => accept(bvh, node as usize, &mut w),
@@ -195,7 +202,10 @@ pub fn traverse<V: Volume>(bvh: &Bvh, vol: &V, marks: &Marks) -> u64 {
     let tests: u64 = if threads == 1 {
         tasks.iter().map(|t| run_task(bvh, vol, *t, marks)).sum()
     } else {
-        tasks.par_iter().map(|t| run_task(bvh, vol, *t, marks)).sum()
+        tasks
+            .par_iter()
+            .map(|t| run_task(bvh, vol, *t, marks))
+            .sum()
     };
     tests + serial_tests
 }

@@ -37,14 +37,28 @@ pub fn angle_between(a: DVec3, b: DVec3) -> f64 {
 }
 
 impl Cone {
-    fn new(apex: DVec3, axis: DVec3, half_angle: f64, ball: Option<(DVec3, f64)>) -> Result<Cone, VolumeError> {
+    fn new(
+        apex: DVec3,
+        axis: DVec3,
+        half_angle: f64,
+        ball: Option<(DVec3, f64)>,
+    ) -> Result<Cone, VolumeError> {
         if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < MAX_HALF_ANGLE) {
-            return Err(VolumeError::NoCombinedVolume(format!("cone half-angle {half_angle} rad is not below 90°")));
+            return Err(VolumeError::NoCombinedVolume(format!(
+                "cone half-angle {half_angle} rad is not below 90°"
+            )));
         }
         if !apex.is_finite() || !axis.is_finite() {
             return Err(VolumeError::NoCombinedVolume("non-finite cone".into()));
         }
-        Ok(Cone { apex, axis, half_angle, cos: half_angle.cos(), sin: half_angle.sin(), ball })
+        Ok(Cone {
+            apex,
+            axis,
+            half_angle,
+            cos: half_angle.cos(),
+            sin: half_angle.sin(),
+            ball,
+        })
     }
 
     /// The cone of one eye: apex at the eye, axis the best of a few
@@ -60,7 +74,8 @@ impl Cone {
         let [tl, tr, tu, td] = checked_tangents(&view.fov)?;
         validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
         let q = view.pose.orientation.normalize();
-        let rays = [(tl, td), (tr, td), (tr, tu), (tl, tu)].map(|(x, y)| q * DVec3::new(x, y, -1.0));
+        let rays =
+            [(tl, td), (tr, td), (tr, tu), (tl, tu)].map(|(x, y)| q * DVec3::new(x, y, -1.0));
         // Candidate axes: the centre of the tangent rectangle (tight for
         // moderate FOVs), the mean corner direction, and the view axis
         // (always within 90° of every corner, so a cone always exists).
@@ -75,9 +90,20 @@ impl Cone {
             .filter(|a| a.length() > 1e-12)
             .map(|a| {
                 let a = a.normalize();
-                (a, rays.iter().map(|r| angle_between(a, *r)).fold(0.0, f64::max))
+                (
+                    a,
+                    rays.iter()
+                        .map(|r| angle_between(a, *r))
+                        .fold(0.0, f64::max),
+                )
             })
-            .fold((q * DVec3::NEG_Z, f64::INFINITY), |best, c| if c.1 < best.1 { c } else { best });
+            .fold((q * DVec3::NEG_Z, f64::INFINITY), |best, c| {
+                if c.1 < best.1 {
+                    c
+                } else {
+                    best
+                }
+            });
         let reach = rays.iter().map(|r| r.length()).fold(0.0, f64::max);
         let ball = far.map(|f| (view.pose.position, f * reach));
         Cone::new(view.pose.position, axis, half + 1e-12, ball)
@@ -87,7 +113,11 @@ impl Cone {
     /// direction, the given half-angle. This is usually narrower than the FOV
     /// rectangle's cone, so it can reject what the frustum keeps; strategies
     /// using it report those misses as false negatives.
-    pub fn from_lens(view: &View, lens_half_angle: f64, far: Option<f64>) -> Result<Cone, VolumeError> {
+    pub fn from_lens(
+        view: &View,
+        lens_half_angle: f64,
+        far: Option<f64>,
+    ) -> Result<Cone, VolumeError> {
         view.pose.validate().map_err(VolumeError::InvalidPose)?;
         validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
         let axis = view.pose.orientation.normalize() * DVec3::NEG_Z;
@@ -110,7 +140,9 @@ impl Cone {
     /// surface. The distance ball is centred on `m` with radius
     /// `max_i(|a_i - m| + r_i)`.
     pub fn enclosing(cones: &[Cone]) -> Result<Cone, VolumeError> {
-        let first = cones.first().ok_or_else(|| VolumeError::NoCombinedVolume("no cones".into()))?;
+        let first = cones
+            .first()
+            .ok_or_else(|| VolumeError::NoCombinedVolume("no cones".into()))?;
         let (mut axis, mut theta) = (first.axis, first.half_angle);
         for c in &cones[1..] {
             let alpha = angle_between(axis, c.axis);

@@ -164,13 +164,22 @@ impl Frustum {
         let q = view.pose.orientation.normalize();
         let basis = DMat3::from_quat(q);
         let t = view.fov.tangents();
-        let mut planes = [Plane { normal: DVec3::ZERO, d: 0.0 }; 6];
+        let mut planes = [Plane {
+            normal: DVec3::ZERO,
+            d: 0.0,
+        }; 6];
         let fwd = -basis.z_axis;
         // Near plane: points with depth along -Z of at least `near`.
-        planes[0] = Plane { normal: fwd, d: -near };
+        planes[0] = Plane {
+            normal: fwd,
+            d: -near,
+        };
         for (i, n) in side_normals_view(t).into_iter().enumerate() {
             // Side planes pass through the apex (the origin), so d = 0.
-            planes[i + 1] = Plane { normal: basis * n, d: 0.0 };
+            planes[i + 1] = Plane {
+                normal: basis * n,
+                d: 0.0,
+            };
         }
         let mut len = 5;
         if let Some(f) = far {
@@ -178,7 +187,11 @@ impl Frustum {
             len = 6;
         }
         Ok(Frustum {
-            planes: PlaneSet { origin: view.pose.position, planes, len },
+            planes: PlaneSet {
+                origin: view.pose.position,
+                planes,
+                len,
+            },
             basis,
             tangents: t,
             near,
@@ -239,7 +252,14 @@ impl Frustum {
         let far_at = self.far.unwrap_or(unbounded_far.max(self.near * 2.0));
         let corners = self.corners_rel(far_at);
         let rays = self.corner_rays();
-        let edges = [rays[0], rays[1], rays[2], rays[3], self.basis.x_axis, self.basis.y_axis];
+        let edges = [
+            rays[0],
+            rays[1],
+            rays[2],
+            rays[3],
+            self.basis.x_axis,
+            self.basis.y_axis,
+        ];
         let box_axes = [DVec3::X, DVec3::Y, DVec3::Z];
         let c = (bmin + bmax) * 0.5;
         let e = (bmax - bmin) * 0.5;

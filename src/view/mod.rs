@@ -26,28 +26,51 @@ pub struct Fov {
 impl Fov {
     /// A symmetric FOV with the given horizontal and vertical half-angles.
     pub fn symmetric(half_h: f64, half_v: f64) -> Self {
-        Fov { left: -half_h, right: half_h, up: half_v, down: -half_v }
+        Fov {
+            left: -half_h,
+            right: half_h,
+            up: half_v,
+            down: -half_v,
+        }
     }
 
     /// Tangents of the four angles: (left, right, up, down), signed.
     pub fn tangents(&self) -> [f64; 4] {
-        [self.left.tan(), self.right.tan(), self.up.tan(), self.down.tan()]
+        [
+            self.left.tan(),
+            self.right.tan(),
+            self.up.tan(),
+            self.down.tan(),
+        ]
     }
 
     /// Checks that the angles are finite, inside (-90°, 90°) and that each
     /// pair spans a non-empty range.
     pub fn validate(&self) -> Result<(), String> {
         let lim = std::f64::consts::FRAC_PI_2;
-        for (name, a) in [("left", self.left), ("right", self.right), ("up", self.up), ("down", self.down)] {
+        for (name, a) in [
+            ("left", self.left),
+            ("right", self.right),
+            ("up", self.up),
+            ("down", self.down),
+        ] {
             if !a.is_finite() || a.abs() >= lim {
-                return Err(format!("fov.{name} = {a} is not an angle inside (-90°, 90°)"));
+                return Err(format!(
+                    "fov.{name} = {a} is not an angle inside (-90°, 90°)"
+                ));
             }
         }
         if self.right <= self.left {
-            return Err(format!("fov.right ({}) must be greater than fov.left ({})", self.right, self.left));
+            return Err(format!(
+                "fov.right ({}) must be greater than fov.left ({})",
+                self.right, self.left
+            ));
         }
         if self.up <= self.down {
-            return Err(format!("fov.up ({}) must be greater than fov.down ({})", self.up, self.down));
+            return Err(format!(
+                "fov.up ({}) must be greater than fov.down ({})",
+                self.up, self.down
+            ));
         }
         Ok(())
     }
@@ -65,7 +88,10 @@ pub struct Pose {
 
 impl Default for Pose {
     fn default() -> Self {
-        Pose { position: DVec3::ZERO, orientation: DQuat::IDENTITY }
+        Pose {
+            position: DVec3::ZERO,
+            orientation: DQuat::IDENTITY,
+        }
     }
 }
 
@@ -84,7 +110,10 @@ impl Pose {
         let q = DQuat::from_rotation_y(yaw.to_radians())
             * DQuat::from_rotation_x(pitch.to_radians())
             * DQuat::from_rotation_z(roll.to_radians());
-        Pose { position, orientation: q }
+        Pose {
+            position,
+            orientation: q,
+        }
     }
 
     /// Rejects poses the math cannot use: non-finite components or an
@@ -98,7 +127,10 @@ impl Pose {
             return Err(format!("pose orientation {q:?} is not finite"));
         }
         if (q.length() - 1.0).abs() > 1e-3 {
-            return Err(format!("pose orientation {q:?} is not a unit quaternion (norm {})", q.length()));
+            return Err(format!(
+                "pose orientation {q:?} is not a unit quaternion (norm {})",
+                q.length()
+            ));
         }
         Ok(())
     }
@@ -132,7 +164,13 @@ impl StereoRig {
     /// Builds world-space views from a head pose and per-eye poses given in
     /// head space.
     pub fn from_head(head: Pose, eyes: &[(Pose, Fov)]) -> StereoRig {
-        let views = eyes.iter().map(|(p, fov)| View { pose: head.compose(p), fov: *fov }).collect();
+        let views = eyes
+            .iter()
+            .map(|(p, fov)| View {
+                pose: head.compose(p),
+                fov: *fov,
+            })
+            .collect();
         StereoRig { head, views }
     }
 }

@@ -62,12 +62,16 @@ impl Superfrustum {
         let fwd_sum: DVec3 = eyes.iter().map(|e| -e.basis.z_axis).sum();
         let up_sum: DVec3 = eyes.iter().map(|e| e.basis.y_axis).sum();
         if fwd_sum.length() < 1e-9 {
-            return Err(VolumeError::NoCombinedVolume("eyes look in opposite directions".into()));
+            return Err(VolumeError::NoCombinedVolume(
+                "eyes look in opposite directions".into(),
+            ));
         }
         let fwd = fwd_sum.normalize();
         let up = up_sum - fwd * up_sum.dot(fwd);
         if up.length() < 1e-9 {
-            return Err(VolumeError::NoCombinedVolume("no common up direction".into()));
+            return Err(VolumeError::NoCombinedVolume(
+                "no common up direction".into(),
+            ));
         }
         let y = up.normalize();
         let z = -fwd;
@@ -75,11 +79,16 @@ impl Superfrustum {
         let basis = DMat3::from_cols(x, y, z);
 
         // Step 2: tangent rectangle over every eye's corner rays.
-        let (mut tl, mut tr, mut tu, mut td) = (f64::INFINITY, f64::NEG_INFINITY, f64::NEG_INFINITY, f64::INFINITY);
+        let (mut tl, mut tr, mut tu, mut td) = (
+            f64::INFINITY,
+            f64::NEG_INFINITY,
+            f64::NEG_INFINITY,
+            f64::INFINITY,
+        );
         for e in eyes {
             for r in e.corner_rays() {
                 let depth = r.dot(fwd);
-                if !(depth > MIN_FORWARD_COS * r.length()) {
+                if depth.is_nan() || depth <= MIN_FORWARD_COS * r.length() {
                     return Err(VolumeError::NoCombinedVolume(format!(
                         "a corner ray is {:.3}° from the combined forward (≥ 90°)",
                         (depth / r.length()).clamp(-1.0, 1.0).acos().to_degrees()
@@ -96,39 +105,73 @@ impl Superfrustum {
 
         // Rounding slack so touching boxes stay inside: 1 nm plus 1e-12 of
         // the rig's extent.
-        let extent = eyes.iter().map(|e| (e.apex() - origin).length()).fold(0.0, f64::max);
-        let far_extent = eyes.iter().filter_map(|e| e.far).fold(0.0, f64::max) * (1.0 + tl.abs().max(tr.abs()).max(tu.abs()).max(td.abs()));
+        let extent = eyes
+            .iter()
+            .map(|e| (e.apex() - origin).length())
+            .fold(0.0, f64::max);
+        let far_extent = eyes.iter().filter_map(|e| e.far).fold(0.0, f64::max)
+            * (1.0 + tl.abs().max(tr.abs()).max(tu.abs()).max(td.abs()));
         let pad = 1e-9 + 1e-12 * (extent + far_extent);
 
-        let mut planes = [Plane { normal: DVec3::ZERO, d: 0.0 }; 6];
+        let mut planes = [Plane {
+            normal: DVec3::ZERO,
+            d: 0.0,
+        }; 6];
         // Step 3: side planes pushed out over all apexes.
         for (i, n_view) in side_normals_view(tangents).into_iter().enumerate() {
             let n = basis * n_view;
-            let d = eyes.iter().map(|e| -n.dot(e.apex() - origin)).fold(f64::NEG_INFINITY, f64::max);
-            planes[i + 1] = Plane { normal: n, d: d + pad };
+            let d = eyes
+                .iter()
+                .map(|e| -n.dot(e.apex() - origin))
+                .fold(f64::NEG_INFINITY, f64::max);
+            planes[i + 1] = Plane {
+                normal: n,
+                d: d + pad,
+            };
         }
         // Step 4: near plane through the nearest near corner.
         let near_depth = eyes
             .iter()
-            .flat_map(|e| e.corner_rays().map(|r| fwd.dot(e.apex() - origin + r * e.near)))
+            .flat_map(|e| {
+                e.corner_rays()
+                    .map(|r| fwd.dot(e.apex() - origin + r * e.near))
+            })
             .fold(f64::INFINITY, f64::min);
-        planes[0] = Plane { normal: fwd, d: -near_depth + pad };
+        planes[0] = Plane {
+            normal: fwd,
+            d: -near_depth + pad,
+        };
         let mut len = 5;
         if eyes.iter().all(|e| e.far.is_some()) {
             let far_depth = eyes
                 .iter()
                 .flat_map(|e| {
                     let f = e.far.unwrap_or(0.0);
-                    e.corner_rays().map(move |r| fwd.dot(e.apex() - origin + r * f))
+                    e.corner_rays()
+                        .map(move |r| fwd.dot(e.apex() - origin + r * f))
                 })
                 .fold(f64::NEG_INFINITY, f64::max);
-            planes[5] = Plane { normal: -fwd, d: far_depth + pad };
+            planes[5] = Plane {
+                normal: -fwd,
+                d: far_depth + pad,
+            };
             len = 6;
         }
-        if planes[..len].iter().any(|p| !p.normal.is_finite() || !p.d.is_finite()) {
+        if planes[..len]
+            .iter()
+            .any(|p| !p.normal.is_finite() || !p.d.is_finite())
+        {
             return Err(VolumeError::NoCombinedVolume("non-finite plane".into()));
         }
-        Ok(Superfrustum { planes: PlaneSet { origin, planes, len }, basis, tangents })
+        Ok(Superfrustum {
+            planes: PlaneSet {
+                origin,
+                planes,
+                len,
+            },
+            basis,
+            tangents,
+        })
     }
 
     /// Distance behind the mean eye position, along the combined forward,
