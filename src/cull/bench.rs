@@ -49,6 +49,10 @@ pub struct CullBenchArgs {
     /// Largest number of instances per hierarchy leaf.
     #[arg(long, default_value_t = DEFAULT_LEAF_SIZE)]
     pub leaf_size: usize,
+    /// Randomly renumber the instances first (measures how much the
+    /// timings rely on instances being numbered in spatial order).
+    #[arg(long)]
+    pub shuffle: bool,
     /// Skip the exact per-eye comparison (false positives/negatives read 0).
     #[arg(long)]
     pub no_compare: bool,
@@ -240,6 +244,20 @@ pub fn stand_in_hall_layout(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
     out
 }
 
+/// A seeded Fisher–Yates permutation of `bounds`.
+fn shuffle(bounds: &[(DVec3, DVec3)], seed: u64) -> Vec<(DVec3, DVec3)> {
+    let mut v = bounds.to_vec();
+    let mut state = seed.wrapping_mul(0x2545_F491_4F6C_DD1D) | 1;
+    for i in (1..v.len()).rev() {
+        // xorshift64 (Marsaglia, 2003).
+        state ^= state << 13;
+        state ^= state >> 7;
+        state ^= state << 17;
+        v.swap(i, (state % (i as u64 + 1)) as usize);
+    }
+    v
+}
+
 fn percentile(sorted: &[f64], q: f64) -> f64 {
     if sorted.is_empty() {
         return 0.0;
@@ -250,7 +268,8 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
 
 /// Runs the bench on `bounds` with `eyes` (poses relative to the head, left
 /// first) in a pool of `args.threads` threads. Each frame computes exact
-/// per-eye culling once (untimed), then times every strategy on it.
+/// per-eye culling once (untimed), then times every strategy on it, in an
+/// order rotated frame by frame.
 pub fn run(
     args: &CullBenchArgs,
     bounds: &[(DVec3, DVec3)],
@@ -273,6 +292,13 @@ pub fn run(
         .num_threads(args.threads)
         .build()
         .map_err(|e| CullBenchError::Pool(e.to_string()))?;
+    let shuffled;
+    let bounds = if args.shuffle {
+        shuffled = shuffle(bounds, args.seed);
+        &shuffled[..]
+    } else {
+        bounds
+    };
     pool.install(|| {
         let params = CullParams {
             near: args.near,
@@ -303,7 +329,11 @@ pub fn run(
                 Some(exact_per_eye(&rig, &bvh, &params)?)
             };
             exact_total += exact.as_ref().map_or(0, |e| e.len() as u64);
-            for (k, &s) in strategies.iter().enumerate() {
+            // Rotate the order every frame so no strategy always runs on
+            // caches warmed (or flushed) by the same predecessor.
+            let m = strategies.len();
+            for k in (0..m).map(|j| (j + f as usize) % m) {
+                let s = strategies[k];
                 let t = Instant::now();
                 let out = cullers[k].cull(s, &rig, f, &bvh, &params)?;
                 times[k].push(t.elapsed().as_secs_f64() * 1e3);

@@ -65,7 +65,7 @@ impl SoaBounds {
     }
 
     /// Box `i` as (min, max).
-    #[inline]
+    #[inline(always)]
     pub fn get(&self, i: usize) -> (DVec3, DVec3) {
         (
             DVec3::new(self.min[0][i], self.min[1][i], self.min[2][i]),
