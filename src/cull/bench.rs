@@ -46,6 +46,10 @@ pub struct CullBenchArgs {
     /// Near plane in metres.
     #[arg(long, default_value_t = 0.05)]
     pub near: f64,
+    /// Half-angle (radians) of the lens-visible circle used by the conical
+    /// strategies instead of the cone around the FOV rectangle.
+    #[arg(long)]
+    pub lens_half_angle: Option<f64>,
     /// Largest number of instances per hierarchy leaf.
     #[arg(long, default_value_t = DEFAULT_LEAF_SIZE)]
     pub leaf_size: usize,

@@ -81,12 +81,12 @@ impl Volume for PlaneSet {
 
 /// Mask bit of the cone's lateral test.
 const CONE_SIDE: u8 = 1;
-/// Mask bit of the cone's distance ball.
-const CONE_BALL: u8 = 2;
+/// Mask bit of the cone's far plane.
+const CONE_FAR: u8 = 2;
 
 impl Volume for Cone {
     fn full_mask(&self) -> u8 {
-        CONE_SIDE | if self.ball.is_some() { CONE_BALL } else { 0 }
+        CONE_SIDE | if self.far.is_some() { CONE_FAR } else { 0 }
     }
 
     /// Node test: any box inside the node box has its circumscribed sphere
@@ -113,14 +113,14 @@ impl Volume for Cone {
                 m &= !CONE_SIDE;
             }
         }
-        if m & CONE_BALL != 0 {
-            if let Some((c, r)) = self.ball {
-                let dist = (d + (self.apex - c)).length();
-                if dist - big > r + slack {
+        if m & CONE_FAR != 0 {
+            if let Some(f) = self.far {
+                let h = f.normal.dot(d);
+                if h - big > f.depth + slack {
                     return Class::Outside;
                 }
-                if dist + big <= r - slack {
-                    m &= !CONE_BALL;
+                if h + big <= f.depth - slack {
+                    m &= !CONE_FAR;
                 }
             }
         }
@@ -140,9 +140,9 @@ impl Volume for Cone {
         if mask & CONE_SIDE != 0 && self.surface_bound(d) > r + slack {
             return false;
         }
-        if mask & CONE_BALL != 0 {
-            if let Some((c, br)) = self.ball {
-                if (d + (self.apex - c)).length() - r > br + slack {
+        if mask & CONE_FAR != 0 {
+            if let Some(f) = self.far {
+                if f.normal.dot(d) - r > f.depth + slack {
                     return false;
                 }
             }

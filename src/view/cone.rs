@@ -12,7 +12,36 @@ use super::View;
 /// useless for culling; building one fails instead.
 const MAX_HALF_ANGLE: f64 = std::f64::consts::FRAC_PI_2 - 1e-7;
 
-/// A convex circular cone with an optional bounding ball for distance culling.
+/// The far end of a cone's culled volume: the volume is the cone cut by the
+/// plane `normal · (x - apex) = depth`, and its far face lies within the
+/// disk (`center`, `radius`) in that plane. The disk lets an enclosing cone
+/// bound how far the cut volume reaches along another direction.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FarCap {
+    /// Unit normal of the far plane, pointing away from the apex.
+    pub normal: DVec3,
+    /// Distance of the far plane from the apex along `normal`.
+    pub depth: f64,
+    /// World centre of a disk in the far plane containing the far face.
+    pub center: DVec3,
+    /// Radius of that disk.
+    pub radius: f64,
+}
+
+impl FarCap {
+    /// Largest extent along unit `a`, relative to `origin`, of the convex
+    /// hull of `apex` and this cap: a linear function on a hull peaks at the
+    /// apex or on the disk, where it peaks at
+    /// `a · center + radius · |a - (a · n) n|`.
+    pub fn reach_along(&self, a: DVec3, apex: DVec3, origin: DVec3) -> f64 {
+        let tangential = (a - self.normal * a.dot(self.normal)).length();
+        let disk = a.dot(self.center - origin) + self.radius * tangential;
+        disk.max(a.dot(apex - origin))
+    }
+}
+
+/// A convex circular cone, optionally cut by a far plane for distance
+/// culling.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct Cone {
     /// Apex in world space.
@@ -25,9 +54,9 @@ pub struct Cone {
     pub cos: f64,
     /// `sin(half_angle)`.
     pub sin: f64,
-    /// Distance culling ball (world centre, radius) containing the culled
-    /// volume; `None` when there is no draw distance.
-    pub ball: Option<(DVec3, f64)>,
+    /// Far plane of the culled volume; `None` when there is no draw
+    /// distance.
+    pub far: Option<FarCap>,
 }
 
 /// Angle between two non-zero vectors, accurate at small and large angles
@@ -41,7 +70,7 @@ impl Cone {
         apex: DVec3,
         axis: DVec3,
         half_angle: f64,
-        ball: Option<(DVec3, f64)>,
+        far: Option<FarCap>,
     ) -> Result<Cone, VolumeError> {
         if !(half_angle.is_finite() && half_angle > 0.0 && half_angle < MAX_HALF_ANGLE) {
             return Err(VolumeError::NoCombinedVolume(format!(
@@ -57,7 +86,7 @@ impl Cone {
             half_angle,
             cos: half_angle.cos(),
             sin: half_angle.sin(),
-            ball,
+            far,
         })
     }
 
@@ -66,9 +95,9 @@ impl Cone {
     /// direction, view axis), half-angle the largest angle from that axis
     /// to a corner ray, so the cone contains the whole rectangular frustum
     /// (the four corner rays span it and a cone is convex). With a draw
-    /// distance `far` (depth along -Z) the frustum lies within
-    /// `far · max |corner ray|` of the apex (rays scaled to unit depth), which
-    /// becomes the distance ball.
+    /// distance `far` (depth along -Z) the cone is cut by the eye's far
+    /// plane, and the far face (the tangent rectangle scaled by `far`) is
+    /// bounded by the disk around the rectangle's centre through its corners.
     pub fn from_view(view: &View, far: Option<f64>) -> Result<Cone, VolumeError> {
         view.pose.validate().map_err(VolumeError::InvalidPose)?;
         let [tl, tr, tu, td] = checked_tangents(&view.fov)?;
@@ -104,9 +133,21 @@ impl Cone {
                     best
                 }
             });
-        let reach = rays.iter().map(|r| r.length()).fold(0.0, f64::max);
-        let ball = far.map(|f| (view.pose.position, f * reach));
-        Cone::new(view.pose.position, axis, half + 1e-12, ball)
+        let apex = view.pose.position;
+        let cap = far.map(|f| {
+            let center = q * DVec3::new(0.5 * (tl + tr), 0.5 * (tu + td), -1.0) * f;
+            let radius = rays
+                .iter()
+                .map(|r| (*r * f - center).length())
+                .fold(0.0, f64::max);
+            FarCap {
+                normal: q * DVec3::NEG_Z,
+                depth: f,
+                center: apex + center,
+                radius: radius * (1.0 + 1e-12),
+            }
+        });
+        Cone::new(apex, axis, half + 1e-12, cap)
     }
 
     /// The cone of the lens-visible circle: apex at the eye, axis the view
@@ -121,8 +162,14 @@ impl Cone {
         view.pose.validate().map_err(VolumeError::InvalidPose)?;
         validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
         let axis = view.pose.orientation.normalize() * DVec3::NEG_Z;
-        let ball = far.map(|f| (view.pose.position, f / lens_half_angle.cos().max(1e-300)));
-        Cone::new(view.pose.position, axis, lens_half_angle, ball)
+        let apex = view.pose.position;
+        let cap = far.map(|f| FarCap {
+            normal: axis,
+            depth: f,
+            center: apex + axis * f,
+            radius: f * lens_half_angle.tan(),
+        });
+        Cone::new(apex, axis, lens_half_angle, cap)
     }
 
     /// One cone containing every cone in `cones` (the conical superfrustum).
@@ -137,8 +184,9 @@ impl Cone {
     /// mean apex `m` and recede along the axis by
     /// `t = max_i(ρ_i / tan θ - h_i, 0)`, where `h_i`, `ρ_i` are the axial and
     /// radial offsets of `a_i` from `m`, so each `a_i` sits on or inside the
-    /// surface. The distance ball is centred on `m` with radius
-    /// `max_i(|a_i - m| + r_i)`.
+    /// surface. With draw distances, the far plane is perpendicular to the
+    /// new axis, as deep as the farthest reach of any cut cone along it
+    /// ([`FarCap::reach_along`]).
     pub fn enclosing(cones: &[Cone]) -> Result<Cone, VolumeError> {
         let first = cones
             .first()
@@ -193,16 +241,23 @@ impl Cone {
             extent = extent.max(off.length());
         }
         let t = t + 1e-9 + 1e-12 * extent;
-        let ball = if cones.iter().all(|c| c.ball.is_some()) {
-            let r = cones
+        let apex = m - axis * t;
+        let cap = if cones.iter().all(|c| c.far.is_some()) {
+            let depth = cones
                 .iter()
-                .filter_map(|c| c.ball.map(|(bc, br)| (bc - m).length() + br))
+                .filter_map(|c| c.far.map(|f| f.reach_along(axis, c.apex, apex)))
                 .fold(0.0, f64::max);
-            Some((m, r * (1.0 + 1e-12) + 1e-9))
+            let depth = depth * (1.0 + 1e-12) + 1e-9;
+            Some(FarCap {
+                normal: axis,
+                depth,
+                center: apex + axis * depth,
+                radius: depth * theta.tan(),
+            })
         } else {
             None
         };
-        Cone::new(m - axis * t, axis, theta, ball)
+        Cone::new(apex, axis, theta, cap)
     }
 
     /// Signed distance bound of a camera-relative point `d` (from the apex)
@@ -220,15 +275,15 @@ impl Cone {
     }
 
     /// Keeps a sphere (camera-relative centre `d` from the apex, radius `r`)
-    /// unless it lies entirely outside a tangent plane or beyond the
-    /// distance ball. `slack` widens the test to absorb rounding.
+    /// unless it lies entirely outside a tangent plane or beyond the far
+    /// plane. `slack` widens the test to absorb rounding.
     #[inline]
     pub fn keeps_sphere(&self, world_center_minus_apex: DVec3, r: f64, slack: f64) -> bool {
         if self.surface_bound(world_center_minus_apex) > r + slack {
             return false;
         }
-        match self.ball {
-            Some((c, br)) => (world_center_minus_apex + (self.apex - c)).length() - r <= br + slack,
+        match self.far {
+            Some(f) => f.normal.dot(world_center_minus_apex) - r <= f.depth + slack,
             None => true,
         }
     }
