@@ -36,7 +36,7 @@ pub use bvh::{Bvh, BvhError};
 use traverse::{brute, traverse, Marks};
 
 /// Leaf size used by the bench and recommended for callers.
-pub const DEFAULT_LEAF_SIZE: usize = 8;
+pub const DEFAULT_LEAF_SIZE: usize = 16;
 
 /// A culling strategy, selectable by name (`--opt`, `--strategies`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash)]

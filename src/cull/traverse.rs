@@ -43,20 +43,29 @@ impl Marks {
     }
 
     /// Writes the kept instance indices, ascending, into `out` (replacing its
-    /// contents), in parallel over blocks of the bitset.
+    /// contents), in parallel over blocks of the bitset. Folds the other
+    /// slots into slot 0 on the way, so call [`Marks::reset`] before reuse.
     pub fn extract_into(&mut self, out: &mut Vec<u32>) {
         const WORDS: usize = 1024;
-        let slots: Vec<&Vec<u64>> = self.slots.iter_mut().map(|s| &*lock_mut(s)).collect();
-        let word = |i: usize| slots.iter().fold(0u64, |a, s| a | s[i]);
-        let n_chunks = self.words.div_ceil(WORDS);
-        let counts: Vec<usize> = (0..n_chunks)
-            .into_par_iter()
-            .map(|c| {
-                (c * WORDS..((c + 1) * WORDS).min(self.words))
-                    .map(|i| word(i).count_ones() as usize)
-                    .sum()
+        // Pass 1: fold every slot into slot 0 and count, per block of words.
+        let mut slots: Vec<&mut Vec<u64>> = self.slots.iter_mut().map(lock_mut).collect();
+        let (head, others) = slots.split_at_mut(1);
+        let others: Vec<&Vec<u64>> = others.iter().map(|s| &**s).collect();
+        let merged: &mut Vec<u64> = head[0];
+        let counts: Vec<usize> = merged
+            .par_chunks_mut(WORDS)
+            .enumerate()
+            .map(|(c, words)| {
+                let mut n = 0;
+                for (j, w) in words.iter_mut().enumerate() {
+                    let i = c * WORDS + j;
+                    *w = others.iter().fold(*w, |a, s| a | s[i]);
+                    n += w.count_ones() as usize;
+                }
+                n
             })
             .collect();
+        let merged: &Vec<u64> = merged;
         let total = counts.iter().sum();
         // Only growth is zero-filled; every kept element is overwritten.
         out.resize(total, 0);
@@ -67,26 +76,31 @@ impl Marks {
             pieces.push(head);
             rest = tail;
         }
-        pieces.into_par_iter().enumerate().for_each(|(ci, dst)| {
-            let mut k = 0;
-            for wi in ci * WORDS..((ci + 1) * WORDS).min(self.words) {
-                let base = (wi * 64) as u32;
-                let mut w = word(wi);
-                if w == u64::MAX {
-                    // Whole word visible: a straight run of 64 indices.
-                    for (j, d) in dst[k..k + 64].iter_mut().enumerate() {
-                        *d = base + j as u32;
+        // Pass 2: write the set bits' indices into each block's slice.
+        pieces
+            .into_par_iter()
+            .zip(merged.par_chunks(WORDS))
+            .enumerate()
+            .for_each(|(ci, (dst, words))| {
+                let mut k = 0;
+                for (j, &w) in words.iter().enumerate() {
+                    let base = ((ci * WORDS + j) * 64) as u32;
+                    let mut w = w;
+                    if w == u64::MAX {
+                        // Whole word visible: a straight run of 64 indices.
+                        for (j, d) in dst[k..k + 64].iter_mut().enumerate() {
+                            *d = base + j as u32;
+                        }
+                        k += 64;
+                        continue;
                     }
-                    k += 64;
-                    continue;
+                    while w != 0 {
+                        dst[k] = base + w.trailing_zeros();
+                        k += 1;
+                        w &= w - 1;
+                    }
                 }
-                while w != 0 {
-                    dst[k] = base + w.trailing_zeros();
-                    k += 1;
-                    w &= w - 1;
-                }
-            }
-        });
+            });
     }
 }
 
