@@ -5,7 +5,7 @@ use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
 use vergence::cull::bench::{builtin_eyes, head_path, stand_in_hall_layout};
-use vergence::cull::{cull, Bvh, CullParams, Strategy, DEFAULT_LEAF_SIZE};
+use vergence::cull::{Bvh, CullParams, Culler, Strategy, DEFAULT_LEAF_SIZE};
 use vergence::view::StereoRig;
 
 fn benches(c: &mut Criterion) {
@@ -23,8 +23,13 @@ fn benches(c: &mut Criterion) {
         Strategy::ConicalSuperfrustum,
         Strategy::PerEyeBrute,
     ] {
+        let mut culler = Culler::new();
         c.bench_function(&format!("cull_100k_{}", s.name()), |b| {
-            b.iter(|| cull(s, black_box(&rig), 0, &bvh, &params).map(|o| o.visible.len()))
+            b.iter(|| {
+                culler
+                    .cull(s, black_box(&rig), 0, &bvh, &params)
+                    .map(|o| o.visible.len())
+            })
         });
     }
 }
