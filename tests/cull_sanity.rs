@@ -1,7 +1,7 @@
 //! Basic orientation checks of the culling volumes.
 
 use glam::DVec3;
-use vergence::cull::bench::{builtin_eyes, head_path, stand_in_hall_layout};
+use vergence::cull::bench::builtin_eyes;
 use vergence::cull::{cull, exact_per_eye, Bvh, CullParams, Strategy};
 use vergence::view::{Pose, StereoRig};
 
@@ -37,31 +37,4 @@ fn front_kept_back_and_sides_rejected() {
         exact_per_eye(&rig, &bvh, &CullParams::default()).unwrap(),
         vec![0, 6]
     );
-}
-
-#[test]
-fn hall_fraction() {
-    let eyes = builtin_eyes(None).unwrap();
-    let boxes = stand_in_hall_layout(20000, 1);
-    let bvh = Bvh::build(&boxes, 4).unwrap();
-    for f in [0, 100, 300] {
-        let head = head_path(f, 1);
-        let rig = StereoRig::from_head(head, &eyes);
-        let e = exact_per_eye(&rig, &bvh, &CullParams::default()).unwrap();
-        let fwd = head.forward();
-        let naive = boxes
-            .iter()
-            .filter(|(a, b)| {
-                let c = (*a + *b) * 0.5 - head.position;
-                c.normalize().dot(fwd) > 0.0
-            })
-            .count();
-        println!(
-            "frame {f}: head {:?} fwd {:?} exact {} in-front-half {}",
-            head.position,
-            fwd,
-            e.len(),
-            naive
-        );
-    }
 }
