@@ -38,3 +38,39 @@ fn front_kept_back_and_sides_rejected() {
         vec![0, 6]
     );
 }
+
+#[test]
+fn superfrustum_apex_recedes_to_where_the_outer_planes_meet() {
+    use vergence::view::frustum::Frustum;
+    use vergence::view::superfrustum::Superfrustum;
+    use vergence::view::Fov;
+    // Everitt: symmetric eyes at ±ipd/2 with half-angle h meet on the axis
+    // (ipd/2) / tan h behind the eyes.
+    let (ipd, h) = (0.063, 0.96f64);
+    let eye = |x: f64| {
+        (
+            Pose {
+                position: DVec3::new(x, 0.0, 0.0),
+                ..Pose::default()
+            },
+            Fov::symmetric(h, 0.9),
+        )
+    };
+    let rig = StereoRig::from_head(Pose::default(), &[eye(-ipd / 2.0), eye(ipd / 2.0)]);
+    let fr: Vec<Frustum> = rig
+        .views
+        .iter()
+        .map(|v| Frustum::from_view(v, 0.05, None).unwrap())
+        .collect();
+    let sf = Superfrustum::enclosing(&fr).unwrap();
+    let expected = ipd / 2.0 / h.tan();
+    let got = sf.apex_recession().unwrap();
+    assert!((got - expected).abs() < 1e-6, "{got} vs {expected}");
+    for (a, b) in sf
+        .tangents
+        .iter()
+        .zip([-h.tan(), h.tan(), 0.9f64.tan(), -0.9f64.tan()])
+    {
+        assert!((a - b).abs() < 1e-12);
+    }
+}

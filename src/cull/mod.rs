@@ -83,7 +83,8 @@ impl Strategy {
     }
 
     /// True when the strategy may miss instances exact per-eye culling keeps
-    /// (only the round-robin strategies, and cones built from a lens circle).
+    /// by design (the round-robin strategies). The conical strategies can
+    /// miss too when `CullParams::lens_half_angle` narrows their cones.
     pub fn may_miss(&self) -> bool {
         matches!(self, Strategy::RoundRobin | Strategy::RoundRobinConical)
     }

@@ -5,7 +5,7 @@
 
 use glam::DVec3;
 
-use super::frustum::{checked_tangents, validate_clip, VolumeError};
+use super::frustum::{checked_tangents, VolumeError};
 use super::View;
 
 /// Half-angles at or above this (radians, just under 90°) make a cone
@@ -101,7 +101,7 @@ impl Cone {
     pub fn from_view(view: &View, far: Option<f64>) -> Result<Cone, VolumeError> {
         view.pose.validate().map_err(VolumeError::InvalidPose)?;
         let [tl, tr, tu, td] = checked_tangents(&view.fov)?;
-        validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
+        validate_far(far)?;
         let q = view.pose.orientation.normalize();
         let rays =
             [(tl, td), (tr, td), (tr, tu), (tl, tu)].map(|(x, y)| q * DVec3::new(x, y, -1.0));
@@ -160,7 +160,7 @@ impl Cone {
         far: Option<f64>,
     ) -> Result<Cone, VolumeError> {
         view.pose.validate().map_err(VolumeError::InvalidPose)?;
-        validate_clip(far.map_or(1.0, |f| f * 0.5), far)?;
+        validate_far(far)?;
         let axis = view.pose.orientation.normalize() * DVec3::NEG_Z;
         let apex = view.pose.position;
         let cap = far.map(|f| FarCap {
@@ -294,6 +294,15 @@ impl Cone {
         let d = (a + b) * 0.5;
         let r = (b - a).length() * 0.5;
         self.keeps_sphere(d, r, sphere_slack(d, r))
+    }
+}
+
+/// Cones start at the apex (no near plane); only the far distance, when
+/// given, must be a positive finite number.
+fn validate_far(far: Option<f64>) -> Result<(), VolumeError> {
+    match far {
+        Some(f) if !(f.is_finite() && f > 0.0) => Err(VolumeError::InvalidClip { near: 0.0, far }),
+        _ => Ok(()),
     }
 }
 
