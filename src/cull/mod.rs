@@ -24,7 +24,6 @@ pub mod volume;
 use std::fmt;
 use std::str::FromStr;
 
-use glam::DVec3;
 use rayon::prelude::*;
 
 use crate::view::cone::Cone;
@@ -421,14 +420,4 @@ pub fn compare(visible: &[u32], exact: &[u32]) -> (u64, u64) {
     fp += (visible.len() - i) as u64;
     fneg += (exact.len() - j) as u64;
     (fp, fneg)
-}
-
-/// World boxes `(min, max)` from centre points and half extents; a helper
-/// for tests and benches.
-pub fn boxes_from_centers(centers: &[DVec3], half: &[DVec3]) -> Vec<(DVec3, DVec3)> {
-    centers
-        .iter()
-        .zip(half)
-        .map(|(c, h)| (*c - *h, *c + *h))
-        .collect()
 }
