@@ -8,7 +8,7 @@
 
 use glam::{DMat3, DVec3};
 
-use super::{Fov, View};
+use super::{Fov, Pose, View};
 
 /// Errors raised while building view volumes.
 #[derive(Debug, Clone, PartialEq, thiserror::Error)]
@@ -158,12 +158,30 @@ impl Frustum {
     /// Builds the frustum of `view`; rejects NaN or non-unit poses, bad FOVs
     /// and bad clip distances.
     pub fn from_view(view: &View, near: f64, far: Option<f64>) -> Result<Frustum, VolumeError> {
-        view.pose.validate().map_err(VolumeError::InvalidPose)?;
         view.fov.validate().map_err(VolumeError::InvalidFov)?;
+        Frustum::from_tangents(&view.pose, view.fov.tangents(), near, far)
+    }
+
+    /// Builds the frustum from a pose and the signed tangents
+    /// `[left, right, up, down]` directly (as runtimes that report tangents
+    /// deliver them); rejects NaN or non-unit poses, non-finite or empty
+    /// tangent ranges and bad clip distances.
+    pub fn from_tangents(
+        pose: &Pose,
+        t: [f64; 4],
+        near: f64,
+        far: Option<f64>,
+    ) -> Result<Frustum, VolumeError> {
+        pose.validate().map_err(VolumeError::InvalidPose)?;
+        let [tl, tr, tu, td] = t;
+        if !t.iter().all(|x| x.is_finite()) || tr <= tl || tu <= td {
+            return Err(VolumeError::InvalidFov(format!(
+                "tangents {t:?} do not span a finite, non-empty range"
+            )));
+        }
         validate_clip(near, far)?;
-        let q = view.pose.orientation.normalize();
+        let q = pose.orientation.normalize();
         let basis = DMat3::from_quat(q);
-        let t = view.fov.tangents();
         let mut planes = [Plane {
             normal: DVec3::ZERO,
             d: 0.0,
@@ -188,7 +206,7 @@ impl Frustum {
         }
         Ok(Frustum {
             planes: PlaneSet {
-                origin: view.pose.position,
+                origin: pose.position,
                 planes,
                 len,
             },
