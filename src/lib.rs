@@ -12,6 +12,7 @@ pub mod view;
 pub use error::{Error, Result};
 pub mod bench;
 pub mod config;
+pub mod cull;
 pub mod gpu;
 pub mod render;
 pub mod targets;

@@ -8,7 +8,7 @@ use std::process::ExitCode;
 use vergence::config::{RenderConfig, StereoMode};
 use vergence::scene::Scene;
 use vergence::targets::headless::{self, RenderJob};
-use vergence::view::profile::DEFAULT_PROFILE;
+use vergence::view::profile::{HmdProfile, DEFAULT_PROFILE};
 use vergence::view::Pose;
 
 /// Stereo VR rendering of very large scenes, with measured stereo optimizations.
@@ -23,6 +23,8 @@ struct Cli {
 enum Command {
     /// Render one stereo frame headless into DIR/left.png, DIR/right.png and DIR/stats.json.
     Render(RenderArgs),
+    /// Time the stereo culling strategies on factory:N along a deterministic head path.
+    CullBench(vergence::cull::bench::CullBenchArgs),
     /// Print a scene's nodes, meshes, triangles, materials, textures, instances and bounds.
     Inspect {
         /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
@@ -53,7 +55,9 @@ struct RenderArgs {
     /// Per-eye height in pixels (default: the profile's).
     #[arg(long, requires = "width")]
     height: Option<u32>,
-    /// Comma-separated optimizations (e.g. multiview,two-pass,no-msaa).
+    /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa and a
+    /// culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
+    /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]
     opt: String,
     /// Output folder.
@@ -104,7 +108,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 msaa: a.msaa,
                 ..RenderConfig::default()
             };
-            config.apply_opts(&a.opt, &["none"])?;
+            config.apply_opts(&a.opt, &cull_names())?;
             let job = RenderJob {
                 scene: a.scene,
                 hmd: a.hmd,
@@ -150,10 +154,32 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
             }
         }
+        Command::CullBench(args) => cull_bench(&args)?,
         Command::Inspect { scene } => {
             let (s, ms) = headless::load_scene(&scene)?;
             inspect(&s, ms);
         }
+    }
+    Ok(())
+}
+
+/// Names `--opt` accepts for culling: `none` plus every strategy.
+fn cull_names() -> Vec<&'static str> {
+    std::iter::once("none")
+        .chain(vergence::cull::Strategy::ALL.iter().map(|s| s.name()))
+        .collect()
+}
+
+fn cull_bench(args: &vergence::cull::bench::CullBenchArgs) -> anyhow::Result<()> {
+    let profile = HmdProfile::load(args.hmd.as_deref().unwrap_or(DEFAULT_PROFILE))?;
+    let scene = vergence::scene::factory::generate(args.instances, args.seed)?;
+    let bounds = scene.world_aabbs();
+    drop(scene);
+    let report = vergence::cull::bench::run(args, &bounds, &profile.eyes())?;
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print!("{}", report.to_table());
     }
     Ok(())
 }

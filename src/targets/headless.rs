@@ -2,6 +2,7 @@
 //! render` command.
 
 use crate::config::RenderConfig;
+use crate::cull::{Bvh, CullParams, CullStats, Culler, Strategy, DEFAULT_LEAF_SIZE};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
 use crate::render::{FloorKind, FrameStats, Renderer};
@@ -117,6 +118,8 @@ pub struct RenderStats {
     pub cpu_frame_ms: Percentiles,
     /// The floors at the same resolution and MSAA (measured when frames > 1).
     pub floor_gpu_ms: Option<Floors>,
+    /// Culling counters of the last frame (None without a culling strategy).
+    pub cull: Option<CullStats>,
 }
 
 /// Median and 95th percentile of a series.
@@ -201,11 +204,26 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let rig = profile.rig(job.pose);
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
+    let mut culling = CullState::new(&job.config, &scene)?;
     let mut all: Vec<FrameStats> = Vec::new();
+    let mut cull_ms = Vec::new();
+    let mut cull_stats = None;
     for i in 0..warmup + frames {
-        let f = renderer.render(&rig, None, i + 1 == warmup + frames)?;
+        let t = Instant::now();
+        let visible = culling
+            .as_mut()
+            .map(|c| c.cull(&rig, i as u64))
+            .transpose()?;
+        let ms = t.elapsed().as_secs_f64() * 1e3;
+        let f = renderer.render(
+            &rig,
+            visible.as_ref().map(|(v, _)| v.as_slice()),
+            i + 1 == warmup + frames,
+        )?;
         if i >= warmup {
             all.push(f);
+            cull_ms.push(ms);
+            cull_stats = visible.map(|(_, s)| s);
         }
     }
     let gpu_frame: Vec<f64> = all.iter().map(|f| f.gpu_ms.values().sum()).collect();
@@ -251,6 +269,10 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     save_png(&right, &job.out.join("right.png"))?;
     let mut cpu_ms = BTreeMap::new();
     cpu_ms.insert("load".to_string(), load_ms);
+    if let Some(c) = &culling {
+        cpu_ms.insert("bvh_build".to_string(), c.build_ms);
+        cpu_ms.insert("cull".to_string(), Percentiles::of(&cull_ms).median);
+    }
     cpu_ms.insert("batch".to_string(), frame.cpu_ms.batch);
     cpu_ms.insert("record".to_string(), frame.cpu_ms.record);
     cpu_ms.insert("submit".to_string(), frame.cpu_ms.submit);
@@ -280,6 +302,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         gpu_frame_ms: Percentiles::of(&gpu_frame),
         cpu_frame_ms: Percentiles::of(&cpu_frame),
         floor_gpu_ms,
+        cull: cull_stats,
     };
     drop(renderer);
     let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {
@@ -292,6 +315,52 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         message: e.to_string(),
     })?;
     Ok(stats)
+}
+
+/// Culling for `render`: the strategy from the configuration over a BVH of
+/// the scene's instance bounds.
+struct CullState {
+    strategy: Strategy,
+    bvh: Bvh,
+    culler: Culler,
+    params: CullParams,
+    build_ms: f64,
+}
+
+impl CullState {
+    fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
+        if config.cull == "none" {
+            return Ok(None);
+        }
+        let strategy: Strategy = config
+            .cull
+            .parse()
+            .map_err(|e| Error::config("--opt", format!("{e}")))?;
+        let t = Instant::now();
+        let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
+            .map_err(|e| Error::scene(&scene.name, e.to_string()))?;
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let params = CullParams {
+            near: config.near,
+            draw_distance: config.draw_distance,
+            ..CullParams::default()
+        };
+        Ok(Some(CullState {
+            strategy,
+            bvh,
+            culler: Culler::new(),
+            params,
+            build_ms,
+        }))
+    }
+
+    fn cull(&mut self, rig: &crate::view::StereoRig, frame: u64) -> Result<(Vec<u32>, CullStats)> {
+        let out = self
+            .culler
+            .cull(self.strategy, rig, frame, &self.bvh, &self.params)
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+        Ok((out.visible.clone(), out.stats))
+    }
 }
 
 /// Writes an RGBA image as PNG.

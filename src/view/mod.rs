@@ -2,8 +2,11 @@
 //! cones. Nothing here knows about Vulkan or OpenXR: every rig (a runtime, an
 //! HMD profile, a test) is expressed as poses plus four FOV angles per view.
 
+pub mod cone;
+pub mod frustum;
 pub mod profile;
 pub mod projection;
+pub mod superfrustum;
 
 use glam::{DQuat, DVec3};
 

@@ -169,8 +169,12 @@ impl HmdProfile {
 
     /// The stereo rig for a head pose in world space.
     pub fn rig(&self, head: Pose) -> StereoRig {
-        let eyes: Vec<(Pose, Fov)> = self.views.iter().map(|v| (v.pose, v.fov)).collect();
-        StereoRig::from_head(head, &eyes)
+        StereoRig::from_head(head, &self.eyes())
+    }
+
+    /// The views' eye poses (head space) and FOVs.
+    pub fn eyes(&self) -> Vec<(Pose, Fov)> {
+        self.views.iter().map(|v| (v.pose, v.fov)).collect()
     }
 
     /// Inter-pupillary distance: distance between the first two eye positions.
