@@ -11,7 +11,10 @@ use vergence::view::Pose;
 
 fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
     let out = std::env::temp_dir().join(format!("vergence-cull-{}-{name}", std::process::id()));
-    let config = RenderConfig { cull: cull.into(), ..RenderConfig::default() };
+    let config = RenderConfig {
+        cull: cull.into(),
+        ..RenderConfig::default()
+    };
     let job = RenderJob {
         scene: "factory:4000".into(),
         hmd: "valve-index".into(),
@@ -24,7 +27,10 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
     let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stats.validation_messages, 0);
     let load = |p: PathBuf| image::open(p).unwrap().to_rgba8();
-    (stats, [load(out.join("left.png")), load(out.join("right.png"))])
+    (
+        stats,
+        [load(out.join("left.png")), load(out.join("right.png"))],
+    )
 }
 
 #[test]
@@ -33,12 +39,24 @@ fn conservative_culling_keeps_the_image() {
     for strategy in ["per-eye", "superfrustum", "conical-superfrustum"] {
         let (culled, img) = job(strategy, strategy);
         let c = culled.cull.expect("cull stats present");
-        assert!(culled.instances_drawn < full.instances_drawn / 2, "{strategy}: {} of {}", culled.instances_drawn, full.instances_drawn);
-        assert_eq!(c.accepted, culled.instances_drawn, "{strategy}: every kept instance is drawn");
+        assert!(
+            culled.instances_drawn < full.instances_drawn / 2,
+            "{strategy}: {} of {}",
+            culled.instances_drawn,
+            full.instances_drawn
+        );
+        assert_eq!(
+            c.accepted, culled.instances_drawn,
+            "{strategy}: every kept instance is drawn"
+        );
         assert!(culled.cpu_ms.contains_key("cull") && culled.cpu_ms.contains_key("bvh_build"));
         for eye in 0..2 {
             let r = flip(&full_img[eye], &img[eye], DESKTOP_PPD).unwrap();
-            assert!(r.mean < 1e-3, "{strategy} eye {eye}: FLIP mean {} vs drawing everything", r.mean);
+            assert!(
+                r.mean < 1e-3,
+                "{strategy} eye {eye}: FLIP mean {} vs drawing everything",
+                r.mean
+            );
         }
     }
 }
@@ -48,19 +66,42 @@ fn every_strategy_name_is_accepted_by_opt() {
     let out = std::env::temp_dir().join(format!("vergence-opt-{}", std::process::id()));
     for s in vergence::cull::Strategy::ALL {
         let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
-            .args(["render", "--scene", "factory:200", "--width", "32", "--height", "32", "--opt"])
+            .args([
+                "render",
+                "--scene",
+                "factory:200",
+                "--width",
+                "32",
+                "--height",
+                "32",
+                "--opt",
+            ])
             .arg(format!("two-pass,{}", s.name()))
             .arg("--out")
             .arg(&out)
             .output()
             .unwrap();
-        assert!(status.status.success(), "{}: {}", s.name(), String::from_utf8_lossy(&status.stderr));
-        let stats: serde_json::Value = serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+        assert!(
+            status.status.success(),
+            "{}: {}",
+            s.name(),
+            String::from_utf8_lossy(&status.stderr)
+        );
+        let stats: serde_json::Value =
+            serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap())
+                .unwrap();
         assert_eq!(stats["config"]["cull"], s.name());
         assert_eq!(stats["config"]["stereo"], "two-pass");
     }
     let bad = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args(["render", "--scene", "factory:10", "--opt", "warp-speed", "--out"])
+        .args([
+            "render",
+            "--scene",
+            "factory:10",
+            "--opt",
+            "warp-speed",
+            "--out",
+        ])
         .arg(&out)
         .output()
         .unwrap();
