@@ -311,14 +311,7 @@ impl Renderer {
         let sky = words(spirv!("sky.frag"));
         let floor_vs = words(spirv!("floor.vert"));
         let flat = words(spirv!("flat.frag"));
-        let used = [
-            true,
-            true,
-            features.tangents,
-            features.uv0 || features.uv1,
-            features.uv1,
-            features.colors,
-        ];
+        let used = scene_gpu::used_streams(&features);
         let formats = [
             vk::Format::R32G32B32_SFLOAT,
             vk::Format::R32G32B32_SFLOAT,

@@ -33,6 +33,12 @@ pub const STREAMS: [(&str, u32); 6] = [
     ("color", 16),
 ];
 
+/// Which of [`STREAMS`] a scene with `f` needs; the others are bound to the
+/// defaults buffer at stride 0.
+pub fn used_streams(f: &SceneFeatures) -> [bool; 6] {
+    [true, true, f.tangents, f.uv0 || f.uv1, f.uv1, f.colors]
+}
+
 /// GPU copy of a scene.
 pub struct SceneGpu {
     /// One buffer per used vertex stream (None: bound to the default buffer).
@@ -128,14 +134,7 @@ impl SceneGpu {
     /// Uploads `scene`.
     pub fn new(ctx: &Context, scene: &Scene) -> Result<SceneGpu> {
         let features = scene.features();
-        let used = [
-            true,
-            true,
-            features.tangents,
-            features.uv0 || features.uv1,
-            features.uv1,
-            features.colors,
-        ];
+        let used = used_streams(&features);
         let mut data: [Vec<f32>; 6] = Default::default();
         let mut indices: Vec<u32> = Vec::new();
         let mut ranges = Vec::new();

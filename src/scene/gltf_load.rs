@@ -71,7 +71,7 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     };
     let mut textures = TextureCache::default();
     for m in gltf.document.materials() {
-        let mat = convert_material(&ctx, &gltf, &m, &mut textures, &mut scene.textures)?;
+        let mat = convert_material(&ctx, &m, &mut textures, &mut scene.textures)?;
         scene.materials.push(mat);
     }
     let default_material = scene.materials.len() as u32;
@@ -241,7 +241,6 @@ struct TextureCache {
 
 fn texture(
     ctx: &Ctx,
-    gltf: &gltf::Gltf,
     tex: gltf::Texture,
     tex_coord: u32,
     srgb: bool,
@@ -300,7 +299,6 @@ fn texture(
         rgba8: rgba.as_raw().clone(),
     });
     cache.map.insert((tex.index(), srgb), index);
-    let _ = gltf;
     Ok(TexRef {
         texture: index,
         tex_coord,
@@ -309,7 +307,6 @@ fn texture(
 
 fn convert_material(
     ctx: &Ctx,
-    gltf: &gltf::Gltf,
     m: &gltf::Material,
     cache: &mut TextureCache,
     out: &mut Vec<Texture>,
@@ -340,51 +337,26 @@ fn convert_material(
             mat.emissive = mat.emissive.map(|c| c * s as f32);
         }
     }
-    if let Some(t) = pbr.base_color_texture() {
-        mat.base_color_tex = Some(texture(
-            ctx,
-            gltf,
-            t.texture(),
-            t.tex_coord(),
-            true,
-            cache,
-            out,
-        )?);
-    }
-    if let Some(t) = pbr.metallic_roughness_texture() {
-        mat.metallic_roughness_tex = Some(texture(
-            ctx,
-            gltf,
-            t.texture(),
-            t.tex_coord(),
-            false,
-            cache,
-            out,
-        )?);
-    }
+    let mut load =
+        |t: gltf::Texture, coord: u32, srgb: bool| texture(ctx, t, coord, srgb, cache, out);
+    mat.base_color_tex = pbr
+        .base_color_texture()
+        .map(|t| load(t.texture(), t.tex_coord(), true))
+        .transpose()?;
+    mat.metallic_roughness_tex = pbr
+        .metallic_roughness_texture()
+        .map(|t| load(t.texture(), t.tex_coord(), false))
+        .transpose()?;
     if let Some(t) = m.normal_texture() {
-        mat.normal_tex = Some((
-            texture(ctx, gltf, t.texture(), t.tex_coord(), false, cache, out)?,
-            t.scale(),
-        ));
+        mat.normal_tex = Some((load(t.texture(), t.tex_coord(), false)?, t.scale()));
     }
     if let Some(t) = m.occlusion_texture() {
-        mat.occlusion_tex = Some((
-            texture(ctx, gltf, t.texture(), t.tex_coord(), false, cache, out)?,
-            t.strength(),
-        ));
+        mat.occlusion_tex = Some((load(t.texture(), t.tex_coord(), false)?, t.strength()));
     }
-    if let Some(t) = m.emissive_texture() {
-        mat.emissive_tex = Some(texture(
-            ctx,
-            gltf,
-            t.texture(),
-            t.tex_coord(),
-            true,
-            cache,
-            out,
-        )?);
-    }
+    mat.emissive_tex = m
+        .emissive_texture()
+        .map(|t| load(t.texture(), t.tex_coord(), true))
+        .transpose()?;
     Ok(mat)
 }
 
