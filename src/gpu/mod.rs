@@ -227,25 +227,37 @@ impl Context {
         }
     }
 
+    /// Creates a command pool on the graphics queue family with one primary
+    /// command buffer allocated from it.
+    pub fn command_pool(&self, what: &str) -> Result<(vk::CommandPool, vk::CommandBuffer)> {
+        let d = &self.device;
+        let info = vk::CommandPoolCreateInfo::default().queue_family_index(self.queue_family);
+        // SAFETY: plain object creation on a live device; the pool is
+        // destroyed if the allocation fails.
+        unsafe {
+            let pool = d
+                .create_command_pool(&info, None)
+                .vk(&format!("creating the {what} command pool"))?;
+            let alloc = vk::CommandBufferAllocateInfo::default()
+                .command_pool(pool)
+                .command_buffer_count(1);
+            match d.allocate_command_buffers(&alloc) {
+                Ok(cbs) => Ok((pool, cbs[0])),
+                Err(e) => {
+                    d.destroy_command_pool(pool, None);
+                    Err(e).vk(&format!("allocating the {what} command buffer"))
+                }
+            }
+        }
+    }
+
     /// Runs `record` in a one-time command buffer and waits for it.
     pub fn one_shot(&self, record: impl FnOnce(vk::CommandBuffer)) -> Result<()> {
         let d = &self.device;
         // SAFETY: creating, recording, submitting and waiting on objects of
         // this device; everything is destroyed before returning.
         unsafe {
-            let pool = d
-                .create_command_pool(
-                    &vk::CommandPoolCreateInfo::default().queue_family_index(self.queue_family),
-                    None,
-                )
-                .vk("creating an upload command pool")?;
-            let cb = d
-                .allocate_command_buffers(
-                    &vk::CommandBufferAllocateInfo::default()
-                        .command_pool(pool)
-                        .command_buffer_count(1),
-                )
-                .vk("allocating an upload command buffer")?[0];
+            let (pool, cb) = self.command_pool("upload")?;
             d.begin_command_buffer(
                 cb,
                 &vk::CommandBufferBeginInfo::default()

@@ -44,19 +44,7 @@ impl FrameRing {
         for i in 0..count.max(1) {
             // SAFETY: creating per-frame objects on a live device.
             unsafe {
-                let pool = d
-                    .create_command_pool(
-                        &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family),
-                        None,
-                    )
-                    .vk("creating a frame command pool")?;
-                let cmd = d
-                    .allocate_command_buffers(
-                        &vk::CommandBufferAllocateInfo::default()
-                            .command_pool(pool)
-                            .command_buffer_count(1),
-                    )
-                    .vk("allocating a frame command buffer")?[0];
+                let (pool, cmd) = ctx.command_pool("frame")?;
                 let fence = d
                     .create_fence(&vk::FenceCreateInfo::default(), None)
                     .vk("creating a frame fence")?;

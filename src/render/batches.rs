@@ -42,7 +42,12 @@ pub struct Batcher {
     centers: Vec<DVec3>,
     /// Triangles per primitive.
     tris: Vec<u32>,
+    /// Every instance index, for frames drawn without culling.
+    all: Vec<u32>,
+    /// Per-frame scratch, kept so a frame allocates nothing once warm.
     counts: Vec<u32>,
+    offsets: Vec<u32>,
+    blended: Vec<(f64, u32, u32)>,
 }
 
 /// A frame's draws and the visible buffer contents that feed them.
@@ -67,7 +72,7 @@ impl Batcher {
             mesh_slices.push((prims.len() as u32, m.primitives.len() as u32));
             prims.extend_from_slice(&m.primitives);
         }
-        let instance_prims = scene
+        let instance_prims: Vec<(u32, u32)> = scene
             .instances
             .iter()
             .map(|i| mesh_slices[i.mesh as usize])
@@ -100,9 +105,12 @@ impl Batcher {
             .map(|p| p.triangles() as u32)
             .collect();
         Batcher {
+            all: (0..instance_prims.len() as u32).collect(),
             instance_prims,
             prims,
             counts: vec![0; keys.len()],
+            offsets: vec![0; keys.len()],
+            blended: Vec::new(),
             keys,
             order,
             centers,
@@ -113,19 +121,18 @@ impl Batcher {
     /// Groups `visible` (instance indices; None = all) into draws. `eye` is
     /// the viewer position used to sort blended draws back to front.
     pub fn build(&mut self, visible: Option<&[u32]>, eye: DVec3, out: &mut Batches) {
+        let all = std::mem::take(&mut self.all);
+        self.group(visible.unwrap_or(&all), eye, out);
+        self.all = all;
+    }
+
+    fn group(&mut self, visible: &[u32], eye: DVec3, out: &mut Batches) {
         out.ids.clear();
         out.draws.clear();
         out.triangles = 0;
         self.counts.iter_mut().for_each(|c| *c = 0);
-        let all: Vec<u32>;
-        let visible = match visible {
-            Some(v) => v,
-            None => {
-                all = (0..self.instance_prims.len() as u32).collect();
-                &all
-            }
-        };
-        let mut blended: Vec<(f64, u32, u32)> = Vec::new();
+        let mut blended = std::mem::take(&mut self.blended);
+        blended.clear();
         for &i in visible {
             let (s, n) = self.instance_prims[i as usize];
             for &p in &self.prims[s as usize..(s + n) as usize] {
@@ -136,7 +143,7 @@ impl Batcher {
                 }
             }
         }
-        let mut offsets = vec![0u32; self.counts.len()];
+        let offsets = &mut self.offsets;
         let mut total = 0u32;
         for &p in &self.order {
             offsets[p as usize] = total;
@@ -163,7 +170,7 @@ impl Batcher {
             }
         }
         blended.sort_by(|a, b| b.0.total_cmp(&a.0));
-        for (_, p, i) in blended {
+        for &(_, p, i) in &blended {
             out.draws.push(Draw {
                 primitive: p,
                 first: out.ids.len() as u32,
@@ -173,6 +180,7 @@ impl Batcher {
             out.triangles += self.tris[p as usize] as u64;
         }
         out.instances_drawn = out.ids.len() as u64;
+        self.blended = blended;
     }
 }
 

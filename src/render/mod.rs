@@ -144,32 +144,25 @@ impl Renderer {
         let texture_count = scene_gpu.textures.len() as u32;
         let d = &ctx.device;
         let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let binding = |i: u32, ty, count: u32, stages| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i)
+                .descriptor_type(ty)
+                .descriptor_count(count)
+                .stage_flags(stages)
+        };
+        let storage = vk::DescriptorType::STORAGE_BUFFER;
         let bindings = [
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
-                .descriptor_type(vk::DescriptorType::UNIFORM_BUFFER)
-                .descriptor_count(1)
-                .stage_flags(stages),
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(1)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(1)
-                .stage_flags(stages),
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(2)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(1)
-                .stage_flags(stages),
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(3)
-                .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                .descriptor_count(1)
-                .stage_flags(stages),
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(4)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(texture_count)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT),
+            binding(0, vk::DescriptorType::UNIFORM_BUFFER, 1, stages),
+            binding(1, storage, 1, stages),
+            binding(2, storage, 1, stages),
+            binding(3, storage, 1, stages),
+            binding(
+                4,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                texture_count,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
         ];
         // SAFETY: plain object creation on a live device; objects are owned by
         // the renderer and destroyed in `Drop`.

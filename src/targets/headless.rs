@@ -215,11 +215,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
             .map(|c| c.cull(&rig, i as u64))
             .transpose()?;
         let ms = t.elapsed().as_secs_f64() * 1e3;
-        let f = renderer.render(
-            &rig,
-            visible.as_ref().map(|(v, _)| v.as_slice()),
-            i + 1 == warmup + frames,
-        )?;
+        let f = renderer.render(&rig, visible.map(|(v, _)| v), i + 1 == warmup + frames)?;
         if i >= warmup {
             all.push(f);
             cull_ms.push(ms);
@@ -354,12 +350,12 @@ impl CullState {
         }))
     }
 
-    fn cull(&mut self, rig: &crate::view::StereoRig, frame: u64) -> Result<(Vec<u32>, CullStats)> {
+    fn cull(&mut self, rig: &crate::view::StereoRig, frame: u64) -> Result<(&[u32], CullStats)> {
         let out = self
             .culler
             .cull(self.strategy, rig, frame, &self.bvh, &self.params)
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
-        Ok((out.visible.clone(), out.stats))
+        Ok((&out.visible, out.stats))
     }
 }
 
