@@ -50,6 +50,18 @@ pub enum Error {
     /// The GPU layer could not be set up (no loader, no device, missing feature).
     #[error("GPU: {0}")]
     Gpu(String),
+    /// No OpenXR runtime or headset is available (the `--xr auto` fallback
+    /// applies).
+    #[error("OpenXR unavailable: {0}")]
+    XrUnavailable(String),
+    /// An OpenXR call failed during a session.
+    #[error("OpenXR: {context}: {result}")]
+    Xr {
+        /// What vergence was doing.
+        context: String,
+        /// The OpenXR result code.
+        result: openxr::sys::Result,
+    },
     /// Writing an output file failed.
     #[error("{path}: cannot write: {message}")]
     Output {
@@ -78,6 +90,21 @@ impl Error {
             what: what.into(),
             message: message.into(),
         }
+    }
+}
+
+/// Adds context to an OpenXR result.
+pub trait XrContext<T> {
+    /// Wraps an `XrResult` error with what vergence was doing.
+    fn xr(self, context: &str) -> Result<T>;
+}
+
+impl<T> XrContext<T> for std::result::Result<T, openxr::sys::Result> {
+    fn xr(self, context: &str) -> Result<T> {
+        self.map_err(|result| Error::Xr {
+            context: context.to_string(),
+            result,
+        })
     }
 }
 

@@ -14,5 +14,7 @@ pub mod bench;
 pub mod config;
 pub mod cull;
 pub mod gpu;
+pub mod quit;
 pub mod render;
 pub mod targets;
+pub mod xr;

@@ -8,6 +8,7 @@ use std::process::ExitCode;
 use vergence::config::{RenderConfig, StereoMode};
 use vergence::scene::Scene;
 use vergence::targets::headless::{self, RenderJob};
+use vergence::targets::run::{RunArgs, XrMode};
 use vergence::view::profile::{HmdProfile, DEFAULT_PROFILE};
 use vergence::view::Pose;
 
@@ -23,6 +24,8 @@ struct Cli {
 enum Command {
     /// Render one stereo frame headless into DIR/left.png, DIR/right.png and DIR/stats.json.
     Render(RenderArgs),
+    /// Run the scene in a headset through OpenXR (or headless on an HMD profile).
+    Run(RunCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::cull::bench::CullBenchArgs),
     /// Print a scene's nodes, meshes, triangles, materials, textures, instances and bounds.
@@ -41,8 +44,12 @@ struct RenderArgs {
     #[arg(long, default_value = DEFAULT_PROFILE)]
     hmd: String,
     /// Head pose: x,y,z (metres), yaw, pitch, roll (degrees).
-    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true)]
+    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true, conflicts_with = "rig")]
     pose: Option<Pose>,
+    /// Render exactly the views in a rig.json (as `run --capture` writes it)
+    /// instead of the profile's eyes at --pose.
+    #[arg(long)]
+    rig: Option<PathBuf>,
     /// Stereo mode.
     #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
     stereo: StereoMode,
@@ -67,6 +74,48 @@ struct RenderArgs {
     /// (after 2 warm-up frames) and the clear / full-screen-triangle floors.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: u32,
+}
+
+#[derive(clap::Args)]
+struct RunCli {
+    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    #[arg(long, default_value = "factory")]
+    scene: String,
+    /// HMD profile used when running headless.
+    #[arg(long, default_value = DEFAULT_PROFILE)]
+    hmd_fallback: String,
+    /// auto: OpenXR if a runtime and headset are there, else headless;
+    /// openxr: OpenXR or an error; headless: no OpenXR.
+    #[arg(long, value_enum, default_value_t = XrMode::Auto)]
+    xr: XrMode,
+    /// Stop after N submitted frames.
+    #[arg(long)]
+    frames: Option<u64>,
+    /// Stop after T seconds.
+    #[arg(long)]
+    seconds: Option<f64>,
+    /// Write per-frame statistics as JSON.
+    #[arg(long)]
+    stats_out: Option<PathBuf>,
+    /// Stereo mode.
+    #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
+    stereo: StereoMode,
+    /// MSAA samples: 1 or 4.
+    #[arg(long, default_value_t = 4)]
+    msaa: u32,
+    /// Per-eye width (default: the runtime's recommended size or the profile's).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Per-eye height.
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Comma-separated optimizations, as for `render --opt`.
+    #[arg(long, default_value = "")]
+    opt: String,
+    /// Write the last frame (needs --frames) as DIR/left.png, DIR/right.png
+    /// and DIR/rig.json (the views it was rendered with).
+    #[arg(long)]
+    capture: Option<PathBuf>,
 }
 
 fn parse_pose(s: &str) -> Result<Pose, String> {
@@ -109,9 +158,23 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 ..RenderConfig::default()
             };
             config.apply_opts(&a.opt, &cull_names())?;
+            let rig = match &a.rig {
+                Some(path) => {
+                    let text = std::fs::read_to_string(path)
+                        .with_context(|| format!("{}: cannot read", path.display()))?;
+                    let file: vergence::view::RigFile = serde_json::from_str(&text)
+                        .with_context(|| format!("{}: not a rig file", path.display()))?;
+                    Some(
+                        file.rig()
+                            .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?,
+                    )
+                }
+                None => None,
+            };
             let job = RenderJob {
                 scene: a.scene,
                 hmd: a.hmd,
+                rig,
                 pose: a.pose.unwrap_or_else(default_pose),
                 config,
                 size: a.width.zip(a.height),
@@ -151,6 +214,44 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 anyhow::bail!(
                     "{} Vulkan validation messages (see log)",
                     stats.validation_messages
+                );
+            }
+        }
+        Command::Run(a) => {
+            let mut config = RenderConfig {
+                stereo: a.stereo,
+                msaa: a.msaa,
+                ..RenderConfig::default()
+            };
+            config.apply_opts(&a.opt, &cull_names())?;
+            let args = RunArgs {
+                scene: a.scene,
+                hmd_fallback: a.hmd_fallback,
+                xr: a.xr,
+                frames: a.frames,
+                seconds: a.seconds,
+                stats_out: a.stats_out,
+                config,
+                size: a.width.zip(a.height),
+                capture: a.capture,
+            };
+            let stats = vergence::targets::run::run(&args)?;
+            println!(
+                "ran {} {} on {}: {} frames submitted ({} missed display periods), GPU {:.3} ms median, CPU {:.3} ms median; {}",
+                stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
+                stats.mode,
+                stats.system,
+                stats.frames_submitted,
+                stats.missed_display_periods,
+                stats.summary.gpu_frame_ms.median,
+                stats.summary.cpu_frame_ms.median,
+                stats.exit
+            );
+            if stats.validation_messages + stats.xr_validation_messages > 0 {
+                anyhow::bail!(
+                    "{} Vulkan and {} OpenXR validation messages (see log)",
+                    stats.validation_messages,
+                    stats.xr_validation_messages
                 );
             }
         }

@@ -297,6 +297,7 @@ fn invalid_poses_are_rejected_and_nothing_is_culled() {
     bad.push(StereoRig {
         head: Pose::default(),
         views: vec![],
+        hidden_area: None,
     });
     for rig in &bad {
         for s in Strategy::ALL {

@@ -19,6 +19,7 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
         scene: "factory:4000".into(),
         hmd: "valve-index".into(),
         pose: Pose::from_euler_deg(DVec3::new(20.0, 1.7, -20.0), 30.0, 0.0, 0.0),
+        rig: None,
         config,
         size: Some((128, 128)),
         out: out.clone(),

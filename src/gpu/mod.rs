@@ -34,7 +34,13 @@ impl Validation {
     /// From `VERGENCE_VALIDATION` (`0`, `1`, `required`); default: on in
     /// debug builds when available, off in release builds.
     pub fn from_env() -> Validation {
-        match std::env::var("VERGENCE_VALIDATION").as_deref() {
+        Validation::from_var("VERGENCE_VALIDATION")
+    }
+
+    /// From the environment variable `name`, with the rules of
+    /// [`Validation::from_env`].
+    pub fn from_var(name: &str) -> Validation {
+        match std::env::var(name).as_deref() {
             Ok("0") | Ok("off") => Validation::Off,
             Ok("required") => Validation::Required,
             Ok(_) => Validation::IfAvailable,
@@ -90,10 +96,72 @@ pub struct Context {
     validation_enabled: bool,
 }
 
+/// Creates the Vulkan instance and device: directly ([`Direct`]) or through
+/// an OpenXR runtime (XR_KHR_vulkan_enable2), which adds what it needs to the
+/// create infos and picks the physical device.
+pub trait DeviceFactory {
+    /// Creates the instance from `info`.
+    fn create_instance(
+        &self,
+        entry: &ash::Entry,
+        info: &vk::InstanceCreateInfo,
+    ) -> Result<ash::Instance>;
+    /// The physical device that must be used, or None to choose freely.
+    fn required_physical_device(
+        &self,
+        instance: &ash::Instance,
+    ) -> Result<Option<vk::PhysicalDevice>>;
+    /// Creates the logical device from `info` on `pd`.
+    fn create_device(
+        &self,
+        entry: &ash::Entry,
+        instance: &ash::Instance,
+        pd: vk::PhysicalDevice,
+        info: &vk::DeviceCreateInfo,
+    ) -> Result<ash::Device>;
+}
+
+/// Plain `vkCreateInstance` / `vkCreateDevice` (headless rendering).
+pub struct Direct;
+
+impl DeviceFactory for Direct {
+    fn create_instance(
+        &self,
+        entry: &ash::Entry,
+        info: &vk::InstanceCreateInfo,
+    ) -> Result<ash::Instance> {
+        // SAFETY: all pointers in `info` reference data that outlives the call.
+        unsafe { entry.create_instance(info, None) }.vk("creating the Vulkan instance")
+    }
+
+    fn required_physical_device(
+        &self,
+        _instance: &ash::Instance,
+    ) -> Result<Option<vk::PhysicalDevice>> {
+        Ok(None)
+    }
+
+    fn create_device(
+        &self,
+        _entry: &ash::Entry,
+        instance: &ash::Instance,
+        pd: vk::PhysicalDevice,
+        info: &vk::DeviceCreateInfo,
+    ) -> Result<ash::Device> {
+        // SAFETY: `info` references locals alive for the call.
+        unsafe { instance.create_device(pd, info, None) }.vk("creating the Vulkan device")
+    }
+}
+
 impl Context {
     /// Creates a headless context (no surface) on the first suitable device;
     /// `VERGENCE_DEVICE=<index>` picks another.
     pub fn new_headless(validation: Validation) -> Result<Context> {
+        Context::new(validation, &Direct)
+    }
+
+    /// Creates a context whose instance and device come from `factory`.
+    pub fn new(validation: Validation, factory: &dyn DeviceFactory) -> Result<Context> {
         // SAFETY: loading the Vulkan loader library; failure is reported.
         let entry = unsafe { ash::Entry::load() }
             .map_err(|e| Error::Gpu(format!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver (e.g. mesa-vulkan-drivers)")))?;
@@ -157,9 +225,7 @@ impl Context {
         if has_debug_utils {
             info = info.push_next(&mut messenger_info);
         }
-        // SAFETY: all pointers in `info` reference locals that outlive the call.
-        let instance =
-            unsafe { entry.create_instance(&info, None) }.vk("creating the Vulkan instance")?;
+        let instance = factory.create_instance(&entry, &info)?;
         let debug = if has_debug_utils {
             let du = ash::ext::debug_utils::Instance::new(&entry, &instance);
             let info = vk::DebugUtilsMessengerCreateInfoEXT {
@@ -181,7 +247,7 @@ impl Context {
             validation_log,
             validation_enabled,
         };
-        let dev = ctx_partial.pick_device(has_debug_utils);
+        let dev = ctx_partial.pick_device(has_debug_utils, factory);
         match dev {
             Ok(c) => Ok(c),
             Err(e) => {
@@ -323,8 +389,13 @@ impl PartialInstance {
         }
     }
 
-    fn pick_device(&mut self, has_debug_utils: bool) -> Result<Context> {
+    fn pick_device(
+        &mut self,
+        has_debug_utils: bool,
+        factory: &dyn DeviceFactory,
+    ) -> Result<Context> {
         let inst = &self.instance;
+        let required = factory.required_physical_device(inst)?;
         // SAFETY: enumeration on a valid instance.
         let devices = unsafe { inst.enumerate_physical_devices() }.vk("enumerating GPUs")?;
         if devices.is_empty() {
@@ -343,7 +414,14 @@ impl PartialInstance {
                 .map(|(i, &pd)| (i, pd, unsafe { inst.get_physical_device_properties(pd) }))
                 .filter(|(_, _, p)| p.api_version >= vk::API_VERSION_1_3)
                 .collect();
-        if let Some(w) = wanted {
+        if let Some(r) = required {
+            candidates.retain(|(_, pd, _)| *pd == r);
+            if candidates.is_empty() {
+                return Err(Error::Gpu(
+                    "the GPU the OpenXR runtime asks for does not support Vulkan 1.3".into(),
+                ));
+            }
+        } else if let Some(w) = wanted {
             candidates.retain(|(i, _, _)| *i == w);
         }
         candidates.sort_by_key(|(_, _, p)| match p.device_type {
@@ -398,9 +476,7 @@ impl PartialInstance {
             .enabled_features(&features)
             .push_next(&mut e11)
             .push_next(&mut e13);
-        // SAFETY: create info references locals alive for the call.
-        let device =
-            unsafe { inst.create_device(pd, &dinfo, None) }.vk("creating the Vulkan device")?;
+        let device = factory.create_device(&self.entry, inst, pd, &dinfo)?;
         // SAFETY: the family/index pair was requested at device creation.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
         // SAFETY: valid physical device.

@@ -22,6 +22,10 @@ pub struct TargetViews {
     pub depth: vk::ImageView,
     /// Resolve target (None at 1 sample).
     pub resolve: Option<vk::ImageView>,
+    /// Depth resolve target (None at 1 sample or when depth is not kept).
+    pub depth_resolve: Option<vk::ImageView>,
+    /// Whether the depth contents must be stored (kept at 1 sample).
+    pub store_depth: bool,
 }
 
 /// One set of attachments (2 layers for multiview, 1 for an eye in two-pass).
@@ -32,6 +36,10 @@ pub struct AttachmentSet {
     pub depth: Image,
     /// Resolved (or directly rendered) colour.
     pub resolve: Image,
+    /// Resolved depth (kept depth at more than 1 sample).
+    pub depth_resolve: Option<Image>,
+    /// Whether the frame's depth is kept for output.
+    pub keep_depth: bool,
 }
 
 impl AttachmentSet {
@@ -40,6 +48,7 @@ impl AttachmentSet {
         extent: vk::Extent2D,
         samples: u32,
         layers: u32,
+        keep_depth: bool,
     ) -> Result<AttachmentSet> {
         let s = vk::SampleCountFlags::from_raw(samples);
         let transient = vk::ImageUsageFlags::TRANSIENT_ATTACHMENT;
@@ -67,16 +76,36 @@ impl AttachmentSet {
             None
         };
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let stored_depth = keep_depth && samples == 1;
         let depth = Image::new(
             ctx,
             &desc(
                 "depth-stencil",
                 ctx.caps.depth_format,
                 s,
-                vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT | transient,
+                if stored_depth {
+                    depth_usage | vk::ImageUsageFlags::TRANSFER_SRC
+                } else {
+                    depth_usage | transient
+                },
                 ds,
             ),
         )?;
+        let depth_resolve = if keep_depth && samples > 1 {
+            Some(Image::new(
+                ctx,
+                &desc(
+                    "depth resolve",
+                    ctx.caps.depth_format,
+                    vk::SampleCountFlags::TYPE_1,
+                    depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
+                    ds,
+                ),
+            )?)
+        } else {
+            None
+        };
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
         let resolve = Image::new(
             ctx,
@@ -92,7 +121,18 @@ impl AttachmentSet {
             color_msaa,
             depth,
             resolve,
+            depth_resolve,
+            keep_depth,
         })
+    }
+
+    /// The single-sample image holding this set's depth when it is kept.
+    pub fn depth_output(&self) -> Option<&Image> {
+        match &self.depth_resolve {
+            Some(d) => Some(d),
+            None if self.keep_depth => Some(&self.depth),
+            None => None,
+        }
     }
 
     /// The views of this set.
@@ -102,11 +142,15 @@ impl AttachmentSet {
                 color: c.view,
                 depth: self.depth.view,
                 resolve: Some(self.resolve.view),
+                depth_resolve: self.depth_resolve.as_ref().map(|d| d.view),
+                store_depth: false,
             },
             None => TargetViews {
                 color: self.resolve.view,
                 depth: self.depth.view,
                 resolve: None,
+                depth_resolve: None,
+                store_depth: self.keep_depth,
             },
         }
     }
@@ -117,6 +161,9 @@ impl AttachmentSet {
         }
         self.depth.destroy(ctx);
         self.resolve.destroy(ctx);
+        if let Some(d) = self.depth_resolve {
+            d.destroy(ctx);
+        }
     }
 }
 
@@ -127,19 +174,21 @@ pub struct Attachments {
 }
 
 impl Attachments {
-    /// Creates the attachments for `extent` per eye with `samples` (1 or 4).
+    /// Creates the attachments for `extent` per eye with `samples` (1 or 4);
+    /// `keep_depth` keeps a single-sample copy of the frame's depth.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
         samples: u32,
         multiview: bool,
+        keep_depth: bool,
     ) -> Result<Attachments> {
         let sets = if multiview {
-            vec![AttachmentSet::new(ctx, extent, samples, 2)?]
+            vec![AttachmentSet::new(ctx, extent, samples, 2, keep_depth)?]
         } else {
             vec![
-                AttachmentSet::new(ctx, extent, samples, 1)?,
-                AttachmentSet::new(ctx, extent, samples, 1)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth)?,
             ]
         };
         Ok(Attachments { sets })
@@ -193,15 +242,21 @@ impl Attachments {
                 color_stage,
                 color_access,
             );
-            add(
-                &set.depth,
-                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
-                vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS,
-                vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
-                    | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE,
-            );
+            for d in std::iter::once(&set.depth).chain(&set.depth_resolve) {
+                add(
+                    d,
+                    vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                    vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+                        | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                    // Resolves are synchronized as colour attachment accesses.
+                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                        | vk::AccessFlags2::COLOR_ATTACHMENT_READ
+                        | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                );
+            }
         }
         out
     }

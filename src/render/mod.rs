@@ -95,6 +95,37 @@ pub enum FloorKind {
     FullscreenTriangle,
 }
 
+/// What a frame is delivered to besides the renderer's own targets (an
+/// OpenXR session's swapchains), fixed when the renderer is created.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OutputSpec {
+    /// Format of the colour images (copied when it is the renderer's own
+    /// format, blitted otherwise).
+    pub color_format: vk::Format,
+    /// Whether depth images receive the frame's depth (same format as the
+    /// renderer's depth).
+    pub depth: bool,
+}
+
+/// The images one frame is copied into: one per attachment set (a 2-layer
+/// image under multiview, one image per eye in two-pass). Colour images
+/// arrive and are left in COLOR_ATTACHMENT_OPTIMAL, depth images in
+/// DEPTH_STENCIL_ATTACHMENT_OPTIMAL, as XR_KHR_vulkan_enable2 requires.
+#[derive(Clone, Debug, Default)]
+pub struct FrameOutput {
+    /// Colour images, per set.
+    pub color: Vec<vk::Image>,
+    /// Depth images, per set (empty without a depth output).
+    pub depth: Vec<vk::Image>,
+}
+
+struct Pending {
+    stats: FrameStats,
+    queries: Queries,
+    batches: Batches,
+    cmd: vk::CommandBuffer,
+}
+
 /// The stereo renderer.
 pub struct Renderer {
     ctx: Arc<Context>,
@@ -118,6 +149,8 @@ pub struct Renderer {
     readback: Option<Buffer>,
     batcher: Batcher,
     batches: Batches,
+    output: Option<OutputSpec>,
+    pending: Option<Pending>,
 }
 
 impl Renderer {
@@ -127,6 +160,18 @@ impl Renderer {
         scene: &Scene,
         config: &RenderConfig,
         extent: vk::Extent2D,
+    ) -> Result<Renderer> {
+        Renderer::with_output(ctx, scene, config, extent, None)
+    }
+
+    /// Creates a renderer whose frames are also copied into images of
+    /// `output` (see [`Renderer::submit_frame`]).
+    pub fn with_output(
+        ctx: Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        output: Option<OutputSpec>,
     ) -> Result<Renderer> {
         config.validate()?;
         if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384
@@ -263,12 +308,15 @@ impl Renderer {
             readback: None,
             batcher,
             batches: Batches::default(),
+            output,
+            pending: None,
         };
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
             samples,
             config.stereo == StereoMode::Multiview,
+            output.is_some_and(|o| o.depth),
         )?);
         r.build_pipelines()?;
         for i in 0..FRAMES_IN_FLIGHT {
@@ -519,6 +567,13 @@ impl Renderer {
         visible: Option<&[u32]>,
         readback: bool,
     ) -> Result<FrameStats> {
+        self.record_frame(rig, visible)?;
+        self.submit_frame(None, readback)
+    }
+
+    /// Batches and records one stereo frame of `rig` (the command buffer
+    /// stays open); [`Renderer::submit_frame`] completes it.
+    pub fn record_frame(&mut self, rig: &StereoRig, visible: Option<&[u32]>) -> Result<()> {
         for v in &rig.views {
             v.pose
                 .validate()
@@ -529,6 +584,11 @@ impl Renderer {
             return Err(Error::config(
                 "views",
                 format!("the stereo renderer takes 2 views, got {}", rig.views.len()),
+            ));
+        }
+        if self.pending.is_some() {
+            return Err(Error::Gpu(
+                "a frame was recorded but never submitted".into(),
             ));
         }
         let mut stats = FrameStats::default();
@@ -559,11 +619,45 @@ impl Renderer {
             .expect("queries present until drop");
         queries.reset(&self.ctx, cmd);
         stats.draw_calls = self.record(cmd, &batches, &mut queries, None);
+        stats.cpu_ms.record = ms(t1, Instant::now());
+        self.pending = Some(Pending {
+            stats,
+            queries,
+            batches,
+            cmd,
+        });
+        Ok(())
+    }
+
+    /// Completes the recorded frame: copies it into `output` (the images of
+    /// the [`OutputSpec`] given at creation), optionally reads it back (from
+    /// `output` when given), submits, waits and returns the statistics.
+    pub fn submit_frame(
+        &mut self,
+        output: Option<&FrameOutput>,
+        readback: bool,
+    ) -> Result<FrameStats> {
+        let Some(Pending {
+            mut stats,
+            queries,
+            batches,
+            cmd,
+        }) = self.pending.take()
+        else {
+            return Err(Error::Gpu("submit_frame without a recorded frame".into()));
+        };
+        let t1 = Instant::now();
+        let slot = self.slot;
+        self.queries[slot] = Some(queries);
+        self.batches = batches;
+        if let Some(out) = output {
+            self.record_output(cmd, out)?;
+        }
         if readback {
-            self.record_readback(cmd)?;
+            self.record_readback(cmd, output)?;
         }
         let t2 = Instant::now();
-        stats.cpu_ms.record = ms(t1, t2);
+        stats.cpu_ms.record += ms(t1, t2);
         let submit = self
             .ring
             .as_mut()
@@ -571,6 +665,7 @@ impl Renderer {
             .submit(&self.ctx);
         let t3 = Instant::now();
         stats.cpu_ms.submit = ms(t2, t3);
+        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
         submit?;
         self.ring
             .as_mut()
@@ -578,14 +673,14 @@ impl Renderer {
             .wait_all(&self.ctx)?;
         let t4 = Instant::now();
         stats.cpu_ms.wait = ms(t3, t4);
+        let queries = self.queries[slot]
+            .as_ref()
+            .expect("queries present until drop");
         let (passes, pipeline) = queries.read(&self.ctx)?;
         for (name, ms) in passes {
             *stats.gpu_ms.entry(name.to_string()).or_insert(0.0) += ms;
         }
         stats.pipeline = pipeline;
-        self.queries[slot] = Some(queries);
-        self.batches = batches;
-        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
         Ok(stats)
     }
 
@@ -666,17 +761,29 @@ impl Renderer {
                         .resolve_image_view(r)
                         .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
                 }
-                let depth = vk::RenderingAttachmentInfo::default()
+                let mut depth = vk::RenderingAttachmentInfo::default()
                     .image_view(views.depth)
                     .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
                     .load_op(vk::AttachmentLoadOp::CLEAR)
-                    .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .store_op(if views.store_depth {
+                        vk::AttachmentStoreOp::STORE
+                    } else {
+                        vk::AttachmentStoreOp::DONT_CARE
+                    })
                     .clear_value(vk::ClearValue {
                         depth_stencil: vk::ClearDepthStencilValue {
                             depth: 0.0,
                             stencil: 0,
                         },
                     });
+                if let Some(r) = views.depth_resolve {
+                    // Sample zero: the one depth resolve every device has
+                    // (Vulkan 1.2 requires it for depth and stencil alike).
+                    depth = depth
+                        .resolve_mode(vk::ResolveModeFlags::SAMPLE_ZERO)
+                        .resolve_image_view(r)
+                        .resolve_image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+                }
                 let colors = [color];
                 let info = vk::RenderingInfo::default()
                     .render_area(vk::Rect2D {
@@ -821,7 +928,11 @@ impl Renderer {
         }
     }
 
-    fn record_readback(&mut self, cmd: vk::CommandBuffer) -> Result<()> {
+    fn record_readback(
+        &mut self,
+        cmd: vk::CommandBuffer,
+        output: Option<&FrameOutput>,
+    ) -> Result<()> {
         let (w, h) = (self.extent.width as u64, self.extent.height as u64);
         let size = w * h * 4 * 2;
         if self.readback.as_ref().is_none_or(|b| b.size < size) {
@@ -847,9 +958,22 @@ impl Renderer {
         let d = &self.ctx.device;
         let mut to_src = Vec::new();
         let mut copies = Vec::new();
+        let mut back = Vec::new();
         let mut offset = 0u64;
-        for set in &targets.sets {
+        for (i, set) in targets.sets.iter().enumerate() {
             let layers = set.resolve.layers;
+            let (image, old_layout, src_access) = match output.and_then(|o| o.color.get(i)) {
+                Some(&img) => (
+                    img,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    vk::AccessFlags2::TRANSFER_WRITE,
+                ),
+                None => (
+                    set.resolve.image,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+            };
             let range = vk::ImageSubresourceRange {
                 aspect_mask: vk::ImageAspectFlags::COLOR,
                 base_mip_level: 0,
@@ -859,15 +983,31 @@ impl Renderer {
             };
             to_src.push(
                 vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
-                    .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+                    .src_stage_mask(
+                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                            | vk::PipelineStageFlags2::ALL_TRANSFER,
+                    )
+                    .src_access_mask(src_access)
                     .dst_stage_mask(vk::PipelineStageFlags2::COPY)
                     .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)
-                    .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .old_layout(old_layout)
                     .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                    .image(set.resolve.image)
+                    .image(image)
                     .subresource_range(range),
             );
+            if output.is_some() {
+                back.push(
+                    vk::ImageMemoryBarrier2::default()
+                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                        .src_access_mask(vk::AccessFlags2::NONE)
+                        .dst_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+                        .dst_access_mask(vk::AccessFlags2::NONE)
+                        .old_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
+                        .new_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                        .image(image)
+                        .subresource_range(range),
+                );
+            }
             let copy = vk::BufferImageCopy::default()
                 .buffer_offset(offset)
                 .image_subresource(vk::ImageSubresourceLayers {
@@ -881,7 +1021,7 @@ impl Renderer {
                     height: h as u32,
                     depth: 1,
                 });
-            copies.push((set.resolve.image, copy));
+            copies.push((image, copy));
             offset += w * h * 4 * layers as u64;
         }
         let to_host = [vk::BufferMemoryBarrier2::default()
@@ -908,7 +1048,163 @@ impl Renderer {
             }
             d.cmd_pipeline_barrier2(
                 cmd,
-                &vk::DependencyInfo::default().buffer_memory_barriers(&to_host),
+                &vk::DependencyInfo::default()
+                    .buffer_memory_barriers(&to_host)
+                    .image_memory_barriers(&back),
+            );
+        }
+        Ok(())
+    }
+
+    /// Copies the resolved colour (and depth) of every set into `out`'s
+    /// images, leaving them in the attachment layouts the runtime expects.
+    fn record_output(&mut self, cmd: vk::CommandBuffer, out: &FrameOutput) -> Result<()> {
+        let spec = self
+            .output
+            .ok_or_else(|| Error::Gpu("the renderer was created without an output".into()))?;
+        let targets = self.targets.as_ref().expect("targets present until drop");
+        if out.color.len() != targets.sets.len()
+            || (spec.depth && out.depth.len() != targets.sets.len())
+        {
+            return Err(Error::Gpu(format!(
+                "frame output has {} colour / {} depth images for {} attachment sets",
+                out.color.len(),
+                out.depth.len(),
+                targets.sets.len()
+            )));
+        }
+        let ctx = self.ctx.clone();
+        let d = &ctx.device;
+        let (w, h) = (self.extent.width, self.extent.height);
+        let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let range = |aspect, layers| vk::ImageSubresourceRange {
+            aspect_mask: aspect,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: layers,
+        };
+        let barrier =
+            |image,
+             aspect,
+             layers,
+             from: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
+             to: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2)| {
+                vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(from.1)
+                    .src_access_mask(from.2)
+                    .dst_stage_mask(to.1)
+                    .dst_access_mask(to.2)
+                    .old_layout(from.0)
+                    .new_layout(to.0)
+                    .image(image)
+                    .subresource_range(range(aspect, layers))
+            };
+        let color_out = (
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        );
+        let depth_out = (
+            vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        );
+        let src = (
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            vk::PipelineStageFlags2::ALL_TRANSFER,
+            vk::AccessFlags2::TRANSFER_READ,
+        );
+        let dst = (
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            vk::PipelineStageFlags2::ALL_TRANSFER,
+            vk::AccessFlags2::TRANSFER_WRITE,
+        );
+        let discard = |l: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2)| {
+            (vk::ImageLayout::UNDEFINED, l.1, vk::AccessFlags2::NONE)
+        };
+        let mut before = Vec::new();
+        let mut after = Vec::new();
+        for (i, set) in targets.sets.iter().enumerate() {
+            let layers = set.resolve.layers;
+            let c = vk::ImageAspectFlags::COLOR;
+            before.push(barrier(set.resolve.image, c, layers, color_out, src));
+            before.push(barrier(out.color[i], c, layers, discard(color_out), dst));
+            after.push(barrier(out.color[i], c, layers, dst, color_out));
+            if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
+                before.push(barrier(depth.image, ds, layers, depth_out, src));
+                before.push(barrier(out.depth[i], ds, layers, discard(depth_out), dst));
+                after.push(barrier(out.depth[i], ds, layers, dst, depth_out));
+            }
+        }
+        // SAFETY: recording after the rendering scope into the open command
+        // buffer; the output images belong to the session and are acquired.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            );
+            for (i, set) in targets.sets.iter().enumerate() {
+                let layers = set.resolve.layers;
+                let sub = |aspect| vk::ImageSubresourceLayers {
+                    aspect_mask: aspect,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: layers,
+                };
+                let extent = vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                };
+                let c = vk::ImageAspectFlags::COLOR;
+                if spec.color_format == COLOR_FORMAT {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(sub(c))
+                        .dst_subresource(sub(c))
+                        .extent(extent);
+                    d.cmd_copy_image(
+                        cmd,
+                        set.resolve.image,
+                        src.0,
+                        out.color[i],
+                        dst.0,
+                        &[region],
+                    );
+                } else {
+                    let corner = vk::Offset3D {
+                        x: w as i32,
+                        y: h as i32,
+                        z: 1,
+                    };
+                    let region = vk::ImageBlit::default()
+                        .src_subresource(sub(c))
+                        .dst_subresource(sub(c))
+                        .src_offsets([vk::Offset3D::default(), corner])
+                        .dst_offsets([vk::Offset3D::default(), corner]);
+                    d.cmd_blit_image(
+                        cmd,
+                        set.resolve.image,
+                        src.0,
+                        out.color[i],
+                        dst.0,
+                        &[region],
+                        vk::Filter::NEAREST,
+                    );
+                }
+                if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(sub(vk::ImageAspectFlags::DEPTH))
+                        .dst_subresource(sub(vk::ImageAspectFlags::DEPTH))
+                        .extent(extent);
+                    d.cmd_copy_image(cmd, depth.image, src.0, out.depth[i], dst.0, &[region]);
+                }
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&after),
             );
         }
         Ok(())

@@ -24,6 +24,8 @@ pub struct RenderJob {
     pub hmd: String,
     /// Head pose.
     pub pose: Pose,
+    /// Exact views to render instead of the profile's eyes at `pose`.
+    pub rig: Option<crate::view::StereoRig>,
     /// Renderer configuration.
     pub config: RenderConfig,
     /// Per-eye size override (else the profile's resolution).
@@ -201,7 +203,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
     let mut renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
-    let rig = profile.rig(job.pose);
+    let rig = job.rig.clone().unwrap_or_else(|| profile.rig(job.pose));
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
     let mut culling = CullState::new(&job.config, &scene)?;
@@ -313,18 +315,20 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     Ok(stats)
 }
 
-/// Culling for `render`: the strategy from the configuration over a BVH of
+/// Culling for `render` and `run`: the strategy from the configuration over a BVH of
 /// the scene's instance bounds.
-struct CullState {
+pub struct CullState {
     strategy: Strategy,
     bvh: Bvh,
     culler: Culler,
     params: CullParams,
-    build_ms: f64,
+    /// Milliseconds the BVH build took.
+    pub build_ms: f64,
 }
 
 impl CullState {
-    fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
+    /// The culling `config` asks for over `scene` (None: `cull = "none"`).
+    pub fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
         if config.cull == "none" {
             return Ok(None);
         }
@@ -350,7 +354,13 @@ impl CullState {
         }))
     }
 
-    fn cull(&mut self, rig: &crate::view::StereoRig, frame: u64) -> Result<(&[u32], CullStats)> {
+    /// Culls for `rig` at frame number `frame`: the visible instance list
+    /// and the counters.
+    pub fn cull(
+        &mut self,
+        rig: &crate::view::StereoRig,
+        frame: u64,
+    ) -> Result<(&[u32], CullStats)> {
         let out = self
             .culler
             .cull(self.strategy, rig, frame, &self.bvh, &self.params)

@@ -1,4 +1,5 @@
-//! Where frames go: headless images (here), an OpenXR swapchain or a mirror
-//! window (later issues).
+//! Where frames go: headless images (`render`) and the application loop
+//! (`run`: an OpenXR session, or headless on an HMD profile).
 
 pub mod headless;
+pub mod run;

@@ -152,6 +152,18 @@ pub struct View {
     pub fov: Fov,
 }
 
+/// The part of one view the lens hides (XR_KHR_visibility_mask's
+/// `XR_VISIBILITY_MASK_TYPE_HIDDEN_TRIANGLE_MESH_KHR`): triangles whose
+/// vertices lie on the view's z = -1 plane, i.e. in tangent space, the same
+/// space as [`Fov::tangents`].
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct HiddenArea {
+    /// Vertices (x, y) on the z = -1 plane.
+    pub vertices: Vec<[f32; 2]>,
+    /// Triangle list indices into `vertices`.
+    pub indices: Vec<u32>,
+}
+
 /// A head and its views (left first), as delivered by a runtime or built
 /// from an HMD profile.
 #[derive(Clone, Debug, PartialEq)]
@@ -160,6 +172,96 @@ pub struct StereoRig {
     pub head: Pose,
     /// Per-view world poses and FOVs, left eye first.
     pub views: Vec<View>,
+    /// Per-view hidden-area meshes from the runtime (None: not offered).
+    pub hidden_area: Option<std::sync::Arc<Vec<HiddenArea>>>,
+}
+
+/// A rig as stored in `rig.json` (`vergence run --capture`), readable by
+/// `vergence render --rig`: world poses as position and (x, y, z, w)
+/// quaternion, FOV angles in radians.
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RigFile {
+    /// Head pose.
+    pub head: PoseFile,
+    /// Views, left first.
+    pub views: Vec<ViewFile>,
+}
+
+/// A pose in a [`RigFile`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PoseFile {
+    /// Position in metres.
+    pub position: [f64; 3],
+    /// Orientation quaternion (x, y, z, w).
+    pub orientation: [f64; 4],
+}
+
+/// A view in a [`RigFile`].
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ViewFile {
+    /// Eye pose in world space.
+    pub pose: PoseFile,
+    /// FOV angles.
+    pub fov: Fov,
+}
+
+impl From<&Pose> for PoseFile {
+    fn from(p: &Pose) -> PoseFile {
+        PoseFile {
+            position: p.position.to_array(),
+            orientation: p.orientation.to_array(),
+        }
+    }
+}
+
+impl PoseFile {
+    /// The pose, validated.
+    pub fn pose(&self) -> Result<Pose, String> {
+        let p = Pose {
+            position: DVec3::from_array(self.position),
+            orientation: DQuat::from_array(self.orientation),
+        };
+        p.validate()?;
+        Ok(p)
+    }
+}
+
+impl RigFile {
+    /// Of a rig.
+    pub fn of(rig: &StereoRig) -> RigFile {
+        RigFile {
+            head: PoseFile::from(&rig.head),
+            views: rig
+                .views
+                .iter()
+                .map(|v| ViewFile {
+                    pose: PoseFile::from(&v.pose),
+                    fov: v.fov,
+                })
+                .collect(),
+        }
+    }
+
+    /// The rig it describes, validated (finite unit poses, valid FOVs).
+    pub fn rig(&self) -> Result<StereoRig, String> {
+        let views = self
+            .views
+            .iter()
+            .enumerate()
+            .map(|(i, v)| {
+                v.fov.validate().map_err(|m| format!("view {i}: {m}"))?;
+                Ok(View {
+                    pose: v.pose.pose().map_err(|m| format!("view {i}: {m}"))?,
+                    fov: v.fov,
+                })
+            })
+            .collect::<Result<Vec<View>, String>>()?;
+        Ok(StereoRig {
+            head: self.head.pose().map_err(|m| format!("head: {m}"))?,
+            views,
+            hidden_area: None,
+        })
+    }
 }
 
 impl StereoRig {
@@ -173,7 +275,11 @@ impl StereoRig {
                 fov: *fov,
             })
             .collect();
-        StereoRig { head, views }
+        StereoRig {
+            head,
+            views,
+            hidden_area: None,
+        }
     }
 }
 

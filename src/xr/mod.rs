@@ -1,0 +1,1200 @@
+//! OpenXR (any conformant runtime): an instance with XR_KHR_vulkan_enable2,
+//! the Vulkan device made through the runtime, a session driven by the
+//! lifecycle in [`state`], swapchains the renderer's frames are copied into,
+//! and the frame loop in the order the spec asks for (OpenXR 1.0 §10.4):
+//! poll events → xrWaitFrame → xrBeginFrame → xrLocateViews at the predicted
+//! display time → cull → record → acquire and wait the swapchain images →
+//! submit → release → xrEndFrame.
+
+pub mod state;
+pub mod vulkan;
+pub mod watchdog;
+
+use crate::error::{Error, Result};
+use crate::gpu::{Context, Validation};
+use crate::render::{FrameOutput, OutputSpec, Renderer};
+use crate::targets::headless::{load_scene, CullState, SceneCounts};
+use crate::targets::run::{spawn_pose, write_capture, FrameRecord, RunArgs, RunStats, ViewInfo};
+use crate::view::{Fov, HiddenArea, Pose, StereoRig, View};
+use ash::vk;
+use ash::vk::Handle;
+use glam::{DQuat, DVec3};
+use openxr as xr;
+use openxr::sys;
+use state::{Action, QuitAction, SessionMachine, SessionState};
+use std::ffi::CStr;
+use std::sync::atomic::{AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use watchdog::Watchdog;
+
+/// The OpenXR core validation layer.
+pub const CORE_VALIDATION_LAYER: &str = "XR_APILAYER_LUNARG_core_validation";
+
+/// Longest an OpenXR call may block before the runtime counts as gone.
+const CALL_LIMIT: Duration = Duration::from_secs(4);
+
+/// Colour formats vergence can fill, in no order: the runtime's list decides.
+const SRGB_FORMATS: [vk::Format; 2] = [vk::Format::R8G8B8A8_SRGB, vk::Format::B8G8R8A8_SRGB];
+
+/// The first sRGB format in the runtime's preference-ordered list that the
+/// renderer can fill.
+pub fn choose_color_format(runtime_formats: &[vk::Format]) -> Option<vk::Format> {
+    runtime_formats
+        .iter()
+        .copied()
+        .find(|f| SRGB_FORMATS.contains(f))
+}
+
+/// Where the OpenXR loader looks for the active runtime, for messages.
+pub fn runtime_manifest_hint() -> String {
+    if let Ok(p) = std::env::var("XR_RUNTIME_JSON") {
+        let state = if std::path::Path::new(&p).exists() {
+            "exists"
+        } else {
+            "does not exist"
+        };
+        return format!("XR_RUNTIME_JSON={p} ({state})");
+    }
+    let home = std::env::var("XDG_CONFIG_HOME")
+        .ok()
+        .or_else(|| std::env::var("HOME").ok().map(|h| format!("{h}/.config")))
+        .unwrap_or_else(|| "~/.config".into());
+    let dirs = std::env::var("XDG_CONFIG_DIRS").unwrap_or_else(|_| "/etc/xdg".into());
+    let mut candidates = vec![format!("{home}/openxr/1/active_runtime.json")];
+    candidates.extend(
+        dirs.split(':')
+            .filter(|d| !d.is_empty())
+            .map(|d| format!("{d}/openxr/1/active_runtime.json")),
+    );
+    candidates.push("/etc/openxr/1/active_runtime.json".into());
+    match candidates.iter().find(|c| std::path::Path::new(c).exists()) {
+        Some(found) => format!("active runtime manifest {found}"),
+        None => format!(
+            "no active runtime manifest (XR_RUNTIME_JSON unset; looked for {})",
+            candidates.join(", ")
+        ),
+    }
+}
+
+fn unavailable(what: &str, r: sys::Result) -> Error {
+    Error::XrUnavailable(format!(
+        "{what} failed with {r}; {}",
+        runtime_manifest_hint()
+    ))
+}
+
+/// Wraps a failed OpenXR call; results that mean the runtime went away
+/// say so.
+fn xr_err(what: &str, r: sys::Result) -> Error {
+    let context = match r {
+        sys::Result::ERROR_INSTANCE_LOST
+        | sys::Result::ERROR_SESSION_LOST
+        | sys::Result::ERROR_RUNTIME_FAILURE => {
+            format!("{what} (the OpenXR runtime stopped or failed; the session cannot continue)")
+        }
+        _ => what.to_string(),
+    };
+    Error::Xr { context, result: r }
+}
+
+trait XrCall<T> {
+    fn call(self, what: &str) -> Result<T>;
+}
+
+impl<T> XrCall<T> for std::result::Result<T, sys::Result> {
+    fn call(self, what: &str) -> Result<T> {
+        self.map_err(|r| xr_err(what, r))
+    }
+}
+
+/// Counts OpenXR debug-utils warnings and errors (the core validation
+/// layer reports through it).
+#[derive(Default)]
+struct XrLog {
+    count: AtomicUsize,
+    first: Mutex<Vec<String>>,
+}
+
+unsafe extern "system" fn xr_debug_callback(
+    severity: sys::DebugUtilsMessageSeverityFlagsEXT,
+    _types: sys::DebugUtilsMessageTypeFlagsEXT,
+    data: *const sys::DebugUtilsMessengerCallbackDataEXT,
+    user: *mut std::ffi::c_void,
+) -> sys::Bool32 {
+    // SAFETY: the runtime passes valid callback data; `user` is the boxed
+    // log owned by the messenger guard, alive until the messenger is gone.
+    let (log, message) = unsafe {
+        let log = &*(user as *const XrLog);
+        let m = if data.is_null() || (*data).message.is_null() {
+            String::new()
+        } else {
+            CStr::from_ptr((*data).message)
+                .to_string_lossy()
+                .into_owned()
+        };
+        (log, m)
+    };
+    let bad = sys::DebugUtilsMessageSeverityFlagsEXT::WARNING
+        | sys::DebugUtilsMessageSeverityFlagsEXT::ERROR;
+    if severity.intersects(bad) {
+        log.count.fetch_add(1, Ordering::SeqCst);
+        tracing::error!("OpenXR validation: {message}");
+        if let Ok(mut f) = log.first.lock() {
+            if f.len() < 16 {
+                f.push(message);
+            }
+        }
+    } else {
+        tracing::debug!("OpenXR: {message}");
+    }
+    sys::FALSE
+}
+
+/// The debug-utils messenger and its log.
+struct Messenger {
+    instance: xr::Instance,
+    handle: sys::DebugUtilsMessengerEXT,
+    log: Box<XrLog>,
+}
+
+impl Messenger {
+    fn new(instance: &xr::Instance) -> Option<Messenger> {
+        let du = instance.exts().ext_debug_utils.as_ref()?;
+        let log = Box::<XrLog>::default();
+        let info = sys::DebugUtilsMessengerCreateInfoEXT {
+            ty: sys::DebugUtilsMessengerCreateInfoEXT::TYPE,
+            next: std::ptr::null(),
+            message_severities: sys::DebugUtilsMessageSeverityFlagsEXT::VERBOSE
+                | sys::DebugUtilsMessageSeverityFlagsEXT::INFO
+                | sys::DebugUtilsMessageSeverityFlagsEXT::WARNING
+                | sys::DebugUtilsMessageSeverityFlagsEXT::ERROR,
+            message_types: sys::DebugUtilsMessageTypeFlagsEXT::GENERAL
+                | sys::DebugUtilsMessageTypeFlagsEXT::VALIDATION
+                | sys::DebugUtilsMessageTypeFlagsEXT::PERFORMANCE
+                | sys::DebugUtilsMessageTypeFlagsEXT::CONFORMANCE,
+            user_callback: Some(xr_debug_callback),
+            user_data: &*log as *const XrLog as *mut std::ffi::c_void,
+        };
+        let mut handle = <sys::DebugUtilsMessengerEXT as sys::Handle>::NULL;
+        // SAFETY: valid instance and create info; the log box outlives the
+        // messenger (destroyed in Drop before the box).
+        let r = unsafe { (du.create_debug_utils_messenger)(instance.as_raw(), &info, &mut handle) };
+        if r.into_raw() < 0 {
+            tracing::warn!("cannot create the OpenXR debug messenger: {r}");
+            return None;
+        }
+        Some(Messenger {
+            instance: instance.clone(),
+            handle,
+            log,
+        })
+    }
+}
+
+impl Drop for Messenger {
+    fn drop(&mut self) {
+        if let Some(du) = self.instance.exts().ext_debug_utils.as_ref() {
+            // SAFETY: the messenger was created from this instance.
+            unsafe { (du.destroy_debug_utils_messenger)(self.handle) };
+        }
+    }
+}
+
+/// One swapchain and its images.
+struct Chain {
+    swapchain: xr::Swapchain<xr::Vulkan>,
+    images: Vec<vk::Image>,
+}
+
+impl Chain {
+    fn new(
+        session: &xr::Session<xr::Vulkan>,
+        format: vk::Format,
+        usage: xr::SwapchainUsageFlags,
+        extent: vk::Extent2D,
+        layers: u32,
+    ) -> Result<Chain> {
+        let swapchain = session
+            .create_swapchain(&xr::SwapchainCreateInfo {
+                create_flags: xr::SwapchainCreateFlags::EMPTY,
+                usage_flags: usage,
+                format: format.as_raw() as u32,
+                sample_count: 1,
+                width: extent.width,
+                height: extent.height,
+                face_count: 1,
+                array_size: layers,
+                mip_count: 1,
+            })
+            .call("xrCreateSwapchain")?;
+        let images = swapchain
+            .enumerate_images()
+            .call("xrEnumerateSwapchainImagesKHR")?
+            .into_iter()
+            .map(vk::Image::from_raw)
+            .collect();
+        Ok(Chain { swapchain, images })
+    }
+}
+
+/// Everything a session owns, declared in teardown order (Rust drops fields
+/// in declaration order): OpenXR handles first (swapchains, space, session,
+/// messenger, instance), then the renderer (which waits for the device to
+/// go idle before destroying its Vulkan objects); the Vulkan context, held
+/// by the caller, goes last.
+/// The watchdog is last so it also covers a teardown that blocks.
+struct Live {
+    color: Vec<Chain>,
+    depth: Vec<Chain>,
+    space: Option<xr::Space>,
+    stream: Option<xr::FrameStream<xr::Vulkan>>,
+    waiter: Option<xr::FrameWaiter>,
+    session: Option<xr::Session<xr::Vulkan>>,
+    messenger: Option<Messenger>,
+    instance: Option<xr::Instance>,
+    renderer: Option<Renderer>,
+    watchdog: Watchdog,
+}
+
+impl Drop for Live {
+    fn drop(&mut self) {
+        self.watchdog.arm("tearing down the OpenXR session");
+    }
+}
+
+fn pose_of(p: &xr::Posef) -> Pose {
+    Pose {
+        position: DVec3::new(
+            p.position.x as f64,
+            p.position.y as f64,
+            p.position.z as f64,
+        ),
+        orientation: DQuat::from_xyzw(
+            p.orientation.x as f64,
+            p.orientation.y as f64,
+            p.orientation.z as f64,
+            p.orientation.w as f64,
+        ),
+    }
+}
+
+fn fov_of(f: &xr::Fovf) -> Fov {
+    Fov {
+        left: f.angle_left as f64,
+        right: f.angle_right as f64,
+        up: f.angle_up as f64,
+        down: f.angle_down as f64,
+    }
+}
+
+/// Tracking-space views of one frame, with invalid ones replaced by the
+/// last valid view: a view counts as valid when the runtime flags both
+/// orientation and position valid and its numbers pass
+/// [`Pose::validate`] and [`Fov::validate`]. Returns None until every view
+/// was valid once, and whether any view was replaced.
+pub fn sanitize_views(
+    flags: xr::ViewStateFlags,
+    views: &[xr::View],
+    last_valid: &mut Vec<Option<(Pose, Fov, xr::View)>>,
+) -> (Option<Vec<(Pose, Fov, xr::View)>>, bool) {
+    last_valid.resize(views.len(), None);
+    let tracked = flags.contains(xr::ViewStateFlags::ORIENTATION_VALID)
+        && flags.contains(xr::ViewStateFlags::POSITION_VALID);
+    let mut replaced = false;
+    for (i, v) in views.iter().enumerate() {
+        let pose = pose_of(&v.pose);
+        let fov = fov_of(&v.fov);
+        if tracked && pose.validate().is_ok() && fov.validate().is_ok() {
+            let orientation = pose.orientation.normalize();
+            last_valid[i] = Some((
+                Pose {
+                    orientation,
+                    ..pose
+                },
+                fov,
+                *v,
+            ));
+        } else {
+            replaced = true;
+        }
+    }
+    let out: Option<Vec<_>> = last_valid.iter().copied().collect();
+    (out.filter(|v| !v.is_empty()), replaced)
+}
+
+/// The world-space rig of tracking-space views placed at `spawn`: the head
+/// sits between the eyes with the orientation halfway between theirs.
+pub fn world_rig(spawn: &Pose, views: &[(Pose, Fov)]) -> StereoRig {
+    let n = views.len().max(1) as f64;
+    let center = views.iter().map(|(p, _)| p.position).sum::<DVec3>() / n;
+    let orientation = match views {
+        [a, b, ..] => a.0.orientation.slerp(b.0.orientation, 0.5),
+        [a] => a.0.orientation,
+        [] => DQuat::IDENTITY,
+    };
+    let head = spawn.compose(&Pose {
+        position: center,
+        orientation,
+    });
+    StereoRig {
+        head,
+        views: views
+            .iter()
+            .map(|(p, f)| View {
+                pose: spawn.compose(p),
+                fov: *f,
+            })
+            .collect(),
+        hidden_area: None,
+    }
+}
+
+fn fetch_masks(session: &xr::Session<xr::Vulkan>, views: u32) -> Result<Vec<HiddenArea>> {
+    (0..views)
+        .map(|i| {
+            let m = session
+                .get_visibility_mask_khr(
+                    xr::ViewConfigurationType::PRIMARY_STEREO,
+                    i,
+                    xr::VisibilityMaskTypeKHR::HIDDEN_TRIANGLE_MESH,
+                )
+                .call("xrGetVisibilityMaskKHR")?;
+            Ok(HiddenArea {
+                vertices: m.vertices.iter().map(|v| [v.x, v.y]).collect(),
+                indices: m.indices,
+            })
+        })
+        .collect()
+}
+
+fn state_of(s: xr::SessionState) -> SessionState {
+    match s {
+        xr::SessionState::IDLE => SessionState::Idle,
+        xr::SessionState::READY => SessionState::Ready,
+        xr::SessionState::SYNCHRONIZED => SessionState::Synchronized,
+        xr::SessionState::VISIBLE => SessionState::Visible,
+        xr::SessionState::FOCUSED => SessionState::Focused,
+        xr::SessionState::STOPPING => SessionState::Stopping,
+        xr::SessionState::LOSS_PENDING => SessionState::LossPending,
+        xr::SessionState::EXITING => SessionState::Exiting,
+        _ => SessionState::Unknown,
+    }
+}
+
+/// Runs the scene in an OpenXR session until the runtime ends it, a quit
+/// is requested or the frame/time limit is reached (then it asks the
+/// runtime to exit and follows the session down to EXITING). `stats` is
+/// filled as the session goes. No runtime or headset is
+/// [`Error::XrUnavailable`].
+pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+    // SAFETY: loads the system's OpenXR loader, a conformant library.
+    let entry = unsafe { xr::Entry::load(&()) }.map_err(|e| {
+        Error::XrUnavailable(format!(
+            "cannot load the OpenXR loader libopenxr_loader.so.1 ({e}); install libopenxr-loader1 and a runtime"
+        ))
+    })?;
+    let available = entry
+        .enumerate_extensions()
+        .map_err(|r| unavailable("xrEnumerateInstanceExtensionProperties", r))?;
+    if !available.khr_vulkan_enable2 {
+        return Err(Error::XrUnavailable(format!(
+            "the OpenXR runtime does not offer XR_KHR_vulkan_enable2 ({})",
+            runtime_manifest_hint()
+        )));
+    }
+    let mut exts = xr::ExtensionSet::default();
+    exts.khr_vulkan_enable2 = true;
+    exts.khr_visibility_mask = available.khr_visibility_mask;
+    exts.khr_composition_layer_depth = available.khr_composition_layer_depth;
+    exts.ext_debug_utils = available.ext_debug_utils;
+    exts.fb_display_refresh_rate = available.fb_display_refresh_rate;
+    let foveation = available.fb_foveation
+        && available.fb_foveation_configuration
+        && available.fb_swapchain_update_state;
+    exts.fb_foveation = foveation;
+    exts.fb_foveation_configuration = foveation;
+    exts.fb_swapchain_update_state = foveation;
+    exts.fb_foveation_vulkan = foveation && available.fb_foveation_vulkan;
+    let layers = entry.enumerate_layers().unwrap_or_default();
+    let has_core = layers.iter().any(|l| l.layer_name == CORE_VALIDATION_LAYER);
+    let use_core = match Validation::from_var("VERGENCE_XR_VALIDATION") {
+        Validation::Off => false,
+        Validation::IfAvailable => has_core,
+        Validation::Required if has_core => true,
+        Validation::Required => {
+            return Err(Error::config(
+                "VERGENCE_XR_VALIDATION",
+                format!("{CORE_VALIDATION_LAYER} is required but not installed (apt-get install openxr-layer-corevalidation)"),
+            ))
+        }
+    };
+    let layer_names: Vec<&str> = if use_core {
+        vec![CORE_VALIDATION_LAYER]
+    } else {
+        Vec::new()
+    };
+    let app = xr::ApplicationInfo {
+        application_name: "vergence",
+        application_version: 1,
+        engine_name: "vergence",
+        engine_version: 1,
+        api_version: xr::Version::new(1, 0, 0),
+    };
+    let instance = entry
+        .create_instance(&app, &exts, &layer_names, &())
+        .map_err(|r| unavailable("xrCreateInstance", r))?;
+    let messenger = Messenger::new(&instance);
+    let props = instance.properties().call("xrGetInstanceProperties")?;
+    let system = instance
+        .system(xr::FormFactor::HEAD_MOUNTED_DISPLAY)
+        .map_err(|r| {
+            Error::XrUnavailable(format!(
+                "no headset: the runtime {} answers xrGetSystem with {r} (is the headset connected and on?)",
+                props.runtime_name
+            ))
+        })?;
+    let sys_props = instance
+        .system_properties(system)
+        .call("xrGetSystemProperties")?;
+    stats.mode = "openxr".into();
+    stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
+    stats.system = sys_props.system_name.clone();
+    stats.extensions_enabled = exts
+        .names()
+        .iter()
+        .map(|n| {
+            String::from_utf8_lossy(n)
+                .trim_end_matches('\0')
+                .to_string()
+        })
+        .collect();
+    stats.api_layers = layer_names.iter().map(|s| s.to_string()).collect();
+    tracing::info!(
+        "OpenXR runtime {} {}, system {}",
+        props.runtime_name,
+        props.runtime_version,
+        sys_props.system_name
+    );
+
+    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    let config_views = instance
+        .enumerate_view_configuration_views(system, view_type)
+        .call("xrEnumerateViewConfigurationViews")?;
+    if config_views.len() != 2 {
+        return Err(Error::config(
+            "view configuration",
+            format!(
+                "PRIMARY_STEREO has {} views; the renderer needs 2",
+                config_views.len()
+            ),
+        ));
+    }
+    stats.views = config_views
+        .iter()
+        .map(|v| ViewInfo {
+            recommended: [
+                v.recommended_image_rect_width,
+                v.recommended_image_rect_height,
+            ],
+            max: [v.max_image_rect_width, v.max_image_rect_height],
+            fov: None,
+        })
+        .collect();
+    let blend = instance
+        .enumerate_environment_blend_modes(system, view_type)
+        .call("xrEnumerateEnvironmentBlendModes")?
+        .first()
+        .copied()
+        .unwrap_or(xr::EnvironmentBlendMode::OPAQUE);
+    let reqs = instance
+        .graphics_requirements::<xr::Vulkan>(system)
+        .call("xrGetVulkanGraphicsRequirements2KHR")?;
+    let ours = xr::Version::new(1, 3, 0);
+    if reqs.min_api_version_supported > ours {
+        return Err(Error::Gpu(format!(
+            "the OpenXR runtime needs Vulkan {} or newer; vergence uses Vulkan 1.3",
+            reqs.min_api_version_supported
+        )));
+    }
+    if reqs.max_api_version_supported.major() < 1
+        || (reqs.max_api_version_supported.major() == 1
+            && reqs.max_api_version_supported.minor() < 3)
+    {
+        tracing::warn!(
+            "the runtime was tested up to Vulkan {}; vergence needs 1.3 and goes ahead",
+            reqs.max_api_version_supported
+        );
+    }
+    let (scene, _) = load_scene(&args.scene)?;
+    let ctx = Arc::new(Context::new(
+        Validation::from_env(),
+        &vulkan::XrDeviceFactory {
+            instance: &instance,
+            system,
+        },
+    )?);
+    stats.device = ctx.device_name.clone();
+    stats.driver = ctx.driver.clone();
+    stats.scene = Some(SceneCounts::of(&scene));
+
+    // SAFETY: the handles come from the context created through this
+    // runtime and outlive the session (see `Live`'s drop order).
+    let (session, waiter, stream) = unsafe {
+        instance.create_session::<xr::Vulkan>(
+            system,
+            &xr::vulkan::SessionCreateInfo {
+                instance: ctx.instance.handle().as_raw() as _,
+                physical_device: ctx.physical_device.as_raw() as _,
+                device: ctx.device.handle().as_raw() as _,
+                queue_family_index: ctx.queue_family,
+                queue_index: 0,
+            },
+        )
+    }
+    .call("xrCreateSession")?;
+    let mut live = Live {
+        color: Vec::new(),
+        depth: Vec::new(),
+        space: None,
+        stream: Some(stream),
+        waiter: Some(waiter),
+        session: Some(session.clone()),
+        messenger,
+        instance: Some(instance.clone()),
+        renderer: None,
+        watchdog: Watchdog::start(CALL_LIMIT),
+    };
+    let spaces = session
+        .enumerate_reference_spaces()
+        .call("xrEnumerateReferenceSpaces")?;
+    let space_type = if spaces.contains(&xr::ReferenceSpaceType::STAGE) {
+        xr::ReferenceSpaceType::STAGE
+    } else {
+        xr::ReferenceSpaceType::LOCAL
+    };
+    stats.reference_space = Some(
+        if space_type == xr::ReferenceSpaceType::STAGE {
+            "STAGE"
+        } else {
+            "LOCAL"
+        }
+        .into(),
+    );
+    let space = session
+        .create_reference_space(space_type, xr::Posef::IDENTITY)
+        .call("xrCreateReferenceSpace")?;
+    let formats: Vec<vk::Format> = session
+        .enumerate_swapchain_formats()
+        .call("xrEnumerateSwapchainFormats")?
+        .into_iter()
+        .map(|f| vk::Format::from_raw(f as i32))
+        .collect();
+    let color_format = choose_color_format(&formats).ok_or_else(|| {
+        Error::Gpu(format!(
+            "the runtime offers no sRGB colour format vergence can fill (offered: {formats:?})"
+        ))
+    })?;
+    let depth_format = (exts.khr_composition_layer_depth
+        && formats.contains(&ctx.caps.depth_format))
+    .then_some(ctx.caps.depth_format);
+    stats.color_format = Some(format!("{color_format:?}"));
+    stats.depth_format = depth_format.map(|f| format!("{f:?}"));
+    let extent = match args.size {
+        Some((w, h)) => vk::Extent2D {
+            width: w,
+            height: h,
+        },
+        None => vk::Extent2D {
+            width: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_width)
+                .max()
+                .unwrap_or(1),
+            height: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_height)
+                .max()
+                .unwrap_or(1),
+        },
+    };
+    stats.image_size = [extent.width, extent.height];
+    let multiview = args.config.stereo == crate::config::StereoMode::Multiview;
+    let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
+    let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+        | xr::SwapchainUsageFlags::TRANSFER_DST
+        | xr::SwapchainUsageFlags::TRANSFER_SRC;
+    for _ in 0..sets {
+        live.color.push(Chain::new(
+            &session,
+            color_format,
+            color_usage,
+            extent,
+            layers,
+        )?);
+        if let Some(df) = depth_format {
+            live.depth.push(Chain::new(
+                &session,
+                df,
+                xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | xr::SwapchainUsageFlags::TRANSFER_DST,
+                extent,
+                layers,
+            )?);
+        }
+    }
+    live.space = Some(space);
+    let renderer = Renderer::with_output(
+        ctx.clone(),
+        &scene,
+        &args.config,
+        extent,
+        Some(OutputSpec {
+            color_format,
+            depth: depth_format.is_some(),
+        }),
+    )?;
+    stats.config = renderer.config.clone();
+    live.renderer = Some(renderer);
+    let mut culling = CullState::new(&args.config, &scene)?;
+    let mut masks = if exts.khr_visibility_mask {
+        Some(Arc::new(fetch_masks(&session, 2)?))
+    } else {
+        None
+    };
+    stats.visibility_mask = masks
+        .iter()
+        .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
+        .collect();
+    let spawn = spawn_pose(
+        &scene,
+        &fov_of(&xr::Fovf {
+            angle_left: -0.8,
+            angle_right: 0.8,
+            angle_up: 0.8,
+            angle_down: -0.8,
+        }),
+    );
+
+    let result = frame_loop(
+        args,
+        stats,
+        &mut live,
+        &mut culling,
+        &mut masks,
+        &spawn,
+        blend,
+        depth_format.is_some(),
+        &args.config,
+    );
+    stats.validation_messages = ctx.validation_messages();
+    stats.xr_validation_messages = live
+        .messenger
+        .as_ref()
+        .map_or(0, |m| m.log.count.load(Ordering::SeqCst));
+    if stats.xr_validation_messages > 0 {
+        if let Some(m) = &live.messenger {
+            for line in m.log.first.lock().map(|f| f.clone()).unwrap_or_default() {
+                eprintln!("OpenXR validation: {line}");
+            }
+        }
+    }
+    // Teardown: OpenXR handles first (the session's last references go
+    // with `live`), then the renderer waits for the device and destroys its
+    // objects, then the context destroys device and instance.
+    drop(session);
+    drop(instance);
+    drop(live);
+    drop(ctx);
+    result
+}
+
+#[allow(clippy::too_many_arguments)]
+fn frame_loop(
+    args: &RunArgs,
+    stats: &mut RunStats,
+    live: &mut Live,
+    culling: &mut Option<CullState>,
+    masks: &mut Option<Arc<Vec<HiddenArea>>>,
+    spawn: &Pose,
+    blend: xr::EnvironmentBlendMode,
+    with_depth: bool,
+    config: &crate::config::RenderConfig,
+) -> Result<()> {
+    let instance = live.instance.clone().expect("set");
+    let session = live.session.clone().expect("set");
+    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    let mut machine = SessionMachine::default();
+    let mut buf = xr::EventDataBuffer::new();
+    let mut last_valid = Vec::new();
+    let started = Instant::now();
+    let mut index = 0u64;
+    let mut first_fov_recorded = false;
+    let result: Result<String> = 'main: loop {
+        if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
+            match machine.on_quit() {
+                QuitAction::RequestExit => {
+                    let _w = live.watchdog.watch("xrRequestExitSession");
+                    if let Err(e) = session.request_exit().call("xrRequestExitSession") {
+                        break 'main Err(e);
+                    }
+                }
+                QuitAction::Leave => break 'main Ok("quit before the session ran".into()),
+                QuitAction::Wait => {}
+            }
+        }
+        loop {
+            let event = {
+                let _w = live.watchdog.watch("xrPollEvent");
+                instance.poll_event(&mut buf).call("xrPollEvent")
+            };
+            let event = match event {
+                Ok(Some(e)) => e,
+                Ok(None) => break,
+                Err(e) => break 'main Err(e),
+            };
+            match event {
+                xr::Event::SessionStateChanged(e) => {
+                    let st = state_of(e.state());
+                    stats.states.push(format!("{st:?}").to_uppercase());
+                    tracing::info!("session state {st:?}");
+                    let action = machine.on_state(st);
+                    let done = match action {
+                        Action::Begin => {
+                            let _w = live.watchdog.watch("xrBeginSession");
+                            session.begin(view_type).call("xrBeginSession").map(|_| ())
+                        }
+                        Action::End => {
+                            let _w = live.watchdog.watch("xrEndSession");
+                            session.end().call("xrEndSession").map(|_| ())
+                        }
+                        Action::Exit => {
+                            machine.performed(action);
+                            break 'main Ok(if machine.exit_requested {
+                                "session exited after vergence asked to exit".into()
+                            } else {
+                                "the runtime ended the session".into()
+                            });
+                        }
+                        Action::Lost => {
+                            machine.performed(action);
+                            break 'main Err(xr_err(
+                                "the session is being lost (XR_SESSION_STATE_LOSS_PENDING)",
+                                sys::Result::ERROR_SESSION_LOST,
+                            ));
+                        }
+                        Action::None => Ok(()),
+                    };
+                    if let Err(e) = done {
+                        break 'main Err(e);
+                    }
+                    machine.performed(action);
+                }
+                xr::Event::InstanceLossPending(_) => {
+                    break 'main Err(xr_err(
+                        "the OpenXR instance is being lost (XrEventDataInstanceLossPending)",
+                        sys::Result::ERROR_INSTANCE_LOST,
+                    ));
+                }
+                xr::Event::EventsLost(e) => {
+                    stats.events_lost += e.lost_event_count() as u64;
+                    tracing::warn!(
+                        "the runtime's event queue overflowed: {} events lost",
+                        e.lost_event_count()
+                    );
+                }
+                xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, 2) {
+                    Ok(m) => {
+                        *masks = Some(Arc::new(m));
+                        stats.visibility_mask_refreshes += 1;
+                    }
+                    Err(e) => break 'main Err(e),
+                },
+                xr::Event::ReferenceSpaceChangePending(_) => {
+                    tracing::info!("the reference space is about to change (recentre)");
+                }
+                _ => {}
+            }
+        }
+        stats.focused = machine.was_focused();
+        if !machine.frames_due() {
+            std::thread::sleep(Duration::from_millis(5));
+            continue;
+        }
+        match one_frame(
+            live,
+            stats,
+            args,
+            culling,
+            masks,
+            spawn,
+            blend,
+            with_depth,
+            config,
+            index,
+            &mut last_valid,
+            &mut first_fov_recorded,
+        ) {
+            Ok(()) => index += 1,
+            Err(e) => break 'main Err(e),
+        }
+    };
+    stats.duration_s = started.elapsed().as_secs_f64();
+    stats.focused = machine.was_focused();
+    match result {
+        Ok(reason) => {
+            stats.exit = reason;
+            Ok(())
+        }
+        Err(e) => {
+            stats.exit = e.to_string();
+            Err(e)
+        }
+    }
+}
+
+#[allow(clippy::too_many_arguments)]
+fn one_frame(
+    live: &mut Live,
+    stats: &mut RunStats,
+    args: &RunArgs,
+    culling: &mut Option<CullState>,
+    masks: &Option<Arc<Vec<HiddenArea>>>,
+    spawn: &Pose,
+    blend: xr::EnvironmentBlendMode,
+    with_depth: bool,
+    config: &crate::config::RenderConfig,
+    index: u64,
+    last_valid: &mut Vec<Option<(Pose, Fov, xr::View)>>,
+    first_fov_recorded: &mut bool,
+) -> Result<()> {
+    let session = live.session.clone().expect("set");
+    let instance = live.instance.clone().expect("set");
+    let t_wait = Instant::now();
+    let fs = {
+        let _w = live.watchdog.watch("xrWaitFrame");
+        live.waiter
+            .as_mut()
+            .expect("set")
+            .wait()
+            .call("xrWaitFrame")?
+    };
+    let t_cpu = Instant::now();
+    {
+        let _w = live.watchdog.watch("xrBeginFrame");
+        live.stream
+            .as_mut()
+            .expect("set")
+            .begin()
+            .call("xrBeginFrame")?;
+    }
+    let mut rec = FrameRecord {
+        index,
+        should_render: fs.should_render,
+        wait_ms: (t_cpu - t_wait).as_secs_f64() * 1e3,
+        predicted_display_time_ns: fs.predicted_display_time.as_nanos(),
+        predicted_display_period_ns: fs.predicted_display_period.as_nanos(),
+        ..FrameRecord::default()
+    };
+    let mut gpu_wait_ms = 0.0;
+    let mut layer_views: Option<Vec<xr::View>> = None;
+    let mut images: Vec<(usize, usize)> = Vec::new();
+    if fs.should_render {
+        let (flags, views) = {
+            let _w = live.watchdog.watch("xrLocateViews");
+            session
+                .locate_views(
+                    xr::ViewConfigurationType::PRIMARY_STEREO,
+                    fs.predicted_display_time,
+                    live.space.as_ref().expect("set"),
+                )
+                .call("xrLocateViews")?
+        };
+        let (sane, replaced) = sanitize_views(flags, &views, last_valid);
+        if replaced {
+            stats.invalid_pose_frames += 1;
+        }
+        if let Some(sane) = sane {
+            let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
+            let mut rig = world_rig(spawn, &tracking);
+            rig.hidden_area = masks.clone();
+            if !*first_fov_recorded {
+                for (v, info) in rig.views.iter().zip(stats.views.iter_mut()) {
+                    info.fov = Some(v.fov);
+                }
+                *first_fov_recorded = true;
+            }
+            rec.fov = rig.views.iter().map(|v| v.fov).collect();
+            let t = Instant::now();
+            let visible = culling.as_mut().map(|c| c.cull(&rig, index)).transpose()?;
+            rec.cull_ms = t.elapsed().as_secs_f64() * 1e3;
+            stats.cull = visible.as_ref().map(|(_, s)| *s);
+            let renderer = live.renderer.as_mut().expect("set");
+            renderer.record_frame(&rig, visible.map(|(v, _)| v))?;
+            let mut out = FrameOutput::default();
+            for (ci, chain) in live
+                .color
+                .iter_mut()
+                .chain(live.depth.iter_mut())
+                .enumerate()
+            {
+                let _w = live.watchdog.watch("xrAcquireSwapchainImage");
+                let i = chain
+                    .swapchain
+                    .acquire_image()
+                    .call("xrAcquireSwapchainImage")? as usize;
+                let _w2 = live.watchdog.watch("xrWaitSwapchainImage");
+                chain
+                    .swapchain
+                    .wait_image(xr::Duration::INFINITE)
+                    .call("xrWaitSwapchainImage")?;
+                images.push((ci, i));
+            }
+            let ncolor = live.color.len();
+            for &(ci, i) in &images {
+                if ci < ncolor {
+                    out.color.push(live.color[ci].images[i]);
+                } else {
+                    out.depth.push(live.depth[ci - ncolor].images[i]);
+                }
+            }
+            let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+            let f = renderer.submit_frame(Some(&out), capture)?;
+            gpu_wait_ms = f.cpu_ms.wait;
+            rec.gpu_ms = f.gpu_ms.values().sum();
+            rec.instances_drawn = f.instances_drawn;
+            for chain in live.color.iter_mut().chain(live.depth.iter_mut()) {
+                let _w = live.watchdog.watch("xrReleaseSwapchainImage");
+                chain
+                    .swapchain
+                    .release_image()
+                    .call("xrReleaseSwapchainImage")?;
+            }
+            if capture {
+                let imgs = renderer.read_images()?;
+                write_capture(args.capture.as_deref().expect("checked"), &imgs, &rig)?;
+            }
+            layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
+        }
+    }
+    let ended = end_frame(
+        live,
+        &instance,
+        &session,
+        fs.predicted_display_time,
+        blend,
+        layer_views.as_deref(),
+        with_depth,
+        config,
+    );
+    ended?;
+    if layer_views.is_some() {
+        stats.frames_submitted += 1;
+        stats.frames_rendered += 1;
+    }
+    rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3 - gpu_wait_ms;
+    stats.push_frame(rec);
+    Ok(())
+}
+
+/// xrEndFrame with one projection layer (and its depth info when the
+/// runtime takes depth), or with no layer when nothing was rendered.
+#[allow(clippy::too_many_arguments)]
+fn end_frame(
+    live: &Live,
+    instance: &xr::Instance,
+    session: &xr::Session<xr::Vulkan>,
+    display_time: xr::Time,
+    blend: xr::EnvironmentBlendMode,
+    views: Option<&[xr::View]>,
+    with_depth: bool,
+    config: &crate::config::RenderConfig,
+) -> Result<()> {
+    let extent = live
+        .renderer
+        .as_ref()
+        .map(|r| r.extent())
+        .unwrap_or_default();
+    let rect = sys::Rect2Di {
+        offset: sys::Offset2Di { x: 0, y: 0 },
+        extent: sys::Extent2Di {
+            width: extent.width as i32,
+            height: extent.height as i32,
+        },
+    };
+    let multiview = live.color.len() == 1;
+    let sub = |chains: &[Chain], eye: usize| sys::SwapchainSubImage {
+        swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
+        image_rect: rect,
+        image_array_index: if multiview { eye as u32 } else { 0 },
+    };
+    let mut depth_infos: Vec<sys::CompositionLayerDepthInfoKHR> = Vec::new();
+    let mut proj: Vec<sys::CompositionLayerProjectionView> = Vec::new();
+    let mut layer = None;
+    if let Some(views) = views {
+        if with_depth {
+            for eye in 0..views.len() {
+                depth_infos.push(sys::CompositionLayerDepthInfoKHR {
+                    ty: sys::CompositionLayerDepthInfoKHR::TYPE,
+                    next: std::ptr::null(),
+                    sub_image: sub(&live.depth, eye),
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                    // Reverse-Z with an infinite far plane: depth 0 is at
+                    // infinity and 1 at the near plane (nearZ > farZ
+                    // marks reversed depth in XR_KHR_composition_layer_depth).
+                    near_z: f32::INFINITY,
+                    far_z: config.near as f32,
+                });
+            }
+        }
+        for (eye, v) in views.iter().enumerate() {
+            proj.push(sys::CompositionLayerProjectionView {
+                ty: sys::CompositionLayerProjectionView::TYPE,
+                next: depth_infos
+                    .get(eye)
+                    .map_or(std::ptr::null(), |d| d as *const _ as *const _),
+                pose: v.pose,
+                fov: v.fov,
+                sub_image: sub(&live.color, eye),
+            });
+        }
+        layer = Some(sys::CompositionLayerProjection {
+            ty: sys::CompositionLayerProjection::TYPE,
+            next: std::ptr::null(),
+            layer_flags: xr::CompositionLayerFlags::EMPTY,
+            space: live.space.as_ref().expect("set").as_raw(),
+            view_count: proj.len() as u32,
+            views: proj.as_ptr(),
+        });
+    }
+    let layers: Vec<*const sys::CompositionLayerBaseHeader> = layer
+        .iter()
+        .map(|l| l as *const sys::CompositionLayerProjection as *const _)
+        .collect();
+    let info = sys::FrameEndInfo {
+        ty: sys::FrameEndInfo::TYPE,
+        next: std::ptr::null(),
+        display_time,
+        environment_blend_mode: blend,
+        layer_count: layers.len() as u32,
+        layers: layers.as_ptr(),
+    };
+    let _w = live.watchdog.watch("xrEndFrame");
+    // SAFETY: every pointer in `info` references locals alive for the call;
+    // the swapchain images were released after the frame's submission.
+    let r = unsafe { (instance.fp().end_frame)(session.as_raw(), &info) };
+    if r.into_raw() < 0 {
+        return Err(xr_err("xrEndFrame", r));
+    }
+    Ok(())
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn colour_format_follows_the_runtime_order() {
+        let f = [
+            vk::Format::R16G16B16A16_SFLOAT,
+            vk::Format::B8G8R8A8_SRGB,
+            vk::Format::R8G8B8A8_SRGB,
+        ];
+        assert_eq!(choose_color_format(&f), Some(vk::Format::B8G8R8A8_SRGB));
+        assert_eq!(choose_color_format(&[vk::Format::R8G8B8A8_UNORM]), None);
+    }
+
+    fn view(x: f32, fov: f32) -> xr::View {
+        xr::View {
+            pose: xr::Posef {
+                orientation: xr::Quaternionf {
+                    x: 0.0,
+                    y: 0.0,
+                    z: 0.0,
+                    w: 1.0,
+                },
+                position: xr::Vector3f { x, y: 1.6, z: 0.0 },
+            },
+            fov: xr::Fovf {
+                angle_left: -fov,
+                angle_right: fov,
+                angle_up: fov,
+                angle_down: -fov,
+            },
+        }
+    }
+
+    #[test]
+    fn invalid_views_keep_the_last_valid_pose_and_never_pass_nan() {
+        let valid = xr::ViewStateFlags::ORIENTATION_VALID | xr::ViewStateFlags::POSITION_VALID;
+        let mut last = Vec::new();
+        let (none, replaced) = sanitize_views(
+            xr::ViewStateFlags::EMPTY,
+            &[view(-0.03, 0.7), view(0.03, 0.7)],
+            &mut last,
+        );
+        assert!(
+            none.is_none() && replaced,
+            "no valid pose yet: nothing to render"
+        );
+        let (some, replaced) =
+            sanitize_views(valid, &[view(-0.03, 0.7), view(0.03, 0.7)], &mut last);
+        assert!(!replaced);
+        let first = some.expect("valid");
+        let mut nan = view(f32::NAN, 0.7);
+        nan.pose.orientation.w = f32::NAN;
+        let (kept, replaced) = sanitize_views(valid, &[nan, view(0.05, 0.6)], &mut last);
+        let kept = kept.expect("last valid reused");
+        assert!(replaced);
+        assert_eq!(
+            kept[0].0, first[0].0,
+            "NaN view replaced by the last valid one"
+        );
+        assert!(
+            (kept[1].0.position.x - 0.05).abs() < 1e-6,
+            "valid view updated"
+        );
+        let mut bad_fov = view(0.0, 0.7);
+        bad_fov.fov.angle_right = -1.0;
+        let (kept, replaced) = sanitize_views(valid, &[bad_fov, view(0.05, 0.6)], &mut last);
+        assert!(replaced);
+        assert_eq!(kept.expect("kept")[0].1, first[0].1);
+        let (kept, _) = sanitize_views(
+            xr::ViewStateFlags::ORIENTATION_VALID,
+            &[view(9.0, 0.7), view(9.0, 0.7)],
+            &mut last,
+        );
+        for (p, f, _) in kept.expect("kept") {
+            assert!(p.validate().is_ok() && f.validate().is_ok());
+            assert!(p.position.x.abs() < 1.0, "untracked position ignored");
+        }
+    }
+
+    #[test]
+    fn world_rig_places_tracking_views_at_the_spawn_pose() {
+        let spawn = Pose::from_euler_deg(DVec3::new(10.0, 0.0, 5.0), 90.0, 0.0, 0.0);
+        let f = Fov::symmetric(0.7, 0.7);
+        let eyes = [
+            (
+                Pose {
+                    position: DVec3::new(-0.03, 1.6, 0.0),
+                    orientation: DQuat::IDENTITY,
+                },
+                f,
+            ),
+            (
+                Pose {
+                    position: DVec3::new(0.03, 1.6, 0.0),
+                    orientation: DQuat::IDENTITY,
+                },
+                f,
+            ),
+        ];
+        let rig = world_rig(&spawn, &eyes);
+        assert!((rig.head.position - DVec3::new(10.0, 1.6, 5.0)).length() < 1e-9);
+        // Yaw 90° turns tracking +x into world -z.
+        assert!((rig.views[0].pose.position - DVec3::new(10.0, 1.6, 5.03)).length() < 1e-9);
+        assert!((rig.views[1].pose.position - DVec3::new(10.0, 1.6, 4.97)).length() < 1e-9);
+    }
+}
