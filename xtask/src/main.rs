@@ -3,7 +3,11 @@
 //! - `setup`: installs what is missing (Debian/Ubuntu packages as root, or
 //!   prints the exact command) and builds the Debian 13 root in
 //!   `target/xr-root` (Mesa 25 lavapipe, Vulkan validation layers, Monado).
-//! - `demo`: renders the built-in factory scene in stereo into `demo-output/`.
+//! - `demo`: runs the built-in factory scene: in a headset when an OpenXR
+//!   runtime is active, else under Monado's simulated HMD, else headless;
+//!   the last frame and the statistics land in `demo-output/`.
+//! - `xr -- ARGS`: runs `vergence ARGS` against Monado's simulated HMD
+//!   (started before, stopped after; the exit code passes through).
 //! - `test`: the whole suite (fmt, clippy, tests inside the root).
 
 use std::path::{Path, PathBuf};
@@ -34,6 +38,13 @@ const ROOT_PACKAGES: &[&str] = &[
     "libopenxr-utils",
 ];
 const ROOT_SUITE: &str = "trixie";
+/// Monado on distributions that ship it (Debian 13+, Ubuntu 24.04+).
+const MONADO_PACKAGES: &[&str] = &[
+    "monado-service",
+    "libopenxr1-monado",
+    "libopenxr-loader1",
+    "openxr-layer-corevalidation",
+];
 
 fn repo() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
@@ -182,28 +193,184 @@ fn test(args: &[String]) -> Result<(), String> {
         .args(["test", "--workspace"])
         .args(args)
         .env("VERGENCE_VALIDATION", "required")
+        .env("VERGENCE_XR_VALIDATION", "required")
         .env("VERGENCE_REQUIRE_SPIRV_VAL", "1");
     run(runner_env(&mut cmd))
 }
 
-fn demo(args: &[String]) -> Result<(), String> {
-    setup()?;
+/// How Monado runs here.
+enum Monado {
+    /// Installed on the host.
+    Native,
+    /// Inside the Debian 13 root (`scripts/in-root`).
+    Root,
+}
+
+fn has_command(name: &str) -> bool {
+    Command::new("sh")
+        .args(["-c", &format!("command -v {name}")])
+        .output()
+        .is_ok_and(|o| o.status.success())
+}
+
+/// Makes Monado available: the host's own packages where the distribution
+/// ships them, else the Debian 13 root.
+fn setup_monado() -> Result<Monado, String> {
+    if has_command("monado-service") {
+        return Ok(Monado::Native);
+    }
+    let shipped = Command::new("apt-cache")
+        .args(["show", "monado-service"])
+        .output()
+        .is_ok_and(|o| o.status.success() && !o.stdout.is_empty());
+    if shipped {
+        let missing = missing_packages(MONADO_PACKAGES);
+        let cmd = format!(
+            "apt-get install -y --no-install-recommends {}",
+            missing.join(" ")
+        );
+        if !is_root() {
+            return Err(format!(
+                "Monado is not installed; run as root:\n    sudo sh -c '{cmd}'"
+            ));
+        }
+        run(Command::new("sh")
+            .args(["-c", &cmd])
+            .env("DEBIAN_FRONTEND", "noninteractive"))?;
+        return Ok(Monado::Native);
+    }
+    setup_root()?;
+    Ok(Monado::Root)
+}
+
+fn build_release() -> Result<PathBuf, String> {
     let r = repo();
     run(cargo()
         .current_dir(&r)
         .args(["build", "--release", "--bin", "vergence"]))?;
+    Ok(r.join("target/release/vergence"))
+}
+
+/// `scripts/with-monado [--remote] BIN`, inside the root when needed.
+fn monado_command(how: &Monado, bin: &Path) -> Command {
+    let r = repo();
+    let mut cmd = match how {
+        Monado::Native => Command::new(r.join("scripts/with-monado")),
+        Monado::Root => {
+            let mut c = Command::new(r.join("scripts/in-root"));
+            c.arg(r.join("scripts/with-monado"));
+            c.env("VERGENCE_XR_ROOT", root_dir());
+            c
+        }
+    };
+    cmd.current_dir(&r).arg(bin);
+    cmd
+}
+
+fn xr(args: &[String]) -> Result<u8, String> {
+    setup_host()?;
+    let how = setup_monado()?;
+    let bin = build_release()?;
+    let mut cmd = monado_command(&how, &bin);
+    cmd.args(args);
+    eprintln!("xtask: running {cmd:?}");
+    let status = cmd
+        .status()
+        .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+    Ok(status.code().map_or(1, |c| c.clamp(0, 255) as u8))
+}
+
+/// Whether the OpenXR loader would find an active runtime on this host.
+fn host_runtime() -> Option<String> {
+    if let Some(p) = std::env::var_os("XR_RUNTIME_JSON") {
+        return Some(PathBuf::from(p).display().to_string());
+    }
+    let home = std::env::var("XDG_CONFIG_HOME")
+        .ok()
+        .or_else(|| std::env::var("HOME").ok().map(|h| format!("{h}/.config")));
+    let dirs = std::env::var("XDG_CONFIG_DIRS").unwrap_or_else(|_| "/etc/xdg".into());
+    home.into_iter()
+        .chain(dirs.split(':').map(str::to_string))
+        .chain(["/etc".to_string()])
+        .map(|d| format!("{d}/openxr/1/active_runtime.json"))
+        .find(|p| Path::new(p).exists())
+}
+
+fn demo(args: &[String]) -> Result<(), String> {
+    setup_host()?;
+    let r = repo();
     let out = r.join("demo-output");
-    let mut cmd = Command::new(r.join("scripts/in-root"));
-    cmd.current_dir(&r)
-        .arg(r.join("target/release/vergence"))
-        .args(["render", "--scene", "factory", "--out"])
-        .arg(&out)
-        .args(args);
-    run(&mut cmd)?;
+    let _ = std::fs::create_dir_all(&out);
+    let stats = out.join("run-stats.json");
+    let capture = out.join("last-frame");
+    let loader = Path::new("/usr/lib/x86_64-linux-gnu/libopenxr_loader.so.1").exists()
+        || Path::new("/usr/lib/libopenxr_loader.so.1").exists();
+    if let (Some(runtime), true) = (host_runtime(), loader) {
+        let bin = build_release()?;
+        eprintln!(
+            "xtask: demo: an OpenXR runtime is active ({runtime}); running the factory scene in the headset until you press Ctrl-C"
+        );
+        let mut cmd = Command::new(bin);
+        cmd.current_dir(&r)
+            .args(["run", "--xr", "openxr", "--scene", "factory", "--stats-out"])
+            .arg(&stats)
+            .args(args);
+        return run(&mut cmd);
+    }
+    let frames = ["--frames", "60", "--capture"];
+    match setup_monado() {
+        Ok(how) => {
+            let bin = build_release()?;
+            eprintln!(
+                "xtask: demo: no headset runtime on this machine; running under Monado's simulated HMD ({})",
+                match how {
+                    Monado::Native => "host packages",
+                    Monado::Root => "Debian 13 root in target/xr-root",
+                }
+            );
+            let mut cmd = monado_command(&how, &bin);
+            cmd.args([
+                "run",
+                "--xr",
+                "openxr",
+                "--scene",
+                "factory",
+                "--opt",
+                "superfrustum",
+            ])
+            .args(frames)
+            .arg(&capture)
+            .arg("--stats-out")
+            .arg(&stats)
+            .args(args);
+            run(&mut cmd)?;
+        }
+        Err(why) => {
+            let bin = build_release()?;
+            eprintln!("xtask: demo: Monado cannot be set up here ({why}); running headless");
+            let mut cmd = Command::new(bin);
+            cmd.current_dir(&r)
+                .args([
+                    "run",
+                    "--xr",
+                    "headless",
+                    "--scene",
+                    "factory",
+                    "--opt",
+                    "superfrustum",
+                ])
+                .args(frames)
+                .arg(&capture)
+                .arg("--stats-out")
+                .arg(&stats)
+                .args(args);
+            run(&mut cmd)?;
+        }
+    }
     eprintln!(
-        "xtask: demo rendered the built-in factory scene (100,000 instances) headless on lavapipe with the default \
-         profile; images and stats are in {}",
-        out.display()
+        "xtask: demo: the last frame is in {} (left.png, right.png, rig.json), per-frame statistics in {}",
+        capture.display(),
+        stats.display()
     );
     Ok(())
 }
@@ -219,8 +386,12 @@ fn main() -> ExitCode {
         "setup" => setup(),
         "test" => test(&rest),
         "demo" => demo(&rest),
+        "xr" => match xr(&rest) {
+            Ok(code) => return ExitCode::from(code),
+            Err(e) => Err(e),
+        },
         _ => {
-            eprintln!("usage: cargo xtask <setup|demo|test> [-- ARGS]");
+            eprintln!("usage: cargo xtask <setup|demo|test|xr> [-- ARGS]");
             return ExitCode::from(2);
         }
     };

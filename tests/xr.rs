@@ -1,0 +1,567 @@
+//! OpenXR integration: `vergence run` against Monado (simulated HMD or the
+//! remote driver) started by `scripts/with-monado`, as `cargo xtask xr`
+//! does. These tests run inside the Debian 13 root (`cargo xtask test`
+//! makes `scripts/in-root` cargo's runner); they fail, not skip, without
+//! Monado.
+
+mod common;
+#[path = "common/monado_remote.rs"]
+mod monado_remote;
+
+use monado_remote::{RemoteHead, RemotePose};
+use serde_json::Value;
+use std::io::{BufRead, BufReader};
+use std::path::{Path, PathBuf};
+use std::process::{Command, Output, Stdio};
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::{Arc, Mutex};
+use std::time::{Duration, Instant};
+use vergence::bench::metrics;
+
+/// One Monado at a time: the remote driver's port is fixed and the
+/// machine has two cores.
+static MONADO: Mutex<()> = Mutex::new(());
+
+const SIM_FOV_H: f64 = 0.7418;
+const SIM_FOV_V: f64 = 0.7788;
+
+fn lock() -> std::sync::MutexGuard<'static, ()> {
+    MONADO.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_vergence")
+}
+
+fn out_dir(name: &str) -> PathBuf {
+    let d = common::root().join("target/xr-tests").join(name);
+    let _ = std::fs::remove_dir_all(&d);
+    std::fs::create_dir_all(&d).expect("test output dir");
+    d
+}
+
+fn with_monado(remote: bool) -> Command {
+    let script = common::root().join("scripts/with-monado");
+    assert!(
+        Command::new("sh")
+            .args(["-c", "command -v monado-service"])
+            .output()
+            .is_ok_and(|o| o.status.success()),
+        "monado-service is not installed here: run the suite with `cargo xtask test` (it runs tests inside target/xr-root)"
+    );
+    let mut c = Command::new(script);
+    if remote {
+        c.arg("--remote");
+    }
+    c.arg(bin());
+    c
+}
+
+fn stats(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).expect("stats JSON")
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "status {:?}\nstdout:\n{}\nstderr:\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn assert_no_validation(o: &Output, s: &Value) {
+    let all = text(o);
+    assert_eq!(s["validation_messages"], 0, "Vulkan validation: {all}");
+    assert_eq!(s["xr_validation_messages"], 0, "OpenXR validation: {all}");
+    for bad in ["VALID_ERROR", "VALID_WARNING", "VUID-"] {
+        let hits: Vec<&str> = all
+            .lines()
+            .filter(|l| l.contains(bad) && !l.contains("VUID-CoreValidation-"))
+            .collect();
+        assert!(hits.is_empty(), "validation output {bad}: {hits:?}");
+    }
+    assert_eq!(
+        s["api_layers"][0], "XR_APILAYER_LUNARG_core_validation",
+        "the core validation layer must be on"
+    );
+}
+
+fn fov_close(v: &Value, want: [f64; 4], tol: f64) -> bool {
+    let got =
+        [&v["left"], &v["right"], &v["up"], &v["down"]].map(|x| x.as_f64().unwrap_or(f64::NAN));
+    got.iter().zip(want).all(|(g, w)| (g - w).abs() <= tol)
+}
+
+#[test]
+fn session_reaches_focused_submits_100_frames_with_the_runtimes_fovs() {
+    let _g = lock();
+    let dir = out_dir("session");
+    let s_path = dir.join("stats.json");
+    let o = with_monado(false)
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--frames",
+            "100",
+            "--scene",
+            "factory:2000",
+        ])
+        .args([
+            "--hmd-fallback",
+            "valve-index",
+            "--opt",
+            "superfrustum",
+            "--stats-out",
+        ])
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(s["mode"], "openxr");
+    assert_eq!(s["system"], "Monado: Simulated HMD");
+    assert_eq!(s["focused"], true);
+    assert!(s["frames_submitted"].as_u64().unwrap() >= 100, "{s}");
+    let states: Vec<&str> = s["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    for want in [
+        "IDLE",
+        "READY",
+        "SYNCHRONIZED",
+        "VISIBLE",
+        "FOCUSED",
+        "STOPPING",
+        "EXITING",
+    ] {
+        assert!(states.contains(&want), "{want} missing from {states:?}");
+    }
+    assert_eq!(states.last(), Some(&"EXITING"));
+    let exts: Vec<&str> = s["extensions_enabled"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    for want in [
+        "XR_KHR_vulkan_enable2",
+        "XR_KHR_visibility_mask",
+        "XR_KHR_composition_layer_depth",
+        "XR_EXT_debug_utils",
+    ] {
+        assert!(exts.contains(&want), "{want} not enabled: {exts:?}");
+    }
+    assert!(s["color_format"].as_str().unwrap().ends_with("_SRGB"));
+    assert!(s["depth_format"].is_string(), "depth layer expected: {s}");
+    assert_eq!(
+        s["image_size"],
+        serde_json::json!([320, 240]),
+        "Monado's recommended size"
+    );
+    for m in s["visibility_mask"].as_array().unwrap() {
+        assert!(
+            m[0].as_u64().unwrap() >= 3 && m[1].as_u64().unwrap() >= 3,
+            "hidden mesh {m}"
+        );
+    }
+    let sim = [-SIM_FOV_H, SIM_FOV_H, SIM_FOV_V, -SIM_FOV_V];
+    let mut rendered = 0;
+    for f in s["frames"].as_array().unwrap() {
+        assert!(f["predicted_display_period_ns"].as_i64().unwrap() > 0);
+        if f["should_render"] == true {
+            rendered += 1;
+            for v in f["fov"].as_array().unwrap() {
+                assert!(
+                    fov_close(v, sim, 1e-4),
+                    "frame {} rendered and culled with FOV {v}, not Monado's",
+                    f["index"]
+                );
+            }
+            assert!(f["gpu_ms"].as_f64().unwrap() > 0.0);
+        }
+    }
+    assert!(rendered >= 100);
+    let cull = &s["cull"];
+    assert!(
+        cull["accepted"].as_u64().unwrap() > 0 && cull["rejected"].as_u64().unwrap() > 0,
+        "culling ran on the runtime's rig: {cull}"
+    );
+    assert_no_validation(&o, &s);
+}
+
+#[test]
+fn two_pass_uses_one_swapchain_per_view_at_one_sample() {
+    let _g = lock();
+    let dir = out_dir("two-pass");
+    let s_path = dir.join("stats.json");
+    let cap = dir.join("capture");
+    let o = with_monado(false)
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--frames",
+            "12",
+            "--scene",
+            "factory:2000",
+        ])
+        .args([
+            "--stereo", "two-pass", "--msaa", "1", "--width", "200", "--height", "160",
+        ])
+        .arg("--capture")
+        .arg(&cap)
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(s["config"]["stereo"], "two-pass");
+    assert_eq!(
+        s["image_size"],
+        serde_json::json!([200, 160]),
+        "size override"
+    );
+    assert!(s["frames_submitted"].as_u64().unwrap() >= 12);
+    for eye in ["left.png", "right.png"] {
+        let img = image::open(cap.join(eye)).expect("captured eye").to_rgba8();
+        assert_eq!(img.dimensions(), (200, 160));
+        let distinct: std::collections::HashSet<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+        assert!(
+            distinct.len() > 50,
+            "{eye} looks empty ({} colours)",
+            distinct.len()
+        );
+    }
+    assert_no_validation(&o, &s);
+}
+
+fn yaw_quat(deg: f32) -> [f32; 4] {
+    let h = deg.to_radians() * 0.5;
+    [0.0, h.sin(), 0.0, h.cos()]
+}
+
+#[test]
+fn remote_driver_pose_and_asymmetric_fov_reach_the_submitted_frame() {
+    let _g = lock();
+    let dir = out_dir("remote");
+    let s_path = dir.join("stats.json");
+    let cap = dir.join("capture");
+    let fovs = [[-0.9f32, 0.6, 0.7, -0.8], [-0.6f32, 0.9, 0.75, -0.85]];
+    let head = RemoteHead {
+        center: RemotePose {
+            orientation: yaw_quat(20.0),
+            position: [0.2, 1.6, -0.3],
+        },
+        views: [
+            (
+                fovs[0],
+                RemotePose {
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    position: [-0.032, 0.0, 0.0],
+                },
+            ),
+            (
+                fovs[1],
+                RemotePose {
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    position: [0.032, 0.0, 0.0],
+                },
+            ),
+        ],
+    };
+    let done = Arc::new(AtomicBool::new(false));
+    let sent = Arc::new(AtomicBool::new(false));
+    let feeder = {
+        let (done, sent) = (done.clone(), sent.clone());
+        std::thread::spawn(move || -> Result<(), String> {
+            let mut s = monado_remote::connect(Duration::from_secs(20))
+                .map_err(|e| format!("cannot reach the remote driver: {e}"))?;
+            while !done.load(Ordering::SeqCst) {
+                match monado_remote::send(&mut s, &head) {
+                    Ok(()) => sent.store(true, Ordering::SeqCst),
+                    // Monado is stopped once vergence exits.
+                    Err(_) if sent.load(Ordering::SeqCst) => break,
+                    Err(e) => return Err(e.to_string()),
+                }
+                std::thread::sleep(Duration::from_millis(30));
+            }
+            Ok(())
+        })
+    };
+    let o = with_monado(true)
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--frames",
+            "40",
+            "--scene",
+            "factory:2000",
+        ])
+        .args(["--width", "256", "--height", "224", "--capture"])
+        .arg(&cap)
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    done.store(true, Ordering::SeqCst);
+    let fed = feeder.join().expect("feeder thread");
+    assert!(o.status.success(), "{}", text(&o));
+    fed.expect("remote driver fed");
+    assert!(sent.load(Ordering::SeqCst));
+    let s = stats(&s_path);
+    assert_no_validation(&o, &s);
+    let rig: Value =
+        serde_json::from_str(&std::fs::read_to_string(cap.join("rig.json")).unwrap()).unwrap();
+    for (eye, want) in fovs.iter().enumerate() {
+        let want = want.map(|x| x as f64);
+        assert!(
+            fov_close(&rig["views"][eye]["fov"], want, 1e-5),
+            "view {eye} FOV {} is not the one set through the runtime {want:?}",
+            rig["views"][eye]["fov"]
+        );
+    }
+    let p = |eye: usize| -> [f64; 3] {
+        let v = &rig["views"][eye]["pose"]["position"];
+        [0, 1, 2].map(|i| v[i].as_f64().unwrap())
+    };
+    let (a, b) = (p(0), p(1));
+    let ipd = ((a[0] - b[0]).powi(2) + (a[1] - b[1]).powi(2) + (a[2] - b[2]).powi(2)).sqrt();
+    assert!(
+        (ipd - 0.064).abs() < 1e-4,
+        "eye separation {ipd} from the remote eye poses"
+    );
+
+    // The same rig rendered headless must give the frame that was submitted.
+    let again = dir.join("render");
+    let r = Command::new(bin())
+        .args(["render", "--scene", "factory:2000", "--hmd", "monado-sim"])
+        .args(["--width", "256", "--height", "224", "--rig"])
+        .arg(cap.join("rig.json"))
+        .arg("--out")
+        .arg(&again)
+        .output()
+        .expect("vergence render");
+    assert!(r.status.success(), "{}", text(&r));
+    for eye in ["left.png", "right.png"] {
+        let submitted = image::open(cap.join(eye)).unwrap().to_rgba8();
+        let rendered = image::open(again.join(eye)).unwrap().to_rgba8();
+        let f = metrics::flip(&rendered, &submitted, metrics::DESKTOP_PPD).unwrap();
+        // Same renderer, same views: only the swapchain copy differs, and a
+        // copy is exact. 0.005 leaves room for nothing but noise.
+        assert!(
+            f.mean < 0.005,
+            "{eye}: FLIP mean {} between the submitted frame and `render --rig`",
+            f.mean
+        );
+    }
+}
+
+/// Starts `vergence run` under Monado with info logging and returns the
+/// child plus a receiver that fires when the session is FOCUSED.
+fn start_logged(
+    rundir: &Path,
+    extra: &[&str],
+) -> (
+    std::process::Child,
+    std::sync::mpsc::Receiver<()>,
+    Arc<Mutex<String>>,
+) {
+    let mut child = with_monado(false)
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--scene",
+            "factory:2000",
+            "--seconds",
+            "60",
+        ])
+        .args(extra)
+        .env("VERGENCE_XR_RUNDIR", rundir)
+        .env("RUST_LOG", "vergence=info")
+        .env("NO_COLOR", "1")
+        .stderr(Stdio::piped())
+        .stdout(Stdio::null())
+        .spawn()
+        .expect("with-monado");
+    let (tx, rx) = std::sync::mpsc::channel();
+    let log = Arc::new(Mutex::new(String::new()));
+    let err = child.stderr.take().expect("piped");
+    let sink = log.clone();
+    std::thread::spawn(move || {
+        for line in BufReader::new(err).lines().map_while(Result::ok) {
+            if line.contains("session state Focused") {
+                let _ = tx.send(());
+            }
+            if let Ok(mut l) = sink.lock() {
+                l.push_str(&line);
+                l.push('\n');
+            }
+        }
+    });
+    (child, rx, log)
+}
+
+fn signal(pid: i32, sig: i32) {
+    // SAFETY: sending a signal to a process this test started.
+    assert_eq!(unsafe { libc::kill(pid, sig) }, 0, "kill({pid}, {sig})");
+}
+
+/// The pid of `parent`'s child process whose name is `name` (from /proc).
+fn child_named(parent: u32, name: &str) -> Option<i32> {
+    std::fs::read_dir("/proc").ok()?.flatten().find_map(|e| {
+        let pid: i32 = e.file_name().to_str()?.parse().ok()?;
+        let stat = std::fs::read_to_string(e.path().join("stat")).ok()?;
+        let (comm, rest) = stat.split_once(" (")?.1.rsplit_once(") ")?;
+        let ppid: u32 = rest.split_whitespace().nth(1)?.parse().ok()?;
+        (ppid == parent && comm == name).then_some(pid)
+    })
+}
+
+fn wait_exit(child: &mut std::process::Child, limit: Duration) -> Option<std::process::ExitStatus> {
+    let t = Instant::now();
+    while t.elapsed() < limit {
+        if let Ok(Some(s)) = child.try_wait() {
+            return Some(s);
+        }
+        std::thread::sleep(Duration::from_millis(20));
+    }
+    None
+}
+
+#[test]
+fn killing_monado_mid_session_ends_vergence_within_5_s_with_a_clear_error() {
+    let _g = lock();
+    let rundir = out_dir("kill").join("run");
+    let (mut child, focused, log) = start_logged(&rundir, &[]);
+    focused
+        .recv_timeout(Duration::from_secs(30))
+        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    std::thread::sleep(Duration::from_millis(500));
+    let pid = std::fs::read_to_string(rundir.join("monado.pid")).expect("monado pid");
+    let killed = Instant::now();
+    signal(pid.trim().parse().expect("pid"), libc::SIGKILL);
+    let status = wait_exit(&mut child, Duration::from_secs(5));
+    let took = killed.elapsed();
+    let Some(status) = status else {
+        let _ = child.kill();
+        panic!(
+            "vergence still running 5 s after monado-service was killed: {}",
+            log.lock().unwrap()
+        );
+    };
+    assert!(!status.success(), "a lost runtime must be a failure");
+    std::thread::sleep(Duration::from_millis(100));
+    let log = log.lock().unwrap().clone();
+    let errors: Vec<&str> = log.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one clear error line: {log}");
+    assert!(
+        errors[0].contains("runtime"),
+        "the error names the runtime: {}",
+        errors[0]
+    );
+    eprintln!(
+        "vergence exited {took:?} after monado-service was killed: {}",
+        errors[0]
+    );
+}
+
+#[test]
+fn sigterm_ends_the_session_in_order() {
+    let _g = lock();
+    let dir = out_dir("sigterm");
+    let s_path = dir.join("stats.json");
+    let rundir = dir.join("run");
+    let s_arg = s_path.to_string_lossy().to_string();
+    let (mut child, focused, log) = start_logged(&rundir, &["--stats-out", &s_arg]);
+    focused
+        .recv_timeout(Duration::from_secs(30))
+        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    std::thread::sleep(Duration::from_millis(300));
+    let pid = child_named(child.id(), "vergence").expect("vergence is a child of with-monado");
+    signal(pid, libc::SIGTERM);
+    let status = wait_exit(&mut child, Duration::from_secs(10)).expect("exited after SIGTERM");
+    assert!(status.success(), "orderly exit: {}", log.lock().unwrap());
+    let s = stats(&s_path);
+    let states: Vec<&str> = s["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        &states[states.len() - 3..],
+        &["STOPPING", "IDLE", "EXITING"],
+        "{states:?}"
+    );
+    assert_eq!(s["exit"], "session exited after vergence asked to exit");
+}
+
+#[test]
+fn without_a_runtime_auto_falls_back_and_openxr_fails_naming_the_manifest() {
+    let dir = out_dir("fallback");
+    let s_path = dir.join("stats.json");
+    let missing = "/nonexistent/openxr/active_runtime.json";
+    let o = Command::new(bin())
+        .args([
+            "run",
+            "--xr",
+            "auto",
+            "--frames",
+            "3",
+            "--scene",
+            "factory:200",
+        ])
+        .args(["--hmd-fallback", "monado-sim", "--stats-out"])
+        .arg(&s_path)
+        .env("XR_RUNTIME_JSON", missing)
+        .output()
+        .expect("vergence");
+    assert!(o.status.success(), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let notes: Vec<&str> = err
+        .lines()
+        .filter(|l| l.contains("no OpenXR headset"))
+        .collect();
+    assert_eq!(notes.len(), 1, "one line about the fallback: {err}");
+    assert!(
+        notes[0].contains(missing) && notes[0].contains("headless on the monado-sim profile"),
+        "{}",
+        notes[0]
+    );
+    let s = stats(&s_path);
+    assert_eq!(s["mode"], "headless");
+    assert_eq!(s["frames_submitted"], 3);
+    assert!(s["fallback_reason"].as_str().unwrap().contains(missing));
+
+    let o = Command::new(bin())
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--frames",
+            "3",
+            "--scene",
+            "factory:200",
+        ])
+        .env("XR_RUNTIME_JSON", missing)
+        .output()
+        .expect("vergence");
+    assert_eq!(o.status.code(), Some(1), "{}", text(&o));
+    let err = String::from_utf8_lossy(&o.stderr);
+    let errors: Vec<&str> = err.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "{err}");
+    assert!(
+        errors[0].contains("OpenXR unavailable") && errors[0].contains(missing),
+        "{}",
+        errors[0]
+    );
+}
