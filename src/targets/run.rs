@@ -161,6 +161,10 @@ pub struct RunStats {
     pub extensions_enabled: Vec<String>,
     /// OpenXR API layers enabled.
     pub api_layers: Vec<String>,
+    /// Display refresh rate (XR_FB_display_refresh_rate, when offered).
+    pub display_refresh_hz: Option<f32>,
+    /// Refresh rates the display supports (XR_FB_display_refresh_rate).
+    pub display_refresh_rates: Vec<f32>,
     /// Per view: recommended and max sizes and FOV.
     pub views: Vec<ViewInfo>,
     /// Per-eye image size rendered.

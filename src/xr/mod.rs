@@ -288,6 +288,10 @@ fn fov_of(f: &xr::Fovf) -> Fov {
     }
 }
 
+/// A view as located: its sanitized pose and FOV plus the raw view that
+/// goes back to the runtime in the projection layer.
+pub type TrackedView = (Pose, Fov, xr::View);
+
 /// Tracking-space views of one frame, with invalid ones replaced by the
 /// last valid view: a view counts as valid when the runtime flags both
 /// orientation and position valid and its numbers pass
@@ -296,8 +300,8 @@ fn fov_of(f: &xr::Fovf) -> Fov {
 pub fn sanitize_views(
     flags: xr::ViewStateFlags,
     views: &[xr::View],
-    last_valid: &mut Vec<Option<(Pose, Fov, xr::View)>>,
-) -> (Option<Vec<(Pose, Fov, xr::View)>>, bool) {
+    last_valid: &mut Vec<Option<TrackedView>>,
+) -> (Option<Vec<TrackedView>>, bool) {
     last_valid.resize(views.len(), None);
     let tracked = flags.contains(xr::ViewStateFlags::ORIENTATION_VALID)
         && flags.contains(xr::ViewStateFlags::POSITION_VALID);
@@ -565,6 +569,12 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         renderer: None,
         watchdog: Watchdog::start(CALL_LIMIT),
     };
+    if exts.fb_display_refresh_rate {
+        stats.display_refresh_hz = session.get_display_refresh_rate().ok();
+        stats.display_refresh_rates = session
+            .enumerate_display_refresh_rates()
+            .unwrap_or_default();
+    }
     let spaces = session
         .enumerate_reference_spaces()
         .call("xrEnumerateReferenceSpaces")?;
@@ -656,8 +666,8 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     )?;
     stats.config = renderer.config.clone();
     live.renderer = Some(renderer);
-    let mut culling = CullState::new(&args.config, &scene)?;
-    let mut masks = if exts.khr_visibility_mask {
+    let culling = CullState::new(&args.config, &scene)?;
+    let masks = if exts.khr_visibility_mask {
         Some(Arc::new(fetch_masks(&session, 2)?))
     } else {
         None
@@ -676,17 +686,17 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         }),
     );
 
-    let result = frame_loop(
+    let mut state = LoopState {
         args,
-        stats,
-        &mut live,
-        &mut culling,
-        &mut masks,
-        &spawn,
+        culling,
+        masks,
+        spawn,
         blend,
-        depth_format.is_some(),
-        &args.config,
-    );
+        with_depth: depth_format.is_some(),
+        last_valid: Vec::new(),
+        first_fov_recorded: false,
+    };
+    let result = frame_loop(stats, &mut live, &mut state);
     stats.validation_messages = ctx.validation_messages();
     stats.xr_validation_messages = live
         .messenger
@@ -709,27 +719,27 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     result
 }
 
-#[allow(clippy::too_many_arguments)]
-fn frame_loop(
-    args: &RunArgs,
-    stats: &mut RunStats,
-    live: &mut Live,
-    culling: &mut Option<CullState>,
-    masks: &mut Option<Arc<Vec<HiddenArea>>>,
-    spawn: &Pose,
+/// What the frame loop carries from frame to frame.
+struct LoopState<'a> {
+    args: &'a RunArgs,
+    culling: Option<CullState>,
+    masks: Option<Arc<Vec<HiddenArea>>>,
+    spawn: Pose,
     blend: xr::EnvironmentBlendMode,
     with_depth: bool,
-    config: &crate::config::RenderConfig,
-) -> Result<()> {
+    last_valid: Vec<Option<TrackedView>>,
+    first_fov_recorded: bool,
+}
+
+fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Result<()> {
+    let args = st.args;
     let instance = live.instance.clone().expect("set");
     let session = live.session.clone().expect("set");
     let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
     let mut machine = SessionMachine::default();
     let mut buf = xr::EventDataBuffer::new();
-    let mut last_valid = Vec::new();
     let started = Instant::now();
     let mut index = 0u64;
-    let mut first_fov_recorded = false;
     let result: Result<String> = 'main: loop {
         if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
             match machine.on_quit() {
@@ -805,7 +815,7 @@ fn frame_loop(
                 }
                 xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, 2) {
                     Ok(m) => {
-                        *masks = Some(Arc::new(m));
+                        st.masks = Some(Arc::new(m));
                         stats.visibility_mask_refreshes += 1;
                     }
                     Err(e) => break 'main Err(e),
@@ -821,20 +831,7 @@ fn frame_loop(
             std::thread::sleep(Duration::from_millis(5));
             continue;
         }
-        match one_frame(
-            live,
-            stats,
-            args,
-            culling,
-            masks,
-            spawn,
-            blend,
-            with_depth,
-            config,
-            index,
-            &mut last_valid,
-            &mut first_fov_recorded,
-        ) {
+        match one_frame(live, stats, st, index) {
             Ok(()) => index += 1,
             Err(e) => break 'main Err(e),
         }
@@ -853,21 +850,8 @@ fn frame_loop(
     }
 }
 
-#[allow(clippy::too_many_arguments)]
-fn one_frame(
-    live: &mut Live,
-    stats: &mut RunStats,
-    args: &RunArgs,
-    culling: &mut Option<CullState>,
-    masks: &Option<Arc<Vec<HiddenArea>>>,
-    spawn: &Pose,
-    blend: xr::EnvironmentBlendMode,
-    with_depth: bool,
-    config: &crate::config::RenderConfig,
-    index: u64,
-    last_valid: &mut Vec<Option<(Pose, Fov, xr::View)>>,
-    first_fov_recorded: &mut bool,
-) -> Result<()> {
+fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
+    let args = st.args;
     let session = live.session.clone().expect("set");
     let instance = live.instance.clone().expect("set");
     let t_wait = Instant::now();
@@ -910,23 +894,27 @@ fn one_frame(
                 )
                 .call("xrLocateViews")?
         };
-        let (sane, replaced) = sanitize_views(flags, &views, last_valid);
+        let (sane, replaced) = sanitize_views(flags, &views, &mut st.last_valid);
         if replaced {
             stats.invalid_pose_frames += 1;
         }
         if let Some(sane) = sane {
             let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
-            let mut rig = world_rig(spawn, &tracking);
-            rig.hidden_area = masks.clone();
-            if !*first_fov_recorded {
+            let mut rig = world_rig(&st.spawn, &tracking);
+            rig.hidden_area = st.masks.clone();
+            if !st.first_fov_recorded {
                 for (v, info) in rig.views.iter().zip(stats.views.iter_mut()) {
                     info.fov = Some(v.fov);
                 }
-                *first_fov_recorded = true;
+                st.first_fov_recorded = true;
             }
             rec.fov = rig.views.iter().map(|v| v.fov).collect();
             let t = Instant::now();
-            let visible = culling.as_mut().map(|c| c.cull(&rig, index)).transpose()?;
+            let visible = st
+                .culling
+                .as_mut()
+                .map(|c| c.cull(&rig, index))
+                .transpose()?;
             rec.cull_ms = t.elapsed().as_secs_f64() * 1e3;
             stats.cull = visible.as_ref().map(|(_, s)| *s);
             let renderer = live.renderer.as_mut().expect("set");
@@ -977,17 +965,14 @@ fn one_frame(
             layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
         }
     }
-    let ended = end_frame(
+    end_frame(
         live,
         &instance,
         &session,
         fs.predicted_display_time,
-        blend,
         layer_views.as_deref(),
-        with_depth,
-        config,
-    );
-    ended?;
+        st,
+    )?;
     if layer_views.is_some() {
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
@@ -999,16 +984,13 @@ fn one_frame(
 
 /// xrEndFrame with one projection layer (and its depth info when the
 /// runtime takes depth), or with no layer when nothing was rendered.
-#[allow(clippy::too_many_arguments)]
 fn end_frame(
     live: &Live,
     instance: &xr::Instance,
     session: &xr::Session<xr::Vulkan>,
     display_time: xr::Time,
-    blend: xr::EnvironmentBlendMode,
     views: Option<&[xr::View]>,
-    with_depth: bool,
-    config: &crate::config::RenderConfig,
+    st: &LoopState,
 ) -> Result<()> {
     let extent = live
         .renderer
@@ -1032,7 +1014,7 @@ fn end_frame(
     let mut proj: Vec<sys::CompositionLayerProjectionView> = Vec::new();
     let mut layer = None;
     if let Some(views) = views {
-        if with_depth {
+        if st.with_depth {
             for eye in 0..views.len() {
                 depth_infos.push(sys::CompositionLayerDepthInfoKHR {
                     ty: sys::CompositionLayerDepthInfoKHR::TYPE,
@@ -1044,7 +1026,7 @@ fn end_frame(
                     // infinity and 1 at the near plane (nearZ > farZ
                     // marks reversed depth in XR_KHR_composition_layer_depth).
                     near_z: f32::INFINITY,
-                    far_z: config.near as f32,
+                    far_z: st.args.config.near as f32,
                 });
             }
         }
@@ -1076,7 +1058,7 @@ fn end_frame(
         ty: sys::FrameEndInfo::TYPE,
         next: std::ptr::null(),
         display_time,
-        environment_blend_mode: blend,
+        environment_blend_mode: st.blend,
         layer_count: layers.len() as u32,
         layers: layers.as_ptr(),
     };
