@@ -2,6 +2,9 @@
 #extension GL_EXT_multiview : require
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+// Early fragment tests: the sky never discards or writes depth, so the
+// stencil mask and the depth test reject pixels before it runs.
+layout(early_fragment_tests) in;
 
 layout(location = 0) in vec2 v_ndc;
 layout(location = 1) flat in uint v_view;

@@ -47,6 +47,9 @@ pub struct RenderConfig {
     pub cull: String,
     /// Draw distance in metres for distance culling (None: unlimited).
     pub draw_distance: Option<f64>,
+    /// HMD stencil mask: the hidden-area mesh is written to stencil first and
+    /// every later draw is stencil-tested (`stencil-mask`).
+    pub stencil_mask: bool,
 }
 
 impl Default for RenderConfig {
@@ -57,6 +60,7 @@ impl Default for RenderConfig {
             near: 0.05,
             cull: "none".into(),
             draw_distance: None,
+            stencil_mask: false,
         }
     }
 }
@@ -88,11 +92,12 @@ impl RenderConfig {
                 "two-pass" => self.stereo = StereoMode::TwoPass,
                 "msaa" | "msaa4" => self.msaa = 4,
                 "no-msaa" => self.msaa = 1,
+                "stencil-mask" => self.stencil_mask = true,
                 name if cull_names.contains(&name) => self.cull = name.to_string(),
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, {})", cull_names.join(", ")),
                     ))
                 }
             }

@@ -16,7 +16,7 @@ use crate::gpu::query::{PipelineStats, Queries};
 use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
 use crate::scene::Scene;
-use crate::view::{projection, StereoRig};
+use crate::view::{projection, HiddenArea, StereoRig};
 use ash::vk;
 use attachments::{Attachments, COLOR_FORMAT};
 use batches::{Batcher, Batches, PipelineKey};
@@ -29,6 +29,8 @@ use std::time::Instant;
 
 const FRAMES_IN_FLIGHT: usize = 2;
 const UBO_SIZE: u64 = 432;
+/// Most hidden-area vertices per view (a triangle list).
+pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
 
 macro_rules! spirv {
     ($name:literal) => {{
@@ -42,6 +44,8 @@ pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
     vec![
         ("scene.vert", spirv!("scene.vert")),
         ("scene.frag", spirv!("scene.frag")),
+        ("scene_early.frag", spirv!("scene_early.frag")),
+        ("hidden.vert", spirv!("hidden.vert")),
         ("fullscreen.vert", spirv!("fullscreen.vert")),
         ("sky.frag", spirv!("sky.frag")),
         ("floor.vert", spirv!("floor.vert")),
@@ -151,6 +155,16 @@ pub struct Renderer {
     batches: Batches,
     output: Option<OutputSpec>,
     pending: Option<Pending>,
+    hidden_pipeline: vk::Pipeline,
+    hidden: Vec<HiddenSlot>,
+}
+
+/// One frame slot's hidden-area vertices (HMD stencil mask).
+struct HiddenSlot {
+    buffer: Buffer,
+    source: Option<Arc<Vec<HiddenArea>>>,
+    /// Vertices per view (the stride between views in the buffer).
+    per_view: u32,
 }
 
 impl Renderer {
@@ -208,6 +222,7 @@ impl Renderer {
                 texture_count,
                 vk::ShaderStageFlags::FRAGMENT,
             ),
+            binding(5, storage, 1, vk::ShaderStageFlags::VERTEX),
         ];
         // SAFETY: plain object creation on a live device; objects are owned by
         // the renderer and destroyed in `Drop`.
@@ -240,7 +255,7 @@ impl Renderer {
                 },
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: 3 * n,
+                    descriptor_count: 4 * n,
                 },
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
@@ -278,6 +293,28 @@ impl Renderer {
                 },
             )?);
         }
+        let mut hidden = Vec::new();
+        for i in 0..FRAMES_IN_FLIGHT {
+            let size = if config.stencil_mask {
+                (2 * MAX_HIDDEN_VERTICES * 8) as u64
+            } else {
+                64
+            };
+            hidden.push(HiddenSlot {
+                buffer: Buffer::new(
+                    &ctx,
+                    &BufferDesc {
+                        name: &format!("hidden area {i}"),
+                        size,
+                        usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                        location: MemoryLocation::CpuToGpu,
+                        category: "per-frame",
+                    },
+                )?,
+                source: None,
+                per_view: 0,
+            });
+        }
         let ring = FrameRing::new(&ctx, FRAMES_IN_FLIGHT)?;
         let mut queries = Vec::new();
         for _ in 0..FRAMES_IN_FLIGHT {
@@ -310,6 +347,8 @@ impl Renderer {
             batches: Batches::default(),
             output,
             pending: None,
+            hidden_pipeline: vk::Pipeline::null(),
+            hidden,
         };
         r.targets = Some(Attachments::new(
             &ctx,
@@ -348,6 +387,8 @@ impl Renderer {
         let features = scene.features;
         let vs = words(spirv!("scene.vert"));
         let fs = words(spirv!("scene.frag"));
+        let fs_early = words(spirv!("scene_early.frag"));
+        let hidden_vs = words(spirv!("hidden.vert"));
         let full = words(spirv!("fullscreen.vert"));
         let sky = words(spirv!("sky.frag"));
         let floor_vs = words(spirv!("floor.vert"));
@@ -387,7 +428,17 @@ impl Renderer {
             depth_test: true,
             depth_write: true,
             depth_compare: vk::CompareOp::GREATER,
-            stencil: None,
+            // With the stencil mask, every draw passes only where the
+            // hidden-area pass left stencil 0.
+            stencil: self.config.stencil_mask.then_some(vk::StencilOpState {
+                fail_op: vk::StencilOp::KEEP,
+                pass_op: vk::StencilOp::KEEP,
+                depth_fail_op: vk::StencilOp::KEEP,
+                compare_op: vk::CompareOp::EQUAL,
+                compare_mask: 1,
+                write_mask: 0,
+                reference: 0,
+            }),
             blend: false,
             color_write: true,
             samples: vk::SampleCountFlags::from_raw(self.config.msaa),
@@ -406,6 +457,7 @@ impl Renderer {
             );
             let desc = GraphicsPipelineDesc {
                 name: &name,
+                fragment: if key.alpha == 1 { &fs } else { &fs_early },
                 specialization: vec![
                     (0, scene.textures.len() as u32),
                     (1, key.alpha as u32),
@@ -440,9 +492,30 @@ impl Renderer {
             vertex: &floor_vs,
             fragment: &flat,
             depth_test: false,
-            ..fullscreen
+            ..fullscreen.clone()
         }
         .build(ctx)?;
+        if self.config.stencil_mask {
+            self.hidden_pipeline = GraphicsPipelineDesc {
+                name: "hidden-area stencil",
+                vertex: &hidden_vs,
+                fragment: &flat,
+                depth_test: false,
+                depth_write: false,
+                color_write: false,
+                stencil: Some(vk::StencilOpState {
+                    fail_op: vk::StencilOp::KEEP,
+                    pass_op: vk::StencilOp::REPLACE,
+                    depth_fail_op: vk::StencilOp::REPLACE,
+                    compare_op: vk::CompareOp::ALWAYS,
+                    compare_mask: 1,
+                    write_mask: 1,
+                    reference: 1,
+                }),
+                ..fullscreen
+            }
+            .build(ctx)?;
+        }
         Ok(())
     }
 
@@ -507,6 +580,11 @@ impl Renderer {
                 image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             })
             .collect();
+        let hidden = [vk::DescriptorBufferInfo {
+            buffer: self.hidden[slot].buffer.buffer,
+            offset: 0,
+            range: vk::WHOLE_SIZE,
+        }];
         let set = self.sets[slot];
         let w = |b: u32, ty| {
             vk::WriteDescriptorSet::default()
@@ -520,6 +598,7 @@ impl Renderer {
             w(2, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&vis),
             w(3, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&mats),
             w(4, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&images),
+            w(5, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&hidden),
         ];
         // SAFETY: the set is not in use by a pending frame (its slot's fence
         // was waited on, or it was never submitted).
@@ -611,6 +690,9 @@ impl Renderer {
             .write(0, ids)?;
         let data = self.frame_data(rig);
         self.ubos[slot].write(0, bytemuck_f32(&data))?;
+        if self.config.stencil_mask {
+            self.upload_hidden(slot, rig)?;
+        }
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);
 
@@ -682,6 +764,56 @@ impl Renderer {
         }
         stats.pipeline = pipeline;
         Ok(stats)
+    }
+
+    /// Writes `rig`'s hidden-area meshes (expanded to triangle lists) into
+    /// `slot`'s buffer when they changed since that slot last saw them.
+    fn upload_hidden(&mut self, slot: usize, rig: &StereoRig) -> Result<()> {
+        let areas = rig.hidden_area.clone().ok_or_else(|| {
+            Error::config(
+                "--opt stencil-mask",
+                "needs a hidden-area mesh (from the OpenXR runtime or the HMD profile)",
+            )
+        })?;
+        let h = &mut self.hidden[slot];
+        if h.source
+            .as_ref()
+            .is_some_and(|s| Arc::ptr_eq(s, &areas) || **s == *areas)
+        {
+            return Ok(());
+        }
+        let lists: Vec<Vec<[f32; 2]>> = (0..2)
+            .map(|v| {
+                areas.get(v).map_or(Vec::new(), |a| {
+                    a.indices
+                        .chunks_exact(3)
+                        .filter(|t| t.iter().all(|&i| (i as usize) < a.vertices.len()))
+                        .flatten()
+                        .map(|&i| a.vertices[i as usize])
+                        .collect()
+                })
+            })
+            .collect();
+        let per_view = lists.iter().map(Vec::len).max().unwrap_or(0);
+        if per_view > MAX_HIDDEN_VERTICES {
+            return Err(Error::config(
+                "hidden-area mesh",
+                format!("{per_view} vertices per view; at most {MAX_HIDDEN_VERTICES}"),
+            ));
+        }
+        let mut data = vec![0.0f32; 2 * per_view * 2];
+        for (v, list) in lists.iter().enumerate() {
+            for (i, p) in list.iter().enumerate() {
+                data[(v * per_view + i) * 2] = p[0];
+                data[(v * per_view + i) * 2 + 1] = p[1];
+            }
+        }
+        if !data.is_empty() {
+            h.buffer.write(0, bytemuck_f32(&data))?;
+        }
+        h.per_view = per_view as u32;
+        h.source = Some(areas);
+        Ok(())
     }
 
     /// Renders a floor frame (clear only, or one full-screen triangle with a
@@ -825,6 +957,20 @@ impl Renderer {
                     &[self.sets[self.slot]],
                     &[],
                 );
+                let hidden = &self.hidden[self.slot];
+                if self.config.stencil_mask && hidden.per_view > 0 {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.hidden_pipeline);
+                    let pc = [0, eye, hidden.per_view, 0];
+                    d.cmd_push_constants(
+                        cmd,
+                        self.layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck_u32(&pc),
+                    );
+                    d.cmd_draw(cmd, hidden.per_view, 1, 0, 0);
+                    draw_calls += 1;
+                }
                 let push = |material: u32| {
                     let pc = [material, eye, 0, 0];
                     d.cmd_push_constants(
@@ -1274,8 +1420,14 @@ impl Drop for Renderer {
         }
         // SAFETY: the device is idle; these objects belong to this renderer.
         unsafe {
-            for p in self.pipelines.values().chain([&self.sky, &self.flat]) {
-                ctx.device.destroy_pipeline(*p, None);
+            for p in self
+                .pipelines
+                .values()
+                .chain([&self.sky, &self.flat, &self.hidden_pipeline])
+            {
+                if *p != vk::Pipeline::null() {
+                    ctx.device.destroy_pipeline(*p, None);
+                }
             }
             ctx.device.destroy_descriptor_pool(self.pool, None);
             ctx.device.destroy_pipeline_layout(self.layout, None);
@@ -1287,6 +1439,7 @@ impl Drop for Renderer {
             .drain(..)
             .flatten()
             .chain(self.ubos.drain(..))
+            .chain(self.hidden.drain(..).map(|h| h.buffer))
             .chain(self.readback.take())
         {
             b.destroy(&ctx);

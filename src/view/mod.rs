@@ -4,6 +4,7 @@
 
 pub mod cone;
 pub mod frustum;
+pub mod lens;
 pub mod profile;
 pub mod projection;
 pub mod superfrustum;

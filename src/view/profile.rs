@@ -3,11 +3,12 @@
 //! named by a path or by the stem of a file in `manifests/hmd/`; the shipped
 //! profiles are also embedded in the binary so it runs without the source tree.
 
-use super::{Fov, Pose, StereoRig};
+use super::{Fov, HiddenArea, Pose, StereoRig};
 use crate::error::{Error, Result};
 use glam::{DQuat, DVec3};
 use serde::Deserialize;
 use std::path::Path;
+use std::sync::Arc;
 
 /// Profiles shipped in `manifests/hmd/`, embedded at build time.
 pub const BUILTIN: &[(&str, &str)] = &[
@@ -46,6 +47,9 @@ struct ViewToml {
     orientation: [f64; 4],
     fov: FovToml,
     resolution: [u32; 2],
+    /// Hidden-area triangle list in tangent space (optional).
+    #[serde(default)]
+    hidden_area: Option<Vec<[f64; 2]>>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -76,6 +80,10 @@ pub struct HmdProfile {
     pub refresh_hz: f64,
     /// Views, left eye first.
     pub views: Vec<ProfileView>,
+    /// Per view, the hidden-area mesh in tangent space: the profile's
+    /// `hidden_area` triangle list, else the lens-ellipse default of
+    /// [`super::lens`].
+    pub hidden_areas: Arc<Vec<HiddenArea>>,
 }
 
 impl HmdProfile {
@@ -132,6 +140,7 @@ impl HmdProfile {
             )));
         }
         let mut views = Vec::new();
+        let mut hidden_areas = Vec::new();
         for (i, v) in raw.views.iter().enumerate() {
             let fov = Fov {
                 left: v.fov.left,
@@ -154,22 +163,50 @@ impl HmdProfile {
                     "views[{i}]: resolution {rw}x{rh} must be within 1..=16384"
                 )));
             }
+            let hidden_area = match &v.hidden_area {
+                None => super::lens::default_hidden_area(&fov),
+                Some(list) => {
+                    if list.len() % 3 != 0 || list.len() > 3 * 4096 {
+                        return Err(err(format!(
+                            "views[{i}]: hidden_area has {} points; it is a triangle list (a multiple of 3, at most 12288)",
+                            list.len()
+                        )));
+                    }
+                    if let Some(p) = list
+                        .iter()
+                        .find(|p| !(p[0].is_finite() && p[1].is_finite()))
+                    {
+                        return Err(err(format!(
+                            "views[{i}]: hidden_area point {p:?} is not finite"
+                        )));
+                    }
+                    HiddenArea {
+                        vertices: list.iter().map(|p| [p[0] as f32, p[1] as f32]).collect(),
+                        indices: (0..list.len() as u32).collect(),
+                    }
+                }
+            };
             views.push(ProfileView {
                 pose,
                 fov,
                 resolution: v.resolution,
             });
+            hidden_areas.push(hidden_area);
         }
         Ok(HmdProfile {
             name: raw.name,
             refresh_hz: raw.refresh_hz,
             views,
+            hidden_areas: Arc::new(hidden_areas),
         })
     }
 
-    /// The stereo rig for a head pose in world space.
+    /// The stereo rig for a head pose in world space, carrying the
+    /// profile's hidden-area meshes.
     pub fn rig(&self, head: Pose) -> StereoRig {
-        StereoRig::from_head(head, &self.eyes())
+        let mut rig = StereoRig::from_head(head, &self.eyes());
+        rig.hidden_area = Some(self.hidden_areas.clone());
+        rig
     }
 
     /// The views' eye poses (head space) and FOVs.

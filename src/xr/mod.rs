@@ -695,6 +695,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         with_depth: depth_format.is_some(),
         last_valid: Vec::new(),
         first_fov_recorded: false,
+        lens: None,
     };
     let result = frame_loop(stats, &mut live, &mut state);
     stats.validation_messages = ctx.validation_messages();
@@ -729,6 +730,27 @@ struct LoopState<'a> {
     with_depth: bool,
     last_valid: Vec<Option<TrackedView>>,
     first_fov_recorded: bool,
+    lens: Option<(Vec<Fov>, Arc<Vec<HiddenArea>>)>,
+}
+
+impl LoopState<'_> {
+    /// Without XR_KHR_visibility_mask: the lens-ellipse default for the
+    /// rig's FOVs, rebuilt only when they change.
+    fn lens_default(&mut self, rig: &StereoRig) -> Arc<Vec<HiddenArea>> {
+        let fovs: Vec<Fov> = rig.views.iter().map(|v| v.fov).collect();
+        match &self.lens {
+            Some((f, m)) if *f == fovs => m.clone(),
+            _ => {
+                let m = Arc::new(
+                    fovs.iter()
+                        .map(crate::view::lens::default_hidden_area)
+                        .collect::<Vec<_>>(),
+                );
+                self.lens = Some((fovs, m.clone()));
+                m
+            }
+        }
+    }
 }
 
 fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Result<()> {
@@ -901,7 +923,10 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         if let Some(sane) = sane {
             let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
             let mut rig = world_rig(&st.spawn, &tracking);
-            rig.hidden_area = st.masks.clone();
+            rig.hidden_area = match &st.masks {
+                Some(m) => Some(m.clone()),
+                None => Some(st.lens_default(&rig)),
+            };
             if !st.first_fov_recorded {
                 for (v, info) in rig.views.iter().zip(stats.views.iter_mut()) {
                     info.fov = Some(v.fov);

@@ -67,13 +67,23 @@ pub fn render(
         msaa,
         ..RenderConfig::default()
     };
+    render_config(ctx, scene, profile, pose, &config, size, size)
+}
+
+/// Renders `scene` from `pose` with `config` at `width`×`height` per eye and
+/// checks the frame is validation-clean.
+pub fn render_config(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    profile: &HmdProfile,
+    pose: Pose,
+    config: &RenderConfig,
+    width: u32,
+    height: u32,
+) -> Frame {
     let before = ctx.validation_messages();
-    let extent = ash::vk::Extent2D {
-        width: size,
-        height: size,
-    };
-    let mut r =
-        Renderer::new(ctx.clone(), scene, &config, extent).unwrap_or_else(|e| panic!("{e}"));
+    let extent = ash::vk::Extent2D { width, height };
+    let mut r = Renderer::new(ctx.clone(), scene, config, extent).unwrap_or_else(|e| panic!("{e}"));
     let stats = r
         .render(&profile.rig(pose), None, true)
         .unwrap_or_else(|e| panic!("{e}"));
