@@ -50,6 +50,11 @@ pub struct RenderConfig {
     /// HMD stencil mask: the hidden-area mesh is written to stencil first and
     /// every later draw is stencil-tested (`stencil-mask`).
     pub stencil_mask: bool,
+    /// Foveated rendering level (`foveation=off|low|medium|high`).
+    pub foveation: crate::render::foveation::Level,
+    /// Gaze centre for foveation in NDC (`gaze=X:Y`, +y down; default the
+    /// image centre).
+    pub gaze: [f32; 2],
 }
 
 impl Default for RenderConfig {
@@ -61,6 +66,8 @@ impl Default for RenderConfig {
             cull: "none".into(),
             draw_distance: None,
             stencil_mask: false,
+            foveation: crate::render::foveation::Level::Off,
+            gaze: [0.0, 0.0],
         }
     }
 }
@@ -93,15 +100,63 @@ impl RenderConfig {
                 "msaa" | "msaa4" => self.msaa = 4,
                 "no-msaa" => self.msaa = 1,
                 "stencil-mask" => self.stencil_mask = true,
+                "foveation" => self.foveation = crate::render::foveation::Level::Medium,
+                level if level.starts_with("foveation=") => {
+                    self.foveation = level["foveation=".len()..]
+                        .parse()
+                        .map_err(|m: String| Error::config("--opt", m))?;
+                }
+                gaze if gaze.starts_with("gaze=") => {
+                    let v: Vec<f32> = gaze["gaze=".len()..]
+                        .split(':')
+                        .map(|x| x.trim().parse::<f32>())
+                        .collect::<std::result::Result<_, _>>()
+                        .map_err(|_| Error::config("--opt", format!("'{gaze}': expected gaze=X:Y in NDC (-1..1)")))?;
+                    match v.as_slice() {
+                        [x, y] if x.abs() <= 1.0 && y.abs() <= 1.0 => self.gaze = [*x, *y],
+                        _ => {
+                            return Err(Error::config(
+                                "--opt",
+                                format!("'{gaze}': expected gaze=X:Y with both within -1..1"),
+                            ))
+                        }
+                    }
+                }
                 name if cull_names.contains(&name) => self.cull = name.to_string(),
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, {})", cull_names.join(", ")),
                     ))
                 }
             }
         }
         Ok(())
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::render::foveation::Level;
+
+    #[test]
+    fn effort_options_parse_and_bad_values_name_themselves() {
+        let mut c = RenderConfig::default();
+        c.apply_opts("stencil-mask,foveation=high,gaze=0.25:-0.5", &["none"])
+            .unwrap();
+        assert!(c.stencil_mask);
+        assert_eq!(c.foveation, Level::High);
+        assert_eq!(c.gaze, [0.25, -0.5]);
+        for bad in ["foveation=extreme", "gaze=2:0", "gaze=0.1", "gaze=a:b"] {
+            let e = RenderConfig::default()
+                .apply_opts(bad, &["none"])
+                .unwrap_err()
+                .to_string();
+            assert!(
+                e.contains("--opt") && e.contains(bad.split('=').nth(1).unwrap()),
+                "{e}"
+            );
+        }
     }
 }

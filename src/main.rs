@@ -28,6 +28,23 @@ enum Command {
     Run(RunCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::cull::bench::CullBenchArgs),
+    /// Compare two images: FLIP mean/p99, PSNR, SSIM, and a FLIP heat map.
+    Compare {
+        /// Reference image (PNG or JPEG).
+        reference: PathBuf,
+        /// Test image, same size.
+        test: PathBuf,
+        /// Pixels per degree for FLIP (default: a desktop monitor's 67).
+        #[arg(long)]
+        ppd: Option<f32>,
+        /// Print JSON instead of text.
+        #[arg(long)]
+        json: bool,
+        /// Where to write the FLIP heat map (default: next to TEST as
+        /// TEST.flip.png).
+        #[arg(long)]
+        heatmap: Option<PathBuf>,
+    },
     /// Print a scene's nodes, meshes, triangles, materials, textures, instances and bounds.
     Inspect {
         /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
@@ -256,10 +273,74 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::CullBench(args) => cull_bench(&args)?,
+        Command::Compare {
+            reference,
+            test,
+            ppd,
+            json,
+            heatmap,
+        } => compare(&reference, &test, ppd, json, heatmap)?,
         Command::Inspect { scene } => {
             let (s, ms) = headless::load_scene(&scene)?;
             inspect(&s, ms);
         }
+    }
+    Ok(())
+}
+
+fn compare(
+    reference: &std::path::Path,
+    test: &std::path::Path,
+    ppd: Option<f32>,
+    json: bool,
+    heatmap: Option<PathBuf>,
+) -> anyhow::Result<()> {
+    use vergence::bench::metrics;
+    let open = |p: &std::path::Path| -> anyhow::Result<image::RgbaImage> {
+        Ok(image::open(p)
+            .map_err(|e| anyhow::anyhow!("{}: cannot read image: {e}", p.display()))?
+            .to_rgba8())
+    };
+    let (a, b) = (open(reference)?, open(test)?);
+    if a.dimensions() != b.dimensions() {
+        anyhow::bail!(
+            "{} is {}x{} but {} is {}x{}; compare needs equal sizes",
+            reference.display(),
+            a.width(),
+            a.height(),
+            test.display(),
+            b.width(),
+            b.height()
+        );
+    }
+    let ppd = ppd.unwrap_or(metrics::DESKTOP_PPD);
+    if !(ppd.is_finite() && ppd > 0.0 && ppd < 1000.0) {
+        anyhow::bail!("invalid --ppd: {ppd} must be in (0, 1000)");
+    }
+    let f = metrics::flip(&a, &b, ppd)?;
+    let psnr = metrics::psnr(&a, &b);
+    let ssim = metrics::ssim(&a, &b);
+    let heat = heatmap.unwrap_or_else(|| test.with_extension("flip.png"));
+    f.heatmap()
+        .save(&heat)
+        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", heat.display()))?;
+    if json {
+        println!(
+            "{}",
+            serde_json::json!({
+                "flip_mean": f.mean, "flip_p99": f.p99, "flip_max": f.max,
+                "psnr_db": if psnr.is_finite() { Some(psnr) } else { None },
+                "ssim": ssim, "ppd": ppd, "heatmap": heat,
+            })
+        );
+    } else {
+        println!(
+            "FLIP mean {:.5}, p99 {:.5}, max {:.5} (ppd {ppd}); PSNR {psnr:.2} dB; SSIM {ssim:.5}; heat map {}",
+            f.mean,
+            f.p99,
+            f.max,
+            heat.display()
+        );
     }
     Ok(())
 }

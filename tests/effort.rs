@@ -140,3 +140,69 @@ fn fragment_invocations_drop_by_the_masked_fraction() {
         "factory: drop {f_drop:.4} vs masked {fraction:.4}"
     );
 }
+
+#[test]
+fn foveation_uses_the_shading_rate_attachment_or_falls_back_to_off() {
+    use vergence::render::foveation::{shaded_fraction, Level};
+    let ctx = common::context();
+    let profile = HmdProfile::load("monado-sim").unwrap();
+    let factory = common::load("factory:2000");
+    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let up = Pose::from_euler_deg(DVec3::new(0.0, 5000.0, 0.0), 0.0, 89.0, 0.0);
+    let (w, h) = (320, 240);
+    let make = |level| RenderConfig {
+        foveation: level,
+        ..config(StereoMode::Multiview, false)
+    };
+    let extent = ash::vk::Extent2D {
+        width: w,
+        height: h,
+    };
+    let r = vergence::render::Renderer::new(ctx.clone(), &factory, &make(Level::High), extent)
+        .expect("renderer");
+    let path = r.foveation_path.clone();
+    drop(r);
+    let full = common::render_config(&ctx, &factory, &profile, pose, &make(Level::Off), w, h);
+    let fov = common::render_config(&ctx, &factory, &profile, pose, &make(Level::High), w, h);
+    let sky_full = common::render_config(&ctx, &factory, &profile, up, &make(Level::Off), w, h);
+    let sky_fov = common::render_config(&ctx, &factory, &profile, up, &make(Level::High), w, h);
+    let inv = |f: &common::Frame| f.stats.pipeline.expect("statistics").fragment_invocations as f64;
+    match ctx.caps.shading_rate_texel {
+        None => {
+            assert!(
+                path.starts_with("off: ") && path.contains("VK_KHR_fragment_shading_rate"),
+                "{path}"
+            );
+            for eye in 0..2 {
+                assert_eq!(
+                    full.images[eye], fov.images[eye],
+                    "fallback renders at full rate"
+                );
+            }
+            assert_eq!(inv(&sky_full), inv(&sky_fov));
+        }
+        Some(texel) => {
+            assert!(path.starts_with("vk-khr-fragment-shading-rate"), "{path}");
+            let want = shaded_fraction(Level::High, [0.0, 0.0], w, h, texel);
+            let got = inv(&sky_fov) / inv(&sky_full);
+            eprintln!(
+                "{}: sky invocations x{got:.3} (rate image predicts x{want:.3})",
+                ctx.device_name
+            );
+            assert!(
+                (got - want).abs() < 0.05,
+                "sky invocations x{got:.3}, rate image x{want:.3}"
+            );
+            for eye in 0..2 {
+                let f = vergence::bench::metrics::flip(&full.images[eye], &fov.images[eye], 30.0)
+                    .unwrap();
+                eprintln!("eye {eye}: FLIP mean {:.4} vs full rate", f.mean);
+                assert!(
+                    f.mean > 0.0 && f.mean < 0.1,
+                    "foveated frame differs but stays close: {}",
+                    f.mean
+                );
+            }
+        }
+    }
+}

@@ -106,9 +106,76 @@ pub fn psnr(reference: &image::RgbaImage, test: &image::RgbaImage) -> f64 {
     10.0 * (255.0f64 * 255.0 / (se / n as f64)).log10()
 }
 
+/// Mean structural similarity (Wang, Bovik, Sheikh & Simoncelli, "Image
+/// Quality Assessment: From Error Visibility to Structural Similarity",
+/// IEEE TIP 2004) on luma `Y' = 0.2126 R + 0.7152 G + 0.0722 B` of the
+/// stored (sRGB-encoded) values, over 8×8 windows with stride 4 and the
+/// paper's constants C1 = (0.01·255)², C2 = (0.03·255)². 1 = identical.
+pub fn ssim(reference: &image::RgbaImage, test: &image::RgbaImage) -> f64 {
+    let (w, h) = reference.dimensions();
+    if test.dimensions() != (w, h) || w < 8 || h < 8 {
+        return if reference == test { 1.0 } else { 0.0 };
+    }
+    let luma = |img: &image::RgbaImage| -> Vec<f64> {
+        img.pixels()
+            .map(|p| 0.2126 * p[0] as f64 + 0.7152 * p[1] as f64 + 0.0722 * p[2] as f64)
+            .collect()
+    };
+    let (a, b) = (luma(reference), luma(test));
+    let (c1, c2) = ((0.01f64 * 255.0).powi(2), (0.03f64 * 255.0).powi(2));
+    let mut sum = 0.0;
+    let mut windows = 0usize;
+    for y0 in (0..=h - 8).step_by(4) {
+        for x0 in (0..=w - 8).step_by(4) {
+            let (mut ma, mut mb, mut va, mut vb, mut cov) = (0.0, 0.0, 0.0, 0.0, 0.0);
+            for y in y0..y0 + 8 {
+                for x in x0..x0 + 8 {
+                    let i = (y * w + x) as usize;
+                    ma += a[i];
+                    mb += b[i];
+                }
+            }
+            ma /= 64.0;
+            mb /= 64.0;
+            for y in y0..y0 + 8 {
+                for x in x0..x0 + 8 {
+                    let i = (y * w + x) as usize;
+                    let (da, db) = (a[i] - ma, b[i] - mb);
+                    va += da * da;
+                    vb += db * db;
+                    cov += da * db;
+                }
+            }
+            va /= 63.0;
+            vb /= 63.0;
+            cov /= 63.0;
+            sum += ((2.0 * ma * mb + c1) * (2.0 * cov + c2))
+                / ((ma * ma + mb * mb + c1) * (va + vb + c2));
+            windows += 1;
+        }
+    }
+    sum / windows.max(1) as f64
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ssim_is_one_for_identical_images_and_drops_with_noise() {
+        let a = image::RgbaImage::from_fn(64, 64, |x, y| {
+            image::Rgba([(x * 4) as u8, (y * 4) as u8, ((x ^ y) * 4) as u8, 255])
+        });
+        assert!((ssim(&a, &a) - 1.0).abs() < 1e-12);
+        let mut b = a.clone();
+        for (i, p) in b.pixels_mut().enumerate() {
+            if i % 3 == 0 {
+                p.0[0] = p.0[0].wrapping_add(90);
+            }
+        }
+        let s = ssim(&a, &b);
+        assert!(s < 0.9 && s > 0.0, "{s}");
+    }
 
     #[test]
     fn identical_images_have_zero_error() {

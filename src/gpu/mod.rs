@@ -64,6 +64,13 @@ pub struct Capabilities {
     /// Depth-stencil format chosen for the depth attachment.
     #[serde(skip)]
     pub depth_format: vk::Format,
+    /// VK_KHR_fragment_shading_rate with attachment rates is enabled: the
+    /// rate attachment's texel size (None: not offered).
+    pub shading_rate_texel: Option<(u32, u32)>,
+    /// VK_EXT_fragment_density_map is offered (not used yet).
+    pub fragment_density_map: bool,
+    /// VK_QCOM_multiview_per_view_render_areas is offered.
+    pub per_view_render_areas: bool,
 }
 
 /// The Vulkan instance, device, queue and allocator.
@@ -443,11 +450,24 @@ impl PartialInstance {
             as u32;
         let timestamp_ok = families[queue_family as usize].timestamp_valid_bits > 0;
 
+        // SAFETY: enumeration on a valid physical device.
+        let dev_exts = unsafe { inst.enumerate_device_extension_properties(pd) }
+            .vk("enumerating device extensions")?;
+        let has_ext = |name: &CStr| {
+            dev_exts
+                .iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+        };
+        let fsr_offered = has_ext(ash::khr::fragment_shading_rate::NAME);
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
+        let mut ffsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default()
             .push_next(&mut f11)
             .push_next(&mut f13);
+        if fsr_offered {
+            f2 = f2.push_next(&mut ffsr);
+        }
         // SAFETY: valid physical device and a correctly chained query struct.
         unsafe { inst.get_physical_device_features2(pd, &mut f2) };
         let base = f2.features;
@@ -467,15 +487,36 @@ impl PartialInstance {
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
+        let use_fsr = fsr_offered && ffsr.attachment_fragment_shading_rate != 0;
+        let shading_rate_texel = if use_fsr {
+            let mut fsr_props = vk::PhysicalDeviceFragmentShadingRatePropertiesKHR::default();
+            let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut fsr_props);
+            // SAFETY: valid physical device and a correctly chained query.
+            unsafe { inst.get_physical_device_properties2(pd, &mut p2) };
+            let t = fsr_props.min_fragment_shading_rate_attachment_texel_size;
+            Some((t.width.max(1), t.height.max(1)))
+        } else {
+            None
+        };
+        let mut e_fsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default()
+            .attachment_fragment_shading_rate(true);
+        let mut dev_ext_names = Vec::new();
+        if use_fsr {
+            dev_ext_names.push(ash::khr::fragment_shading_rate::NAME.as_ptr());
+        }
         let prio = [1.0f32];
         let qinfo = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
             .queue_priorities(&prio)];
-        let dinfo = vk::DeviceCreateInfo::default()
+        let mut dinfo = vk::DeviceCreateInfo::default()
             .queue_create_infos(&qinfo)
             .enabled_features(&features)
+            .enabled_extension_names(&dev_ext_names)
             .push_next(&mut e11)
             .push_next(&mut e13);
+        if use_fsr {
+            dinfo = dinfo.push_next(&mut e_fsr);
+        }
         let device = factory.create_device(&self.entry, inst, pd, &dinfo)?;
         // SAFETY: the family/index pair was requested at device creation.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
@@ -515,6 +556,9 @@ impl PartialInstance {
             lazily_allocated_memory,
             max_samples,
             depth_format,
+            shading_rate_texel,
+            fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
+            per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

@@ -45,6 +45,9 @@ pub struct GraphicsPipelineDesc<'a> {
     pub view_mask: u32,
     /// Pipeline layout.
     pub layout: vk::PipelineLayout,
+    /// Used with a fragment-shading-rate attachment (the attachment's rate
+    /// replaces the pipeline's 1×1).
+    pub shading_rate_attachment: bool,
 }
 
 fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
@@ -147,7 +150,16 @@ impl GraphicsPipelineDesc<'_> {
             .color_attachment_formats(&formats)
             .depth_attachment_format(self.depth_format)
             .stencil_attachment_format(self.depth_format);
-        let info = vk::GraphicsPipelineCreateInfo::default()
+        let mut fsr = vk::PipelineFragmentShadingRateStateCreateInfoKHR::default()
+            .fragment_size(vk::Extent2D {
+                width: 1,
+                height: 1,
+            })
+            .combiner_ops([
+                vk::FragmentShadingRateCombinerOpKHR::KEEP,
+                vk::FragmentShadingRateCombinerOpKHR::REPLACE,
+            ]);
+        let mut info = vk::GraphicsPipelineCreateInfo::default()
             .stages(&stages)
             .vertex_input_state(&vertex_input)
             .input_assembly_state(&input_assembly)
@@ -159,6 +171,11 @@ impl GraphicsPipelineDesc<'_> {
             .dynamic_state(&dynamic)
             .layout(self.layout)
             .push_next(&mut rendering);
+        if self.shading_rate_attachment {
+            info = info
+                .flags(vk::PipelineCreateFlags::RENDERING_FRAGMENT_SHADING_RATE_ATTACHMENT_KHR)
+                .push_next(&mut fsr);
+        }
         // SAFETY: all referenced state lives until the call returns; modules
         // are destroyed after creation, which Vulkan permits.
         let result = unsafe {

@@ -6,11 +6,12 @@
 
 pub mod attachments;
 pub mod batches;
+pub mod foveation;
 pub mod scene_gpu;
 
 use crate::config::{RenderConfig, StereoMode};
 use crate::error::{Error, Result, VkContext};
-use crate::gpu::memory::{Buffer, BufferDesc};
+use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::{PipelineStats, Queries};
 use crate::gpu::ring::{FrameRing, Garbage};
@@ -157,6 +158,10 @@ pub struct Renderer {
     pending: Option<Pending>,
     hidden_pipeline: vk::Pipeline,
     hidden: Vec<HiddenSlot>,
+    rates: Vec<Image>,
+    /// Which foveation path runs (for stats), e.g. "off" or
+    /// "vk-khr-fragment-shading-rate (16x16 texels)".
+    pub foveation_path: String,
 }
 
 /// One frame slot's hidden-area vertices (HMD stencil mask).
@@ -349,7 +354,10 @@ impl Renderer {
             pending: None,
             hidden_pipeline: vk::Pipeline::null(),
             hidden,
+            rates: Vec::new(),
+            foveation_path: "off".into(),
         };
+        r.setup_foveation()?;
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
@@ -446,6 +454,7 @@ impl Renderer {
             depth_format: ctx.caps.depth_format,
             view_mask: self.view_mask(),
             layout: self.layout,
+            shading_rate_attachment: !self.rates.is_empty(),
         };
         let mut keys: Vec<PipelineKey> = self.batcher.keys.clone();
         keys.sort();
@@ -516,6 +525,157 @@ impl Renderer {
             }
             .build(ctx)?;
         }
+        Ok(())
+    }
+
+    /// Chooses the foveation path by capability and, for the
+    /// fragment-shading-rate path, builds and uploads the rate images.
+    fn setup_foveation(&mut self) -> Result<()> {
+        use foveation::Level;
+        if self.config.foveation == Level::Off {
+            return Ok(());
+        }
+        let Some(texel) = self.ctx.caps.shading_rate_texel else {
+            let path = format!(
+                "off: {} offers no VK_KHR_fragment_shading_rate attachment{}, and XR_FB_foveation is not in use",
+                self.ctx.device_name,
+                if self.ctx.caps.fragment_density_map {
+                    " (VK_EXT_fragment_density_map is offered but not implemented yet)"
+                } else {
+                    " nor VK_EXT_fragment_density_map"
+                }
+            );
+            tracing::warn!("foveation {:?} requested; {path}", self.config.foveation);
+            eprintln!("warning: foveation falls back to {path}");
+            self.foveation_path = path;
+            self.config.foveation = Level::Off;
+            return Ok(());
+        };
+        let (tw, th, data) = foveation::rate_image(
+            self.config.foveation,
+            self.config.gaze,
+            self.extent.width,
+            self.extent.height,
+            texel,
+        );
+        let layers = if self.config.stereo == StereoMode::Multiview {
+            2
+        } else {
+            1
+        };
+        let sets = if layers == 2 { 1 } else { 2 };
+        let mut staging = Buffer::new(
+            &self.ctx,
+            &BufferDesc {
+                name: "shading rate staging",
+                size: (data.len() * layers as usize) as u64,
+                usage: vk::BufferUsageFlags::TRANSFER_SRC,
+                location: MemoryLocation::CpuToGpu,
+                category: "staging",
+            },
+        )?;
+        for l in 0..layers as usize {
+            staging.write(l * data.len(), &data)?;
+        }
+        for _ in 0..sets {
+            self.rates.push(Image::new(
+                &self.ctx,
+                &ImageDesc {
+                    name: "shading rate",
+                    format: vk::Format::R8_UINT,
+                    extent: vk::Extent2D {
+                        width: tw,
+                        height: th,
+                    },
+                    layers,
+                    mips: 1,
+                    samples: vk::SampleCountFlags::TYPE_1,
+                    usage: vk::ImageUsageFlags::FRAGMENT_SHADING_RATE_ATTACHMENT_KHR
+                        | vk::ImageUsageFlags::TRANSFER_DST,
+                    aspect: vk::ImageAspectFlags::COLOR,
+                    category: "render target",
+                },
+            )?);
+        }
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: layers,
+        };
+        let d = &self.ctx.device;
+        let rates = &self.rates;
+        let buf = staging.buffer;
+        let upload = self.ctx.one_shot(|cmd| {
+            for img in rates {
+                let to_dst = [vk::ImageMemoryBarrier2::default()
+                    .dst_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                    .old_layout(vk::ImageLayout::UNDEFINED)
+                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                    .image(img.image)
+                    .subresource_range(range)];
+                let copy = vk::BufferImageCopy::default()
+                    .image_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: layers,
+                    })
+                    .image_extent(vk::Extent3D {
+                        width: tw,
+                        height: th,
+                        depth: 1,
+                    });
+                let to_rate = [vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                    // ALL_COMMANDS rather than the shading-rate stage: older
+                    // validation layers mistake that bit for the NV
+                    // shading-rate-image stage it aliases (a one-time upload).
+                    .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                    .dst_access_mask(vk::AccessFlags2::FRAGMENT_SHADING_RATE_ATTACHMENT_READ_KHR)
+                    .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
+                    .new_layout(vk::ImageLayout::FRAGMENT_SHADING_RATE_ATTACHMENT_OPTIMAL_KHR)
+                    .image(img.image)
+                    .subresource_range(range)];
+                // SAFETY: recording into the one-shot command buffer; the
+                // staging buffer holds `layers` copies of the rate image.
+                unsafe {
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default().image_memory_barriers(&to_dst),
+                    );
+                    d.cmd_copy_buffer_to_image(
+                        cmd,
+                        buf,
+                        img.image,
+                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                        &[copy],
+                    );
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default().image_memory_barriers(&to_rate),
+                    );
+                }
+            }
+        });
+        staging.destroy(&self.ctx);
+        upload?;
+        self.foveation_path = format!(
+            "vk-khr-fragment-shading-rate ({}x{} texels, {:.0} % of full-rate shading)",
+            texel.0,
+            texel.1,
+            100.0
+                * foveation::shaded_fraction(
+                    self.config.foveation,
+                    self.config.gaze,
+                    self.extent.width,
+                    self.extent.height,
+                    texel
+                )
+        );
         Ok(())
     }
 
@@ -917,7 +1077,17 @@ impl Renderer {
                         .resolve_image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
                 }
                 let colors = [color];
-                let info = vk::RenderingInfo::default()
+                let mut rate_info = self.rates.get(eye as usize).map(|img| {
+                    let texel = ctx.caps.shading_rate_texel.unwrap_or((1, 1));
+                    vk::RenderingFragmentShadingRateAttachmentInfoKHR::default()
+                        .image_view(img.view)
+                        .image_layout(vk::ImageLayout::FRAGMENT_SHADING_RATE_ATTACHMENT_OPTIMAL_KHR)
+                        .shading_rate_attachment_texel_size(vk::Extent2D {
+                            width: texel.0,
+                            height: texel.1,
+                        })
+                });
+                let mut info = vk::RenderingInfo::default()
                     .render_area(vk::Rect2D {
                         offset: vk::Offset2D::default(),
                         extent: self.extent,
@@ -927,6 +1097,9 @@ impl Renderer {
                     .color_attachments(&colors)
                     .depth_attachment(&depth)
                     .stencil_attachment(&depth);
+                if let Some(r) = rate_info.as_mut() {
+                    info = info.push_next(r);
+                }
                 d.cmd_begin_rendering(cmd, &info);
                 let (w, h) = (self.extent.width as f32, self.extent.height as f32);
                 d.cmd_set_viewport(
@@ -1446,6 +1619,9 @@ impl Drop for Renderer {
         }
         if let Some(t) = self.targets.take() {
             t.destroy(&ctx);
+        }
+        for img in self.rates.drain(..) {
+            img.destroy(&ctx);
         }
         if let Some(s) = self.scene.take() {
             s.destroy(&ctx);

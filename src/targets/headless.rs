@@ -122,6 +122,9 @@ pub struct RenderStats {
     pub floor_gpu_ms: Option<Floors>,
     /// Culling counters of the last frame (None without a culling strategy).
     pub cull: Option<CullStats>,
+    /// Which foveation path ran ("off", the Vulkan path, or why it fell
+    /// back to off).
+    pub foveation: String,
 }
 
 /// Median and 95th percentile of a series.
@@ -301,6 +304,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         cpu_frame_ms: Percentiles::of(&cpu_frame),
         floor_gpu_ms,
         cull: cull_stats,
+        foveation: renderer.foveation_path.clone(),
     };
     drop(renderer);
     let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {

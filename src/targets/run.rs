@@ -201,6 +201,8 @@ pub struct RunStats {
     pub xr_validation_messages: usize,
     /// Culling counters of the last frame.
     pub cull: Option<CullStats>,
+    /// Which foveation path ran.
+    pub foveation: String,
     /// Series summary.
     pub summary: RunSummary,
     /// Why the loop ended.
@@ -343,6 +345,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(&scene));
     stats.config = renderer.config.clone();
+    stats.foveation = renderer.foveation_path.clone();
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
     stats.system = format!("HMD profile {}", profile.name);

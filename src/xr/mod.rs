@@ -665,6 +665,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         }),
     )?;
     stats.config = renderer.config.clone();
+    stats.foveation = renderer.foveation_path.clone();
     live.renderer = Some(renderer);
     let culling = CullState::new(&args.config, &scene)?;
     let masks = if exts.khr_visibility_mask {
