@@ -206,3 +206,44 @@ fn foveation_uses_the_shading_rate_attachment_or_falls_back_to_off() {
         }
     }
 }
+
+#[test]
+fn stats_name_the_paths_that_ran() {
+    use vergence::targets::headless::{render_to_dir, RenderJob};
+    let out = common::root().join("target/effort-stats");
+    let mut config = RenderConfig {
+        msaa: 1,
+        ..RenderConfig::default()
+    };
+    config
+        .apply_opts("stencil-mask,foveation=medium", &["none"])
+        .unwrap();
+    let job = RenderJob {
+        scene: "factory:500".into(),
+        hmd: "monado-sim".into(),
+        pose: Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0),
+        rig: None,
+        config,
+        size: Some((96, 64)),
+        out: out.clone(),
+        frames: 1,
+    };
+    let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
+    let json: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(json["config"]["stencil_mask"], true);
+    assert_eq!(json["foveation"], stats.foveation);
+    let ctx = common::context();
+    if ctx.caps.shading_rate_texel.is_none() {
+        assert!(stats.foveation.starts_with("off: "), "{}", stats.foveation);
+        assert_eq!(
+            json["config"]["foveation"], "off",
+            "the fallback is recorded"
+        );
+    } else {
+        assert!(stats.foveation.starts_with("vk-khr-fragment-shading-rate"));
+    }
+    if !ctx.caps.per_view_render_areas {
+        assert!(stats.per_view_render_areas.starts_with("not offered"));
+    }
+}

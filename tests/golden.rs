@@ -6,9 +6,9 @@
 
 mod common;
 
-use common::{context, framing_pose, load, render, root};
+use common::{context, framing_pose, load, render_config, root};
 use vergence::bench::metrics::{flip, DESKTOP_PPD};
-use vergence::config::StereoMode;
+use vergence::config::{RenderConfig, StereoMode};
 use vergence::view::profile::HmdProfile;
 use vergence::view::Pose;
 
@@ -21,12 +21,39 @@ const MODES_MEAN: f32 = 0.005;
 const SIZE: u32 = 160;
 
 fn check(name: &str, spec: &str, pose: Option<Pose>) {
+    check_with(name, spec, pose, &RenderConfig::default());
+}
+
+/// Renders `spec` with `config` in both stereo modes (4× MSAA) and compares
+/// with the goldens `name-left.png` / `name-right.png`.
+fn check_with(name: &str, spec: &str, pose: Option<Pose>, config: &RenderConfig) {
     let ctx = context();
     let profile = HmdProfile::load("monado-sim").unwrap();
     let scene = load(spec);
     let pose = pose.unwrap_or_else(|| framing_pose(&scene, &profile));
-    let mv = render(&ctx, &scene, &profile, pose, StereoMode::Multiview, 4, SIZE);
-    let tp = render(&ctx, &scene, &profile, pose, StereoMode::TwoPass, 4, SIZE);
+    let mode = |stereo| RenderConfig {
+        stereo,
+        msaa: 4,
+        ..config.clone()
+    };
+    let mv = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &mode(StereoMode::Multiview),
+        SIZE,
+        SIZE,
+    );
+    let tp = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &mode(StereoMode::TwoPass),
+        SIZE,
+        SIZE,
+    );
     let dir = root().join("tests/golden");
     let diff_dir = root().join("target/golden-diff");
     let bless = std::env::var("VERGENCE_BLESS").is_ok_and(|v| v == "1");
@@ -144,4 +171,14 @@ fn simple_instancing() {
 fn factory() {
     let pose = Pose::from_euler_deg(glam::DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
     check("factory", "factory:3000", Some(pose));
+}
+
+#[test]
+fn factory_stencil_mask() {
+    let pose = Pose::from_euler_deg(glam::DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let config = RenderConfig {
+        stencil_mask: true,
+        ..RenderConfig::default()
+    };
+    check_with("factory-stencil-mask", "factory:3000", Some(pose), &config);
 }

@@ -1548,6 +1548,19 @@ impl Renderer {
         }
     }
 
+    /// What happened to per-view render areas
+    /// (VK_QCOM_multiview_per_view_render_areas), for stats.
+    pub fn per_view_render_areas(&self) -> String {
+        if self.ctx.caps.per_view_render_areas {
+            "offered, not needed: each view has its own asymmetric projection over the whole image, so there is no symmetric-FOV padding to skip".into()
+        } else {
+            format!(
+                "not offered (VK_QCOM_multiview_per_view_render_areas is absent on {})",
+                self.ctx.device_name
+            )
+        }
+    }
+
     /// Whether the transient attachments use lazily allocated memory.
     pub fn lazily_allocated(&self) -> bool {
         self.targets.as_ref().is_some_and(|t| t.lazily_allocated())

@@ -125,6 +125,8 @@ pub struct RenderStats {
     /// Which foveation path ran ("off", the Vulkan path, or why it fell
     /// back to off).
     pub foveation: String,
+    /// Per-view render areas: used, or why not ("not offered").
+    pub per_view_render_areas: String,
 }
 
 /// Median and 95th percentile of a series.
@@ -305,6 +307,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         floor_gpu_ms,
         cull: cull_stats,
         foveation: renderer.foveation_path.clone(),
+        per_view_render_areas: renderer.per_view_render_areas(),
     };
     drop(renderer);
     let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {
