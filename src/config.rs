@@ -55,7 +55,16 @@ pub struct RenderConfig {
     /// Gaze centre for foveation in NDC (`gaze=X:Y`, +y down; default the
     /// image centre).
     pub gaze: [f32; 2],
+    /// Radial density masking: NDC radius beyond which every other 2×2
+    /// quad is skipped (`rdm`, `rdm=R`; None: off).
+    pub rdm: Option<f32>,
+    /// Reconstruct the skipped quads (`rdm-nofill` turns it off, to measure
+    /// the fill's cost).
+    pub rdm_fill: bool,
 }
+
+/// Default radial-density-masking radius (NDC).
+pub const DEFAULT_RDM_RADIUS: f32 = 0.55;
 
 impl Default for RenderConfig {
     fn default() -> Self {
@@ -68,6 +77,8 @@ impl Default for RenderConfig {
             stencil_mask: false,
             foveation: crate::render::foveation::Level::Off,
             gaze: [0.0, 0.0],
+            rdm: None,
+            rdm_fill: true,
         }
     }
 }
@@ -100,6 +111,20 @@ impl RenderConfig {
                 "msaa" | "msaa4" => self.msaa = 4,
                 "no-msaa" => self.msaa = 1,
                 "stencil-mask" => self.stencil_mask = true,
+                "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
+                "rdm-nofill" => {
+                    self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS));
+                    self.rdm_fill = false;
+                }
+                r if r.starts_with("rdm=") => match r["rdm=".len()..].parse::<f32>() {
+                    Ok(v) if v.is_finite() && v > 0.0 && v < 1.5 => self.rdm = Some(v),
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{r}': expected rdm=R with 0 < R < 1.5 (NDC radius)"),
+                        ))
+                    }
+                },
                 "foveation" => self.foveation = crate::render::foveation::Level::Medium,
                 level if level.starts_with("foveation=") => {
                     self.foveation = level["foveation=".len()..]
@@ -126,7 +151,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -148,7 +173,16 @@ mod tests {
         assert!(c.stencil_mask);
         assert_eq!(c.foveation, Level::High);
         assert_eq!(c.gaze, [0.25, -0.5]);
-        for bad in ["foveation=extreme", "gaze=2:0", "gaze=0.1", "gaze=a:b"] {
+        c.apply_opts("rdm=0.4,rdm-nofill", &["none"]).unwrap();
+        assert_eq!((c.rdm, c.rdm_fill), (Some(0.4), false));
+        for bad in [
+            "foveation=extreme",
+            "gaze=2:0",
+            "gaze=0.1",
+            "gaze=a:b",
+            "rdm=2",
+            "rdm=x",
+        ] {
             let e = RenderConfig::default()
                 .apply_opts(bad, &["none"])
                 .unwrap_err()

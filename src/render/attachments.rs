@@ -40,6 +40,10 @@ pub struct AttachmentSet {
     pub depth_resolve: Option<Image>,
     /// Whether the frame's depth is kept for output.
     pub keep_depth: bool,
+    /// Radial density masking with reconstruction: the image the fill pass
+    /// writes (the frame's output), and a 2D-array view of `resolve` it
+    /// samples.
+    pub filled: Option<(Image, vk::ImageView)>,
 }
 
 impl AttachmentSet {
@@ -49,6 +53,7 @@ impl AttachmentSet {
         samples: u32,
         layers: u32,
         keep_depth: bool,
+        rdm_fill: bool,
     ) -> Result<AttachmentSet> {
         let s = vk::SampleCountFlags::from_raw(samples);
         let transient = vk::ImageUsageFlags::TRANSIENT_ATTACHMENT;
@@ -107,23 +112,60 @@ impl AttachmentSet {
             None
         };
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let sampled = if rdm_fill {
+            vk::ImageUsageFlags::SAMPLED
+        } else {
+            vk::ImageUsageFlags::empty()
+        };
         let resolve = Image::new(
             ctx,
             &desc(
                 "colour resolve",
                 COLOR_FORMAT,
                 vk::SampleCountFlags::TYPE_1,
-                usage,
+                usage | sampled,
                 vk::ImageAspectFlags::COLOR,
             ),
         )?;
+        let filled = if rdm_fill {
+            let img = Image::new(
+                ctx,
+                &desc(
+                    "rdm filled",
+                    COLOR_FORMAT,
+                    vk::SampleCountFlags::TYPE_1,
+                    usage,
+                    vk::ImageAspectFlags::COLOR,
+                ),
+            )?;
+            let view = Image::make_view(
+                ctx,
+                resolve.image,
+                COLOR_FORMAT,
+                vk::ImageAspectFlags::COLOR,
+                vk::ImageViewType::TYPE_2D_ARRAY,
+                0,
+                layers,
+                1,
+            )?;
+            Some((img, view))
+        } else {
+            None
+        };
         Ok(AttachmentSet {
             color_msaa,
             depth,
             resolve,
             depth_resolve,
             keep_depth,
+            filled,
         })
+    }
+
+    /// The image holding the finished frame: the RDM-filled image when
+    /// there is one, else the resolve image.
+    pub fn output_image(&self) -> &Image {
+        self.filled.as_ref().map_or(&self.resolve, |(f, _)| f)
     }
 
     /// The single-sample image holding this set's depth when it is kept.
@@ -164,6 +206,11 @@ impl AttachmentSet {
         if let Some(d) = self.depth_resolve {
             d.destroy(ctx);
         }
+        if let Some((img, view)) = self.filled {
+            // SAFETY: the GPU is idle when attachments are destroyed.
+            unsafe { ctx.device.destroy_image_view(view, None) };
+            img.destroy(ctx);
+        }
     }
 }
 
@@ -175,20 +222,24 @@ pub struct Attachments {
 
 impl Attachments {
     /// Creates the attachments for `extent` per eye with `samples` (1 or 4);
-    /// `keep_depth` keeps a single-sample copy of the frame's depth.
+    /// `keep_depth` keeps a single-sample copy of the frame's depth;
+    /// `rdm_fill` adds the radial-density-masking reconstruction target.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
         samples: u32,
         multiview: bool,
         keep_depth: bool,
+        rdm_fill: bool,
     ) -> Result<Attachments> {
         let sets = if multiview {
-            vec![AttachmentSet::new(ctx, extent, samples, 2, keep_depth)?]
+            vec![AttachmentSet::new(
+                ctx, extent, samples, 2, keep_depth, rdm_fill,
+            )?]
         } else {
             vec![
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth)?,
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill)?,
             ]
         };
         Ok(Attachments { sets })
@@ -229,6 +280,15 @@ impl Attachments {
             if let Some(c) = &set.color_msaa {
                 add(
                     c,
+                    vk::ImageAspectFlags::COLOR,
+                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                    color_stage,
+                    color_access,
+                );
+            }
+            if let Some((f, _)) = &set.filled {
+                add(
+                    f,
                     vk::ImageAspectFlags::COLOR,
                     vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
                     color_stage,

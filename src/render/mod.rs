@@ -47,6 +47,8 @@ pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
         ("scene.frag", spirv!("scene.frag")),
         ("scene_early.frag", spirv!("scene_early.frag")),
         ("hidden.vert", spirv!("hidden.vert")),
+        ("rdm.frag", spirv!("rdm.frag")),
+        ("rdm_fill.frag", spirv!("rdm_fill.frag")),
         ("fullscreen.vert", spirv!("fullscreen.vert")),
         ("sky.frag", spirv!("sky.frag")),
         ("floor.vert", spirv!("floor.vert")),
@@ -159,6 +161,9 @@ pub struct Renderer {
     hidden_pipeline: vk::Pipeline,
     hidden: Vec<HiddenSlot>,
     rates: Vec<Image>,
+    rdm_pipeline: vk::Pipeline,
+    fill_pipeline: vk::Pipeline,
+    fill_sampler: vk::Sampler,
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
     pub foveation_path: String,
@@ -228,6 +233,12 @@ impl Renderer {
                 vk::ShaderStageFlags::FRAGMENT,
             ),
             binding(5, storage, 1, vk::ShaderStageFlags::VERTEX),
+            binding(
+                6,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                2,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
         ];
         // SAFETY: plain object creation on a live device; objects are owned by
         // the renderer and destroyed in `Drop`.
@@ -264,7 +275,7 @@ impl Renderer {
                 },
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: texture_count * n,
+                    descriptor_count: (texture_count + 2) * n,
                 },
             ];
             let pool = d
@@ -355,8 +366,21 @@ impl Renderer {
             hidden_pipeline: vk::Pipeline::null(),
             hidden,
             rates: Vec::new(),
+            rdm_pipeline: vk::Pipeline::null(),
+            fill_pipeline: vk::Pipeline::null(),
+            fill_sampler: vk::Sampler::null(),
             foveation_path: "off".into(),
         };
+        if config.rdm.is_some() && config.rdm_fill {
+            let info = vk::SamplerCreateInfo::default()
+                .mag_filter(vk::Filter::NEAREST)
+                .min_filter(vk::Filter::NEAREST)
+                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+            // SAFETY: plain object creation; destroyed in Drop.
+            r.fill_sampler =
+                unsafe { d.create_sampler(&info, None) }.vk("creating the RDM fill sampler")?;
+        }
         r.setup_foveation()?;
         r.targets = Some(Attachments::new(
             &ctx,
@@ -364,6 +388,7 @@ impl Renderer {
             samples,
             config.stereo == StereoMode::Multiview,
             output.is_some_and(|o| o.depth),
+            config.rdm.is_some() && config.rdm_fill,
         )?);
         r.build_pipelines()?;
         for i in 0..FRAMES_IN_FLIGHT {
@@ -397,6 +422,8 @@ impl Renderer {
         let fs = words(spirv!("scene.frag"));
         let fs_early = words(spirv!("scene_early.frag"));
         let hidden_vs = words(spirv!("hidden.vert"));
+        let rdm_fs = words(spirv!("rdm.frag"));
+        let fill_fs = words(spirv!("rdm_fill.frag"));
         let full = words(spirv!("fullscreen.vert"));
         let sky = words(spirv!("sky.frag"));
         let floor_vs = words(spirv!("floor.vert"));
@@ -436,17 +463,19 @@ impl Renderer {
             depth_test: true,
             depth_write: true,
             depth_compare: vk::CompareOp::GREATER,
-            // With the stencil mask, every draw passes only where the
-            // hidden-area pass left stencil 0.
-            stencil: self.config.stencil_mask.then_some(vk::StencilOpState {
-                fail_op: vk::StencilOp::KEEP,
-                pass_op: vk::StencilOp::KEEP,
-                depth_fail_op: vk::StencilOp::KEEP,
-                compare_op: vk::CompareOp::EQUAL,
-                compare_mask: 1,
-                write_mask: 0,
-                reference: 0,
-            }),
+            // With the stencil mask (bit 0) or RDM (bit 1), every draw passes
+            // only where neither pass wrote stencil.
+            stencil: (self.config.stencil_mask || self.config.rdm.is_some()).then_some(
+                vk::StencilOpState {
+                    fail_op: vk::StencilOp::KEEP,
+                    pass_op: vk::StencilOp::KEEP,
+                    depth_fail_op: vk::StencilOp::KEEP,
+                    compare_op: vk::CompareOp::EQUAL,
+                    compare_mask: 3,
+                    write_mask: 0,
+                    reference: 0,
+                },
+            ),
             blend: false,
             color_write: true,
             samples: vk::SampleCountFlags::from_raw(self.config.msaa),
@@ -504,6 +533,42 @@ impl Renderer {
             ..fullscreen.clone()
         }
         .build(ctx)?;
+        if self.config.rdm.is_some() {
+            self.rdm_pipeline = GraphicsPipelineDesc {
+                name: "rdm checkerboard stencil",
+                vertex: &full,
+                fragment: &rdm_fs,
+                depth_test: false,
+                depth_write: false,
+                color_write: false,
+                stencil: Some(vk::StencilOpState {
+                    fail_op: vk::StencilOp::KEEP,
+                    pass_op: vk::StencilOp::REPLACE,
+                    depth_fail_op: vk::StencilOp::REPLACE,
+                    compare_op: vk::CompareOp::ALWAYS,
+                    compare_mask: 2,
+                    write_mask: 2,
+                    reference: 2,
+                }),
+                ..fullscreen.clone()
+            }
+            .build(ctx)?;
+        }
+        if self.config.rdm.is_some() && self.config.rdm_fill {
+            self.fill_pipeline = GraphicsPipelineDesc {
+                name: "rdm fill",
+                vertex: &full,
+                fragment: &fill_fs,
+                depth_test: false,
+                depth_write: false,
+                stencil: None,
+                samples: vk::SampleCountFlags::TYPE_1,
+                depth_format: vk::Format::UNDEFINED,
+                shading_rate_attachment: false,
+                ..fullscreen.clone()
+            }
+            .build(ctx)?;
+        }
         if self.config.stencil_mask {
             self.hidden_pipeline = GraphicsPipelineDesc {
                 name: "hidden-area stencil",
@@ -745,6 +810,25 @@ impl Renderer {
             offset: 0,
             range: vk::WHOLE_SIZE,
         }];
+        let filled: Vec<vk::DescriptorImageInfo> = self
+            .targets
+            .as_ref()
+            .map(|t| {
+                let views: Vec<vk::ImageView> = t
+                    .sets
+                    .iter()
+                    .filter_map(|s| s.filled.as_ref().map(|f| f.1))
+                    .collect();
+                (0..2)
+                    .filter_map(|i| views.get(i).or(views.first()))
+                    .map(|&v| vk::DescriptorImageInfo {
+                        sampler: self.fill_sampler,
+                        image_view: v,
+                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                    })
+                    .collect()
+            })
+            .unwrap_or_default();
         let set = self.sets[slot];
         let w = |b: u32, ty| {
             vk::WriteDescriptorSet::default()
@@ -760,9 +844,21 @@ impl Renderer {
             w(4, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&images),
             w(5, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&hidden),
         ];
+        let n = if filled.len() == 2 {
+            writes.len() + 1
+        } else {
+            writes.len()
+        };
+        let fill_write = [w(6, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&filled)];
+        let all: Vec<vk::WriteDescriptorSet> = writes
+            .iter()
+            .chain(fill_write.iter())
+            .take(n)
+            .copied()
+            .collect();
         // SAFETY: the set is not in use by a pending frame (its slot's fence
         // was waited on, or it was never submitted).
-        unsafe { self.ctx.device.update_descriptor_sets(&writes, &[]) };
+        unsafe { self.ctx.device.update_descriptor_sets(&all, &[]) };
     }
 
     fn frame_data(&self, rig: &StereoRig) -> Vec<f32> {
@@ -1144,6 +1240,19 @@ impl Renderer {
                     d.cmd_draw(cmd, hidden.per_view, 1, 0, 0);
                     draw_calls += 1;
                 }
+                if let Some(radius) = self.config.rdm {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.rdm_pipeline);
+                    let pc = [0, eye, 0, radius.to_bits()];
+                    d.cmd_push_constants(
+                        cmd,
+                        self.layout,
+                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                        0,
+                        bytemuck_u32(&pc),
+                    );
+                    d.cmd_draw(cmd, 3, 1, 0, 0);
+                    draw_calls += 1;
+                }
                 let push = |material: u32| {
                     let pc = [material, eye, 0, 0];
                     d.cmd_push_constants(
@@ -1226,9 +1335,89 @@ impl Renderer {
                 d.cmd_end_rendering(cmd);
                 q.end_pass(ctx, cmd);
             }
+            if let Some(radius) = self.config.rdm.filter(|_| self.config.rdm_fill) {
+                // Every set is transitioned before any fill draws: the fill
+                // shader indexes the array of both sets' frames.
+                self.record_fill(cmd, q, targets, radius);
+                draw_calls += targets.sets.len() as u64;
+            }
             q.end_stats(ctx, cmd);
         }
         draw_calls
+    }
+
+    /// The RDM reconstruction: each set's resolved frame is sampled and
+    /// written, with the skipped quads filled, into its `filled` image.
+    fn record_fill(
+        &self,
+        cmd: vk::CommandBuffer,
+        q: &mut Queries,
+        targets: &attachments::Attachments,
+        radius: f32,
+    ) {
+        let ctx = &self.ctx;
+        let d = &ctx.device;
+        let to_read: Vec<vk::ImageMemoryBarrier2> = targets
+            .sets
+            .iter()
+            .map(|set| {
+                vk::ImageMemoryBarrier2::default()
+                    .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+                    .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+                    .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
+                    .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
+                    .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+                    .image(set.resolve.image)
+                    .subresource_range(vk::ImageSubresourceRange {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        base_mip_level: 0,
+                        level_count: 1,
+                        base_array_layer: 0,
+                        layer_count: set.resolve.layers,
+                    })
+            })
+            .collect();
+        // SAFETY: recording after the rendering scopes; the resolve images
+        // are transitioned for sampling and `filled` images are attachments.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+            );
+            q.begin_pass(ctx, cmd, "rdm-fill");
+            for (eye, set) in targets.sets.iter().enumerate() {
+                let Some((filled, _)) = &set.filled else {
+                    continue;
+                };
+                let color = [vk::RenderingAttachmentInfo::default()
+                    .image_view(filled.view)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::DONT_CARE)
+                    .store_op(vk::AttachmentStoreOp::STORE)];
+                let info = vk::RenderingInfo::default()
+                    .render_area(vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent: self.extent,
+                    })
+                    .layer_count(1)
+                    .view_mask(self.view_mask())
+                    .color_attachments(&color);
+                let pc = [0, eye as u32, 0, radius.to_bits()];
+                d.cmd_begin_rendering(cmd, &info);
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.fill_pipeline);
+                d.cmd_push_constants(
+                    cmd,
+                    self.layout,
+                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                    0,
+                    bytemuck_u32(&pc),
+                );
+                d.cmd_draw(cmd, 3, 1, 0, 0);
+                d.cmd_end_rendering(cmd);
+            }
+            q.end_pass(ctx, cmd);
+        }
     }
 
     fn draw_sky(&self, cmd: vk::CommandBuffer, push: &dyn Fn(u32)) {
@@ -1288,7 +1477,7 @@ impl Renderer {
                     vk::AccessFlags2::TRANSFER_WRITE,
                 ),
                 None => (
-                    set.resolve.image,
+                    set.output_image().image,
                     vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
                     vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
                 ),
@@ -1449,7 +1638,7 @@ impl Renderer {
         for (i, set) in targets.sets.iter().enumerate() {
             let layers = set.resolve.layers;
             let c = vk::ImageAspectFlags::COLOR;
-            before.push(barrier(set.resolve.image, c, layers, color_out, src));
+            before.push(barrier(set.output_image().image, c, layers, color_out, src));
             before.push(barrier(out.color[i], c, layers, discard(color_out), dst));
             after.push(barrier(out.color[i], c, layers, dst, color_out));
             if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
@@ -1486,7 +1675,7 @@ impl Renderer {
                         .extent(extent);
                     d.cmd_copy_image(
                         cmd,
-                        set.resolve.image,
+                        set.output_image().image,
                         src.0,
                         out.color[i],
                         dst.0,
@@ -1505,7 +1694,7 @@ impl Renderer {
                         .dst_offsets([vk::Offset3D::default(), corner]);
                     d.cmd_blit_image(
                         cmd,
-                        set.resolve.image,
+                        set.output_image().image,
                         src.0,
                         out.color[i],
                         dst.0,
@@ -1606,14 +1795,19 @@ impl Drop for Renderer {
         }
         // SAFETY: the device is idle; these objects belong to this renderer.
         unsafe {
-            for p in self
-                .pipelines
-                .values()
-                .chain([&self.sky, &self.flat, &self.hidden_pipeline])
-            {
+            for p in self.pipelines.values().chain([
+                &self.sky,
+                &self.flat,
+                &self.hidden_pipeline,
+                &self.rdm_pipeline,
+                &self.fill_pipeline,
+            ]) {
                 if *p != vk::Pipeline::null() {
                     ctx.device.destroy_pipeline(*p, None);
                 }
+            }
+            if self.fill_sampler != vk::Sampler::null() {
+                ctx.device.destroy_sampler(self.fill_sampler, None);
             }
             ctx.device.destroy_descriptor_pool(self.pool, None);
             ctx.device.destroy_pipeline_layout(self.layout, None);
