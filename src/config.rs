@@ -61,6 +61,17 @@ pub struct RenderConfig {
     /// Reconstruct the skipped quads (`rdm-nofill` turns it off, to measure
     /// the fill's cost).
     pub rdm_fill: bool,
+    /// Monoscopic far-field rendering (`mffr`, `mffr=D`, `mffr-depth-shift`).
+    pub mffr: Option<Mffr>,
+}
+
+/// Monoscopic far-field settings.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Mffr {
+    /// Split distance in metres (None: where disparity falls below 1 px).
+    pub split: Option<f64>,
+    /// Shift the far field per eye by its disparity at the split distance.
+    pub depth_shift: bool,
 }
 
 /// Default radial-density-masking radius (NDC).
@@ -79,6 +90,7 @@ impl Default for RenderConfig {
             gaze: [0.0, 0.0],
             rdm: None,
             rdm_fill: true,
+            mffr: None,
         }
     }
 }
@@ -112,6 +124,36 @@ impl RenderConfig {
                 "no-msaa" => self.msaa = 1,
                 "stencil-mask" => self.stencil_mask = true,
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
+                "mffr" => {
+                    self.mffr.get_or_insert(Mffr {
+                        split: None,
+                        depth_shift: false,
+                    });
+                }
+                "mffr-depth-shift" => {
+                    self.mffr
+                        .get_or_insert(Mffr {
+                            split: None,
+                            depth_shift: false,
+                        })
+                        .depth_shift = true;
+                }
+                m if m.starts_with("mffr=") => match m["mffr=".len()..].parse::<f64>() {
+                    Ok(v) if v.is_finite() && v > 0.0 => {
+                        self.mffr
+                            .get_or_insert(Mffr {
+                                split: None,
+                                depth_shift: false,
+                            })
+                            .split = Some(v);
+                    }
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{m}': expected mffr=D with D > 0 metres"),
+                        ))
+                    }
+                },
                 "rdm-nofill" => {
                     self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS));
                     self.rdm_fill = false;
@@ -151,7 +193,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, {})", cull_names.join(", ")),
                     ))
                 }
             }

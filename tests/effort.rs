@@ -338,3 +338,60 @@ fn rdm_skips_checker_quads_beyond_the_radius_and_the_fill_restores_them() {
         assert!(m.mean < 0.005, "multiview vs two-pass with RDM: {}", m.mean);
     }
 }
+
+#[test]
+fn mffr_composites_one_far_field_into_both_eyes() {
+    use vergence::bench::metrics::flip;
+    let ctx = common::context();
+    let profile = HmdProfile::load("monado-sim").unwrap();
+    let scene = common::load("factory:20000");
+    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let (w, h) = (320, 240);
+    let cfg = |stereo, opts: &str| {
+        let mut c = RenderConfig {
+            stereo,
+            ..RenderConfig::default()
+        };
+        c.apply_opts(opts, &["none"]).unwrap();
+        c
+    };
+    let render = |c: &RenderConfig| common::render_config(&ctx, &scene, &profile, pose, c, w, h);
+    let stereo = render(&cfg(StereoMode::Multiview, ""));
+    let mean = |a: &common::Frame, b: &common::Frame| -> f32 {
+        (0..2)
+            .map(|e| flip(&a.images[e], &b.images[e], 30.0).unwrap().mean)
+            .sum::<f32>()
+            / 2.0
+    };
+    // Split beyond everything: the far field holds only the sky.
+    let all_near = render(&cfg(StereoMode::Multiview, "mffr=100000"));
+    assert!(all_near.stats.gpu_ms.contains_key("mffr-far"));
+    let e_all_near = mean(&stereo, &all_near);
+    // Automatic split (1 px disparity) and a close split that puts most of
+    // the hall in the far field.
+    let auto = render(&cfg(StereoMode::Multiview, "mffr"));
+    let close = render(&cfg(StereoMode::Multiview, "mffr=8"));
+    let shifted = render(&cfg(StereoMode::Multiview, "mffr=8,mffr-depth-shift"));
+    let (e_auto, e_close, e_shift) = (
+        mean(&stereo, &auto),
+        mean(&stereo, &close),
+        mean(&stereo, &shifted),
+    );
+    eprintln!(
+        "MFFR FLIP mean vs stereo: sky only {e_all_near:.4}, auto split {e_auto:.4}, split 8 m {e_close:.4}, split 8 m depth-shifted {e_shift:.4}"
+    );
+    assert!(e_all_near < 0.01, "resampled sky: {e_all_near}");
+    assert!(e_auto < 0.03, "auto split: {e_auto}");
+    assert!(e_close < 0.1, "8 m split: {e_close}");
+    assert!(
+        shifted.images[0] != close.images[0],
+        "depth shift changes the far field"
+    );
+    // Both eyes of the far field come from one image: with the split at
+    // 8 m, content beyond it has no disparity left in the plain variant.
+    let tp = render(&cfg(StereoMode::TwoPass, "mffr=8"));
+    for e in 0..2 {
+        let m = flip(&close.images[e], &tp.images[e], 30.0).unwrap().mean;
+        assert!(m < 0.005, "multiview vs two-pass with MFFR: {m}");
+    }
+}

@@ -47,13 +47,15 @@ pub struct AttachmentSet {
 }
 
 impl AttachmentSet {
-    fn new(
+    /// Creates one set; `sampled` makes the resolve image sampleable.
+    pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
         samples: u32,
         layers: u32,
         keep_depth: bool,
         rdm_fill: bool,
+        sampled: bool,
     ) -> Result<AttachmentSet> {
         let s = vk::SampleCountFlags::from_raw(samples);
         let transient = vk::ImageUsageFlags::TRANSIENT_ATTACHMENT;
@@ -112,7 +114,7 @@ impl AttachmentSet {
             None
         };
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-        let sampled = if rdm_fill {
+        let sampled = if rdm_fill || sampled {
             vk::ImageUsageFlags::SAMPLED
         } else {
             vk::ImageUsageFlags::empty()
@@ -197,7 +199,8 @@ impl AttachmentSet {
         }
     }
 
-    fn destroy(self, ctx: &Context) {
+    /// Destroys its images.
+    pub fn destroy(self, ctx: &Context) {
         if let Some(c) = self.color_msaa {
             c.destroy(ctx);
         }
@@ -234,12 +237,12 @@ impl Attachments {
     ) -> Result<Attachments> {
         let sets = if multiview {
             vec![AttachmentSet::new(
-                ctx, extent, samples, 2, keep_depth, rdm_fill,
+                ctx, extent, samples, 2, keep_depth, rdm_fill, false,
             )?]
         } else {
             vec![
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill)?,
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill, false)?,
+                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill, false)?,
             ]
         };
         Ok(Attachments { sets })
@@ -253,6 +256,21 @@ impl Attachments {
     /// Barriers that discard the previous frame's contents and make the
     /// attachments writable.
     pub fn begin_barriers(&self) -> Vec<vk::ImageMemoryBarrier2<'static>> {
+        begin_barriers(&self.sets)
+    }
+
+    /// Destroys all images.
+    pub fn destroy(self, ctx: &Context) {
+        for s in self.sets {
+            s.destroy(ctx);
+        }
+    }
+}
+
+/// Barriers that discard the previous contents of `sets` and make their
+/// attachments writable.
+pub fn begin_barriers(sets: &[AttachmentSet]) -> Vec<vk::ImageMemoryBarrier2<'static>> {
+    {
         let mut out = Vec::new();
         let mut add = |img: &Image, aspect: vk::ImageAspectFlags, layout, stage, access| {
             out.push(
@@ -276,7 +294,7 @@ impl Attachments {
         let color_stage = vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT;
         let color_access =
             vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE;
-        for set in &self.sets {
+        for set in sets {
             if let Some(c) = &set.color_msaa {
                 add(
                     c,
@@ -319,12 +337,5 @@ impl Attachments {
             }
         }
         out
-    }
-
-    /// Destroys all images.
-    pub fn destroy(self, ctx: &Context) {
-        for s in self.sets {
-            s.destroy(ctx);
-        }
     }
 }

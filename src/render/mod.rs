@@ -29,7 +29,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 const FRAMES_IN_FLIGHT: usize = 2;
-const UBO_SIZE: u64 = 432;
+const UBO_SIZE: u64 = 592;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
 
@@ -49,6 +49,7 @@ pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
         ("hidden.vert", spirv!("hidden.vert")),
         ("rdm.frag", spirv!("rdm.frag")),
         ("rdm_fill.frag", spirv!("rdm_fill.frag")),
+        ("mffr_composite.frag", spirv!("mffr_composite.frag")),
         ("fullscreen.vert", spirv!("fullscreen.vert")),
         ("sky.frag", spirv!("sky.frag")),
         ("floor.vert", spirv!("floor.vert")),
@@ -164,10 +165,30 @@ pub struct Renderer {
     rdm_pipeline: vk::Pipeline,
     fill_pipeline: vk::Pipeline,
     fill_sampler: vk::Sampler,
+    far: Option<FarField>,
+    /// This frame's monoscopic far field: split distance and centre view.
+    mffr_frame: Option<(f64, crate::view::View)>,
+    /// Frames where MFFR fell back to stereo (no finite centre camera).
+    pub mffr_fallbacks: u64,
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
     pub foveation_path: String,
 }
+
+/// The monoscopic far field's own target, pipelines (no view mask) and
+/// composite.
+struct FarField {
+    set: attachments::AttachmentSet,
+    extent: vk::Extent2D,
+    pipelines: HashMap<PipelineKey, vk::Pipeline>,
+    sky: vk::Pipeline,
+    composite: vk::Pipeline,
+    sampler: vk::Sampler,
+}
+
+/// Far-field image width relative to an eye's: the centre camera's union
+/// FOV is wider than one eye's by the other eye's extra coverage.
+const FAR_WIDTH_SCALE: f64 = 1.25;
 
 /// One frame slot's hidden-area vertices (HMD stencil mask).
 struct HiddenSlot {
@@ -239,6 +260,12 @@ impl Renderer {
                 2,
                 vk::ShaderStageFlags::FRAGMENT,
             ),
+            binding(
+                7,
+                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                1,
+                vk::ShaderStageFlags::FRAGMENT,
+            ),
         ];
         // SAFETY: plain object creation on a live device; objects are owned by
         // the renderer and destroyed in `Drop`.
@@ -275,7 +302,7 @@ impl Renderer {
                 },
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: (texture_count + 2) * n,
+                    descriptor_count: (texture_count + 3) * n,
                 },
             ];
             let pool = d
@@ -369,8 +396,35 @@ impl Renderer {
             rdm_pipeline: vk::Pipeline::null(),
             fill_pipeline: vk::Pipeline::null(),
             fill_sampler: vk::Sampler::null(),
+            far: None,
+            mffr_frame: None,
+            mffr_fallbacks: 0,
             foveation_path: "off".into(),
         };
+        if config.mffr.is_some() {
+            let far_extent = vk::Extent2D {
+                width: ((extent.width as f64 * FAR_WIDTH_SCALE).ceil() as u32).min(16384),
+                height: extent.height,
+            };
+            let set =
+                attachments::AttachmentSet::new(&ctx, far_extent, samples, 1, false, false, true)?;
+            let info = vk::SamplerCreateInfo::default()
+                .mag_filter(vk::Filter::LINEAR)
+                .min_filter(vk::Filter::LINEAR)
+                .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+            // SAFETY: plain object creation; destroyed in Drop.
+            let sampler =
+                unsafe { d.create_sampler(&info, None) }.vk("creating the far-field sampler")?;
+            r.far = Some(FarField {
+                set,
+                extent: far_extent,
+                pipelines: HashMap::new(),
+                sky: vk::Pipeline::null(),
+                composite: vk::Pipeline::null(),
+                sampler,
+            });
+        }
         if config.rdm.is_some() && config.rdm_fill {
             let info = vk::SamplerCreateInfo::default()
                 .mag_filter(vk::Filter::NEAREST)
@@ -422,6 +476,7 @@ impl Renderer {
         let fs = words(spirv!("scene.frag"));
         let fs_early = words(spirv!("scene_early.frag"));
         let hidden_vs = words(spirv!("hidden.vert"));
+        let composite_fs = words(spirv!("mffr_composite.frag"));
         let rdm_fs = words(spirv!("rdm.frag"));
         let fill_fs = words(spirv!("rdm_fill.frag"));
         let full = words(spirv!("fullscreen.vert"));
@@ -488,30 +543,44 @@ impl Renderer {
         let mut keys: Vec<PipelineKey> = self.batcher.keys.clone();
         keys.sort();
         keys.dedup();
-        for key in keys {
-            let name = format!(
-                "scene alpha={} double_sided={} unlit={}",
-                key.alpha, key.double_sided, key.unlit
-            );
-            let desc = GraphicsPipelineDesc {
-                name: &name,
-                fragment: if key.alpha == 1 { &fs } else { &fs_early },
-                specialization: vec![
-                    (0, scene.textures.len() as u32),
-                    (1, key.alpha as u32),
-                    (2, features.tangents as u32),
-                    (3, key.unlit as u32),
-                ],
-                cull_mode: if key.double_sided {
-                    vk::CullModeFlags::NONE
-                } else {
-                    vk::CullModeFlags::BACK
-                },
-                depth_write: key.alpha < 2,
-                blend: key.alpha == 2,
-                ..base.clone()
+        let scene_set =
+            |base: &GraphicsPipelineDesc| -> Result<HashMap<PipelineKey, vk::Pipeline>> {
+                let mut out = HashMap::new();
+                for &key in &keys {
+                    let name = format!(
+                        "scene alpha={} double_sided={} unlit={}",
+                        key.alpha, key.double_sided, key.unlit
+                    );
+                    let desc = GraphicsPipelineDesc {
+                        name: &name,
+                        fragment: if key.alpha == 1 { &fs } else { &fs_early },
+                        specialization: vec![
+                            (0, scene.textures.len() as u32),
+                            (1, key.alpha as u32),
+                            (2, features.tangents as u32),
+                            (3, key.unlit as u32),
+                        ],
+                        cull_mode: if key.double_sided {
+                            vk::CullModeFlags::NONE
+                        } else {
+                            vk::CullModeFlags::BACK
+                        },
+                        depth_write: key.alpha < 2,
+                        blend: key.alpha == 2,
+                        ..base.clone()
+                    };
+                    out.insert(key, desc.build(ctx)?);
+                }
+                Ok(out)
             };
-            self.pipelines.insert(key, desc.build(ctx)?);
+        self.pipelines = scene_set(&base)?;
+        let far_base = GraphicsPipelineDesc {
+            view_mask: 0,
+            shading_rate_attachment: false,
+            ..base.clone()
+        };
+        if let Some(far) = self.far.as_mut() {
+            far.pipelines = scene_set(&far_base)?;
         }
         let fullscreen = GraphicsPipelineDesc {
             name: "sky",
@@ -533,6 +602,24 @@ impl Renderer {
             ..fullscreen.clone()
         }
         .build(ctx)?;
+        if let Some(far) = self.far.as_mut() {
+            far.sky = GraphicsPipelineDesc {
+                name: "far-field sky",
+                view_mask: 0,
+                shading_rate_attachment: false,
+                ..fullscreen.clone()
+            }
+            .build(ctx)?;
+            far.composite = GraphicsPipelineDesc {
+                name: "far-field composite",
+                vertex: &full,
+                fragment: &composite_fs,
+                depth_test: false,
+                depth_write: false,
+                ..fullscreen.clone()
+            }
+            .build(ctx)?;
+        }
         if self.config.rdm.is_some() {
             self.rdm_pipeline = GraphicsPipelineDesc {
                 name: "rdm checkerboard stencil",
@@ -829,6 +916,15 @@ impl Renderer {
                     .collect()
             })
             .unwrap_or_default();
+        let far_info: Vec<vk::DescriptorImageInfo> = self
+            .far
+            .iter()
+            .map(|f| vk::DescriptorImageInfo {
+                sampler: f.sampler,
+                image_view: f.set.resolve.view,
+                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            })
+            .collect();
         let set = self.sets[slot];
         let w = |b: u32, ty| {
             vk::WriteDescriptorSet::default()
@@ -844,18 +940,13 @@ impl Renderer {
             w(4, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&images),
             w(5, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&hidden),
         ];
-        let n = if filled.len() == 2 {
-            writes.len() + 1
-        } else {
-            writes.len()
-        };
-        let fill_write = [w(6, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&filled)];
-        let all: Vec<vk::WriteDescriptorSet> = writes
-            .iter()
-            .chain(fill_write.iter())
-            .take(n)
-            .copied()
-            .collect();
+        let mut all: Vec<vk::WriteDescriptorSet> = writes.to_vec();
+        if filled.len() == 2 {
+            all.push(w(6, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&filled));
+        }
+        if !far_info.is_empty() {
+            all.push(w(7, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&far_info));
+        }
         // SAFETY: the set is not in use by a pending frame (its slot's fence
         // was waited on, or it was never submitted).
         unsafe { self.ctx.device.update_descriptor_sets(&all, &[]) };
@@ -864,11 +955,21 @@ impl Renderer {
     fn frame_data(&self, rig: &StereoRig) -> Vec<f32> {
         let origin = rig.head.position;
         let mut f: Vec<f32> = Vec::with_capacity(UBO_SIZE as usize / 4);
-        let views = [rig.views[0], *rig.views.get(1).unwrap_or(&rig.views[0])];
-        for v in &views {
+        // View 2 is the far-field camera; its near plane is the split
+        // distance, so everything nearer is clipped from the far field.
+        let (far, far_near) = match &self.mffr_frame {
+            Some((split, view)) => (*view, *split),
+            None => (rig.views[0], self.config.near),
+        };
+        let views = [
+            rig.views[0],
+            *rig.views.get(1).unwrap_or(&rig.views[0]),
+            far,
+        ];
+        for (i, v) in views.iter().enumerate() {
+            let near = if i == 2 { far_near } else { self.config.near };
             f.extend(
-                projection::view_projection_f32(&v.pose, &v.fov, self.config.near, origin)
-                    .to_cols_array(),
+                projection::view_projection_f32(&v.pose, &v.fov, near, origin).to_cols_array(),
             );
         }
         for v in &views {
@@ -944,6 +1045,21 @@ impl Renderer {
             .as_mut()
             .expect("allocated above")
             .write(0, ids)?;
+        self.mffr_frame = match self.config.mffr {
+            Some(m) => {
+                let split = m
+                    .split
+                    .unwrap_or_else(|| crate::view::mffr::auto_split(rig, self.extent.width));
+                match crate::view::mffr::centre_view(rig) {
+                    Some(v) => Some((split, v)),
+                    None => {
+                        self.mffr_fallbacks += 1;
+                        None
+                    }
+                }
+            }
+            None => None,
+        };
         let data = self.frame_data(rig);
         self.ubos[slot].write(0, bytemuck_f32(&data))?;
         if self.config.stencil_mask {
@@ -1121,6 +1237,16 @@ impl Renderer {
                 &vk::DependencyInfo::default().image_memory_barriers(&barriers),
             );
             q.begin_stats(ctx, cmd);
+            // With a monoscopic far field, the near field's depth starts at
+            // the split plane (reverse-Z: near / D), so only geometry nearer
+            // than D passes the depth test.
+            let near_clear = match (&self.mffr_frame, floor) {
+                (Some((split, _)), None) => (self.config.near / split).min(1.0) as f32,
+                _ => 0.0,
+            };
+            if let (Some(far), None, Some(_)) = (&self.far, floor, &self.mffr_frame) {
+                draw_calls += self.record_far(cmd, q, batches, far);
+            }
             let passes: Vec<(attachments::TargetViews, u32, u32, &'static str)> =
                 match self.config.stereo {
                     StereoMode::Multiview => vec![(targets.sets[0].views(), 0b11, 0, "forward")],
@@ -1160,7 +1286,7 @@ impl Renderer {
                     })
                     .clear_value(vk::ClearValue {
                         depth_stencil: vk::ClearDepthStencilValue {
-                            depth: 0.0,
+                            depth: near_clear,
                             stencil: 0,
                         },
                     });
@@ -1278,57 +1404,28 @@ impl Renderer {
                         draw_calls += 1;
                     }
                     None => {
-                        let buffers: Vec<vk::Buffer> = scene
-                            .streams
-                            .iter()
-                            .map(|s| s.as_ref().map_or(scene.defaults.buffer, |b| b.buffer))
-                            .collect();
-                        let offsets: Vec<u64> = scene
-                            .streams
-                            .iter()
-                            .enumerate()
-                            .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
-                            .collect();
-                        d.cmd_bind_vertex_buffers(cmd, 0, &buffers, &offsets);
-                        d.cmd_bind_index_buffer(
-                            cmd,
-                            scene.indices.buffer,
-                            0,
-                            vk::IndexType::UINT32,
-                        );
-                        let mut bound = None;
-                        let mut sky_drawn = false;
-                        for draw in &batches.draws {
-                            let key = self.batcher.keys[draw.primitive as usize];
-                            if key.alpha == 2 && !sky_drawn {
-                                self.draw_sky(cmd, &push);
-                                draw_calls += 1;
-                                sky_drawn = true;
-                                bound = None;
-                            }
-                            if bound != Some(key) {
-                                d.cmd_bind_pipeline(
-                                    cmd,
-                                    vk::PipelineBindPoint::GRAPHICS,
-                                    self.pipelines[&key],
-                                );
-                                bound = Some(key);
-                            }
-                            let r = scene.ranges[draw.primitive as usize];
-                            push(r.material);
-                            d.cmd_draw_indexed(
+                        if let (Some((split, _)), Some(far)) = (&self.mffr_frame, &self.far) {
+                            let flags = self.config.mffr.is_some_and(|m| m.depth_shift) as u32;
+                            d.cmd_bind_pipeline(
                                 cmd,
-                                r.index_count,
-                                draw.count,
-                                r.first_index,
-                                r.vertex_offset,
-                                draw.first,
+                                vk::PipelineBindPoint::GRAPHICS,
+                                far.composite,
                             );
+                            let pc = [flags, eye, 0, (*split as f32).to_bits()];
+                            d.cmd_push_constants(
+                                cmd,
+                                self.layout,
+                                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                                0,
+                                bytemuck_u32(&pc),
+                            );
+                            d.cmd_draw(cmd, 3, 1, 0, 0);
                             draw_calls += 1;
-                        }
-                        if !sky_drawn {
-                            self.draw_sky(cmd, &push);
-                            draw_calls += 1;
+                            // The sky lies beyond the split: the far field has it.
+                            draw_calls += self.draw_scene(cmd, batches, &self.pipelines, None, eye);
+                        } else {
+                            draw_calls +=
+                                self.draw_scene(cmd, batches, &self.pipelines, Some(self.sky), eye);
                         }
                     }
                 }
@@ -1420,12 +1517,199 @@ impl Renderer {
         }
     }
 
-    fn draw_sky(&self, cmd: vk::CommandBuffer, push: &dyn Fn(u32)) {
+    /// Draws the batches with `pipelines` for view `eye` (the push-constant
+    /// view offset), and the sky with `sky` (before the first blended batch)
+    /// when given. Returns the draw calls.
+    fn draw_scene(
+        &self,
+        cmd: vk::CommandBuffer,
+        batches: &Batches,
+        pipelines: &HashMap<PipelineKey, vk::Pipeline>,
+        sky: Option<vk::Pipeline>,
+        eye: u32,
+    ) -> u64 {
+        let d = &self.ctx.device;
+        let scene = self.scene.as_ref().expect("scene present until drop");
+        let push = |material: u32| {
+            let pc = [material, eye, 0, 0];
+            // SAFETY: inside a rendering scope begun by the caller.
+            unsafe {
+                d.cmd_push_constants(
+                    cmd,
+                    self.layout,
+                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                    0,
+                    bytemuck_u32(&pc),
+                )
+            };
+        };
+        let mut draw_calls = 0;
+        let buffers: Vec<vk::Buffer> = scene
+            .streams
+            .iter()
+            .map(|s| s.as_ref().map_or(scene.defaults.buffer, |b| b.buffer))
+            .collect();
+        let offsets: Vec<u64> = scene
+            .streams
+            .iter()
+            .enumerate()
+            .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
+            .collect();
+        // SAFETY: inside a rendering scope begun by the caller; every handle
+        // is owned by this renderer.
+        unsafe {
+            d.cmd_bind_vertex_buffers(cmd, 0, &buffers, &offsets);
+            d.cmd_bind_index_buffer(cmd, scene.indices.buffer, 0, vk::IndexType::UINT32);
+            let mut bound = None;
+            let mut sky_drawn = sky.is_none();
+            for draw in &batches.draws {
+                let key = self.batcher.keys[draw.primitive as usize];
+                if key.alpha == 2 && !sky_drawn {
+                    self.draw_sky(cmd, sky.expect("sky pending"), &push);
+                    draw_calls += 1;
+                    sky_drawn = true;
+                    bound = None;
+                }
+                if bound != Some(key) {
+                    d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, pipelines[&key]);
+                    bound = Some(key);
+                }
+                let r = scene.ranges[draw.primitive as usize];
+                push(r.material);
+                d.cmd_draw_indexed(
+                    cmd,
+                    r.index_count,
+                    draw.count,
+                    r.first_index,
+                    r.vertex_offset,
+                    draw.first,
+                );
+                draw_calls += 1;
+            }
+            if !sky_drawn {
+                self.draw_sky(cmd, sky.expect("sky pending"), &push);
+                draw_calls += 1;
+            }
+        }
+        draw_calls
+    }
+
+    /// The far field: the batches rendered once from the centre camera
+    /// (view 2, near plane at the split distance) into the far target, which
+    /// is then made readable for the composite.
+    fn record_far(
+        &self,
+        cmd: vk::CommandBuffer,
+        q: &mut Queries,
+        batches: &Batches,
+        far: &FarField,
+    ) -> u64 {
+        let ctx = &self.ctx;
+        let d = &ctx.device;
+        let barriers = attachments::begin_barriers(std::slice::from_ref(&far.set));
+        let views = far.set.views();
+        let mut color = vk::RenderingAttachmentInfo::default()
+            .image_view(views.color)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            });
+        if let Some(r) = views.resolve {
+            color = color
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                .resolve_image_view(r)
+                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        }
+        let depth = vk::RenderingAttachmentInfo::default()
+            .image_view(views.depth)
+            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::DONT_CARE)
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: 0.0,
+                    stencil: 0,
+                },
+            });
+        let colors = [color];
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: far.extent,
+        };
+        let info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .color_attachments(&colors)
+            .depth_attachment(&depth)
+            .stencil_attachment(&depth);
+        let to_read = [vk::ImageMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+            .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
+            .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
+            .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+            .image(far.set.resolve.image)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: 1,
+            })];
+        let draws;
+        // SAFETY: recording into the frame's command buffer; the far
+        // target belongs to this renderer.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+            );
+            q.begin_pass(ctx, cmd, "mffr-far");
+            d.cmd_begin_rendering(cmd, &info);
+            d.cmd_set_viewport(
+                cmd,
+                0,
+                &[vk::Viewport {
+                    x: 0.0,
+                    y: 0.0,
+                    width: far.extent.width as f32,
+                    height: far.extent.height as f32,
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                }],
+            );
+            d.cmd_set_scissor(cmd, 0, &[area]);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout,
+                0,
+                &[self.sets[self.slot]],
+                &[],
+            );
+            draws = self.draw_scene(cmd, batches, &far.pipelines, Some(far.sky), 2);
+            d.cmd_end_rendering(cmd);
+            q.end_pass(ctx, cmd);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+            );
+        }
+        draws
+    }
+
+    fn draw_sky(&self, cmd: vk::CommandBuffer, sky: vk::Pipeline, push: &dyn Fn(u32)) {
         // SAFETY: inside a rendering scope begun by `record`.
         unsafe {
             self.ctx
                 .device
-                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.sky);
+                .cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, sky);
             push(0);
             let first = self
                 .scene
@@ -1829,6 +2113,18 @@ impl Drop for Renderer {
         }
         for img in self.rates.drain(..) {
             img.destroy(&ctx);
+        }
+        if let Some(far) = self.far.take() {
+            // SAFETY: the device is idle; these objects belong to this renderer.
+            unsafe {
+                for p in far.pipelines.values().chain([&far.sky, &far.composite]) {
+                    if *p != vk::Pipeline::null() {
+                        ctx.device.destroy_pipeline(*p, None);
+                    }
+                }
+                ctx.device.destroy_sampler(far.sampler, None);
+            }
+            far.set.destroy(&ctx);
         }
         if let Some(s) = self.scene.take() {
             s.destroy(&ctx);

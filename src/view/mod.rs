@@ -5,6 +5,7 @@
 pub mod cone;
 pub mod frustum;
 pub mod lens;
+pub mod mffr;
 pub mod profile;
 pub mod projection;
 pub mod superfrustum;

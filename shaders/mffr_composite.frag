@@ -1,0 +1,31 @@
+#version 450
+#extension GL_EXT_multiview : require
+#extension GL_GOOGLE_include_directive : require
+#include "common.glsl"
+// Monoscopic far field: each eye pixel's ray (from the eye's FOV tangents
+// and orientation) is looked up in the far-field image rendered once from
+// the centre camera (view 2). Plain: the ray direction itself (exact for
+// points at infinity). Depth shift (flag bit 0): the direction from the
+// centre camera to the point at the split distance D along the eye's ray,
+// so the far field sits at the disparity of D (exact for points at D).
+// D arrives as float bits in pc.unused1, the flags in pc.material.
+layout(early_fragment_tests) in;
+layout(set = 0, binding = 7) uniform sampler2D far_field;
+layout(location = 0) in vec2 v_ndc;
+layout(location = 1) flat in uint v_view;
+layout(location = 0) out vec4 out_color;
+void main() {
+    uint view = v_view + pc.view_offset;
+    vec4 t = frame.tangents[view];
+    float tx = mix(t.x, t.y, v_ndc.x * 0.5 + 0.5);
+    float ty = mix(t.z, t.w, v_ndc.y * 0.5 + 0.5);
+    vec3 dir = normalize(mat3(frame.eye_rot[view]) * vec3(tx, ty, -1.0));
+    float split = uintBitsToFloat(pc.unused1);
+    vec3 shifted = frame.eye_rel[view].xyz - frame.eye_rel[2].xyz + split * dir;
+    vec3 world = (pc.material & 1u) != 0u ? shifted : dir;
+    vec3 c = transpose(mat3(frame.eye_rot[2])) * world;
+    vec4 ft = frame.tangents[2];
+    vec2 tan_c = c.xy / -c.z;
+    vec2 uv = vec2((tan_c.x - ft.x) / (ft.y - ft.x), (tan_c.y - ft.z) / (ft.w - ft.z));
+    out_color = texture(far_field, uv);
+}
