@@ -1356,38 +1356,20 @@ impl Renderer {
                 if self.config.stencil_mask && hidden.per_view > 0 {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.hidden_pipeline);
                     let pc = [0, eye, hidden.per_view, 0];
-                    d.cmd_push_constants(
-                        cmd,
-                        self.layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck_u32(&pc),
-                    );
+                    self.push_constants(cmd, pc);
                     d.cmd_draw(cmd, hidden.per_view, 1, 0, 0);
                     draw_calls += 1;
                 }
                 if let Some(radius) = self.config.rdm {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.rdm_pipeline);
                     let pc = [0, eye, 0, radius.to_bits()];
-                    d.cmd_push_constants(
-                        cmd,
-                        self.layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck_u32(&pc),
-                    );
+                    self.push_constants(cmd, pc);
                     d.cmd_draw(cmd, 3, 1, 0, 0);
                     draw_calls += 1;
                 }
                 let push = |material: u32| {
                     let pc = [material, eye, 0, 0];
-                    d.cmd_push_constants(
-                        cmd,
-                        self.layout,
-                        vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                        0,
-                        bytemuck_u32(&pc),
-                    );
+                    self.push_constants(cmd, pc);
                 };
                 match floor {
                     Some(FloorKind::Clear) => {}
@@ -1412,13 +1394,7 @@ impl Renderer {
                                 far.composite,
                             );
                             let pc = [flags, eye, 0, (*split as f32).to_bits()];
-                            d.cmd_push_constants(
-                                cmd,
-                                self.layout,
-                                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                                0,
-                                bytemuck_u32(&pc),
-                            );
+                            self.push_constants(cmd, pc);
                             d.cmd_draw(cmd, 3, 1, 0, 0);
                             draw_calls += 1;
                             // The sky lies beyond the split: the far field has it.
@@ -1457,23 +1433,7 @@ impl Renderer {
         let to_read: Vec<vk::ImageMemoryBarrier2> = targets
             .sets
             .iter()
-            .map(|set| {
-                vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
-                    .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
-                    .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
-                    .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-                    .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                    .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-                    .image(set.resolve.image)
-                    .subresource_range(vk::ImageSubresourceRange {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        base_mip_level: 0,
-                        level_count: 1,
-                        base_array_layer: 0,
-                        layer_count: set.resolve.layers,
-                    })
-            })
+            .map(|set| to_sampled(&set.resolve))
             .collect();
         // SAFETY: recording after the rendering scopes; the resolve images
         // are transitioned for sampling and `filled` images are attachments.
@@ -1503,18 +1463,27 @@ impl Renderer {
                 let pc = [0, eye as u32, 0, radius.to_bits()];
                 d.cmd_begin_rendering(cmd, &info);
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.fill_pipeline);
-                d.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                    0,
-                    bytemuck_u32(&pc),
-                );
+                self.push_constants(cmd, pc);
                 d.cmd_draw(cmd, 3, 1, 0, 0);
                 d.cmd_end_rendering(cmd);
             }
             q.end_pass(ctx, cmd);
         }
+    }
+
+    /// Pushes the four push-constant words (material or flags, view offset,
+    /// two extra words) for the following draws.
+    fn push_constants(&self, cmd: vk::CommandBuffer, pc: [u32; 4]) {
+        // SAFETY: called while recording `cmd`; the range matches the layout.
+        unsafe {
+            self.ctx.device.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                bytemuck_u32(&pc),
+            )
+        };
     }
 
     /// Draws the batches with `pipelines` for view `eye` (the push-constant
@@ -1530,19 +1499,7 @@ impl Renderer {
     ) -> u64 {
         let d = &self.ctx.device;
         let scene = self.scene.as_ref().expect("scene present until drop");
-        let push = |material: u32| {
-            let pc = [material, eye, 0, 0];
-            // SAFETY: inside a rendering scope begun by the caller.
-            unsafe {
-                d.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                    0,
-                    bytemuck_u32(&pc),
-                )
-            };
-        };
+        let push = |material: u32| self.push_constants(cmd, [material, eye, 0, 0]);
         let mut draw_calls = 0;
         let buffers: Vec<vk::Buffer> = scene
             .streams
@@ -1647,21 +1604,7 @@ impl Renderer {
             .color_attachments(&colors)
             .depth_attachment(&depth)
             .stencil_attachment(&depth);
-        let to_read = [vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
-            .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
-            .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-            .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-            .image(far.set.resolve.image)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                base_mip_level: 0,
-                level_count: 1,
-                base_array_layer: 0,
-                layer_count: 1,
-            })];
+        let to_read = [to_sampled(&far.set.resolve)];
         let draws;
         // SAFETY: recording into the frame's command buffer; the far
         // target belongs to this renderer.
@@ -2038,6 +1981,25 @@ impl Renderer {
     pub fn lazily_allocated(&self) -> bool {
         self.targets.as_ref().is_some_and(|t| t.lazily_allocated())
     }
+}
+
+/// Makes a rendered colour image readable by fragment shaders.
+fn to_sampled(image: &Image) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+        .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
+        .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
+        .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+        .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
+        .image(image.image)
+        .subresource_range(vk::ImageSubresourceRange {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: image.layers,
+        })
 }
 
 /// Offset of each stream's default value inside the defaults buffer.
