@@ -15,10 +15,10 @@ struct MaterialData {
 };
 
 layout(set = 0, binding = 0) uniform FrameData {
-    mat4 view_proj[3];     // per view; index 2 is the MFFR far-field camera
-    mat4 eye_rot[3];       // eye orientation (world from eye), rotation only
-    vec4 tangents[3];      // tan(left), tan(right), tan(up), tan(down)
-    vec4 eye_rel[3];       // eye position relative to the render origin
+    mat4 view_proj[4];     // per view; 2 and 3 are the MFFR far-field cameras
+    mat4 eye_rot[4];       // eye orientation (world from eye), rotation only
+    vec4 tangents[4];      // tan(left), tan(right), tan(up), tan(down)
+    vec4 eye_rel[4];       // eye position relative to the render origin
     vec4 origin_hi;        // render origin, high f32 part
     vec4 origin_lo;        // render origin, low f32 part
     vec4 sun_dir;          // towards the sun, world space

@@ -8,9 +8,11 @@
 // points at infinity). Depth shift (flag bit 0): the direction from the
 // centre camera to the point at the split distance D along the eye's ray,
 // so the far field sits at the disparity of D (exact for points at D).
+// Alternate eye (flag bit 1): each eye has its own far image (view 2 + eye),
+// rendered from that eye on alternate frames; otherwise both use view 2.
 // D arrives as float bits in pc.unused1, the flags in pc.material.
 layout(early_fragment_tests) in;
-layout(set = 0, binding = 7) uniform sampler2D far_field;
+layout(set = 0, binding = 7) uniform sampler2D far_field[2];
 layout(location = 0) in vec2 v_ndc;
 layout(location = 1) flat in uint v_view;
 layout(location = 0) out vec4 out_color;
@@ -21,11 +23,13 @@ void main() {
     float ty = mix(t.z, t.w, v_ndc.y * 0.5 + 0.5);
     vec3 dir = normalize(mat3(frame.eye_rot[view]) * vec3(tx, ty, -1.0));
     float split = uintBitsToFloat(pc.unused1);
-    vec3 shifted = frame.eye_rel[view].xyz - frame.eye_rel[2].xyz + split * dir;
+    uint image = (pc.material & 2u) != 0u ? view : 0u;
+    uint far_view = 2u + image;
+    vec3 shifted = frame.eye_rel[view].xyz - frame.eye_rel[far_view].xyz + split * dir;
     vec3 world = (pc.material & 1u) != 0u ? shifted : dir;
-    vec3 c = transpose(mat3(frame.eye_rot[2])) * world;
-    vec4 ft = frame.tangents[2];
+    vec3 c = transpose(mat3(frame.eye_rot[far_view])) * world;
+    vec4 ft = frame.tangents[far_view];
     vec2 tan_c = c.xy / -c.z;
     vec2 uv = vec2((tan_c.x - ft.x) / (ft.y - ft.x), (tan_c.y - ft.z) / (ft.w - ft.z));
-    out_color = texture(far_field, uv);
+    out_color = texture(far_field[image], uv);
 }

@@ -66,12 +66,15 @@ pub struct RenderConfig {
 }
 
 /// Monoscopic far-field settings.
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
 pub struct Mffr {
     /// Split distance in metres (None: where disparity falls below 1 px).
     pub split: Option<f64>,
     /// Shift the far field per eye by its disparity at the split distance.
     pub depth_shift: bool,
+    /// One far image per eye, each re-rendered from its eye every other
+    /// frame (the other eye's is reused).
+    pub alternate_eye: bool,
 }
 
 /// Default radial-density-masking radius (NDC).
@@ -125,26 +128,22 @@ impl RenderConfig {
                 "stencil-mask" => self.stencil_mask = true,
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
                 "mffr" => {
-                    self.mffr.get_or_insert(Mffr {
-                        split: None,
-                        depth_shift: false,
-                    });
+                    self.mffr.get_or_insert_with(Mffr::default);
+                }
+                "mffr-alternate-eye" => {
+                    self.mffr
+                        .get_or_insert_with(Mffr::default)
+                        .alternate_eye = true;
                 }
                 "mffr-depth-shift" => {
                     self.mffr
-                        .get_or_insert(Mffr {
-                            split: None,
-                            depth_shift: false,
-                        })
+                        .get_or_insert_with(Mffr::default)
                         .depth_shift = true;
                 }
                 m if m.starts_with("mffr=") => match m["mffr=".len()..].parse::<f64>() {
                     Ok(v) if v.is_finite() && v > 0.0 => {
                         self.mffr
-                            .get_or_insert(Mffr {
-                                split: None,
-                                depth_shift: false,
-                            })
+                            .get_or_insert_with(Mffr::default)
                             .split = Some(v);
                     }
                     _ => {
@@ -193,7 +192,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, {})", cull_names.join(", ")),
                     ))
                 }
             }

@@ -387,6 +387,38 @@ fn mffr_composites_one_far_field_into_both_eyes() {
         shifted.images[0] != close.images[0],
         "depth shift changes the far field"
     );
+    // Alternate eye: one far image per eye (both rendered on the first
+    // frame), so the far field keeps its disparity.
+    let alt = render(&cfg(StereoMode::Multiview, "mffr=8,mffr-alternate-eye"));
+    let e_alt = mean(&stereo, &alt);
+    eprintln!("MFFR alternate eye, split 8 m: FLIP mean {e_alt:.4}");
+    assert!(
+        e_alt < e_close,
+        "per-eye far images {e_alt} vs one {e_close}"
+    );
+    // Later frames re-render one eye's far image each; a still rig gives
+    // the same frame again.
+    let extent = ash::vk::Extent2D {
+        width: w,
+        height: h,
+    };
+    let mut r = vergence::render::Renderer::new(
+        ctx.clone(),
+        &scene,
+        &cfg(StereoMode::Multiview, "mffr=8,mffr-alternate-eye"),
+        extent,
+    )
+    .unwrap();
+    let rig = profile.rig(pose);
+    let mut frames = Vec::new();
+    for _ in 0..3 {
+        let stats = r.render(&rig, None, true).unwrap();
+        assert!(stats.gpu_ms.contains_key("mffr-far"));
+        frames.push(r.read_images().unwrap());
+    }
+    drop(r);
+    assert_eq!(frames[0], frames[1]);
+    assert_eq!(frames[1], frames[2]);
     // Both eyes of the far field come from one image: with the split at
     // 8 m, content beyond it has no disparity left in the plain variant.
     let tp = render(&cfg(StereoMode::TwoPass, "mffr=8"));

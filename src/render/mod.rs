@@ -29,7 +29,7 @@ use std::sync::Arc;
 use std::time::Instant;
 
 const FRAMES_IN_FLIGHT: usize = 2;
-const UBO_SIZE: u64 = 592;
+const UBO_SIZE: u64 = 752;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
 
@@ -166,8 +166,13 @@ pub struct Renderer {
     fill_pipeline: vk::Pipeline,
     fill_sampler: vk::Sampler,
     far: Option<FarField>,
-    /// This frame's monoscopic far field: split distance and centre view.
-    mffr_frame: Option<(f64, crate::view::View)>,
+    /// This frame's monoscopic far field: split distance, and which far
+    /// images are rendered this frame.
+    mffr_frame: Option<(f64, Vec<usize>)>,
+    /// The view each far image was (or is being) rendered from (UBO views
+    /// 2 and 3).
+    far_views: [Option<crate::view::View>; 2],
+    frame_index: u64,
     /// Frames where MFFR fell back to stereo (no finite centre camera).
     pub mffr_fallbacks: u64,
     /// Which foveation path runs (for stats), e.g. "off" or
@@ -178,7 +183,8 @@ pub struct Renderer {
 /// The monoscopic far field's own target, pipelines (no view mask) and
 /// composite.
 struct FarField {
-    set: attachments::AttachmentSet,
+    /// One far image, or one per eye (alternate eye).
+    sets: Vec<attachments::AttachmentSet>,
     extent: vk::Extent2D,
     pipelines: HashMap<PipelineKey, vk::Pipeline>,
     sky: vk::Pipeline,
@@ -263,7 +269,7 @@ impl Renderer {
             binding(
                 7,
                 vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                1,
+                2,
                 vk::ShaderStageFlags::FRAGMENT,
             ),
         ];
@@ -302,7 +308,7 @@ impl Renderer {
                 },
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: (texture_count + 3) * n,
+                    descriptor_count: (texture_count + 4) * n,
                 },
             ];
             let pool = d
@@ -398,6 +404,8 @@ impl Renderer {
             fill_sampler: vk::Sampler::null(),
             far: None,
             mffr_frame: None,
+            far_views: [None, None],
+            frame_index: 0,
             mffr_fallbacks: 0,
             foveation_path: "off".into(),
         };
@@ -406,8 +414,17 @@ impl Renderer {
                 width: ((extent.width as f64 * FAR_WIDTH_SCALE).ceil() as u32).min(16384),
                 height: extent.height,
             };
-            let set =
-                attachments::AttachmentSet::new(&ctx, far_extent, samples, 1, false, false, true)?;
+            let count = if config.mffr.is_some_and(|m| m.alternate_eye) {
+                2
+            } else {
+                1
+            };
+            let mut far_sets = Vec::new();
+            for _ in 0..count {
+                far_sets.push(attachments::AttachmentSet::new(
+                    &ctx, far_extent, samples, 1, false, false, true,
+                )?);
+            }
             let info = vk::SamplerCreateInfo::default()
                 .mag_filter(vk::Filter::LINEAR)
                 .min_filter(vk::Filter::LINEAR)
@@ -417,7 +434,7 @@ impl Renderer {
             let sampler =
                 unsafe { d.create_sampler(&info, None) }.vk("creating the far-field sampler")?;
             r.far = Some(FarField {
-                set,
+                sets: far_sets,
                 extent: far_extent,
                 pipelines: HashMap::new(),
                 sky: vk::Pipeline::null(),
@@ -919,10 +936,12 @@ impl Renderer {
         let far_info: Vec<vk::DescriptorImageInfo> = self
             .far
             .iter()
-            .map(|f| vk::DescriptorImageInfo {
-                sampler: f.sampler,
-                image_view: f.set.resolve.view,
-                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            .flat_map(|f| {
+                (0..2).map(move |i| vk::DescriptorImageInfo {
+                    sampler: f.sampler,
+                    image_view: f.sets.get(i).unwrap_or(&f.sets[0]).resolve.view,
+                    image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+                })
             })
             .collect();
         let set = self.sets[slot];
@@ -955,19 +974,19 @@ impl Renderer {
     fn frame_data(&self, rig: &StereoRig) -> Vec<f32> {
         let origin = rig.head.position;
         let mut f: Vec<f32> = Vec::with_capacity(UBO_SIZE as usize / 4);
-        // View 2 is the far-field camera; its near plane is the split
-        // distance, so everything nearer is clipped from the far field.
-        let (far, far_near) = match &self.mffr_frame {
-            Some((split, view)) => (*view, *split),
-            None => (rig.views[0], self.config.near),
-        };
+        // Views 2 and 3 are the far-field cameras; their near plane is the
+        // split distance, so everything nearer is clipped from the far field.
+        let far_near = self.mffr_frame.as_ref().map_or(self.config.near, |m| m.0);
         let views = [
             rig.views[0],
             *rig.views.get(1).unwrap_or(&rig.views[0]),
-            far,
+            self.far_views[0].unwrap_or(rig.views[0]),
+            self.far_views[1]
+                .or(self.far_views[0])
+                .unwrap_or(rig.views[0]),
         ];
         for (i, v) in views.iter().enumerate() {
-            let near = if i == 2 { far_near } else { self.config.near };
+            let near = if i >= 2 { far_near } else { self.config.near };
             f.extend(
                 projection::view_projection_f32(&v.pose, &v.fov, near, origin).to_cols_array(),
             );
@@ -1051,15 +1070,40 @@ impl Renderer {
                     .split
                     .unwrap_or_else(|| crate::view::mffr::auto_split(rig, self.extent.width));
                 match crate::view::mffr::centre_view(rig) {
-                    Some(v) => Some((split, v)),
+                    Some(centre) if m.alternate_eye => {
+                        // Eye p's far image is re-rendered this frame (both
+                        // on the first); each from its eye, covering the
+                        // centre camera's union FOV.
+                        let p = (self.frame_index % 2) as usize;
+                        let mut render = Vec::new();
+                        for (i, v) in rig.views.iter().take(2).enumerate() {
+                            if i == p || self.far_views[i].is_none() {
+                                self.far_views[i] = Some(crate::view::View {
+                                    pose: crate::view::Pose {
+                                        position: v.pose.position,
+                                        orientation: centre.pose.orientation,
+                                    },
+                                    fov: centre.fov,
+                                });
+                                render.push(i);
+                            }
+                        }
+                        Some((split, render))
+                    }
+                    Some(centre) => {
+                        self.far_views = [Some(centre), None];
+                        Some((split, vec![0]))
+                    }
                     None => {
                         self.mffr_fallbacks += 1;
+                        self.far_views = [None, None];
                         None
                     }
                 }
             }
             None => None,
         };
+        self.frame_index += 1;
         let data = self.frame_data(rig);
         self.ubos[slot].write(0, bytemuck_f32(&data))?;
         if self.config.stencil_mask {
@@ -1244,8 +1288,8 @@ impl Renderer {
                 (Some((split, _)), None) => (self.config.near / split).min(1.0) as f32,
                 _ => 0.0,
             };
-            if let (Some(far), None, Some(_)) = (&self.far, floor, &self.mffr_frame) {
-                draw_calls += self.record_far(cmd, q, batches, far);
+            if let (Some(far), None, Some((_, render))) = (&self.far, floor, &self.mffr_frame) {
+                draw_calls += self.record_far(cmd, q, batches, far, render);
             }
             let passes: Vec<(attachments::TargetViews, u32, u32, &'static str)> =
                 match self.config.stereo {
@@ -1387,7 +1431,8 @@ impl Renderer {
                     }
                     None => {
                         if let (Some((split, _)), Some(far)) = (&self.mffr_frame, &self.far) {
-                            let flags = self.config.mffr.is_some_and(|m| m.depth_shift) as u32;
+                            let m = self.config.mffr.unwrap_or_default();
+                            let flags = m.depth_shift as u32 | (m.alternate_eye as u32) << 1;
                             d.cmd_bind_pipeline(
                                 cmd,
                                 vk::PipelineBindPoint::GRAPHICS,
@@ -1560,90 +1605,94 @@ impl Renderer {
         q: &mut Queries,
         batches: &Batches,
         far: &FarField,
+        render: &[usize],
     ) -> u64 {
         let ctx = &self.ctx;
         let d = &ctx.device;
-        let barriers = attachments::begin_barriers(std::slice::from_ref(&far.set));
-        let views = far.set.views();
-        let mut color = vk::RenderingAttachmentInfo::default()
-            .image_view(views.color)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::STORE)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: [0.0, 0.0, 0.0, 1.0],
-                },
-            });
-        if let Some(r) = views.resolve {
-            color = color
+        let mut draws = 0;
+        q.begin_pass(ctx, cmd, "mffr-far");
+        for &i in render {
+            let set = &far.sets[i];
+            let barriers = attachments::begin_barriers(std::slice::from_ref(set));
+            let views = set.views();
+            let mut color = vk::RenderingAttachmentInfo::default()
+                .image_view(views.color)
+                .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
+                .store_op(vk::AttachmentStoreOp::STORE)
+                .clear_value(vk::ClearValue {
+                    color: vk::ClearColorValue {
+                        float32: [0.0, 0.0, 0.0, 1.0],
+                    },
+                });
+            if let Some(r) = views.resolve {
+                color = color
+                    .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                    .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                    .resolve_image_view(r)
+                    .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+            }
+            let depth = vk::RenderingAttachmentInfo::default()
+                .image_view(views.depth)
+                .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+                .load_op(vk::AttachmentLoadOp::CLEAR)
                 .store_op(vk::AttachmentStoreOp::DONT_CARE)
-                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
-                .resolve_image_view(r)
-                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+                .clear_value(vk::ClearValue {
+                    depth_stencil: vk::ClearDepthStencilValue {
+                        depth: 0.0,
+                        stencil: 0,
+                    },
+                });
+            let colors = [color];
+            let area = vk::Rect2D {
+                offset: vk::Offset2D::default(),
+                extent: far.extent,
+            };
+            let info = vk::RenderingInfo::default()
+                .render_area(area)
+                .layer_count(1)
+                .color_attachments(&colors)
+                .depth_attachment(&depth)
+                .stencil_attachment(&depth);
+            let to_read = [to_sampled(&set.resolve)];
+            // SAFETY: recording into the frame's command buffer; the far
+            // targets belong to this renderer.
+            unsafe {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&barriers),
+                );
+                d.cmd_begin_rendering(cmd, &info);
+                d.cmd_set_viewport(
+                    cmd,
+                    0,
+                    &[vk::Viewport {
+                        x: 0.0,
+                        y: 0.0,
+                        width: far.extent.width as f32,
+                        height: far.extent.height as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                d.cmd_set_scissor(cmd, 0, &[area]);
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout,
+                    0,
+                    &[self.sets[self.slot]],
+                    &[],
+                );
+                draws += self.draw_scene(cmd, batches, &far.pipelines, Some(far.sky), 2 + i as u32);
+                d.cmd_end_rendering(cmd);
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+                );
+            }
         }
-        let depth = vk::RenderingAttachmentInfo::default()
-            .image_view(views.depth)
-            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(vk::AttachmentStoreOp::DONT_CARE)
-            .clear_value(vk::ClearValue {
-                depth_stencil: vk::ClearDepthStencilValue {
-                    depth: 0.0,
-                    stencil: 0,
-                },
-            });
-        let colors = [color];
-        let area = vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent: far.extent,
-        };
-        let info = vk::RenderingInfo::default()
-            .render_area(area)
-            .layer_count(1)
-            .color_attachments(&colors)
-            .depth_attachment(&depth)
-            .stencil_attachment(&depth);
-        let to_read = [to_sampled(&far.set.resolve)];
-        let draws;
-        // SAFETY: recording into the frame's command buffer; the far
-        // target belongs to this renderer.
-        unsafe {
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&barriers),
-            );
-            q.begin_pass(ctx, cmd, "mffr-far");
-            d.cmd_begin_rendering(cmd, &info);
-            d.cmd_set_viewport(
-                cmd,
-                0,
-                &[vk::Viewport {
-                    x: 0.0,
-                    y: 0.0,
-                    width: far.extent.width as f32,
-                    height: far.extent.height as f32,
-                    min_depth: 0.0,
-                    max_depth: 1.0,
-                }],
-            );
-            d.cmd_set_scissor(cmd, 0, &[area]);
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::GRAPHICS,
-                self.layout,
-                0,
-                &[self.sets[self.slot]],
-                &[],
-            );
-            draws = self.draw_scene(cmd, batches, &far.pipelines, Some(far.sky), 2);
-            d.cmd_end_rendering(cmd);
-            q.end_pass(ctx, cmd);
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&to_read),
-            );
-        }
+        q.end_pass(ctx, cmd);
         draws
     }
 
@@ -2086,7 +2135,9 @@ impl Drop for Renderer {
                 }
                 ctx.device.destroy_sampler(far.sampler, None);
             }
-            far.set.destroy(&ctx);
+            for set in far.sets {
+                set.destroy(&ctx);
+            }
         }
         if let Some(s) = self.scene.take() {
             s.destroy(&ctx);
