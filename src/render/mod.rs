@@ -166,6 +166,10 @@ pub struct Renderer {
     fill_pipeline: vk::Pipeline,
     fill_sampler: vk::Sampler,
     far: Option<FarField>,
+    /// Vertex buffer per stream (the defaults buffer for absent streams)
+    /// and offsets, fixed at creation.
+    vertex_buffers: Vec<vk::Buffer>,
+    vertex_offsets: Vec<u64>,
     /// This frame's monoscopic far field: split distance, and which far
     /// images are rendered this frame.
     mffr_frame: Option<(f64, Vec<usize>)>,
@@ -370,6 +374,17 @@ impl Renderer {
             queries.push(Some(Queries::new(&ctx, 8)?));
         }
         let batcher = Batcher::new(scene);
+        let vertex_buffers: Vec<vk::Buffer> = scene_gpu
+            .streams
+            .iter()
+            .map(|s| s.as_ref().map_or(scene_gpu.defaults.buffer, |b| b.buffer))
+            .collect();
+        let vertex_offsets: Vec<u64> = scene_gpu
+            .streams
+            .iter()
+            .enumerate()
+            .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
+            .collect();
         let mut r = Renderer {
             ctx: ctx.clone(),
             config: RenderConfig {
@@ -403,6 +418,8 @@ impl Renderer {
             fill_pipeline: vk::Pipeline::null(),
             fill_sampler: vk::Sampler::null(),
             far: None,
+            vertex_buffers,
+            vertex_offsets,
             mffr_frame: None,
             far_views: [None, None],
             frame_index: 0,
@@ -640,7 +657,7 @@ impl Renderer {
         if self.config.rdm.is_some() {
             self.rdm_pipeline = GraphicsPipelineDesc {
                 name: "rdm checkerboard stencil",
-                vertex: &full,
+                vertex: &floor_vs,
                 fragment: &rdm_fs,
                 depth_test: false,
                 depth_write: false,
@@ -661,7 +678,7 @@ impl Renderer {
         if self.config.rdm.is_some() && self.config.rdm_fill {
             self.fill_pipeline = GraphicsPipelineDesc {
                 name: "rdm fill",
-                vertex: &full,
+                vertex: &floor_vs,
                 fragment: &fill_fs,
                 depth_test: false,
                 depth_write: false,
@@ -1406,7 +1423,8 @@ impl Renderer {
                 }
                 if let Some(radius) = self.config.rdm {
                     d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.rdm_pipeline);
-                    let pc = [0, eye, 0, radius.to_bits()];
+                    let size = self.extent.width | self.extent.height << 16;
+                    let pc = [0, eye, size, radius.to_bits()];
                     self.push_constants(cmd, pc);
                     d.cmd_draw(cmd, 3, 1, 0, 0);
                     draw_calls += 1;
@@ -1546,21 +1564,10 @@ impl Renderer {
         let scene = self.scene.as_ref().expect("scene present until drop");
         let push = |material: u32| self.push_constants(cmd, [material, eye, 0, 0]);
         let mut draw_calls = 0;
-        let buffers: Vec<vk::Buffer> = scene
-            .streams
-            .iter()
-            .map(|s| s.as_ref().map_or(scene.defaults.buffer, |b| b.buffer))
-            .collect();
-        let offsets: Vec<u64> = scene
-            .streams
-            .iter()
-            .enumerate()
-            .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
-            .collect();
         // SAFETY: inside a rendering scope begun by the caller; every handle
         // is owned by this renderer.
         unsafe {
-            d.cmd_bind_vertex_buffers(cmd, 0, &buffers, &offsets);
+            d.cmd_bind_vertex_buffers(cmd, 0, &self.vertex_buffers, &self.vertex_offsets);
             d.cmd_bind_index_buffer(cmd, scene.indices.buffer, 0, vk::IndexType::UINT32);
             let mut bound = None;
             let mut sky_drawn = sky.is_none();
