@@ -67,23 +67,8 @@ struct RenderArgs {
     /// instead of the profile's eyes at --pose.
     #[arg(long)]
     rig: Option<PathBuf>,
-    /// Stereo mode.
-    #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
-    stereo: StereoMode,
-    /// MSAA samples: 1 or 4.
-    #[arg(long, default_value_t = 4)]
-    msaa: u32,
-    /// Per-eye width in pixels (default: the profile's).
-    #[arg(long, requires = "height")]
-    width: Option<u32>,
-    /// Per-eye height in pixels (default: the profile's).
-    #[arg(long, requires = "width")]
-    height: Option<u32>,
-    /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa and a
-    /// culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
-    /// round-robin, round-robin-conical, per-eye-brute; default none).
-    #[arg(long, default_value = "")]
-    opt: String,
+    #[command(flatten)]
+    frame: FrameOpts,
     /// Output folder.
     #[arg(long)]
     out: PathBuf,
@@ -91,6 +76,49 @@ struct RenderArgs {
     /// (after 2 warm-up frames) and the clear / full-screen-triangle floors.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: u32,
+}
+
+/// How frames are rendered, shared by `render` and `run`.
+#[derive(clap::Args)]
+struct FrameOpts {
+    /// Stereo mode.
+    #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
+    stereo: StereoMode,
+    /// MSAA samples: 1 or 4.
+    #[arg(long, default_value_t = 4)]
+    msaa: u32,
+    /// Per-eye width in pixels (default: the runtime's recommended size,
+    /// else the profile's).
+    #[arg(long, requires = "height")]
+    width: Option<u32>,
+    /// Per-eye height in pixels.
+    #[arg(long, requires = "width")]
+    height: Option<u32>,
+    /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
+    /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
+    /// rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye and a
+    /// culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
+    /// round-robin, round-robin-conical, per-eye-brute; default none).
+    #[arg(long, default_value = "")]
+    opt: String,
+}
+
+impl FrameOpts {
+    /// The renderer configuration these options describe.
+    fn config(&self) -> anyhow::Result<RenderConfig> {
+        let mut config = RenderConfig {
+            stereo: self.stereo,
+            msaa: self.msaa,
+            ..RenderConfig::default()
+        };
+        config.apply_opts(&self.opt, &cull_names())?;
+        Ok(config)
+    }
+
+    /// The per-eye size override.
+    fn size(&self) -> Option<(u32, u32)> {
+        self.width.zip(self.height)
+    }
 }
 
 #[derive(clap::Args)]
@@ -114,21 +142,8 @@ struct RunCli {
     /// Write per-frame statistics as JSON.
     #[arg(long)]
     stats_out: Option<PathBuf>,
-    /// Stereo mode.
-    #[arg(long, value_enum, default_value_t = StereoMode::Multiview)]
-    stereo: StereoMode,
-    /// MSAA samples: 1 or 4.
-    #[arg(long, default_value_t = 4)]
-    msaa: u32,
-    /// Per-eye width (default: the runtime's recommended size or the profile's).
-    #[arg(long, requires = "height")]
-    width: Option<u32>,
-    /// Per-eye height.
-    #[arg(long, requires = "width")]
-    height: Option<u32>,
-    /// Comma-separated optimizations, as for `render --opt`.
-    #[arg(long, default_value = "")]
-    opt: String,
+    #[command(flatten)]
+    frame: FrameOpts,
     /// Write the last frame (needs --frames) as DIR/left.png, DIR/right.png
     /// and DIR/rig.json (the views it was rendered with).
     #[arg(long)]
@@ -169,12 +184,7 @@ fn default_pose() -> Pose {
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => {
-            let mut config = RenderConfig {
-                stereo: a.stereo,
-                msaa: a.msaa,
-                ..RenderConfig::default()
-            };
-            config.apply_opts(&a.opt, &cull_names())?;
+            let config = a.frame.config()?;
             let rig = match &a.rig {
                 Some(path) => {
                     let text = std::fs::read_to_string(path)
@@ -194,7 +204,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 rig,
                 pose: a.pose.unwrap_or_else(default_pose),
                 config,
-                size: a.width.zip(a.height),
+                size: a.frame.size(),
                 out: a.out,
                 frames: a.frames,
             };
@@ -235,12 +245,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::Run(a) => {
-            let mut config = RenderConfig {
-                stereo: a.stereo,
-                msaa: a.msaa,
-                ..RenderConfig::default()
-            };
-            config.apply_opts(&a.opt, &cull_names())?;
+            let config = a.frame.config()?;
             let args = RunArgs {
                 scene: a.scene,
                 hmd_fallback: a.hmd_fallback,
@@ -249,7 +254,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 seconds: a.seconds,
                 stats_out: a.stats_out,
                 config,
-                size: a.width.zip(a.height),
+                size: a.frame.size(),
                 capture: a.capture,
             };
             let stats = vergence::targets::run::run(&args)?;

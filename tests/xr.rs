@@ -88,6 +88,15 @@ fn assert_no_validation(o: &Output, s: &Value) {
     );
 }
 
+/// A JSON array of strings.
+fn strings(v: &Value) -> Vec<&str> {
+    v.as_array()
+        .unwrap_or_else(|| panic!("not an array: {v}"))
+        .iter()
+        .map(|x| x.as_str().unwrap_or_else(|| panic!("not a string: {x}")))
+        .collect()
+}
+
 fn fov_close(v: &Value, want: [f64; 4], tol: f64) -> bool {
     let got =
         [&v["left"], &v["right"], &v["up"], &v["down"]].map(|x| x.as_f64().unwrap_or(f64::NAN));
@@ -125,12 +134,7 @@ fn session_reaches_focused_submits_100_frames_with_the_runtimes_fovs() {
     assert_eq!(s["system"], "Monado: Simulated HMD");
     assert_eq!(s["focused"], true);
     assert!(s["frames_submitted"].as_u64().unwrap() >= 100, "{s}");
-    let states: Vec<&str> = s["states"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let states = strings(&s["states"]);
     for want in [
         "IDLE",
         "READY",
@@ -143,12 +147,7 @@ fn session_reaches_focused_submits_100_frames_with_the_runtimes_fovs() {
         assert!(states.contains(&want), "{want} missing from {states:?}");
     }
     assert_eq!(states.last(), Some(&"EXITING"));
-    let exts: Vec<&str> = s["extensions_enabled"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let exts = strings(&s["extensions_enabled"]);
     for want in [
         "XR_KHR_vulkan_enable2",
         "XR_KHR_visibility_mask",
@@ -491,12 +490,7 @@ fn sigterm_ends_the_session_in_order() {
     let status = wait_exit(&mut child, Duration::from_secs(10)).expect("exited after SIGTERM");
     assert!(status.success(), "orderly exit: {}", log.lock().unwrap());
     let s = stats(&s_path);
-    let states: Vec<&str> = s["states"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .map(|v| v.as_str().unwrap())
-        .collect();
+    let states = strings(&s["states"]);
     assert_eq!(
         &states[states.len() - 3..],
         &["STOPPING", "IDLE", "EXITING"],

@@ -3,6 +3,7 @@
 //! Vulkan calls live here and in `render/`'s recording code only through the
 //! handles exposed by [`Context`].
 
+pub mod barrier;
 pub mod memory;
 pub mod pipeline;
 pub mod query;

@@ -270,72 +270,70 @@ impl Attachments {
 /// Barriers that discard the previous contents of `sets` and make their
 /// attachments writable.
 pub fn begin_barriers(sets: &[AttachmentSet]) -> Vec<vk::ImageMemoryBarrier2<'static>> {
-    {
-        let mut out = Vec::new();
-        let mut add = |img: &Image, aspect: vk::ImageAspectFlags, layout, stage, access| {
-            out.push(
-                vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-                    .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
-                    .dst_stage_mask(stage)
-                    .dst_access_mask(access)
-                    .old_layout(vk::ImageLayout::UNDEFINED)
-                    .new_layout(layout)
-                    .image(img.image)
-                    .subresource_range(vk::ImageSubresourceRange {
-                        aspect_mask: aspect,
-                        base_mip_level: 0,
-                        level_count: 1,
-                        base_array_layer: 0,
-                        layer_count: img.layers,
-                    }),
-            );
-        };
-        let color_stage = vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT;
-        let color_access =
-            vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE;
-        for set in sets {
-            if let Some(c) = &set.color_msaa {
-                add(
-                    c,
-                    vk::ImageAspectFlags::COLOR,
-                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    color_stage,
-                    color_access,
-                );
-            }
-            if let Some((f, _)) = &set.filled {
-                add(
-                    f,
-                    vk::ImageAspectFlags::COLOR,
-                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    color_stage,
-                    color_access,
-                );
-            }
+    let mut out = Vec::new();
+    let mut add = |img: &Image, aspect: vk::ImageAspectFlags, layout, stage, access| {
+        out.push(
+            vk::ImageMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
+                .src_access_mask(vk::AccessFlags2::MEMORY_WRITE)
+                .dst_stage_mask(stage)
+                .dst_access_mask(access)
+                .old_layout(vk::ImageLayout::UNDEFINED)
+                .new_layout(layout)
+                .image(img.image)
+                .subresource_range(vk::ImageSubresourceRange {
+                    aspect_mask: aspect,
+                    base_mip_level: 0,
+                    level_count: 1,
+                    base_array_layer: 0,
+                    layer_count: img.layers,
+                }),
+        );
+    };
+    let color_stage = vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT;
+    let color_access =
+        vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE;
+    for set in sets {
+        if let Some(c) = &set.color_msaa {
             add(
-                &set.resolve,
+                c,
                 vk::ImageAspectFlags::COLOR,
                 vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
                 color_stage,
                 color_access,
             );
-            for d in std::iter::once(&set.depth).chain(&set.depth_resolve) {
-                add(
-                    d,
-                    vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
-                    vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-                    vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
-                        | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
-                        | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-                    // Resolves are synchronized as colour attachment accesses.
-                    vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
-                        | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
-                        | vk::AccessFlags2::COLOR_ATTACHMENT_READ
-                        | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-                );
-            }
         }
-        out
+        if let Some((f, _)) = &set.filled {
+            add(
+                f,
+                vk::ImageAspectFlags::COLOR,
+                vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                color_stage,
+                color_access,
+            );
+        }
+        add(
+            &set.resolve,
+            vk::ImageAspectFlags::COLOR,
+            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            color_stage,
+            color_access,
+        );
+        for d in std::iter::once(&set.depth).chain(&set.depth_resolve) {
+            add(
+                d,
+                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                // Resolves are synchronized as colour attachment accesses.
+                vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ
+                    | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                    | vk::AccessFlags2::COLOR_ATTACHMENT_READ
+                    | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            );
+        }
     }
+    out
 }

@@ -11,6 +11,7 @@ pub mod scene_gpu;
 
 use crate::config::{RenderConfig, StereoMode};
 use crate::error::{Error, Result, VkContext};
+use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::{PipelineStats, Queries};
@@ -1753,51 +1754,39 @@ impl Renderer {
         let mut offset = 0u64;
         for (i, set) in targets.sets.iter().enumerate() {
             let layers = set.resolve.layers;
-            let (image, old_layout, src_access) = match output.and_then(|o| o.color.get(i)) {
-                Some(&img) => (
-                    img,
-                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ),
+            // The frame was last written by the output copy (swapchain
+            // image) or by rendering (own image); both end in the colour
+            // attachment layout.
+            let (image, src_access) = match output.and_then(|o| o.color.get(i)) {
+                Some(&img) => (img, vk::AccessFlags2::TRANSFER_WRITE),
                 None => (
                     set.output_image().image,
-                    vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
                     vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
                 ),
             };
-            let range = vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                base_mip_level: 0,
-                level_count: 1,
-                base_array_layer: 0,
-                layer_count: layers,
+            let written = Use {
+                layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                    | vk::PipelineStageFlags2::ALL_TRANSFER,
+                access: src_access,
             };
-            to_src.push(
-                vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(
-                        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
-                            | vk::PipelineStageFlags2::ALL_TRANSFER,
-                    )
-                    .src_access_mask(src_access)
-                    .dst_stage_mask(vk::PipelineStageFlags2::COPY)
-                    .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)
-                    .old_layout(old_layout)
-                    .new_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                    .image(image)
-                    .subresource_range(range),
-            );
+            let read = Use {
+                layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                stage: vk::PipelineStageFlags2::COPY,
+                access: vk::AccessFlags2::TRANSFER_READ,
+            };
+            let c = vk::ImageAspectFlags::COLOR;
+            to_src.push(barrier::image(image, c, layers, written, read));
             if output.is_some() {
-                back.push(
-                    vk::ImageMemoryBarrier2::default()
-                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                        .src_access_mask(vk::AccessFlags2::NONE)
-                        .dst_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
-                        .dst_access_mask(vk::AccessFlags2::NONE)
-                        .old_layout(vk::ImageLayout::TRANSFER_SRC_OPTIMAL)
-                        .new_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                        .image(image)
-                        .subresource_range(range),
-                );
+                let done = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..read
+                };
+                let handed_back = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..Use::COLOR_ATTACHMENT
+                };
+                back.push(barrier::image(image, c, layers, done, handed_back));
             }
             let copy = vk::BufferImageCopy::default()
                 .buffer_offset(offset)
@@ -1868,65 +1857,33 @@ impl Renderer {
         let d = &ctx.device;
         let (w, h) = (self.extent.width, self.extent.height);
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
-        let range = |aspect, layers| vk::ImageSubresourceRange {
-            aspect_mask: aspect,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: layers,
-        };
-        let barrier =
-            |image,
-             aspect,
-             layers,
-             from: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2),
-             to: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2)| {
-                vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(from.1)
-                    .src_access_mask(from.2)
-                    .dst_stage_mask(to.1)
-                    .dst_access_mask(to.2)
-                    .old_layout(from.0)
-                    .new_layout(to.0)
-                    .image(image)
-                    .subresource_range(range(aspect, layers))
-            };
-        let color_out = (
-            vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-            vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-            vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-        );
-        let depth_out = (
-            vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+        let barrier = barrier::image;
+        let color_out = Use::COLOR_ATTACHMENT;
+        let depth_out = Use {
+            layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            stage: vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
                 | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+            access: vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
                 | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-        );
-        let src = (
-            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_READ,
-        );
-        let dst = (
-            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-            vk::PipelineStageFlags2::ALL_TRANSFER,
-            vk::AccessFlags2::TRANSFER_WRITE,
-        );
-        let discard = |l: (vk::ImageLayout, vk::PipelineStageFlags2, vk::AccessFlags2)| {
-            (vk::ImageLayout::UNDEFINED, l.1, vk::AccessFlags2::NONE)
         };
+        let (src, dst) = (Use::TRANSFER_SRC, Use::TRANSFER_DST);
         let mut before = Vec::new();
         let mut after = Vec::new();
         for (i, set) in targets.sets.iter().enumerate() {
             let layers = set.resolve.layers;
             let c = vk::ImageAspectFlags::COLOR;
             before.push(barrier(set.output_image().image, c, layers, color_out, src));
-            before.push(barrier(out.color[i], c, layers, discard(color_out), dst));
+            before.push(barrier(out.color[i], c, layers, color_out.discarded(), dst));
             after.push(barrier(out.color[i], c, layers, dst, color_out));
             if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
                 before.push(barrier(depth.image, ds, layers, depth_out, src));
-                before.push(barrier(out.depth[i], ds, layers, discard(depth_out), dst));
+                before.push(barrier(
+                    out.depth[i],
+                    ds,
+                    layers,
+                    depth_out.discarded(),
+                    dst,
+                ));
                 after.push(barrier(out.depth[i], ds, layers, dst, depth_out));
             }
         }
@@ -1959,9 +1916,9 @@ impl Renderer {
                     d.cmd_copy_image(
                         cmd,
                         set.output_image().image,
-                        src.0,
+                        src.layout,
                         out.color[i],
-                        dst.0,
+                        dst.layout,
                         &[region],
                     );
                 } else {
@@ -1978,9 +1935,9 @@ impl Renderer {
                     d.cmd_blit_image(
                         cmd,
                         set.output_image().image,
-                        src.0,
+                        src.layout,
                         out.color[i],
-                        dst.0,
+                        dst.layout,
                         &[region],
                         vk::Filter::NEAREST,
                     );
@@ -1990,7 +1947,14 @@ impl Renderer {
                         .src_subresource(sub(vk::ImageAspectFlags::DEPTH))
                         .dst_subresource(sub(vk::ImageAspectFlags::DEPTH))
                         .extent(extent);
-                    d.cmd_copy_image(cmd, depth.image, src.0, out.depth[i], dst.0, &[region]);
+                    d.cmd_copy_image(
+                        cmd,
+                        depth.image,
+                        src.layout,
+                        out.depth[i],
+                        dst.layout,
+                        &[region],
+                    );
                 }
             }
             d.cmd_pipeline_barrier2(
@@ -2041,21 +2005,13 @@ impl Renderer {
 
 /// Makes a rendered colour image readable by fragment shaders.
 fn to_sampled(image: &Image) -> vk::ImageMemoryBarrier2<'static> {
-    vk::ImageMemoryBarrier2::default()
-        .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
-        .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
-        .dst_stage_mask(vk::PipelineStageFlags2::FRAGMENT_SHADER)
-        .dst_access_mask(vk::AccessFlags2::SHADER_SAMPLED_READ)
-        .old_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-        .new_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)
-        .image(image.image)
-        .subresource_range(vk::ImageSubresourceRange {
-            aspect_mask: vk::ImageAspectFlags::COLOR,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: image.layers,
-        })
+    barrier::image(
+        image.image,
+        vk::ImageAspectFlags::COLOR,
+        image.layers,
+        Use::COLOR_ATTACHMENT,
+        Use::SAMPLED,
+    )
 }
 
 /// Offset of each stream's default value inside the defaults buffer.

@@ -264,12 +264,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         None
     };
     let [left, right] = renderer.read_images()?;
-    std::fs::create_dir_all(&job.out).map_err(|e| Error::Output {
-        path: job.out.clone(),
-        message: e.to_string(),
-    })?;
-    save_png(&left, &job.out.join("left.png"))?;
-    save_png(&right, &job.out.join("right.png"))?;
+    save_pair(&job.out, &[left, right])?;
     let mut cpu_ms = BTreeMap::new();
     cpu_ms.insert("load".to_string(), load_ms);
     if let Some(c) = &culling {
@@ -310,15 +305,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         per_view_render_areas: renderer.per_view_render_areas(),
     };
     drop(renderer);
-    let json = serde_json::to_string_pretty(&stats).map_err(|e| Error::Output {
-        path: job.out.join("stats.json"),
-        message: e.to_string(),
-    })?;
-    let stats_path = job.out.join("stats.json");
-    std::fs::write(&stats_path, json).map_err(|e| Error::Output {
-        path: stats_path,
-        message: e.to_string(),
-    })?;
+    write_json(&job.out.join("stats.json"), &stats)?;
     Ok(stats)
 }
 
@@ -374,6 +361,30 @@ impl CullState {
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
         Ok((&out.visible, out.stats))
     }
+}
+
+/// Writes a stereo pair as `dir/left.png` and `dir/right.png`, creating
+/// `dir`.
+pub fn save_pair(dir: &Path, images: &[image::RgbaImage; 2]) -> Result<()> {
+    std::fs::create_dir_all(dir).map_err(|e| Error::Output {
+        path: dir.to_path_buf(),
+        message: e.to_string(),
+    })?;
+    save_png(&images[0], &dir.join("left.png"))?;
+    save_png(&images[1], &dir.join("right.png"))
+}
+
+/// Writes `value` as pretty-printed JSON to `path`, creating its folder.
+pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    let out = |e: String| Error::Output {
+        path: path.to_path_buf(),
+        message: e,
+    };
+    let json = serde_json::to_string_pretty(value).map_err(|e| out(e.to_string()))?;
+    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(dir).map_err(|e| out(e.to_string()))?;
+    }
+    std::fs::write(path, json).map_err(|e| out(e.to_string()))
 }
 
 /// Writes an RGBA image as PNG.

@@ -10,7 +10,7 @@ use crate::gpu::{Context, Validation};
 use crate::render::{FrameStats, Renderer};
 use crate::scene::Scene;
 use crate::targets::headless::{
-    eye_extent, load_scene, save_png, CullState, Percentiles, SceneCounts,
+    eye_extent, load_scene, save_pair, write_json, CullState, Percentiles, SceneCounts,
 };
 use crate::view::profile::HmdProfile;
 use crate::view::{frame_bounds, Fov, Pose, RigFile, StereoRig};
@@ -237,20 +237,7 @@ impl RunStats {
 
     /// Writes the JSON file.
     pub fn write(&self, path: &Path) -> Result<()> {
-        let json = serde_json::to_string_pretty(self).map_err(|e| Error::Output {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })?;
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| Error::Output {
-                path: path.to_path_buf(),
-                message: e.to_string(),
-            })?;
-        }
-        std::fs::write(path, json).map_err(|e| Error::Output {
-            path: path.to_path_buf(),
-            message: e.to_string(),
-        })
+        write_json(path, self)
     }
 }
 
@@ -304,21 +291,8 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
 
 /// Writes the captured frame: left.png, right.png and rig.json.
 pub fn write_capture(dir: &Path, images: &[image::RgbaImage; 2], rig: &StereoRig) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::Output {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
-    save_png(&images[0], &dir.join("left.png"))?;
-    save_png(&images[1], &dir.join("right.png"))?;
-    let path = dir.join("rig.json");
-    let json = serde_json::to_string_pretty(&RigFile::of(rig)).map_err(|e| Error::Output {
-        path: path.clone(),
-        message: e.to_string(),
-    })?;
-    std::fs::write(&path, json).map_err(|e| Error::Output {
-        path,
-        message: e.to_string(),
-    })
+    save_pair(dir, images)?;
+    write_json(&dir.join("rig.json"), &RigFile::of(rig))
 }
 
 fn gpu_total(f: &FrameStats) -> f64 {

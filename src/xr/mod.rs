@@ -677,15 +677,8 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         .iter()
         .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
         .collect();
-    let spawn = spawn_pose(
-        &scene,
-        &fov_of(&xr::Fovf {
-            angle_left: -0.8,
-            angle_right: 0.8,
-            angle_up: 0.8,
-            angle_down: -0.8,
-        }),
-    );
+    // No view has been located yet; a typical headset FOV frames the scene.
+    let spawn = spawn_pose(&scene, &Fov::symmetric(0.8, 0.8));
 
     let mut state = LoopState {
         args,

@@ -95,7 +95,13 @@ fn setup_host() -> Result<(), String> {
             HOST_PACKAGES.join(" ")
         ));
     }
-    let missing = missing_packages(HOST_PACKAGES);
+    apt_install(HOST_PACKAGES, "missing packages")
+}
+
+/// Installs those of `packages` that are missing, as root through apt;
+/// otherwise fails with `what` and the exact command to run.
+fn apt_install(packages: &[&str], what: &str) -> Result<(), String> {
+    let missing = missing_packages(packages);
     if missing.is_empty() {
         return Ok(());
     }
@@ -104,9 +110,7 @@ fn setup_host() -> Result<(), String> {
         missing.join(" ")
     );
     if !is_root() {
-        return Err(format!(
-            "missing packages; run as root:\n    sudo sh -c '{cmd}'"
-        ));
+        return Err(format!("{what}; run as root:\n    sudo sh -c '{cmd}'"));
     }
     run(Command::new("sh")
         .args(["-c", &cmd])
@@ -224,19 +228,7 @@ fn setup_monado() -> Result<Monado, String> {
         .output()
         .is_ok_and(|o| o.status.success() && !o.stdout.is_empty());
     if shipped {
-        let missing = missing_packages(MONADO_PACKAGES);
-        let cmd = format!(
-            "apt-get install -y --no-install-recommends {}",
-            missing.join(" ")
-        );
-        if !is_root() {
-            return Err(format!(
-                "Monado is not installed; run as root:\n    sudo sh -c '{cmd}'"
-            ));
-        }
-        run(Command::new("sh")
-            .args(["-c", &cmd])
-            .env("DEBIAN_FRONTEND", "noninteractive"))?;
+        apt_install(MONADO_PACKAGES, "Monado is not installed")?;
         return Ok(Monado::Native);
     }
     setup_root()?;

@@ -1,0 +1,79 @@
+//! Image layout transitions as data: each side of a barrier is a [`Use`]
+//! (layout, pipeline stages, accesses), so a transition reads as
+//! "from this use to that use".
+
+use ash::vk;
+
+/// How an image is used on one side of a barrier.
+#[derive(Clone, Copy, Debug)]
+pub struct Use {
+    /// The layout during that use.
+    pub layout: vk::ImageLayout,
+    /// The stages that access it.
+    pub stage: vk::PipelineStageFlags2,
+    /// The accesses.
+    pub access: vk::AccessFlags2,
+}
+
+impl Use {
+    /// Written as a colour attachment.
+    pub const COLOR_ATTACHMENT: Use = Use {
+        layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+        stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+        access: vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+    };
+    /// Sampled by fragment shaders.
+    pub const SAMPLED: Use = Use {
+        layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        stage: vk::PipelineStageFlags2::FRAGMENT_SHADER,
+        access: vk::AccessFlags2::SHADER_SAMPLED_READ,
+    };
+    /// Read by a copy or blit.
+    pub const TRANSFER_SRC: Use = Use {
+        layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+        access: vk::AccessFlags2::TRANSFER_READ,
+    };
+    /// Written by a copy or blit.
+    pub const TRANSFER_DST: Use = Use {
+        layout: vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+        stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+        access: vk::AccessFlags2::TRANSFER_WRITE,
+    };
+
+    /// The same stages with the contents discarded (old layout UNDEFINED,
+    /// no access to wait for): for images about to be overwritten.
+    pub fn discarded(self) -> Use {
+        Use {
+            layout: vk::ImageLayout::UNDEFINED,
+            access: vk::AccessFlags2::NONE,
+            ..self
+        }
+    }
+}
+
+/// The barrier moving the first mip of `layers` layers of `image` (aspect
+/// `aspect`) from use `from` to use `to`.
+pub fn image(
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+    layers: u32,
+    from: Use,
+    to: Use,
+) -> vk::ImageMemoryBarrier2<'static> {
+    vk::ImageMemoryBarrier2::default()
+        .src_stage_mask(from.stage)
+        .src_access_mask(from.access)
+        .dst_stage_mask(to.stage)
+        .dst_access_mask(to.access)
+        .old_layout(from.layout)
+        .new_layout(to.layout)
+        .image(image)
+        .subresource_range(vk::ImageSubresourceRange {
+            aspect_mask: aspect,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: layers,
+        })
+}
