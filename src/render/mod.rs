@@ -663,15 +663,7 @@ impl Renderer {
                 depth_test: false,
                 depth_write: false,
                 color_write: false,
-                stencil: Some(vk::StencilOpState {
-                    fail_op: vk::StencilOp::KEEP,
-                    pass_op: vk::StencilOp::REPLACE,
-                    depth_fail_op: vk::StencilOp::REPLACE,
-                    compare_op: vk::CompareOp::ALWAYS,
-                    compare_mask: 2,
-                    write_mask: 2,
-                    reference: 2,
-                }),
+                stencil: Some(stencil_write(2)),
                 ..fullscreen.clone()
             }
             .build(ctx)?;
@@ -699,15 +691,7 @@ impl Renderer {
                 depth_test: false,
                 depth_write: false,
                 color_write: false,
-                stencil: Some(vk::StencilOpState {
-                    fail_op: vk::StencilOp::KEEP,
-                    pass_op: vk::StencilOp::REPLACE,
-                    depth_fail_op: vk::StencilOp::REPLACE,
-                    compare_op: vk::CompareOp::ALWAYS,
-                    compare_mask: 1,
-                    write_mask: 1,
-                    reference: 1,
-                }),
+                stencil: Some(stencil_write(1)),
                 ..fullscreen
             }
             .build(ctx)?;
@@ -2000,6 +1984,20 @@ impl Renderer {
     /// Whether the transient attachments use lazily allocated memory.
     pub fn lazily_allocated(&self) -> bool {
         self.targets.as_ref().is_some_and(|t| t.lazily_allocated())
+    }
+}
+
+/// Stencil state that sets `bits` wherever the pipeline rasterizes (the
+/// hidden-area and RDM masks).
+fn stencil_write(bits: u32) -> vk::StencilOpState {
+    vk::StencilOpState {
+        fail_op: vk::StencilOp::KEEP,
+        pass_op: vk::StencilOp::REPLACE,
+        depth_fail_op: vk::StencilOp::REPLACE,
+        compare_op: vk::CompareOp::ALWAYS,
+        compare_mask: bits,
+        write_mask: bits,
+        reference: bits,
     }
 }
 

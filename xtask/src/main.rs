@@ -309,7 +309,30 @@ fn demo(args: &[String]) -> Result<(), String> {
             .args(args);
         return run(&mut cmd);
     }
-    let frames = ["--frames", "60", "--capture"];
+    // 60 frames of the factory with superfrustum culling; the last frame
+    // and the statistics go to demo-output/.
+    let run_args = |xr: &str| -> Vec<std::ffi::OsString> {
+        let mut v: Vec<std::ffi::OsString> = [
+            "run",
+            "--xr",
+            xr,
+            "--scene",
+            "factory",
+            "--opt",
+            "superfrustum",
+            "--frames",
+            "60",
+            "--capture",
+        ]
+        .iter()
+        .map(Into::into)
+        .collect();
+        v.push(capture.clone().into());
+        v.push("--stats-out".into());
+        v.push(stats.clone().into());
+        v.extend(args.iter().map(Into::into));
+        v
+    };
     match setup_monado() {
         Ok(how) => {
             let bin = build_release()?;
@@ -321,42 +344,13 @@ fn demo(args: &[String]) -> Result<(), String> {
                 }
             );
             let mut cmd = monado_command(&how, &bin);
-            cmd.args([
-                "run",
-                "--xr",
-                "openxr",
-                "--scene",
-                "factory",
-                "--opt",
-                "superfrustum",
-            ])
-            .args(frames)
-            .arg(&capture)
-            .arg("--stats-out")
-            .arg(&stats)
-            .args(args);
-            run(&mut cmd)?;
+            run(cmd.args(run_args("openxr")))?;
         }
         Err(why) => {
             let bin = build_release()?;
             eprintln!("xtask: demo: Monado cannot be set up here ({why}); running headless");
             let mut cmd = Command::new(bin);
-            cmd.current_dir(&r)
-                .args([
-                    "run",
-                    "--xr",
-                    "headless",
-                    "--scene",
-                    "factory",
-                    "--opt",
-                    "superfrustum",
-                ])
-                .args(frames)
-                .arg(&capture)
-                .arg("--stats-out")
-                .arg(&stats)
-                .args(args);
-            run(&mut cmd)?;
+            run(cmd.current_dir(&r).args(run_args("headless")))?;
         }
     }
     eprintln!(
