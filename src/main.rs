@@ -28,6 +28,46 @@ enum Command {
     Run(RunCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::cull::bench::CullBenchArgs),
+    /// Measure every optimization alone and combined along a head path:
+    /// CPU and GPU time, pacing, counts, memory and image error; writes
+    /// results.json, results.csv, report.md and report.html into DIR.
+    Bench {
+        /// A plan file or a shipped plan: smoke, default, scale.
+        #[arg(long, default_value = "default")]
+        plan: String,
+        /// Output folder.
+        #[arg(long, default_value = "bench-out")]
+        out: PathBuf,
+        /// Override the plan's measured frames per configuration.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        frames: Option<u32>,
+    },
+    /// Measure candidate optimization stacks and pick the one that meets a
+    /// frame budget with the least error (or the fastest under an error cap);
+    /// writes it as a config file for `run --config`.
+    Tune {
+        /// Frame budget in ms (frame time p95 must fit).
+        #[arg(long)]
+        budget_ms: f64,
+        /// Largest acceptable FLIP mean; then the fastest stack under it wins.
+        #[arg(long)]
+        max_flip: Option<f64>,
+        /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+        #[arg(long, default_value = "factory")]
+        scene: String,
+        /// HMD profile.
+        #[arg(long, default_value = DEFAULT_PROFILE)]
+        hmd: String,
+        /// Resolution scale relative to the profile.
+        #[arg(long, default_value_t = 1.0)]
+        scale: f64,
+        /// Measured frames per candidate.
+        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        frames: u32,
+        /// Where to write the chosen configuration.
+        #[arg(long, default_value = "vergence-tuned.toml")]
+        out: PathBuf,
+    },
     /// Compare two images: FLIP mean/p99, PSNR, SSIM, and a FLIP heat map.
     Compare {
         /// Reference image (PNG or JPEG).
@@ -101,6 +141,10 @@ struct FrameOpts {
     /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]
     opt: String,
+    /// A config file (as `vergence tune` writes it) whose `opt` list is
+    /// applied before --opt.
+    #[arg(long)]
+    config: Option<PathBuf>,
 }
 
 impl FrameOpts {
@@ -111,6 +155,10 @@ impl FrameOpts {
             msaa: self.msaa,
             ..RenderConfig::default()
         };
+        if let Some(path) = &self.config {
+            let file = vergence::bench::tune::ConfigFile::load(path)?;
+            config.apply_opts(&file.opt, &cull_names())?;
+        }
         config.apply_opts(&self.opt, &cull_names())?;
         Ok(config)
     }
@@ -278,6 +326,26 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::CullBench(args) => cull_bench(&args)?,
+        Command::Bench { plan, out, frames } => bench(&plan, &out, frames)?,
+        Command::Tune {
+            budget_ms,
+            max_flip,
+            scene,
+            hmd,
+            scale,
+            frames,
+            out,
+        } => tune(
+            vergence::bench::tune::TuneGoal {
+                budget_ms,
+                max_flip,
+            },
+            &scene,
+            &hmd,
+            scale,
+            frames,
+            &out,
+        )?,
         Command::Compare {
             reference,
             test,
@@ -350,11 +418,132 @@ fn compare(
     Ok(())
 }
 
-/// Names `--opt` accepts for culling: `none` plus every strategy.
-fn cull_names() -> Vec<&'static str> {
-    std::iter::once("none")
-        .chain(vergence::cull::Strategy::ALL.iter().map(|s| s.name()))
-        .collect()
+use vergence::bench::plan::cull_names;
+
+/// Runs a plan with a progress bar; on Ctrl-C writes what finished and
+/// fails.
+fn run_bench(
+    plan: &vergence::bench::plan::Plan,
+    out: &std::path::Path,
+) -> anyhow::Result<vergence::bench::runner::BenchResults> {
+    use std::sync::Arc;
+    vergence::quit::install();
+    let ctx = Arc::new(vergence::gpu::Context::new_headless(
+        vergence::gpu::Validation::from_env(),
+    )?);
+    let total = plan.scenes.len() * plan.hmds.len() * plan.scales.len() * (plan.configs.len() + 1);
+    let bar = indicatif::ProgressBar::new(total as u64);
+    bar.set_style(
+        indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
+            .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
+    );
+    let results = vergence::bench::runner::run_plan(&ctx, plan, out, &mut |done, _, label| {
+        bar.set_position(done as u64);
+        bar.set_message(label.to_string());
+    });
+    bar.finish_and_clear();
+    let results = results?;
+    vergence::bench::report::write_all(out, &results)?;
+    if !results.complete {
+        anyhow::bail!(
+            "interrupted: wrote the {} finished configurations to {}",
+            results
+                .groups
+                .iter()
+                .map(|g| g.results.len())
+                .sum::<usize>(),
+            out.display()
+        );
+    }
+    if results.validation_messages > 0 {
+        anyhow::bail!(
+            "{} Vulkan validation messages (see log)",
+            results.validation_messages
+        );
+    }
+    Ok(results)
+}
+
+fn bench(plan: &str, out: &std::path::Path, frames: Option<u32>) -> anyhow::Result<()> {
+    let mut plan = vergence::bench::plan::Plan::resolve(plan)?;
+    if let Some(n) = frames {
+        plan.frames = n;
+        plan.error_frames = plan.error_frames.min(n);
+    }
+    let results = run_bench(&plan, out)?;
+    for g in &results.groups {
+        println!("{}", vergence::bench::report::group_title(g));
+        for r in &g.results {
+            println!(
+                "  {:28} GPU {:8.3} ms{}  FLIP {}",
+                r.name,
+                r.gpu_frame_ms.p50,
+                r.gpu_speedup
+                    .map(|s| format!(" ({s:.2}x)"))
+                    .unwrap_or_default(),
+                r.error
+                    .map_or("ref".into(), |e| format!("{:.4}", e.flip_mean))
+            );
+        }
+        if let Some(t) = vergence::bench::report::target_line(g) {
+            println!("  {t}");
+        }
+    }
+    println!(
+        "wrote {}/report.md, report.html, results.json, results.csv",
+        out.display()
+    );
+    Ok(())
+}
+
+fn tune(
+    goal: vergence::bench::tune::TuneGoal,
+    scene: &str,
+    hmd: &str,
+    scale: f64,
+    frames: u32,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    use vergence::bench::tune;
+    if !(goal.budget_ms.is_finite() && goal.budget_ms > 0.0) {
+        anyhow::bail!(
+            "invalid --budget-ms: {} must be a positive number",
+            goal.budget_ms
+        );
+    }
+    if let Some(m) = goal.max_flip {
+        if !(m.is_finite() && m >= 0.0) {
+            anyhow::bail!("invalid --max-flip: {m} must be a number ≥ 0");
+        }
+    }
+    let plan = tune::plan(scene, hmd, scale, frames);
+    plan.validate()
+        .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
+    let dir = out.with_extension("bench");
+    let results = run_bench(&plan, &dir)?;
+    let choice = tune::choose(&results, &goal)?;
+    for line in &choice.why {
+        println!("  {line}");
+    }
+    println!(
+        "chose {} (`{}`): {}",
+        choice.chosen.name,
+        choice.chosen.opt,
+        if goal.max_flip.is_some() {
+            "the fastest within the budget and the error cap"
+        } else {
+            "the least FLIP error within the budget"
+        }
+    );
+    std::fs::write(out, tune::config_file(&choice, &goal, &results))
+        .with_context(|| format!("{}: cannot write", out.display()))?;
+    println!(
+        "wrote {} (use: vergence run --config {}); measurements in {}",
+        out.display(),
+        out.display(),
+        dir.display()
+    );
+    Ok(())
 }
 
 fn cull_bench(args: &vergence::cull::bench::CullBenchArgs) -> anyhow::Result<()> {

@@ -267,6 +267,11 @@ impl Culler {
         Culler::default()
     }
 
+    /// The output of the last cull (empty before the first).
+    pub fn last(&self) -> &CullOutput {
+        &self.out
+    }
+
     /// Culls `bvh` for one frame with `strategy` and returns the result,
     /// valid until the next call. `frame_index` picks the eye of the
     /// round-robin strategies. `PerEyeBrute` ignores the hierarchy and scans

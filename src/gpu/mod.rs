@@ -72,6 +72,18 @@ pub struct Capabilities {
     pub fragment_density_map: bool,
     /// VK_QCOM_multiview_per_view_render_areas is offered.
     pub per_view_render_areas: bool,
+    /// VK_EXT_memory_budget is enabled ([`Context::memory_budget`]).
+    pub memory_budget: bool,
+}
+
+/// Device-local memory as VK_EXT_memory_budget reports it, summed over the
+/// device-local heaps.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct MemoryBudget {
+    /// Bytes this process uses.
+    pub usage: u64,
+    /// Bytes this process can use before allocations may fail or slow down.
+    pub budget: u64,
 }
 
 /// The Vulkan instance, device, queue and allocator.
@@ -263,6 +275,32 @@ impl Context {
                 Err(e)
             }
         }
+    }
+
+    /// Device-local memory usage and budget (None without
+    /// VK_EXT_memory_budget).
+    pub fn memory_budget(&self) -> Option<MemoryBudget> {
+        if !self.caps.memory_budget {
+            return None;
+        }
+        let mut b = vk::PhysicalDeviceMemoryBudgetPropertiesEXT::default();
+        let mut p2 = vk::PhysicalDeviceMemoryProperties2::default().push_next(&mut b);
+        // SAFETY: valid physical device; the extension is enabled and the
+        // query struct is correctly chained.
+        unsafe {
+            self.instance
+                .get_physical_device_memory_properties2(self.physical_device, &mut p2)
+        };
+        let props = p2.memory_properties;
+        let heaps = &props.memory_heaps[..props.memory_heap_count as usize];
+        let mut out = MemoryBudget::default();
+        for (i, h) in heaps.iter().enumerate() {
+            if h.flags.contains(vk::MemoryHeapFlags::DEVICE_LOCAL) {
+                out.usage += b.heap_usage[i];
+                out.budget += b.heap_budget[i];
+            }
+        }
+        Some(out)
     }
 
     /// Number of validation warnings/errors reported so far.
@@ -502,6 +540,10 @@ impl PartialInstance {
         let mut e_fsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default()
             .attachment_fragment_shading_rate(true);
         let mut dev_ext_names = Vec::new();
+        let memory_budget = has_ext(ash::ext::memory_budget::NAME);
+        if memory_budget {
+            dev_ext_names.push(ash::ext::memory_budget::NAME.as_ptr());
+        }
         if use_fsr {
             dev_ext_names.push(ash::khr::fragment_shading_rate::NAME.as_ptr());
         }
@@ -560,6 +602,7 @@ impl PartialInstance {
             shading_rate_texel,
             fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
+            memory_budget,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

@@ -361,6 +361,21 @@ impl CullState {
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
         Ok((&out.visible, out.stats))
     }
+
+    /// The visible list of the last cull.
+    pub fn last_visible(&self) -> &[u32] {
+        &self.culler.last().visible
+    }
+
+    /// False positives and false negatives of the last cull against exact
+    /// per-eye culling of `rig` (untimed ground truth for reports).
+    pub fn accuracy(&self, rig: &crate::view::StereoRig) -> Result<(u64, u64)> {
+        let exact = crate::cull::exact_per_eye(rig, &self.bvh, &self.params)
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+        let mut visible = self.last_visible().to_vec();
+        visible.sort_unstable();
+        Ok(crate::cull::compare(&visible, &exact))
+    }
 }
 
 /// Writes a stereo pair as `dir/left.png` and `dir/right.png`, creating

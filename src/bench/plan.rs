@@ -1,0 +1,251 @@
+//! Benchmark plans (`manifests/bench/*.toml`): scenes × HMD profiles ×
+//! resolution scales × optimization sets, measured along a deterministic
+//! head path.
+
+use crate::config::RenderConfig;
+use crate::error::{Error, Result};
+use std::path::Path;
+
+/// One optimization set of a plan.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct PlanConfig {
+    /// Name in reports (unique within the plan).
+    pub name: String,
+    /// `--opt` list, applied over the defaults (multiview, 4× MSAA, no
+    /// culling, every optimization off).
+    #[serde(default)]
+    pub opt: String,
+}
+
+/// A benchmark plan.
+#[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
+#[serde(deny_unknown_fields)]
+pub struct Plan {
+    /// Plan name.
+    pub name: String,
+    /// Scenes (`factory:N`, a glTF file or a scene manifest).
+    pub scenes: Vec<String>,
+    /// HMD profiles (names or paths).
+    pub hmds: Vec<String>,
+    /// Per-eye resolution scales relative to each profile's resolution.
+    #[serde(default = "one_scale")]
+    pub scales: Vec<f64>,
+    /// Warm-up frames per configuration (not measured).
+    #[serde(default = "default_warmup")]
+    pub warmup: u32,
+    /// Measured frames per configuration.
+    pub frames: u32,
+    /// Frames (evenly spaced over the measured ones) whose images are
+    /// compared with the reference.
+    #[serde(default = "default_error_frames")]
+    pub error_frames: u32,
+    /// Seed of the head path.
+    #[serde(default)]
+    pub path_seed: u64,
+    /// `--opt` list of the image reference: full quality, every
+    /// optimization off.
+    #[serde(default = "default_reference")]
+    pub reference: String,
+    /// Name of the configuration speed-ups are relative to (default: the
+    /// first).
+    #[serde(default)]
+    pub baseline: Option<String>,
+    /// The optimization sets.
+    pub configs: Vec<PlanConfig>,
+}
+
+fn one_scale() -> Vec<f64> {
+    vec![1.0]
+}
+fn default_warmup() -> u32 {
+    5
+}
+fn default_error_frames() -> u32 {
+    2
+}
+fn default_reference() -> String {
+    "two-pass".into()
+}
+
+/// Largest per-eye dimension a scale may produce.
+pub const MAX_EYE_PIXELS: u32 = 8192;
+
+/// The shipped plans, usable by name from any folder.
+pub const BUILTIN: &[(&str, &str)] = &[
+    ("smoke", include_str!("../../manifests/bench/smoke.toml")),
+    (
+        "default",
+        include_str!("../../manifests/bench/default.toml"),
+    ),
+    ("scale", include_str!("../../manifests/bench/scale.toml")),
+];
+
+impl Plan {
+    /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`).
+    pub fn resolve(name_or_path: &str) -> Result<Plan> {
+        let path = Path::new(name_or_path);
+        if path.exists() {
+            return Plan::load(path);
+        }
+        match BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
+            Some((n, text)) => Plan::parse(n, text),
+            None => Err(Error::config(
+                "--plan",
+                format!(
+                    "{name_or_path}: no such file, and not a shipped plan ({})",
+                    BUILTIN.iter().map(|b| b.0).collect::<Vec<_>>().join(", ")
+                ),
+            )),
+        }
+    }
+
+    /// Reads and validates a plan file.
+    pub fn load(path: &Path) -> Result<Plan> {
+        let text = std::fs::read_to_string(path)
+            .map_err(|e| Error::config("--plan", format!("{}: {e}", path.display())))?;
+        Plan::parse(&path.display().to_string(), &text)
+    }
+
+    /// Parses and validates plan text; `origin` names it in errors.
+    pub fn parse(origin: &str, text: &str) -> Result<Plan> {
+        let plan: Plan = toml::from_str(text)
+            .map_err(|e| Error::config("--plan", format!("{origin}: {}", e.message())))?;
+        plan.validate()
+            .map_err(|m| Error::config("--plan", format!("{origin}: {m}")))?;
+        Ok(plan)
+    }
+
+    /// Checks counts, ranges, names and every `--opt` list.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        if self.scenes.is_empty() || self.hmds.is_empty() || self.configs.is_empty() {
+            return Err("scenes, hmds and configs must each list at least one entry".into());
+        }
+        if self.scales.is_empty() {
+            return Err("scales must list at least one value".into());
+        }
+        if let Some(s) = self
+            .scales
+            .iter()
+            .find(|s| !(s.is_finite() && **s > 0.0 && **s <= 4.0))
+        {
+            return Err(format!("scale {s} must be in (0, 4]"));
+        }
+        if self.frames == 0 || self.frames > 100_000 {
+            return Err(format!("frames = {} must be in 1..=100000", self.frames));
+        }
+        if self.warmup > 10_000 {
+            return Err(format!("warmup = {} must be at most 10000", self.warmup));
+        }
+        if self.error_frames > self.frames {
+            return Err(format!(
+                "error_frames = {} exceeds frames = {}",
+                self.error_frames, self.frames
+            ));
+        }
+        let mut names = std::collections::BTreeSet::new();
+        for c in &self.configs {
+            if c.name.trim().is_empty() || c.name.contains(['/', '\\', ',']) {
+                return Err(format!(
+                    "config name '{}' must be non-empty without / \\ or ,",
+                    c.name
+                ));
+            }
+            if !names.insert(c.name.as_str()) {
+                return Err(format!("config name '{}' appears twice", c.name));
+            }
+            config_from_opt(&c.opt).map_err(|e| format!("config '{}': {e}", c.name))?;
+        }
+        config_from_opt(&self.reference).map_err(|e| format!("reference: {e}"))?;
+        if let Some(b) = &self.baseline {
+            if !names.contains(b.as_str()) {
+                return Err(format!("baseline '{b}' is not a config name"));
+            }
+        }
+        Ok(())
+    }
+
+    /// The baseline configuration's name.
+    pub fn baseline_name(&self) -> &str {
+        self.baseline
+            .as_deref()
+            .unwrap_or_else(|| self.configs[0].name.as_str())
+    }
+
+    /// Indices (into the measured frames) of the frames compared with the
+    /// reference: evenly spaced, the last measured frame always included.
+    pub fn error_frame_indices(&self) -> Vec<u32> {
+        let (n, k) = (self.frames, self.error_frames);
+        (1..=k)
+            .map(|i| (i as u64 * n as u64 / k as u64) as u32 - 1)
+            .collect()
+    }
+}
+
+/// Names `--opt` accepts for culling: `none` plus every strategy.
+pub fn cull_names() -> Vec<&'static str> {
+    std::iter::once("none")
+        .chain(crate::cull::Strategy::ALL.iter().map(|s| s.name()))
+        .collect()
+}
+
+/// The renderer configuration an `--opt` list gives over the defaults.
+pub fn config_from_opt(opt: &str) -> Result<RenderConfig> {
+    let mut c = RenderConfig::default();
+    c.apply_opts(opt, &cull_names())?;
+    c.validate()?;
+    Ok(c)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const MIN: &str = r#"
+name = "t"
+scenes = ["factory:10"]
+hmds = ["monado-sim"]
+frames = 4
+[[configs]]
+name = "a"
+opt = "two-pass"
+"#;
+
+    #[test]
+    fn minimal_plan_gets_defaults() {
+        let p = Plan::parse("t", MIN).unwrap();
+        assert_eq!(p.scales, vec![1.0]);
+        assert_eq!(p.reference, "two-pass");
+        assert_eq!(p.baseline_name(), "a");
+        assert_eq!(p.error_frame_indices(), vec![1, 3]);
+    }
+
+    #[test]
+    fn bad_plans_are_named() {
+        for (edit, want) in [
+            ("frames = 4", "frames = 0"),
+            ("opt = \"two-pass\"", "opt = \"warp-drive\""),
+            ("hmds = [\"monado-sim\"]", "hmds = []"),
+            ("frames = 4", "frames = 4\nscales = [0.0]"),
+            ("frames = 4", "frames = 4\nbaseline = \"zz\""),
+            ("frames = 4", "frames = 4\nerror_frames = 9"),
+            ("frames = 4", "frames = 4\ncolour = 1"),
+        ] {
+            let text = MIN.replace(edit, want);
+            let err = Plan::parse("t", &text).unwrap_err().to_string();
+            assert!(
+                err.contains("--plan") && err.contains("t:"),
+                "{want}: {err}"
+            );
+        }
+    }
+
+    #[test]
+    fn shipped_plans_parse() {
+        let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/bench");
+        for name in ["smoke", "default", "scale"] {
+            let p = Plan::load(&dir.join(format!("{name}.toml"))).unwrap();
+            assert_eq!(p.name, name);
+        }
+    }
+}

@@ -1,0 +1,364 @@
+//! Bench outputs: `results.json`, `results.csv` and `report.md` (the HTML
+//! report with plots is in [`super::html`]).
+
+use super::runner::{BenchResults, ConfigResult, Group};
+use crate::error::{Error, Result};
+use std::fmt::Write as _;
+use std::path::Path;
+
+/// Writes results.json, results.csv, report.md and report.html into `dir`.
+pub fn write_all(dir: &Path, results: &BenchResults) -> Result<()> {
+    crate::targets::headless::write_json(&dir.join("results.json"), results)?;
+    write_text(&dir.join("results.csv"), &csv(results))?;
+    write_text(&dir.join("report.md"), &markdown(results))?;
+    write_text(&dir.join("report.html"), &super::html::html(results))
+}
+
+/// Writes `text` to `path`.
+pub fn write_text(path: &Path, text: &str) -> Result<()> {
+    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        std::fs::create_dir_all(d).map_err(|e| Error::Output {
+            path: d.to_path_buf(),
+            message: e.to_string(),
+        })?;
+    }
+    std::fs::write(path, text).map_err(|e| Error::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// CSV header of [`csv`].
+pub const CSV_HEADER: &str = "scene,instances,hmd,scale,width,height,config,opt,stereo,msaa,cull,foveation_path,\
+gpu_p50_ms,gpu_p95_ms,gpu_p99_ms,gpu_max_ms,gpu_std_ms,frame_p50_ms,frame_p95_ms,frame_p99_ms,frame_max_ms,frame_std_ms,\
+cpu_cull_ms,cpu_batch_ms,cpu_record_ms,cpu_submit_ms,cpu_frame_p50_ms,frames,frames_over_budget,frames_over_2x_budget,\
+draw_calls,instances_drawn,triangles,fragment_invocations,gpu_allocated_bytes,gpu_usage_bytes,gpu_budget_bytes,rss_bytes,\
+flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup";
+
+fn quote(s: &str) -> String {
+    if s.contains([',', '"', '\n']) {
+        format!("\"{}\"", s.replace('"', "\"\""))
+    } else {
+        s.to_string()
+    }
+}
+
+fn opt_num(v: Option<f64>) -> String {
+    v.map(|x| format!("{x}")).unwrap_or_default()
+}
+
+/// One row per group and configuration.
+pub fn csv(results: &BenchResults) -> String {
+    let mut s = String::from(CSV_HEADER);
+    s.push('\n');
+    for g in &results.groups {
+        for r in &g.results {
+            let e = r.error.as_ref();
+            let a = r.cull_accuracy.as_ref();
+            let fields = [
+                quote(&g.scene),
+                g.instances.to_string(),
+                quote(&g.hmd),
+                g.scale.to_string(),
+                g.resolution[0].to_string(),
+                g.resolution[1].to_string(),
+                quote(&r.name),
+                quote(&r.opt),
+                r.stereo.clone(),
+                r.msaa.to_string(),
+                r.cull.clone(),
+                quote(&r.foveation_path),
+                r.gpu_frame_ms.p50.to_string(),
+                r.gpu_frame_ms.p95.to_string(),
+                r.gpu_frame_ms.p99.to_string(),
+                r.gpu_frame_ms.max.to_string(),
+                r.gpu_frame_ms.std.to_string(),
+                r.frame_ms.p50.to_string(),
+                r.frame_ms.p95.to_string(),
+                r.frame_ms.p99.to_string(),
+                r.frame_ms.max.to_string(),
+                r.frame_ms.std.to_string(),
+                r.cpu_ms.cull.to_string(),
+                r.cpu_ms.batch.to_string(),
+                r.cpu_ms.record.to_string(),
+                r.cpu_ms.submit.to_string(),
+                r.cpu_frame_ms.p50.to_string(),
+                r.frames.to_string(),
+                r.frames_over_budget.to_string(),
+                r.frames_over_2x_budget.to_string(),
+                r.draw_calls.to_string(),
+                r.instances_drawn.to_string(),
+                r.triangles.to_string(),
+                opt_num(r.fragment_invocations),
+                r.gpu_memory.allocated.to_string(),
+                opt_num(r.gpu_memory.usage.map(|v| v as f64)),
+                opt_num(r.gpu_memory.budget.map(|v| v as f64)),
+                opt_num(r.rss_bytes.map(|v| v as f64)),
+                opt_num(e.map(|e| e.flip_mean)),
+                opt_num(e.map(|e| e.flip_p99)),
+                opt_num(e.map(|e| e.psnr_db)),
+                opt_num(e.map(|e| e.ssim)),
+                opt_num(a.map(|a| a.false_positives)),
+                opt_num(a.map(|a| a.false_negatives)),
+                opt_num(r.gpu_speedup),
+                opt_num(r.frame_speedup),
+            ];
+            s.push_str(&fields.join(","));
+            s.push('\n');
+        }
+    }
+    s
+}
+
+/// Title line of a group.
+pub fn group_title(g: &Group) -> String {
+    format!(
+        "{} ({} instances) · {} · scale {} ({}×{} per eye, {:.2} ms budget at {} Hz)",
+        g.scene,
+        g.instances,
+        g.hmd,
+        g.scale,
+        g.resolution[0],
+        g.resolution[1],
+        1000.0 / g.refresh_hz,
+        g.refresh_hz
+    )
+}
+
+fn pct_change(v: f64, base: f64) -> String {
+    if base > 0.0 {
+        format!("{:+.1} %", (v / base - 1.0) * 100.0)
+    } else {
+        "–".into()
+    }
+}
+
+/// The main table of a group: one row per configuration.
+pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
+    let head = vec![
+        "config",
+        "GPU ms p50",
+        "GPU speed-up",
+        "frame ms p50 / p99",
+        "over budget / 2×",
+        "CPU ms cull / record / submit",
+        "draws",
+        "triangles",
+        "fragments (vs baseline)",
+        "FLIP mean",
+        "FLIP p99",
+        "PSNR dB",
+        "SSIM",
+        "cull FP / FN",
+    ];
+    let base_frag = g
+        .results
+        .iter()
+        .find(|r| r.name == g.baseline)
+        .and_then(|r| r.fragment_invocations);
+    let rows = g
+        .results
+        .iter()
+        .map(|r| {
+            let e = r.error.as_ref();
+            vec![
+                format!("{} (`{}`)", r.name, r.opt),
+                format!("{:.3}", r.gpu_frame_ms.p50),
+                r.gpu_speedup.map_or("–".into(), |s| format!("{s:.2}×")),
+                format!("{:.3} / {:.3}", r.frame_ms.p50, r.frame_ms.p99),
+                format!("{} / {}", r.frames_over_budget, r.frames_over_2x_budget),
+                format!(
+                    "{:.3} / {:.3} / {:.3}",
+                    r.cpu_ms.cull, r.cpu_ms.record, r.cpu_ms.submit
+                ),
+                format!("{:.0}", r.draw_calls),
+                format!("{:.0}", r.triangles),
+                match (r.fragment_invocations, base_frag) {
+                    (Some(f), Some(b)) => format!("{f:.0} ({})", pct_change(f, b)),
+                    (Some(f), None) => format!("{f:.0}"),
+                    _ => "n/a".into(),
+                },
+                e.map_or("ref".into(), |e| format!("{:.4}", e.flip_mean)),
+                e.map_or("ref".into(), |e| format!("{:.4}", e.flip_p99)),
+                e.map_or("ref".into(), |e| {
+                    if e.psnr_db >= 100.0 {
+                        "∞".into()
+                    } else {
+                        format!("{:.2}", e.psnr_db)
+                    }
+                }),
+                e.map_or("ref".into(), |e| format!("{:.4}", e.ssim)),
+                r.cull_accuracy.map_or("–".into(), |a| {
+                    format!("{:.1} / {:.1}", a.false_positives, a.false_negatives)
+                }),
+            ]
+        })
+        .collect();
+    (head, rows)
+}
+
+/// Per-pass GPU ms: pass names and one row per configuration.
+pub fn pass_rows(g: &Group) -> (Vec<String>, Vec<Vec<String>>) {
+    let mut passes: Vec<String> = Vec::new();
+    for r in &g.results {
+        for p in r.gpu_ms.keys() {
+            if !passes.contains(p) {
+                passes.push(p.clone());
+            }
+        }
+    }
+    let rows = g
+        .results
+        .iter()
+        .map(|r| {
+            std::iter::once(r.name.clone())
+                .chain(
+                    passes
+                        .iter()
+                        .map(|p| r.gpu_ms.get(p).map_or("–".into(), |v| format!("{v:.3}"))),
+                )
+                .collect()
+        })
+        .collect();
+    (passes, rows)
+}
+
+/// The issue's target, checked on a group: the config named `full-stack`
+/// against the baseline.
+pub fn target_line(g: &Group) -> Option<String> {
+    let full = g.results.iter().find(|r| r.name == "full-stack")?;
+    let base = g.results.iter().find(|r| r.name == g.baseline)?;
+    let speedup = base.gpu_frame_ms.p50 / full.gpu_frame_ms.p50.max(1e-9);
+    let flip = full.error.map_or(0.0, |e| e.flip_mean);
+    let met = speedup >= 2.5 && flip <= 0.05;
+    Some(format!(
+        "Target (full stack vs {}: ≥ 2.5× lower GPU frame time at FLIP mean ≤ 0.05): {speedup:.2}× at FLIP {flip:.4} — {}",
+        g.baseline,
+        if met { "met" } else { "not met" }
+    ))
+}
+
+fn md_table(s: &mut String, head: &[String], rows: &[Vec<String>]) {
+    let _ = writeln!(s, "| {} |", head.join(" | "));
+    let _ = writeln!(s, "|{}", "---|".repeat(head.len()));
+    for r in rows {
+        let _ = writeln!(s, "| {} |", r.join(" | "));
+    }
+}
+
+fn date(unix: u64) -> String {
+    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm,
+    // "chrono-Compatible Low-Level Date Algorithms").
+    let z = (unix / 86_400) as i64 + 719_468;
+    let era = z.div_euclid(146_097);
+    let doe = z - era * 146_097;
+    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
+    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
+    let mp = (5 * doy + 2) / 153;
+    let d = doy - (153 * mp + 2) / 5 + 1;
+    let m = if mp < 10 { mp + 3 } else { mp - 9 };
+    let y = yoe + era * 400 + i64::from(m <= 2);
+    format!("{y:04}-{m:02}-{d:02}")
+}
+
+/// The header facts shared by the Markdown and HTML reports.
+pub fn facts(results: &BenchResults) -> Vec<(String, String)> {
+    let plan = results.plan.as_ref();
+    vec![
+        ("Plan".into(), plan.map_or("?".into(), |p| p.name.clone())),
+        ("Date".into(), date(results.started_unix)),
+        ("GPU".into(), results.device.clone()),
+        ("Driver".into(), results.driver.clone()),
+        ("CPU".into(), results.cpu.clone()),
+        ("Command".into(), format!("`{}`", results.command)),
+        (
+            "Frames".into(),
+            plan.map_or("?".into(), |p| {
+                format!(
+                    "{} warm-up + {} measured per configuration along head path seed {}; {} compared with the reference (`{}`)",
+                    p.warmup, p.frames, p.path_seed, p.error_frames, p.reference
+                )
+            }),
+        ),
+        (
+            "Status".into(),
+            if results.complete {
+                "complete".into()
+            } else {
+                "INCOMPLETE (interrupted): only finished configurations are listed".into()
+            },
+        ),
+        (
+            "Validation messages".into(),
+            results.validation_messages.to_string(),
+        ),
+    ]
+}
+
+/// `report.md`.
+pub fn markdown(results: &BenchResults) -> String {
+    let mut s = String::from("# vergence bench report\n\n");
+    for (k, v) in facts(results) {
+        let _ = writeln!(s, "- **{k}:** {v}");
+    }
+    s.push_str(
+        "\nGPU ms: sum of the frame's pass timestamps. Frame time: per frame the larger of \
+         CPU (cull + batch + record + submit) and GPU time. Speed-up: baseline GPU p50 over the \
+         configuration's. Image error: against the reference on the same frames, over the \
+         pixels the lens shows (hidden-area pixels excluded), both eyes averaged; FLIP at the \
+         profile's pixels per degree.\n",
+    );
+    for g in &results.groups {
+        let _ = writeln!(s, "\n## {}\n", group_title(g));
+        if let Some(f) = &g.floors {
+            let _ = writeln!(
+                s,
+                "Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.\n",
+                g.baseline, f.empty_frame.p50, f.clear.p50, f.fullscreen_triangle.p50
+            );
+        }
+        if let Some(t) = target_line(g) {
+            let _ = writeln!(s, "**{t}**\n");
+        }
+        let (head, rows) = group_rows(g);
+        let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
+        md_table(&mut s, &head, &rows);
+        let (passes, rows) = pass_rows(g);
+        let _ = writeln!(s, "\nGPU ms per pass (p50):\n");
+        let head: Vec<String> = std::iter::once("config".to_string())
+            .chain(passes)
+            .collect();
+        md_table(&mut s, &head, &rows);
+        let paths: Vec<&ConfigResult> = g
+            .results
+            .iter()
+            .filter(|r| r.foveation_path != "off")
+            .collect();
+        if !paths.is_empty() {
+            let _ = writeln!(s, "\nFoveation paths:\n");
+            for r in paths {
+                let _ = writeln!(s, "- {}: {}", r.name, r.foveation_path);
+            }
+        }
+    }
+    s
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn dates() {
+        assert_eq!(date(0), "1970-01-01");
+        assert_eq!(date(951_782_400), "2000-02-29");
+        assert_eq!(date(1_795_305_600), "2026-11-22");
+    }
+
+    #[test]
+    fn csv_quotes_opt_lists() {
+        assert_eq!(quote("a,b"), "\"a,b\"");
+        assert_eq!(quote("x\"y"), "\"x\"\"y\"");
+        assert_eq!(quote("say \"hi\", ok"), "\"say \"\"hi\"\", ok\"");
+    }
+}

@@ -1,0 +1,703 @@
+//! Runs a [`Plan`]: for every scene × HMD × scale group it renders the
+//! reference images, then each configuration along the same head path,
+//! timing every frame and comparing the chosen frames with the reference.
+
+use super::plan::{config_from_opt, Plan};
+use super::stats::Summary;
+use super::{metrics, process_rss_bytes};
+use crate::config::RenderConfig;
+use crate::cull::bench::{head_path, scene_bounds};
+use crate::error::Result;
+use crate::gpu::{Context, MemoryBudget};
+use crate::render::{FloorKind, FrameStats, Renderer};
+use crate::scene::Scene;
+use crate::targets::headless::{load_scene, CullState};
+use crate::view::lens::mask_image;
+use crate::view::profile::HmdProfile;
+use crate::view::StereoRig;
+use ash::vk;
+use std::collections::BTreeMap;
+use std::path::{Path, PathBuf};
+use std::sync::Arc;
+use std::time::Instant;
+
+/// Image error of a configuration against the reference, averaged over the
+/// compared frames and both eyes; pixels the lens hides are excluded.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ImageError {
+    /// Mean FLIP over visible pixels.
+    pub flip_mean: f64,
+    /// 99th percentile of per-pixel FLIP over visible pixels.
+    pub flip_p99: f64,
+    /// PSNR in dB (capped at 100 for identical images).
+    pub psnr_db: f64,
+    /// Mean SSIM.
+    pub ssim: f64,
+    /// Pixels per degree FLIP was evaluated at (from the profile).
+    pub ppd: f64,
+    /// Frames compared.
+    pub frames: u32,
+}
+
+/// Culling accuracy against exact per-eye culling, per measured frame.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct CullAccuracy {
+    /// Mean instances kept that no eye sees.
+    pub false_positives: f64,
+    /// Mean instances dropped that some eye sees.
+    pub false_negatives: f64,
+    /// Total false negatives over the measured frames.
+    pub false_negatives_total: u64,
+}
+
+/// CPU ms per phase (medians over the measured frames).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct PhaseMs {
+    /// Culling.
+    pub cull: f64,
+    /// Building draw batches.
+    pub batch: f64,
+    /// Recording command buffers.
+    pub record: f64,
+    /// Submitting.
+    pub submit: f64,
+}
+
+/// GPU memory while the configuration ran.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct GpuMemory {
+    /// Bytes vergence allocated (buffers, images, attachments).
+    pub allocated: u64,
+    /// Device-local bytes in use, from VK_EXT_memory_budget (None: not
+    /// offered).
+    pub usage: Option<u64>,
+    /// Device-local budget, from VK_EXT_memory_budget.
+    pub budget: Option<u64>,
+}
+
+/// Everything measured for one configuration in one group.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct ConfigResult {
+    /// Configuration name from the plan (`reference` for the reference).
+    pub name: String,
+    /// Its `--opt` list.
+    pub opt: String,
+    /// Stereo mode.
+    pub stereo: String,
+    /// MSAA samples.
+    pub msaa: u32,
+    /// Culling strategy.
+    pub cull: String,
+    /// Which foveation path ran.
+    pub foveation_path: String,
+    /// Measured frames.
+    pub frames: u32,
+    /// CPU ms per phase.
+    pub cpu_ms: PhaseMs,
+    /// CPU ms per frame: cull + batch + record + submit.
+    pub cpu_frame_ms: Summary,
+    /// GPU ms per pass (medians).
+    pub gpu_ms: BTreeMap<String, f64>,
+    /// GPU ms per frame (sum of the passes' timestamps).
+    pub gpu_frame_ms: Summary,
+    /// Frame time: per frame the larger of CPU and GPU time (what a
+    /// pipelined application would sustain).
+    pub frame_ms: Summary,
+    /// The per-frame frame times, in order (for histograms).
+    pub frame_times_ms: Vec<f64>,
+    /// The profile's refresh budget in ms.
+    pub budget_ms: f64,
+    /// Frames whose frame time exceeded the budget.
+    pub frames_over_budget: u32,
+    /// Frames whose frame time exceeded twice the budget.
+    pub frames_over_2x_budget: u32,
+    /// Draw calls (median).
+    pub draw_calls: f64,
+    /// Instances drawn (median).
+    pub instances_drawn: f64,
+    /// Triangles submitted (median).
+    pub triangles: f64,
+    /// Fragment-shader invocations (median; None without pipeline
+    /// statistics).
+    pub fragment_invocations: Option<f64>,
+    /// GPU memory.
+    pub gpu_memory: GpuMemory,
+    /// Process resident set size after the configuration ran.
+    pub rss_bytes: Option<u64>,
+    /// Image error against the reference (None for the reference itself).
+    pub error: Option<ImageError>,
+    /// Culling accuracy (None without culling).
+    pub cull_accuracy: Option<CullAccuracy>,
+    /// Baseline GPU p50 over this configuration's GPU p50.
+    pub gpu_speedup: Option<f64>,
+    /// Baseline frame-time p50 over this configuration's.
+    pub frame_speedup: Option<f64>,
+    /// Left-eye image of the last compared frame, relative to the output
+    /// folder.
+    pub image: Option<String>,
+    /// FLIP heat map of that image against the reference.
+    pub heatmap: Option<String>,
+}
+
+/// The raster floors at a group's resolution, with the baseline's stereo
+/// mode and MSAA: GPU ms of an empty frame (no draws, every pass), of
+/// clearing only, and of one full-screen triangle with a trivial shader.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Floors {
+    /// The frame with nothing visible.
+    pub empty_frame: Summary,
+    /// Clear (and resolve) only.
+    pub clear: Summary,
+    /// One full-screen triangle.
+    pub fullscreen_triangle: Summary,
+}
+
+/// One scene × HMD × scale group.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Group {
+    /// Scene as the plan names it.
+    pub scene: String,
+    /// Instances in the scene.
+    pub instances: usize,
+    /// Triangles over all instances.
+    pub scene_triangles: usize,
+    /// HMD profile.
+    pub hmd: String,
+    /// Resolution scale.
+    pub scale: f64,
+    /// Per-eye resolution.
+    pub resolution: [u32; 2],
+    /// Refresh rate of the profile.
+    pub refresh_hz: f64,
+    /// Name of the baseline configuration.
+    pub baseline: String,
+    /// Floors.
+    pub floors: Option<Floors>,
+    /// The reference first, then the plan's configurations in order.
+    pub results: Vec<ConfigResult>,
+}
+
+/// Everything a bench run measured (`results.json`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct BenchResults {
+    /// The plan.
+    pub plan: Option<Plan>,
+    /// GPU name.
+    pub device: String,
+    /// Driver.
+    pub driver: String,
+    /// Host CPU model.
+    pub cpu: String,
+    /// Command line that produced the results.
+    pub command: String,
+    /// Unix time the run started.
+    pub started_unix: u64,
+    /// Whether every group and configuration finished (false after Ctrl-C).
+    pub complete: bool,
+    /// Validation messages seen (0 without validation).
+    pub validation_messages: usize,
+    /// The groups.
+    pub groups: Vec<Group>,
+}
+
+/// The head path of a plan for one group: one rig per frame (warm-up
+/// frames first).
+fn path_rigs(plan: &Plan, scene: &Scene, profile: &HmdProfile) -> Vec<StereoRig> {
+    let (lo, hi) = scene_bounds(&scene.world_aabbs());
+    (0..(plan.warmup + plan.frames) as u64)
+        .map(|i| profile.rig(head_path(i, plan.path_seed, lo, hi)))
+        .collect()
+}
+
+/// Per-eye resolution of `profile` at `scale` (at least 16 px, at most
+/// [`super::plan::MAX_EYE_PIXELS`]).
+pub fn scaled_extent(profile: &HmdProfile, scale: f64) -> vk::Extent2D {
+    let px = |v: u32| ((v as f64 * scale).round() as u32).clamp(16, super::plan::MAX_EYE_PIXELS);
+    vk::Extent2D {
+        width: px(profile.views[0].resolution[0]),
+        height: px(profile.views[0].resolution[1]),
+    }
+}
+
+/// Smallest pixels-per-degree FLIP is evaluated at: below it FLIP's
+/// filters degenerate (a few pixels wide), so reduced-resolution runs use it.
+pub const MIN_FLIP_PPD: f64 = 10.0;
+
+/// Called after every configuration with (finished, total, label).
+pub type Progress<'a> = &'a mut dyn FnMut(usize, usize, &str);
+
+/// Runs `plan` on `ctx`, writing images under `out/images`. Stops early
+/// (results marked incomplete) when a quit is requested.
+pub fn run_plan(
+    ctx: &Arc<Context>,
+    plan: &Plan,
+    out: &Path,
+    progress: Progress,
+) -> Result<BenchResults> {
+    let mut results = BenchResults {
+        plan: Some(plan.clone()),
+        device: ctx.device_name.clone(),
+        driver: ctx.driver.clone(),
+        cpu: cpu_model(),
+        command: std::env::args().collect::<Vec<_>>().join(" "),
+        started_unix: std::time::SystemTime::now()
+            .duration_since(std::time::UNIX_EPOCH)
+            .map(|d| d.as_secs())
+            .unwrap_or(0),
+        complete: false,
+        ..BenchResults::default()
+    };
+    let total = plan.scenes.len() * plan.hmds.len() * plan.scales.len() * (plan.configs.len() + 1);
+    let mut done = 0;
+    let profiles = plan
+        .hmds
+        .iter()
+        .map(|h| HmdProfile::load(h))
+        .collect::<Result<Vec<_>>>()?;
+    for scene_spec in &plan.scenes {
+        let (scene, _) = load_scene(scene_spec)?;
+        for profile in &profiles {
+            for &scale in &plan.scales {
+                let mut group = Group {
+                    scene: scene_spec.clone(),
+                    instances: scene.instances.len(),
+                    scene_triangles: scene.instanced_triangles(),
+                    hmd: profile.name.clone(),
+                    scale,
+                    resolution: {
+                        let e = scaled_extent(profile, scale);
+                        [e.width, e.height]
+                    },
+                    refresh_hz: profile.refresh_hz,
+                    baseline: plan.baseline_name().to_string(),
+                    ..Group::default()
+                };
+                let finished = run_group(
+                    ctx,
+                    plan,
+                    &scene,
+                    profile,
+                    scale,
+                    out,
+                    &mut group,
+                    &mut |label| {
+                        done += 1;
+                        progress(done, total, label);
+                    },
+                )?;
+                results.groups.push(group);
+                if !finished {
+                    results.validation_messages = ctx.validation_messages();
+                    return Ok(results);
+                }
+            }
+        }
+    }
+    results.complete = true;
+    results.validation_messages = ctx.validation_messages();
+    Ok(results)
+}
+
+/// Reference images of one group: per compared frame, both eyes.
+type RefImages = Vec<[image::RgbaImage; 2]>;
+
+#[allow(clippy::too_many_arguments)]
+fn run_group(
+    ctx: &Arc<Context>,
+    plan: &Plan,
+    scene: &Scene,
+    profile: &HmdProfile,
+    scale: f64,
+    out: &Path,
+    group: &mut Group,
+    tick: &mut dyn FnMut(&str),
+) -> Result<bool> {
+    let extent = scaled_extent(profile, scale);
+    let rigs = path_rigs(plan, scene, profile);
+    let masks = visible_masks(&rigs[0], extent);
+    let ppd = (metrics::headset_ppd(
+        extent.width,
+        profile.views[0].fov.left,
+        profile.views[0].fov.right,
+    ) as f64)
+        .max(MIN_FLIP_PPD);
+    let group_dir = format!(
+        "images/{}-{}-{}",
+        sanitize(&group.scene),
+        sanitize(&group.hmd),
+        scale
+    );
+    let reference_config = config_from_opt(&plan.reference)?;
+    let mut reference_images: RefImages = Vec::new();
+    let mut reference = measure(
+        ctx,
+        plan,
+        scene,
+        &rigs,
+        extent,
+        ("reference", &plan.reference, &reference_config),
+        profile.refresh_hz,
+        Some(&mut reference_images),
+        None,
+        None,
+    )?;
+    reference.image = Some(save_left(out, &group_dir, "reference", &reference_images)?);
+    group.results.push(reference);
+    tick("reference");
+    for c in &plan.configs {
+        if crate::quit::requested() {
+            return Ok(false);
+        }
+        let config = config_from_opt(&c.opt)?;
+        let compare = Comparison {
+            reference: &reference_images,
+            masks: &masks,
+            ppd,
+        };
+        let mut images = Vec::new();
+        let mut r = measure(
+            ctx,
+            plan,
+            scene,
+            &rigs,
+            extent,
+            (&c.name, &c.opt, &config),
+            profile.refresh_hz,
+            Some(&mut images),
+            Some(&compare),
+            (c.name == group.baseline).then_some(&mut group.floors),
+        )?;
+        r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
+        if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
+            let flip = metrics::flip(&reference[0], &last[0], ppd as f32)?;
+            let rel = format!("{group_dir}/{}.flip.png", sanitize(&c.name));
+            crate::targets::headless::save_png(&flip.heatmap(), &out.join(&rel))?;
+            r.heatmap = Some(rel);
+        }
+        group.results.push(r);
+        tick(&c.name);
+    }
+    let base = group
+        .results
+        .iter()
+        .find(|r| r.name == group.baseline)
+        .map(|b| (b.gpu_frame_ms.p50, b.frame_ms.p50));
+    if let Some((gpu, frame)) = base {
+        for r in &mut group.results {
+            r.gpu_speedup = (r.gpu_frame_ms.p50 > 0.0).then(|| gpu / r.gpu_frame_ms.p50);
+            r.frame_speedup = (r.frame_ms.p50 > 0.0).then(|| frame / r.frame_ms.p50);
+        }
+    }
+    Ok(true)
+}
+
+/// What a configuration's images are compared with.
+struct Comparison<'a> {
+    reference: &'a RefImages,
+    /// Per eye: pixels the lens hides (excluded from the error).
+    masks: &'a [Vec<bool>; 2],
+    ppd: f64,
+}
+
+/// Per eye, which pixels the lens hides (the profile's hidden area, or its
+/// lens-circle default).
+fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> [Vec<bool>; 2] {
+    let n = (extent.width * extent.height) as usize;
+    let mask = |eye: usize| match rig.hidden_area.as_deref().and_then(|h| h.get(eye)) {
+        Some(area) => mask_image(area, &rig.views[eye].fov, extent.width, extent.height),
+        None => vec![false; n],
+    };
+    [mask(0), mask(1)]
+}
+
+/// Renders `config` along `rigs`: warm-up, measured frames, then the
+/// compared frames (each preceded by its predecessor on the path, so
+/// history-dependent techniques see a realistic previous frame), read back
+/// into `images` and compared when `compare` is given.
+#[allow(clippy::too_many_arguments)]
+fn measure(
+    ctx: &Arc<Context>,
+    plan: &Plan,
+    scene: &Scene,
+    rigs: &[StereoRig],
+    extent: vk::Extent2D,
+    (name, opt, config): (&str, &str, &RenderConfig),
+    refresh_hz: f64,
+    images: Option<&mut RefImages>,
+    compare: Option<&Comparison>,
+    floors_out: Option<&mut Option<Floors>>,
+) -> Result<ConfigResult> {
+    let mut renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
+    let mut culling = CullState::new(config, scene)?;
+    let mut frames: Vec<(FrameStats, f64)> = Vec::new();
+    let mut accuracy: Option<CullAccuracy> = None;
+    let n_accuracy = plan.frames.min(30);
+    for (i, rig) in rigs.iter().enumerate() {
+        let t = Instant::now();
+        if let Some(c) = culling.as_mut() {
+            c.cull(rig, i as u64)?;
+        }
+        let cull_ms = t.elapsed().as_secs_f64() * 1e3;
+        let measured = i >= plan.warmup as usize;
+        if measured && i < (plan.warmup + n_accuracy) as usize {
+            if let Some(c) = &culling {
+                let (fp, fneg) = c.accuracy(rig)?;
+                let a = accuracy.get_or_insert_with(CullAccuracy::default);
+                a.false_positives += fp as f64 / n_accuracy as f64;
+                a.false_negatives += fneg as f64 / n_accuracy as f64;
+                a.false_negatives_total += fneg;
+            }
+        }
+        let f = renderer.render(rig, culling.as_ref().map(|c| c.last_visible()), false)?;
+        if measured {
+            frames.push((f, cull_ms));
+        }
+        if crate::quit::requested() {
+            break;
+        }
+    }
+    if let Some(f) = floors_out {
+        *f = Some(floors(&mut renderer, plan, &rigs[0])?);
+    }
+    let mut result = summarize(name, opt, &renderer, &frames, refresh_hz);
+    result.cull_accuracy = accuracy;
+    result.gpu_memory = GpuMemory {
+        allocated: ctx
+            .memory_by_category
+            .lock()
+            .map(|m| m.values().sum())
+            .unwrap_or(0),
+        usage: ctx.memory_budget().map(|b: MemoryBudget| b.usage),
+        budget: ctx.memory_budget().map(|b| b.budget),
+    };
+    if let Some(images) = images {
+        let mut errors = Vec::new();
+        for k in plan.error_frame_indices() {
+            let i = (plan.warmup + k) as usize;
+            let prev = i.saturating_sub(1);
+            for (j, readback) in [(prev, false), (i, true)] {
+                if let Some(c) = culling.as_mut() {
+                    c.cull(&rigs[j], j as u64)?;
+                }
+                let visible = culling.as_ref().map(|c| c.last_visible());
+                renderer.render(&rigs[j], visible, readback)?;
+            }
+            let pair = renderer.read_images()?;
+            if let Some(cmp) = compare {
+                if let Some(reference) = cmp.reference.get(images.len()) {
+                    errors.push(image_error(reference, &pair, cmp)?);
+                }
+            }
+            images.push(pair);
+        }
+        if !errors.is_empty() {
+            let n = errors.len() as f64;
+            let avg = |get: fn(&ImageError) -> f64| errors.iter().map(get).sum::<f64>() / n;
+            result.error = Some(ImageError {
+                flip_mean: avg(|e| e.flip_mean),
+                flip_p99: avg(|e| e.flip_p99),
+                psnr_db: avg(|e| e.psnr_db),
+                ssim: avg(|e| e.ssim),
+                ppd: errors[0].ppd,
+                frames: errors.len() as u32,
+            });
+        }
+    }
+    drop(renderer);
+    result.rss_bytes = process_rss_bytes();
+    Ok(result)
+}
+
+/// Error of one stereo pair against the reference, over visible pixels:
+/// hidden pixels are blacked out in both images first and left out of the
+/// FLIP statistics.
+fn image_error(
+    reference: &[image::RgbaImage; 2],
+    test: &[image::RgbaImage; 2],
+    cmp: &Comparison,
+) -> Result<ImageError> {
+    let eyes = [0usize, 1].map(|eye| -> Result<ImageError> {
+        let mask = &cmp.masks[eye];
+        let (a, b) = (blackout(&reference[eye], mask), blackout(&test[eye], mask));
+        let f = metrics::flip(&a, &b, cmp.ppd as f32)?;
+        let (mean, p99) = masked_stats(&f.errors, mask);
+        Ok(ImageError {
+            flip_mean: mean,
+            flip_p99: p99,
+            psnr_db: metrics::psnr(&a, &b).min(100.0),
+            ssim: metrics::ssim(&a, &b),
+            ppd: cmp.ppd,
+            frames: 1,
+        })
+    });
+    let [l, r] = eyes;
+    let (l, r) = (l?, r?);
+    Ok(ImageError {
+        flip_mean: (l.flip_mean + r.flip_mean) / 2.0,
+        flip_p99: (l.flip_p99 + r.flip_p99) / 2.0,
+        psnr_db: (l.psnr_db + r.psnr_db) / 2.0,
+        ssim: (l.ssim + r.ssim) / 2.0,
+        ppd: l.ppd,
+        frames: 1,
+    })
+}
+
+/// `img` with the pixels `hidden` marks set to opaque black.
+fn blackout(img: &image::RgbaImage, hidden: &[bool]) -> image::RgbaImage {
+    let mut out = img.clone();
+    for (p, &h) in out.pixels_mut().zip(hidden) {
+        if h {
+            *p = image::Rgba([0, 0, 0, 255]);
+        }
+    }
+    out
+}
+
+/// Mean and 99th percentile of `errors` over the pixels `hidden` does not
+/// mark (all pixels when the mask is shorter).
+pub fn masked_stats(errors: &[f32], hidden: &[bool]) -> (f64, f64) {
+    let v: Vec<f64> = errors
+        .iter()
+        .enumerate()
+        .filter(|(i, _)| !hidden.get(*i).copied().unwrap_or(false))
+        .map(|(_, &e)| e as f64)
+        .collect();
+    let s = Summary::of(&v);
+    (s.mean, s.p99)
+}
+
+fn summarize(
+    name: &str,
+    opt: &str,
+    renderer: &Renderer,
+    frames: &[(FrameStats, f64)],
+    refresh_hz: f64,
+) -> ConfigResult {
+    let series = |get: &dyn Fn(&FrameStats, f64) -> f64| -> Vec<f64> {
+        frames.iter().map(|(f, c)| get(f, *c)).collect()
+    };
+    let median = |get: &dyn Fn(&FrameStats, f64) -> f64| Summary::of(&series(get)).p50;
+    let cpu = series(&|f, c| c + f.cpu_ms.batch + f.cpu_ms.record + f.cpu_ms.submit);
+    let gpu = series(&|f, _| f.gpu_ms.values().sum());
+    let frame: Vec<f64> = cpu.iter().zip(&gpu).map(|(c, g)| c.max(*g)).collect();
+    let budget_ms = 1000.0 / refresh_hz;
+    let mut passes: BTreeMap<String, f64> = BTreeMap::new();
+    for (f, _) in frames {
+        for name in f.gpu_ms.keys() {
+            passes.entry(name.clone()).or_default();
+        }
+    }
+    for (pass, v) in passes.iter_mut() {
+        *v = median(&|f, _| f.gpu_ms.get(pass).copied().unwrap_or(0.0));
+    }
+    let config = &renderer.config;
+    ConfigResult {
+        name: name.to_string(),
+        opt: opt.to_string(),
+        stereo: config.stereo.name().to_string(),
+        msaa: config.msaa,
+        cull: config.cull.clone(),
+        foveation_path: renderer.foveation_path.clone(),
+        frames: frames.len() as u32,
+        cpu_ms: PhaseMs {
+            cull: median(&|_, c| c),
+            batch: median(&|f, _| f.cpu_ms.batch),
+            record: median(&|f, _| f.cpu_ms.record),
+            submit: median(&|f, _| f.cpu_ms.submit),
+        },
+        cpu_frame_ms: Summary::of(&cpu),
+        gpu_ms: passes,
+        gpu_frame_ms: Summary::of(&gpu),
+        frame_ms: Summary::of(&frame),
+        frames_over_budget: frame.iter().filter(|&&t| t > budget_ms).count() as u32,
+        frames_over_2x_budget: frame.iter().filter(|&&t| t > 2.0 * budget_ms).count() as u32,
+        frame_times_ms: frame,
+        budget_ms,
+        draw_calls: median(&|f, _| f.draw_calls as f64),
+        instances_drawn: median(&|f, _| f.instances_drawn as f64),
+        triangles: median(&|f, _| f.triangles as f64),
+        fragment_invocations: frames
+            .iter()
+            .all(|(f, _)| f.pipeline.is_some())
+            .then(|| median(&|f, _| f.pipeline.map_or(0.0, |p| p.fragment_invocations as f64)))
+            .filter(|_| !frames.is_empty()),
+        ..ConfigResult::default()
+    }
+}
+
+/// The floors on `renderer` (the baseline's: same resolution, stereo mode
+/// and MSAA).
+fn floors(renderer: &mut Renderer, plan: &Plan, rig: &StereoRig) -> Result<Floors> {
+    let n = plan.warmup + plan.frames;
+    let mut empty = Vec::new();
+    for i in 0..n {
+        let f = renderer.render(rig, Some(&[]), false)?;
+        if i >= plan.warmup {
+            empty.push(f.gpu_ms.values().sum());
+        }
+    }
+    let mut series = |kind| -> Result<Summary> {
+        let mut v = Vec::new();
+        for i in 0..n {
+            let ms = renderer.render_floor(kind)?;
+            if i >= plan.warmup {
+                v.push(ms);
+            }
+        }
+        Ok(Summary::of(&v))
+    };
+    Ok(Floors {
+        empty_frame: Summary::of(&empty),
+        clear: series(FloorKind::Clear)?,
+        fullscreen_triangle: series(FloorKind::FullscreenTriangle)?,
+    })
+}
+
+/// Saves the left eye of the last image pair as `dir/name.png` under
+/// `out`; returns the path relative to `out`.
+fn save_left(out: &Path, dir: &str, name: &str, images: &RefImages) -> Result<String> {
+    let rel = format!("{dir}/{}.png", sanitize(name));
+    if let Some(pair) = images.last() {
+        let path: PathBuf = out.join(&rel);
+        if let Some(parent) = path.parent() {
+            std::fs::create_dir_all(parent).map_err(|e| crate::error::Error::Output {
+                path: parent.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        }
+        crate::targets::headless::save_png(&pair[0], &path)?;
+    }
+    Ok(rel)
+}
+
+/// A name made safe for a file name.
+pub fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
+}
+
+/// The host CPU's model name (from /proc/cpuinfo).
+fn cpu_model() -> String {
+    std::fs::read_to_string("/proc/cpuinfo")
+        .ok()
+        .and_then(|s| {
+            s.lines()
+                .find(|l| l.starts_with("model name"))
+                .and_then(|l| l.split(':').nth(1))
+                .map(|m| m.trim().to_string())
+        })
+        .map(|m| {
+            format!(
+                "{m} ({} threads)",
+                std::thread::available_parallelism().map_or(1, |n| n.get())
+            )
+        })
+        .unwrap_or_else(|| "unknown".into())
+}

@@ -1,0 +1,264 @@
+//! `vergence bench` on the shipped smoke plan, `vergence tune` and
+//! `--config`: the outputs' content, not only their existence.
+
+use std::path::{Path, PathBuf};
+use std::process::Command;
+use vergence::bench::plan::Plan;
+use vergence::bench::report::CSV_HEADER;
+use vergence::bench::runner::{BenchResults, ConfigResult};
+
+fn scratch(name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vergence-bench-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn vergence(args: &[&str]) -> std::process::Output {
+    Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(args)
+        .output()
+        .expect("vergence runs")
+}
+
+fn ok(args: &[&str]) -> String {
+    let out = vergence(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        out.status.success(),
+        "{args:?} failed ({}): {stderr}",
+        out.status
+    );
+    String::from_utf8_lossy(&out.stdout).into_owned()
+}
+
+/// Splits a CSV line, honouring double quotes.
+fn csv_fields(line: &str) -> Vec<String> {
+    let (mut out, mut cur, mut quoted) = (Vec::new(), String::new(), false);
+    let mut chars = line.chars().peekable();
+    while let Some(c) = chars.next() {
+        match (c, quoted) {
+            ('"', true) if chars.peek() == Some(&'"') => {
+                cur.push('"');
+                chars.next();
+            }
+            ('"', _) => quoted = !quoted,
+            (',', false) => out.push(std::mem::take(&mut cur)),
+            _ => cur.push(c),
+        }
+    }
+    out.push(cur);
+    out
+}
+
+fn get<'a>(results: &'a BenchResults, name: &str) -> &'a ConfigResult {
+    results.groups[0]
+        .results
+        .iter()
+        .find(|r| r.name == name)
+        .unwrap_or_else(|| panic!("no result for {name}"))
+}
+
+#[test]
+fn smoke_plan_measures_and_reports() {
+    let out = scratch("smoke");
+    let stdout = ok(&["bench", "--plan", "smoke", "--out", out.to_str().unwrap()]);
+    assert!(stdout.contains("Target (full stack"), "{stdout}");
+    let plan = Plan::resolve("smoke").unwrap();
+
+    let json = std::fs::read_to_string(out.join("results.json")).unwrap();
+    let results: BenchResults = serde_json::from_str(&json).unwrap();
+    assert!(results.complete);
+    assert_eq!(results.validation_messages, 0);
+    assert_eq!(results.groups.len(), 1);
+    let g = &results.groups[0];
+    assert_eq!(g.resolution, [160, 120]);
+    let names: Vec<&str> = g.results.iter().map(|r| r.name.as_str()).collect();
+    let mut want = vec!["reference"];
+    want.extend(plan.configs.iter().map(|c| c.name.as_str()));
+    assert_eq!(names, want);
+    for r in &g.results {
+        assert_eq!(r.frames, plan.frames, "{}", r.name);
+        assert_eq!(r.frame_times_ms.len(), plan.frames as usize);
+        assert!(
+            r.gpu_frame_ms.p50 > 0.0 && r.cpu_frame_ms.p50 > 0.0,
+            "{}",
+            r.name
+        );
+        assert!(r.frame_ms.p50 >= r.gpu_frame_ms.p50.min(r.cpu_frame_ms.p50));
+        assert!(r.draw_calls > 0.0 && r.triangles > 0.0, "{}", r.name);
+        assert!(r.gpu_memory.allocated > 0, "{}", r.name);
+        assert!(r.rss_bytes.unwrap_or(0) > 1 << 20, "{}", r.name);
+        assert_eq!(r.error.is_none(), r.name == "reference", "{}", r.name);
+        assert!(out.join(r.image.as_ref().unwrap()).is_file());
+    }
+    let floors = g.floors.expect("floors measured on the baseline");
+    assert!(floors.clear.p50 > 0.0 && floors.fullscreen_triangle.p50 > 0.0);
+    assert!(floors.empty_frame.p50 > 0.0);
+
+    // Culling changes nothing visible; per-eye culling misses nothing.
+    let base = get(&results, "two-pass-per-eye");
+    assert_eq!(base.gpu_speedup, Some(1.0));
+    assert!(base.error.unwrap().flip_mean < 1e-3, "{:?}", base.error);
+    assert_eq!(base.cull_accuracy.unwrap().false_negatives_total, 0);
+    assert!(base.instances_drawn < get(&results, "reference").instances_drawn);
+    let mv = get(&results, "multiview-superfrustum");
+    assert!(mv.draw_calls < base.draw_calls, "multiview halves draws");
+    assert!(mv.error.unwrap().flip_mean < 1e-3);
+
+    // The stencil mask shades fewer fragments; RDM and MFFR change pixels.
+    let frag = |n: &str| get(&results, n).fragment_invocations.unwrap();
+    assert!(frag("stencil-mask") < frag("two-pass-per-eye"));
+    for n in ["rdm", "mffr", "full-stack"] {
+        let e = get(&results, n).error.unwrap();
+        assert!(e.flip_mean > 1e-4 && e.flip_mean < 0.2, "{n}: {e:?}");
+        assert!(
+            e.psnr_db < 100.0 && e.ssim < 1.0 && e.ssim > 0.5,
+            "{n}: {e:?}"
+        );
+    }
+    assert!(get(&results, "mffr").gpu_ms.contains_key("mffr-far"));
+    assert!(get(&results, "foveation-medium").foveation_path != "off");
+
+    // CSV: the header, one row per result, same field count, same numbers.
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    let mut lines = csv.lines();
+    assert_eq!(lines.next(), Some(CSV_HEADER));
+    let head = csv_fields(CSV_HEADER);
+    let rows: Vec<Vec<String>> = lines.map(csv_fields).collect();
+    assert_eq!(rows.len(), g.results.len());
+    let col = |name: &str| head.iter().position(|h| h == name).unwrap();
+    for (row, r) in rows.iter().zip(&g.results) {
+        assert_eq!(row.len(), head.len());
+        assert_eq!(row[col("config")], r.name);
+        assert_eq!(row[col("opt")], r.opt);
+        let gpu: f64 = row[col("gpu_p50_ms")].parse().unwrap();
+        assert!((gpu - r.gpu_frame_ms.p50).abs() < 1e-9);
+    }
+
+    // Markdown and HTML: every configuration, the floors, plots, images.
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let html = std::fs::read_to_string(out.join("report.html")).unwrap();
+    for r in &g.results {
+        assert!(
+            md.contains(&format!("| {} (`{}`)", r.name, r.opt)),
+            "{}",
+            r.name
+        );
+        assert!(html.contains(&r.name));
+    }
+    assert!(md.contains("Floors") && md.contains("mffr-far"));
+    assert_eq!(html.matches("<svg").count(), 1 + g.results.len());
+    for src in html.split("<img src=\"").skip(1) {
+        let rel = &src[..src.find('"').unwrap()];
+        let img = image::open(out.join(rel)).unwrap();
+        assert_eq!((img.width(), img.height()), (160, 120), "{rel}");
+    }
+}
+
+#[test]
+fn tune_writes_a_config_run_accepts() {
+    let dir = scratch("tune");
+    let file = dir.join("tuned.toml");
+    let stdout = ok(&[
+        "tune",
+        "--budget-ms",
+        "10000",
+        "--max-flip",
+        "0.2",
+        "--scene",
+        "factory:300",
+        "--hmd",
+        "monado-sim",
+        "--scale",
+        "0.25",
+        "--frames",
+        "2",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    assert!(stdout.contains("chose "), "{stdout}");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let opt_line = text.lines().find(|l| l.starts_with("opt = ")).unwrap();
+    // Under a generous budget with an error cap the fastest candidate wins:
+    // the one with the smallest measured frame-time p95.
+    let results: BenchResults = serde_json::from_str(
+        &std::fs::read_to_string(file.with_extension("bench").join("results.json")).unwrap(),
+    )
+    .unwrap();
+    let fastest = results.groups[0]
+        .results
+        .iter()
+        .filter(|r| r.name != "reference" && r.error.is_some_and(|e| e.flip_mean <= 0.2))
+        .min_by(|a, b| a.frame_ms.p95.total_cmp(&b.frame_ms.p95))
+        .unwrap();
+    assert_eq!(opt_line, format!("opt = {:?}", fastest.opt));
+
+    let out = dir.join("render");
+    ok(&[
+        "render",
+        "--scene",
+        "factory:300",
+        "--hmd",
+        "monado-sim",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--config",
+        file.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    let want = vergence::bench::plan::config_from_opt(&fastest.opt).unwrap();
+    assert_eq!(stats["config"]["stereo"], want.stereo.name());
+    assert_eq!(stats["config"]["cull"], want.cull);
+    assert_eq!(stats["config"]["msaa"], want.msaa);
+}
+
+fn fails(args: &[&str], expect: &str) {
+    let out = vergence(args);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && out.status.code() != Some(101),
+        "{args:?}: {stderr}"
+    );
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    assert!(
+        stderr.contains(expect),
+        "{args:?} should mention '{expect}': {stderr}"
+    );
+}
+
+#[test]
+fn bad_bench_and_tune_input_is_named() {
+    let dir = scratch("bad");
+    let plan = dir.join("bad-plan.toml");
+    std::fs::write(
+        &plan,
+        "name = \"x\"\nscenes = [\"factory:10\"]\nhmds = [\"monado-sim\"]\nframes = 2\n[[configs]]\nname = \"a\"\nopt = \"hyperdrive\"\n",
+    )
+    .unwrap();
+    fails(&["bench", "--plan", plan.to_str().unwrap()], "hyperdrive");
+    fails(&["bench", "--plan", "nonesuch"], "not a shipped plan");
+    fails(&["tune", "--budget-ms", "-3"], "--budget-ms");
+    fails(
+        &["tune", "--budget-ms", "5", "--max-flip", "NaN"],
+        "--max-flip",
+    );
+    let cfg = dir.join("cfg.toml");
+    std::fs::write(&cfg, "opt = \"multiview\"\ncolour = 3\n").unwrap();
+    fails(
+        &[
+            "render",
+            "--config",
+            cfg.to_str().unwrap(),
+            "--out",
+            dir.to_str().unwrap(),
+        ],
+        "colour",
+    );
+    assert!(Path::new(&dir).exists());
+}
