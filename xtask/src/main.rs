@@ -9,6 +9,10 @@
 //! - `xr -- ARGS`: runs `vergence ARGS` against Monado's simulated HMD
 //!   (started before, stopped after; the exit code passes through).
 //! - `test`: the whole suite (fmt, clippy, tests inside the root).
+//! - `gpu-bench [PLAN]`: prepares `target/gpu-bench/` for a GPU machine
+//!   without Rust or a Vulkan loader (see [`gpu_bench`]).
+
+mod gpu_bench;
 
 use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
@@ -372,12 +376,13 @@ fn main() -> ExitCode {
         "setup" => setup(),
         "test" => test(&rest),
         "demo" => demo(&rest),
+        "gpu-bench" => gpu_bench::gpu_bench(&rest),
         "xr" => match xr(&rest) {
             Ok(code) => return ExitCode::from(code),
             Err(e) => Err(e),
         },
         _ => {
-            eprintln!("usage: cargo xtask <setup|demo|test|xr> [-- ARGS]");
+            eprintln!("usage: cargo xtask <setup|demo|test|xr|gpu-bench> [-- ARGS]");
             return ExitCode::from(2);
         }
     };
