@@ -262,3 +262,50 @@ fn bad_bench_and_tune_input_is_named() {
     );
     assert!(Path::new(&dir).exists());
 }
+
+#[test]
+fn ctrl_c_writes_what_finished() {
+    let dir = scratch("interrupt");
+    let plan = dir.join("long.toml");
+    let mut text = String::from(
+        "name = \"long\"\nscenes = [\"factory:500\"]\nhmds = [\"monado-sim\"]\nscales = [0.25]\nwarmup = 1\nframes = 20000\nerror_frames = 1\n",
+    );
+    for i in 0..3 {
+        text.push_str(&format!(
+            "[[configs]]\nname = \"c{i}\"\nopt = \"two-pass\"\n"
+        ));
+    }
+    std::fs::write(&plan, text).unwrap();
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "bench",
+            "--plan",
+            plan.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // Let it run a moment (the reference takes far longer than this), then
+    // interrupt.
+    std::thread::sleep(std::time::Duration::from_millis(1500));
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let started = std::time::Instant::now();
+    let status = child.wait().unwrap();
+    assert!(started.elapsed().as_secs() < 10, "exits promptly");
+    let mut stderr = String::new();
+    std::io::Read::read_to_string(child.stderr.as_mut().unwrap(), &mut stderr).unwrap();
+    assert!(!status.success(), "{stderr}");
+    assert!(stderr.contains("interrupted"), "{stderr}");
+    let results: BenchResults =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert!(!results.complete);
+    // Nothing unfinished is reported as if it were measured.
+    assert!(results.groups.iter().all(|g| g.results.is_empty()));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("INCOMPLETE"));
+}

@@ -197,6 +197,7 @@ fn scaling_svg(title: &str, series: &Series) -> String {
         chart
             .configure_mesh()
             .x_desc("instances")
+            .x_label_formatter(&|x| format!("{x:.0}"))
             .y_desc("ms per frame (p50)")
             .draw()?;
         for (i, (name, pts)) in series.iter().enumerate() {

@@ -329,7 +329,7 @@ fn run_group(
     );
     let reference_config = config_from_opt(&plan.reference)?;
     let mut reference_images: RefImages = Vec::new();
-    let mut reference = measure(
+    let Some(mut reference) = measure(
         ctx,
         plan,
         scene,
@@ -340,7 +340,10 @@ fn run_group(
         Some(&mut reference_images),
         None,
         None,
-    )?;
+    )?
+    else {
+        return Ok(false);
+    };
     reference.image = Some(save_left(out, &group_dir, "reference", &reference_images)?);
     group.results.push(reference);
     tick("reference");
@@ -355,7 +358,7 @@ fn run_group(
             ppd,
         };
         let mut images = Vec::new();
-        let mut r = measure(
+        let Some(mut r) = measure(
             ctx,
             plan,
             scene,
@@ -366,7 +369,10 @@ fn run_group(
             Some(&mut images),
             Some(&compare),
             (c.name == group.baseline).then_some(&mut group.floors),
-        )?;
+        )?
+        else {
+            return Ok(false);
+        };
         r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
         if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
             let flip = metrics::flip(&reference[0], &last[0], ppd as f32)?;
@@ -413,7 +419,8 @@ fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> [Vec<bool>; 2] {
 /// Renders `config` along `rigs`: warm-up, measured frames, then the
 /// compared frames (each preceded by its predecessor on the path, so
 /// history-dependent techniques see a realistic previous frame), read back
-/// into `images` and compared when `compare` is given.
+/// into `images` and compared when `compare` is given. None when a quit
+/// was requested before it finished.
 #[allow(clippy::too_many_arguments)]
 fn measure(
     ctx: &Arc<Context>,
@@ -426,7 +433,7 @@ fn measure(
     images: Option<&mut RefImages>,
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
-) -> Result<ConfigResult> {
+) -> Result<Option<ConfigResult>> {
     let mut renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
     let mut culling = CullState::new(config, scene)?;
     let mut frames: Vec<(FrameStats, f64)> = Vec::new();
@@ -453,7 +460,7 @@ fn measure(
             frames.push((f, cull_ms));
         }
         if crate::quit::requested() {
-            break;
+            return Ok(None);
         }
     }
     if let Some(f) = floors_out {
@@ -505,7 +512,7 @@ fn measure(
     }
     drop(renderer);
     result.rss_bytes = process_rss_bytes();
-    Ok(result)
+    Ok(Some(result))
 }
 
 /// Error of one stereo pair against the reference, over visible pixels:

@@ -22,9 +22,15 @@ const LOADER_DEBS: &[&str] = &[
 pub fn gpu_bench(args: &[String]) -> Result<(), String> {
     let dir = repo().join("target/gpu-bench");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
-    run(Command::new(env!("CARGO"))
-        .current_dir(repo())
-        .args(["build", "--release", "-j2", "-p", "vergence", "--bin", "vergence"]))?;
+    run(Command::new(env!("CARGO")).current_dir(repo()).args([
+        "build",
+        "--release",
+        "-j2",
+        "-p",
+        "vergence",
+        "--bin",
+        "vergence",
+    ]))?;
     let bin = dir.join("vergence");
     std::fs::copy(repo().join("target/release/vergence"), &bin)
         .map_err(|e| format!("copying the release binary: {e}"))?;
@@ -74,7 +80,9 @@ fn fetch_loader(dir: &Path) -> Result<(), String> {
             .args(&opts)
             .args(verb))
     };
-    let download: Vec<&str> = std::iter::once("download").chain(missing.iter().copied()).collect();
+    let download: Vec<&str> = std::iter::once("download")
+        .chain(missing.iter().copied())
+        .collect();
     fetch(&["update"])
         .and_then(|()| fetch(&download))
         .map_err(|e| {
