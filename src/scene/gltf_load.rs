@@ -7,7 +7,6 @@
 
 use super::{AlphaMode, Instance, Material, Mesh, Primitive, Scene, TexRef, Texture};
 use crate::error::{Error, Result};
-use base64::Engine;
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use gltf::accessor::Dimensions;
 use std::collections::HashMap;
@@ -130,37 +129,10 @@ fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
     }
 }
 
-/// Resolves a URI relative to the scene folder or decodes a data: URI.
+/// Resolves a URI inside the scene folder or decodes a data: URI
+/// ([`super::uri`]).
 fn read_uri(ctx: &Ctx, uri: &str, what: &str) -> Result<Vec<u8>> {
-    if let Some(rest) = uri.strip_prefix("data:") {
-        let (_, payload) = rest
-            .split_once(";base64,")
-            .ok_or_else(|| ctx.err(format!("{what}: data URI is not base64-encoded")))?;
-        return base64::engine::general_purpose::STANDARD
-            .decode(payload)
-            .map_err(|e| ctx.err(format!("{what}: invalid base64 in data URI: {e}")));
-    }
-    let decoded = percent_decode(uri);
-    let file = ctx.dir.join(&decoded);
-    std::fs::read(&file).map_err(|e| ctx.err(format!("{what} '{uri}' ({}): {e}", file.display())))
-}
-
-fn percent_decode(s: &str) -> String {
-    let bytes = s.as_bytes();
-    let mut out = Vec::with_capacity(bytes.len());
-    let mut i = 0;
-    while i < bytes.len() {
-        if bytes[i] == b'%' && i + 2 < bytes.len() {
-            if let Ok(v) = u8::from_str_radix(&s[i + 1..i + 3], 16) {
-                out.push(v);
-                i += 3;
-                continue;
-            }
-        }
-        out.push(bytes[i]);
-        i += 1;
-    }
-    String::from_utf8_lossy(&out).into_owned()
+    super::uri::read(&ctx.dir, uri).map_err(|e| ctx.err(format!("{what}: {e}")))
 }
 
 fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
@@ -276,9 +248,8 @@ fn texture(
                 b[view.offset()..view.offset() + view.length()].to_vec()
             }
         };
-        let decoded = image::load_from_memory(&bytes)
-            .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?
-            .to_rgba8();
+        let decoded = super::image_decode::decode_rgba8(&bytes)
+            .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?;
         slot.insert(decoded);
     }
     let rgba = &cache.images[&img.index()];
@@ -458,11 +429,48 @@ fn convert_primitive(
             p.tangents = Some(generate_tangents(&p.positions, &p.normals, uv, &p.indices));
         }
     }
-    if p.positions.iter().flatten().any(|c| !c.is_finite()) {
-        return Err(ctx.err(format!("{label}: POSITION contains NaN or infinite values")));
+    if p.positions
+        .iter()
+        .flatten()
+        .any(|c| !c.is_finite() || c.abs() > 1e9)
+    {
+        return Err(ctx.err(format!(
+            "{label}: POSITION contains NaN, infinite or absurd (over 1e9) values"
+        )));
+    }
+    let fixed = sanitize_attributes(&mut p);
+    if fixed > 0 {
+        tracing::warn!(
+            "{}: {label}: replaced {fixed} NaN or infinite normal, tangent, UV or colour values",
+            ctx.path.display()
+        );
     }
     p.compute_bounds();
     Ok(Some(p))
+}
+
+/// Replaces non-finite normals by +Y, tangents by +X, UVs and colours by
+/// zero and one; returns how many vertices were changed.
+fn sanitize_attributes(p: &mut Primitive) -> usize {
+    fn fix<const N: usize>(v: &mut [[f32; N]], with: [f32; N]) -> usize {
+        let mut n = 0;
+        for a in v.iter_mut().filter(|a| a.iter().any(|c| !c.is_finite())) {
+            *a = with;
+            n += 1;
+        }
+        n
+    }
+    let mut n = fix(&mut p.normals, [0.0, 1.0, 0.0]);
+    if let Some(t) = &mut p.tangents {
+        n += fix(t, [1.0, 0.0, 0.0, 1.0]);
+    }
+    for uv in [&mut p.uv0, &mut p.uv1].into_iter().flatten() {
+        n += fix(uv, [0.0, 0.0]);
+    }
+    if let Some(c) = &mut p.colors {
+        n += fix(c, [1.0; 4]);
+    }
+    n
 }
 
 fn strip_to_list(i: &[u32]) -> Vec<u32> {
@@ -642,6 +650,7 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
         }
     };
     let mut visited = vec![false; doc.nodes().len()];
+    let mut dropped: std::collections::BTreeMap<&'static str, usize> = Default::default();
     let mut stack: Vec<(gltf::Node, DAffine3, usize)> = roots
         .into_iter()
         .map(|n| (n, DAffine3::IDENTITY, 0))
@@ -664,26 +673,55 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
             return Err(ctx.err(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(mesh) = node.mesh() {
-            match gpu_instances(ctx, doc, &node)? {
-                Some(list) => {
-                    for local in list {
-                        scene.instances.push(Instance {
-                            mesh: mesh.index() as u32,
-                            transform: world * local,
-                        });
-                    }
+            let locals =
+                gpu_instances(ctx, doc, &node)?.unwrap_or_else(|| vec![DAffine3::IDENTITY]);
+            for local in locals {
+                let transform = world * local;
+                match instance_problem(&transform) {
+                    None => scene.instances.push(Instance {
+                        mesh: mesh.index() as u32,
+                        transform,
+                    }),
+                    Some(why) => *dropped.entry(why).or_default() += 1,
                 }
-                None => scene.instances.push(Instance {
-                    mesh: mesh.index() as u32,
-                    transform: world,
-                }),
             }
         }
         for child in node.children() {
             stack.push((child, world, depth + 1));
         }
     }
+    for (why, n) in dropped {
+        tracing::warn!("{}: dropped {n} instance(s) with {why}", ctx.path.display());
+    }
     Ok(())
+}
+
+/// Largest coordinate or scale factor an instance transform may hold, in
+/// metres: beyond it f32 GPU positions lose all precision and frustum
+/// tests overflow.
+pub const MAX_TRANSFORM_MAGNITUDE: f64 = 1e9;
+
+/// Why an instance transform cannot be drawn (None: it can): non-finite
+/// values, a zero (singular) scale, or magnitudes over
+/// [`MAX_TRANSFORM_MAGNITUDE`].
+pub fn instance_problem(t: &DAffine3) -> Option<&'static str> {
+    if !t.is_finite() {
+        return Some("a NaN or infinite transform");
+    }
+    let m = t.matrix3;
+    if m.to_cols_array()
+        .iter()
+        .chain(t.translation.as_ref())
+        .any(|v| v.abs() > MAX_TRANSFORM_MAGNITUDE)
+    {
+        return Some("a scale or translation over 1e9 m");
+    }
+    // A scale so small the mesh collapses to a point (or a plane) shows
+    // nothing and makes normals singular.
+    if m.determinant().abs() < 1e-18 {
+        return Some("a zero scale");
+    }
+    None
 }
 
 #[cfg(test)]
@@ -694,11 +732,5 @@ mod tests {
     fn strips_and_fans_become_lists() {
         assert_eq!(strip_to_list(&[0, 1, 2, 3]), vec![0, 1, 2, 2, 1, 3]);
         assert_eq!(fan_to_list(&[0, 1, 2, 3]), vec![0, 1, 2, 0, 2, 3]);
-    }
-
-    #[test]
-    fn percent_decoding() {
-        assert_eq!(percent_decode("a%20b.png"), "a b.png");
-        assert_eq!(percent_decode("100%"), "100%");
     }
 }

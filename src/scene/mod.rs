@@ -4,8 +4,10 @@
 
 pub mod factory;
 pub mod gltf_load;
+pub mod image_decode;
 pub mod manifest;
 pub mod shapes;
+pub mod uri;
 
 use crate::error::{Error, Result};
 use glam::{DAffine3, DVec3, Vec3};
