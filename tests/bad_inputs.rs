@@ -268,3 +268,47 @@ fn bad_cli_values() {
         .unwrap();
     assert_eq!(out2.status.code(), Some(2), "clap rejects a bad --pose");
 }
+
+/// One entry of `tests/bad_inputs/cases.toml`.
+#[derive(serde::Deserialize)]
+struct Case {
+    file: String,
+    kind: String,
+    expect: Vec<String>,
+}
+
+#[derive(serde::Deserialize)]
+struct Cases {
+    case: Vec<Case>,
+}
+
+/// The malformed-input corpus: every file gives one error line that says
+/// what the index expects, a non-zero exit and no panic.
+#[test]
+fn corpus() {
+    let dir = root().join("tests/bad_inputs");
+    let text = std::fs::read_to_string(dir.join("cases.toml")).unwrap();
+    let cases: Cases = toml::from_str(&text).unwrap();
+    assert!(cases.case.len() >= 30, "{} cases", cases.case.len());
+    let out = scratch("corpus");
+    let out = out.to_str().unwrap();
+    let mut failures = Vec::new();
+    for c in &cases.case {
+        let path = dir.join(&c.file);
+        let p = path.to_str().unwrap();
+        let args: Vec<&str> = match c.kind.as_str() {
+            "scene" => vec!["inspect", p],
+            "hmd" => vec!["render", "--hmd", p, "--out", out],
+            "plan" => vec!["bench", "--plan", p, "--out", out],
+            "config" => vec!["render", "--config", p, "--out", out],
+            other => panic!("{}: unknown kind {other}", c.file),
+        };
+        let stderr = fails(&args);
+        for e in &c.expect {
+            if !stderr.contains(e.as_str()) {
+                failures.push(format!("{}: expected '{e}' in: {}", c.file, stderr.trim()));
+            }
+        }
+    }
+    assert!(failures.is_empty(), "{}", failures.join("\n"));
+}

@@ -41,8 +41,7 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Loads glTF or GLB content already read from `path` (external resources
 /// resolve relative to `path`'s folder).
 pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
-    let gltf = gltf::Gltf::from_slice(bytes)
-        .map_err(|e| Error::scene(path, describe_gltf_error(bytes, &e)))?;
+    let gltf = parse(path, bytes)?;
     for ext in gltf.document.extensions_required() {
         if !SUPPORTED_REQUIRED.contains(&ext) {
             return Err(Error::scene(
@@ -97,6 +96,39 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     }
     place_nodes(&ctx, &gltf.document, &mut scene)?;
     Ok(scene)
+}
+
+/// Parses and validates glTF or GLB bytes. References the `gltf-json`
+/// validator indexes without a bounds check (a primitive's POSITION
+/// accessor; gltf-json 1.4.1, mesh.rs) are checked first, so a bad index is
+/// an error instead of a panic inside the validator.
+fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
+    let describe = |e: gltf::Error| Error::scene(path, describe_gltf_error(bytes, &e));
+    let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(describe)?;
+    let json = raw.document.as_json();
+    for (m, mesh) in json.meshes.iter().enumerate() {
+        for (p, prim) in mesh.primitives.iter().enumerate() {
+            for (semantic, index) in &prim.attributes {
+                if index.value() >= json.accessors.len() {
+                    return Err(Error::scene(
+                        path,
+                        format!(
+                            "invalid glTF: mesh {m} primitive {p}: attribute {} refers to accessor {}, but there are {}",
+                            match semantic {
+                                gltf::json::validation::Checked::Valid(s) => s.to_string(),
+                                gltf::json::validation::Checked::Invalid => "?".into(),
+                            },
+                            index.value(),
+                            json.accessors.len()
+                        ),
+                    ));
+                }
+            }
+        }
+    }
+    let blob = raw.blob;
+    let document = gltf::Document::from_json(raw.document.into_json()).map_err(describe)?;
+    Ok(gltf::Gltf { document, blob })
 }
 
 fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {

@@ -82,11 +82,21 @@ struct Manifest {
 
 fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
     let err = |m: String| Error::scene(path, format!("{what}: {m}"));
-    if !(p.scale.is_finite() && p.scale > 0.0) {
-        return Err(err(format!("scale {} must be a positive number", p.scale)));
+    if !(p.scale.is_finite() && p.scale > 0.0 && p.scale <= 1e6) {
+        return Err(err(format!(
+            "scale {} must be a number in (0, 1e6]",
+            p.scale
+        )));
     }
-    if !p.translation.iter().all(|v| v.is_finite()) || !p.yaw_deg.is_finite() {
-        return Err(err("translation and yaw_deg must be finite".into()));
+    if !p
+        .translation
+        .iter()
+        .all(|v| v.is_finite() && v.abs() <= 1e9)
+        || !p.yaw_deg.is_finite()
+    {
+        return Err(err(
+            "translation (at most 1e9 m) and yaw_deg must be finite".into(),
+        ));
     }
     let base = DAffine3::from_scale_rotation_translation(
         DVec3::splat(p.scale),
@@ -103,8 +113,8 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
             g.count
         )));
     }
-    if !g.spacing.iter().all(|v| v.is_finite()) {
-        return Err(err("grid spacing must be finite".into()));
+    if !g.spacing.iter().all(|v| v.is_finite() && v.abs() <= 1e6) {
+        return Err(err("grid spacing must be finite, at most 1e6 m".into()));
     }
     let mut out = Vec::with_capacity(cells as usize);
     for z in 0..g.count[2] {
@@ -122,13 +132,38 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
     Ok(out)
 }
 
+/// Fails when adding `n` instances at each of `cells` placements would take
+/// the scene over [`MAX_INSTANCES`].
+fn check_budget(path: &Path, scene: &Scene, n: usize, cells: usize) -> Result<()> {
+    let total = (n as u64)
+        .checked_mul(cells as u64)
+        .and_then(|t| t.checked_add(scene.instances.len() as u64));
+    match total {
+        Some(t) if t <= MAX_INSTANCES => Ok(()),
+        _ => Err(Error::scene(
+            path,
+            format!(
+                "{n} instances × {cells} placements would exceed the {MAX_INSTANCES} instance limit"
+            ),
+        )),
+    }
+}
+
+/// Most instances a manifest may produce in all.
+pub const MAX_INSTANCES: u64 = 50_000_000;
+
 /// Loads a scene manifest; relative file paths resolve against its folder.
 pub fn load(path: &Path) -> Result<Scene> {
     let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
         path: path.to_path_buf(),
         source,
     })?;
-    let m: Manifest = toml::from_str(&text)
+    from_text(path, &text)
+}
+
+/// Builds the scene of manifest `text` read from `path`.
+pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
+    let m: Manifest = toml::from_str(text)
         .map_err(|e| Error::scene(path, format!("malformed scene manifest: {}", e.message())))?;
     if m.gltf.is_empty() && m.procedural.is_empty() {
         return Err(Error::scene(
@@ -144,10 +179,12 @@ pub fn load(path: &Path) -> Result<Scene> {
     for (i, g) in m.gltf.iter().enumerate() {
         let place = placements(path, &format!("gltf[{i}]"), &g.place)?;
         let sub = gltf_load::load(&dir.join(&g.file))?;
+        check_budget(path, &scene, sub.instances.len(), place.len())?;
         scene.append(&sub, &place);
     }
     for (i, p) in m.procedural.iter().enumerate() {
         let place = placements(path, &format!("procedural[{i}]"), &p.place)?;
+        check_budget(path, &scene, p.instances, place.len())?;
         let sub = match p.kind.as_str() {
             "factory" => factory::generate(p.instances, p.seed)?,
             other => {

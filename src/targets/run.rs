@@ -3,6 +3,7 @@
 //! is there (`--xr auto`) or when asked (`--xr headless`). Both write the
 //! same frame statistics (`--stats-out`).
 
+use crate::bench::stats::LogHistogram;
 use crate::config::RenderConfig;
 use crate::cull::CullStats;
 use crate::error::{Error, Result};
@@ -127,6 +128,113 @@ pub struct ViewInfo {
     pub fov: Option<Fov>,
 }
 
+/// The per-frame records of `--stats-out`, spooled to a file beside it as
+/// they come (one JSON line each) and streamed into the JSON document at
+/// the end, so memory stays flat however long the run. Without
+/// `--stats-out` nothing is kept.
+#[derive(Debug, Default)]
+pub struct FrameLog {
+    spool: Option<(PathBuf, std::io::BufWriter<std::fs::File>)>,
+    count: u64,
+}
+
+impl FrameLog {
+    /// A log spooled next to `stats_out`.
+    pub fn spooled(stats_out: &Path) -> Result<FrameLog> {
+        let path = stats_out.with_extension("frames.tmp");
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::Output {
+                path: dir.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        }
+        let file = std::fs::File::create(&path).map_err(|e| Error::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(FrameLog {
+            spool: Some((path, std::io::BufWriter::new(file))),
+            count: 0,
+        })
+    }
+
+    fn push(&mut self, f: &FrameRecord) -> Result<()> {
+        self.count += 1;
+        if let Some((path, w)) = &mut self.spool {
+            use std::io::Write as _;
+            serde_json::to_writer(&mut *w, f)
+                .map_err(std::io::Error::from)
+                .and_then(|()| w.write_all(b"\n"))
+                .map_err(|e| Error::Output {
+                    path: path.clone(),
+                    message: e.to_string(),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Records logged.
+    pub fn len(&self) -> u64 {
+        self.count
+    }
+
+    /// Whether nothing was logged.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        if let Some((path, w)) = &mut self.spool {
+            use std::io::Write as _;
+            w.flush().map_err(|e| Error::Output {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
+    fn remove_spool(&mut self) {
+        if let Some((path, _)) = self.spool.take() {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+}
+
+impl Drop for FrameLog {
+    fn drop(&mut self) {
+        self.remove_spool();
+    }
+}
+
+impl serde::Serialize for FrameLog {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        use std::io::BufRead as _;
+        let Some((path, _)) = &self.spool else {
+            return s.collect_seq(std::iter::empty::<()>());
+        };
+        let file = std::fs::File::open(path).map_err(S::Error::custom)?;
+        let mut failed = None;
+        let records = std::io::BufReader::new(file).lines().map_while(|l| {
+            match l.map_err(|e| e.to_string()).and_then(|l| {
+                serde_json::from_str::<serde_json::Value>(&l).map_err(|e| e.to_string())
+            }) {
+                Ok(v) => Some(v),
+                Err(e) => {
+                    failed = Some(e);
+                    None
+                }
+            }
+        });
+        let out = s.collect_seq(records)?;
+        match failed {
+            Some(e) => Err(S::Error::custom(e)),
+            None => Ok(out),
+        }
+    }
+}
+
 /// Summary of the frame series.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct RunSummary {
@@ -139,7 +247,7 @@ pub struct RunSummary {
 }
 
 /// The contents of `--stats-out`.
-#[derive(Clone, Debug, Default, serde::Serialize)]
+#[derive(Debug, Default, serde::Serialize)]
 pub struct RunStats {
     /// `openxr` or `headless`.
     pub mode: String,
@@ -183,8 +291,17 @@ pub struct RunStats {
     pub states: Vec<String>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,
-    /// Frames in the loop.
-    pub frames: Vec<FrameRecord>,
+    /// Frames in the loop (streamed from the spool file when written).
+    pub frames: FrameLog,
+    /// Process resident set size (Linux), sampled every
+    /// [`RSS_SAMPLE_EVERY`] frames after warm-up: the median of the first
+    /// ten samples, of the last ten, and the difference (growth).
+    pub rss: RssTrack,
+    /// GPU memory vergence allocated after the first 300 frames and at the
+    /// end, in bytes.
+    pub gpu_allocated_bytes: [u64; 2],
+    #[serde(skip)]
+    series: Series,
     /// Frames ended with xrEndFrame success (headless: rendered).
     pub frames_submitted: u64,
     /// Frames rendered (shouldRender true).
@@ -211,33 +328,131 @@ pub struct RunStats {
     pub duration_s: f64,
 }
 
+/// Constant-memory summaries of the frame series.
+#[derive(Clone, Debug, Default)]
+struct Series {
+    wait: LogHistogram,
+    cpu: LogHistogram,
+    gpu: LogHistogram,
+    last_display_time_ns: Option<i64>,
+}
+
+/// Frames after which the warm-up memory figures are taken.
+pub const WARMUP_FRAMES: u64 = 300;
+/// Frames between RSS samples.
+pub const RSS_SAMPLE_EVERY: u64 = 50;
+
+/// RSS over a run in constant memory: the first and the latest ten samples
+/// after warm-up. Medians of ten absorb the allocator's and driver's
+/// ±1 MB breathing; a leak shows as growth between them.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RssTrack {
+    /// Median of the first ten samples after warm-up, in bytes.
+    pub after_warmup_bytes: Option<u64>,
+    /// Median of the last ten samples, in bytes.
+    pub end_bytes: Option<u64>,
+    /// `end_bytes - after_warmup_bytes`.
+    pub growth_bytes: Option<i64>,
+    /// Samples taken.
+    pub samples: u64,
+    #[serde(skip)]
+    first: Vec<u64>,
+    #[serde(skip)]
+    last: std::collections::VecDeque<u64>,
+}
+
+impl RssTrack {
+    const KEEP: usize = 10;
+
+    /// Adds a sample and updates the figures.
+    pub fn sample(&mut self, bytes: u64) {
+        self.samples += 1;
+        if self.first.len() < Self::KEEP {
+            self.first.push(bytes);
+        }
+        if self.last.len() == Self::KEEP {
+            self.last.pop_front();
+        }
+        self.last.push_back(bytes);
+        let median = |v: &mut Vec<u64>| {
+            v.sort_unstable();
+            v[v.len() / 2]
+        };
+        let a = median(&mut self.first.clone());
+        let b = median(&mut self.last.iter().copied().collect());
+        self.after_warmup_bytes = Some(a);
+        self.end_bytes = Some(b);
+        self.growth_bytes = Some(b as i64 - a as i64);
+    }
+}
+
 impl RunStats {
+    /// Empty statistics whose frames spool next to `stats_out` when given.
+    pub fn new(stats_out: Option<&Path>) -> Result<RunStats> {
+        Ok(RunStats {
+            frames: match stats_out {
+                Some(p) => FrameLog::spooled(p)?,
+                None => FrameLog::default(),
+            },
+            ..RunStats::default()
+        })
+    }
+
     /// Adds a frame, counting missed display periods from the change in
     /// predicted display time: a step of k periods means k - 1 were missed.
-    pub fn push_frame(&mut self, mut f: FrameRecord) {
-        if let Some(prev) = self.frames.last() {
+    pub fn push_frame(&mut self, mut f: FrameRecord) -> Result<()> {
+        if let Some(prev) = self.series.last_display_time_ns {
             let period = f.predicted_display_period_ns.max(1) as f64;
-            let step = (f.predicted_display_time_ns - prev.predicted_display_time_ns) as f64;
+            let step = (f.predicted_display_time_ns - prev) as f64;
             let periods = (step / period).round();
             f.missed_periods = if periods > 1.0 { periods as u64 - 1 } else { 0 };
         }
+        self.series.last_display_time_ns = Some(f.predicted_display_time_ns);
         self.missed_display_periods += f.missed_periods;
-        self.frames.push(f);
+        let n = self.frames.len() + 1;
+        if n >= WARMUP_FRAMES && (n - WARMUP_FRAMES) % RSS_SAMPLE_EVERY == 0 {
+            if let Some(b) = crate::bench::process_rss_bytes() {
+                self.rss.sample(b);
+            }
+        }
+        self.series.wait.record(f.wait_ms);
+        if f.should_render {
+            self.series.cpu.record(f.cpu_ms);
+            self.series.gpu.record(f.gpu_ms);
+        }
+        self.frames.push(&f)
+    }
+
+    /// Records GPU memory after warm-up (`end` false) or at the end.
+    pub fn sample_memory(&mut self, ctx: &Context, end: bool) {
+        let i = usize::from(end);
+        self.gpu_allocated_bytes[i] = ctx
+            .memory_by_category
+            .lock()
+            .map(|m| m.values().sum())
+            .unwrap_or(0);
     }
 
     /// Fills the summary from the frames.
     pub fn summarize(&mut self) {
-        let rendered: Vec<&FrameRecord> = self.frames.iter().filter(|f| f.should_render).collect();
+        let p = |h: &LogHistogram| Percentiles {
+            median: h.quantile(0.5),
+            p95: h.quantile(0.95),
+        };
         self.summary = RunSummary {
-            wait_ms: Percentiles::of(&self.frames.iter().map(|f| f.wait_ms).collect::<Vec<_>>()),
-            cpu_frame_ms: Percentiles::of(&rendered.iter().map(|f| f.cpu_ms).collect::<Vec<_>>()),
-            gpu_frame_ms: Percentiles::of(&rendered.iter().map(|f| f.gpu_ms).collect::<Vec<_>>()),
+            wait_ms: p(&self.series.wait),
+            cpu_frame_ms: p(&self.series.cpu),
+            gpu_frame_ms: p(&self.series.gpu),
         };
     }
 
-    /// Writes the JSON file.
-    pub fn write(&self, path: &Path) -> Result<()> {
-        write_json(path, self)
+    /// Writes the JSON file (the frames streamed from the spool), then
+    /// removes the spool.
+    pub fn write(&mut self, path: &Path) -> Result<()> {
+        self.frames.flush()?;
+        let result = write_json(path, self);
+        self.frames.remove_spool();
+        result
     }
 }
 
@@ -261,7 +476,7 @@ pub fn spawn_pose(scene: &Scene, fov: &Fov) -> Pose {
 pub fn run(args: &RunArgs) -> Result<RunStats> {
     args.validate()?;
     crate::quit::install();
-    let mut stats = RunStats::default();
+    let mut stats = RunStats::new(args.stats_out.as_deref())?;
     let result = match args.xr {
         XrMode::Headless => run_headless(args, &mut stats),
         XrMode::Openxr => crate::xr::run_session(args, &mut stats),
@@ -273,7 +488,7 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
                 );
                 stats = RunStats {
                     fallback_reason: Some(reason),
-                    ..RunStats::default()
+                    ..RunStats::new(args.stats_out.as_deref())?
                 };
                 run_headless(args, &mut stats)
             }
@@ -374,11 +589,15 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             missed_periods: 0,
             instances_drawn: f.instances_drawn,
             fov: rig.views.iter().map(|v| v.fov).collect(),
-        });
+        })?;
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
         index += 1;
+        if index == WARMUP_FRAMES {
+            stats.sample_memory(&ctx, false);
+        }
     };
+    stats.sample_memory(&ctx, true);
     stats.duration_s = started.elapsed().as_secs_f64();
     stats.validation_messages = ctx.validation_messages();
     drop(renderer);

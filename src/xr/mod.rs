@@ -692,6 +692,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         lens: None,
     };
     let result = frame_loop(stats, &mut live, &mut state);
+    stats.sample_memory(&ctx, true);
     stats.validation_messages = ctx.validation_messages();
     stats.xr_validation_messages = live
         .messenger
@@ -997,7 +998,12 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         stats.frames_rendered += 1;
     }
     rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3 - gpu_wait_ms;
-    stats.push_frame(rec);
+    stats.push_frame(rec)?;
+    if index + 1 == crate::targets::run::WARMUP_FRAMES {
+        if let Some(r) = &live.renderer {
+            stats.sample_memory(r.context(), false);
+        }
+    }
     Ok(())
 }
 

@@ -1,0 +1,26 @@
+//! TOML text → HMD profile (and a rig at the origin, whose views must be
+//! finite), scene manifest, bench plan and tuned config file. Any Err is
+//! fine; a panic, abort or hang is a bug.
+#![no_main]
+
+use libfuzzer_sys::fuzz_target;
+
+fuzz_target!(|data: &[u8]| {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(p) = vergence::view::profile::HmdProfile::parse("fuzz", text) {
+        let rig = p.rig(vergence::view::Pose::default());
+        for v in &rig.views {
+            assert!(v.fov.tangents().iter().all(|t| t.is_finite()));
+        }
+    }
+    let dir = std::env::temp_dir().join("vergence-fuzz-manifest");
+    let _ = std::fs::create_dir_all(&dir);
+    // Scenes are capped so one input cannot ask for millions of instances.
+    if !text.contains("instances") && !text.contains("count") {
+        let _ = vergence::scene::manifest::from_text(&dir.join("fuzz.toml"), text);
+    }
+    let _ = vergence::bench::plan::Plan::parse("fuzz", text);
+    let _ = toml::from_str::<vergence::bench::tune::ConfigFile>(text);
+});

@@ -1,0 +1,204 @@
+#!/usr/bin/env python3
+"""Writes the malformed-input corpus in tests/bad_inputs/ and its index
+cases.toml (file, how vergence is run on it, what the error must say).
+Run from the repository root; the output is committed."""
+import base64, json, os, struct, zlib
+
+OUT = "tests/bad_inputs"
+cases = []
+
+
+def case(name, kind, expect, content, mode="w"):
+    path = os.path.join(OUT, name)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    if content is not None:
+        with open(path, mode) as f:
+            f.write(content)
+    cases.append((name, kind, expect))
+
+
+def tri_bin(pos=None, idx=(0, 1, 2)):
+    pos = pos or [0, 0, 0, 1, 0, 0, 0, 1, 0]
+    return struct.pack("<9f", *pos) + struct.pack("<3H", *idx) + b"\0\0"
+
+
+def data_uri(b):
+    return "data:application/octet-stream;base64," + base64.b64encode(b).decode()
+
+
+def gltf(buf=None, uri=None, byte_length=None, extra=None, prim=None, nodes=None, accessors=None, views=None):
+    b = buf if buf is not None else tri_bin()
+    doc = {
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": uri if uri is not None else data_uri(b), "byteLength": byte_length or len(b)}],
+        "bufferViews": views or [
+            {"buffer": 0, "byteOffset": 0, "byteLength": 36},
+            {"buffer": 0, "byteOffset": 36, "byteLength": 6},
+        ],
+        "accessors": accessors or [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+             "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"},
+        ],
+        "meshes": [{"primitives": [prim or {"attributes": {"POSITION": 0}, "indices": 1}]}],
+        "nodes": nodes or [{"mesh": 0}],
+        "scenes": [{"nodes": [0]}],
+        "scene": 0,
+    }
+    for k, v in (extra or {}).items():
+        doc[k] = v
+    return json.dumps(doc, indent=1)
+
+
+def png(w, h, claim=None, truncate=None):
+    raw = b"".join(b"\0" + b"\x80\x80\x80\xff" * w for _ in range(h))
+    def chunk(t, d):
+        return struct.pack(">I", len(d)) + t + d + struct.pack(">I", zlib.crc32(t + d))
+    cw, ch = claim or (w, h)
+    data = b"\x89PNG\r\n\x1a\n" + chunk(b"IHDR", struct.pack(">IIBBBBB", cw, ch, 8, 6, 0, 0, 0)) \
+        + chunk(b"IDAT", zlib.compress(raw)) + chunk(b"IEND", b"")
+    return data[:truncate] if truncate else data
+
+
+def textured(image_uri):
+    b = tri_bin()
+    return gltf(extra={
+        "materials": [{"pbrMetallicRoughness": {"baseColorTexture": {"index": 0}}}],
+        "textures": [{"source": 0}],
+        "images": [{"uri": image_uri}],
+    }, prim={"attributes": {"POSITION": 0, "TEXCOORD_0": 0}, "indices": 1, "material": 0},
+        accessors=[
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"},
+        ]).replace('"TEXCOORD_0": 0', '"TEXCOORD_0": 2').replace(
+        '"accessors": [', '"accessors": [').replace(
+        '"type": "SCALAR"\n  }\n ]', '"type": "SCALAR"\n  },\n  {"bufferView": 2, "componentType": 5126, "count": 3, "type": "VEC2"}\n ]'
+    ).replace('"byteLength": 6\n  }\n ]', '"byteLength": 6\n  },\n  {"buffer": 0, "byteOffset": 0, "byteLength": 24}\n ]')
+
+
+# --- glTF JSON -------------------------------------------------------------
+case("gltf/not-gltf.gltf", "scene", ["not a glTF file"], "hello, I am not a scene\n")
+case("gltf/bad-json.gltf", "scene", ["invalid glTF JSON"], '{"asset": {"version": ')
+case("gltf/no-asset.gltf", "scene", ["invalid glTF", "asset"], "{}")
+case("gltf/required-draco.gltf", "scene", ["KHR_draco_mesh_compression", "does not support"],
+     gltf(extra={"extensionsUsed": ["KHR_draco_mesh_compression"],
+                 "extensionsRequired": ["KHR_draco_mesh_compression"]}))
+case("gltf/buffer-short.gltf", "scene", ["buffer 0 declares 400 bytes"], gltf(byte_length=400))
+case("gltf/view-past-end.gltf", "scene", ["bufferView 1", "runs past the end"],
+     gltf(views=[{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                 {"buffer": 0, "byteOffset": 36, "byteLength": 600}]))
+case("gltf/accessor-out-of-view.gltf", "scene", ["accessor 0", "out of range of bufferView"],
+     gltf(accessors=[{"bufferView": 0, "componentType": 5126, "count": 30, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]},
+                     {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
+case("gltf/accessor-offset-overflow.gltf", "scene", ["accessor 0"],
+     gltf(accessors=[{"bufferView": 0, "byteOffset": 18446744073709551000, "componentType": 5126,
+                      "count": 3, "type": "VEC3", "min": [0, 0, 0], "max": [1, 1, 0]},
+                     {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
+case("gltf/index-out-of-range.gltf", "scene", ["index 9 is out of range"], gltf(buf=tri_bin(idx=(0, 1, 9))))
+case("gltf/no-position.gltf", "scene", ["POSITION", "Missing"],
+     gltf(prim={"attributes": {"NORMAL": 0}, "indices": 1}))
+case("gltf/huge-position.gltf", "scene", ["POSITION", "absurd"],
+     gltf(buf=tri_bin(pos=[0, 0, 0, 1e20, 0, 0, 0, 1, 0])))
+case("gltf/nan-position.gltf", "scene", ["POSITION", "NaN"],
+     gltf(buf=tri_bin(pos=[0, 0, 0, float("nan"), 0, 0, 0, 1, 0])))
+case("gltf/node-cycle.gltf", "scene", ["reached twice"],
+     gltf(nodes=[{"mesh": 0, "children": [1]}, {"children": [0]}]))
+deep = [{"children": [i + 1]} for i in range(300)] + [{"mesh": 0}]
+case("gltf/deep-nodes.gltf", "scene", ["deeper than 256"], gltf(nodes=deep))
+case("gltf/overflowing-scale.gltf", "scene", ["non-finite transform"],
+     gltf(nodes=[{"scale": [1e300, 1e300, 1e300], "children": [1]},
+                 {"mesh": 0, "scale": [1e300, 1e300, 1e300]}]))
+case("gltf/sparse-accessor.gltf", "scene", ["sparse accessors are not supported"],
+     gltf(accessors=[{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0],
+                      "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
+                                 "values": {"bufferView": 0}}},
+                     {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
+case("gltf/bad-accessor-ref.gltf", "scene", ["attribute POSITION refers to accessor 7"],
+     gltf(prim={"attributes": {"POSITION": 7}, "indices": 1}))
+# Resource URIs.
+case("gltf/uri-absolute.gltf", "scene", ["absolute path"], gltf(uri="/etc/passwd", byte_length=42))
+case("gltf/uri-parent.gltf", "scene", ["climbs out of the scene folder"], gltf(uri="../../Cargo.toml", byte_length=42))
+case("gltf/uri-encoded-parent.gltf", "scene", ["climbs out"], gltf(uri="%2e%2e/%2e%2e/Cargo.toml", byte_length=42))
+case("gltf/uri-http.gltf", "scene", ["has a scheme"], gltf(uri="http://example.com/tri.bin", byte_length=42))
+case("gltf/uri-file.gltf", "scene", ["has a scheme"], gltf(uri="file:///etc/passwd", byte_length=42))
+case("gltf/uri-symlink.gltf", "scene", ["outside the scene folder"], gltf(uri="outside.bin", byte_length=42))
+link = os.path.join(OUT, "gltf/outside.bin")
+if not os.path.islink(link):
+    os.symlink("../../../Cargo.toml", link)
+case("gltf/uri-missing.gltf", "scene", ["buffer 0", "nothing-here.bin"], gltf(uri="nothing-here.bin", byte_length=42))
+case("gltf/data-not-base64.gltf", "scene", ["not base64-encoded"], gltf(uri="data:text/plain,hello", byte_length=5))
+case("gltf/data-bad-base64.gltf", "scene", ["invalid base64"],
+     gltf(uri="data:application/octet-stream;base64,@@@@", byte_length=3))
+# Images.
+case("images/missing-image.gltf", "scene", ["image 0", "nope.png"], textured("nope.png"))
+case("images/garbage-image.gltf", "scene", ["garbage.png", "cannot be decoded"], textured("garbage.png"))
+case("images/garbage.png", None, None, b"\x89PNG but not really" * 4, "wb")
+case("images/bomb-image.gltf", "scene", ["bomb.png", "over the limits"], textured("bomb.png"))
+case("images/bomb.png", None, None, png(1, 1, claim=(100000, 100000)), "wb")
+case("images/truncated-image.gltf", "scene", ["truncated.png", "cannot be decoded"], textured("truncated.png"))
+case("images/truncated.png", None, None, png(8, 8, truncate=45), "wb")
+case("images/zero-size-image.gltf", "scene", ["zero.png", "cannot be decoded"], textured("zero.png"))
+case("images/zero.png", None, None, png(1, 1, claim=(0, 0)), "wb")
+# --- GLB -------------------------------------------------------------------
+good_json = gltf(uri="").replace('"uri": "",', "").encode()
+def glb(json_bytes, bin_bytes=None, version=2, cut=None):
+    j = json_bytes + b" " * (-len(json_bytes) % 4)
+    body = struct.pack("<I4s", len(j), b"JSON") + j
+    if bin_bytes is not None:
+        bb = bin_bytes + b"\0" * (-len(bin_bytes) % 4)
+        body += struct.pack("<I4s", len(bb), b"BIN\0") + bb
+    data = struct.pack("<4sII", b"glTF", version, 12 + len(body)) + body
+    return data[:cut] if cut else data
+case("glb/truncated.glb", "scene", [".glb"], glb(good_json, tri_bin(), cut=60), "wb")
+case("glb/version-1.glb", "scene", [".glb"], glb(good_json, tri_bin(), version=1), "wb")
+case("glb/missing-bin.glb", "scene", ["GLB binary chunk, which is missing"], glb(good_json), "wb")
+case("glb/bad-length.glb", "scene", [".glb"],
+     struct.pack("<4sII", b"glTF", 2, 0xFFFFFFF0) + glb(good_json, tri_bin())[12:], "wb")
+# --- HMD profiles --------------------------------------------------------------
+VIEW = '[[views]]\nposition = [{x}, 0.0, 0.0]\norientation = [0.0, 0.0, 0.0, 1.0]\nfov = {{ left = {l}, right = 0.8, up = 0.8, down = -0.8 }}\nresolution = [{w}, 480]\n'
+def hmd(l="-0.8", w="640", extra="", views=2, refresh="90.0"):
+    s = f'name = "bad"\nrefresh_hz = {refresh}\n' + extra
+    for i in range(views):
+        s += VIEW.format(x=-0.03 if i == 0 else 0.03, l=l, w=w)
+    return s
+case("hmd/nan-fov.toml", "hmd", ["nan-fov.toml"], hmd(l="nan"))
+case("hmd/inverted-fov.toml", "hmd", ["inverted-fov.toml"], hmd(l="1.2"))
+case("hmd/zero-resolution.toml", "hmd", ["zero-resolution.toml", "resolution"], hmd(w="0"))
+case("hmd/unknown-key.toml", "hmd", ["unknown-key.toml", "lens"], hmd(extra="lens = 3\n"))
+case("hmd/one-view.toml", "hmd", ["one-view.toml", "2 views"], hmd(views=1))
+case("hmd/zero-refresh.toml", "hmd", ["zero-refresh.toml", "refresh"], hmd(refresh="0.0"))
+case("hmd/hidden-area-not-triangles.toml", "hmd", ["hidden", "triangle"],
+     hmd().replace("resolution = [640, 480]\n", "resolution = [640, 480]\nhidden_area = [[0.0, 0.0], [0.1, 0.0]]\n", 1))
+# --- Scene manifests -----------------------------------------------------------
+case("manifests/empty.toml", "scene", ["no [[gltf]] or [[procedural]]"], 'name = "x"\n')
+case("manifests/zero-scale.toml", "scene", ["scale 0 must be"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 10\nscale = 0.0\n')
+case("manifests/grid-bomb.toml", "scene", ["instance limit"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 1000\ngrid = { count = [1000, 100, 100], spacing = [1.0, 1.0, 1.0] }\n')
+case("manifests/unknown-kind.toml", "scene", ["unknown kind 'castle'"],
+     'name = "x"\n[[procedural]]\nkind = "castle"\ninstances = 10\n')
+case("manifests/missing-gltf.toml", "scene", ["no-such-model.glb"],
+     'name = "x"\n[[gltf]]\nfile = "no-such-model.glb"\n')
+case("manifests/typo.toml", "scene", ["malformed scene manifest", "translaton"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 10\ntranslaton = [0.0, 0.0, 0.0]\n')
+# --- Bench plans and config files ---------------------------------------------
+PLAN = 'name = "p"\nscenes = ["factory:10"]\nhmds = ["monado-sim"]\nframes = {frames}\n[[configs]]\nname = "a"\nopt = "{opt}"\n'
+case("plans/bad-opt.toml", "plan", ["hyperdrive"], PLAN.format(frames=2, opt="hyperdrive"))
+case("plans/zero-frames.toml", "plan", ["frames = 0"], PLAN.format(frames=0, opt="two-pass"))
+case("plans/duplicate-names.toml", "plan", ["appears twice"],
+     PLAN.format(frames=2, opt="two-pass") + '[[configs]]\nname = "a"\nopt = "multiview"\n')
+case("configs/unknown-key.toml", "config", ["colour"], 'opt = "multiview"\ncolour = 3\n')
+case("configs/bad-opt.toml", "config", ["warp"], 'opt = "multiview,warp"\n')
+
+with open(os.path.join(OUT, "cases.toml"), "w") as f:
+    f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"
+            "# them). Written by scripts/make-bad-inputs.py.\n"
+            "# kind: scene = vergence inspect FILE; hmd = vergence render --hmd FILE;\n"
+            "# plan = vergence bench --plan FILE; config = vergence render --config FILE.\n")
+    for name, kind, expect in cases:
+        if kind is None:
+            continue
+        f.write(f'\n[[case]]\nfile = "{name}"\nkind = "{kind}"\nexpect = {json.dumps(expect)}\n')
+print(sum(1 for c in cases if c[1]), "cases")
