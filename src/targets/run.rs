@@ -410,7 +410,7 @@ impl RunStats {
         self.series.last_display_time_ns = Some(f.predicted_display_time_ns);
         self.missed_display_periods += f.missed_periods;
         let n = self.frames.len() + 1;
-        if n >= WARMUP_FRAMES && (n - WARMUP_FRAMES) % RSS_SAMPLE_EVERY == 0 {
+        if n >= WARMUP_FRAMES && (n - WARMUP_FRAMES).is_multiple_of(RSS_SAMPLE_EVERY) {
             if let Some(b) = crate::bench::process_rss_bytes() {
                 self.rss.sample(b);
             }
