@@ -117,6 +117,16 @@ case("gltf/sparse-accessor.gltf", "scene", ["sparse accessors are not supported"
                      {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
 case("gltf/bad-accessor-ref.gltf", "scene", ["attribute POSITION refers to accessor 7"],
      gltf(prim={"attributes": {"POSITION": 7}, "indices": 1}))
+# Found by fuzzing (cargo fuzz, gltf_scene): accessor types the gltf
+# crate's readers assume and do not check.
+case("gltf/fuzz-signed-indices.gltf", "scene", ["indices accessor 1 is I16"],
+     gltf(accessors=[{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]},
+                     {"bufferView": 1, "componentType": 5122, "count": 3, "type": "SCALAR"}]))
+case("gltf/byte-positions.gltf", "scene", ["POSITION accessor 0 is U8"],
+     gltf(accessors=[{"bufferView": 0, "componentType": 5121, "count": 3, "type": "VEC3",
+                      "min": [0, 0, 0], "max": [1, 1, 0]},
+                     {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
 # Resource URIs.
 case("gltf/uri-absolute.gltf", "scene", ["absolute path"], gltf(uri="/etc/passwd", byte_length=42))
 case("gltf/uri-parent.gltf", "scene", ["climbs out of the scene folder"], gltf(uri="../../Cargo.toml", byte_length=42))

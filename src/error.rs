@@ -62,6 +62,29 @@ pub enum Error {
         /// The OpenXR result code.
         result: openxr::sys::Result,
     },
+    /// The GPU was lost (hung, reset or removed): the device cannot be used
+    /// again.
+    #[error("the GPU device was lost while {context} (VK_ERROR_DEVICE_LOST); the last pass recorded in that frame was '{pass}'; vergence cannot continue")]
+    DeviceLost {
+        /// What vergence was waiting for or submitting.
+        context: String,
+        /// The last render pass recorded in the lost frame.
+        pass: String,
+    },
+    /// Not enough GPU memory for what is being loaded.
+    #[error("not enough GPU memory for {what}: it needs {} MiB but {} MiB of the {} MiB budget are free{}", mib(*need), mib(*available), mib(*budget), if *from_env { " (budget capped by VERGENCE_GPU_MEMORY_BUDGET_MB)" } else { "" })]
+    GpuMemory {
+        /// What needed the memory.
+        what: String,
+        /// Bytes needed.
+        need: u64,
+        /// Bytes free within the budget.
+        available: u64,
+        /// The budget in bytes.
+        budget: u64,
+        /// Whether the budget came from VERGENCE_GPU_MEMORY_BUDGET_MB.
+        from_env: bool,
+    },
     /// Writing an output file failed.
     #[error("{path}: cannot write: {message}")]
     Output {
@@ -74,6 +97,10 @@ pub enum Error {
 
 /// Result alias used throughout the library.
 pub type Result<T, E = Error> = std::result::Result<T, E>;
+
+fn mib(bytes: u64) -> String {
+    format!("{:.1}", bytes as f64 / (1u64 << 20) as f64)
+}
 
 impl Error {
     /// Shorthand for a scene error about `path`.
@@ -112,6 +139,26 @@ impl<T> XrContext<T> for std::result::Result<T, openxr::sys::Result> {
 pub trait VkContext<T> {
     /// Wraps a `vk::Result` error with what vergence was doing.
     fn vk(self, context: &str) -> Result<T>;
+}
+
+impl Error {
+    /// Whether the OpenXR runtime went away mid-session (instance or
+    /// session lost, runtime failure) or cannot be reached: what
+    /// `vergence run --reconnect` waits out.
+    pub fn is_runtime_loss(&self) -> bool {
+        use openxr::sys::Result as R;
+        match self {
+            Error::XrUnavailable(_) => true,
+            Error::Xr { result, .. } => matches!(
+                *result,
+                R::ERROR_INSTANCE_LOST
+                    | R::ERROR_SESSION_LOST
+                    | R::ERROR_RUNTIME_FAILURE
+                    | R::ERROR_RUNTIME_UNAVAILABLE
+            ),
+            _ => false,
+        }
+    }
 }
 
 impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {

@@ -196,6 +196,10 @@ struct RunCli {
     /// and DIR/rig.json (the views it was rendered with).
     #[arg(long)]
     capture: Option<PathBuf>,
+    /// When the OpenXR runtime goes away mid-run, retry every second until
+    /// it is back (instead of exiting with an error).
+    #[arg(long)]
+    reconnect: bool,
 }
 
 fn parse_pose(s: &str) -> Result<Pose, String> {
@@ -304,6 +308,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 config,
                 size: a.frame.size(),
                 capture: a.capture,
+                reconnect: a.reconnect,
             };
             let stats = vergence::targets::run::run(&args)?;
             println!(

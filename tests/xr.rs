@@ -559,3 +559,64 @@ fn without_a_runtime_auto_falls_back_and_openxr_fails_naming_the_manifest() {
         errors[0]
     );
 }
+
+#[test]
+fn reconnect_survives_monado_restarting() {
+    let _g = lock();
+    let dir = out_dir("reconnect");
+    let s_path = dir.join("stats.json");
+    let rundir = dir.join("run");
+    let s_arg = s_path.to_string_lossy().to_string();
+    let (mut child, focused, log) = start_logged(&rundir, &["--reconnect", "--stats-out", &s_arg]);
+    focused
+        .recv_timeout(Duration::from_secs(30))
+        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    std::thread::sleep(Duration::from_millis(300));
+    let first: i32 = std::fs::read_to_string(rundir.join("monado.pid"))
+        .expect("monado pid")
+        .trim()
+        .parse()
+        .expect("pid");
+    signal(first, libc::SIGKILL);
+    std::thread::sleep(Duration::from_millis(1500));
+    assert!(
+        child.try_wait().expect("wait").is_none(),
+        "with --reconnect vergence keeps running: {}",
+        log.lock().unwrap()
+    );
+    // A new monado-service in the same runtime directory.
+    let _ = std::fs::remove_file(rundir.join("monado_comp_ipc"));
+    let mut second = Command::new("monado-service")
+        .env("XDG_RUNTIME_DIR", &rundir)
+        .env("XRT_COMPOSITOR_NULL", "1")
+        .env("XRT_NO_STDIN", "1")
+        .env("SIMULATED_ENABLE", "1")
+        .stdout(Stdio::null())
+        .stderr(Stdio::null())
+        .spawn()
+        .expect("monado-service");
+    let again = focused.recv_timeout(Duration::from_secs(30));
+    let vergence = child_named(child.id(), "vergence");
+    if let Some(pid) = vergence {
+        signal(pid, libc::SIGTERM);
+    }
+    let status = wait_exit(&mut child, Duration::from_secs(10));
+    let _ = second.kill();
+    let _ = second.wait();
+    let log = log.lock().unwrap().clone();
+    again.unwrap_or_else(|_| panic!("no second FOCUSED session after monado came back: {log}"));
+    let status = status.expect("exited after SIGTERM");
+    assert!(status.success(), "orderly exit after reconnecting: {log}");
+    assert!(log.contains("reconnecting in 1 s"), "{log}");
+    let s = stats(&s_path);
+    assert!(
+        s["reconnects"].as_u64().unwrap() >= 1,
+        "{}",
+        s["reconnects"]
+    );
+    let focused_count = strings(&s["states"])
+        .iter()
+        .filter(|st| **st == "FOCUSED")
+        .count();
+    assert!(focused_count >= 2, "{:?}", s["states"]);
+}

@@ -4,6 +4,7 @@
 //! handles exposed by [`Context`].
 
 pub mod barrier;
+pub mod fault;
 pub mod memory;
 pub mod pipeline;
 pub mod query;
@@ -301,6 +302,47 @@ impl Context {
             }
         }
         Some(out)
+    }
+
+    /// The GPU memory budget and how much of it is free, in bytes:
+    /// VK_EXT_memory_budget's device-local budget, capped by
+    /// `VERGENCE_GPU_MEMORY_BUDGET_MB` when set (then against what vergence
+    /// allocated). None when neither is known. Returns (budget, free,
+    /// capped by the variable).
+    pub fn memory_headroom(&self) -> Option<(u64, u64, bool)> {
+        let allocated: u64 = self
+            .memory_by_category
+            .lock()
+            .map(|m| m.values().sum())
+            .unwrap_or(0);
+        let cap = std::env::var("VERGENCE_GPU_MEMORY_BUDGET_MB")
+            .ok()
+            .and_then(|v| v.trim().parse::<u64>().ok())
+            .map(|mb| mb << 20);
+        let device = self
+            .memory_budget()
+            .map(|b| (b.budget, b.budget.saturating_sub(b.usage)));
+        match (cap, device) {
+            (Some(c), Some((_, free))) => Some((c, c.saturating_sub(allocated).min(free), true)),
+            (Some(c), None) => Some((c, c.saturating_sub(allocated), true)),
+            (None, Some((budget, free))) => Some((budget, free, false)),
+            (None, None) => None,
+        }
+    }
+
+    /// Fails with a message naming the need and the budget when `need`
+    /// bytes for `what` do not fit in the free GPU memory.
+    pub fn ensure_fits(&self, need: u64, what: &str) -> Result<()> {
+        match self.memory_headroom() {
+            Some((budget, available, from_env)) if need > available => Err(Error::GpuMemory {
+                what: what.to_string(),
+                need,
+                available,
+                budget,
+                from_env,
+            }),
+            _ => Ok(()),
+        }
     }
 
     /// Number of validation warnings/errors reported so far.

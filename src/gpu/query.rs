@@ -37,6 +37,11 @@ pub struct Queries {
 }
 
 impl Queries {
+    /// The name of the last pass timed in this frame ("none" before any).
+    pub fn last_pass(&self) -> &'static str {
+        self.names.last().copied().unwrap_or("none")
+    }
+
     /// Pools for up to `max_passes` timed passes.
     pub fn new(ctx: &Context, max_passes: u32) -> Result<Queries> {
         let capacity = max_passes * 2;

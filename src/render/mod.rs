@@ -1166,11 +1166,32 @@ impl Renderer {
         let t3 = Instant::now();
         stats.cpu_ms.submit = ms(t2, t3);
         self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
-        submit?;
-        self.ring
-            .as_mut()
-            .expect("ring present until drop")
-            .wait_all(&self.ctx)?;
+        let last_pass = self.queries[slot]
+            .as_ref()
+            .map_or("none", |q| q.last_pass());
+        let lost = |e: Error, context: &str| match e {
+            Error::Vulkan {
+                result: vk::Result::ERROR_DEVICE_LOST,
+                ..
+            } => Error::DeviceLost {
+                context: context.to_string(),
+                pass: last_pass.to_string(),
+            },
+            other => other,
+        };
+        submit.map_err(|e| lost(e, "submitting a frame"))?;
+        let waited = if crate::gpu::fault::device_lost_frame() == Some(self.frame_index) {
+            Err(Error::Vulkan {
+                context: "waiting for frames (injected by VERGENCE_INJECT_FAULT)".into(),
+                result: vk::Result::ERROR_DEVICE_LOST,
+            })
+        } else {
+            self.ring
+                .as_mut()
+                .expect("ring present until drop")
+                .wait_all(&self.ctx)
+        };
+        waited.map_err(|e| lost(e, "waiting for the frame to finish"))?;
         let t4 = Instant::now();
         stats.cpu_ms.wait = ms(t3, t4);
         let queries = self.queries[slot]

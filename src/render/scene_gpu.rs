@@ -176,6 +176,15 @@ impl SceneGpu {
             }
             vertex_count += n;
         }
+        ctx.ensure_fits(
+            estimate_bytes(scene, &data, indices.len()),
+            &format!(
+                "scene {} ({} instances, {} vertices)",
+                scene.name,
+                scene.instances.len(),
+                vertex_count
+            ),
+        )?;
         let mut streams: [Option<Buffer>; 6] = Default::default();
         for (i, (name, _)) in STREAMS.iter().enumerate() {
             if used[i] {
@@ -345,6 +354,19 @@ fn mip_levels(w: u32, h: u32) -> u32 {
 }
 
 /// Uploads an RGBA8 texture and builds its mip chain with linear blits.
+/// GPU bytes a scene's upload takes: vertex streams, indices, one 4×4
+/// float matrix per instance, and RGBA8 textures with their mip chains
+/// (a full chain adds a third).
+fn estimate_bytes(scene: &Scene, streams: &[Vec<f32>; 6], indices: usize) -> u64 {
+    let vertex: u64 = streams.iter().map(|d| d.len() as u64 * 4).sum();
+    let textures: u64 = scene
+        .textures
+        .iter()
+        .map(|t| t.width as u64 * t.height as u64 * 4 * 4 / 3)
+        .sum();
+    vertex + indices as u64 * 4 + scene.instances.len() as u64 * 64 + textures
+}
+
 fn upload_texture(
     ctx: &Context,
     name: &str,

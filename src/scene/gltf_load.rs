@@ -58,6 +58,7 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     };
     ctx.buffers = load_buffers(&ctx, &gltf)?;
     check_views_and_accessors(&ctx, &gltf.document)?;
+    check_attribute_types(&ctx, &gltf.document)?;
 
     let mut scene = Scene {
         name: path
@@ -190,6 +191,63 @@ fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
         out.push(data);
     }
     Ok(out)
+}
+
+/// Component types and shapes glTF 2.0 allows for the attributes vergence
+/// reads (spec §3.7.2.1 "Overview" table of mesh attributes, and §3.7.2.1
+/// for indices). The `gltf` crate's readers assume them (`unreachable!`
+/// otherwise), so each primitive is checked before it is read.
+fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
+    use gltf::accessor::DataType::{F32, U16, U32, U8};
+    use gltf::mesh::Semantic;
+    for mesh in doc.meshes() {
+        for prim in mesh.primitives() {
+            let label = format!("mesh {} primitive {}", mesh.index(), prim.index());
+            let bad = |what: &str, a: &gltf::Accessor, allowed: &str| {
+                ctx.err(format!(
+                    "{label}: {what} accessor {} is {:?} {:?}{}; glTF allows {allowed}",
+                    a.index(),
+                    a.data_type(),
+                    a.dimensions(),
+                    if a.normalized() { " normalized" } else { "" }
+                ))
+            };
+            if let Some(a) = prim.indices() {
+                if !matches!(a.data_type(), U8 | U16 | U32) || a.dimensions() != Dimensions::Scalar
+                {
+                    return Err(bad("indices", &a, "unsigned byte, short or int scalars"));
+                }
+            }
+            for (semantic, a) in prim.attributes() {
+                let (dt, dims, norm) = (a.data_type(), a.dimensions(), a.normalized());
+                let ok = match &semantic {
+                    Semantic::Positions | Semantic::Normals => {
+                        dt == F32 && dims == Dimensions::Vec3
+                    }
+                    Semantic::Tangents => dt == F32 && dims == Dimensions::Vec4,
+                    Semantic::TexCoords(_) => {
+                        dims == Dimensions::Vec2 && (dt == F32 || (matches!(dt, U8 | U16) && norm))
+                    }
+                    Semantic::Colors(_) => {
+                        matches!(dims, Dimensions::Vec3 | Dimensions::Vec4)
+                            && (dt == F32 || (matches!(dt, U8 | U16) && norm))
+                    }
+                    Semantic::Joints(_) => matches!(dt, U8 | U16) && dims == Dimensions::Vec4,
+                    Semantic::Weights(_) => {
+                        dims == Dimensions::Vec4 && (dt == F32 || (matches!(dt, U8 | U16) && norm))
+                    }
+                };
+                if !ok {
+                    return Err(bad(
+                        &semantic.to_string(),
+                        &a,
+                        "the types in the glTF 2.0 attribute table",
+                    ));
+                }
+            }
+        }
+    }
+    Ok(())
 }
 
 fn check_views_and_accessors(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {

@@ -54,6 +54,9 @@ pub struct RunArgs {
     pub size: Option<(u32, u32)>,
     /// `--capture DIR`: write the last frame (left.png, right.png, rig.json).
     pub capture: Option<PathBuf>,
+    /// `--reconnect`: when the OpenXR runtime is lost mid-run, retry every
+    /// second until it is back, instead of exiting.
+    pub reconnect: bool,
 }
 
 impl RunArgs {
@@ -322,6 +325,8 @@ pub struct RunStats {
     pub foveation: String,
     /// Series summary.
     pub summary: RunSummary,
+    /// Sessions re-established after the runtime was lost (`--reconnect`).
+    pub reconnects: u64,
     /// Why the loop ended.
     pub exit: String,
     /// Wall time of the loop in seconds.
@@ -479,7 +484,7 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     let mut stats = RunStats::new(args.stats_out.as_deref())?;
     let result = match args.xr {
         XrMode::Headless => run_headless(args, &mut stats),
-        XrMode::Openxr => crate::xr::run_session(args, &mut stats),
+        XrMode::Openxr => xr_with_reconnect(args, &mut stats),
         XrMode::Auto => match crate::xr::run_session(args, &mut stats) {
             Err(Error::XrUnavailable(reason)) => {
                 eprintln!(
@@ -492,6 +497,10 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
                 };
                 run_headless(args, &mut stats)
             }
+            Err(e) if args.reconnect && e.is_runtime_loss() => {
+                reconnect_after(&e, args, &mut stats)
+                    .and_then(|()| xr_with_reconnect(args, &mut stats))
+            }
             other => other,
         },
     };
@@ -502,6 +511,36 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
         }
     }
     result.map(|()| stats)
+}
+
+/// An OpenXR run that, with `--reconnect`, outlives losing the runtime:
+/// each loss is reported on one line and retried every second until a
+/// session runs again, a quit is requested or the frame limit is reached.
+fn xr_with_reconnect(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+    loop {
+        match crate::xr::run_session(args, stats) {
+            Err(e) if args.reconnect && e.is_runtime_loss() => reconnect_after(&e, args, stats)?,
+            other => return other,
+        }
+        if crate::quit::requested() || args.frames.is_some_and(|n| stats.frames_submitted >= n) {
+            return Ok(());
+        }
+    }
+}
+
+/// Reports the loss `e` and waits a second (in small steps, so Ctrl-C is
+/// prompt) before the next attempt.
+fn reconnect_after(e: &Error, args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+    debug_assert!(args.reconnect);
+    eprintln!("vergence: {e}; reconnecting in 1 s (--reconnect; Ctrl-C to stop)");
+    stats.reconnects += 1;
+    for _ in 0..20 {
+        if crate::quit::requested() {
+            break;
+        }
+        std::thread::sleep(Duration::from_millis(50));
+    }
+    Ok(())
 }
 
 /// Writes the captured frame: left.png, right.png and rig.json.

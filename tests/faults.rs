@@ -1,0 +1,111 @@
+//! Device faults: a lost GPU and a scene that does not fit in GPU memory
+//! each give one error line naming what happened, and a non-zero exit.
+
+use std::process::Command;
+
+fn scratch(name: &str) -> std::path::PathBuf {
+    let dir = std::env::temp_dir().join(format!("vergence-faults-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).unwrap();
+    dir
+}
+
+fn failing(cmd: &mut Command) -> String {
+    let out = cmd.output().expect("vergence runs");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(!out.status.success(), "expected failure: {stderr}");
+    assert_ne!(out.status.code(), Some(101), "panicked: {stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
+    assert_eq!(errors.len(), 1, "one error line: {stderr}");
+    errors[0].to_string()
+}
+
+#[test]
+fn device_lost_names_the_last_pass_and_fails() {
+    let out = scratch("lost");
+    for (opt, pass) in [("", "forward"), ("rdm", "rdm-fill")] {
+        let err = failing(
+            Command::new(env!("CARGO_BIN_EXE_vergence"))
+                .args([
+                    "run",
+                    "--xr",
+                    "headless",
+                    "--scene",
+                    "factory:200",
+                    "--hmd-fallback",
+                    "monado-sim",
+                    "--width",
+                    "64",
+                    "--height",
+                    "48",
+                    "--frames",
+                    "10",
+                    "--opt",
+                    opt,
+                    "--stats-out",
+                ])
+                .arg(out.join("stats.json"))
+                .env("VERGENCE_INJECT_FAULT", "device-lost@3"),
+        );
+        assert!(err.contains("GPU device was lost"), "{err}");
+        assert!(
+            err.contains(&format!("'{pass}'")),
+            "names the last pass {pass}: {err}"
+        );
+    }
+}
+
+#[test]
+fn a_scene_over_the_gpu_memory_budget_is_refused_with_the_need_and_the_budget() {
+    let out = scratch("oom");
+    let err = failing(
+        Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args([
+                "render",
+                "--scene",
+                "factory:100000",
+                "--hmd",
+                "monado-sim",
+                "--out",
+            ])
+            .arg(&out)
+            .env("VERGENCE_GPU_MEMORY_BUDGET_MB", "4"),
+    );
+    assert!(
+        err.contains("not enough GPU memory for scene factory:100000"),
+        "{err}"
+    );
+    assert!(err.contains("of the 4.0 MiB budget"), "{err}");
+    let need: f64 = err
+        .split("it needs ")
+        .nth(1)
+        .and_then(|s| s.split(" MiB").next())
+        .and_then(|s| s.parse().ok())
+        .expect("need in MiB");
+    // 100,000 instances are 6.1 MiB of matrices alone.
+    assert!(need >= 6.1, "{err}");
+    // A budget that fits renders.
+    let ok = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:200",
+            "--hmd",
+            "monado-sim",
+            "--width",
+            "32",
+            "--height",
+            "32",
+            "--out",
+        ])
+        .arg(&out)
+        .env("VERGENCE_GPU_MEMORY_BUDGET_MB", "256")
+        .output()
+        .unwrap();
+    assert!(
+        ok.status.success(),
+        "{}",
+        String::from_utf8_lossy(&ok.stderr)
+    );
+}
