@@ -127,6 +127,10 @@ case("gltf/byte-positions.gltf", "scene", ["POSITION accessor 0 is U8"],
      gltf(accessors=[{"bufferView": 0, "componentType": 5121, "count": 3, "type": "VEC3",
                       "min": [0, 0, 0], "max": [1, 1, 0]},
                      {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
+case("gltf/fuzz-image-without-source.gltf", "scene", ["image 0 needs a uri"],
+     gltf(extra={"images": [{"name": "nothing"}]}))
+case("gltf/image-view-without-mime.gltf", "scene", ["image 0 needs a uri"],
+     gltf(extra={"images": [{"bufferView": 0}]}))
 # Resource URIs.
 case("gltf/uri-absolute.gltf", "scene", ["absolute path"], gltf(uri="/etc/passwd", byte_length=42))
 case("gltf/uri-parent.gltf", "scene", ["climbs out of the scene folder"], gltf(uri="../../Cargo.toml", byte_length=42))

@@ -99,10 +99,11 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
     Ok(scene)
 }
 
-/// Parses and validates glTF or GLB bytes. References the `gltf-json`
-/// validator indexes without a bounds check (a primitive's POSITION
-/// accessor; gltf-json 1.4.1, mesh.rs) are checked first, so a bad index is
-/// an error instead of a panic inside the validator.
+/// Parses and validates glTF or GLB bytes. What the `gltf` crates assume
+/// without checking is checked first (a primitive's attribute accessor
+/// indexes, which gltf-json 1.4.1's validator indexes without a bounds
+/// check; an image's uri or bufferView + mimeType, which gltf 1.4.1
+/// unwraps), so a bad file is an error instead of a panic.
 fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
     let describe = |e: gltf::Error| Error::scene(path, describe_gltf_error(bytes, &e));
     let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(describe)?;
@@ -125,6 +126,20 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
                     ));
                 }
             }
+        }
+    }
+    // gltf 1.4.1 image.rs unwraps these: an image has a uri, or a
+    // bufferView with a mimeType (glTF 2.0 §5.18).
+    for (i, img) in json.images.iter().enumerate() {
+        let ok = match &img.buffer_view {
+            Some(_) => img.mime_type.is_some(),
+            None => img.uri.is_some(),
+        };
+        if !ok {
+            return Err(Error::scene(
+                path,
+                format!("invalid glTF: image {i} needs a uri, or a bufferView with a mimeType"),
+            ));
         }
     }
     let blob = raw.blob;
