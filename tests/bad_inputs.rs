@@ -1,19 +1,13 @@
 //! Bad input: every case gives one clear error naming the file and the
 //! problem, a non-zero exit code, and no panic.
 
+mod common;
+
 use std::path::{Path, PathBuf};
 use std::process::Command;
 
 fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
-}
-
-/// A fresh scratch folder for one case.
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vergence-bad-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
 }
 
 /// Runs vergence and returns stderr, asserting failure without a panic.
@@ -65,13 +59,13 @@ fn edit_json(path: &Path, f: impl FnOnce(&mut serde_json::Value)) {
 
 #[test]
 fn missing_file() {
-    let p = scratch("missing").join("nothing-here.gltf");
+    let p = common::scratch("bad", "missing").join("nothing-here.gltf");
     inspect_fails(&p, &["cannot read file"]);
 }
 
 #[test]
 fn not_a_gltf_file() {
-    let dir = scratch("notgltf");
+    let dir = common::scratch("bad", "notgltf");
     let p = dir.join("picture.gltf");
     std::fs::copy(root().join("assets/BoxTextured/CesiumLogoFlat.png"), &p).unwrap();
     inspect_fails(&p, &["not a glTF file"]);
@@ -79,7 +73,7 @@ fn not_a_gltf_file() {
 
 #[test]
 fn truncated_glb() {
-    let dir = scratch("truncated");
+    let dir = common::scratch("bad", "truncated");
     let bytes = std::fs::read(root().join("assets/retroufo/retroufo.glb")).unwrap();
     let p = dir.join("cut.glb");
     std::fs::write(&p, &bytes[..bytes.len() / 2]).unwrap();
@@ -88,14 +82,14 @@ fn truncated_glb() {
 
 #[test]
 fn missing_bin() {
-    let dir = scratch("nobin");
+    let dir = common::scratch("bad", "nobin");
     copy_asset(&dir, "Box", &["Box.gltf"]);
     inspect_fails(&dir.join("Box.gltf"), &["buffer 0", "Box0.bin"]);
 }
 
 #[test]
 fn missing_image() {
-    let dir = scratch("noimage");
+    let dir = common::scratch("bad", "noimage");
     copy_asset(
         &dir,
         "BoxTextured",
@@ -109,7 +103,7 @@ fn missing_image() {
 
 #[test]
 fn undecodable_image() {
-    let dir = scratch("badimage");
+    let dir = common::scratch("bad", "badimage");
     copy_asset(
         &dir,
         "BoxTextured",
@@ -128,7 +122,7 @@ fn undecodable_image() {
 
 #[test]
 fn unsupported_required_extension() {
-    let dir = scratch("ext");
+    let dir = common::scratch("bad", "ext");
     copy_asset(&dir, "Box", &["Box.gltf", "Box0.bin"]);
     edit_json(&dir.join("Box.gltf"), |v| {
         v["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
@@ -142,7 +136,7 @@ fn unsupported_required_extension() {
 
 #[test]
 fn accessor_out_of_range_of_its_buffer_view() {
-    let dir = scratch("accessor");
+    let dir = common::scratch("bad", "accessor");
     copy_asset(&dir, "Box", &["Box.gltf", "Box0.bin"]);
     edit_json(&dir.join("Box.gltf"), |v| {
         v["accessors"][1]["count"] = serde_json::json!(1_000_000)
@@ -152,7 +146,7 @@ fn accessor_out_of_range_of_its_buffer_view() {
 
 #[test]
 fn accessor_reference_out_of_range() {
-    let dir = scratch("accref");
+    let dir = common::scratch("bad", "accref");
     copy_asset(&dir, "Box", &["Box.gltf", "Box0.bin"]);
     edit_json(&dir.join("Box.gltf"), |v| {
         v["meshes"][0]["primitives"][0]["indices"] = serde_json::json!(42)
@@ -190,7 +184,7 @@ fn index_value_out_of_range() {
         "scenes": [{"nodes": [0]}],
         "scene": 0
     });
-    let dir = scratch("index");
+    let dir = common::scratch("bad", "index");
     let p = dir.join("bad-index.gltf");
     std::fs::write(&p, gltf.to_string()).unwrap();
     inspect_fails(&p, &["index 7 is out of range"]);
@@ -198,7 +192,7 @@ fn index_value_out_of_range() {
 
 #[test]
 fn malformed_scene_manifest() {
-    let dir = scratch("manifest");
+    let dir = common::scratch("bad", "manifest");
     let p = dir.join("scene.toml");
     std::fs::write(&p, "name = \"x\"\n[[gltf]]\nfile = 3\n").unwrap();
     inspect_fails(&p, &["malformed scene manifest"]);
@@ -206,7 +200,7 @@ fn malformed_scene_manifest() {
 
 #[test]
 fn unknown_hmd_profile() {
-    let out = scratch("hmd-unknown");
+    let out = common::scratch("bad", "hmd-unknown");
     let stderr = fails(&[
         "render",
         "--scene",
@@ -224,7 +218,7 @@ fn unknown_hmd_profile() {
 
 #[test]
 fn malformed_hmd_profile() {
-    let dir = scratch("hmd-bad");
+    let dir = common::scratch("bad", "hmd-bad");
     let p = dir.join("broken.toml");
     std::fs::write(
         &p,
@@ -248,7 +242,7 @@ fn malformed_hmd_profile() {
 
 #[test]
 fn bad_cli_values() {
-    let dir = scratch("cli");
+    let dir = common::scratch("bad", "cli");
     let out = dir.to_str().unwrap();
     let stderr = fails(&["render", "--scene", "factory:0", "--out", out]);
     assert!(stderr.contains("factory:0"), "{stderr}");
@@ -290,7 +284,7 @@ fn corpus() {
     let text = std::fs::read_to_string(dir.join("cases.toml")).unwrap();
     let cases: Cases = toml::from_str(&text).unwrap();
     assert!(cases.case.len() >= 30, "{} cases", cases.case.len());
-    let out = scratch("corpus");
+    let out = common::scratch("bad", "corpus");
     let out = out.to_str().unwrap();
     let mut failures = Vec::new();
     for c in &cases.case {

@@ -1,18 +1,13 @@
 //! `vergence bench` on the shipped smoke plan, `vergence tune` and
 //! `--config`: the outputs' content, not only their existence.
 
-use std::path::{Path, PathBuf};
+mod common;
+
+use std::path::Path;
 use std::process::Command;
 use vergence::bench::plan::Plan;
 use vergence::bench::report::CSV_HEADER;
 use vergence::bench::runner::{BenchResults, ConfigResult};
-
-fn scratch(name: &str) -> PathBuf {
-    let dir = std::env::temp_dir().join(format!("vergence-bench-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn vergence(args: &[&str]) -> std::process::Output {
     Command::new(env!("CARGO_BIN_EXE_vergence"))
@@ -61,7 +56,7 @@ fn get<'a>(results: &'a BenchResults, name: &str) -> &'a ConfigResult {
 
 #[test]
 fn smoke_plan_measures_and_reports() {
-    let out = scratch("smoke");
+    let out = common::scratch("bench", "smoke");
     let stdout = ok(&["bench", "--plan", "smoke", "--out", out.to_str().unwrap()]);
     assert!(stdout.contains("Target (full stack"), "{stdout}");
     let plan = Plan::resolve("smoke").unwrap();
@@ -158,7 +153,7 @@ fn smoke_plan_measures_and_reports() {
 
 #[test]
 fn tune_writes_a_config_run_accepts() {
-    let dir = scratch("tune");
+    let dir = common::scratch("bench", "tune");
     let file = dir.join("tuned.toml");
     let stdout = ok(&[
         "tune",
@@ -234,7 +229,7 @@ fn fails(args: &[&str], expect: &str) {
 
 #[test]
 fn bad_bench_and_tune_input_is_named() {
-    let dir = scratch("bad");
+    let dir = common::scratch("bench", "bad");
     let plan = dir.join("bad-plan.toml");
     std::fs::write(
         &plan,
@@ -265,7 +260,7 @@ fn bad_bench_and_tune_input_is_named() {
 
 #[test]
 fn ctrl_c_writes_what_finished() {
-    let dir = scratch("interrupt");
+    let dir = common::scratch("bench", "interrupt");
     let plan = dir.join("long.toml");
     let mut text = String::from(
         "name = \"long\"\nscenes = [\"factory:500\"]\nhmds = [\"monado-sim\"]\nscales = [0.25]\nwarmup = 1\nframes = 20000\nerror_frames = 1\n",

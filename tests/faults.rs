@@ -1,14 +1,9 @@
 //! Device faults: a lost GPU and a scene that does not fit in GPU memory
 //! each give one error line naming what happened, and a non-zero exit.
 
-use std::process::Command;
+mod common;
 
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("vergence-faults-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
+use std::process::Command;
 
 fn failing(cmd: &mut Command) -> String {
     let out = cmd.output().expect("vergence runs");
@@ -23,7 +18,7 @@ fn failing(cmd: &mut Command) -> String {
 
 #[test]
 fn device_lost_names_the_last_pass_and_fails() {
-    let out = scratch("lost");
+    let out = common::scratch("faults", "lost");
     for (opt, pass) in [("", "forward"), ("rdm", "rdm-fill")] {
         let err = failing(
             Command::new(env!("CARGO_BIN_EXE_vergence"))
@@ -58,7 +53,7 @@ fn device_lost_names_the_last_pass_and_fails() {
 
 #[test]
 fn a_scene_over_the_gpu_memory_budget_is_refused_with_the_need_and_the_budget() {
-    let out = scratch("oom");
+    let out = common::scratch("faults", "oom");
     let err = failing(
         Command::new(env!("CARGO_BIN_EXE_vergence"))
             .args([

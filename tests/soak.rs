@@ -2,15 +2,10 @@
 //! flat over a headless run, and a Monado session stays free of validation
 //! messages over many frames.
 
+mod common;
+
 use serde_json::Value;
 use std::process::Command;
-
-fn scratch(name: &str) -> std::path::PathBuf {
-    let dir = std::env::temp_dir().join(format!("vergence-soak-{}-{name}", std::process::id()));
-    let _ = std::fs::remove_dir_all(&dir);
-    std::fs::create_dir_all(&dir).unwrap();
-    dir
-}
 
 fn run_stats(cmd: &mut Command, stats: &std::path::Path) -> Value {
     let out = cmd.output().expect("runs");
@@ -21,7 +16,7 @@ fn run_stats(cmd: &mut Command, stats: &std::path::Path) -> Value {
 
 #[test]
 fn headless_rss_and_gpu_memory_stay_flat() {
-    let dir = scratch("headless");
+    let dir = common::scratch("soak", "headless");
     let stats = dir.join("stats.json");
     let frames = 1500;
     let s = run_stats(
@@ -65,7 +60,7 @@ fn headless_rss_and_gpu_memory_stay_flat() {
 
 #[test]
 fn monado_session_of_many_frames_has_no_validation_messages() {
-    let dir = scratch("monado");
+    let dir = common::scratch("soak", "monado");
     let stats = dir.join("stats.json");
     let s = run_stats(
         Command::new(std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("scripts/with-monado"))

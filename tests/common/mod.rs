@@ -17,6 +17,14 @@ pub fn root() -> PathBuf {
     PathBuf::from(env!("CARGO_MANIFEST_DIR"))
 }
 
+/// A fresh, empty scratch folder `vergence-TEST-PID-NAME` in the temp dir.
+pub fn scratch(test: &str, name: &str) -> PathBuf {
+    let dir = std::env::temp_dir().join(format!("vergence-{test}-{}-{name}", std::process::id()));
+    let _ = std::fs::remove_dir_all(&dir);
+    std::fs::create_dir_all(&dir).expect("scratch folder");
+    dir
+}
+
 /// Validation must be on in tests; `VERGENCE_VALIDATION=required` (set by
 /// `cargo xtask test`) makes a missing layer an error.
 pub fn context() -> Arc<Context> {
