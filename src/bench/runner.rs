@@ -105,6 +105,10 @@ pub struct ConfigResult {
     pub frame_ms: Summary,
     /// The per-frame frame times, in order (for histograms).
     pub frame_times_ms: Vec<f64>,
+    /// Wall-clock ms per frame as this loop ran it: cull, record, submit
+    /// and the wait for the GPU in sequence (vergence does not yet overlap
+    /// one frame's CPU work with the previous frame's GPU work).
+    pub wall_frame_ms: Summary,
     /// The profile's refresh budget in ms.
     pub budget_ms: f64,
     /// Frames whose frame time exceeded the budget.
@@ -437,6 +441,7 @@ fn measure(
     let mut renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
     let mut culling = CullState::new(config, scene)?;
     let mut frames: Vec<(FrameStats, f64)> = Vec::new();
+    let mut wall: Vec<f64> = Vec::new();
     let mut accuracy: Option<CullAccuracy> = None;
     let n_accuracy = plan.frames.min(30);
     for (i, rig) in rigs.iter().enumerate() {
@@ -458,6 +463,7 @@ fn measure(
         let f = renderer.render(rig, culling.as_ref().map(|c| c.last_visible()), false)?;
         if measured {
             frames.push((f, cull_ms));
+            wall.push(t.elapsed().as_secs_f64() * 1e3);
         }
         if crate::quit::requested() {
             return Ok(None);
@@ -467,6 +473,7 @@ fn measure(
         *f = Some(floors(&mut renderer, plan, &rigs[0])?);
     }
     let mut result = summarize(name, opt, &renderer, &frames, refresh_hz);
+    result.wall_frame_ms = Summary::of(&wall);
     result.cull_accuracy = accuracy;
     result.gpu_memory = GpuMemory {
         allocated: ctx
