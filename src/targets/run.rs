@@ -491,9 +491,13 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
                     "vergence: no OpenXR headset ({reason}); running headless on the {} profile",
                     args.hmd_fallback
                 );
+                // Keep the frame log (and its spool file): a fresh one at
+                // the same path would be unlinked when the old one drops.
+                let frames = std::mem::take(&mut stats.frames);
                 stats = RunStats {
                     fallback_reason: Some(reason),
-                    ..RunStats::new(args.stats_out.as_deref())?
+                    frames,
+                    ..RunStats::default()
                 };
                 run_headless(args, &mut stats)
             }
