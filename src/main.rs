@@ -62,7 +62,7 @@ enum Command {
         #[arg(long, default_value_t = 1.0)]
         scale: f64,
         /// Measured frames per candidate.
-        #[arg(long, default_value_t = 30, value_parser = clap::value_parser!(u32).range(1..=100_000))]
+        #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=100_000))]
         frames: u32,
         /// Where to write the chosen configuration.
         #[arg(long, default_value = "vergence-tuned.toml")]
