@@ -427,3 +427,60 @@ fn mffr_composites_one_far_field_into_both_eyes() {
         assert!(m < 0.005, "multiview vs two-pass with MFFR: {m}");
     }
 }
+
+/// The far-field split by depth draws fewer instances and triangles and
+/// changes no pixel: an instance left out of the near passes lies wholly
+/// beyond the split plane (its depth would fail against the cleared depth),
+/// one left out of the far pass wholly before the far camera's near plane.
+#[test]
+fn mffr_depth_split_draws_less_and_changes_no_pixel() {
+    let ctx = common::context();
+    let profile = HmdProfile::load("monado-sim").unwrap();
+    let scene = common::load("factory:20000");
+    let extent = ash::vk::Extent2D {
+        width: 160,
+        height: 120,
+    };
+    let rig = profile.rig(Pose::from_euler_deg(
+        DVec3::new(3.0, 1.7, 2.0),
+        -25.0,
+        -5.0,
+        0.0,
+    ));
+    for (stereo, opts) in [
+        (StereoMode::Multiview, "mffr=8"),
+        (StereoMode::TwoPass, "mffr=12,mffr-depth-shift"),
+        (StereoMode::Multiview, "mffr=8,mffr-alternate-eye"),
+    ] {
+        let mut c = RenderConfig {
+            stereo,
+            ..RenderConfig::default()
+        };
+        c.apply_opts(opts, &["none"]).unwrap();
+        let run = |partition: bool| {
+            let mut r = vergence::render::Renderer::new(ctx.clone(), &scene, &c, extent).unwrap();
+            r.mffr_partition = partition;
+            let mut out = Vec::new();
+            for _ in 0..2 {
+                let stats = r.render(&rig, None, true).unwrap();
+                out.push((stats, r.read_images().unwrap()));
+            }
+            out
+        };
+        let (split, whole) = (run(true), run(false));
+        for ((s, a), (w, b)) in split.iter().zip(&whole) {
+            assert!(a == b, "{opts}: the split changed pixels");
+            assert!(
+                s.triangles < w.triangles && s.instances_drawn < w.instances_drawn,
+                "{opts}: {} vs {} triangles",
+                s.triangles,
+                w.triangles
+            );
+        }
+        eprintln!(
+            "{opts}: triangles per frame {} with the split, {} without",
+            split[1].0.triangles, whole[1].0.triangles
+        );
+    }
+    assert_eq!(ctx.validation_messages(), 0, "{:?}", ctx.validation_log());
+}

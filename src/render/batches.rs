@@ -38,8 +38,11 @@ pub struct Batcher {
     pub keys: Vec<PipelineKey>,
     /// Non-blended primitives in draw order (grouped by pipeline key).
     order: Vec<u32>,
-    /// World-space instance centres (for back-to-front sorting of blended draws).
+    /// World-space bounding-sphere centres (for back-to-front sorting of
+    /// blended draws and the far-field split).
     centers: Vec<DVec3>,
+    /// World-space bounding-sphere radii.
+    radii: Vec<f64>,
     /// Triangles per primitive.
     tris: Vec<u32>,
     /// Every instance index, for frames drawn without culling.
@@ -48,6 +51,9 @@ pub struct Batcher {
     counts: Vec<u32>,
     offsets: Vec<u32>,
     blended: Vec<(f64, u32, u32)>,
+    near_list: Vec<u32>,
+    far_list: Vec<u32>,
+    far_tmp: Batches,
 }
 
 /// A frame's draws and the visible buffer contents that feed them.
@@ -61,6 +67,21 @@ pub struct Batches {
     pub instances_drawn: u64,
     /// Triangles submitted.
     pub triangles: u64,
+    /// With a split monoscopic far field: `draws[..k]` feed the near field
+    /// and `draws[k..]` the far field (None: every draw feeds both).
+    pub far_start: Option<usize>,
+}
+
+impl Batches {
+    /// The draws of the (near-field) stereo passes.
+    pub fn near_draws(&self) -> &[Draw] {
+        &self.draws[..self.far_start.unwrap_or(self.draws.len())]
+    }
+
+    /// The draws of the far-field pass.
+    pub fn far_draws(&self) -> &[Draw] {
+        &self.draws[self.far_start.unwrap_or(0)..]
+    }
 }
 
 impl Batcher {
@@ -98,7 +119,9 @@ impl Batcher {
             .filter(|&p| keys[p as usize].alpha < 2)
             .collect();
         order.sort_by_key(|&p| (keys[p as usize], scene.primitives[p as usize].material, p));
-        let centers = scene.world_bounds().iter().map(|b| b.center).collect();
+        let bounds = scene.world_bounds();
+        let centers = bounds.iter().map(|b| b.center).collect();
+        let radii = bounds.iter().map(|b| b.radius).collect();
         let tris = scene
             .primitives
             .iter()
@@ -114,8 +137,58 @@ impl Batcher {
             keys,
             order,
             centers,
+            radii,
             tris,
+            near_list: Vec::new(),
+            far_list: Vec::new(),
+            far_tmp: Batches::default(),
         }
+    }
+
+    /// Like [`Batcher::build`] for a split monoscopic far field: the near
+    /// draws get the visible instances whose bounding sphere `near(centre,
+    /// radius)` keeps, the far draws (after `far_start`) those `far` keeps.
+    /// An instance straddling the split is in both.
+    pub fn build_split(
+        &mut self,
+        visible: Option<&[u32]>,
+        eye: DVec3,
+        near: impl Fn(DVec3, f64) -> bool,
+        far: impl Fn(DVec3, f64) -> bool,
+        out: &mut Batches,
+    ) {
+        let (mut near_list, mut far_list) = (
+            std::mem::take(&mut self.near_list),
+            std::mem::take(&mut self.far_list),
+        );
+        near_list.clear();
+        far_list.clear();
+        let all = std::mem::take(&mut self.all);
+        for &i in visible.unwrap_or(&all) {
+            let (c, r) = (self.centers[i as usize], self.radii[i as usize]);
+            if near(c, r) {
+                near_list.push(i);
+            }
+            if far(c, r) {
+                far_list.push(i);
+            }
+        }
+        self.all = all;
+        let mut tmp = std::mem::take(&mut self.far_tmp);
+        self.group(&near_list, eye, out);
+        self.group(&far_list, eye, &mut tmp);
+        let offset = out.ids.len() as u32;
+        out.far_start = Some(out.draws.len());
+        out.ids.extend_from_slice(&tmp.ids);
+        out.draws.extend(tmp.draws.iter().map(|d| Draw {
+            first: d.first + offset,
+            ..*d
+        }));
+        out.instances_drawn += tmp.instances_drawn;
+        out.triangles += tmp.triangles;
+        self.far_tmp = tmp;
+        self.near_list = near_list;
+        self.far_list = far_list;
     }
 
     /// Groups `visible` (instance indices; None = all) into draws. `eye` is
@@ -127,6 +200,7 @@ impl Batcher {
     }
 
     fn group(&mut self, visible: &[u32], eye: DVec3, out: &mut Batches) {
+        out.far_start = None;
         out.ids.clear();
         out.draws.clear();
         out.triangles = 0;
@@ -187,6 +261,52 @@ impl Batcher {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn a_split_keeps_each_side_and_offsets_the_far_draws() {
+        let scene = crate::scene::factory::generate(3_000, 5).unwrap();
+        let mut b = Batcher::new(&scene);
+        let mut out = Batches::default();
+        let split = 20.0;
+        b.build_split(
+            None,
+            DVec3::ZERO,
+            |c, r| c.length() - r < split,
+            |c, r| c.length() + r > split,
+            &mut out,
+        );
+        let ids_of = |draws: &[Draw]| {
+            let mut v: Vec<u32> = draws
+                .iter()
+                .flat_map(|d| {
+                    out.ids[d.first as usize..(d.first + d.count) as usize]
+                        .iter()
+                        .copied()
+                })
+                .collect();
+            v.sort();
+            v.dedup();
+            v
+        };
+        let bounds = scene.world_bounds();
+        let want = |keep: &dyn Fn(&WorldBoundsRef) -> bool| -> Vec<u32> {
+            (0..bounds.len() as u32)
+                .filter(|&i| keep(&(bounds[i as usize].center, bounds[i as usize].radius)))
+                .collect()
+        };
+        let near = want(&|&(c, r)| c.length() - r < split);
+        let far = want(&|&(c, r)| c.length() + r > split);
+        assert!(!near.is_empty() && !far.is_empty());
+        assert_eq!(ids_of(out.near_draws()), near);
+        assert_eq!(ids_of(out.far_draws()), far);
+        assert_eq!(out.far_start.map(|k| k > 0), Some(true));
+        // Rebuilding without a split leaves no far marker behind.
+        b.build(None, DVec3::ZERO, &mut out);
+        assert_eq!(out.far_start, None);
+        assert_eq!(out.near_draws().len(), out.far_draws().len());
+    }
+
+    type WorldBoundsRef = (DVec3, f64);
 
     #[test]
     fn every_visible_instance_is_drawn_once_per_primitive() {

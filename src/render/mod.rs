@@ -83,9 +83,11 @@ pub struct CpuTimes {
 pub struct FrameStats {
     /// Draw calls recorded (over both eyes in two-pass mode).
     pub draw_calls: u64,
-    /// Instance-primitive pairs drawn (per frame, not per eye).
+    /// Instance-primitive pairs drawn (per frame, not per eye; a monoscopic
+    /// far field's pass counts as well).
     pub instances_drawn: u64,
-    /// Triangles submitted per frame (not per eye).
+    /// Triangles submitted per frame (not per eye; a monoscopic far field's
+    /// pass counts as well).
     pub triangles: u64,
     /// CPU times.
     pub cpu_ms: CpuTimes,
@@ -180,6 +182,11 @@ pub struct Renderer {
     frame_index: u64,
     /// Frames where MFFR fell back to stereo (no finite centre camera).
     pub mffr_fallbacks: u64,
+    /// Whether the monoscopic far field splits the visible instances by
+    /// depth (near passes draw only what reaches nearer than the split, the
+    /// far pass only what reaches beyond it). On by default; off draws every
+    /// visible instance in both, for comparison.
+    pub mffr_partition: bool,
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
     pub foveation_path: String,
@@ -425,6 +432,7 @@ impl Renderer {
             far_views: [None, None],
             frame_index: 0,
             mffr_fallbacks: 0,
+            mffr_partition: true,
             foveation_path: "off".into(),
         };
         if config.mffr.is_some() {
@@ -1050,22 +1058,6 @@ impl Renderer {
         }
         let mut stats = FrameStats::default();
         let t0 = Instant::now();
-        let mut batches = std::mem::take(&mut self.batches);
-        self.batcher.build(visible, rig.head.position, &mut batches);
-        stats.instances_drawn = batches.instances_drawn;
-        stats.triangles = batches.triangles;
-        let slot = self.slot;
-        let cmd = self
-            .ring
-            .as_mut()
-            .expect("ring present until drop")
-            .begin(&self.ctx)?;
-        self.ensure_visible_capacity(slot, batches.ids.len())?;
-        let ids: &[u8] = bytemuck_u32(&batches.ids);
-        self.visible[slot]
-            .as_mut()
-            .expect("allocated above")
-            .write(0, ids)?;
         self.mffr_frame = match self.config.mffr {
             Some(m) => {
                 let split = m
@@ -1105,6 +1097,59 @@ impl Renderer {
             }
             None => None,
         };
+        let mut batches = std::mem::take(&mut self.batches);
+        match &self.mffr_frame {
+            Some((split, render)) if self.mffr_partition => {
+                // Conservative per-instance split by view depth (the near
+                // field is cut at depth D in each eye, the far field starts
+                // at depth D from its camera): a bounding sphere whose
+                // nearest depth in some eye is before D feeds the near
+                // field, one whose farthest depth from some far camera is
+                // beyond D the far field. Margins cover f32 rounding.
+                let d = *split;
+                let margin = 1e-3 * d + 1e-3;
+                let eyes: Vec<(glam::DVec3, glam::DVec3)> = rig
+                    .views
+                    .iter()
+                    .map(|v| (v.pose.position, v.pose.forward()))
+                    .collect();
+                let fars: Vec<(glam::DVec3, glam::DVec3)> = render
+                    .iter()
+                    .filter_map(|&i| self.far_views[i].as_ref())
+                    .map(|v| (v.pose.position, v.pose.forward()))
+                    .collect();
+                self.batcher.build_split(
+                    visible,
+                    rig.head.position,
+                    |c, r| eyes.iter().any(|(p, f)| (c - *p).dot(*f) - r < d + margin),
+                    |c, r| fars.iter().any(|(p, f)| (c - *p).dot(*f) + r > d - margin),
+                    &mut batches,
+                );
+            }
+            _ => self.batcher.build(visible, rig.head.position, &mut batches),
+        }
+        // Counted once per pass family: with a far field its pass draws too
+        // (the split batches already hold near + far; unsplit, the far pass
+        // draws every batch again).
+        let passes = if self.mffr_frame.is_some() && batches.far_start.is_none() {
+            2
+        } else {
+            1
+        };
+        stats.instances_drawn = passes * batches.instances_drawn;
+        stats.triangles = passes * batches.triangles;
+        let slot = self.slot;
+        let cmd = self
+            .ring
+            .as_mut()
+            .expect("ring present until drop")
+            .begin(&self.ctx)?;
+        self.ensure_visible_capacity(slot, batches.ids.len())?;
+        let ids: &[u8] = bytemuck_u32(&batches.ids);
+        self.visible[slot]
+            .as_mut()
+            .expect("allocated above")
+            .write(0, ids)?;
         self.frame_index += 1;
         let data = self.frame_data(rig);
         self.ubos[slot].write(0, bytemuck_f32(&data))?;
@@ -1467,10 +1512,21 @@ impl Renderer {
                             d.cmd_draw(cmd, 3, 1, 0, 0);
                             draw_calls += 1;
                             // The sky lies beyond the split: the far field has it.
-                            draw_calls += self.draw_scene(cmd, batches, &self.pipelines, None, eye);
+                            draw_calls += self.draw_scene(
+                                cmd,
+                                batches.near_draws(),
+                                &self.pipelines,
+                                None,
+                                eye,
+                            );
                         } else {
-                            draw_calls +=
-                                self.draw_scene(cmd, batches, &self.pipelines, Some(self.sky), eye);
+                            draw_calls += self.draw_scene(
+                                cmd,
+                                batches.near_draws(),
+                                &self.pipelines,
+                                Some(self.sky),
+                                eye,
+                            );
                         }
                     }
                 }
@@ -1561,7 +1617,7 @@ impl Renderer {
     fn draw_scene(
         &self,
         cmd: vk::CommandBuffer,
-        batches: &Batches,
+        draws: &[batches::Draw],
         pipelines: &HashMap<PipelineKey, vk::Pipeline>,
         sky: Option<vk::Pipeline>,
         eye: u32,
@@ -1577,7 +1633,7 @@ impl Renderer {
             d.cmd_bind_index_buffer(cmd, scene.indices.buffer, 0, vk::IndexType::UINT32);
             let mut bound = None;
             let mut sky_drawn = sky.is_none();
-            for draw in &batches.draws {
+            for draw in draws {
                 let key = self.batcher.keys[draw.primitive as usize];
                 if key.alpha == 2 && !sky_drawn {
                     self.draw_sky(cmd, sky.expect("sky pending"), &push);
@@ -1697,7 +1753,13 @@ impl Renderer {
                     &[self.sets[self.slot]],
                     &[],
                 );
-                draws += self.draw_scene(cmd, batches, &far.pipelines, Some(far.sky), 2 + i as u32);
+                draws += self.draw_scene(
+                    cmd,
+                    batches.far_draws(),
+                    &far.pipelines,
+                    Some(far.sky),
+                    2 + i as u32,
+                );
                 d.cmd_end_rendering(cmd);
                 d.cmd_pipeline_barrier2(
                     cmd,
