@@ -75,6 +75,10 @@ pub struct Mffr {
     /// One far image per eye, each re-rendered from its eye every other
     /// frame (the other eye's is reused).
     pub alternate_eye: bool,
+    /// Draw every visible instance in both the near and the far passes
+    /// instead of splitting them by depth (`mffr-no-split`; to measure what
+    /// the split saves).
+    pub no_split: bool,
 }
 
 /// Default radial-density-masking radius (NDC).
@@ -135,6 +139,9 @@ impl RenderConfig {
                         .get_or_insert_with(Mffr::default)
                         .alternate_eye = true;
                 }
+                "mffr-no-split" => {
+                    self.mffr.get_or_insert_with(Mffr::default).no_split = true;
+                }
                 "mffr-depth-shift" => {
                     self.mffr
                         .get_or_insert_with(Mffr::default)
@@ -192,7 +199,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, {})", cull_names.join(", ")),
                     ))
                 }
             }

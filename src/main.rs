@@ -136,8 +136,8 @@ struct FrameOpts {
     height: Option<u32>,
     /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
     /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
-    /// rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye and a
-    /// culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
+    /// rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye,
+    /// mffr-no-split and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
     /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]
     opt: String,

@@ -185,7 +185,8 @@ pub struct Renderer {
     /// Whether the monoscopic far field splits the visible instances by
     /// depth (near passes draw only what reaches nearer than the split, the
     /// far pass only what reaches beyond it). On by default; off draws every
-    /// visible instance in both, for comparison.
+    /// visible instance in both, for comparison (`mffr-no-split` sets it at
+    /// creation).
     pub mffr_partition: bool,
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
@@ -432,7 +433,7 @@ impl Renderer {
             far_views: [None, None],
             frame_index: 0,
             mffr_fallbacks: 0,
-            mffr_partition: true,
+            mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
         };
         if config.mffr.is_some() {
