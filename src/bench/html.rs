@@ -137,21 +137,29 @@ fn histogram_svg(name: &str, times: &[f64], lo: f64, hi: f64, budget: f64) -> St
 /// as series per configuration: (instances, GPU p50, CPU p50).
 type Series = std::collections::BTreeMap<String, Vec<(f64, f64, f64)>>;
 
+/// The scene family a plan entry belongs to: `factory` for `factory:N`,
+/// else the entry itself (a file does not scale).
+fn family(scene: &str) -> &str {
+    scene.split(':').next().unwrap_or(scene)
+}
+
 fn scaling(results: &BenchResults) -> Vec<(String, Series)> {
-    let mut keys: Vec<(String, String)> = Vec::new();
+    let key = |g: &Group| {
+        (
+            g.hmd.clone(),
+            g.scale.to_string(),
+            family(&g.scene).to_string(),
+        )
+    };
+    let mut keys: Vec<(String, String, String)> = Vec::new();
     for g in &results.groups {
-        let k = (g.hmd.clone(), g.scale.to_string());
-        if !keys.contains(&k) {
-            keys.push(k);
+        if !keys.contains(&key(g)) {
+            keys.push(key(g));
         }
     }
     let mut out = Vec::new();
-    for (hmd, scale) in keys {
-        let groups: Vec<&Group> = results
-            .groups
-            .iter()
-            .filter(|g| g.hmd == hmd && g.scale.to_string() == scale)
-            .collect();
+    for k in keys {
+        let groups: Vec<&Group> = results.groups.iter().filter(|g| key(g) == k).collect();
         let mut counts: Vec<usize> = groups.iter().map(|g| g.instances).collect();
         counts.sort_unstable();
         counts.dedup();
@@ -171,7 +179,8 @@ fn scaling(results: &BenchResults) -> Vec<(String, Series)> {
         for v in series.values_mut() {
             v.sort_by(|a, b| a.0.total_cmp(&b.0));
         }
-        out.push((format!("{hmd}, scale {scale}"), series));
+        let (hmd, scale, fam) = k;
+        out.push((format!("{fam}, {hmd}, scale {scale}"), series));
     }
     out
 }
@@ -317,6 +326,33 @@ pub fn html(results: &BenchResults) -> String {
 mod tests {
     use super::*;
     use proptest::prelude::*;
+
+    #[test]
+    fn scaling_curves_join_only_one_scene_family() {
+        let group = |scene: &str, instances| Group {
+            scene: scene.into(),
+            instances,
+            hmd: "h".into(),
+            scale: 1.0,
+            ..Group::default()
+        };
+        let r = BenchResults {
+            groups: vec![
+                group("factory:10", 10),
+                group("garage.gltf", 1),
+                group("factory:1000", 1000),
+            ],
+            ..BenchResults::default()
+        };
+        let curves = scaling(&r);
+        assert_eq!(curves.len(), 1);
+        assert!(curves[0].0.starts_with("factory,"));
+        let only = BenchResults {
+            groups: vec![group("factory:10", 10), group("garage.gltf", 1)],
+            ..BenchResults::default()
+        };
+        assert!(scaling(&only).is_empty());
+    }
 
     proptest! {
         #[test]

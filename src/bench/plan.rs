@@ -137,6 +137,11 @@ impl Plan {
         if self.warmup > 10_000 {
             return Err(format!("warmup = {} must be at most 10000", self.warmup));
         }
+        if self.error_frames == 0 {
+            return Err(
+                "error_frames must be at least 1 (image error needs a compared frame)".into(),
+            );
+        }
         if self.error_frames > self.frames {
             return Err(format!(
                 "error_frames = {} exceeds frames = {}",
@@ -144,6 +149,7 @@ impl Plan {
             ));
         }
         let mut names = std::collections::BTreeSet::new();
+        let mut files = std::collections::BTreeSet::new();
         for c in &self.configs {
             if c.name.trim().is_empty() || c.name.contains(['/', '\\', ',']) {
                 return Err(format!(
@@ -151,8 +157,17 @@ impl Plan {
                     c.name
                 ));
             }
+            if c.name == "reference" {
+                return Err("config name 'reference' is reserved for the image reference".into());
+            }
             if !names.insert(c.name.as_str()) {
                 return Err(format!("config name '{}' appears twice", c.name));
+            }
+            if !files.insert(super::runner::sanitize(&c.name)) {
+                return Err(format!(
+                    "config name '{}' gives the same image file name as another",
+                    c.name
+                ));
             }
             config_from_opt(&c.opt).map_err(|e| format!("config '{}': {e}", c.name))?;
         }
@@ -222,19 +237,39 @@ opt = "two-pass"
 
     #[test]
     fn bad_plans_are_named() {
-        for (edit, want) in [
-            ("frames = 4", "frames = 0"),
-            ("opt = \"two-pass\"", "opt = \"warp-drive\""),
-            ("hmds = [\"monado-sim\"]", "hmds = []"),
-            ("frames = 4", "frames = 4\nscales = [0.0]"),
-            ("frames = 4", "frames = 4\nbaseline = \"zz\""),
-            ("frames = 4", "frames = 4\nerror_frames = 9"),
-            ("frames = 4", "frames = 4\ncolour = 1"),
+        for (edit, want, says) in [
+            ("frames = 4", "frames = 0", "frames = 0 must be"),
+            ("opt = \"two-pass\"", "opt = \"warp-drive\"", "warp-drive"),
+            ("hmds = [\"monado-sim\"]", "hmds = []", "at least one entry"),
+            (
+                "frames = 4",
+                "frames = 4\nscales = [0.0]",
+                "scale 0 must be",
+            ),
+            (
+                "frames = 4",
+                "frames = 4\nbaseline = \"zz\"",
+                "baseline 'zz'",
+            ),
+            (
+                "frames = 4",
+                "frames = 4\nerror_frames = 9",
+                "exceeds frames",
+            ),
+            ("frames = 4", "frames = 4\nerror_frames = 0", "at least 1"),
+            ("frames = 4", "frames = 4\ncolour = 1", "colour"),
+            ("name = \"a\"", "name = \"reference\"", "reserved"),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"two-pass\"\n[[configs]]\nname = \"a b\"\n[[configs]]\nname = \"a_b\"",
+                "same image file name",
+            ),
         ] {
             let text = MIN.replace(edit, want);
+            assert_ne!(text, MIN, "{want}");
             let err = Plan::parse("t", &text).unwrap_err().to_string();
             assert!(
-                err.contains("--plan") && err.contains("t:"),
+                err.contains("--plan") && err.contains("t:") && err.contains(says),
                 "{want}: {err}"
             );
         }

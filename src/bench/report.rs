@@ -307,9 +307,10 @@ pub fn markdown(results: &BenchResults) -> String {
          CPU (cull + batch + record + submit) and GPU time, what a loop that overlaps \
          CPU and GPU work sustains; results.json and results.csv also give the wall-clock \
          time of vergence's current loop, which waits for each frame (`wall_frame_ms`). Speed-up: baseline GPU p50 over the \
-         configuration's. Image error: against the reference on the same frames, over the \
-         pixels the lens shows (hidden-area pixels excluded), both eyes averaged; FLIP at the \
-         profile's pixels per degree (at least 10).\n",
+         configuration's. Image error: against the reference on the same frames, both eyes \
+         averaged; hidden-area pixels are blacked out in both images, FLIP mean and p99 \
+         (per image, averaged) leave them out, PSNR and SSIM run over the whole image. FLIP at \
+         the profile's pixels per degree (at least 10).\n",
     );
     for g in &results.groups {
         let _ = writeln!(s, "\n## {}\n", group_title(g));

@@ -318,12 +318,20 @@ impl Context {
         let cap = std::env::var("VERGENCE_GPU_MEMORY_BUDGET_MB")
             .ok()
             .and_then(|v| v.trim().parse::<u64>().ok())
-            .map(|mb| mb << 20);
+            .and_then(|mb| mb.checked_mul(1 << 20));
         let device = self
             .memory_budget()
             .map(|b| (b.budget, b.budget.saturating_sub(b.usage)));
         match (cap, device) {
-            (Some(c), Some((_, free))) => Some((c, c.saturating_sub(allocated).min(free), true)),
+            // The tighter of the two limits is the one to name.
+            (Some(c), Some((budget, free))) => {
+                let capped = c.saturating_sub(allocated);
+                if capped <= free {
+                    Some((c, capped, true))
+                } else {
+                    Some((budget, free, false))
+                }
+            }
             (Some(c), None) => Some((c, c.saturating_sub(allocated), true)),
             (None, Some((budget, free))) => Some((budget, free, false)),
             (None, None) => None,

@@ -21,11 +21,33 @@ struct Ctx<'a> {
     path: &'a Path,
     dir: PathBuf,
     buffers: Vec<Vec<u8>>,
+    /// Bytes of buffers and decoded textures still allowed
+    /// ([`MAX_SCENE_RESOURCE_BYTES`] in all), so repeated references to one
+    /// large file cannot multiply memory without bound.
+    budget: std::cell::Cell<u64>,
 }
+
+/// Most bytes of buffers, image files and decoded textures one glTF file may
+/// make vergence hold.
+pub const MAX_SCENE_RESOURCE_BYTES: u64 = 8 << 30;
+/// Most instances one glTF file may place.
+pub const MAX_SCENE_INSTANCES: usize = 50_000_000;
 
 impl Ctx<'_> {
     fn err(&self, message: impl Into<String>) -> Error {
         Error::scene(self.path, message)
+    }
+
+    /// Takes `bytes` from the resource budget for `what`, or fails.
+    fn spend(&self, bytes: u64, what: &str) -> Result<()> {
+        let left = self.budget.get();
+        if bytes > left {
+            return Err(self.err(format!(
+                "{what}: {bytes} more bytes would exceed the {MAX_SCENE_RESOURCE_BYTES}-byte limit on a scene's buffers and textures"
+            )));
+        }
+        self.budget.set(left - bytes);
+        Ok(())
     }
 }
 
@@ -55,6 +77,7 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
         path,
         dir,
         buffers: Vec::new(),
+        budget: std::cell::Cell::new(MAX_SCENE_RESOURCE_BYTES),
     };
     ctx.buffers = load_buffers(&ctx, &gltf)?;
     check_views_and_accessors(&ctx, &gltf.document)?;
@@ -180,7 +203,10 @@ fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
 /// Resolves a URI inside the scene folder or decodes a data: URI
 /// ([`super::uri`]).
 fn read_uri(ctx: &Ctx, uri: &str, what: &str) -> Result<Vec<u8>> {
-    super::uri::read(&ctx.dir, uri).map_err(|e| ctx.err(format!("{what}: {e}")))
+    let bytes = super::uri::read_within(&ctx.dir, uri, ctx.budget.get())
+        .map_err(|e| ctx.err(format!("{what}: {e}")))?;
+    ctx.spend(bytes.len() as u64, what)?;
+    Ok(bytes)
 }
 
 fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
@@ -188,11 +214,15 @@ fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
     for b in gltf.document.buffers() {
         let what = format!("buffer {}", b.index());
         let mut data = match b.source() {
-            gltf::buffer::Source::Bin => gltf.blob.clone().ok_or_else(|| {
-                ctx.err(format!(
-                    "{what} refers to the GLB binary chunk, which is missing"
-                ))
-            })?,
+            gltf::buffer::Source::Bin => {
+                let blob = gltf.blob.as_ref().ok_or_else(|| {
+                    ctx.err(format!(
+                        "{what} refers to the GLB binary chunk, which is missing"
+                    ))
+                })?;
+                ctx.spend(blob.len() as u64, &what)?;
+                blob.clone()
+            }
             gltf::buffer::Source::Uri(uri) => read_uri(ctx, uri, &what)?,
         };
         if data.len() < b.length() {
@@ -286,9 +316,22 @@ fn check_views_and_accessors(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
                 a.index()
             )));
         }
+        if a.count() == 0 {
+            // The gltf readers compute `count - 1`.
+            return Err(ctx.err(format!("accessor {} has count 0", a.index())));
+        }
         let Some(view) = a.view() else { continue };
         let elem = a.size();
         let stride = view.stride().unwrap_or(elem);
+        if stride < elem {
+            // glTF 2.0 §3.6.2.4: byteStride must hold a whole element (the
+            // gltf readers assert it).
+            return Err(ctx.err(format!(
+                "accessor {}: bufferView {} byteStride {stride} is smaller than its {elem}-byte elements",
+                a.index(),
+                view.index()
+            )));
+        }
         let need = match a.count() {
             0 => Some(0),
             c => (c - 1)
@@ -355,6 +398,7 @@ fn texture(
         };
         let decoded = super::image_decode::decode_rgba8(&bytes)
             .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?;
+        ctx.spend(decoded.as_raw().len() as u64, &format!("image '{name}'"))?;
         slot.insert(decoded);
     }
     let rgba = &cache.images[&img.index()];
@@ -364,6 +408,10 @@ fn texture(
         sampler.mag_filter(),
         Some(gltf::texture::MagFilter::Nearest)
     );
+    ctx.spend(
+        rgba.as_raw().len() as u64,
+        &format!("texture {}", tex.index()),
+    )?;
     let index = out.len() as u32;
     out.push(Texture {
         name,
@@ -670,6 +718,7 @@ fn gpu_instances(
     ctx: &Ctx,
     doc: &gltf::Document,
     node: &gltf::Node,
+    max: usize,
 ) -> Result<Option<Vec<DAffine3>>> {
     let Some(ext) = node
         .extensions()
@@ -714,6 +763,12 @@ fn gpu_instances(
     .flatten()
     .max()
     .unwrap_or(0);
+    if count > max {
+        return Err(ctx.err(format!(
+            "node {}: EXT_mesh_gpu_instancing adds {count} instances, over the {MAX_SCENE_INSTANCES} instance limit",
+            node.index()
+        )));
+    }
     let mut out = Vec::with_capacity(count);
     for i in 0..count {
         let tr = t
@@ -779,7 +834,14 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
         }
         if let Some(mesh) = node.mesh() {
             let locals =
-                gpu_instances(ctx, doc, &node)?.unwrap_or_else(|| vec![DAffine3::IDENTITY]);
+                gpu_instances(ctx, doc, &node, MAX_SCENE_INSTANCES - scene.instances.len())?
+                    .unwrap_or_else(|| vec![DAffine3::IDENTITY]);
+            if scene.instances.len() + locals.len() > MAX_SCENE_INSTANCES {
+                return Err(ctx.err(format!(
+                    "node {} would take the scene over {MAX_SCENE_INSTANCES} instances",
+                    node.index()
+                )));
+            }
             for local in locals {
                 let transform = world * local;
                 match instance_problem(&transform) {

@@ -21,7 +21,7 @@ use glam::{DAffine3, DQuat, DVec3};
 use serde::Deserialize;
 use std::path::Path;
 
-/// Most placements a manifest may ask for (grid cells × entries).
+/// Most placements (grid cells) one manifest entry may ask for.
 pub const MAX_PLACEMENTS: u64 = 20_000_000;
 
 #[derive(Deserialize)]
@@ -80,11 +80,22 @@ struct Manifest {
     procedural: Vec<ProceduralEntry>,
 }
 
+/// Grid cells of a placement (1 without a grid), before anything is built.
+fn cells(p: &Placement) -> usize {
+    p.grid.as_ref().map_or(1, |g| {
+        g.count
+            .iter()
+            .map(|&c| c as u64)
+            .product::<u64>()
+            .min(usize::MAX as u64) as usize
+    })
+}
+
 fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
     let err = |m: String| Error::scene(path, format!("{what}: {m}"));
-    if !(p.scale.is_finite() && p.scale > 0.0 && p.scale <= 1e6) {
+    if !(p.scale.is_finite() && (1e-6..=1e6).contains(&p.scale)) {
         return Err(err(format!(
-            "scale {} must be a number in (0, 1e6]",
+            "scale {} must be a number in [1e-6, 1e6]",
             p.scale
         )));
     }
@@ -115,6 +126,14 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
     }
     if !g.spacing.iter().all(|v| v.is_finite() && v.abs() <= 1e6) {
         return Err(err("grid spacing must be finite, at most 1e6 m".into()));
+    }
+    let reach = (0..3)
+        .map(|k| p.translation[k].abs() + g.count[k] as f64 * g.spacing[k].abs())
+        .fold(0.0, f64::max);
+    if reach > 1e9 {
+        return Err(err(format!(
+            "the grid reaches {reach:.3e} m from the origin, beyond 1e9 m"
+        )));
     }
     let mut out = Vec::with_capacity(cells as usize);
     for z in 0..g.count[2] {
@@ -177,14 +196,14 @@ pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
         ..Scene::default()
     };
     for (i, g) in m.gltf.iter().enumerate() {
-        let place = placements(path, &format!("gltf[{i}]"), &g.place)?;
         let sub = gltf_load::load(&dir.join(&g.file))?;
-        check_budget(path, &scene, sub.instances.len(), place.len())?;
+        check_budget(path, &scene, sub.instances.len(), cells(&g.place))?;
+        let place = placements(path, &format!("gltf[{i}]"), &g.place)?;
         scene.append(&sub, &place);
     }
     for (i, p) in m.procedural.iter().enumerate() {
+        check_budget(path, &scene, p.instances, cells(&p.place))?;
         let place = placements(path, &format!("procedural[{i}]"), &p.place)?;
-        check_budget(path, &scene, p.instances, place.len())?;
         let sub = match p.kind.as_str() {
             "factory" => factory::generate(p.instances, p.seed)?,
             other => {

@@ -18,13 +18,34 @@ pub const MAX_RESOURCE_FILE_BYTES: u64 = 4 << 30;
 /// Reads the resource `uri` refers to from `dir` (the scene file's folder),
 /// or decodes it when it is a data: URI. The error says why it was refused.
 pub fn read(dir: &Path, uri: &str) -> Result<Vec<u8>, String> {
+    read_within(dir, uri, u64::MAX)
+}
+
+/// Like [`read`], refusing (before allocating) a resource larger than
+/// `max_bytes`: what is left of a scene's total resource budget.
+pub fn read_within(dir: &Path, uri: &str, max_bytes: u64) -> Result<Vec<u8>, String> {
     if let Some(rest) = uri.strip_prefix("data:") {
+        let payload = rest
+            .split_once(";base64,")
+            .map_or(0, |(_, p)| p.len() as u64);
+        if payload / 4 * 3 > max_bytes {
+            return Err(format!(
+                "data URI would exceed the scene's remaining resource budget of {max_bytes} bytes"
+            ));
+        }
         return decode_data(rest);
     }
     let file = confine(dir, uri)?;
     let meta = std::fs::metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?;
     if !meta.is_file() {
         return Err(format!("{} is not a regular file", file.display()));
+    }
+    if meta.len() > max_bytes {
+        return Err(format!(
+            "{} ({} bytes) would exceed the scene's remaining resource budget of {max_bytes} bytes",
+            file.display(),
+            meta.len()
+        ));
     }
     if meta.len() > MAX_RESOURCE_FILE_BYTES {
         return Err(format!(
@@ -128,10 +149,13 @@ pub fn percent_decode(s: &str) -> String {
     let mut i = 0;
     while i < bytes.len() {
         if bytes[i] == b'%' && i + 2 < bytes.len() {
-            if let Some(v) = std::str::from_utf8(&bytes[i + 1..i + 3])
-                .ok()
-                .and_then(|h| u8::from_str_radix(h, 16).ok())
-            {
+            let (h, l) = (bytes[i + 1], bytes[i + 2]);
+            if let (true, Some(v)) = (
+                h.is_ascii_hexdigit() && l.is_ascii_hexdigit(),
+                std::str::from_utf8(&bytes[i + 1..i + 3])
+                    .ok()
+                    .and_then(|x| u8::from_str_radix(x, 16).ok()),
+            ) {
                 out.push(v);
                 i += 3;
                 continue;
@@ -210,5 +234,6 @@ mod tests {
         assert_eq!(percent_decode("a%20b%zz%4"), "a b%zz%4");
         assert_eq!(percent_decode("%"), "%");
         assert_eq!(percent_decode("é%41"), "éA");
+        assert_eq!(percent_decode("%+F"), "%+F");
     }
 }

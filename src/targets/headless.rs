@@ -390,16 +390,32 @@ pub fn save_pair(dir: &Path, images: &[image::RgbaImage; 2]) -> Result<()> {
 }
 
 /// Writes `value` as pretty-printed JSON to `path`, creating its folder.
+/// The JSON streams through a buffered writer into `path.tmp`, renamed
+/// into place at the end (no whole-document string in memory; no
+/// half-written file on failure).
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
+    use std::io::Write as _;
     let out = |e: String| Error::Output {
         path: path.to_path_buf(),
         message: e,
     };
-    let json = serde_json::to_string_pretty(value).map_err(|e| out(e.to_string()))?;
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
         std::fs::create_dir_all(dir).map_err(|e| out(e.to_string()))?;
     }
-    std::fs::write(path, json).map_err(|e| out(e.to_string()))
+    let tmp = path.with_extension("json.tmp");
+    let file = std::fs::File::create(&tmp).map_err(|e| out(e.to_string()))?;
+    let mut w = std::io::BufWriter::new(file);
+    let written = serde_json::to_writer_pretty(&mut w, value)
+        .map_err(|e| e.to_string())
+        .and_then(|()| w.flush().map_err(|e| e.to_string()));
+    drop(w);
+    match written {
+        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| out(e.to_string())),
+        Err(e) => {
+            let _ = std::fs::remove_file(&tmp);
+            Err(out(e))
+        }
+    }
 }
 
 /// Writes an RGBA image as PNG.

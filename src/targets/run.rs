@@ -305,6 +305,8 @@ pub struct RunStats {
     pub gpu_allocated_bytes: [u64; 2],
     #[serde(skip)]
     series: Series,
+    #[serde(skip)]
+    started: Option<Instant>,
     /// Frames ended with xrEndFrame success (headless: rendered).
     pub frames_submitted: u64,
     /// Frames rendered (shouldRender true).
@@ -428,6 +430,18 @@ impl RunStats {
         self.frames.push(&f)
     }
 
+    /// When the run began (the first call starts the clock); `--seconds`
+    /// counts from here across reconnects.
+    pub fn run_started(&mut self) -> Instant {
+        *self.started.get_or_insert_with(Instant::now)
+    }
+
+    /// Marks the start of an OpenXR session: the next frame's predicted
+    /// display time is not compared with the previous session's.
+    pub fn begin_session(&mut self) {
+        self.series.last_display_time_ns = None;
+    }
+
     /// Records GPU memory after warm-up (`end` false) or at the end.
     pub fn sample_memory(&mut self, ctx: &Context, end: bool) {
         let i = usize::from(end);
@@ -526,7 +540,8 @@ fn xr_with_reconnect(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             Err(e) if args.reconnect && e.is_runtime_loss() => reconnect_after(&e, args, stats)?,
             other => return other,
         }
-        if crate::quit::requested() || args.frames.is_some_and(|n| stats.frames_submitted >= n) {
+        let started = stats.run_started();
+        if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
             return Ok(());
         }
     }

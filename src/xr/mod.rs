@@ -693,8 +693,9 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     };
     let result = frame_loop(stats, &mut live, &mut state);
     stats.sample_memory(&ctx, true);
-    stats.validation_messages = ctx.validation_messages();
-    stats.xr_validation_messages = live
+    // Added, not assigned: with --reconnect a run holds several sessions.
+    stats.validation_messages += ctx.validation_messages();
+    stats.xr_validation_messages += live
         .messenger
         .as_ref()
         .map_or(0, |m| m.log.count.load(Ordering::SeqCst));
@@ -755,7 +756,10 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
     let mut machine = SessionMachine::default();
     let mut buf = xr::EventDataBuffer::new();
-    let started = Instant::now();
+    // --seconds counts from the run's start, across reconnects.
+    let started = stats.run_started();
+    let session_started = Instant::now();
+    stats.begin_session();
     let mut index = 0u64;
     let result: Result<String> = 'main: loop {
         if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
@@ -853,7 +857,7 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
             Err(e) => break 'main Err(e),
         }
     };
-    stats.duration_s = started.elapsed().as_secs_f64();
+    stats.duration_s += session_started.elapsed().as_secs_f64();
     stats.focused = machine.was_focused();
     match result {
         Ok(reason) => {
