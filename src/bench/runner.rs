@@ -356,6 +356,7 @@ fn run_group(
     tick("reference");
     for c in &plan.configs {
         if crate::quit::requested() {
+            fill_speedups(group);
             return Ok(false);
         }
         let config = config_from_opt(&c.opt)?;
@@ -378,6 +379,7 @@ fn run_group(
             (c.name == group.baseline).then_some(&mut group.floors),
         )?
         else {
+            fill_speedups(group);
             return Ok(false);
         };
         r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
@@ -390,6 +392,13 @@ fn run_group(
         group.results.push(r);
         tick(&c.name);
     }
+    fill_speedups(group);
+    Ok(true)
+}
+
+/// Speed-ups against the group's baseline, when it was measured (also for
+/// a group cut short by Ctrl-C).
+fn fill_speedups(group: &mut Group) {
     let base = group
         .results
         .iter()
@@ -401,7 +410,6 @@ fn run_group(
             r.frame_speedup = (r.frame_ms.p50 > 0.0).then(|| frame / r.frame_ms.p50);
         }
     }
-    Ok(true)
 }
 
 /// What a configuration's images are compared with.
