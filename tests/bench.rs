@@ -313,3 +313,68 @@ fn ctrl_c_writes_what_finished() {
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("INCOMPLETE"));
 }
+
+#[test]
+fn ctrl_c_keeps_the_finished_group_and_drops_the_unfinished_configuration() {
+    let dir = common::scratch("bench", "interrupt-late");
+    let plan = dir.join("two-groups.toml");
+    // A small group that finishes in seconds, then a large one that would
+    // take minutes.
+    let mut text = String::from(
+        "name = \"two\"\nscenes = [\"factory:300\"]\nhmds = [\"monado-sim\"]\nscales = [0.1, 2.0]\nwarmup = 1\nframes = 150\nerror_frames = 1\nbaseline = \"b\"\n",
+    );
+    for name in ["b", "c"] {
+        text.push_str(&format!(
+            "[[configs]]\nname = \"{name}\"\nopt = \"two-pass,per-eye\"\n"
+        ));
+    }
+    std::fs::write(&plan, text).unwrap();
+    let out = dir.join("out");
+    let mut child = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "bench",
+            "--plan",
+            plan.to_str().unwrap(),
+            "--out",
+            out.to_str().unwrap(),
+        ])
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::null())
+        .spawn()
+        .unwrap();
+    let first_done = out.join("images/factory_300-monado-sim-0.1/c.png");
+    let t = std::time::Instant::now();
+    while !first_done.exists() {
+        assert!(
+            t.elapsed().as_secs() < 120,
+            "the first group never finished"
+        );
+        assert!(child.try_wait().unwrap().is_none(), "exited early");
+        std::thread::sleep(std::time::Duration::from_millis(50));
+    }
+    std::thread::sleep(std::time::Duration::from_millis(300));
+    // SAFETY: signalling our own child.
+    unsafe { libc::kill(child.id() as i32, libc::SIGINT) };
+    let status = child.wait().unwrap();
+    assert!(!status.success());
+    let results: BenchResults =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert!(!results.complete);
+    let first = &results.groups[0];
+    let names: Vec<&str> = first.results.iter().map(|r| r.name.as_str()).collect();
+    assert_eq!(names, ["reference", "b", "c"]);
+    assert!(first
+        .results
+        .iter()
+        .all(|r| r.frames == 150 && r.gpu_speedup.is_some()));
+    // The second group holds only what finished before the signal, each
+    // configuration fully measured.
+    if let Some(second) = results.groups.get(1) {
+        assert!(
+            second.results.iter().all(|r| r.frames == 150),
+            "{:?}",
+            second.results.len()
+        );
+        assert!(second.results.len() < 3);
+    }
+}
