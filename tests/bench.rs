@@ -267,6 +267,20 @@ fn bad_bench_and_tune_input_is_named() {
     assert!(Path::new(&dir).exists());
 }
 
+/// Starts `vergence bench --plan PLAN --out OUT` in the background.
+fn spawn_bench(plan: &Path, out: &Path, stderr: std::process::Stdio) -> std::process::Child {
+    Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .arg("bench")
+        .arg("--plan")
+        .arg(plan)
+        .arg("--out")
+        .arg(out)
+        .stdout(std::process::Stdio::null())
+        .stderr(stderr)
+        .spawn()
+        .unwrap()
+}
+
 #[test]
 fn ctrl_c_writes_what_finished() {
     let dir = common::scratch("bench", "interrupt");
@@ -281,18 +295,7 @@ fn ctrl_c_writes_what_finished() {
     }
     std::fs::write(&plan, text).unwrap();
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args([
-            "bench",
-            "--plan",
-            plan.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::piped())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_bench(&plan, &out, std::process::Stdio::piped());
     // Let it run a moment (the reference takes far longer than this), then
     // interrupt.
     std::thread::sleep(std::time::Duration::from_millis(1500));
@@ -330,18 +333,7 @@ fn ctrl_c_keeps_the_finished_group_and_drops_the_unfinished_configuration() {
     }
     std::fs::write(&plan, text).unwrap();
     let out = dir.join("out");
-    let mut child = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args([
-            "bench",
-            "--plan",
-            plan.to_str().unwrap(),
-            "--out",
-            out.to_str().unwrap(),
-        ])
-        .stdout(std::process::Stdio::null())
-        .stderr(std::process::Stdio::null())
-        .spawn()
-        .unwrap();
+    let mut child = spawn_bench(&plan, &out, std::process::Stdio::null());
     let first_done = out.join("images/factory_300-monado-sim-0.1/c.png");
     let t = std::time::Instant::now();
     while !first_done.exists() {
