@@ -1109,21 +1109,19 @@ impl Renderer {
                 // beyond D the far field. Margins cover f32 rounding.
                 let d = *split;
                 let margin = 1e-3 * d + 1e-3;
-                let eyes: Vec<(glam::DVec3, glam::DVec3)> = rig
-                    .views
-                    .iter()
-                    .map(|v| (v.pose.position, v.pose.forward()))
-                    .collect();
-                let fars: Vec<(glam::DVec3, glam::DVec3)> = render
-                    .iter()
-                    .filter_map(|&i| self.far_views[i].as_ref())
-                    .map(|v| (v.pose.position, v.pose.forward()))
-                    .collect();
+                // Fixed-size: the frame allocates nothing (two views are
+                // checked above; at most two far cameras).
+                let axis = |v: &crate::view::View| (v.pose.position, v.pose.forward());
+                let eyes = [axis(&rig.views[0]), axis(&rig.views[1])];
+                let mut fars = [None; 2];
+                for (slot, &i) in fars.iter_mut().zip(render.iter()) {
+                    *slot = self.far_views[i].as_ref().map(axis);
+                }
                 self.batcher.build_split(
                     visible,
                     rig.head.position,
                     |c, r| eyes.iter().any(|(p, f)| (c - *p).dot(*f) - r < d + margin),
-                    |c, r| fars.iter().any(|(p, f)| (c - *p).dot(*f) + r > d - margin),
+                    |c, r| fars.iter().flatten().any(|(p, f)| (c - *p).dot(*f) + r > d - margin),
                     &mut batches,
                 );
             }
