@@ -8,7 +8,7 @@ use super::{metrics, process_rss_bytes};
 use crate::config::RenderConfig;
 use crate::cull::bench::{head_path, scene_bounds};
 use crate::error::Result;
-use crate::gpu::{Context, MemoryBudget};
+use crate::gpu::Context;
 use crate::render::{FloorKind, FrameStats, Renderer};
 use crate::scene::Scene;
 use crate::targets::headless::{load_scene, CullState};
@@ -462,23 +462,22 @@ fn measure(
         }
         let cull_ms = t.elapsed().as_secs_f64() * 1e3;
         let measured = i >= plan.warmup as usize;
-        let mut untimed = 0.0;
+        let f = renderer.render(rig, culling.as_ref().map(|c| c.last_visible()), false)?;
+        let wall_ms = t.elapsed().as_secs_f64() * 1e3;
+        if measured {
+            frames.push((f, cull_ms));
+            wall.push(wall_ms);
+        }
+        // The exact-culling ground truth, after the timed frame (the last
+        // cull's output is still the frame's).
         if measured && i < (plan.warmup + n_accuracy) as usize {
             if let Some(c) = &culling {
-                let t_acc = Instant::now();
                 let (fp, fneg) = c.accuracy(rig)?;
                 let a = accuracy.get_or_insert_with(CullAccuracy::default);
                 a.false_positives += fp as f64 / n_accuracy as f64;
                 a.false_negatives += fneg as f64 / n_accuracy as f64;
                 a.false_negatives_total += fneg;
-                untimed = t_acc.elapsed().as_secs_f64() * 1e3;
             }
-        }
-        let f = renderer.render(rig, culling.as_ref().map(|c| c.last_visible()), false)?;
-        if measured {
-            frames.push((f, cull_ms));
-            // The exact-culling ground truth is not part of the frame.
-            wall.push(t.elapsed().as_secs_f64() * 1e3 - untimed);
         }
         if crate::quit::requested() {
             return Ok(None);
@@ -490,14 +489,11 @@ fn measure(
     let mut result = summarize(name, opt, &renderer, &frames, refresh_hz);
     result.wall_frame_ms = Summary::of(&wall);
     result.cull_accuracy = accuracy;
+    let device = ctx.memory_budget();
     result.gpu_memory = GpuMemory {
-        allocated: ctx
-            .memory_by_category
-            .lock()
-            .map(|m| m.values().sum())
-            .unwrap_or(0),
-        usage: ctx.memory_budget().map(|b: MemoryBudget| b.usage),
-        budget: ctx.memory_budget().map(|b| b.budget),
+        allocated: ctx.allocated_bytes(),
+        usage: device.map(|b| b.usage),
+        budget: device.map(|b| b.budget),
     };
     if let Some(images) = images {
         let mut errors = Vec::new();

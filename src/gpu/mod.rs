@@ -278,6 +278,14 @@ impl Context {
         }
     }
 
+    /// Bytes vergence has allocated, over all categories.
+    pub fn allocated_bytes(&self) -> u64 {
+        self.memory_by_category
+            .lock()
+            .map(|m| m.values().sum())
+            .unwrap_or(0)
+    }
+
     /// Device-local memory usage and budget (None without
     /// VK_EXT_memory_budget).
     pub fn memory_budget(&self) -> Option<MemoryBudget> {
@@ -310,11 +318,7 @@ impl Context {
     /// allocated). None when neither is known. Returns (budget, free,
     /// capped by the variable).
     pub fn memory_headroom(&self) -> Option<(u64, u64, bool)> {
-        let allocated: u64 = self
-            .memory_by_category
-            .lock()
-            .map(|m| m.values().sum())
-            .unwrap_or(0);
+        let allocated = self.allocated_bytes();
         let cap = std::env::var("VERGENCE_GPU_MEMORY_BUDGET_MB")
             .ok()
             .and_then(|v| v.trim().parse::<u64>().ok())

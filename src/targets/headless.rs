@@ -139,17 +139,12 @@ pub struct Percentiles {
 }
 
 impl Percentiles {
-    /// Of `v` (unsorted).
+    /// Of `v` (unsorted; nearest rank, as [`crate::bench::stats::Summary`]).
     pub fn of(v: &[f64]) -> Percentiles {
-        if v.is_empty() {
-            return Percentiles::default();
-        }
-        let mut s = v.to_vec();
-        s.sort_by(f64::total_cmp);
-        let rank = |q: f64| s[((q * s.len() as f64).ceil() as usize).clamp(1, s.len()) - 1];
+        let s = crate::bench::stats::Summary::of(v);
         Percentiles {
-            median: rank(0.5),
-            p95: rank(0.95),
+            median: s.p50,
+            p95: s.p95,
         }
     }
 }

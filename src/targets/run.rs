@@ -445,11 +445,7 @@ impl RunStats {
     /// Records GPU memory after warm-up (`end` false) or at the end.
     pub fn sample_memory(&mut self, ctx: &Context, end: bool) {
         let i = usize::from(end);
-        self.gpu_allocated_bytes[i] = ctx
-            .memory_by_category
-            .lock()
-            .map(|m| m.values().sum())
-            .unwrap_or(0);
+        self.gpu_allocated_bytes[i] = ctx.allocated_bytes();
     }
 
     /// Fills the summary from the frames.
