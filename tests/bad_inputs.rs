@@ -12,24 +12,7 @@ fn root() -> PathBuf {
 
 /// Runs vergence and returns stderr, asserting failure without a panic.
 fn fails(args: &[&str]) -> String {
-    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args(args)
-        .output()
-        .expect("vergence runs");
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "expected failure for {args:?}");
-    assert_ne!(
-        out.status.code(),
-        Some(101),
-        "panicked for {args:?}: {stderr}"
-    );
-    assert!(
-        !stderr.contains("panicked"),
-        "panicked for {args:?}: {stderr}"
-    );
-    let errors = stderr.lines().filter(|l| l.starts_with("error:")).count();
-    assert_eq!(errors, 1, "one error line expected: {stderr}");
-    stderr
+    common::fails_with_one_error(Command::new(env!("CARGO_BIN_EXE_vergence")).args(args))
 }
 
 fn inspect_fails(path: &Path, expect: &[&str]) {

@@ -5,15 +5,11 @@ mod common;
 
 use std::process::Command;
 
+/// The one `error:` line of a failing run.
 fn failing(cmd: &mut Command) -> String {
-    let out = cmd.output().expect("vergence runs");
-    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
-    assert!(!out.status.success(), "expected failure: {stderr}");
-    assert_ne!(out.status.code(), Some(101), "panicked: {stderr}");
-    assert!(!stderr.contains("panicked"), "{stderr}");
-    let errors: Vec<&str> = stderr.lines().filter(|l| l.starts_with("error:")).collect();
-    assert_eq!(errors.len(), 1, "one error line: {stderr}");
-    errors[0].to_string()
+    let stderr = common::fails_with_one_error(cmd);
+    let line = stderr.lines().find(|l| l.starts_with("error:"));
+    line.expect("checked").to_string()
 }
 
 #[test]

@@ -409,6 +409,22 @@ fn start_logged(
     (child, rx, log)
 }
 
+/// Waits (30 s at most) for the session to reach FOCUSED.
+fn await_focused(focused: &std::sync::mpsc::Receiver<()>, log: &Arc<Mutex<String>>) {
+    focused
+        .recv_timeout(Duration::from_secs(30))
+        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+}
+
+/// The pid of the monado-service `scripts/with-monado` started in `rundir`.
+fn monado_pid(rundir: &Path) -> i32 {
+    std::fs::read_to_string(rundir.join("monado.pid"))
+        .expect("monado pid")
+        .trim()
+        .parse()
+        .expect("pid")
+}
+
 fn signal(pid: i32, sig: i32) {
     // SAFETY: sending a signal to a process this test started.
     assert_eq!(unsafe { libc::kill(pid, sig) }, 0, "kill({pid}, {sig})");
@@ -441,13 +457,10 @@ fn killing_monado_mid_session_ends_vergence_within_5_s_with_a_clear_error() {
     let _g = lock();
     let rundir = out_dir("kill").join("run");
     let (mut child, focused, log) = start_logged(&rundir, &[]);
-    focused
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    await_focused(&focused, &log);
     std::thread::sleep(Duration::from_millis(500));
-    let pid = std::fs::read_to_string(rundir.join("monado.pid")).expect("monado pid");
     let killed = Instant::now();
-    signal(pid.trim().parse().expect("pid"), libc::SIGKILL);
+    signal(monado_pid(&rundir), libc::SIGKILL);
     let status = wait_exit(&mut child, Duration::from_secs(5));
     let took = killed.elapsed();
     let Some(status) = status else {
@@ -481,9 +494,7 @@ fn sigterm_ends_the_session_in_order() {
     let rundir = dir.join("run");
     let s_arg = s_path.to_string_lossy().to_string();
     let (mut child, focused, log) = start_logged(&rundir, &["--stats-out", &s_arg]);
-    focused
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    await_focused(&focused, &log);
     std::thread::sleep(Duration::from_millis(300));
     let pid = child_named(child.id(), "vergence").expect("vergence is a child of with-monado");
     signal(pid, libc::SIGTERM);
@@ -568,16 +579,9 @@ fn reconnect_survives_monado_restarting() {
     let rundir = dir.join("run");
     let s_arg = s_path.to_string_lossy().to_string();
     let (mut child, focused, log) = start_logged(&rundir, &["--reconnect", "--stats-out", &s_arg]);
-    focused
-        .recv_timeout(Duration::from_secs(30))
-        .unwrap_or_else(|_| panic!("never FOCUSED: {}", log.lock().unwrap()));
+    await_focused(&focused, &log);
     std::thread::sleep(Duration::from_millis(300));
-    let first: i32 = std::fs::read_to_string(rundir.join("monado.pid"))
-        .expect("monado pid")
-        .trim()
-        .parse()
-        .expect("pid");
-    signal(first, libc::SIGKILL);
+    signal(monado_pid(&rundir), libc::SIGKILL);
     std::thread::sleep(Duration::from_millis(1500));
     assert!(
         child.try_wait().expect("wait").is_none(),

@@ -1121,7 +1121,11 @@ impl Renderer {
                     visible,
                     rig.head.position,
                     |c, r| eyes.iter().any(|(p, f)| (c - *p).dot(*f) - r < d + margin),
-                    |c, r| fars.iter().flatten().any(|(p, f)| (c - *p).dot(*f) + r > d - margin),
+                    |c, r| {
+                        fars.iter()
+                            .flatten()
+                            .any(|(p, f)| (c - *p).dot(*f) + r > d - margin)
+                    },
                     &mut batches,
                 );
             }

@@ -25,6 +25,30 @@ pub fn scratch(test: &str, name: &str) -> PathBuf {
     dir
 }
 
+/// Runs `cmd` (vergence) and returns its stderr, asserting the failure a
+/// user should see: a non-zero exit that is not a panic, and exactly one
+/// `error:` line.
+pub fn fails_with_one_error(cmd: &mut std::process::Command) -> String {
+    let out = cmd.output().expect("vergence runs");
+    let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(
+        !out.status.success(),
+        "expected failure for {cmd:?}: {stderr}"
+    );
+    assert_ne!(
+        out.status.code(),
+        Some(101),
+        "panicked for {cmd:?}: {stderr}"
+    );
+    assert!(
+        !stderr.contains("panicked"),
+        "panicked for {cmd:?}: {stderr}"
+    );
+    let errors = stderr.lines().filter(|l| l.starts_with("error:")).count();
+    assert_eq!(errors, 1, "one error line expected: {stderr}");
+    stderr
+}
+
 /// Validation must be on in tests; `VERGENCE_VALIDATION=required` (set by
 /// `cargo xtask test`) makes a missing layer an error.
 pub fn context() -> Arc<Context> {
