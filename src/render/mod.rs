@@ -173,9 +173,9 @@ pub struct Renderer {
     /// and offsets, fixed at creation.
     vertex_buffers: Vec<vk::Buffer>,
     vertex_offsets: Vec<u64>,
-    /// This frame's monoscopic far field: split distance, and which far
-    /// images are rendered this frame.
-    mffr_frame: Option<(f64, Vec<usize>)>,
+    /// This frame's monoscopic far field: split distance, and which of the
+    /// (up to two) far images are rendered this frame.
+    mffr_frame: Option<(f64, [bool; 2])>,
     /// The view each far image was (or is being) rendered from (UBO views
     /// 2 and 3).
     far_views: [Option<crate::view::View>; 2],
@@ -1070,7 +1070,7 @@ impl Renderer {
                         // on the first); each from its eye, covering the
                         // centre camera's union FOV.
                         let p = (self.frame_index % 2) as usize;
-                        let mut render = Vec::new();
+                        let mut render = [false; 2];
                         for (i, v) in rig.views.iter().take(2).enumerate() {
                             if i == p || self.far_views[i].is_none() {
                                 self.far_views[i] = Some(crate::view::View {
@@ -1080,14 +1080,14 @@ impl Renderer {
                                     },
                                     fov: centre.fov,
                                 });
-                                render.push(i);
+                                render[i] = true;
                             }
                         }
                         Some((split, render))
                     }
                     Some(centre) => {
                         self.far_views = [Some(centre), None];
-                        Some((split, vec![0]))
+                        Some((split, [true, false]))
                     }
                     None => {
                         self.mffr_fallbacks += 1;
@@ -1114,8 +1114,8 @@ impl Renderer {
                 let axis = |v: &crate::view::View| (v.pose.position, v.pose.forward());
                 let eyes = [axis(&rig.views[0]), axis(&rig.views[1])];
                 let mut fars = [None; 2];
-                for (slot, &i) in fars.iter_mut().zip(render.iter()) {
-                    *slot = self.far_views[i].as_ref().map(axis);
+                for i in (0..2).filter(|&i| render[i]) {
+                    fars[i] = self.far_views[i].as_ref().map(axis);
                 }
                 self.batcher.build_split(
                     visible,
@@ -1362,15 +1362,18 @@ impl Renderer {
             if let (Some(far), None, Some((_, render))) = (&self.far, floor, &self.mffr_frame) {
                 draw_calls += self.record_far(cmd, q, batches, far, render);
             }
-            let passes: Vec<(attachments::TargetViews, u32, u32, &'static str)> =
-                match self.config.stereo {
-                    StereoMode::Multiview => vec![(targets.sets[0].views(), 0b11, 0, "forward")],
-                    StereoMode::TwoPass => vec![
-                        (targets.sets[0].views(), 0, 0, "forward"),
-                        (targets.sets[1].views(), 0, 1, "forward"),
-                    ],
-                };
-            for (views, mask, eye, name) in passes {
+            // (views, view mask, eye, pass name); an array, not a Vec: no
+            // allocation while recording.
+            let passes = match self.config.stereo {
+                StereoMode::Multiview => {
+                    [Some((targets.sets[0].views(), 0b11, 0, "forward")), None]
+                }
+                StereoMode::TwoPass => [
+                    Some((targets.sets[0].views(), 0, 0, "forward")),
+                    Some((targets.sets[1].views(), 0, 1, "forward")),
+                ],
+            };
+            for (views, mask, eye, name) in passes.into_iter().flatten() {
                 q.begin_pass(ctx, cmd, name);
                 let clear_color = vk::ClearValue {
                     color: vk::ClearColorValue {
@@ -1677,13 +1680,13 @@ impl Renderer {
         q: &mut Queries,
         batches: &Batches,
         far: &FarField,
-        render: &[usize],
+        render: &[bool; 2],
     ) -> u64 {
         let ctx = &self.ctx;
         let d = &ctx.device;
         let mut draws = 0;
         q.begin_pass(ctx, cmd, "mffr-far");
-        for &i in render {
+        for i in (0..2).filter(|&i| render[i]) {
             let set = &far.sets[i];
             let barriers = attachments::begin_barriers(std::slice::from_ref(set));
             let views = set.views();
