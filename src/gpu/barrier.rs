@@ -1,4 +1,5 @@
-//! Image layout transitions as data: each side of a barrier is a [`Use`]
+//! Image layout transitions as data, and the buffer↔image copy region
+//! vergence uses: each side of a barrier is a [`Use`]
 //! (layout, pipeline stages, accesses), so a transition reads as
 //! "from this use to that use".
 
@@ -41,6 +42,16 @@ impl Use {
         access: vk::AccessFlags2::TRANSFER_WRITE,
     };
 
+    /// Read as a fragment-shading-rate attachment. The stage is
+    /// ALL_COMMANDS rather than the shading-rate stage: older validation
+    /// layers mistake that bit for the NV shading-rate-image stage it
+    /// aliases (used for one-time uploads only).
+    pub const SHADING_RATE: Use = Use {
+        layout: vk::ImageLayout::FRAGMENT_SHADING_RATE_ATTACHMENT_OPTIMAL_KHR,
+        stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+        access: vk::AccessFlags2::FRAGMENT_SHADING_RATE_ATTACHMENT_READ_KHR,
+    };
+
     /// The same stages with the contents discarded (old layout UNDEFINED,
     /// no access to wait for): for images about to be overwritten.
     pub fn discarded(self) -> Use {
@@ -61,6 +72,18 @@ pub fn image(
     from: Use,
     to: Use,
 ) -> vk::ImageMemoryBarrier2<'static> {
+    image_level(image, aspect, 0, layers, from, to)
+}
+
+/// Like [`image`], for mip level `level`.
+pub fn image_level(
+    image: vk::Image,
+    aspect: vk::ImageAspectFlags,
+    level: u32,
+    layers: u32,
+    from: Use,
+    to: Use,
+) -> vk::ImageMemoryBarrier2<'static> {
     vk::ImageMemoryBarrier2::default()
         .src_stage_mask(from.stage)
         .src_access_mask(from.access)
@@ -71,9 +94,27 @@ pub fn image(
         .image(image)
         .subresource_range(vk::ImageSubresourceRange {
             aspect_mask: aspect,
-            base_mip_level: 0,
+            base_mip_level: level,
             level_count: 1,
             base_array_layer: 0,
             layer_count: layers,
+        })
+}
+
+/// A copy between a tightly packed buffer (from byte `offset`) and mip 0 of
+/// `layers` layers of a `width`×`height` colour image.
+pub fn color_copy(offset: u64, layers: u32, width: u32, height: u32) -> vk::BufferImageCopy {
+    vk::BufferImageCopy::default()
+        .buffer_offset(offset)
+        .image_subresource(vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: 0,
+            layer_count: layers,
+        })
+        .image_extent(vk::Extent3D {
+            width,
+            height,
+            depth: 1,
         })
 }

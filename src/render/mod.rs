@@ -777,49 +777,27 @@ impl Renderer {
                 },
             )?);
         }
-        let range = vk::ImageSubresourceRange {
-            aspect_mask: vk::ImageAspectFlags::COLOR,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: layers,
-        };
         let d = &self.ctx.device;
         let rates = &self.rates;
         let buf = staging.buffer;
         let upload = self.ctx.one_shot(|cmd| {
             for img in rates {
-                let to_dst = [vk::ImageMemoryBarrier2::default()
-                    .dst_stage_mask(vk::PipelineStageFlags2::COPY)
-                    .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                    .old_layout(vk::ImageLayout::UNDEFINED)
-                    .new_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .image(img.image)
-                    .subresource_range(range)];
-                let copy = vk::BufferImageCopy::default()
-                    .image_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: layers,
-                    })
-                    .image_extent(vk::Extent3D {
-                        width: tw,
-                        height: th,
-                        depth: 1,
-                    });
-                let to_rate = [vk::ImageMemoryBarrier2::default()
-                    .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                    .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                    // ALL_COMMANDS rather than the shading-rate stage: older
-                    // validation layers mistake that bit for the NV
-                    // shading-rate-image stage it aliases (a one-time upload).
-                    .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-                    .dst_access_mask(vk::AccessFlags2::FRAGMENT_SHADING_RATE_ATTACHMENT_READ_KHR)
-                    .old_layout(vk::ImageLayout::TRANSFER_DST_OPTIMAL)
-                    .new_layout(vk::ImageLayout::FRAGMENT_SHADING_RATE_ATTACHMENT_OPTIMAL_KHR)
-                    .image(img.image)
-                    .subresource_range(range)];
+                let color = vk::ImageAspectFlags::COLOR;
+                let to_dst = [barrier::image(
+                    img.image,
+                    color,
+                    layers,
+                    Use::TRANSFER_DST.discarded(),
+                    Use::TRANSFER_DST,
+                )];
+                let copy = barrier::color_copy(0, layers, tw, th);
+                let to_rate = [barrier::image(
+                    img.image,
+                    color,
+                    layers,
+                    Use::TRANSFER_DST,
+                    Use::SHADING_RATE,
+                )];
                 // SAFETY: recording into the one-shot command buffer; the
                 // staging buffer holds `layers` copies of the rate image.
                 unsafe {
@@ -1861,19 +1839,7 @@ impl Renderer {
                 };
                 back.push(barrier::image(image, c, layers, done, handed_back));
             }
-            let copy = vk::BufferImageCopy::default()
-                .buffer_offset(offset)
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: layers,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w as u32,
-                    height: h as u32,
-                    depth: 1,
-                });
+            let copy = barrier::color_copy(offset, layers, w as u32, h as u32);
             copies.push((image, copy));
             offset += w * h * 4 * layers as u64;
         }

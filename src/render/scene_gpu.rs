@@ -3,6 +3,7 @@
 //! load through staging buffers.
 
 use crate::error::{Result, VkContext};
+use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::Context;
 use crate::scene::{AlphaMode, Scene, SceneFeatures};
@@ -422,56 +423,21 @@ fn upload_texture(
         rgba,
     )?;
     let d = &ctx.device;
-    let barrier = |level: u32,
-                   old: vk::ImageLayout,
-                   new: vk::ImageLayout,
-                   src: vk::AccessFlags2,
-                   dst: vk::AccessFlags2| {
-        vk::ImageMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-            .dst_stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)
-            .src_access_mask(src)
-            .dst_access_mask(dst)
-            .old_layout(old)
-            .new_layout(new)
-            .image(image.image)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                base_mip_level: level,
-                level_count: 1,
-                base_array_layer: 0,
-                layer_count: 1,
-            })
+    let barrier = |level: u32, from: Use, to: Use| {
+        barrier::image_level(image.image, vk::ImageAspectFlags::COLOR, level, 1, from, to)
     };
     let r = ctx.one_shot(|cb| {
         // SAFETY: recording transfers on live objects; layouts tracked per level.
         unsafe {
             let mut pre = Vec::new();
             for l in 0..mips {
-                pre.push(barrier(
-                    l,
-                    vk::ImageLayout::UNDEFINED,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    vk::AccessFlags2::NONE,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                ));
+                pre.push(barrier(l, Use::TRANSFER_DST.discarded(), Use::TRANSFER_DST));
             }
             d.cmd_pipeline_barrier2(
                 cb,
                 &vk::DependencyInfo::default().image_memory_barriers(&pre),
             );
-            let copy = vk::BufferImageCopy::default()
-                .image_subresource(vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                })
-                .image_extent(vk::Extent3D {
-                    width: w,
-                    height: h,
-                    depth: 1,
-                });
+            let copy = barrier::color_copy(0, 1, w, h);
             d.cmd_copy_buffer_to_image(
                 cb,
                 staging.buffer,
@@ -481,13 +447,7 @@ fn upload_texture(
             );
             let (mut mw, mut mh) = (w as i32, h as i32);
             for l in 1..mips {
-                let b = [barrier(
-                    l - 1,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                    vk::AccessFlags2::TRANSFER_READ,
-                )];
+                let b = [barrier(l - 1, Use::TRANSFER_DST, Use::TRANSFER_SRC)];
                 d.cmd_pipeline_barrier2(
                     cb,
                     &vk::DependencyInfo::default().image_memory_barriers(&b),
@@ -517,18 +477,14 @@ fn upload_texture(
             }
             let mut post = Vec::new();
             for l in 0..mips {
-                let old = if l + 1 < mips {
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL
+                // Every level but the last was a blit source; the last was
+                // only written.
+                let from = if l + 1 < mips {
+                    Use::TRANSFER_SRC
                 } else {
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL
+                    Use::TRANSFER_DST
                 };
-                post.push(barrier(
-                    l,
-                    old,
-                    vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                    vk::AccessFlags2::TRANSFER_WRITE,
-                    vk::AccessFlags2::SHADER_READ,
-                ));
+                post.push(barrier(l, from, Use::SAMPLED));
             }
             d.cmd_pipeline_barrier2(
                 cb,
