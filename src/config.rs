@@ -63,7 +63,13 @@ pub struct RenderConfig {
     pub rdm_fill: bool,
     /// Monoscopic far-field rendering (`mffr`, `mffr=D`, `mffr-depth-shift`).
     pub mffr: Option<Mffr>,
+    /// Frames the CPU may prepare while the GPU still renders earlier ones
+    /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
+    pub frames_in_flight: u32,
 }
+
+/// Most frames in flight `--frames-in-flight` accepts.
+pub const MAX_FRAMES_IN_FLIGHT: u32 = 3;
 
 /// Monoscopic far-field settings.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
@@ -98,6 +104,7 @@ impl Default for RenderConfig {
             rdm: None,
             rdm_fill: true,
             mffr: None,
+            frames_in_flight: 2,
         }
     }
 }
@@ -109,6 +116,15 @@ impl RenderConfig {
             return Err(Error::config(
                 "--msaa",
                 format!("{} (supported: 1, 4)", self.msaa),
+            ));
+        }
+        if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&self.frames_in_flight) {
+            return Err(Error::config(
+                "--frames-in-flight",
+                format!(
+                    "{} (supported: 1 to {MAX_FRAMES_IN_FLIGHT})",
+                    self.frames_in_flight
+                ),
             ));
         }
         if !(self.near.is_finite() && self.near > 0.0) {

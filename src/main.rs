@@ -41,6 +41,10 @@ enum Command {
         /// Override the plan's measured frames per configuration.
         #[arg(long, value_parser = clap::value_parser!(u32).range(1..=100_000))]
         frames: Option<u32>,
+        /// Override the plan's frames in flight (1 to 3) for every
+        /// configuration that does not set its own.
+        #[arg(long, value_parser = clap::value_parser!(u32).range(1..=3))]
+        frames_in_flight: Option<u32>,
     },
     /// Measure candidate optimization stacks and pick the one that meets a
     /// frame budget with the least error (or the fastest under an error cap);
@@ -127,6 +131,10 @@ struct FrameOpts {
     /// MSAA samples: 1 or 4.
     #[arg(long, default_value_t = 4)]
     msaa: u32,
+    /// Frames the CPU prepares while the GPU renders earlier ones (1 to 3;
+    /// 1 waits for each frame before starting the next).
+    #[arg(long, default_value_t = 2)]
+    frames_in_flight: u32,
     /// Per-eye width in pixels (default: the runtime's recommended size,
     /// else the profile's).
     #[arg(long, requires = "height")]
@@ -153,6 +161,7 @@ impl FrameOpts {
         let mut config = RenderConfig {
             stereo: self.stereo,
             msaa: self.msaa,
+            frames_in_flight: self.frames_in_flight,
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {
@@ -331,7 +340,12 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::CullBench(args) => cull_bench(&args)?,
-        Command::Bench { plan, out, frames } => bench(&plan, &out, frames)?,
+        Command::Bench {
+            plan,
+            out,
+            frames,
+            frames_in_flight,
+        } => bench(&plan, &out, frames, frames_in_flight)?,
         Command::Tune {
             budget_ms,
             max_flip,
@@ -469,8 +483,16 @@ fn run_bench(
     Ok(results)
 }
 
-fn bench(plan: &str, out: &std::path::Path, frames: Option<u32>) -> anyhow::Result<()> {
+fn bench(
+    plan: &str,
+    out: &std::path::Path,
+    frames: Option<u32>,
+    frames_in_flight: Option<u32>,
+) -> anyhow::Result<()> {
     let mut plan = vergence::bench::plan::Plan::resolve(plan)?;
+    if let Some(n) = frames_in_flight {
+        plan.frames_in_flight = n;
+    }
     if let Some(n) = frames {
         plan.frames = n;
         plan.error_frames = plan.error_frames.min(n);

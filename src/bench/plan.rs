@@ -16,6 +16,9 @@ pub struct PlanConfig {
     /// culling, every optimization off).
     #[serde(default)]
     pub opt: String,
+    /// Frames in flight for this configuration (default: the plan's).
+    #[serde(default)]
+    pub frames_in_flight: Option<u32>,
 }
 
 /// A benchmark plan.
@@ -51,6 +54,10 @@ pub struct Plan {
     /// first).
     #[serde(default)]
     pub baseline: Option<String>,
+    /// Frames in flight of every configuration that does not set its own
+    /// (1 to 3; `bench --frames-in-flight` overrides it).
+    #[serde(default = "default_frames_in_flight")]
+    pub frames_in_flight: u32,
     /// The optimization sets.
     pub configs: Vec<PlanConfig>,
 }
@@ -63,6 +70,9 @@ fn default_warmup() -> u32 {
 }
 fn default_error_frames() -> u32 {
     2
+}
+fn default_frames_in_flight() -> u32 {
+    RenderConfig::default().frames_in_flight
 }
 fn default_reference() -> String {
     "two-pass".into()
@@ -169,15 +179,37 @@ impl Plan {
                     c.name
                 ));
             }
-            config_from_opt(&c.opt).map_err(|e| format!("config '{}': {e}", c.name))?;
+            self.config_for(c)
+                .map_err(|e| format!("config '{}': {e}", c.name))?;
         }
-        config_from_opt(&self.reference).map_err(|e| format!("reference: {e}"))?;
+        self.reference_config()
+            .map_err(|e| format!("reference: {e}"))?;
         if let Some(b) = &self.baseline {
             if !names.contains(b.as_str()) {
                 return Err(format!("baseline '{b}' is not a config name"));
             }
         }
         Ok(())
+    }
+
+    /// The renderer configuration of `c`: its `--opt` list over the
+    /// defaults, with its frames in flight (or the plan's).
+    pub fn config_for(&self, c: &PlanConfig) -> Result<RenderConfig> {
+        self.with_frames_in_flight(&c.opt, c.frames_in_flight)
+    }
+
+    /// The image reference's renderer configuration (the plan's frames in
+    /// flight; they change timing, not pixels).
+    pub fn reference_config(&self) -> Result<RenderConfig> {
+        self.with_frames_in_flight(&self.reference, None)
+    }
+
+    fn with_frames_in_flight(&self, opt: &str, own: Option<u32>) -> Result<RenderConfig> {
+        let mut c = RenderConfig::default();
+        c.apply_opts(opt, &cull_names())?;
+        c.frames_in_flight = own.unwrap_or(self.frames_in_flight);
+        c.validate()?;
+        Ok(c)
     }
 
     /// The baseline configuration's name.
@@ -259,6 +291,16 @@ opt = "two-pass"
             ("frames = 4", "frames = 4\nerror_frames = 0", "at least 1"),
             ("frames = 4", "frames = 4\ncolour = 1", "colour"),
             ("name = \"a\"", "name = \"reference\"", "reserved"),
+            (
+                "frames = 4",
+                "frames = 4\nframes_in_flight = 4",
+                "--frames-in-flight",
+            ),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"two-pass\"\nframes_in_flight = 0",
+                "config 'a'",
+            ),
             (
                 "opt = \"two-pass\"",
                 "opt = \"two-pass\"\n[[configs]]\nname = \"a b\"\n[[configs]]\nname = \"a_b\"",

@@ -2,16 +2,17 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
-use super::plan::{config_from_opt, Plan};
+use super::plan::Plan;
 use super::stats::Summary;
 use super::{metrics, process_rss_bytes};
 use crate::config::RenderConfig;
 use crate::cull::bench::{head_path, scene_bounds};
 use crate::error::Result;
 use crate::gpu::Context;
-use crate::render::{FloorKind, FrameStats, Renderer};
+use crate::render::driver::{FrameDriver, FrameResult};
+use crate::render::{FloorKind, Renderer};
 use crate::scene::Scene;
-use crate::targets::headless::{load_scene, CullState};
+use crate::targets::headless::load_scene;
 use crate::view::lens::mask_image;
 use crate::view::profile::HmdProfile;
 use crate::view::StereoRig;
@@ -19,7 +20,6 @@ use ash::vk;
 use std::collections::BTreeMap;
 use std::path::{Path, PathBuf};
 use std::sync::Arc;
-use std::time::Instant;
 
 /// Image error of a configuration against the reference, averaged over the
 /// compared frames and both eyes. Pixels the lens hides are set to black
@@ -103,20 +103,23 @@ pub struct ConfigResult {
     pub gpu_ms: BTreeMap<String, f64>,
     /// GPU ms per frame (sum of the passes' timestamps).
     pub gpu_frame_ms: Summary,
-    /// Frame time: per frame the larger of CPU and GPU time (what a
-    /// pipelined application would sustain).
-    pub frame_ms: Summary,
-    /// The per-frame frame times, in order (for histograms).
+    /// Frames in flight the loop ran with.
+    pub frames_in_flight: u32,
+    /// A model, not a measurement: per frame the larger of CPU and GPU
+    /// time, what a perfectly pipelined loop would sustain.
+    pub model_frame_ms: Summary,
+    /// The measured wall-clock frame intervals (one frame's start to the
+    /// next's), in order (for histograms).
     pub frame_times_ms: Vec<f64>,
-    /// Wall-clock ms per frame as this loop ran it: cull, record, submit
-    /// and the wait for the GPU in sequence (vergence does not yet overlap
-    /// one frame's CPU work with the previous frame's GPU work).
+    /// Wall-clock frame interval of the loop that ran (measured: one
+    /// frame's start to the next's, frames back to back with
+    /// `frames_in_flight` in flight).
     pub wall_frame_ms: Summary,
     /// The profile's refresh budget in ms.
     pub budget_ms: f64,
-    /// Frames whose frame time exceeded the budget.
+    /// Frames whose measured interval exceeded the budget.
     pub frames_over_budget: u32,
-    /// Frames whose frame time exceeded twice the budget.
+    /// Frames whose measured interval exceeded twice the budget.
     pub frames_over_2x_budget: u32,
     /// Draw calls (median).
     pub draw_calls: f64,
@@ -334,7 +337,7 @@ fn run_group(
         sanitize(&group.hmd),
         scale
     );
-    let reference_config = config_from_opt(&plan.reference)?;
+    let reference_config = plan.reference_config()?;
     let mut reference_images: RefImages = Vec::new();
     let Some(mut reference) = measure(
         ctx,
@@ -359,7 +362,7 @@ fn run_group(
             fill_speedups(group);
             return Ok(false);
         }
-        let config = config_from_opt(&c.opt)?;
+        let config = plan.config_for(c)?;
         let compare = Comparison {
             reference: &reference_images,
             masks: &masks,
@@ -403,11 +406,11 @@ fn fill_speedups(group: &mut Group) {
         .results
         .iter()
         .find(|r| r.name == group.baseline)
-        .map(|b| (b.gpu_frame_ms.p50, b.frame_ms.p50));
+        .map(|b| (b.gpu_frame_ms.p50, b.wall_frame_ms.p50));
     if let Some((gpu, frame)) = base {
         for r in &mut group.results {
             r.gpu_speedup = (r.gpu_frame_ms.p50 > 0.0).then(|| gpu / r.gpu_frame_ms.p50);
-            r.frame_speedup = (r.frame_ms.p50 > 0.0).then(|| frame / r.frame_ms.p50);
+            r.frame_speedup = (r.wall_frame_ms.p50 > 0.0).then(|| frame / r.wall_frame_ms.p50);
         }
     }
 }
@@ -449,45 +452,55 @@ fn measure(
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
 ) -> Result<Option<ConfigResult>> {
-    let mut renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
-    let mut culling = CullState::new(config, scene)?;
-    let mut frames: Vec<(FrameStats, f64)> = Vec::new();
-    let mut wall: Vec<f64> = Vec::new();
-    let mut accuracy: Option<CullAccuracy> = None;
-    let n_accuracy = plan.frames.min(30);
+    let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
+    let mut driver = FrameDriver::new(renderer, scene)?;
+    let mut frames: Vec<FrameResult> = Vec::new();
+    let n_accuracy = plan.frames.min(30) as usize;
+    let warmup = plan.warmup as usize;
+    // The visible lists of the first measured frames, judged against exact
+    // culling after the timed loop (a copy per frame; the ground truth
+    // itself stays out of the measured frames).
+    let mut judged: Vec<(usize, Vec<u32>)> = Vec::new();
+    let keep = |r: FrameResult, frames: &mut Vec<FrameResult>| {
+        if r.index >= plan.warmup as u64 {
+            frames.push(r);
+        }
+    };
     for (i, rig) in rigs.iter().enumerate() {
-        let t = Instant::now();
-        if let Some(c) = culling.as_mut() {
-            c.cull(rig, i as u64)?;
-        }
-        let cull_ms = t.elapsed().as_secs_f64() * 1e3;
-        let measured = i >= plan.warmup as usize;
-        let f = renderer.render(rig, culling.as_ref().map(|c| c.last_visible()), false)?;
-        let wall_ms = t.elapsed().as_secs_f64() * 1e3;
-        if measured {
-            frames.push((f, cull_ms));
-            wall.push(wall_ms);
-        }
-        // The exact-culling ground truth, after the timed frame (the last
-        // cull's output is still the frame's).
-        if measured && i < (plan.warmup + n_accuracy) as usize {
-            if let Some(c) = &culling {
-                let (fp, fneg) = c.accuracy(rig)?;
-                let a = accuracy.get_or_insert_with(CullAccuracy::default);
-                a.false_positives += fp as f64 / n_accuracy as f64;
-                a.false_negatives += fneg as f64 / n_accuracy as f64;
-                a.false_negatives_total += fneg;
+        driver.frame(rig, i as u64, false)?;
+        if (warmup..warmup + n_accuracy).contains(&i) {
+            if let Some(c) = driver.culling() {
+                judged.push((i, c.last_visible().to_vec()));
             }
+        }
+        while let Some(r) = driver.take_completed() {
+            keep(r, &mut frames);
         }
         if crate::quit::requested() {
             return Ok(None);
         }
     }
-    if let Some(f) = floors_out {
-        *f = Some(floors(&mut renderer, plan, &rigs[0])?);
+    driver.finish()?;
+    while let Some(r) = driver.take_completed() {
+        keep(r, &mut frames);
     }
-    let mut result = summarize(name, opt, &renderer, &frames, refresh_hz);
-    result.wall_frame_ms = Summary::of(&wall);
+    let accuracy = match driver.culling() {
+        Some(c) if !judged.is_empty() => {
+            let mut a = CullAccuracy::default();
+            for (i, visible) in &mut judged {
+                let (fp, fneg) = c.accuracy_of(visible, &rigs[*i])?;
+                a.false_positives += fp as f64 / n_accuracy as f64;
+                a.false_negatives += fneg as f64 / n_accuracy as f64;
+                a.false_negatives_total += fneg;
+            }
+            Some(a)
+        }
+        _ => None,
+    };
+    if let Some(f) = floors_out {
+        *f = Some(floors(driver.renderer_mut(), plan, &rigs[0])?);
+    }
+    let mut result = summarize(name, opt, driver.renderer(), &frames, refresh_hz);
     result.cull_accuracy = accuracy;
     let device = ctx.memory_budget();
     result.gpu_memory = GpuMemory {
@@ -501,13 +514,9 @@ fn measure(
             let i = (plan.warmup + k) as usize;
             let prev = i.saturating_sub(1);
             for (j, readback) in [(prev, false), (i, true)] {
-                if let Some(c) = culling.as_mut() {
-                    c.cull(&rigs[j], j as u64)?;
-                }
-                let visible = culling.as_ref().map(|c| c.last_visible());
-                renderer.render(&rigs[j], visible, readback)?;
+                driver.frame(&rigs[j], j as u64, readback)?;
             }
-            let pair = renderer.read_images()?;
+            let pair = driver.read_images()?;
             if let Some(cmp) = compare {
                 if let Some(reference) = cmp.reference.get(images.len()) {
                     errors.push(image_error(reference, &pair, cmp)?);
@@ -528,7 +537,7 @@ fn measure(
             });
         }
     }
-    drop(renderer);
+    drop(driver);
     result.rss_bytes = process_rss_bytes();
     Ok(Some(result))
 }
@@ -595,25 +604,25 @@ fn summarize(
     name: &str,
     opt: &str,
     renderer: &Renderer,
-    frames: &[(FrameStats, f64)],
+    frames: &[FrameResult],
     refresh_hz: f64,
 ) -> ConfigResult {
-    let series = |get: &dyn Fn(&FrameStats, f64) -> f64| -> Vec<f64> {
-        frames.iter().map(|(f, c)| get(f, *c)).collect()
-    };
-    let median = |get: &dyn Fn(&FrameStats, f64) -> f64| Summary::of(&series(get)).p50;
-    let cpu = series(&|f, c| c + f.cpu_ms.batch + f.cpu_ms.record + f.cpu_ms.submit);
-    let gpu = series(&|f, _| f.gpu_ms.values().sum());
-    let frame: Vec<f64> = cpu.iter().zip(&gpu).map(|(c, g)| c.max(*g)).collect();
+    let series =
+        |get: &dyn Fn(&FrameResult) -> f64| -> Vec<f64> { frames.iter().map(get).collect() };
+    let median = |get: &dyn Fn(&FrameResult) -> f64| Summary::of(&series(get)).p50;
+    let cpu = series(&FrameResult::cpu_ms);
+    let gpu = series(&FrameResult::gpu_ms);
+    let model: Vec<f64> = cpu.iter().zip(&gpu).map(|(c, g)| c.max(*g)).collect();
+    let wall: Vec<f64> = frames.iter().filter_map(|r| r.interval_ms).collect();
     let budget_ms = 1000.0 / refresh_hz;
     let mut passes: BTreeMap<String, f64> = BTreeMap::new();
-    for (f, _) in frames {
-        for name in f.gpu_ms.keys() {
+    for f in frames {
+        for name in f.stats.gpu_ms.keys() {
             passes.entry(name.clone()).or_default();
         }
     }
     for (pass, v) in passes.iter_mut() {
-        *v = median(&|f, _| f.gpu_ms.get(pass).copied().unwrap_or(0.0));
+        *v = median(&|f| f.stats.gpu_ms.get(pass).copied().unwrap_or(0.0));
     }
     let config = &renderer.config;
     ConfigResult {
@@ -625,26 +634,34 @@ fn summarize(
         foveation_path: renderer.foveation_path.clone(),
         frames: frames.len() as u32,
         cpu_ms: PhaseMs {
-            cull: median(&|_, c| c),
-            batch: median(&|f, _| f.cpu_ms.batch),
-            record: median(&|f, _| f.cpu_ms.record),
-            submit: median(&|f, _| f.cpu_ms.submit),
+            cull: median(&|f| f.cull_ms),
+            batch: median(&|f| f.stats.cpu_ms.batch),
+            record: median(&|f| f.stats.cpu_ms.record),
+            submit: median(&|f| f.stats.cpu_ms.submit),
         },
         cpu_frame_ms: Summary::of(&cpu),
         gpu_ms: passes,
         gpu_frame_ms: Summary::of(&gpu),
-        frame_ms: Summary::of(&frame),
-        frames_over_budget: frame.iter().filter(|&&t| t > budget_ms).count() as u32,
-        frames_over_2x_budget: frame.iter().filter(|&&t| t > 2.0 * budget_ms).count() as u32,
-        frame_times_ms: frame,
+        frames_in_flight: renderer.frames_in_flight() as u32,
+        model_frame_ms: Summary::of(&model),
+        wall_frame_ms: Summary::of(&wall),
+        frames_over_budget: wall.iter().filter(|&&t| t > budget_ms).count() as u32,
+        frames_over_2x_budget: wall.iter().filter(|&&t| t > 2.0 * budget_ms).count() as u32,
+        frame_times_ms: wall,
         budget_ms,
-        draw_calls: median(&|f, _| f.draw_calls as f64),
-        instances_drawn: median(&|f, _| f.instances_drawn as f64),
-        triangles: median(&|f, _| f.triangles as f64),
+        draw_calls: median(&|f| f.stats.draw_calls as f64),
+        instances_drawn: median(&|f| f.stats.instances_drawn as f64),
+        triangles: median(&|f| f.stats.triangles as f64),
         fragment_invocations: frames
             .iter()
-            .all(|(f, _)| f.pipeline.is_some())
-            .then(|| median(&|f, _| f.pipeline.map_or(0.0, |p| p.fragment_invocations as f64)))
+            .all(|f| f.stats.pipeline.is_some())
+            .then(|| {
+                median(&|f| {
+                    f.stats
+                        .pipeline
+                        .map_or(0.0, |p| p.fragment_invocations as f64)
+                })
+            })
             .filter(|_| !frames.is_empty()),
         ..ConfigResult::default()
     }

@@ -1,11 +1,17 @@
-//! The stereo forward renderer. `Renderer::render` takes a rig (views) and
-//! an optional visible-instance list, records one frame (multiview or
-//! two-pass), submits it, waits, and returns the frame's statistics.
+//! The stereo forward renderer. `Renderer::record_frame` takes a rig (views)
+//! and an optional visible-instance list and records one frame (multiview or
+//! two-pass); `Renderer::submit_frame` submits it without waiting. Up to
+//! `frames_in_flight` frames run on the GPU while the CPU prepares the next;
+//! a frame's statistics (with its GPU timestamps) come out of
+//! `Renderer::take_completed` once its fence has signalled. `Renderer::render`
+//! is the one-frame form: record, submit, wait, statistics.
 //! Everything it needs is created in `Renderer::new`; nothing is compiled or
 //! allocated inside a measured frame except growing the visible buffer.
 
 pub mod attachments;
 pub mod batches;
+pub mod culling;
+pub mod driver;
 pub mod foveation;
 pub mod scene_gpu;
 
@@ -25,11 +31,10 @@ use batches::{Batcher, Batches, PipelineKey};
 use glam::{DMat3, Mat4, Vec4};
 use gpu_allocator::MemoryLocation;
 use scene_gpu::{split_dvec3, SceneGpu, STREAMS};
-use std::collections::{BTreeMap, HashMap};
+use std::collections::{BTreeMap, HashMap, VecDeque};
 use std::sync::Arc;
 use std::time::Instant;
 
-const FRAMES_IN_FLIGHT: usize = 2;
 const UBO_SIZE: u64 = 752;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
@@ -81,6 +86,9 @@ pub struct CpuTimes {
 /// Statistics of one rendered frame.
 #[derive(Clone, Debug, Default, serde::Serialize)]
 pub struct FrameStats {
+    /// The renderer's frame number (from 1, in submission order).
+    #[serde(skip)]
+    pub frame: u64,
     /// Draw calls recorded (over both eyes in two-pass mode).
     pub draw_calls: u64,
     /// Instance-primitive pairs drawn (per frame, not per eye; a monoscopic
@@ -157,6 +165,13 @@ pub struct Renderer {
     ring: Option<FrameRing>,
     queries: Vec<Option<Queries>>,
     slot: usize,
+    /// Frame slots (frames in flight), from the configuration.
+    slots: usize,
+    /// Per slot: the statistics of the frame submitted from it whose fence
+    /// has not been waited on yet (its GPU times are still to be read).
+    in_flight: Vec<Option<FrameStats>>,
+    /// Frames whose fence has signalled, oldest first, until taken.
+    completed: VecDeque<FrameStats>,
     readback: Option<Buffer>,
     batcher: Batcher,
     batches: Batches,
@@ -249,6 +264,7 @@ impl Renderer {
             ));
         }
         let samples = config.msaa.min(ctx.caps.max_samples);
+        let slots = config.frames_in_flight as usize;
         let scene_gpu = SceneGpu::new(&ctx, scene)?;
         let texture_count = scene_gpu.textures.len() as u32;
         let d = &ctx.device;
@@ -309,7 +325,7 @@ impl Renderer {
                     None,
                 )
                 .vk("creating the pipeline layout")?;
-            let n = FRAMES_IN_FLIGHT as u32;
+            let n = slots as u32;
             let sizes = [
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::UNIFORM_BUFFER,
@@ -332,7 +348,7 @@ impl Renderer {
                     None,
                 )
                 .vk("creating the descriptor pool")?;
-            let layouts = vec![set_layout; FRAMES_IN_FLIGHT];
+            let layouts = vec![set_layout; slots];
             let sets = d
                 .allocate_descriptor_sets(
                     &vk::DescriptorSetAllocateInfo::default()
@@ -343,7 +359,7 @@ impl Renderer {
             (set_layout, layout, pool, sets)
         };
         let mut ubos = Vec::new();
-        for i in 0..FRAMES_IN_FLIGHT {
+        for i in 0..slots {
             ubos.push(Buffer::new(
                 &ctx,
                 &BufferDesc {
@@ -356,7 +372,7 @@ impl Renderer {
             )?);
         }
         let mut hidden = Vec::new();
-        for i in 0..FRAMES_IN_FLIGHT {
+        for i in 0..slots {
             let size = if config.stencil_mask {
                 (2 * MAX_HIDDEN_VERTICES * 8) as u64
             } else {
@@ -377,9 +393,9 @@ impl Renderer {
                 per_view: 0,
             });
         }
-        let ring = FrameRing::new(&ctx, FRAMES_IN_FLIGHT)?;
+        let ring = FrameRing::new(&ctx, slots)?;
         let mut queries = Vec::new();
-        for _ in 0..FRAMES_IN_FLIGHT {
+        for _ in 0..slots {
             queries.push(Some(Queries::new(&ctx, 8)?));
         }
         let batcher = Batcher::new(scene);
@@ -408,13 +424,16 @@ impl Renderer {
             pool,
             sets,
             ubos,
-            visible: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
+            visible: (0..slots).map(|_| None).collect(),
             pipelines: HashMap::new(),
             sky: vk::Pipeline::null(),
             flat: vk::Pipeline::null(),
             ring: Some(ring),
             queries,
             slot: 0,
+            slots,
+            in_flight: (0..slots).map(|_| None).collect(),
+            completed: VecDeque::with_capacity(slots + 1),
             readback: None,
             batcher,
             batches: Batches::default(),
@@ -489,7 +508,7 @@ impl Renderer {
             config.rdm.is_some() && config.rdm_fill,
         )?);
         r.build_pipelines()?;
-        for i in 0..FRAMES_IN_FLIGHT {
+        for i in 0..slots {
             r.ensure_visible_capacity(i, scene.instances.len().max(1))?;
         }
         Ok(r)
@@ -1005,6 +1024,8 @@ impl Renderer {
     /// Renders one stereo frame of `rig` drawing the instances in `visible`
     /// (None: all), waits for it and returns its statistics. With
     /// `readback`, the frame is copied for [`Renderer::read_images`].
+    /// Statistics of earlier frames still waiting in
+    /// [`Renderer::take_completed`] are dropped.
     pub fn render(
         &mut self,
         rig: &StereoRig,
@@ -1012,7 +1033,84 @@ impl Renderer {
         readback: bool,
     ) -> Result<FrameStats> {
         self.record_frame(rig, visible)?;
-        self.submit_frame(None, readback)
+        let frame = self.submit_frame(None, readback)?;
+        let t = Instant::now();
+        self.finish()?;
+        let waited = ms(t, Instant::now());
+        let mut mine = None;
+        while let Some(s) = self.completed.pop_front() {
+            if s.frame == frame {
+                mine = Some(s);
+            }
+        }
+        let mut stats =
+            mine.ok_or_else(|| Error::Gpu("a finished frame has no statistics".into()))?;
+        stats.cpu_ms.wait += waited;
+        Ok(stats)
+    }
+
+    /// Frames in flight this renderer was built for.
+    pub fn frames_in_flight(&self) -> usize {
+        self.slots
+    }
+
+    /// The statistics of the oldest frame whose GPU work has finished and
+    /// that was not taken yet (GPU times included).
+    pub fn take_completed(&mut self) -> Option<FrameStats> {
+        self.completed.pop_front()
+    }
+
+    /// Waits until every submitted frame has finished; their statistics
+    /// join [`Renderer::take_completed`] in submission order.
+    pub fn finish(&mut self) -> Result<()> {
+        let newest = (self.slot + self.slots - 1) % self.slots;
+        let pass = self.queries[newest]
+            .as_ref()
+            .map_or("none", |q| q.last_pass());
+        self.ring
+            .as_mut()
+            .expect("ring present until drop")
+            .wait_all(&self.ctx)
+            .map_err(|e| device_lost(e, "waiting for the frames in flight", pass))?;
+        for k in 0..self.slots {
+            self.collect((self.slot + k) % self.slots)?;
+        }
+        Ok(())
+    }
+
+    /// Waits for `slot`'s previous frame (the ring's fence), moves that
+    /// frame's statistics with its GPU times to the completed queue, and
+    /// begins the slot's command buffer.
+    fn begin_slot(&mut self, slot: usize) -> Result<vk::CommandBuffer> {
+        let pass = self.queries[slot]
+            .as_ref()
+            .map_or("none", |q| q.last_pass());
+        let cmd = self
+            .ring
+            .as_mut()
+            .expect("ring present until drop")
+            .begin(&self.ctx)
+            .map_err(|e| device_lost(e, "waiting for a frame slot", pass))?;
+        self.collect(slot)?;
+        Ok(cmd)
+    }
+
+    /// After `slot`'s fence has signalled: reads its timestamps and
+    /// statistics into the frame submitted from it.
+    fn collect(&mut self, slot: usize) -> Result<()> {
+        let Some(mut stats) = self.in_flight[slot].take() else {
+            return Ok(());
+        };
+        let queries = self.queries[slot]
+            .as_ref()
+            .expect("queries present until drop");
+        let (passes, pipeline) = queries.read(&self.ctx)?;
+        for (name, ms) in passes {
+            *stats.gpu_ms.entry(name.to_string()).or_insert(0.0) += ms;
+        }
+        stats.pipeline = pipeline;
+        self.completed.push_back(stats);
+        Ok(())
     }
 
     /// Batches and records one stereo frame of `rig` (the command buffer
@@ -1035,8 +1133,14 @@ impl Renderer {
                 "a frame was recorded but never submitted".into(),
             ));
         }
+        // The slot's previous frame must be done before its buffers are
+        // written: with N frames in flight, this waits for frame n - N.
+        let t_wait = Instant::now();
+        let slot = self.slot;
+        let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
         let t0 = Instant::now();
+        stats.cpu_ms.wait = ms(t_wait, t0);
         self.mffr_frame = match self.config.mffr {
             Some(m) => {
                 let split = m
@@ -1119,12 +1223,6 @@ impl Renderer {
         };
         stats.instances_drawn = passes * batches.instances_drawn;
         stats.triangles = passes * batches.triangles;
-        let slot = self.slot;
-        let cmd = self
-            .ring
-            .as_mut()
-            .expect("ring present until drop")
-            .begin(&self.ctx)?;
         self.ensure_visible_capacity(slot, batches.ids.len())?;
         let ids: &[u8] = bytemuck_u32(&batches.ids);
         self.visible[slot]
@@ -1157,12 +1255,10 @@ impl Renderer {
 
     /// Completes the recorded frame: copies it into `output` (the images of
     /// the [`OutputSpec`] given at creation), optionally reads it back (from
-    /// `output` when given), submits, waits and returns the statistics.
-    pub fn submit_frame(
-        &mut self,
-        output: Option<&FrameOutput>,
-        readback: bool,
-    ) -> Result<FrameStats> {
+    /// `output` when given) and submits it without waiting. Returns the
+    /// frame's number ([`FrameStats::frame`]); its statistics come out of
+    /// [`Renderer::take_completed`] once the GPU has finished it.
+    pub fn submit_frame(&mut self, output: Option<&FrameOutput>, readback: bool) -> Result<u64> {
         let Some(Pending {
             mut stats,
             queries,
@@ -1191,44 +1287,25 @@ impl Renderer {
             .submit(&self.ctx);
         let t3 = Instant::now();
         stats.cpu_ms.submit = ms(t2, t3);
-        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
+        self.slot = (slot + 1) % self.slots;
         let last_pass = self.queries[slot]
             .as_ref()
             .map_or("none", |q| q.last_pass());
-        let lost = |e: Error, context: &str| match e {
-            Error::Vulkan {
-                result: vk::Result::ERROR_DEVICE_LOST,
-                ..
-            } => Error::DeviceLost {
-                context: context.to_string(),
-                pass: last_pass.to_string(),
-            },
-            other => other,
-        };
-        submit.map_err(|e| lost(e, "submitting a frame"))?;
-        let waited = if crate::gpu::fault::device_lost_frame() == Some(self.frame_index) {
-            Err(Error::Vulkan {
+        submit.map_err(|e| device_lost(e, "submitting a frame", last_pass))?;
+        if crate::gpu::fault::device_lost_frame() == Some(self.frame_index) {
+            let injected = Error::Vulkan {
                 context: "waiting for frames (injected by VERGENCE_INJECT_FAULT)".into(),
                 result: vk::Result::ERROR_DEVICE_LOST,
-            })
-        } else {
-            self.ring
-                .as_mut()
-                .expect("ring present until drop")
-                .wait_all(&self.ctx)
-        };
-        waited.map_err(|e| lost(e, "waiting for the frame to finish"))?;
-        let t4 = Instant::now();
-        stats.cpu_ms.wait = ms(t3, t4);
-        let queries = self.queries[slot]
-            .as_ref()
-            .expect("queries present until drop");
-        let (passes, pipeline) = queries.read(&self.ctx)?;
-        for (name, ms) in passes {
-            *stats.gpu_ms.entry(name.to_string()).or_insert(0.0) += ms;
+            };
+            return Err(device_lost(
+                injected,
+                "waiting for the frame to finish",
+                last_pass,
+            ));
         }
-        stats.pipeline = pipeline;
-        Ok(stats)
+        stats.frame = self.frame_index;
+        self.in_flight[slot] = Some(stats);
+        Ok(self.frame_index)
     }
 
     /// Writes `rig`'s hidden-area meshes (expanded to triangle lists) into
@@ -1284,12 +1361,9 @@ impl Renderer {
     /// Renders a floor frame (clear only, or one full-screen triangle with a
     /// trivial shader) and returns its GPU milliseconds.
     pub fn render_floor(&mut self, kind: FloorKind) -> Result<f64> {
+        self.finish()?;
         let slot = self.slot;
-        let cmd = self
-            .ring
-            .as_mut()
-            .expect("ring present until drop")
-            .begin(&self.ctx)?;
+        let cmd = self.begin_slot(slot)?;
         let mut queries = self.queries[slot]
             .take()
             .expect("queries present until drop");
@@ -1305,7 +1379,7 @@ impl Renderer {
             .wait_all(&self.ctx)?;
         let (passes, _) = queries.read(&self.ctx)?;
         self.queries[slot] = Some(queries);
-        self.slot = (slot + 1) % FRAMES_IN_FLIGHT;
+        self.slot = (slot + 1) % self.slots;
         Ok(passes.iter().map(|p| p.1).sum())
     }
 
@@ -2004,8 +2078,10 @@ impl Renderer {
         Ok(())
     }
 
-    /// The last read-back frame as two RGBA8 (sRGB) images, left then right.
+    /// The last read-back frame as two RGBA8 (sRGB) images, left then right
+    /// (waits for the frames in flight first).
     pub fn read_images(&mut self) -> Result<[image::RgbaImage; 2]> {
+        self.finish()?;
         let (w, h) = (self.extent.width, self.extent.height);
         let layer = (w * h * 4) as usize;
         let buf = self
@@ -2039,6 +2115,21 @@ impl Renderer {
     /// Whether the transient attachments use lazily allocated memory.
     pub fn lazily_allocated(&self) -> bool {
         self.targets.as_ref().is_some_and(|t| t.lazily_allocated())
+    }
+}
+
+/// A device loss while `context` becomes [`Error::DeviceLost`] naming the
+/// last pass recorded in the frame concerned; other errors pass through.
+fn device_lost(e: Error, context: &str, pass: &str) -> Error {
+    match e {
+        Error::Vulkan {
+            result: vk::Result::ERROR_DEVICE_LOST,
+            ..
+        } => Error::DeviceLost {
+            context: context.to_string(),
+            pass: pass.to_string(),
+        },
+        other => other,
     }
 }
 

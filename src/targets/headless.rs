@@ -2,10 +2,11 @@
 //! render` command.
 
 use crate::config::RenderConfig;
-use crate::cull::{Bvh, CullParams, CullStats, Culler, Strategy, DEFAULT_LEAF_SIZE};
+use crate::cull::CullStats;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
-use crate::render::{FloorKind, FrameStats, Renderer};
+use crate::render::driver::{FrameDriver, FrameResult};
+use crate::render::{FloorKind, Renderer};
 use crate::scene::{Scene, SceneFeatures};
 use crate::view::profile::HmdProfile;
 use crate::view::Pose;
@@ -118,6 +119,10 @@ pub struct RenderStats {
     pub gpu_frame_ms: Percentiles,
     /// CPU ms to batch, record and submit a frame: median and 95th percentile.
     pub cpu_frame_ms: Percentiles,
+    /// Wall-clock ms from one frame's start to the next's, as the loop ran
+    /// with `config.frames_in_flight` frames in flight (measured when
+    /// frames > 1).
+    pub frame_interval_ms: Percentiles,
     /// The floors at the same resolution and MSAA (measured when frames > 1).
     pub floor_gpu_ms: Option<Floors>,
     /// Culling counters of the last frame (None without a culling strategy).
@@ -202,44 +207,50 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
-    let mut renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
+    let renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
+    let mut driver = FrameDriver::new(renderer, &scene)?;
     let rig = job.rig.clone().unwrap_or_else(|| profile.rig(job.pose));
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
-    let mut culling = CullState::new(&job.config, &scene)?;
-    let mut all: Vec<FrameStats> = Vec::new();
-    let mut cull_ms = Vec::new();
-    let mut cull_stats = None;
-    for i in 0..warmup + frames {
-        let t = Instant::now();
-        let visible = culling
-            .as_mut()
-            .map(|c| c.cull(&rig, i as u64))
-            .transpose()?;
-        let ms = t.elapsed().as_secs_f64() * 1e3;
-        let f = renderer.render(&rig, visible.map(|(v, _)| v), i + 1 == warmup + frames)?;
-        if i >= warmup {
-            all.push(f);
-            cull_ms.push(ms);
-            cull_stats = visible.map(|(_, s)| s);
+    let total = warmup + frames;
+    let mut all: Vec<FrameResult> = Vec::new();
+    let keep = |r: FrameResult, all: &mut Vec<FrameResult>| {
+        if r.index >= warmup as u64 {
+            all.push(r);
+        }
+    };
+    for i in 0..total {
+        driver.frame(&rig, i as u64, i + 1 == total)?;
+        while let Some(r) = driver.take_completed() {
+            keep(r, &mut all);
         }
     }
-    let gpu_frame: Vec<f64> = all.iter().map(|f| f.gpu_ms.values().sum()).collect();
+    driver.finish()?;
+    while let Some(r) = driver.take_completed() {
+        keep(r, &mut all);
+    }
+    let cull_stats = all.last().and_then(|r| r.cull);
+    let gpu_frame: Vec<f64> = all.iter().map(FrameResult::gpu_ms).collect();
     let cpu_frame: Vec<f64> = all
         .iter()
-        .map(|f| f.cpu_ms.batch + f.cpu_ms.record + f.cpu_ms.submit)
+        .map(|r| r.stats.cpu_ms.batch + r.stats.cpu_ms.record + r.stats.cpu_ms.submit)
         .collect();
-    let median_of = |get: &dyn Fn(&FrameStats) -> f64| {
+    let intervals: Vec<f64> = all.iter().filter_map(|r| r.interval_ms).collect();
+    let cull_ms: Vec<f64> = all.iter().map(|r| r.cull_ms).collect();
+    let median_of = |get: &dyn Fn(&FrameResult) -> f64| {
         Percentiles::of(&all.iter().map(get).collect::<Vec<_>>()).median
     };
-    let mut frame = all.last().cloned().unwrap_or_default();
-    frame.cpu_ms.batch = median_of(&|f| f.cpu_ms.batch);
-    frame.cpu_ms.record = median_of(&|f| f.cpu_ms.record);
-    frame.cpu_ms.submit = median_of(&|f| f.cpu_ms.submit);
-    frame.cpu_ms.wait = median_of(&|f| f.cpu_ms.wait);
+    let mut frame = all.last().map(|r| r.stats.clone()).unwrap_or_default();
+    frame.cpu_ms.batch = median_of(&|r| r.stats.cpu_ms.batch);
+    frame.cpu_ms.record = median_of(&|r| r.stats.cpu_ms.record);
+    frame.cpu_ms.submit = median_of(&|r| r.stats.cpu_ms.submit);
+    frame.cpu_ms.wait = median_of(&|r| r.stats.cpu_ms.wait);
     for (name, v) in frame.gpu_ms.iter_mut() {
-        *v = median_of(&|f| f.gpu_ms.get(name).copied().unwrap_or(0.0));
+        *v = median_of(&|r| r.stats.gpu_ms.get(name).copied().unwrap_or(0.0));
     }
+    let [left, right] = driver.read_images()?;
+    let build_ms = driver.culling().map(|c| c.build_ms);
+    let renderer = driver.renderer_mut();
     let floor_gpu_ms = if frames > 1 {
         let mut measure = |kind| -> Result<Percentiles> {
             let mut v = Vec::new();
@@ -258,12 +269,11 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     } else {
         None
     };
-    let [left, right] = renderer.read_images()?;
     save_pair(&job.out, &[left, right])?;
     let mut cpu_ms = BTreeMap::new();
     cpu_ms.insert("load".to_string(), load_ms);
-    if let Some(c) = &culling {
-        cpu_ms.insert("bvh_build".to_string(), c.build_ms);
+    if let Some(build_ms) = build_ms {
+        cpu_ms.insert("bvh_build".to_string(), build_ms);
         cpu_ms.insert("cull".to_string(), Percentiles::of(&cull_ms).median);
     }
     cpu_ms.insert("batch".to_string(), frame.cpu_ms.batch);
@@ -294,83 +304,15 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         frames,
         gpu_frame_ms: Percentiles::of(&gpu_frame),
         cpu_frame_ms: Percentiles::of(&cpu_frame),
+        frame_interval_ms: Percentiles::of(&intervals),
         floor_gpu_ms,
         cull: cull_stats,
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
     };
-    drop(renderer);
+    drop(driver);
     write_json(&job.out.join("stats.json"), &stats)?;
     Ok(stats)
-}
-
-/// Culling for `render` and `run`: the strategy from the configuration over a BVH of
-/// the scene's instance bounds.
-pub struct CullState {
-    strategy: Strategy,
-    bvh: Bvh,
-    culler: Culler,
-    params: CullParams,
-    /// Milliseconds the BVH build took.
-    pub build_ms: f64,
-}
-
-impl CullState {
-    /// The culling `config` asks for over `scene` (None: `cull = "none"`).
-    pub fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
-        if config.cull == "none" {
-            return Ok(None);
-        }
-        let strategy: Strategy = config
-            .cull
-            .parse()
-            .map_err(|e| Error::config("--opt", format!("{e}")))?;
-        let t = Instant::now();
-        let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
-            .map_err(|e| Error::scene(&scene.name, e.to_string()))?;
-        let build_ms = t.elapsed().as_secs_f64() * 1e3;
-        let params = CullParams {
-            near: config.near,
-            draw_distance: config.draw_distance,
-            ..CullParams::default()
-        };
-        Ok(Some(CullState {
-            strategy,
-            bvh,
-            culler: Culler::new(),
-            params,
-            build_ms,
-        }))
-    }
-
-    /// Culls for `rig` at frame number `frame`: the visible instance list
-    /// and the counters.
-    pub fn cull(
-        &mut self,
-        rig: &crate::view::StereoRig,
-        frame: u64,
-    ) -> Result<(&[u32], CullStats)> {
-        let out = self
-            .culler
-            .cull(self.strategy, rig, frame, &self.bvh, &self.params)
-            .map_err(|e| Error::config("view for culling", e.to_string()))?;
-        Ok((&out.visible, out.stats))
-    }
-
-    /// The visible list of the last cull.
-    pub fn last_visible(&self) -> &[u32] {
-        &self.culler.last().visible
-    }
-
-    /// False positives and false negatives of the last cull against exact
-    /// per-eye culling of `rig` (untimed ground truth for reports).
-    pub fn accuracy(&self, rig: &crate::view::StereoRig) -> Result<(u64, u64)> {
-        let exact = crate::cull::exact_per_eye(rig, &self.bvh, &self.params)
-            .map_err(|e| Error::config("view for culling", e.to_string()))?;
-        let mut visible = self.last_visible().to_vec();
-        visible.sort_unstable();
-        Ok(crate::cull::compare(&visible, &exact))
-    }
 }
 
 /// Writes a stereo pair as `dir/left.png` and `dir/right.png`, creating

@@ -8,10 +8,11 @@ use crate::config::RenderConfig;
 use crate::cull::CullStats;
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
-use crate::render::{FrameStats, Renderer};
+use crate::render::driver::{FrameDriver, FrameResult};
+use crate::render::Renderer;
 use crate::scene::Scene;
 use crate::targets::headless::{
-    eye_extent, load_scene, save_pair, write_json, CullState, Percentiles, SceneCounts,
+    eye_extent, load_scene, save_pair, write_json, Percentiles, SceneCounts,
 };
 use crate::view::profile::HmdProfile;
 use crate::view::{frame_bounds, Fov, Pose, RigFile, StereoRig};
@@ -393,6 +394,57 @@ impl RssTrack {
     }
 }
 
+/// Frame records waiting for their frames' GPU times (frames in flight),
+/// written to the statistics in frame order.
+#[derive(Debug, Default)]
+pub struct RecordQueue {
+    /// Records, oldest first, each with whether it still waits for its
+    /// frame's result.
+    waiting: std::collections::VecDeque<(FrameRecord, bool)>,
+}
+
+impl RecordQueue {
+    /// Queues `rec`; a `rendered` frame's record waits for its result.
+    pub fn push(&mut self, rec: FrameRecord, rendered: bool) {
+        self.waiting.push_back((rec, rendered));
+    }
+
+    /// Completes the record of the finished frame `r`: GPU time, counts,
+    /// culling, and its CPU time without the wait for a frame slot.
+    pub fn complete(&mut self, r: &FrameResult, stats: &mut RunStats) {
+        let found = self
+            .waiting
+            .iter_mut()
+            .find(|(rec, waits)| *waits && rec.index == r.index);
+        if let Some((rec, waits)) = found {
+            rec.gpu_ms = r.gpu_ms();
+            rec.cull_ms = r.cull_ms;
+            rec.instances_drawn = r.stats.instances_drawn;
+            rec.cpu_ms = (rec.cpu_ms - r.stats.cpu_ms.wait).max(0.0);
+            *waits = false;
+            stats.cull = r.cull;
+        }
+    }
+
+    /// Writes the complete records at the front.
+    pub fn flush(&mut self, stats: &mut RunStats) -> Result<()> {
+        while self.waiting.front().is_some_and(|(_, waits)| !waits) {
+            let (rec, _) = self.waiting.pop_front().expect("front exists");
+            stats.push_frame(rec)?;
+        }
+        Ok(())
+    }
+
+    /// Writes every record, also those whose frame never finished (the
+    /// session ended first; their GPU time stays 0).
+    pub fn flush_all(&mut self, stats: &mut RunStats) -> Result<()> {
+        while let Some((rec, _)) = self.waiting.pop_front() {
+            stats.push_frame(rec)?;
+        }
+        Ok(())
+    }
+}
+
 impl RunStats {
     /// Empty statistics whose frames spool next to `stats_out` when given.
     pub fn new(stats_out: Option<&Path>) -> Result<RunStats> {
@@ -564,10 +616,6 @@ pub fn write_capture(dir: &Path, images: &[image::RgbaImage; 2], rig: &StereoRig
     write_json(&dir.join("rig.json"), &RigFile::of(rig))
 }
 
-fn gpu_total(f: &FrameStats) -> f64 {
-    f.gpu_ms.values().sum()
-}
-
 /// The headless loop: the fallback profile's rig at the spawn pose, the
 /// head turning slowly (±20° yaw over 10 s) so culling and batching see
 /// motion; paced by nothing (frames run back to back).
@@ -582,13 +630,13 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let (scene, _) = load_scene(&args.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, args.size);
-    let mut renderer = Renderer::new(ctx.clone(), &scene, &args.config, extent)?;
-    let mut culling = CullState::new(&args.config, &scene)?;
+    let renderer = Renderer::new(ctx.clone(), &scene, &args.config, extent)?;
+    let mut driver = FrameDriver::new(renderer, &scene)?;
     let spawn = spawn_pose(&scene, &profile.views[0].fov);
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(&scene));
-    stats.config = renderer.config.clone();
-    stats.foveation = renderer.foveation_path.clone();
+    stats.config = driver.renderer().config.clone();
+    stats.foveation = driver.renderer().foveation_path.clone();
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
     stats.system = format!("HMD profile {}", profile.name);
@@ -605,6 +653,23 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let period_ns = (1e9 / profile.refresh_hz.max(1.0)) as i64;
     let started = Instant::now();
     let mut index = 0u64;
+    // A finished frame's record: written when its GPU times are known.
+    let record = |r: FrameResult, stats: &mut RunStats| -> Result<()> {
+        stats.cull = r.cull;
+        stats.push_frame(FrameRecord {
+            index: r.index,
+            should_render: true,
+            wait_ms: 0.0,
+            cpu_ms: r.cpu_ms(),
+            gpu_ms: r.gpu_ms(),
+            cull_ms: r.cull_ms,
+            predicted_display_time_ns: (r.started - started).as_nanos() as i64,
+            predicted_display_period_ns: period_ns,
+            missed_periods: 0,
+            instances_drawn: r.stats.instances_drawn,
+            fov: r.fov.to_vec(),
+        })
+    };
     stats.exit = loop {
         if crate::quit::requested() {
             break "quit requested (signal)".into();
@@ -621,39 +686,29 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             0.0,
         ));
         let rig = profile.rig(head);
-        let t0 = Instant::now();
-        let visible = culling.as_mut().map(|c| c.cull(&rig, index)).transpose()?;
-        let cull_ms = t0.elapsed().as_secs_f64() * 1e3;
         let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
-        let f = renderer.render(&rig, visible.as_ref().map(|(v, _)| *v), capture)?;
-        stats.cull = visible.map(|(_, s)| s);
+        driver.frame(&rig, index, capture)?;
         if capture {
-            let images = renderer.read_images()?;
+            let images = driver.read_images()?;
             write_capture(args.capture.as_deref().expect("checked"), &images, &rig)?;
         }
-        stats.push_frame(FrameRecord {
-            index,
-            should_render: true,
-            wait_ms: 0.0,
-            cpu_ms: cull_ms + f.cpu_ms.batch + f.cpu_ms.record + f.cpu_ms.submit,
-            gpu_ms: gpu_total(&f),
-            cull_ms,
-            predicted_display_time_ns: (t * 1e9) as i64,
-            predicted_display_period_ns: period_ns,
-            missed_periods: 0,
-            instances_drawn: f.instances_drawn,
-            fov: rig.views.iter().map(|v| v.fov).collect(),
-        })?;
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
         index += 1;
+        while let Some(r) = driver.take_completed() {
+            record(r, stats)?;
+        }
         if index == WARMUP_FRAMES {
             stats.sample_memory(&ctx, false);
         }
     };
+    driver.finish()?;
+    while let Some(r) = driver.take_completed() {
+        record(r, stats)?;
+    }
     stats.sample_memory(&ctx, true);
     stats.duration_s = started.elapsed().as_secs_f64();
     stats.validation_messages = ctx.validation_messages();
-    drop(renderer);
+    drop(driver);
     Ok(())
 }

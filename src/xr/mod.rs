@@ -12,9 +12,12 @@ pub mod watchdog;
 
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
+use crate::render::driver::FrameDriver;
 use crate::render::{FrameOutput, OutputSpec, Renderer};
-use crate::targets::headless::{load_scene, CullState, SceneCounts};
-use crate::targets::run::{spawn_pose, write_capture, FrameRecord, RunArgs, RunStats, ViewInfo};
+use crate::targets::headless::{load_scene, SceneCounts};
+use crate::targets::run::{
+    spawn_pose, write_capture, FrameRecord, RecordQueue, RunArgs, RunStats, ViewInfo,
+};
 use crate::view::{Fov, HiddenArea, Pose, StereoRig, View};
 use ash::vk;
 use ash::vk::Handle;
@@ -253,7 +256,7 @@ struct Live {
     session: Option<xr::Session<xr::Vulkan>>,
     messenger: Option<Messenger>,
     instance: Option<xr::Instance>,
-    renderer: Option<Renderer>,
+    driver: Option<FrameDriver>,
     watchdog: Watchdog,
 }
 
@@ -566,7 +569,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         session: Some(session.clone()),
         messenger,
         instance: Some(instance.clone()),
-        renderer: None,
+        driver: None,
         watchdog: Watchdog::start(CALL_LIMIT),
     };
     if exts.fb_display_refresh_rate {
@@ -666,8 +669,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     )?;
     stats.config = renderer.config.clone();
     stats.foveation = renderer.foveation_path.clone();
-    live.renderer = Some(renderer);
-    let culling = CullState::new(&args.config, &scene)?;
+    live.driver = Some(FrameDriver::new(renderer, &scene)?);
     let masks = if exts.khr_visibility_mask {
         Some(Arc::new(fetch_masks(&session, 2)?))
     } else {
@@ -682,7 +684,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
 
     let mut state = LoopState {
         args,
-        culling,
+        records: RecordQueue::default(),
         masks,
         spawn,
         blend,
@@ -691,7 +693,19 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         first_fov_recorded: false,
         lens: None,
     };
-    let result = frame_loop(stats, &mut live, &mut state);
+    let mut result = frame_loop(stats, &mut live, &mut state);
+    // The frames in flight finish before the swapchains they were copied
+    // into go away; their records join the log.
+    if let Some(driver) = live.driver.as_mut() {
+        let finished = driver.finish();
+        while let Some(r) = driver.take_completed() {
+            state.records.complete(&r, stats);
+        }
+        let flushed = state.records.flush_all(stats);
+        if result.is_ok() {
+            result = finished.and(flushed);
+        }
+    }
     stats.sample_memory(&ctx, true);
     // Added, not assigned: with --reconnect a run holds several sessions.
     stats.validation_messages += ctx.validation_messages();
@@ -719,7 +733,8 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
 /// What the frame loop carries from frame to frame.
 struct LoopState<'a> {
     args: &'a RunArgs,
-    culling: Option<CullState>,
+    /// Records of frames whose GPU times are still to come.
+    records: RecordQueue,
     masks: Option<Arc<Vec<HiddenArea>>>,
     spawn: Pose,
     blend: xr::EnvironmentBlendMode,
@@ -901,7 +916,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         predicted_display_period_ns: fs.predicted_display_period.as_nanos(),
         ..FrameRecord::default()
     };
-    let mut gpu_wait_ms = 0.0;
+    let mut rendered = false;
     let mut layer_views: Option<Vec<xr::View>> = None;
     let mut images: Vec<(usize, usize)> = Vec::new();
     if fs.should_render {
@@ -933,16 +948,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 st.first_fov_recorded = true;
             }
             rec.fov = rig.views.iter().map(|v| v.fov).collect();
-            let t = Instant::now();
-            let visible = st
-                .culling
-                .as_mut()
-                .map(|c| c.cull(&rig, index))
-                .transpose()?;
-            rec.cull_ms = t.elapsed().as_secs_f64() * 1e3;
-            stats.cull = visible.as_ref().map(|(_, s)| *s);
-            let renderer = live.renderer.as_mut().expect("set");
-            renderer.record_frame(&rig, visible.map(|(v, _)| v))?;
+            let driver = live.driver.as_mut().expect("set");
+            driver.record(&rig, index)?;
             let mut out = FrameOutput::default();
             for (ci, chain) in live
                 .color
@@ -971,10 +978,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 }
             }
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
-            let f = renderer.submit_frame(Some(&out), capture)?;
-            gpu_wait_ms = f.cpu_ms.wait;
-            rec.gpu_ms = f.gpu_ms.values().sum();
-            rec.instances_drawn = f.instances_drawn;
+            driver.submit(Some(&out), capture)?;
+            rendered = true;
             for chain in live.color.iter_mut().chain(live.depth.iter_mut()) {
                 let _w = live.watchdog.watch("xrReleaseSwapchainImage");
                 chain
@@ -983,7 +988,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                     .call("xrReleaseSwapchainImage")?;
             }
             if capture {
-                let imgs = renderer.read_images()?;
+                let imgs = driver.read_images()?;
                 write_capture(args.capture.as_deref().expect("checked"), &imgs, &rig)?;
             }
             layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
@@ -1001,11 +1006,19 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
     }
-    rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3 - gpu_wait_ms;
-    stats.push_frame(rec)?;
+    // The CPU time still holds the wait for a frame slot; the record is
+    // completed (GPU time, counts, that wait taken out) when its frame
+    // finishes, and written in frame order.
+    rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3;
+    st.records.push(rec, rendered);
+    let driver = live.driver.as_mut().expect("set");
+    while let Some(r) = driver.take_completed() {
+        st.records.complete(&r, stats);
+    }
+    st.records.flush(stats)?;
     if index + 1 == crate::targets::run::WARMUP_FRAMES {
-        if let Some(r) = &live.renderer {
-            stats.sample_memory(r.context(), false);
+        if let Some(d) = &live.driver {
+            stats.sample_memory(d.renderer().context(), false);
         }
     }
     Ok(())
@@ -1022,9 +1035,9 @@ fn end_frame(
     st: &LoopState,
 ) -> Result<()> {
     let extent = live
-        .renderer
+        .driver
         .as_ref()
-        .map(|r| r.extent())
+        .map(|d| d.renderer().extent())
         .unwrap_or_default();
     let rect = sys::Rect2Di {
         offset: sys::Offset2Di { x: 0, y: 0 },

@@ -1,0 +1,82 @@
+//! Culling as the frame loops use it: the configuration's strategy over a
+//! BVH of the scene's instance bounds, with errors in the application's
+//! terms.
+
+use crate::config::RenderConfig;
+use crate::cull::{Bvh, CullParams, CullStats, Culler, Strategy, DEFAULT_LEAF_SIZE};
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use std::time::Instant;
+
+/// Culling for `render` and `run`: the strategy from the configuration over a BVH of
+/// the scene's instance bounds.
+pub struct CullState {
+    strategy: Strategy,
+    bvh: Bvh,
+    culler: Culler,
+    params: CullParams,
+    /// Milliseconds the BVH build took.
+    pub build_ms: f64,
+}
+
+impl CullState {
+    /// The culling `config` asks for over `scene` (None: `cull = "none"`).
+    pub fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
+        if config.cull == "none" {
+            return Ok(None);
+        }
+        let strategy: Strategy = config
+            .cull
+            .parse()
+            .map_err(|e| Error::config("--opt", format!("{e}")))?;
+        let t = Instant::now();
+        let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
+            .map_err(|e| Error::scene(&scene.name, e.to_string()))?;
+        let build_ms = t.elapsed().as_secs_f64() * 1e3;
+        let params = CullParams {
+            near: config.near,
+            draw_distance: config.draw_distance,
+            ..CullParams::default()
+        };
+        Ok(Some(CullState {
+            strategy,
+            bvh,
+            culler: Culler::new(),
+            params,
+            build_ms,
+        }))
+    }
+
+    /// Culls for `rig` at frame number `frame`: the visible instance list
+    /// and the counters.
+    pub fn cull(
+        &mut self,
+        rig: &crate::view::StereoRig,
+        frame: u64,
+    ) -> Result<(&[u32], CullStats)> {
+        let out = self
+            .culler
+            .cull(self.strategy, rig, frame, &self.bvh, &self.params)
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+        Ok((&out.visible, out.stats))
+    }
+
+    /// The visible list of the last cull.
+    pub fn last_visible(&self) -> &[u32] {
+        &self.culler.last().visible
+    }
+
+    /// False positives and false negatives of `visible` (a list this state
+    /// culled for `rig`, sorted here in place) against exact per-eye
+    /// culling of `rig`.
+    pub fn accuracy_of(
+        &self,
+        visible: &mut [u32],
+        rig: &crate::view::StereoRig,
+    ) -> Result<(u64, u64)> {
+        let exact = crate::cull::exact_per_eye(rig, &self.bvh, &self.params)
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+        visible.sort_unstable();
+        Ok(crate::cull::compare(visible, &exact))
+    }
+}

@@ -1,0 +1,202 @@
+//! The frame driver: the one loop body every frame goes through — `render`,
+//! `run` (headless and OpenXR) and `bench` alike. Rig in → cull → batch →
+//! record → submit → results out, so a technique is wired once.
+//!
+//! Frames are pipelined: [`FrameDriver::submit`] does not wait for the GPU.
+//! With N frames in flight, recording frame n waits only for frame n − N
+//! (inside [`Renderer::record_frame`]), so culling and batching of one frame
+//! overlap the GPU work of the previous ones. A frame's [`FrameResult`]
+//! (with its GPU timestamps) comes out of [`FrameDriver::take_completed`]
+//! once its fence has signalled, in submission order.
+
+use super::culling::CullState;
+use super::{FrameOutput, FrameStats, Renderer};
+use crate::cull::CullStats;
+use crate::error::{Error, Result};
+use crate::scene::Scene;
+use crate::view::{Fov, StereoRig};
+use std::collections::VecDeque;
+use std::time::Instant;
+
+/// Everything measured about one frame, available once the GPU finished it.
+#[derive(Clone, Debug)]
+pub struct FrameResult {
+    /// The caller's frame number (as given to [`FrameDriver::record`]).
+    pub index: u64,
+    /// When the frame's work began (before culling).
+    pub started: Instant,
+    /// Wall-clock milliseconds since the previous frame began (None for the
+    /// first frame): the loop's measured frame interval.
+    pub interval_ms: Option<f64>,
+    /// CPU milliseconds spent culling.
+    pub cull_ms: f64,
+    /// Culling counters (None without a culling strategy).
+    pub cull: Option<CullStats>,
+    /// The field of view of each eye it was rendered with.
+    pub fov: [Fov; 2],
+    /// The renderer's statistics (CPU phases, GPU passes, counts).
+    pub stats: FrameStats,
+}
+
+impl FrameResult {
+    /// CPU milliseconds of the frame's own work: cull, batch, record and
+    /// submit (not the waits for the GPU).
+    pub fn cpu_ms(&self) -> f64 {
+        self.cull_ms + self.stats.cpu_ms.batch + self.stats.cpu_ms.record + self.stats.cpu_ms.submit
+    }
+
+    /// GPU milliseconds of the frame (the sum of its passes' timestamps).
+    pub fn gpu_ms(&self) -> f64 {
+        self.stats.gpu_ms.values().sum()
+    }
+}
+
+/// Drives a [`Renderer`] (and the configuration's culling) frame by frame.
+pub struct FrameDriver {
+    renderer: Renderer,
+    culling: Option<CullState>,
+    /// The frame between `record` and `submit`.
+    recorded: Option<FrameResult>,
+    /// Submitted frames by the renderer's frame number, oldest first.
+    in_flight: VecDeque<(u64, FrameResult)>,
+    /// Finished frames not yet taken, oldest first.
+    done: VecDeque<FrameResult>,
+    last_start: Option<Instant>,
+}
+
+impl FrameDriver {
+    /// Drives `renderer`, culling `scene` as the renderer's configuration
+    /// says (builds the BVH when a strategy is set).
+    pub fn new(renderer: Renderer, scene: &Scene) -> Result<FrameDriver> {
+        let culling = CullState::new(&renderer.config, scene)?;
+        let slots = renderer.frames_in_flight();
+        Ok(FrameDriver {
+            renderer,
+            culling,
+            recorded: None,
+            in_flight: VecDeque::with_capacity(slots + 1),
+            done: VecDeque::with_capacity(slots + 1),
+            last_start: None,
+        })
+    }
+
+    /// The renderer.
+    pub fn renderer(&self) -> &Renderer {
+        &self.renderer
+    }
+
+    /// The renderer, for the one-frame calls (floors, readback).
+    pub fn renderer_mut(&mut self) -> &mut Renderer {
+        &mut self.renderer
+    }
+
+    /// The culling state (None without a strategy).
+    pub fn culling(&self) -> Option<&CullState> {
+        self.culling.as_ref()
+    }
+
+    /// Culls `rig` and records frame `index` (the command buffer stays open
+    /// for [`FrameDriver::submit`]); waits first for the frame that last
+    /// used this frame's slot.
+    pub fn record(&mut self, rig: &StereoRig, index: u64) -> Result<()> {
+        if self.recorded.is_some() {
+            return Err(Error::Gpu(
+                "a frame was recorded but never submitted".into(),
+            ));
+        }
+        if rig.views.len() != 2 {
+            return Err(Error::config(
+                "views",
+                format!("the stereo renderer takes 2 views, got {}", rig.views.len()),
+            ));
+        }
+        let started = Instant::now();
+        let interval_ms = self.last_start.map(|p| ms_between(p, started));
+        self.last_start = Some(started);
+        let (visible, cull) = match self.culling.as_mut() {
+            Some(c) => {
+                let (v, s) = c.cull(rig, index)?;
+                (Some(v), Some(s))
+            }
+            None => (None, None),
+        };
+        let cull_ms = ms_between(started, Instant::now());
+        self.renderer.record_frame(rig, visible)?;
+        self.recorded = Some(FrameResult {
+            index,
+            started,
+            interval_ms,
+            cull_ms,
+            cull,
+            fov: [rig.views[0].fov, rig.views[1].fov],
+            stats: FrameStats::default(),
+        });
+        Ok(())
+    }
+
+    /// Submits the recorded frame (copied into `output` when given, read
+    /// back when `readback`) without waiting for it.
+    pub fn submit(&mut self, output: Option<&FrameOutput>, readback: bool) -> Result<()> {
+        let result = self
+            .recorded
+            .take()
+            .ok_or_else(|| Error::Gpu("submit without a recorded frame".into()))?;
+        let frame = self.renderer.submit_frame(output, readback)?;
+        self.in_flight.push_back((frame, result));
+        self.gather();
+        Ok(())
+    }
+
+    /// Records and submits frame `index` of `rig` (no output images).
+    pub fn frame(&mut self, rig: &StereoRig, index: u64, readback: bool) -> Result<()> {
+        self.record(rig, index)?;
+        self.submit(None, readback)
+    }
+
+    /// The oldest finished frame not taken yet.
+    pub fn take_completed(&mut self) -> Option<FrameResult> {
+        self.gather();
+        self.done.pop_front()
+    }
+
+    /// Waits for every submitted frame; their results join
+    /// [`FrameDriver::take_completed`].
+    pub fn finish(&mut self) -> Result<()> {
+        self.renderer.finish()?;
+        self.gather();
+        Ok(())
+    }
+
+    /// The last read-back frame, left and right (waits for the frames in
+    /// flight; their results stay available).
+    pub fn read_images(&mut self) -> Result<[image::RgbaImage; 2]> {
+        let images = self.renderer.read_images();
+        self.gather();
+        images
+    }
+
+    /// Moves the renderer's finished frames to `done`, joined with what was
+    /// known when they were recorded.
+    fn gather(&mut self) {
+        while let Some(stats) = self.renderer.take_completed() {
+            // Frames finish in submission order; a frame rendered outside
+            // the driver (e.g. `Renderer::render`) has no entry and is
+            // skipped.
+            while let Some((frame, _)) = self.in_flight.front() {
+                if *frame > stats.frame {
+                    break;
+                }
+                let (frame, mut result) = self.in_flight.pop_front().expect("front exists");
+                if frame == stats.frame {
+                    result.stats = stats;
+                    self.done.push_back(result);
+                    break;
+                }
+            }
+        }
+    }
+}
+
+fn ms_between(a: Instant, b: Instant) -> f64 {
+    (b - a).as_secs_f64() * 1e3
+}
