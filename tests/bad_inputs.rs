@@ -239,6 +239,21 @@ fn bad_cli_values() {
         out,
     ]);
     assert!(stderr.contains("--msaa"), "{stderr}");
+    for n in ["0", "4"] {
+        let stderr = fails(&[
+            "render",
+            "--scene",
+            "factory:10",
+            "--frames-in-flight",
+            n,
+            "--out",
+            out,
+        ]);
+        assert!(
+            stderr.contains("--frames-in-flight") && stderr.contains("1 to 3"),
+            "{stderr}"
+        );
+    }
     let out2 = Command::new(env!("CARGO_BIN_EXE_vergence"))
         .args(["render", "--pose", "1,2,nan,0,0,0", "--out", out])
         .output()

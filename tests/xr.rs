@@ -241,6 +241,35 @@ fn two_pass_uses_one_swapchain_per_view_at_one_sample() {
     assert_no_validation(&o, &s);
 }
 
+#[test]
+fn one_and_three_frames_in_flight_run_clean_under_the_runtime() {
+    let _g = lock();
+    for n in ["1", "3"] {
+        let dir = out_dir(&format!("in-flight-{n}"));
+        let s_path = dir.join("stats.json");
+        let o = with_monado(false)
+            .args(["run", "--xr", "openxr", "--frames", "20"])
+            .args(["--scene", "factory:2000", "--opt", "superfrustum"])
+            .args(["--frames-in-flight", n, "--width", "160", "--height", "128"])
+            .arg("--stats-out")
+            .arg(&s_path)
+            .output()
+            .expect("with-monado");
+        assert!(o.status.success(), "{n}: {}", text(&o));
+        let s = stats(&s_path);
+        assert_eq!(s["config"]["frames_in_flight"], n.parse::<u64>().unwrap());
+        let frames = s["frames"].as_array().unwrap();
+        assert!(frames.len() >= 20, "{n}: every frame has a record");
+        for (i, f) in frames.iter().enumerate() {
+            assert_eq!(f["index"], i as u64, "{n}: records in frame order");
+            if f["should_render"] == true {
+                assert!(f["gpu_ms"].as_f64().unwrap() > 0.0, "{n}: frame {i}: {f}");
+            }
+        }
+        assert_no_validation(&o, &s);
+    }
+}
+
 fn yaw_quat(deg: f32) -> [f32; 4] {
     let h = deg.to_radians() * 0.5;
     [0.0, h.sin(), 0.0, h.cos()]
