@@ -89,10 +89,15 @@ pub const BUILTIN: &[(&str, &str)] = &[
         include_str!("../../manifests/bench/default.toml"),
     ),
     ("scale", include_str!("../../manifests/bench/scale.toml")),
+    (
+        "in-flight",
+        include_str!("../../manifests/bench/in-flight.toml"),
+    ),
 ];
 
 impl Plan {
-    /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`).
+    /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`,
+    /// `in-flight`).
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
         let path = Path::new(name_or_path);
         if path.exists() {
@@ -320,7 +325,7 @@ opt = "two-pass"
     #[test]
     fn shipped_plans_parse() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/bench");
-        for name in ["smoke", "default", "scale"] {
+        for name in ["smoke", "default", "scale", "in-flight"] {
             let p = Plan::load(&dir.join(format!("{name}.toml"))).unwrap();
             assert_eq!(p.name, name);
         }
