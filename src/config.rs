@@ -1,6 +1,7 @@
 //! `RenderConfig`: one field per optimization, parsed from the CLI (`--stereo`,
 //! `--msaa`, `--opt LIST`) and from config files.
 
+use crate::cull::Strategy;
 use crate::error::{Error, Result};
 
 /// How the two eyes are rendered.
@@ -34,6 +35,57 @@ impl StereoMode {
     }
 }
 
+/// Which instances a frame draws: all of them, or those a culling
+/// strategy keeps. Written as its `--opt` name (`none` or the strategy's).
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub enum Culling {
+    /// Every instance (`none`).
+    #[default]
+    None,
+    /// The instances the strategy keeps.
+    Strategy(Strategy),
+}
+
+impl Culling {
+    /// The `--opt` name.
+    pub fn name(&self) -> &'static str {
+        match self {
+            Culling::None => "none",
+            Culling::Strategy(s) => s.name(),
+        }
+    }
+
+    /// The strategy (None for `none`).
+    pub fn strategy(&self) -> Option<Strategy> {
+        match self {
+            Culling::None => None,
+            Culling::Strategy(s) => Some(*s),
+        }
+    }
+}
+
+impl std::fmt::Display for Culling {
+    fn fmt(&self, f: &mut std::fmt::Formatter<'_>) -> std::fmt::Result {
+        f.write_str(self.name())
+    }
+}
+
+impl std::str::FromStr for Culling {
+    type Err = crate::cull::CullError;
+    fn from_str(s: &str) -> std::result::Result<Self, Self::Err> {
+        match s.trim() {
+            "none" => Ok(Culling::None),
+            other => other.parse().map(Culling::Strategy),
+        }
+    }
+}
+
+impl serde::Serialize for Culling {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        s.serialize_str(self.name())
+    }
+}
+
 /// Everything that changes how a frame is rendered.
 #[derive(Clone, Debug, PartialEq, serde::Serialize)]
 pub struct RenderConfig {
@@ -43,8 +95,8 @@ pub struct RenderConfig {
     pub msaa: u32,
     /// Near plane in metres (reverse-Z, infinite far plane).
     pub near: f64,
-    /// Culling strategy name (`none` draws every instance).
-    pub cull: String,
+    /// Culling (`none` draws every instance).
+    pub cull: Culling,
     /// Draw distance in metres for distance culling (None: unlimited).
     pub draw_distance: Option<f64>,
     /// HMD stencil mask: the hidden-area mesh is written to stencil first and
@@ -96,7 +148,7 @@ impl Default for RenderConfig {
             stereo: StereoMode::Multiview,
             msaa: 4,
             near: 0.05,
-            cull: "none".into(),
+            cull: Culling::None,
             draw_distance: None,
             stencil_mask: false,
             foveation: crate::render::foveation::Level::Off,
@@ -211,7 +263,11 @@ impl RenderConfig {
                         }
                     }
                 }
-                name if cull_names.contains(&name) => self.cull = name.to_string(),
+                name if cull_names.contains(&name) => {
+                    self.cull = name
+                        .parse()
+                        .map_err(|e| Error::config("--opt", format!("{e}")))?;
+                }
                 other => {
                     return Err(Error::config(
                         "--opt",

@@ -1,9 +1,11 @@
 //! vergence: a stereo VR renderer for very large enterprise scenes, whose
 //! stereo optimizations are switchable, combinable and measured.
 //!
-//! The library is organised as DESIGN.md describes: `view` and `cull` are
-//! pure math, `scene` loads content, `gpu` wraps Vulkan, `render` draws,
-//! `targets` writes images, `bench` measures.
+//! Layers, each importing only those below it (docs/architecture.md):
+//! `main` and `bench` on top; `targets` (where frames go and the loops that
+//! drive them); `xr` (the OpenXR wrapper); `render` (passes, the frame
+//! driver); `scene` (content), `gpu` (Vulkan), `config`; `cull` and `view`
+//! (pure math); `stats`, `quit` and `error` at the bottom.
 
 pub mod error;
 pub mod scene;
@@ -16,5 +18,6 @@ pub mod cull;
 pub mod gpu;
 pub mod quit;
 pub mod render;
+pub mod stats;
 pub mod targets;
 pub mod xr;

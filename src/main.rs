@@ -499,7 +499,7 @@ fn bench(
     }
     let results = run_bench(&plan, out)?;
     for g in &results.groups {
-        println!("{}", vergence::bench::report::group_title(g));
+        println!("{}", vergence::bench::tables::group_title(g));
         for r in &g.results {
             println!(
                 "  {:28} GPU {:8.3} ms{}  FLIP {}",
@@ -512,7 +512,7 @@ fn bench(
                     .map_or("ref".into(), |e| format!("{:.4}", e.flip_mean))
             );
         }
-        if let Some(t) = vergence::bench::report::target_line(g) {
+        if let Some(t) = vergence::bench::tables::target_line(g) {
             println!("  {t}");
         }
     }

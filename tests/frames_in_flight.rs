@@ -6,7 +6,8 @@ mod common;
 
 use common::{context, framing_pose, load};
 use glam::DVec3;
-use vergence::config::{RenderConfig, StereoMode};
+use vergence::config::{Culling, RenderConfig, StereoMode};
+use vergence::cull::Strategy;
 use vergence::render::driver::FrameDriver;
 use vergence::render::Renderer;
 use vergence::view::profile::HmdProfile;
@@ -35,7 +36,7 @@ fn at_most_n_frames_are_in_flight_and_results_come_in_order() {
     for n in 1..=3u32 {
         let config = RenderConfig {
             frames_in_flight: n,
-            cull: "superfrustum".into(),
+            cull: Culling::Strategy(Strategy::Superfrustum),
             msaa: 1,
             ..RenderConfig::default()
         };

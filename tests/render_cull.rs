@@ -12,7 +12,7 @@ use vergence::view::Pose;
 fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
     let out = std::env::temp_dir().join(format!("vergence-cull-{}-{name}", std::process::id()));
     let config = RenderConfig {
-        cull: cull.into(),
+        cull: cull.parse().expect("a culling name"),
         ..RenderConfig::default()
     };
     let job = RenderJob {

@@ -2,9 +2,9 @@
 //! with plotters: a Pareto chart (GPU ms against FLIP), frame-time
 //! histograms and the scaling curve (cost against instance count).
 
-use super::report::{facts, group_rows, group_title, pass_rows, target_line};
 use super::runner::{BenchResults, Group};
-use super::stats::histogram;
+use super::tables::{facts, group_rows, group_title, pass_rows, target_line};
+use crate::stats::histogram;
 use plotters::prelude::*;
 use std::fmt::Write as _;
 

@@ -6,7 +6,7 @@ pub mod metrics;
 pub mod plan;
 pub mod report;
 pub mod runner;
-pub mod stats;
+pub mod tables;
 pub mod tune;
 
 /// The process's resident set size in bytes (Linux: /proc/self/statm;

@@ -178,7 +178,7 @@ impl Plan {
             if !names.insert(c.name.as_str()) {
                 return Err(format!("config name '{}' appears twice", c.name));
             }
-            if !files.insert(super::runner::sanitize(&c.name)) {
+            if !files.insert(sanitize(&c.name)) {
                 return Err(format!(
                     "config name '{}' gives the same image file name as another",
                     c.name
@@ -232,6 +232,19 @@ impl Plan {
             .map(|i| (i as u64 * n as u64 / k as u64) as u32 - 1)
             .collect()
     }
+}
+
+/// A name made safe for a file name.
+pub fn sanitize(s: &str) -> String {
+    s.chars()
+        .map(|c| {
+            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
+                c
+            } else {
+                '_'
+            }
+        })
+        .collect()
 }
 
 /// Names `--opt` accepts for culling: `none` plus every strategy.

@@ -1,7 +1,8 @@
 //! Bench outputs: `results.json`, `results.csv` and `report.md` (the HTML
 //! report with plots is in [`super::html`]).
 
-use super::runner::{BenchResults, ConfigResult, Group};
+use super::runner::{BenchResults, ConfigResult};
+use super::tables::{facts, group_rows, group_title, pass_rows, target_line};
 use crate::error::{Error, Result};
 use std::fmt::Write as _;
 use std::path::Path;
@@ -112,192 +113,12 @@ pub fn csv(results: &BenchResults) -> String {
     s
 }
 
-/// Title line of a group.
-pub fn group_title(g: &Group) -> String {
-    format!(
-        "{} ({} instances) · {} · scale {} ({}×{} per eye, {:.2} ms budget at {} Hz)",
-        g.scene,
-        g.instances,
-        g.hmd,
-        g.scale,
-        g.resolution[0],
-        g.resolution[1],
-        1000.0 / g.refresh_hz,
-        g.refresh_hz
-    )
-}
-
-fn pct_change(v: f64, base: f64) -> String {
-    if base > 0.0 {
-        format!("{:+.1} %", (v / base - 1.0) * 100.0)
-    } else {
-        "–".into()
-    }
-}
-
-/// The main table of a group: one row per configuration.
-pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
-    let head = vec![
-        "config",
-        "GPU ms p50",
-        "GPU speed-up",
-        "frame ms p50 / p99",
-        "over budget / 2×",
-        "CPU ms cull / record / submit",
-        "draws",
-        "triangles",
-        "fragments (vs baseline)",
-        "FLIP mean",
-        "FLIP p99",
-        "PSNR dB",
-        "SSIM",
-        "cull FP / FN",
-    ];
-    let base_frag = g
-        .results
-        .iter()
-        .find(|r| r.name == g.baseline)
-        .and_then(|r| r.fragment_invocations);
-    let rows = g
-        .results
-        .iter()
-        .map(|r| {
-            let e = r.error.as_ref();
-            vec![
-                format!("{} (`{}`)", r.name, r.opt),
-                format!("{:.3}", r.gpu_frame_ms.p50),
-                r.gpu_speedup.map_or("–".into(), |s| format!("{s:.2}×")),
-                format!(
-                    "{:.3} / {:.3} ({} in flight)",
-                    r.wall_frame_ms.p50, r.wall_frame_ms.p99, r.frames_in_flight
-                ),
-                format!("{} / {}", r.frames_over_budget, r.frames_over_2x_budget),
-                format!(
-                    "{:.3} / {:.3} / {:.3}",
-                    r.cpu_ms.cull, r.cpu_ms.record, r.cpu_ms.submit
-                ),
-                format!("{:.0}", r.draw_calls),
-                format!("{:.0}", r.triangles),
-                match (r.fragment_invocations, base_frag) {
-                    (Some(f), Some(b)) => format!("{f:.0} ({})", pct_change(f, b)),
-                    (Some(f), None) => format!("{f:.0}"),
-                    _ => "n/a".into(),
-                },
-                e.map_or("ref".into(), |e| format!("{:.4}", e.flip_mean)),
-                e.map_or("ref".into(), |e| format!("{:.4}", e.flip_p99)),
-                e.map_or("ref".into(), |e| {
-                    if e.psnr_db >= 100.0 {
-                        "∞".into()
-                    } else {
-                        format!("{:.2}", e.psnr_db)
-                    }
-                }),
-                e.map_or("ref".into(), |e| format!("{:.4}", e.ssim)),
-                r.cull_accuracy.map_or("–".into(), |a| {
-                    format!("{:.1} / {:.1}", a.false_positives, a.false_negatives)
-                }),
-            ]
-        })
-        .collect();
-    (head, rows)
-}
-
-/// Per-pass GPU ms: pass names and one row per configuration.
-pub fn pass_rows(g: &Group) -> (Vec<String>, Vec<Vec<String>>) {
-    let mut passes: Vec<String> = Vec::new();
-    for r in &g.results {
-        for p in r.gpu_ms.keys() {
-            if !passes.contains(p) {
-                passes.push(p.clone());
-            }
-        }
-    }
-    let rows = g
-        .results
-        .iter()
-        .map(|r| {
-            std::iter::once(r.name.clone())
-                .chain(
-                    passes
-                        .iter()
-                        .map(|p| r.gpu_ms.get(p).map_or("–".into(), |v| format!("{v:.3}"))),
-                )
-                .collect()
-        })
-        .collect();
-    (passes, rows)
-}
-
-/// The target, checked on a group: the config named `full-stack`
-/// against the baseline.
-pub fn target_line(g: &Group) -> Option<String> {
-    let full = g.results.iter().find(|r| r.name == "full-stack")?;
-    let base = g.results.iter().find(|r| r.name == g.baseline)?;
-    let speedup = base.gpu_frame_ms.p50 / full.gpu_frame_ms.p50.max(1e-9);
-    let flip = full.error.map_or(0.0, |e| e.flip_mean);
-    let met = speedup >= 2.5 && flip <= 0.05;
-    Some(format!(
-        "Target (full stack vs {}: ≥ 2.5× lower GPU frame time at FLIP mean ≤ 0.05): {speedup:.2}× at FLIP {flip:.4} — {}",
-        g.baseline,
-        if met { "met" } else { "not met" }
-    ))
-}
-
 fn md_table(s: &mut String, head: &[String], rows: &[Vec<String>]) {
     let _ = writeln!(s, "| {} |", head.join(" | "));
     let _ = writeln!(s, "|{}", "---|".repeat(head.len()));
     for r in rows {
         let _ = writeln!(s, "| {} |", r.join(" | "));
     }
-}
-
-fn date(unix: u64) -> String {
-    // Civil date from days since 1970-01-01 (Howard Hinnant's algorithm,
-    // "chrono-Compatible Low-Level Date Algorithms").
-    let z = (unix / 86_400) as i64 + 719_468;
-    let era = z.div_euclid(146_097);
-    let doe = z - era * 146_097;
-    let yoe = (doe - doe / 1460 + doe / 36_524 - doe / 146_096) / 365;
-    let doy = doe - (365 * yoe + yoe / 4 - yoe / 100);
-    let mp = (5 * doy + 2) / 153;
-    let d = doy - (153 * mp + 2) / 5 + 1;
-    let m = if mp < 10 { mp + 3 } else { mp - 9 };
-    let y = yoe + era * 400 + i64::from(m <= 2);
-    format!("{y:04}-{m:02}-{d:02}")
-}
-
-/// The header facts shared by the Markdown and HTML reports.
-pub fn facts(results: &BenchResults) -> Vec<(String, String)> {
-    let plan = results.plan.as_ref();
-    vec![
-        ("Plan".into(), plan.map_or("?".into(), |p| p.name.clone())),
-        ("Date".into(), date(results.started_unix)),
-        ("GPU".into(), results.device.clone()),
-        ("Driver".into(), results.driver.clone()),
-        ("CPU".into(), results.cpu.clone()),
-        ("Command".into(), format!("`{}`", results.command)),
-        (
-            "Frames".into(),
-            plan.map_or("?".into(), |p| {
-                format!(
-                    "{} warm-up + {} measured per configuration along head path seed {}; {} compared with the reference (`{}`)",
-                    p.warmup, p.frames, p.path_seed, p.error_frames, p.reference
-                )
-            }),
-        ),
-        (
-            "Status".into(),
-            if results.complete {
-                "complete".into()
-            } else {
-                "INCOMPLETE (interrupted): only finished configurations are listed".into()
-            },
-        ),
-        (
-            "Validation messages".into(),
-            results.validation_messages.to_string(),
-        ),
-    ]
 }
 
 /// `report.md`.
@@ -355,13 +176,6 @@ pub fn markdown(results: &BenchResults) -> String {
 #[cfg(test)]
 mod tests {
     use super::*;
-
-    #[test]
-    fn dates() {
-        assert_eq!(date(0), "1970-01-01");
-        assert_eq!(date(951_782_400), "2000-02-29");
-        assert_eq!(date(1_795_305_600), "2026-11-22");
-    }
 
     #[test]
     fn csv_quotes_opt_lists() {

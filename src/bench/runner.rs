@@ -2,8 +2,7 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
-use super::plan::Plan;
-use super::stats::Summary;
+use super::plan::{sanitize, Plan};
 use super::{metrics, process_rss_bytes};
 use crate::config::RenderConfig;
 use crate::cull::bench::{head_path, scene_bounds};
@@ -12,6 +11,7 @@ use crate::gpu::Context;
 use crate::render::driver::{FrameDriver, FrameResult};
 use crate::render::{FloorKind, Renderer};
 use crate::scene::Scene;
+use crate::stats::Summary;
 use crate::targets::headless::load_scene;
 use crate::view::lens::mask_image;
 use crate::view::profile::HmdProfile;
@@ -630,7 +630,7 @@ fn summarize(
         opt: opt.to_string(),
         stereo: config.stereo.name().to_string(),
         msaa: config.msaa,
-        cull: config.cull.clone(),
+        cull: config.cull.name().to_string(),
         foveation_path: renderer.foveation_path.clone(),
         frames: frames.len() as u32,
         cpu_ms: PhaseMs {
@@ -710,19 +710,6 @@ fn save_left(out: &Path, dir: &str, name: &str, images: &RefImages) -> Result<St
         crate::targets::headless::save_png(&pair[0], &path)?;
     }
     Ok(rel)
-}
-
-/// A name made safe for a file name.
-pub fn sanitize(s: &str) -> String {
-    s.chars()
-        .map(|c| {
-            if c.is_ascii_alphanumeric() || c == '-' || c == '_' || c == '.' {
-                c
-            } else {
-                '_'
-            }
-        })
-        .collect()
 }
 
 /// The host CPU's model name (from /proc/cpuinfo).

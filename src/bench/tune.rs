@@ -227,7 +227,7 @@ impl ConfigFile {
 mod tests {
     use super::*;
     use crate::bench::runner::{Group, ImageError};
-    use crate::bench::stats::Summary;
+    use crate::stats::Summary;
 
     fn result(name: &str, p95: f64, flip: Option<f64>) -> ConfigResult {
         ConfigResult {

@@ -22,13 +22,9 @@ pub struct CullState {
 impl CullState {
     /// The culling `config` asks for over `scene` (None: `cull = "none"`).
     pub fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
-        if config.cull == "none" {
+        let Some(strategy) = config.cull.strategy() else {
             return Ok(None);
-        }
-        let strategy: Strategy = config
-            .cull
-            .parse()
-            .map_err(|e| Error::config("--opt", format!("{e}")))?;
+        };
         let t = Instant::now();
         let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
             .map_err(|e| Error::scene(&scene.name, e.to_string()))?;

@@ -144,9 +144,9 @@ pub struct Percentiles {
 }
 
 impl Percentiles {
-    /// Of `v` (unsorted; nearest rank, as [`crate::bench::stats::Summary`]).
+    /// Of `v` (unsorted; nearest rank, as [`crate::stats::Summary`]).
     pub fn of(v: &[f64]) -> Percentiles {
-        let s = crate::bench::stats::Summary::of(v);
+        let s = crate::stats::Summary::of(v);
         Percentiles {
             median: s.p50,
             p95: s.p95,

@@ -3,3 +3,5 @@
 
 pub mod headless;
 pub mod run;
+pub mod session;
+pub mod xr_session;

@@ -1,4 +1,4 @@
-//! Summary statistics of a series of frame measurements.
+//! Statistics helpers shared by the loops (`targets`) and the bench: nearest-rank summaries and constant-memory histograms.
 
 /// Percentiles (nearest rank), mean, standard deviation and extremes.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]

@@ -1,0 +1,552 @@
+//! What a run is asked to do and what it reports: the arguments of `run`,
+//! the per-frame records and statistics of `--stats-out`, and the pieces
+//! both loops (headless and OpenXR) share. Below both loops.
+
+use super::headless::{save_pair, write_json, Percentiles, SceneCounts};
+use crate::config::RenderConfig;
+use crate::cull::CullStats;
+use crate::error::{Error, Result};
+use crate::gpu::Context;
+use crate::render::driver::FrameResult;
+use crate::scene::Scene;
+use crate::stats::LogHistogram;
+use crate::view::{frame_bounds, Fov, Pose, RigFile, StereoRig};
+use glam::DVec3;
+use std::path::{Path, PathBuf};
+use std::time::{Duration, Instant};
+
+/// Where `run` renders.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum XrMode {
+    /// OpenXR when a runtime and headset are there, else headless.
+    Auto,
+    /// OpenXR only: no runtime or headset is an error.
+    Openxr,
+    /// Headless on the fallback HMD profile.
+    Headless,
+}
+
+/// What `run` was asked to do.
+#[derive(Clone, Debug)]
+pub struct RunArgs {
+    /// `--scene`.
+    pub scene: String,
+    /// `--hmd-fallback`: the profile used headless.
+    pub hmd_fallback: String,
+    /// `--xr`.
+    pub xr: XrMode,
+    /// `--frames`: stop after this many submitted frames.
+    pub frames: Option<u64>,
+    /// `--seconds`: stop after this long.
+    pub seconds: Option<f64>,
+    /// `--stats-out`.
+    pub stats_out: Option<PathBuf>,
+    /// Renderer configuration (`--opt`, `--stereo`, `--msaa`).
+    pub config: RenderConfig,
+    /// Per-eye size override (else the runtime's recommended size or the
+    /// profile's resolution).
+    pub size: Option<(u32, u32)>,
+    /// `--capture DIR`: write the last frame (left.png, right.png, rig.json).
+    pub capture: Option<PathBuf>,
+    /// `--reconnect`: when the OpenXR runtime is lost mid-run, retry every
+    /// second until it is back, instead of exiting.
+    pub reconnect: bool,
+}
+
+impl RunArgs {
+    /// Checks values before anything is loaded.
+    pub fn validate(&self) -> Result<()> {
+        self.config.validate()?;
+        if let Some(s) = self.seconds {
+            if !(s.is_finite() && s > 0.0) {
+                return Err(Error::config(
+                    "--seconds",
+                    format!("{s} must be a positive number"),
+                ));
+            }
+        }
+        if self.frames == Some(0) {
+            return Err(Error::config("--frames", "must be at least 1"));
+        }
+        if self.capture.is_some() && self.frames.is_none() {
+            return Err(Error::config(
+                "--capture",
+                "needs --frames N (the last frame, N, is captured)",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Whether the frame or time limit is reached.
+    pub fn limit_reached(&self, frames: u64, started: Instant) -> bool {
+        self.frames.is_some_and(|n| frames >= n)
+            || self
+                .seconds
+                .is_some_and(|s| started.elapsed() >= Duration::from_secs_f64(s))
+    }
+}
+
+/// One frame of the loop.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct FrameRecord {
+    /// Frame number (from 0, counting frames not rendered too).
+    pub index: u64,
+    /// The runtime asked for rendering (always true headless).
+    pub should_render: bool,
+    /// Time blocked in xrWaitFrame (0 headless).
+    pub wait_ms: f64,
+    /// CPU time from the end of the wait to the end of xrEndFrame (or of
+    /// the submit headless), GPU wait excluded.
+    pub cpu_ms: f64,
+    /// GPU time of the frame (all passes, timestamps).
+    pub gpu_ms: f64,
+    /// Culling time.
+    pub cull_ms: f64,
+    /// predictedDisplayTime in nanoseconds (headless: time since start).
+    pub predicted_display_time_ns: i64,
+    /// predictedDisplayPeriod in nanoseconds (headless: the profile's).
+    pub predicted_display_period_ns: i64,
+    /// Display periods skipped since the previous frame.
+    pub missed_periods: u64,
+    /// Instances drawn.
+    pub instances_drawn: u64,
+    /// FOV of each view used for culling and rendering (radians).
+    pub fov: Vec<Fov>,
+}
+
+/// A view configuration view as the runtime reports it.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct ViewInfo {
+    /// Recommended image size.
+    pub recommended: [u32; 2],
+    /// Maximum image size.
+    pub max: [u32; 2],
+    /// FOV of the first located frame.
+    pub fov: Option<Fov>,
+}
+
+/// The per-frame records of `--stats-out`, spooled to a file beside it as
+/// they come (one JSON line each) and streamed into the JSON document at
+/// the end, so memory stays flat however long the run. Without
+/// `--stats-out` nothing is kept.
+#[derive(Debug, Default)]
+pub struct FrameLog {
+    spool: Option<(PathBuf, std::io::BufWriter<std::fs::File>)>,
+    count: u64,
+}
+
+impl FrameLog {
+    /// A log spooled next to `stats_out`.
+    pub fn spooled(stats_out: &Path) -> Result<FrameLog> {
+        let path = stats_out.with_extension("frames.tmp");
+        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+            std::fs::create_dir_all(dir).map_err(|e| Error::Output {
+                path: dir.to_path_buf(),
+                message: e.to_string(),
+            })?;
+        }
+        let file = std::fs::File::create(&path).map_err(|e| Error::Output {
+            path: path.clone(),
+            message: e.to_string(),
+        })?;
+        Ok(FrameLog {
+            spool: Some((path, std::io::BufWriter::new(file))),
+            count: 0,
+        })
+    }
+
+    fn push(&mut self, f: &FrameRecord) -> Result<()> {
+        self.count += 1;
+        if let Some((path, w)) = &mut self.spool {
+            use std::io::Write as _;
+            serde_json::to_writer(&mut *w, f)
+                .map_err(std::io::Error::from)
+                .and_then(|()| w.write_all(b"\n"))
+                .map_err(|e| Error::Output {
+                    path: path.clone(),
+                    message: e.to_string(),
+                })?;
+        }
+        Ok(())
+    }
+
+    /// Records logged.
+    pub fn len(&self) -> u64 {
+        self.count
+    }
+
+    /// Whether nothing was logged.
+    pub fn is_empty(&self) -> bool {
+        self.count == 0
+    }
+
+    fn flush(&mut self) -> Result<()> {
+        if let Some((path, w)) = &mut self.spool {
+            use std::io::Write as _;
+            w.flush().map_err(|e| Error::Output {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
+
+    fn remove_spool(&mut self) {
+        if let Some((path, _)) = self.spool.take() {
+            let _ = std::fs::remove_file(path);
+        }
+    }
+}
+
+impl Drop for FrameLog {
+    fn drop(&mut self) {
+        self.remove_spool();
+    }
+}
+
+impl serde::Serialize for FrameLog {
+    fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
+        use serde::ser::Error as _;
+        use std::io::BufRead as _;
+        let Some((path, _)) = &self.spool else {
+            return s.collect_seq(std::iter::empty::<()>());
+        };
+        let file = std::fs::File::open(path).map_err(S::Error::custom)?;
+        let mut failed = None;
+        let records = std::io::BufReader::new(file).lines().map_while(|l| {
+            match l.map_err(|e| e.to_string()).and_then(|l| {
+                serde_json::from_str::<serde_json::Value>(&l).map_err(|e| e.to_string())
+            }) {
+                Ok(v) => Some(v),
+                Err(e) => {
+                    failed = Some(e);
+                    None
+                }
+            }
+        });
+        let out = s.collect_seq(records)?;
+        match failed {
+            Some(e) => Err(S::Error::custom(e)),
+            None => Ok(out),
+        }
+    }
+}
+
+/// Summary of the frame series.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RunSummary {
+    /// xrWaitFrame wait.
+    pub wait_ms: Percentiles,
+    /// CPU frame time.
+    pub cpu_frame_ms: Percentiles,
+    /// GPU frame time.
+    pub gpu_frame_ms: Percentiles,
+}
+
+/// The contents of `--stats-out`.
+#[derive(Debug, Default, serde::Serialize)]
+pub struct RunStats {
+    /// `openxr` or `headless`.
+    pub mode: String,
+    /// Why OpenXR was not used (`--xr auto` fallback), if it was not.
+    pub fallback_reason: Option<String>,
+    /// Scene counts.
+    pub scene: Option<SceneCounts>,
+    /// Configuration used.
+    pub config: RenderConfig,
+    /// GPU name.
+    pub device: String,
+    /// Driver description.
+    pub driver: String,
+    /// OpenXR runtime name and version.
+    pub runtime: Option<String>,
+    /// OpenXR system name (or the HMD profile headless).
+    pub system: String,
+    /// OpenXR extensions enabled.
+    pub extensions_enabled: Vec<String>,
+    /// OpenXR API layers enabled.
+    pub api_layers: Vec<String>,
+    /// Display refresh rate (XR_FB_display_refresh_rate, when offered).
+    pub display_refresh_hz: Option<f32>,
+    /// Refresh rates the display supports (XR_FB_display_refresh_rate).
+    pub display_refresh_rates: Vec<f32>,
+    /// Per view: recommended and max sizes and FOV.
+    pub views: Vec<ViewInfo>,
+    /// Per-eye image size rendered.
+    pub image_size: [u32; 2],
+    /// Reference space (STAGE or LOCAL).
+    pub reference_space: Option<String>,
+    /// Swapchain colour format.
+    pub color_format: Option<String>,
+    /// Swapchain depth format (None: no depth layer).
+    pub depth_format: Option<String>,
+    /// Hidden-area mesh per view: (vertices, indices).
+    pub visibility_mask: Vec<[usize; 2]>,
+    /// Visibility-mask refreshes after XrEventDataVisibilityMaskChangedKHR.
+    pub visibility_mask_refreshes: u64,
+    /// Session states in order.
+    pub states: Vec<String>,
+    /// Whether the session reached FOCUSED.
+    pub focused: bool,
+    /// Frames in the loop (streamed from the spool file when written).
+    pub frames: FrameLog,
+    /// Process resident set size (Linux), sampled every
+    /// [`RSS_SAMPLE_EVERY`] frames after warm-up: the median of the first
+    /// ten samples, of the last ten, and the difference (growth).
+    pub rss: RssTrack,
+    /// GPU memory vergence allocated after the first 300 frames and at the
+    /// end, in bytes.
+    pub gpu_allocated_bytes: [u64; 2],
+    #[serde(skip)]
+    series: Series,
+    #[serde(skip)]
+    started: Option<Instant>,
+    /// Frames ended with xrEndFrame success (headless: rendered).
+    pub frames_submitted: u64,
+    /// Frames rendered (shouldRender true).
+    pub frames_rendered: u64,
+    /// Sum of missed display periods.
+    pub missed_display_periods: u64,
+    /// Events the runtime dropped (XrEventDataEventsLost).
+    pub events_lost: u64,
+    /// Frames whose views lacked a valid pose (last valid pose reused).
+    pub invalid_pose_frames: u64,
+    /// Vulkan validation messages.
+    pub validation_messages: usize,
+    /// OpenXR debug-utils warnings and errors (core validation layer).
+    pub xr_validation_messages: usize,
+    /// Culling counters of the last frame.
+    pub cull: Option<CullStats>,
+    /// Which foveation path ran.
+    pub foveation: String,
+    /// Series summary.
+    pub summary: RunSummary,
+    /// Sessions re-established after the runtime was lost (`--reconnect`).
+    pub reconnects: u64,
+    /// Why the loop ended.
+    pub exit: String,
+    /// Wall time of the loop in seconds.
+    pub duration_s: f64,
+}
+
+/// Constant-memory summaries of the frame series.
+#[derive(Clone, Debug, Default)]
+struct Series {
+    wait: LogHistogram,
+    cpu: LogHistogram,
+    gpu: LogHistogram,
+    last_display_time_ns: Option<i64>,
+}
+
+/// Frames after which the warm-up memory figures are taken.
+pub const WARMUP_FRAMES: u64 = 300;
+/// Frames between RSS samples.
+pub const RSS_SAMPLE_EVERY: u64 = 50;
+
+/// RSS over a run in constant memory: the first and the latest ten samples
+/// after warm-up. Medians of ten absorb the allocator's and driver's
+/// ±1 MB breathing; a leak shows as growth between them.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct RssTrack {
+    /// Median of the first ten samples after warm-up, in bytes.
+    pub after_warmup_bytes: Option<u64>,
+    /// Median of the last ten samples, in bytes.
+    pub end_bytes: Option<u64>,
+    /// `end_bytes - after_warmup_bytes`.
+    pub growth_bytes: Option<i64>,
+    /// Samples taken.
+    pub samples: u64,
+    #[serde(skip)]
+    first: Vec<u64>,
+    #[serde(skip)]
+    last: std::collections::VecDeque<u64>,
+}
+
+impl RssTrack {
+    const KEEP: usize = 10;
+
+    /// Adds a sample and updates the figures.
+    pub fn sample(&mut self, bytes: u64) {
+        self.samples += 1;
+        if self.first.len() < Self::KEEP {
+            self.first.push(bytes);
+        }
+        if self.last.len() == Self::KEEP {
+            self.last.pop_front();
+        }
+        self.last.push_back(bytes);
+        let median = |v: &mut Vec<u64>| {
+            v.sort_unstable();
+            v[v.len() / 2]
+        };
+        let a = median(&mut self.first.clone());
+        let b = median(&mut self.last.iter().copied().collect());
+        self.after_warmup_bytes = Some(a);
+        self.end_bytes = Some(b);
+        self.growth_bytes = Some(b as i64 - a as i64);
+    }
+}
+
+/// Frame records waiting for their frames' GPU times (frames in flight),
+/// written to the statistics in frame order.
+#[derive(Debug, Default)]
+pub struct RecordQueue {
+    /// Records, oldest first, each with whether it still waits for its
+    /// frame's result.
+    waiting: std::collections::VecDeque<(FrameRecord, bool)>,
+}
+
+impl RecordQueue {
+    /// Queues `rec`; a `rendered` frame's record waits for its result.
+    pub fn push(&mut self, rec: FrameRecord, rendered: bool) {
+        self.waiting.push_back((rec, rendered));
+    }
+
+    /// Completes the record of the finished frame `r`: GPU time, counts,
+    /// culling, and its CPU time without the wait for a frame slot.
+    pub fn complete(&mut self, r: &FrameResult, stats: &mut RunStats) {
+        let found = self
+            .waiting
+            .iter_mut()
+            .find(|(rec, waits)| *waits && rec.index == r.index);
+        if let Some((rec, waits)) = found {
+            rec.gpu_ms = r.gpu_ms();
+            rec.cull_ms = r.cull_ms;
+            rec.instances_drawn = r.stats.instances_drawn;
+            rec.cpu_ms = (rec.cpu_ms - r.stats.cpu_ms.wait).max(0.0);
+            *waits = false;
+            stats.cull = r.cull;
+        }
+    }
+
+    /// Writes the complete records at the front.
+    pub fn flush(&mut self, stats: &mut RunStats) -> Result<()> {
+        while self.waiting.front().is_some_and(|(_, waits)| !waits) {
+            let (rec, _) = self.waiting.pop_front().expect("front exists");
+            stats.push_frame(rec)?;
+        }
+        Ok(())
+    }
+
+    /// Writes every record, also those whose frame never finished (the
+    /// session ended first; their GPU time stays 0).
+    pub fn flush_all(&mut self, stats: &mut RunStats) -> Result<()> {
+        while let Some((rec, _)) = self.waiting.pop_front() {
+            stats.push_frame(rec)?;
+        }
+        Ok(())
+    }
+}
+
+impl RunStats {
+    /// Starts over for the headless fallback after OpenXR was unavailable
+    /// (`reason`), keeping only the frame log: a fresh log at the same
+    /// spool path would be unlinked when the old one drops.
+    pub fn fall_back(&mut self, reason: String) {
+        let frames = std::mem::take(&mut self.frames);
+        *self = RunStats {
+            fallback_reason: Some(reason),
+            frames,
+            ..RunStats::default()
+        };
+    }
+
+    /// Empty statistics whose frames spool next to `stats_out` when given.
+    pub fn new(stats_out: Option<&Path>) -> Result<RunStats> {
+        Ok(RunStats {
+            frames: match stats_out {
+                Some(p) => FrameLog::spooled(p)?,
+                None => FrameLog::default(),
+            },
+            ..RunStats::default()
+        })
+    }
+
+    /// Adds a frame, counting missed display periods from the change in
+    /// predicted display time: a step of k periods means k - 1 were missed.
+    pub fn push_frame(&mut self, mut f: FrameRecord) -> Result<()> {
+        if let Some(prev) = self.series.last_display_time_ns {
+            let period = f.predicted_display_period_ns.max(1) as f64;
+            let step = (f.predicted_display_time_ns - prev) as f64;
+            let periods = (step / period).round();
+            f.missed_periods = if periods > 1.0 { periods as u64 - 1 } else { 0 };
+        }
+        self.series.last_display_time_ns = Some(f.predicted_display_time_ns);
+        self.missed_display_periods += f.missed_periods;
+        let n = self.frames.len() + 1;
+        if n >= WARMUP_FRAMES && (n - WARMUP_FRAMES).is_multiple_of(RSS_SAMPLE_EVERY) {
+            if let Some(b) = crate::bench::process_rss_bytes() {
+                self.rss.sample(b);
+            }
+        }
+        self.series.wait.record(f.wait_ms);
+        if f.should_render {
+            self.series.cpu.record(f.cpu_ms);
+            self.series.gpu.record(f.gpu_ms);
+        }
+        self.frames.push(&f)
+    }
+
+    /// When the run began (the first call starts the clock); `--seconds`
+    /// counts from here across reconnects.
+    pub fn run_started(&mut self) -> Instant {
+        *self.started.get_or_insert_with(Instant::now)
+    }
+
+    /// Marks the start of an OpenXR session: the next frame's predicted
+    /// display time is not compared with the previous session's.
+    pub fn begin_session(&mut self) {
+        self.series.last_display_time_ns = None;
+    }
+
+    /// Records GPU memory after warm-up (`end` false) or at the end.
+    pub fn sample_memory(&mut self, ctx: &Context, end: bool) {
+        let i = usize::from(end);
+        self.gpu_allocated_bytes[i] = ctx.allocated_bytes();
+    }
+
+    /// Fills the summary from the frames.
+    pub fn summarize(&mut self) {
+        let p = |h: &LogHistogram| Percentiles {
+            median: h.quantile(0.5),
+            p95: h.quantile(0.95),
+        };
+        self.summary = RunSummary {
+            wait_ms: p(&self.series.wait),
+            cpu_frame_ms: p(&self.series.cpu),
+            gpu_frame_ms: p(&self.series.gpu),
+        };
+    }
+
+    /// Writes the JSON file (the frames streamed from the spool), then
+    /// removes the spool.
+    pub fn write(&mut self, path: &Path) -> Result<()> {
+        self.frames.flush()?;
+        let result = write_json(path, self);
+        self.frames.remove_spool();
+        result
+    }
+}
+
+/// Where the tracking origin sits in the scene: at the hall entrance for
+/// large scenes, else where a standing viewer (eyes 1.6 m above the
+/// origin) sees the whole scene.
+pub fn spawn_pose(scene: &Scene, fov: &Fov) -> Pose {
+    let (lo, hi) = scene.bounds();
+    let radius = (hi - lo).length() * 0.5;
+    if !radius.is_finite() || radius > 50.0 {
+        return Pose::from_euler_deg(DVec3::new(3.0, 0.0, 2.0), -25.0, 0.0, 0.0);
+    }
+    let framed = frame_bounds(lo, hi, fov, 0.0);
+    Pose {
+        position: framed.position - DVec3::new(0.0, 1.6, 0.0),
+        orientation: framed.orientation,
+    }
+}
+
+/// Writes the captured frame: left.png, right.png and rig.json.
+pub fn write_capture(dir: &Path, images: &[image::RgbaImage; 2], rig: &StereoRig) -> Result<()> {
+    save_pair(dir, images)?;
+    write_json(&dir.join("rig.json"), &RigFile::of(rig))
+}

@@ -1,0 +1,780 @@
+//! The OpenXR session loop: the application side of a session, on top of
+//! the [`crate::xr`] wrapper. Instance (with XR_KHR_vulkan_enable2), the
+//! Vulkan device made through the runtime, a session driven by the
+//! lifecycle machine, swapchains the renderer's frames are copied into, and
+//! the frame loop in the order the spec asks for (OpenXR 1.0 §10.4): poll
+//! events → xrWaitFrame → xrBeginFrame → xrLocateViews at the predicted
+//! display time → cull → record → acquire and wait the swapchain images →
+//! submit → release → xrEndFrame. With frames in flight, submitting does not
+//! wait for the GPU: xrWaitFrame paces the loop, and a frame's record is
+//! completed when its fence signals.
+
+use super::headless::{load_scene, SceneCounts};
+use super::session::{
+    spawn_pose, write_capture, FrameRecord, RecordQueue, RunArgs, RunStats, ViewInfo,
+};
+use crate::error::{Error, Result};
+use crate::gpu::{Context, Validation};
+use crate::render::driver::FrameDriver;
+use crate::render::{FrameOutput, OutputSpec, Renderer};
+use crate::view::{Fov, HiddenArea, Pose, StereoRig};
+use crate::xr::state::{Action, QuitAction, SessionMachine};
+use crate::xr::watchdog::Watchdog;
+use crate::xr::{
+    choose_color_format, fetch_masks, runtime_manifest_hint, sanitize_views, state_of, unavailable,
+    vulkan, world_rig, xr_err, Chain, Messenger, TrackedView, XrCall, CALL_LIMIT,
+    CORE_VALIDATION_LAYER,
+};
+use ash::vk;
+use ash::vk::Handle;
+use openxr as xr;
+use openxr::sys;
+use std::sync::Arc;
+use std::time::{Duration, Instant};
+
+/// Everything a session owns, declared in teardown order (Rust drops fields
+/// in declaration order): OpenXR handles first (swapchains, space, session,
+/// messenger, instance), then the renderer (which waits for the device to
+/// go idle before destroying its Vulkan objects); the Vulkan context, held
+/// by the caller, goes last.
+/// The watchdog is last so it also covers a teardown that blocks.
+struct Live {
+    color: Vec<Chain>,
+    depth: Vec<Chain>,
+    space: Option<xr::Space>,
+    stream: Option<xr::FrameStream<xr::Vulkan>>,
+    waiter: Option<xr::FrameWaiter>,
+    session: Option<xr::Session<xr::Vulkan>>,
+    messenger: Option<Messenger>,
+    instance: Option<xr::Instance>,
+    driver: Option<FrameDriver>,
+    watchdog: Watchdog,
+}
+
+impl Drop for Live {
+    fn drop(&mut self) {
+        self.watchdog.arm("tearing down the OpenXR session");
+    }
+}
+
+/// Runs the scene in an OpenXR session until the runtime ends it, a quit
+/// is requested or the frame/time limit is reached (then it asks the
+/// runtime to exit and follows the session down to EXITING). `stats` is
+/// filled as the session goes. No runtime or headset is
+/// [`Error::XrUnavailable`].
+pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+    // SAFETY: loads the system's OpenXR loader, a conformant library.
+    let entry = unsafe { xr::Entry::load(&()) }.map_err(|e| {
+        Error::XrUnavailable(format!(
+            "cannot load the OpenXR loader libopenxr_loader.so.1 ({e}); install libopenxr-loader1 and a runtime"
+        ))
+    })?;
+    let available = entry
+        .enumerate_extensions()
+        .map_err(|r| unavailable("xrEnumerateInstanceExtensionProperties", r))?;
+    if !available.khr_vulkan_enable2 {
+        return Err(Error::XrUnavailable(format!(
+            "the OpenXR runtime does not offer XR_KHR_vulkan_enable2 ({})",
+            runtime_manifest_hint()
+        )));
+    }
+    let mut exts = xr::ExtensionSet::default();
+    exts.khr_vulkan_enable2 = true;
+    exts.khr_visibility_mask = available.khr_visibility_mask;
+    exts.khr_composition_layer_depth = available.khr_composition_layer_depth;
+    exts.ext_debug_utils = available.ext_debug_utils;
+    exts.fb_display_refresh_rate = available.fb_display_refresh_rate;
+    let foveation = available.fb_foveation
+        && available.fb_foveation_configuration
+        && available.fb_swapchain_update_state;
+    exts.fb_foveation = foveation;
+    exts.fb_foveation_configuration = foveation;
+    exts.fb_swapchain_update_state = foveation;
+    exts.fb_foveation_vulkan = foveation && available.fb_foveation_vulkan;
+    let layers = entry.enumerate_layers().unwrap_or_default();
+    let has_core = layers.iter().any(|l| l.layer_name == CORE_VALIDATION_LAYER);
+    let use_core = match Validation::from_var("VERGENCE_XR_VALIDATION") {
+        Validation::Off => false,
+        Validation::IfAvailable => has_core,
+        Validation::Required if has_core => true,
+        Validation::Required => {
+            return Err(Error::config(
+                "VERGENCE_XR_VALIDATION",
+                format!("{CORE_VALIDATION_LAYER} is required but not installed (apt-get install openxr-layer-corevalidation)"),
+            ))
+        }
+    };
+    let layer_names: Vec<&str> = if use_core {
+        vec![CORE_VALIDATION_LAYER]
+    } else {
+        Vec::new()
+    };
+    let app = xr::ApplicationInfo {
+        application_name: "vergence",
+        application_version: 1,
+        engine_name: "vergence",
+        engine_version: 1,
+        api_version: xr::Version::new(1, 0, 0),
+    };
+    let instance = entry
+        .create_instance(&app, &exts, &layer_names, &())
+        .map_err(|r| unavailable("xrCreateInstance", r))?;
+    let messenger = Messenger::new(&instance);
+    let props = instance.properties().call("xrGetInstanceProperties")?;
+    let system = instance
+        .system(xr::FormFactor::HEAD_MOUNTED_DISPLAY)
+        .map_err(|r| {
+            Error::XrUnavailable(format!(
+                "no headset: the runtime {} answers xrGetSystem with {r} (is the headset connected and on?)",
+                props.runtime_name
+            ))
+        })?;
+    let sys_props = instance
+        .system_properties(system)
+        .call("xrGetSystemProperties")?;
+    stats.mode = "openxr".into();
+    stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
+    stats.system = sys_props.system_name.clone();
+    stats.extensions_enabled = exts
+        .names()
+        .iter()
+        .map(|n| {
+            String::from_utf8_lossy(n)
+                .trim_end_matches('\0')
+                .to_string()
+        })
+        .collect();
+    stats.api_layers = layer_names.iter().map(|s| s.to_string()).collect();
+    tracing::info!(
+        "OpenXR runtime {} {}, system {}",
+        props.runtime_name,
+        props.runtime_version,
+        sys_props.system_name
+    );
+
+    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    let config_views = instance
+        .enumerate_view_configuration_views(system, view_type)
+        .call("xrEnumerateViewConfigurationViews")?;
+    if config_views.len() != 2 {
+        return Err(Error::config(
+            "view configuration",
+            format!(
+                "PRIMARY_STEREO has {} views; the renderer needs 2",
+                config_views.len()
+            ),
+        ));
+    }
+    stats.views = config_views
+        .iter()
+        .map(|v| ViewInfo {
+            recommended: [
+                v.recommended_image_rect_width,
+                v.recommended_image_rect_height,
+            ],
+            max: [v.max_image_rect_width, v.max_image_rect_height],
+            fov: None,
+        })
+        .collect();
+    let blend = instance
+        .enumerate_environment_blend_modes(system, view_type)
+        .call("xrEnumerateEnvironmentBlendModes")?
+        .first()
+        .copied()
+        .unwrap_or(xr::EnvironmentBlendMode::OPAQUE);
+    let reqs = instance
+        .graphics_requirements::<xr::Vulkan>(system)
+        .call("xrGetVulkanGraphicsRequirements2KHR")?;
+    let ours = xr::Version::new(1, 3, 0);
+    if reqs.min_api_version_supported > ours {
+        return Err(Error::Gpu(format!(
+            "the OpenXR runtime needs Vulkan {} or newer; vergence uses Vulkan 1.3",
+            reqs.min_api_version_supported
+        )));
+    }
+    if reqs.max_api_version_supported.major() < 1
+        || (reqs.max_api_version_supported.major() == 1
+            && reqs.max_api_version_supported.minor() < 3)
+    {
+        tracing::warn!(
+            "the runtime was tested up to Vulkan {}; vergence needs 1.3 and goes ahead",
+            reqs.max_api_version_supported
+        );
+    }
+    let (scene, _) = load_scene(&args.scene)?;
+    let ctx = Arc::new(Context::new(
+        Validation::from_env(),
+        &vulkan::XrDeviceFactory {
+            instance: &instance,
+            system,
+        },
+    )?);
+    stats.device = ctx.device_name.clone();
+    stats.driver = ctx.driver.clone();
+    stats.scene = Some(SceneCounts::of(&scene));
+
+    // SAFETY: the handles come from the context created through this
+    // runtime and outlive the session (see `Live`'s drop order).
+    let (session, waiter, stream) = unsafe {
+        instance.create_session::<xr::Vulkan>(
+            system,
+            &xr::vulkan::SessionCreateInfo {
+                instance: ctx.instance.handle().as_raw() as _,
+                physical_device: ctx.physical_device.as_raw() as _,
+                device: ctx.device.handle().as_raw() as _,
+                queue_family_index: ctx.queue_family,
+                queue_index: 0,
+            },
+        )
+    }
+    .call("xrCreateSession")?;
+    let mut live = Live {
+        color: Vec::new(),
+        depth: Vec::new(),
+        space: None,
+        stream: Some(stream),
+        waiter: Some(waiter),
+        session: Some(session.clone()),
+        messenger,
+        instance: Some(instance.clone()),
+        driver: None,
+        watchdog: Watchdog::start(CALL_LIMIT),
+    };
+    if exts.fb_display_refresh_rate {
+        stats.display_refresh_hz = session.get_display_refresh_rate().ok();
+        stats.display_refresh_rates = session
+            .enumerate_display_refresh_rates()
+            .unwrap_or_default();
+    }
+    let spaces = session
+        .enumerate_reference_spaces()
+        .call("xrEnumerateReferenceSpaces")?;
+    let space_type = if spaces.contains(&xr::ReferenceSpaceType::STAGE) {
+        xr::ReferenceSpaceType::STAGE
+    } else {
+        xr::ReferenceSpaceType::LOCAL
+    };
+    stats.reference_space = Some(
+        if space_type == xr::ReferenceSpaceType::STAGE {
+            "STAGE"
+        } else {
+            "LOCAL"
+        }
+        .into(),
+    );
+    let space = session
+        .create_reference_space(space_type, xr::Posef::IDENTITY)
+        .call("xrCreateReferenceSpace")?;
+    let formats: Vec<vk::Format> = session
+        .enumerate_swapchain_formats()
+        .call("xrEnumerateSwapchainFormats")?
+        .into_iter()
+        .map(|f| vk::Format::from_raw(f as i32))
+        .collect();
+    let color_format = choose_color_format(&formats).ok_or_else(|| {
+        Error::Gpu(format!(
+            "the runtime offers no sRGB colour format vergence can fill (offered: {formats:?})"
+        ))
+    })?;
+    let depth_format = (exts.khr_composition_layer_depth
+        && formats.contains(&ctx.caps.depth_format))
+    .then_some(ctx.caps.depth_format);
+    stats.color_format = Some(format!("{color_format:?}"));
+    stats.depth_format = depth_format.map(|f| format!("{f:?}"));
+    let extent = match args.size {
+        Some((w, h)) => vk::Extent2D {
+            width: w,
+            height: h,
+        },
+        None => vk::Extent2D {
+            width: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_width)
+                .max()
+                .unwrap_or(1),
+            height: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_height)
+                .max()
+                .unwrap_or(1),
+        },
+    };
+    stats.image_size = [extent.width, extent.height];
+    let multiview = args.config.stereo == crate::config::StereoMode::Multiview;
+    let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
+    let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+        | xr::SwapchainUsageFlags::TRANSFER_DST
+        | xr::SwapchainUsageFlags::TRANSFER_SRC;
+    for _ in 0..sets {
+        live.color.push(Chain::new(
+            &session,
+            color_format,
+            color_usage,
+            extent,
+            layers,
+        )?);
+        if let Some(df) = depth_format {
+            live.depth.push(Chain::new(
+                &session,
+                df,
+                xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                    | xr::SwapchainUsageFlags::TRANSFER_DST,
+                extent,
+                layers,
+            )?);
+        }
+    }
+    live.space = Some(space);
+    let renderer = Renderer::with_output(
+        ctx.clone(),
+        &scene,
+        &args.config,
+        extent,
+        Some(OutputSpec {
+            color_format,
+            depth: depth_format.is_some(),
+        }),
+    )?;
+    stats.config = renderer.config.clone();
+    stats.foveation = renderer.foveation_path.clone();
+    live.driver = Some(FrameDriver::new(renderer, &scene)?);
+    let masks = if exts.khr_visibility_mask {
+        Some(Arc::new(fetch_masks(&session, 2)?))
+    } else {
+        None
+    };
+    stats.visibility_mask = masks
+        .iter()
+        .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
+        .collect();
+    // No view has been located yet; a typical headset FOV frames the scene.
+    let spawn = spawn_pose(&scene, &Fov::symmetric(0.8, 0.8));
+
+    let mut state = LoopState {
+        args,
+        records: RecordQueue::default(),
+        masks,
+        spawn,
+        blend,
+        with_depth: depth_format.is_some(),
+        last_valid: Vec::new(),
+        first_fov_recorded: false,
+        lens: None,
+    };
+    let mut result = frame_loop(stats, &mut live, &mut state);
+    // The frames in flight finish before the swapchains they were copied
+    // into go away; their records join the log.
+    if let Some(driver) = live.driver.as_mut() {
+        let finished = driver.finish();
+        while let Some(r) = driver.take_completed() {
+            state.records.complete(&r, stats);
+        }
+        let flushed = state.records.flush_all(stats);
+        if result.is_ok() {
+            result = finished.and(flushed);
+        }
+    }
+    stats.sample_memory(&ctx, true);
+    // Added, not assigned: with --reconnect a run holds several sessions.
+    stats.validation_messages += ctx.validation_messages();
+    stats.xr_validation_messages += live.messenger.as_ref().map_or(0, Messenger::count);
+    if stats.xr_validation_messages > 0 {
+        if let Some(m) = &live.messenger {
+            for line in m.first_messages() {
+                eprintln!("OpenXR validation: {line}");
+            }
+        }
+    }
+    // Teardown: OpenXR handles first (the session's last references go
+    // with `live`), then the renderer waits for the device and destroys its
+    // objects, then the context destroys device and instance.
+    drop(session);
+    drop(instance);
+    drop(live);
+    drop(ctx);
+    result
+}
+
+/// What the frame loop carries from frame to frame.
+struct LoopState<'a> {
+    args: &'a RunArgs,
+    /// Records of frames whose GPU times are still to come.
+    records: RecordQueue,
+    masks: Option<Arc<Vec<HiddenArea>>>,
+    spawn: Pose,
+    blend: xr::EnvironmentBlendMode,
+    with_depth: bool,
+    last_valid: Vec<Option<TrackedView>>,
+    first_fov_recorded: bool,
+    lens: Option<(Vec<Fov>, Arc<Vec<HiddenArea>>)>,
+}
+
+impl LoopState<'_> {
+    /// Without XR_KHR_visibility_mask: the lens-ellipse default for the
+    /// rig's FOVs, rebuilt only when they change.
+    fn lens_default(&mut self, rig: &StereoRig) -> Arc<Vec<HiddenArea>> {
+        let fovs: Vec<Fov> = rig.views.iter().map(|v| v.fov).collect();
+        match &self.lens {
+            Some((f, m)) if *f == fovs => m.clone(),
+            _ => {
+                let m = Arc::new(
+                    fovs.iter()
+                        .map(crate::view::lens::default_hidden_area)
+                        .collect::<Vec<_>>(),
+                );
+                self.lens = Some((fovs, m.clone()));
+                m
+            }
+        }
+    }
+}
+
+fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Result<()> {
+    let args = st.args;
+    let instance = live.instance.clone().expect("set");
+    let session = live.session.clone().expect("set");
+    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    let mut machine = SessionMachine::default();
+    let mut buf = xr::EventDataBuffer::new();
+    // --seconds counts from the run's start, across reconnects.
+    let started = stats.run_started();
+    let session_started = Instant::now();
+    stats.begin_session();
+    let mut index = 0u64;
+    let result: Result<String> = 'main: loop {
+        if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
+            match machine.on_quit() {
+                QuitAction::RequestExit => {
+                    let _w = live.watchdog.watch("xrRequestExitSession");
+                    if let Err(e) = session.request_exit().call("xrRequestExitSession") {
+                        break 'main Err(e);
+                    }
+                }
+                QuitAction::Leave => break 'main Ok("quit before the session ran".into()),
+                QuitAction::Wait => {}
+            }
+        }
+        loop {
+            let event = {
+                let _w = live.watchdog.watch("xrPollEvent");
+                instance.poll_event(&mut buf).call("xrPollEvent")
+            };
+            let event = match event {
+                Ok(Some(e)) => e,
+                Ok(None) => break,
+                Err(e) => break 'main Err(e),
+            };
+            match event {
+                xr::Event::SessionStateChanged(e) => {
+                    let st = state_of(e.state());
+                    stats.states.push(format!("{st:?}").to_uppercase());
+                    tracing::info!("session state {st:?}");
+                    let action = machine.on_state(st);
+                    let done = match action {
+                        Action::Begin => {
+                            let _w = live.watchdog.watch("xrBeginSession");
+                            session.begin(view_type).call("xrBeginSession").map(|_| ())
+                        }
+                        Action::End => {
+                            let _w = live.watchdog.watch("xrEndSession");
+                            session.end().call("xrEndSession").map(|_| ())
+                        }
+                        Action::Exit => {
+                            machine.performed(action);
+                            break 'main Ok(if machine.exit_requested {
+                                "session exited after vergence asked to exit".into()
+                            } else {
+                                "the runtime ended the session".into()
+                            });
+                        }
+                        Action::Lost => {
+                            machine.performed(action);
+                            break 'main Err(xr_err(
+                                "the session is being lost (XR_SESSION_STATE_LOSS_PENDING)",
+                                sys::Result::ERROR_SESSION_LOST,
+                            ));
+                        }
+                        Action::None => Ok(()),
+                    };
+                    if let Err(e) = done {
+                        break 'main Err(e);
+                    }
+                    machine.performed(action);
+                }
+                xr::Event::InstanceLossPending(_) => {
+                    break 'main Err(xr_err(
+                        "the OpenXR instance is being lost (XrEventDataInstanceLossPending)",
+                        sys::Result::ERROR_INSTANCE_LOST,
+                    ));
+                }
+                xr::Event::EventsLost(e) => {
+                    stats.events_lost += e.lost_event_count() as u64;
+                    tracing::warn!(
+                        "the runtime's event queue overflowed: {} events lost",
+                        e.lost_event_count()
+                    );
+                }
+                xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, 2) {
+                    Ok(m) => {
+                        st.masks = Some(Arc::new(m));
+                        stats.visibility_mask_refreshes += 1;
+                    }
+                    Err(e) => break 'main Err(e),
+                },
+                xr::Event::ReferenceSpaceChangePending(_) => {
+                    tracing::info!("the reference space is about to change (recentre)");
+                }
+                _ => {}
+            }
+        }
+        stats.focused = machine.was_focused();
+        if !machine.frames_due() {
+            std::thread::sleep(Duration::from_millis(5));
+            continue;
+        }
+        match one_frame(live, stats, st, index) {
+            Ok(()) => index += 1,
+            Err(e) => break 'main Err(e),
+        }
+    };
+    stats.duration_s += session_started.elapsed().as_secs_f64();
+    stats.focused = machine.was_focused();
+    match result {
+        Ok(reason) => {
+            stats.exit = reason;
+            Ok(())
+        }
+        Err(e) => {
+            stats.exit = e.to_string();
+            Err(e)
+        }
+    }
+}
+
+fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
+    let args = st.args;
+    let session = live.session.clone().expect("set");
+    let instance = live.instance.clone().expect("set");
+    let t_wait = Instant::now();
+    let fs = {
+        let _w = live.watchdog.watch("xrWaitFrame");
+        live.waiter
+            .as_mut()
+            .expect("set")
+            .wait()
+            .call("xrWaitFrame")?
+    };
+    let t_cpu = Instant::now();
+    {
+        let _w = live.watchdog.watch("xrBeginFrame");
+        live.stream
+            .as_mut()
+            .expect("set")
+            .begin()
+            .call("xrBeginFrame")?;
+    }
+    let mut rec = FrameRecord {
+        index,
+        should_render: fs.should_render,
+        wait_ms: (t_cpu - t_wait).as_secs_f64() * 1e3,
+        predicted_display_time_ns: fs.predicted_display_time.as_nanos(),
+        predicted_display_period_ns: fs.predicted_display_period.as_nanos(),
+        ..FrameRecord::default()
+    };
+    let mut rendered = false;
+    let mut layer_views: Option<Vec<xr::View>> = None;
+    let mut images: Vec<(usize, usize)> = Vec::new();
+    if fs.should_render {
+        let (flags, views) = {
+            let _w = live.watchdog.watch("xrLocateViews");
+            session
+                .locate_views(
+                    xr::ViewConfigurationType::PRIMARY_STEREO,
+                    fs.predicted_display_time,
+                    live.space.as_ref().expect("set"),
+                )
+                .call("xrLocateViews")?
+        };
+        let (sane, replaced) = sanitize_views(flags, &views, &mut st.last_valid);
+        if replaced {
+            stats.invalid_pose_frames += 1;
+        }
+        if let Some(sane) = sane {
+            let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
+            let mut rig = world_rig(&st.spawn, &tracking);
+            rig.hidden_area = match &st.masks {
+                Some(m) => Some(m.clone()),
+                None => Some(st.lens_default(&rig)),
+            };
+            if !st.first_fov_recorded {
+                for (v, info) in rig.views.iter().zip(stats.views.iter_mut()) {
+                    info.fov = Some(v.fov);
+                }
+                st.first_fov_recorded = true;
+            }
+            rec.fov = rig.views.iter().map(|v| v.fov).collect();
+            let driver = live.driver.as_mut().expect("set");
+            driver.record(&rig, index)?;
+            let mut out = FrameOutput::default();
+            for (ci, chain) in live
+                .color
+                .iter_mut()
+                .chain(live.depth.iter_mut())
+                .enumerate()
+            {
+                let _w = live.watchdog.watch("xrAcquireSwapchainImage");
+                let i = chain
+                    .swapchain
+                    .acquire_image()
+                    .call("xrAcquireSwapchainImage")? as usize;
+                let _w2 = live.watchdog.watch("xrWaitSwapchainImage");
+                chain
+                    .swapchain
+                    .wait_image(xr::Duration::INFINITE)
+                    .call("xrWaitSwapchainImage")?;
+                images.push((ci, i));
+            }
+            let ncolor = live.color.len();
+            for &(ci, i) in &images {
+                if ci < ncolor {
+                    out.color.push(live.color[ci].images[i]);
+                } else {
+                    out.depth.push(live.depth[ci - ncolor].images[i]);
+                }
+            }
+            let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+            driver.submit(Some(&out), capture)?;
+            rendered = true;
+            for chain in live.color.iter_mut().chain(live.depth.iter_mut()) {
+                let _w = live.watchdog.watch("xrReleaseSwapchainImage");
+                chain
+                    .swapchain
+                    .release_image()
+                    .call("xrReleaseSwapchainImage")?;
+            }
+            if capture {
+                let imgs = driver.read_images()?;
+                write_capture(args.capture.as_deref().expect("checked"), &imgs, &rig)?;
+            }
+            layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
+        }
+    }
+    end_frame(
+        live,
+        &instance,
+        &session,
+        fs.predicted_display_time,
+        layer_views.as_deref(),
+        st,
+    )?;
+    if layer_views.is_some() {
+        stats.frames_submitted += 1;
+        stats.frames_rendered += 1;
+    }
+    // The CPU time still holds the wait for a frame slot; the record is
+    // completed (GPU time, counts, that wait taken out) when its frame
+    // finishes, and written in frame order.
+    rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3;
+    st.records.push(rec, rendered);
+    let driver = live.driver.as_mut().expect("set");
+    while let Some(r) = driver.take_completed() {
+        st.records.complete(&r, stats);
+    }
+    st.records.flush(stats)?;
+    if index + 1 == super::session::WARMUP_FRAMES {
+        if let Some(d) = &live.driver {
+            stats.sample_memory(d.renderer().context(), false);
+        }
+    }
+    Ok(())
+}
+
+/// xrEndFrame with one projection layer (and its depth info when the
+/// runtime takes depth), or with no layer when nothing was rendered.
+fn end_frame(
+    live: &Live,
+    instance: &xr::Instance,
+    session: &xr::Session<xr::Vulkan>,
+    display_time: xr::Time,
+    views: Option<&[xr::View]>,
+    st: &LoopState,
+) -> Result<()> {
+    let extent = live
+        .driver
+        .as_ref()
+        .map(|d| d.renderer().extent())
+        .unwrap_or_default();
+    let rect = sys::Rect2Di {
+        offset: sys::Offset2Di { x: 0, y: 0 },
+        extent: sys::Extent2Di {
+            width: extent.width as i32,
+            height: extent.height as i32,
+        },
+    };
+    let multiview = live.color.len() == 1;
+    let sub = |chains: &[Chain], eye: usize| sys::SwapchainSubImage {
+        swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
+        image_rect: rect,
+        image_array_index: if multiview { eye as u32 } else { 0 },
+    };
+    let mut depth_infos: Vec<sys::CompositionLayerDepthInfoKHR> = Vec::new();
+    let mut proj: Vec<sys::CompositionLayerProjectionView> = Vec::new();
+    let mut layer = None;
+    if let Some(views) = views {
+        if st.with_depth {
+            for eye in 0..views.len() {
+                depth_infos.push(sys::CompositionLayerDepthInfoKHR {
+                    ty: sys::CompositionLayerDepthInfoKHR::TYPE,
+                    next: std::ptr::null(),
+                    sub_image: sub(&live.depth, eye),
+                    min_depth: 0.0,
+                    max_depth: 1.0,
+                    // Reverse-Z with an infinite far plane: depth 0 is at
+                    // infinity and 1 at the near plane (nearZ > farZ
+                    // marks reversed depth in XR_KHR_composition_layer_depth).
+                    near_z: f32::INFINITY,
+                    far_z: st.args.config.near as f32,
+                });
+            }
+        }
+        for (eye, v) in views.iter().enumerate() {
+            proj.push(sys::CompositionLayerProjectionView {
+                ty: sys::CompositionLayerProjectionView::TYPE,
+                next: depth_infos
+                    .get(eye)
+                    .map_or(std::ptr::null(), |d| d as *const _ as *const _),
+                pose: v.pose,
+                fov: v.fov,
+                sub_image: sub(&live.color, eye),
+            });
+        }
+        layer = Some(sys::CompositionLayerProjection {
+            ty: sys::CompositionLayerProjection::TYPE,
+            next: std::ptr::null(),
+            layer_flags: xr::CompositionLayerFlags::EMPTY,
+            space: live.space.as_ref().expect("set").as_raw(),
+            view_count: proj.len() as u32,
+            views: proj.as_ptr(),
+        });
+    }
+    let layers: Vec<*const sys::CompositionLayerBaseHeader> = layer
+        .iter()
+        .map(|l| l as *const sys::CompositionLayerProjection as *const _)
+        .collect();
+    let info = sys::FrameEndInfo {
+        ty: sys::FrameEndInfo::TYPE,
+        next: std::ptr::null(),
+        display_time,
+        environment_blend_mode: st.blend,
+        layer_count: layers.len() as u32,
+        layers: layers.as_ptr(),
+    };
+    let _w = live.watchdog.watch("xrEndFrame");
+    // SAFETY: every pointer in `info` references locals alive for the call;
+    // the swapchain images were released after the frame's submission.
+    let r = unsafe { (instance.fp().end_frame)(session.as_raw(), &info) };
+    if r.into_raw() < 0 {
+        return Err(xr_err("xrEndFrame", r));
+    }
+    Ok(())
+}
