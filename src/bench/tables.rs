@@ -1,6 +1,6 @@
-//! The report tables and text shared by `report.md` ([`super::report`])
-//! and `report.html` ([`super::html`]): group titles, the main and per-pass
-//! tables, the target line and the run's facts.
+//! The report tables and text shared by `report.md` (the `report` module)
+//! and `report.html` (the `html` module): group titles, the main and
+//! per-pass tables, the target line and the run's facts.
 
 use super::runner::{BenchResults, Group};
 
