@@ -9,7 +9,8 @@
 //! - `xr -- ARGS`: runs `vergence ARGS` against Monado's simulated HMD
 //!   (started before, stopped after; the exit code passes through).
 //! - `test`: the whole suite (fmt, clippy, a `cargo check` of the binary
-//!   for Windows when that target can be had, tests inside the root).
+//!   for Windows when that target can be had, tests inside the root, then
+//!   `tests/host_driver.rs` once more on the host).
 //! - `gpu-bench [PLAN]`: prepares `target/gpu-bench/` for a GPU machine
 //!   without Rust or a Vulkan loader (see [`gpu_bench`]).
 
@@ -288,7 +289,13 @@ fn test(args: &[String]) -> Result<(), String> {
         .env("VERGENCE_VALIDATION", "required")
         .env("VERGENCE_XR_VALIDATION", "required")
         .env("VERGENCE_REQUIRE_SPIRV_VAL", "1");
-    run(runner_env(&mut cmd))
+    run(runner_env(&mut cmd))?;
+    // The host's own Vulkan driver: outside the root (skips itself where
+    // the host's lavapipe is not older than Mesa 23).
+    run(cargo()
+        .current_dir(&r)
+        .args(["test", "--test", "host_driver"])
+        .env_remove("CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER"))
 }
 
 /// How Monado runs here.
