@@ -9,6 +9,7 @@ pub fn process_rss_bytes() -> Option<u64> {
 
 #[cfg(unix)]
 mod os {
+    /// Resident pages from `/proc/self/statm` times the page size.
     pub fn rss_bytes() -> Option<u64> {
         let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
         let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
@@ -25,6 +26,7 @@ mod os {
     };
     use windows_sys::Win32::System::Threading::GetCurrentProcess;
 
+    /// The working set of this process.
     pub fn rss_bytes() -> Option<u64> {
         let mut counters = PROCESS_MEMORY_COUNTERS {
             cb: std::mem::size_of::<PROCESS_MEMORY_COUNTERS>() as u32,
@@ -39,6 +41,7 @@ mod os {
 
 #[cfg(not(any(unix, windows)))]
 mod os {
+    /// Not measured on this platform.
     pub fn rss_bytes() -> Option<u64> {
         None
     }
