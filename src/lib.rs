@@ -18,6 +18,7 @@ pub mod cull;
 pub mod gpu;
 pub mod quit;
 pub mod render;
+pub mod rss;
 pub mod stats;
 pub mod targets;
 pub mod xr;

@@ -243,8 +243,40 @@ fn stats_name_the_paths_that_ran() {
     } else {
         assert!(stats.foveation.starts_with("vk-khr-fragment-shading-rate"));
     }
-    if !ctx.caps.per_view_render_areas {
-        assert!(stats.per_view_render_areas.starts_with("not offered"));
+    // Per-view render areas: the line states what the device's extension
+    // list says, and that vergence does not use them.
+    // SAFETY: enumeration on the context's valid physical device.
+    let exts = unsafe {
+        ctx.instance
+            .enumerate_device_extension_properties(ctx.physical_device)
+    }
+    .unwrap();
+    let listed = exts.iter().any(|e| {
+        e.extension_name_as_c_str().ok() == Some(ash::qcom::multiview_per_view_render_areas::NAME)
+    });
+    assert_eq!(ctx.caps.per_view_render_areas, listed);
+    let line = &stats.per_view_render_areas;
+    let said = if listed {
+        "offered by "
+    } else {
+        "not offered by "
+    };
+    assert!(
+        line.starts_with(&format!("{said}{}; unused: ", ctx.device_name)),
+        "{line}"
+    );
+    assert_eq!(json["per_view_render_areas"], line.as_str());
+}
+
+#[test]
+fn per_view_render_areas_line_states_the_offer() {
+    use vergence::render::per_view_render_areas;
+    let on = per_view_render_areas(true, "GPU X");
+    let off = per_view_render_areas(false, "GPU X");
+    assert!(on.starts_with("offered by GPU X; unused: "), "{on}");
+    assert!(off.starts_with("not offered by GPU X; unused: "), "{off}");
+    for line in [on, off] {
+        assert!(!line.contains('\n') && line.len() < 160, "{line}");
     }
 }
 

@@ -2,14 +2,15 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
+use super::metrics;
 use super::plan::{sanitize, Plan};
-use super::{metrics, process_rss_bytes};
 use crate::config::RenderConfig;
 use crate::cull::bench::{head_path, scene_bounds};
 use crate::error::Result;
 use crate::gpu::Context;
 use crate::render::driver::{FrameDriver, FrameResult};
 use crate::render::{FloorKind, Renderer};
+use crate::rss::process_rss_bytes;
 use crate::scene::Scene;
 use crate::stats::Summary;
 use crate::targets::headless::load_scene;

@@ -48,7 +48,8 @@ pub const CANDIDATES: &[(&str, &str)] = &[
     ),
 ];
 
-/// What to tune for.
+/// What to tune for. A candidate whose image error was not measured
+/// qualifies under neither rule: its error is unknown, not zero.
 #[derive(Clone, Debug)]
 pub struct TuneGoal {
     /// Frame budget in ms: the measured wall-clock frame interval p95 of
@@ -95,12 +96,20 @@ pub struct Choice {
     pub why: Vec<String>,
 }
 
-fn flip(r: &ConfigResult) -> f64 {
-    r.error.map_or(0.0, |e| e.flip_mean)
+/// The measured FLIP mean; None when the error was not measured.
+fn flip(r: &ConfigResult) -> Option<f64> {
+    r.error.map(|e| e.flip_mean)
 }
 
-/// Picks from measured candidates (the reference excluded). Errors when
-/// none qualifies, naming the closest.
+/// The FLIP mean for the user: the number, or that it is unknown.
+fn flip_text(r: &ConfigResult) -> String {
+    flip(r).map_or_else(|| "unknown (not measured)".into(), |f| format!("{f:.4}"))
+}
+
+/// Picks from measured candidates (the reference excluded): within the
+/// budget, the least FLIP mean (ties: the faster), or under an error cap
+/// the fastest. Candidates without a measured error are left out and say
+/// so. Errors when none qualifies, naming the fastest.
 pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     let group = results
         .groups
@@ -114,52 +123,53 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     // vergence's loop waits for each frame, so the wall-clock time is what
     // `run` sustains.
     let fits = |r: &ConfigResult| r.wall_frame_ms.p95 <= goal.budget_ms;
-    let capped = |r: &ConfigResult| goal.max_flip.is_none_or(|m| flip(r) <= m);
     let mut why = Vec::new();
     for r in &cands {
         why.push(format!(
-            "{:24} wall frame p95 {:8.3} ms {} budget {:.3}; FLIP mean {:.4}{}",
+            "{:24} wall frame p95 {:8.3} ms {} budget {:.3}; FLIP mean {}{}",
             r.name,
             r.wall_frame_ms.p95,
             if fits(r) { "within" } else { "over  " },
             goal.budget_ms,
-            flip(r),
-            match goal.max_flip {
-                Some(m) if flip(r) > m => format!(" over the cap {m}"),
+            flip_text(r),
+            match (flip(r), goal.max_flip) {
+                (None, _) => ", so it is left out".to_string(),
+                (Some(f), Some(m)) if f > m => format!(" over the cap {m}"),
                 _ => String::new(),
             }
         ));
     }
-    let ok: Vec<&ConfigResult> = cands
+    // Within the budget and the cap, with a measured error.
+    let ok: Vec<(&ConfigResult, f64)> = cands
         .iter()
         .copied()
-        .filter(|r| fits(r) && capped(r))
+        .filter(|r| fits(r))
+        .filter_map(|r| Some((r, flip(r)?)))
+        .filter(|&(_, f)| goal.max_flip.is_none_or(|m| f <= m))
         .collect();
+    let faster =
+        |a: &ConfigResult, b: &ConfigResult| a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95);
     let chosen = if goal.max_flip.is_some() {
-        ok.iter()
-            .min_by(|a, b| a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95))
+        ok.iter().min_by(|a, b| faster(a.0, b.0))
     } else {
-        ok.iter().min_by(|a, b| {
-            flip(a)
-                .total_cmp(&flip(b))
-                .then(a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95))
-        })
+        ok.iter()
+            .min_by(|a, b| a.1.total_cmp(&b.1).then(faster(a.0, b.0)))
     };
     match chosen {
-        Some(c) => Ok(Choice {
+        Some((c, _)) => Ok(Choice {
             chosen: (*c).clone(),
             why,
         }),
         None => {
             let fastest = cands
                 .iter()
-                .min_by(|a, b| a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95))
+                .min_by(|a, b| faster(a, b))
                 .map(|r| {
                     format!(
-                        "{} at {:.3} ms, FLIP {:.4}",
+                        "{} at {:.3} ms, FLIP {}",
                         r.name,
                         r.wall_frame_ms.p95,
-                        flip(r)
+                        flip_text(r)
                     )
                 })
                 .unwrap_or_default();
@@ -186,7 +196,7 @@ pub fn config_file(choice: &Choice, goal: &TuneGoal, results: &BenchResults) -> 
     let _ = writeln!(s, "# Written by vergence tune on {}.", results.device);
     let _ = writeln!(
         s,
-        "# Budget {:.3} ms{}; chosen '{}': wall-clock frame p95 {:.3} ms, GPU p50 {:.3} ms, FLIP mean {:.4}.",
+        "# Budget {:.3} ms{}; chosen '{}': wall-clock frame p95 {:.3} ms, GPU p50 {:.3} ms, FLIP mean {}.",
         goal.budget_ms,
         goal.max_flip
             .map(|m| format!(", FLIP cap {m}"))
@@ -194,7 +204,7 @@ pub fn config_file(choice: &Choice, goal: &TuneGoal, results: &BenchResults) -> 
         c.name,
         c.wall_frame_ms.p95,
         c.gpu_frame_ms.p50,
-        flip(c)
+        flip_text(c)
     );
     let _ = writeln!(s, "# Use: vergence run --config THIS_FILE");
     let _ = writeln!(s, "opt = {:?}", c.opt);
@@ -279,6 +289,75 @@ mod tests {
         let c = choose(&results(), &goal).unwrap();
         assert_eq!(c.chosen.name, "fast");
         assert!(config_file(&c, &goal, &results()).contains("opt = \"opt-fast\""));
+    }
+
+    fn with(extra: Vec<ConfigResult>) -> BenchResults {
+        let mut r = results();
+        r.groups[0].results.extend(extra);
+        r
+    }
+
+    fn goal(budget_ms: f64, max_flip: Option<f64>) -> TuneGoal {
+        TuneGoal {
+            budget_ms,
+            max_flip,
+        }
+    }
+
+    #[test]
+    fn unmeasured_error_passes_no_cap_and_is_reported_unknown() {
+        // Fastest of all and within any budget, but its error is unknown:
+        // counted as 0.0 it would win both rules.
+        let r = with(vec![result("unmeasured", 2.0, None)]);
+        let c = choose(&r, &goal(10.0, Some(0.05))).unwrap();
+        assert_eq!(c.chosen.name, "fast");
+        let line = c.why.iter().find(|l| l.starts_with("unmeasured")).unwrap();
+        assert!(
+            line.contains("FLIP mean unknown (not measured)") && line.contains("left out"),
+            "{line}"
+        );
+        assert_eq!(choose(&r, &goal(10.0, None)).unwrap().chosen.name, "mid");
+        // Only unmeasured candidates within the budget: nothing qualifies.
+        let e = choose(&r, &goal(2.5, Some(1.0))).unwrap_err().to_string();
+        assert!(
+            e.contains("fastest: unmeasured at 2.000 ms, FLIP unknown (not measured)"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn equal_error_goes_to_the_faster() {
+        let r = with(vec![result("mid-faster", 8.0, Some(0.01))]);
+        assert_eq!(
+            choose(&r, &goal(10.0, None)).unwrap().chosen.name,
+            "mid-faster"
+        );
+    }
+
+    #[test]
+    fn budget_and_cap_are_inclusive() {
+        // p95 exactly on the budget fits; FLIP exactly on the cap passes.
+        assert_eq!(
+            choose(&results(), &goal(5.0, Some(0.04)))
+                .unwrap()
+                .chosen
+                .name,
+            "fast"
+        );
+        assert_eq!(
+            choose(&results(), &goal(9.0, None)).unwrap().chosen.name,
+            "mid"
+        );
+    }
+
+    #[test]
+    fn the_reference_is_never_chosen() {
+        // The reference is the fastest and, given an error, within every
+        // limit here.
+        let mut r = results();
+        r.groups[0].results[0].error = Some(ImageError::default());
+        let e = choose(&r, &goal(2.0, None)).unwrap_err().to_string();
+        assert!(e.contains("fastest: fastest at 3.000 ms"), "{e}");
     }
 
     #[test]

@@ -4,6 +4,7 @@
 //! handles exposed by [`Context`].
 
 pub mod barrier;
+pub mod driver;
 pub mod fault;
 pub mod memory;
 pub mod pipeline;
@@ -534,6 +535,20 @@ impl PartialInstance {
                 "no Vulkan 1.3 device found (or VERGENCE_DEVICE names none)".into(),
             ));
         };
+        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
+        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        // SAFETY: valid physical device of a Vulkan 1.3 instance (driver
+        // properties are core since 1.2) and a correctly chained query.
+        unsafe { inst.get_physical_device_properties2(pd, &mut p2) };
+        let c_text = |s: std::result::Result<&CStr, _>| {
+            s.map(|s| s.to_string_lossy().into_owned())
+                .unwrap_or_default()
+        };
+        let driver_name = c_text(driver_props.driver_name_as_c_str());
+        let driver_info = c_text(driver_props.driver_info_as_c_str());
+        if let Some(why) = driver::refusal(driver_props.driver_id, &driver_info) {
+            return Err(Error::Gpu(why));
+        }
         // SAFETY: valid physical device.
         let families = unsafe { inst.get_physical_device_queue_family_properties(pd) };
         let queue_family = families
@@ -672,7 +687,7 @@ impl PartialInstance {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         let driver = format!(
-            "Vulkan {}.{}.{}, driver version {:#x}, vendor {:#06x}",
+            "{driver_name} {driver_info}, Vulkan {}.{}.{}, driver version {:#x}, vendor {:#06x}",
             vk::api_version_major(props.api_version),
             vk::api_version_minor(props.api_version),
             vk::api_version_patch(props.api_version),

@@ -2099,17 +2099,11 @@ impl Renderer {
         }
     }
 
-    /// What happened to per-view render areas
-    /// (VK_QCOM_multiview_per_view_render_areas), for stats.
+    /// Whether this device offers per-view render areas
+    /// (VK_QCOM_multiview_per_view_render_areas), and that vergence does not
+    /// use them, for stats: see [`per_view_render_areas`].
     pub fn per_view_render_areas(&self) -> String {
-        if self.ctx.caps.per_view_render_areas {
-            "offered, not needed: each view has its own asymmetric projection over the whole image, so there is no symmetric-FOV padding to skip".into()
-        } else {
-            format!(
-                "not offered (VK_QCOM_multiview_per_view_render_areas is absent on {})",
-                self.ctx.device_name
-            )
-        }
+        per_view_render_areas(self.ctx.caps.per_view_render_areas, &self.ctx.device_name)
     }
 
     /// Whether the transient attachments use lazily allocated memory.
@@ -2131,6 +2125,16 @@ fn device_lost(e: Error, context: &str, pass: &str) -> Error {
         },
         other => other,
     }
+}
+
+/// The stats line on VK_QCOM_multiview_per_view_render_areas: whether
+/// `device` offers it (`offered`, from the device's extension list), and
+/// that vergence does not use it, with the reason.
+pub fn per_view_render_areas(offered: bool, device: &str) -> String {
+    format!(
+        "{} by {device}; unused: each view has its own projection over its whole image, so there is no padding to skip",
+        if offered { "offered" } else { "not offered" }
+    )
 }
 
 /// Stencil state that sets `bits` wherever the pipeline rasterizes (the

@@ -476,7 +476,7 @@ impl RunStats {
         self.missed_display_periods += f.missed_periods;
         let n = self.frames.len() + 1;
         if n >= WARMUP_FRAMES && (n - WARMUP_FRAMES).is_multiple_of(RSS_SAMPLE_EVERY) {
-            if let Some(b) = crate::bench::process_rss_bytes() {
+            if let Some(b) = crate::rss::process_rss_bytes() {
                 self.rss.sample(b);
             }
         }

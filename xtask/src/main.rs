@@ -8,7 +8,9 @@
 //!   the last frame and the statistics land in `demo-output/`.
 //! - `xr -- ARGS`: runs `vergence ARGS` against Monado's simulated HMD
 //!   (started before, stopped after; the exit code passes through).
-//! - `test`: the whole suite (fmt, clippy, tests inside the root).
+//! - `test`: the whole suite (fmt, clippy, a `cargo check` of the binary
+//!   for Windows when that target can be had, tests inside the root, then
+//!   `tests/host_driver.rs` once more on the host).
 //! - `gpu-bench [PLAN]`: prepares `target/gpu-bench/` for a GPU machine
 //!   without Rust or a Vulkan loader (see [`gpu_bench`]).
 
@@ -182,6 +184,89 @@ fn runner_env(cmd: &mut Command) -> &mut Command {
     .env("VERGENCE_XR_ROOT", root_dir())
 }
 
+/// The Windows target `test` checks the binary for.
+const WINDOWS_TARGET: &str = "x86_64-pc-windows-gnu";
+
+/// Output of `cmd` when it ran and succeeded.
+fn output_of(cmd: &mut Command) -> Option<String> {
+    cmd.output()
+        .ok()
+        .filter(|o| o.status.success())
+        .map(|o| String::from_utf8_lossy(&o.stdout).into_owned())
+}
+
+/// Whether the standard library for `target` is installed: rustup's list
+/// where rustup exists, else the compiler's sysroot.
+fn target_installed(target: &str) -> bool {
+    if let Some(list) = output_of(Command::new("rustup").args(["target", "list", "--installed"])) {
+        return list.lines().any(|l| l.trim() == target);
+    }
+    output_of(Command::new("rustc").args(["--print", "sysroot"])).is_some_and(|root| {
+        Path::new(root.trim())
+            .join("lib/rustlib")
+            .join(target)
+            .join("lib")
+            .is_dir()
+    })
+}
+
+/// Runs `cmd`, killing it after `limit`; the error says why it failed.
+fn run_with_limit(cmd: &mut Command, limit: std::time::Duration) -> Result<(), String> {
+    eprintln!("xtask: running {cmd:?}");
+    let mut child = cmd
+        .stdout(std::process::Stdio::null())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .map_err(|e| format!("cannot start {cmd:?}: {e}"))?;
+    let started = std::time::Instant::now();
+    loop {
+        match child.try_wait() {
+            Ok(Some(status)) => {
+                let mut stderr = String::new();
+                if let Some(mut e) = child.stderr.take() {
+                    let _ = std::io::Read::read_to_string(&mut e, &mut stderr);
+                }
+                let last = stderr.lines().rev().find(|l| !l.trim().is_empty());
+                return if status.success() {
+                    Ok(())
+                } else {
+                    Err(format!("{status}: {}", last.unwrap_or("no message")))
+                };
+            }
+            Ok(None) if started.elapsed() > limit => {
+                let _ = child.kill();
+                let _ = child.wait();
+                return Err(format!("no answer within {} s", limit.as_secs()));
+            }
+            Ok(None) => std::thread::sleep(std::time::Duration::from_millis(200)),
+            Err(e) => return Err(e.to_string()),
+        }
+    }
+}
+
+/// `cargo check` of the binary for Windows, when the target's standard
+/// library is installed or rustup can add it; otherwise one line saying
+/// why it was skipped.
+fn check_windows(r: &Path) -> Result<(), String> {
+    if !target_installed(WINDOWS_TARGET) {
+        if output_of(Command::new("rustup").arg("--version")).is_none() {
+            eprintln!("xtask: Windows build check skipped: the {WINDOWS_TARGET} standard library is not installed and there is no rustup to add it");
+            return Ok(());
+        }
+        let limit = std::time::Duration::from_secs(300);
+        if let Err(why) = run_with_limit(
+            Command::new("rustup").args(["target", "add", WINDOWS_TARGET]),
+            limit,
+        ) {
+            eprintln!("xtask: Windows build check skipped: rustup target add {WINDOWS_TARGET} failed ({why})");
+            return Ok(());
+        }
+    }
+    run(cargo()
+        .current_dir(r)
+        .args(["check", "--target", WINDOWS_TARGET, "--bin", "vergence"]))
+}
+
 fn test(args: &[String]) -> Result<(), String> {
     setup()?;
     let r = repo();
@@ -196,6 +281,7 @@ fn test(args: &[String]) -> Result<(), String> {
         "-D",
         "warnings",
     ]))?;
+    check_windows(&r)?;
     let mut cmd = cargo();
     cmd.current_dir(&r)
         .args(["test", "--workspace"])
@@ -203,7 +289,13 @@ fn test(args: &[String]) -> Result<(), String> {
         .env("VERGENCE_VALIDATION", "required")
         .env("VERGENCE_XR_VALIDATION", "required")
         .env("VERGENCE_REQUIRE_SPIRV_VAL", "1");
-    run(runner_env(&mut cmd))
+    run(runner_env(&mut cmd))?;
+    // The host's own Vulkan driver: outside the root (skips itself where
+    // the host's lavapipe is not older than Mesa 23).
+    run(cargo()
+        .current_dir(&r)
+        .args(["test", "--test", "host_driver"])
+        .env_remove("CARGO_TARGET_X86_64_UNKNOWN_LINUX_GNU_RUNNER"))
 }
 
 /// How Monado runs here.
