@@ -187,7 +187,7 @@ fn smoke_plan_measures_and_reports() {
     for (row, r) in rows.iter().zip(&g.results) {
         for (speedup, p50) in [
             ("gpu_speedup", "gpu_p50_ms"),
-            ("frame_speedup", "frame_p50_ms"),
+            ("frame_speedup", "wall_frame_p50_ms"),
         ] {
             let want = num(base_row, p50) / num(row, p50);
             let got = num(row, speedup);
