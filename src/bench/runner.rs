@@ -263,7 +263,7 @@ pub fn run_plan(
     let profiles = plan
         .hmds
         .iter()
-        .map(|h| HmdProfile::load(h))
+        .map(|h| crate::targets::headless::load_stereo_profile(h))
         .collect::<Result<Vec<_>>>()?;
     for scene_spec in &plan.scenes {
         let (scene, _) = load_scene(scene_spec)?;

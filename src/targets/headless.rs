@@ -181,6 +181,21 @@ pub fn load_scene(spec: &str) -> Result<(Scene, f64)> {
     Ok((scene, ms))
 }
 
+/// Loads an HMD profile the stereo renderer can use: exactly two views.
+pub fn load_stereo_profile(name: &str) -> Result<HmdProfile> {
+    let profile = HmdProfile::load(name)?;
+    if profile.views.len() != 2 {
+        return Err(Error::Profile {
+            name: name.to_string(),
+            message: format!(
+                "the renderer needs exactly 2 views, the profile has {}",
+                profile.views.len()
+            ),
+        });
+    }
+    Ok(profile)
+}
+
 /// Per-eye size from the override or the profile.
 pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
     let (w, h) = size.unwrap_or((
@@ -196,13 +211,7 @@ pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2
 /// Renders one frame as `job` says and writes `left.png`, `right.png` and
 /// `stats.json` into `job.out`.
 pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
-    let profile = HmdProfile::load(&job.hmd)?;
-    if profile.views.len() != 2 {
-        return Err(Error::Profile {
-            name: job.hmd.clone(),
-            message: "the renderer needs exactly 2 views".into(),
-        });
-    }
+    let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);

@@ -3,7 +3,7 @@
 //! is there (`--xr auto`) or when asked (`--xr headless`). Both write the
 //! same frame statistics (`--stats-out`).
 
-use super::headless::{eye_extent, load_scene, SceneCounts};
+use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
 pub use super::session::{
     spawn_pose, write_capture, FrameRecord, RecordQueue, RssTrack, RunArgs, RunStats, RunSummary,
     ViewInfo, XrMode, RSS_SAMPLE_EVERY, WARMUP_FRAMES,
@@ -12,7 +12,6 @@ use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
 use crate::render::driver::{FrameDriver, FrameResult};
 use crate::render::Renderer;
-use crate::view::profile::HmdProfile;
 use crate::view::Pose;
 use glam::DVec3;
 use std::sync::Arc;
@@ -86,13 +85,7 @@ fn reconnect_after(e: &Error, args: &RunArgs, stats: &mut RunStats) -> Result<()
 /// head turning slowly (±20° yaw over 10 s) so culling and batching see
 /// motion; paced by nothing (frames run back to back).
 fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
-    let profile = HmdProfile::load(&args.hmd_fallback)?;
-    if profile.views.len() != 2 {
-        return Err(Error::Profile {
-            name: args.hmd_fallback.clone(),
-            message: "the renderer needs exactly 2 views".into(),
-        });
-    }
+    let profile = load_stereo_profile(&args.hmd_fallback)?;
     let (scene, _) = load_scene(&args.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, args.size);
