@@ -6,7 +6,6 @@
 
 pub mod attachments;
 pub mod batches;
-pub mod foveation;
 pub mod scene_gpu;
 
 use crate::config::{RenderConfig, StereoMode};
@@ -18,7 +17,7 @@ use crate::gpu::query::{PipelineStats, Queries};
 use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
 use crate::scene::Scene;
-use crate::view::{projection, HiddenArea, StereoRig};
+use crate::view::{foveation, projection, HiddenArea, StereoRig};
 use ash::vk;
 use attachments::{Attachments, COLOR_FORMAT};
 use batches::{Batcher, Batches, PipelineKey};
