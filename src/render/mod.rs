@@ -8,6 +8,8 @@ pub mod attachments;
 pub mod batches;
 pub mod scene_gpu;
 
+pub use crate::gpu::shaders::shader_modules;
+
 use crate::config::{RenderConfig, StereoMode};
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
@@ -15,6 +17,7 @@ use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::{PipelineStats, Queries};
 use crate::gpu::ring::{FrameRing, Garbage};
+use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::scene::Scene;
 use crate::view::{foveation, projection, HiddenArea, StereoRig};
@@ -32,37 +35,6 @@ const FRAMES_IN_FLIGHT: usize = 2;
 const UBO_SIZE: u64 = 752;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
-
-macro_rules! spirv {
-    ($name:literal) => {{
-        static BYTES: &[u8] = include_bytes!(concat!(env!("OUT_DIR"), "/", $name, ".spv"));
-        BYTES
-    }};
-}
-
-/// Every SPIR-V module the renderer uses, by file name (for validation tests).
-pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
-    vec![
-        ("scene.vert", spirv!("scene.vert")),
-        ("scene.frag", spirv!("scene.frag")),
-        ("scene_early.frag", spirv!("scene_early.frag")),
-        ("hidden.vert", spirv!("hidden.vert")),
-        ("rdm.frag", spirv!("rdm.frag")),
-        ("rdm_fill.frag", spirv!("rdm_fill.frag")),
-        ("mffr_composite.frag", spirv!("mffr_composite.frag")),
-        ("fullscreen.vert", spirv!("fullscreen.vert")),
-        ("sky.frag", spirv!("sky.frag")),
-        ("floor.vert", spirv!("floor.vert")),
-        ("flat.frag", spirv!("flat.frag")),
-    ]
-}
-
-fn words(bytes: &[u8]) -> Vec<u32> {
-    bytes
-        .chunks_exact(4)
-        .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
-        .collect()
-}
 
 /// CPU time per phase of one frame, in milliseconds.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
@@ -515,17 +487,17 @@ impl Renderer {
         let ctx = &self.ctx;
         let scene = self.scene.as_ref().expect("scene present until drop");
         let features = scene.features;
-        let vs = words(spirv!("scene.vert"));
-        let fs = words(spirv!("scene.frag"));
-        let fs_early = words(spirv!("scene_early.frag"));
-        let hidden_vs = words(spirv!("hidden.vert"));
-        let composite_fs = words(spirv!("mffr_composite.frag"));
-        let rdm_fs = words(spirv!("rdm.frag"));
-        let fill_fs = words(spirv!("rdm_fill.frag"));
-        let full = words(spirv!("fullscreen.vert"));
-        let sky = words(spirv!("sky.frag"));
-        let floor_vs = words(spirv!("floor.vert"));
-        let flat = words(spirv!("flat.frag"));
+        let vs = shaders::SCENE_VERT.words();
+        let fs = shaders::SCENE_FRAG.words();
+        let fs_early = shaders::SCENE_EARLY_FRAG.words();
+        let hidden_vs = shaders::HIDDEN_VERT.words();
+        let composite_fs = shaders::MFFR_COMPOSITE_FRAG.words();
+        let rdm_fs = shaders::RDM_FRAG.words();
+        let fill_fs = shaders::RDM_FILL_FRAG.words();
+        let full = shaders::FULLSCREEN_VERT.words();
+        let sky = shaders::SKY_FRAG.words();
+        let floor_vs = shaders::FLOOR_VERT.words();
+        let flat = shaders::FLAT_FRAG.words();
         let used = scene_gpu::used_streams(&features);
         let formats = [
             vk::Format::R32G32B32_SFLOAT,
