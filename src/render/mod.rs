@@ -7,32 +7,33 @@
 pub mod attachments;
 pub mod batches;
 pub mod scene_gpu;
+pub mod uniforms;
 
 pub use crate::gpu::shaders::shader_modules;
 
 use crate::config::{RenderConfig, StereoMode};
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
-use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
+use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::{PipelineStats, Queries};
 use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::scene::Scene;
-use crate::view::{foveation, projection, HiddenArea, StereoRig};
+use crate::view::{foveation, HiddenArea, StereoRig};
 use ash::vk;
 use attachments::{Attachments, COLOR_FORMAT};
 use batches::{Batcher, Batches, PipelineKey};
-use glam::{DMat3, Mat4, Vec4};
 use gpu_allocator::MemoryLocation;
-use scene_gpu::{split_dvec3, SceneGpu, STREAMS};
+use scene_gpu::{SceneGpu, STREAMS};
 use std::collections::{BTreeMap, HashMap};
 use std::sync::Arc;
 use std::time::Instant;
+use uniforms::FrameUniforms;
 
 const FRAMES_IN_FLIGHT: usize = 2;
-const UBO_SIZE: u64 = 752;
+const UBO_SIZE: u64 = uniforms::SIZE;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
 
@@ -931,46 +932,11 @@ impl Renderer {
         unsafe { self.ctx.device.update_descriptor_sets(&all, &[]) };
     }
 
-    fn frame_data(&self, rig: &StereoRig) -> Vec<f32> {
-        let origin = rig.head.position;
-        let mut f: Vec<f32> = Vec::with_capacity(UBO_SIZE as usize / 4);
+    fn frame_data(&self, rig: &StereoRig) -> FrameUniforms {
         // Views 2 and 3 are the far-field cameras; their near plane is the
         // split distance, so everything nearer is clipped from the far field.
         let far_near = self.mffr_frame.as_ref().map_or(self.config.near, |m| m.0);
-        let views = [
-            rig.views[0],
-            *rig.views.get(1).unwrap_or(&rig.views[0]),
-            self.far_views[0].unwrap_or(rig.views[0]),
-            self.far_views[1]
-                .or(self.far_views[0])
-                .unwrap_or(rig.views[0]),
-        ];
-        for (i, v) in views.iter().enumerate() {
-            let near = if i >= 2 { far_near } else { self.config.near };
-            f.extend(
-                projection::view_projection_f32(&v.pose, &v.fov, near, origin).to_cols_array(),
-            );
-        }
-        for v in &views {
-            f.extend(
-                Mat4::from_mat3(DMat3::from_quat(v.pose.orientation).as_mat3()).to_cols_array(),
-            );
-        }
-        for v in &views {
-            f.extend(v.fov.tangents().map(|t| t as f32));
-        }
-        for v in &views {
-            f.extend((v.pose.position - origin).as_vec3().extend(1.0).to_array());
-        }
-        let (hi, lo) = split_dvec3(origin);
-        f.extend([hi[0], hi[1], hi[2], 0.0, lo[0], lo[1], lo[2], 0.0]);
-        let sun = glam::Vec3::new(0.35, 0.8, 0.45).normalize();
-        f.extend(sun.extend(0.0).to_array());
-        f.extend([2.6, 2.45, 2.2, 0.0]);
-        f.extend(Vec4::new(0.30, 0.45, 0.75, 1.0).to_array());
-        f.extend(Vec4::new(0.75, 0.80, 0.85, 1.0).to_array());
-        f.extend(Vec4::new(0.25, 0.22, 0.20, 1.0).to_array());
-        f
+        FrameUniforms::new(rig, self.config.near, self.far_views, far_near)
     }
 
     /// Renders one stereo frame of `rig` drawing the instances in `visible`
@@ -1097,14 +1063,14 @@ impl Renderer {
             .expect("ring present until drop")
             .begin(&self.ctx)?;
         self.ensure_visible_capacity(slot, batches.ids.len())?;
-        let ids: &[u8] = bytemuck_u32(&batches.ids);
+        let ids: &[u8] = as_bytes(&batches.ids);
         self.visible[slot]
             .as_mut()
             .expect("allocated above")
             .write(0, ids)?;
         self.frame_index += 1;
         let data = self.frame_data(rig);
-        self.ubos[slot].write(0, bytemuck_f32(&data))?;
+        self.ubos[slot].write(0, as_bytes(std::slice::from_ref(&data)))?;
         if self.config.stencil_mask {
             self.upload_hidden(slot, rig)?;
         }
@@ -1245,7 +1211,7 @@ impl Renderer {
             }
         }
         if !data.is_empty() {
-            h.buffer.write(0, bytemuck_f32(&data))?;
+            h.buffer.write(0, as_bytes(&data))?;
         }
         h.per_view = per_view as u32;
         h.source = Some(areas);
@@ -1561,7 +1527,7 @@ impl Renderer {
                 self.layout,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 0,
-                bytemuck_u32(&pc),
+                as_bytes(&pc),
             )
         };
     }
@@ -2050,16 +2016,6 @@ fn default_offset(stream: usize) -> u64 {
 
 fn ms(a: Instant, b: Instant) -> f64 {
     (b - a).as_secs_f64() * 1e3
-}
-
-fn bytemuck_u32(v: &[u32]) -> &[u8] {
-    // SAFETY: u32 slices are plain bytes.
-    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
-}
-
-fn bytemuck_f32(v: &[f32]) -> &[u8] {
-    // SAFETY: f32 slices are plain bytes.
-    unsafe { std::slice::from_raw_parts(v.as_ptr() as *const u8, std::mem::size_of_val(v)) }
 }
 
 impl Drop for Renderer {
