@@ -6,6 +6,7 @@
 
 pub mod attachments;
 pub mod batches;
+pub mod descriptors;
 pub mod scene_gpu;
 pub mod uniforms;
 
@@ -25,6 +26,7 @@ use crate::view::{foveation, HiddenArea, StereoRig};
 use ash::vk;
 use attachments::{Attachments, COLOR_FORMAT};
 use batches::{Batcher, Batches, PipelineKey};
+use descriptors::{Descriptors, SetContents};
 use gpu_allocator::MemoryLocation;
 use scene_gpu::{SceneGpu, STREAMS};
 use std::collections::{BTreeMap, HashMap};
@@ -117,10 +119,7 @@ pub struct Renderer {
     extent: vk::Extent2D,
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
-    set_layout: vk::DescriptorSetLayout,
-    layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
-    sets: Vec<vk::DescriptorSet>,
+    descriptors: Descriptors,
     ubos: Vec<Buffer>,
     visible: Vec<Option<Buffer>>,
     pipelines: HashMap<PipelineKey, vk::Pipeline>,
@@ -222,98 +221,9 @@ impl Renderer {
         }
         let samples = config.msaa.min(ctx.caps.max_samples);
         let scene_gpu = SceneGpu::new(&ctx, scene)?;
-        let texture_count = scene_gpu.textures.len() as u32;
+        let descriptors =
+            Descriptors::new(&ctx, scene_gpu.textures.len() as u32, FRAMES_IN_FLIGHT)?;
         let d = &ctx.device;
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
-        let binding = |i: u32, ty, count: u32, stages| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(i)
-                .descriptor_type(ty)
-                .descriptor_count(count)
-                .stage_flags(stages)
-        };
-        let storage = vk::DescriptorType::STORAGE_BUFFER;
-        let bindings = [
-            binding(0, vk::DescriptorType::UNIFORM_BUFFER, 1, stages),
-            binding(1, storage, 1, stages),
-            binding(2, storage, 1, stages),
-            binding(3, storage, 1, stages),
-            binding(
-                4,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                texture_count,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-            binding(5, storage, 1, vk::ShaderStageFlags::VERTEX),
-            binding(
-                6,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                2,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-            binding(
-                7,
-                vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                2,
-                vk::ShaderStageFlags::FRAGMENT,
-            ),
-        ];
-        // SAFETY: plain object creation on a live device; objects are owned by
-        // the renderer and destroyed in `Drop`.
-        let (set_layout, layout, pool, sets) = unsafe {
-            let set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("creating the descriptor set layout")?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: stages,
-                offset: 0,
-                size: 16,
-            }];
-            let set_layouts = [set_layout];
-            let layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk("creating the pipeline layout")?;
-            let n = FRAMES_IN_FLIGHT as u32;
-            let sizes = [
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::UNIFORM_BUFFER,
-                    descriptor_count: n,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: 4 * n,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: (texture_count + 4) * n,
-                },
-            ];
-            let pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(n)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("creating the descriptor pool")?;
-            let layouts = vec![set_layout; FRAMES_IN_FLIGHT];
-            let sets = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("allocating descriptor sets")?;
-            (set_layout, layout, pool, sets)
-        };
         let mut ubos = Vec::new();
         for i in 0..FRAMES_IN_FLIGHT {
             ubos.push(Buffer::new(
@@ -375,10 +285,7 @@ impl Renderer {
             extent,
             scene: Some(scene_gpu),
             targets: None,
-            set_layout,
-            layout,
-            pool,
-            sets,
+            descriptors,
             ubos,
             visible: (0..FRAMES_IN_FLIGHT).map(|_| None).collect(),
             pipelines: HashMap::new(),
@@ -553,7 +460,7 @@ impl Renderer {
             color_format: COLOR_FORMAT,
             depth_format: ctx.caps.depth_format,
             view_mask: self.view_mask(),
-            layout: self.layout,
+            layout: self.descriptors.layout,
             shading_rate_attachment: !self.rates.is_empty(),
         };
         let mut keys: Vec<PipelineKey> = self.batcher.keys.clone();
@@ -836,100 +743,35 @@ impl Renderer {
     }
 
     fn write_descriptors(&self, slot: usize) {
-        let scene = self.scene.as_ref().expect("scene present until drop");
         let Some(visible) = &self.visible[slot] else {
             return;
         };
-        let ubo = [vk::DescriptorBufferInfo {
-            buffer: self.ubos[slot].buffer,
-            offset: 0,
-            range: UBO_SIZE,
-        }];
-        let inst = [vk::DescriptorBufferInfo {
-            buffer: scene.instances.buffer,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let vis = [vk::DescriptorBufferInfo {
-            buffer: visible.buffer,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let mats = [vk::DescriptorBufferInfo {
-            buffer: scene.materials.buffer,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let images: Vec<vk::DescriptorImageInfo> = scene
-            .textures
-            .iter()
-            .zip(&scene.texture_samplers)
-            .map(|(t, &s)| vk::DescriptorImageInfo {
-                sampler: s,
-                image_view: t.view,
+        let filled = self.targets.as_ref().and_then(|t| {
+            let mut views = t.sets.iter().filter_map(|s| s.filled.as_ref().map(|f| f.1));
+            let first = views.next()?;
+            let info = |image_view| vk::DescriptorImageInfo {
+                sampler: self.fill_sampler,
+                image_view,
+                image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            };
+            Some([info(first), info(views.next().unwrap_or(first))])
+        });
+        let far_field = self.far.as_ref().map(|f| {
+            std::array::from_fn(|i| vk::DescriptorImageInfo {
+                sampler: f.sampler,
+                image_view: f.sets.get(i).unwrap_or(&f.sets[0]).resolve.view,
                 image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
             })
-            .collect();
-        let hidden = [vk::DescriptorBufferInfo {
-            buffer: self.hidden[slot].buffer.buffer,
-            offset: 0,
-            range: vk::WHOLE_SIZE,
-        }];
-        let filled: Vec<vk::DescriptorImageInfo> = self
-            .targets
-            .as_ref()
-            .map(|t| {
-                let views: Vec<vk::ImageView> = t
-                    .sets
-                    .iter()
-                    .filter_map(|s| s.filled.as_ref().map(|f| f.1))
-                    .collect();
-                (0..2)
-                    .filter_map(|i| views.get(i).or(views.first()))
-                    .map(|&v| vk::DescriptorImageInfo {
-                        sampler: self.fill_sampler,
-                        image_view: v,
-                        image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                    })
-                    .collect()
-            })
-            .unwrap_or_default();
-        let far_info: Vec<vk::DescriptorImageInfo> = self
-            .far
-            .iter()
-            .flat_map(|f| {
-                (0..2).map(move |i| vk::DescriptorImageInfo {
-                    sampler: f.sampler,
-                    image_view: f.sets.get(i).unwrap_or(&f.sets[0]).resolve.view,
-                    image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-                })
-            })
-            .collect();
-        let set = self.sets[slot];
-        let w = |b: u32, ty| {
-            vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(b)
-                .descriptor_type(ty)
+        });
+        let contents = SetContents {
+            frame: &self.ubos[slot],
+            scene: self.scene.as_ref().expect("scene present until drop"),
+            visible,
+            hidden: Some(self.hidden[slot].buffer.buffer),
+            filled,
+            far_field,
         };
-        let writes = [
-            w(0, vk::DescriptorType::UNIFORM_BUFFER).buffer_info(&ubo),
-            w(1, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&inst),
-            w(2, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&vis),
-            w(3, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&mats),
-            w(4, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&images),
-            w(5, vk::DescriptorType::STORAGE_BUFFER).buffer_info(&hidden),
-        ];
-        let mut all: Vec<vk::WriteDescriptorSet> = writes.to_vec();
-        if filled.len() == 2 {
-            all.push(w(6, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&filled));
-        }
-        if !far_info.is_empty() {
-            all.push(w(7, vk::DescriptorType::COMBINED_IMAGE_SAMPLER).image_info(&far_info));
-        }
-        // SAFETY: the set is not in use by a pending frame (its slot's fence
-        // was waited on, or it was never submitted).
-        unsafe { self.ctx.device.update_descriptor_sets(&all, &[]) };
+        self.descriptors.write(&self.ctx, slot, &contents);
     }
 
     fn frame_data(&self, rig: &StereoRig) -> FrameUniforms {
@@ -1380,9 +1222,9 @@ impl Renderer {
                 d.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::GRAPHICS,
-                    self.layout,
+                    self.descriptors.layout,
                     0,
-                    &[self.sets[self.slot]],
+                    &[self.descriptors.sets[self.slot]],
                     &[],
                 );
                 let hidden = &self.hidden[self.slot];
@@ -1524,7 +1366,7 @@ impl Renderer {
         unsafe {
             self.ctx.device.cmd_push_constants(
                 cmd,
-                self.layout,
+                self.descriptors.layout,
                 vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
                 0,
                 as_bytes(&pc),
@@ -1669,9 +1511,9 @@ impl Renderer {
                 d.cmd_bind_descriptor_sets(
                     cmd,
                     vk::PipelineBindPoint::GRAPHICS,
-                    self.layout,
+                    self.descriptors.layout,
                     0,
-                    &[self.sets[self.slot]],
+                    &[self.descriptors.sets[self.slot]],
                     &[],
                 );
                 draws += self.draw_scene(
@@ -2047,11 +1889,8 @@ impl Drop for Renderer {
             if self.fill_sampler != vk::Sampler::null() {
                 ctx.device.destroy_sampler(self.fill_sampler, None);
             }
-            ctx.device.destroy_descriptor_pool(self.pool, None);
-            ctx.device.destroy_pipeline_layout(self.layout, None);
-            ctx.device
-                .destroy_descriptor_set_layout(self.set_layout, None);
         }
+        self.descriptors.destroy(&ctx);
         for b in self
             .visible
             .drain(..)
