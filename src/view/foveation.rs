@@ -13,7 +13,7 @@
 //! the implementation.
 //!
 //! This is the pure math (levels, the rate image, the shaded fraction);
-//! the renderer uploads the image and attaches it.
+//! `render::shading_rate` uploads the image and attaches it.
 
 /// How strongly the periphery is coarsened.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
