@@ -103,7 +103,7 @@ pub struct RenderConfig {
     /// every later draw is stencil-tested (`stencil-mask`).
     pub stencil_mask: bool,
     /// Foveated rendering level (`foveation=off|low|medium|high`).
-    pub foveation: crate::render::foveation::Level,
+    pub foveation: crate::view::foveation::Level,
     /// Gaze centre for foveation in NDC (`gaze=X:Y`, +y down; default the
     /// image centre).
     pub gaze: [f32; 2],
@@ -151,7 +151,7 @@ impl Default for RenderConfig {
             cull: Culling::None,
             draw_distance: None,
             stencil_mask: false,
-            foveation: crate::render::foveation::Level::Off,
+            foveation: crate::view::foveation::Level::Off,
             gaze: [0.0, 0.0],
             rdm: None,
             rdm_fill: true,
@@ -241,7 +241,7 @@ impl RenderConfig {
                         ))
                     }
                 },
-                "foveation" => self.foveation = crate::render::foveation::Level::Medium,
+                "foveation" => self.foveation = crate::view::foveation::Level::Medium,
                 level if level.starts_with("foveation=") => {
                     self.foveation = level["foveation=".len()..]
                         .parse()
@@ -283,7 +283,7 @@ impl RenderConfig {
 #[cfg(test)]
 mod tests {
     use super::*;
-    use crate::render::foveation::Level;
+    use crate::view::foveation::Level;
 
     #[test]
     fn effort_options_parse_and_bad_values_name_themselves() {

@@ -143,7 +143,7 @@ fn fragment_invocations_drop_by_the_masked_fraction() {
 
 #[test]
 fn foveation_uses_the_shading_rate_attachment_or_falls_back_to_off() {
-    use vergence::render::foveation::{shaded_fraction, Level};
+    use vergence::view::foveation::{shaded_fraction, Level};
     let ctx = common::context();
     let profile = HmdProfile::load("monado-sim").unwrap();
     let factory = common::load("factory:2000");

@@ -352,3 +352,28 @@ fn lazy_memory_type(ctx: &Context, bits: u32) -> Option<u32> {
                 .contains(vk::MemoryPropertyFlags::LAZILY_ALLOCATED)
     })
 }
+
+/// Plain values whose bytes are uploaded as they are.
+///
+/// # Safety
+///
+/// Implementors have no padding bytes and no field that is not itself
+/// plain (every byte is initialized, so viewing it as `u8` is sound).
+pub unsafe trait Pod: Copy {}
+
+// SAFETY: primitive numbers have no padding.
+unsafe impl Pod for u32 {}
+// SAFETY: primitive numbers have no padding.
+unsafe impl Pod for f32 {}
+// SAFETY: arrays of padding-free values have no padding.
+unsafe impl<T: Pod, const N: usize> Pod for [T; N] {}
+
+/// The bytes of `values` (what a buffer upload or push constant takes).
+pub fn as_bytes<T: Pod>(values: &[T]) -> &[u8] {
+    // SAFETY: `T: Pod` has no padding, so every byte of the slice is
+    // initialized; u8 has no alignment requirement and the length is the
+    // slice's size in bytes.
+    unsafe {
+        std::slice::from_raw_parts(values.as_ptr().cast::<u8>(), std::mem::size_of_val(values))
+    }
+}

@@ -1,7 +1,7 @@
 //! The Vulkan layer (ash): instance and device, memory, frame ring with
-//! deferred destruction, queries and pipelines described as plain data. Raw
-//! Vulkan calls live here and in `render/`'s recording code only through the
-//! handles exposed by [`Context`].
+//! deferred destruction, queries, pipelines described as plain data and the
+//! embedded SPIR-V. Raw Vulkan calls live here and in `render/`'s recording
+//! code only through the handles exposed by [`Context`].
 
 pub mod barrier;
 pub mod driver;
@@ -10,6 +10,7 @@ pub mod memory;
 pub mod pipeline;
 pub mod query;
 pub mod ring;
+pub mod shaders;
 pub mod validation;
 
 use crate::error::{Error, Result, VkContext};

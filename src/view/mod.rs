@@ -1,8 +1,10 @@
-//! Pure view math: poses, FOV tangents, projections, frusta, superfrusta and
-//! cones. Nothing here knows about Vulkan or OpenXR: every rig (a runtime, an
-//! HMD profile, a test) is expressed as poses plus four FOV angles per view.
+//! Pure view math: poses, FOV tangents, projections, frusta, superfrusta,
+//! cones and foveation rate images. Nothing here knows about Vulkan or
+//! OpenXR: every rig (a runtime, an HMD profile, a test) is expressed as
+//! poses plus four FOV angles per view.
 
 pub mod cone;
+pub mod foveation;
 pub mod frustum;
 pub mod lens;
 pub mod mffr;

@@ -11,6 +11,9 @@
 //! holds `(log2(width) << 2) | log2(height)`, so 1×1 = 0, 2×2 = 5, 4×4 = 10.
 //! Rates the device cannot do at the frame's sample count are clamped by
 //! the implementation.
+//!
+//! This is the pure math (levels, the rate image, the shaded fraction);
+//! `render::shading_rate` uploads the image and attaches it.
 
 /// How strongly the periphery is coarsened.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]

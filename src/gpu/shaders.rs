@@ -1,0 +1,75 @@
+//! The SPIR-V modules the renderer embeds. `build.rs` compiles every
+//! `shaders/*.{vert,frag}` with glslc into OUT_DIR; each module is included
+//! here at compile time, so a binary carries its shaders and nothing is read
+//! or compiled at run time.
+
+/// One embedded SPIR-V module.
+#[derive(Clone, Copy, Debug)]
+pub struct Module {
+    /// Source file name under `shaders/` (e.g. "scene.vert").
+    pub name: &'static str,
+    /// The SPIR-V, little-endian 32-bit words as bytes.
+    pub bytes: &'static [u8],
+}
+
+impl Module {
+    /// The module as the 32-bit words vkCreateShaderModule takes.
+    pub fn words(&self) -> Vec<u32> {
+        self.bytes
+            .chunks_exact(4)
+            .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+            .collect()
+    }
+}
+
+macro_rules! spirv {
+    ($name:literal) => {
+        Module {
+            name: $name,
+            bytes: include_bytes!(concat!(env!("OUT_DIR"), "/", $name, ".spv")),
+        }
+    };
+}
+
+/// The scene's vertex shader (instanced, camera-relative positions).
+pub static SCENE_VERT: Module = spirv!("scene.vert");
+/// The scene's fragment shader with late fragment tests (alpha mask).
+pub static SCENE_FRAG: Module = spirv!("scene.frag");
+/// The scene's fragment shader with forced early fragment tests.
+pub static SCENE_EARLY_FRAG: Module = spirv!("scene_early.frag");
+/// The hidden-area (HMD stencil mask) vertex shader.
+pub static HIDDEN_VERT: Module = spirv!("hidden.vert");
+/// Radial density masking's checkerboard stencil.
+pub static RDM_FRAG: Module = spirv!("rdm.frag");
+/// Radial density masking's reconstruction.
+pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
+/// The monoscopic far field's composite.
+pub static MFFR_COMPOSITE_FRAG: Module = spirv!("mffr_composite.frag");
+/// A full-screen triangle passing NDC and the view index on.
+pub static FULLSCREEN_VERT: Module = spirv!("fullscreen.vert");
+/// The procedural sky.
+pub static SKY_FRAG: Module = spirv!("sky.frag");
+/// A full-screen triangle with no outputs (raster floor, RDM passes).
+pub static FLOOR_VERT: Module = spirv!("floor.vert");
+/// A constant colour.
+pub static FLAT_FRAG: Module = spirv!("flat.frag");
+
+/// Every embedded module.
+pub static ALL: [&Module; 11] = [
+    &SCENE_VERT,
+    &SCENE_FRAG,
+    &SCENE_EARLY_FRAG,
+    &HIDDEN_VERT,
+    &RDM_FRAG,
+    &RDM_FILL_FRAG,
+    &MFFR_COMPOSITE_FRAG,
+    &FULLSCREEN_VERT,
+    &SKY_FRAG,
+    &FLOOR_VERT,
+    &FLAT_FRAG,
+];
+
+/// Every SPIR-V module the renderer uses, by file name (for validation tests).
+pub fn shader_modules() -> Vec<(&'static str, &'static [u8])> {
+    ALL.iter().map(|m| (m.name, m.bytes)).collect()
+}

@@ -1,0 +1,316 @@
+//! Monoscopic far-field rendering (`mffr`, `mffr=D`), after Oculus' hybrid
+//! mono rendering (the split distance and the centre camera are derived in
+//! `view::mffr`): beyond the split distance D the far field is rendered
+//! once, from the centre camera with its near plane at D, into its own
+//! target ([`FAR_WIDTH_SCALE`] × an eye's width, same MSAA), timed as
+//! `mffr-far`. Each eye's forward scope clears depth to the split plane
+//! (reverse-Z: `near / D`), so only nearer geometry passes, and a
+//! full-screen composite (`shaders/mffr_composite.frag`) looks up every
+//! pixel's ray in the far image (`mffr-depth-shift`: the ray's point at D).
+//! The sky lies beyond the split, so only the far pass draws it.
+//!
+//! `mffr-alternate-eye` keeps one far image per eye, each re-rendered from
+//! its eye (with the centre camera's orientation and union FOV) every other
+//! frame, both on the first.
+//!
+//! The depth split: an instance's bounding sphere (centre c, radius r) feeds
+//! the near passes when its nearest depth in some eye, `(c − p)·f − r`, is
+//! before D, and the far pass when its farthest depth from some far camera,
+//! `(c − p)·f + r`, is beyond D (p a camera's position, f its forward
+//! axis); margins of `1e-3 · D + 1e-3` cover f32 rounding. An instance left
+//! out of a pass would have been clipped or depth-rejected there, so the
+//! split changes no pixel.
+
+use super::{destroy_pipelines, to_sampled, PipelineSetup, Recorder, Scope};
+use crate::config::Mffr;
+use crate::error::{Result, VkContext};
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::query::Queries;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::render::attachments::{self, AttachmentSet};
+use crate::render::batches::{Batcher, Batches, PipelineKey};
+use crate::view::{mffr, Pose, StereoRig, View};
+use ash::vk;
+use std::collections::HashMap;
+
+/// Far-field image width relative to an eye's: the centre camera's union
+/// FOV is wider than one eye's by the other eye's extra coverage.
+pub const FAR_WIDTH_SCALE: f64 = 1.25;
+
+/// This frame's far field.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FarFrame {
+    /// Split distance in metres.
+    pub split: f64,
+    /// Which of the (up to two) far images are rendered this frame.
+    pub render: [bool; 2],
+}
+
+/// The far field's targets, pipelines (no view mask), composite, and its
+/// plan for the current frame.
+pub struct FarField {
+    settings: Mffr,
+    /// One far image, or one per eye (alternate eye).
+    sets: Vec<AttachmentSet>,
+    extent: vk::Extent2D,
+    pipelines: HashMap<PipelineKey, vk::Pipeline>,
+    sky: vk::Pipeline,
+    composite: vk::Pipeline,
+    sampler: vk::Sampler,
+    /// This frame's plan (None: fell back to stereo).
+    frame: Option<FarFrame>,
+    /// The view each far image was (or is being) rendered from (uniform
+    /// views 2 and 3).
+    views: [Option<View>; 2],
+}
+
+impl FarField {
+    /// Creates the far targets for eyes of `eye_extent` and the pipelines.
+    pub fn new(
+        setup: &PipelineSetup,
+        settings: Mffr,
+        eye_extent: vk::Extent2D,
+    ) -> Result<FarField> {
+        let ctx = setup.ctx;
+        let extent = vk::Extent2D {
+            width: ((eye_extent.width as f64 * FAR_WIDTH_SCALE).ceil() as u32).min(16384),
+            height: eye_extent.height,
+        };
+        let count = if settings.alternate_eye { 2 } else { 1 };
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+        // SAFETY: plain object creation; destroyed by `destroy`.
+        let sampler = unsafe { ctx.device.create_sampler(&info, None) }
+            .vk("creating the far-field sampler")?;
+        let mut far = FarField {
+            settings,
+            sets: Vec::new(),
+            extent,
+            pipelines: HashMap::new(),
+            sky: vk::Pipeline::null(),
+            composite: vk::Pipeline::null(),
+            sampler,
+            frame: None,
+            views: [None, None],
+        };
+        if let Err(e) = far.build(setup, count) {
+            far.destroy(ctx);
+            return Err(e);
+        }
+        Ok(far)
+    }
+
+    /// Creates `count` far targets and the pipelines into `self`.
+    fn build(&mut self, setup: &PipelineSetup, count: usize) -> Result<()> {
+        let ctx = setup.ctx;
+        for _ in 0..count {
+            self.sets.push(AttachmentSet::new(
+                ctx,
+                self.extent,
+                setup.samples,
+                1,
+                false,
+                false,
+                true,
+            )?);
+        }
+        let (vs, fs) = (shaders::SCENE_VERT.words(), shaders::SCENE_FRAG.words());
+        let full = shaders::FULLSCREEN_VERT.words();
+        let (sky, composite) = (
+            shaders::SKY_FRAG.words(),
+            shaders::MFFR_COMPOSITE_FRAG.words(),
+        );
+        self.pipelines = setup.scene_pipelines(&GraphicsPipelineDesc {
+            view_mask: 0,
+            shading_rate_attachment: false,
+            ..setup.scene_desc(&vs, &fs)
+        })?;
+        self.sky = GraphicsPipelineDesc {
+            view_mask: 0,
+            shading_rate_attachment: false,
+            ..setup.fullscreen_desc("far-field sky", &full, &sky)
+        }
+        .build(ctx)?;
+        self.composite = GraphicsPipelineDesc {
+            depth_test: false,
+            depth_write: false,
+            ..setup.fullscreen_desc("far-field composite", &full, &composite)
+        }
+        .build(ctx)?;
+        Ok(())
+    }
+
+    /// Plans frame `frame_index` of `rig` at `width` pixels per eye: the
+    /// split distance (the configured one, else where disparity falls below
+    /// a pixel) and the far camera(s). Returns false when there is no
+    /// finite centre camera and the frame falls back to stereo.
+    pub fn plan(&mut self, rig: &StereoRig, width: u32, frame_index: u64) -> bool {
+        let split = self
+            .settings
+            .split
+            .unwrap_or_else(|| mffr::auto_split(rig, width));
+        self.frame = match mffr::centre_view(rig) {
+            Some(centre) if self.settings.alternate_eye => {
+                // Eye p's far image is re-rendered this frame (both on the
+                // first); each from its eye, covering the centre camera's
+                // union FOV.
+                let p = (frame_index % 2) as usize;
+                let mut render = [false; 2];
+                for (i, v) in rig.views.iter().take(2).enumerate() {
+                    if i == p || self.views[i].is_none() {
+                        self.views[i] = Some(View {
+                            pose: Pose {
+                                position: v.pose.position,
+                                orientation: centre.pose.orientation,
+                            },
+                            fov: centre.fov,
+                        });
+                        render[i] = true;
+                    }
+                }
+                Some(FarFrame { split, render })
+            }
+            Some(centre) => {
+                self.views = [Some(centre), None];
+                Some(FarFrame {
+                    split,
+                    render: [true, false],
+                })
+            }
+            None => {
+                self.views = [None, None];
+                None
+            }
+        };
+        self.frame.is_some()
+    }
+
+    /// Builds this frame's batches of `visible` (None: all): split by depth
+    /// (near draws first, then `far_start`) when the frame has a far field
+    /// and `partition` is on, else every instance once for both.
+    pub fn build_batches(
+        &self,
+        batcher: &mut Batcher,
+        rig: &StereoRig,
+        visible: Option<&[u32]>,
+        partition: bool,
+        batches: &mut Batches,
+    ) {
+        let Some(frame) = self.frame.filter(|_| partition) else {
+            batcher.build(visible, rig.head.position, batches);
+            return;
+        };
+        let d = frame.split;
+        let margin = 1e-3 * d + 1e-3;
+        // Fixed-size: the frame allocates nothing (the renderer checked for
+        // two views; at most two far cameras).
+        let axis = |v: &View| (v.pose.position, v.pose.forward());
+        let eyes = [axis(&rig.views[0]), axis(&rig.views[1])];
+        let mut fars = [None; 2];
+        for i in (0..2).filter(|&i| frame.render[i]) {
+            fars[i] = self.views[i].as_ref().map(axis);
+        }
+        batcher.build_split(
+            visible,
+            rig.head.position,
+            |c, r| eyes.iter().any(|(p, f)| (c - *p).dot(*f) - r < d + margin),
+            |c, r| {
+                fars.iter()
+                    .flatten()
+                    .any(|(p, f)| (c - *p).dot(*f) + r > d - margin)
+            },
+            batches,
+        );
+    }
+
+    /// This frame's plan (None: fell back to stereo).
+    pub fn frame(&self) -> Option<FarFrame> {
+        self.frame
+    }
+
+    /// The far cameras for the frame uniforms (views 2 and 3) and their
+    /// near plane: the split distance, or `near` without a plan.
+    pub fn cameras(&self, near: f64) -> ([Option<View>; 2], f64) {
+        (self.views, self.frame.map_or(near, |f| f.split))
+    }
+
+    /// The forward scopes' depth clear value with a far field: the split
+    /// plane under reverse-Z (`near / D`), so only nearer geometry passes.
+    pub fn depth_clear(&self, near: f64) -> f32 {
+        self.frame.map_or(0.0, |f| (near / f.split).min(1.0) as f32)
+    }
+
+    /// The far images for the composite's descriptors (the second repeats
+    /// the first without alternate eye).
+    pub fn images(&self) -> [vk::DescriptorImageInfo; 2] {
+        std::array::from_fn(|i| vk::DescriptorImageInfo {
+            sampler: self.sampler,
+            image_view: self.sets.get(i).unwrap_or(&self.sets[0]).resolve.view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        })
+    }
+
+    /// The far pass: `batches`' far draws rendered from each far camera due
+    /// this frame (uniform view 2 + image, near plane at the split) into
+    /// its target, which is then made readable for the composite. Returns
+    /// the draw calls (none without a plan).
+    pub fn record(&self, rec: &Recorder, q: &mut Queries, batches: &Batches) -> u64 {
+        let Some(frame) = self.frame else {
+            return 0;
+        };
+        let mut draws = 0;
+        q.begin_pass(rec.ctx, rec.cmd, "mffr-far");
+        for i in (0..2).filter(|&i| frame.render[i]) {
+            let set = &self.sets[i];
+            rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
+            rec.begin_scope(&Scope {
+                views: set.views(),
+                extent: self.extent,
+                view_mask: 0,
+                depth_clear: 0.0,
+                shading_rate: None,
+            });
+            draws += rec.draw_batches(
+                batches.far_draws(),
+                &self.pipelines,
+                Some(self.sky),
+                2 + i as u32,
+            );
+            rec.end_scope();
+            rec.barriers(&[to_sampled(&set.resolve)]);
+        }
+        q.end_pass(rec.ctx, rec.cmd);
+        draws
+    }
+
+    /// The composite of view `eye` inside the open forward scope: every
+    /// pixel's ray looked up in the far image (see the module doc). Returns
+    /// the draw calls.
+    pub fn record_composite(&self, rec: &Recorder, eye: u32) -> u64 {
+        let Some(frame) = self.frame else {
+            return 0;
+        };
+        let flags = self.settings.depth_shift as u32 | (self.settings.alternate_eye as u32) << 1;
+        rec.bind(self.composite);
+        rec.push([flags, eye, 0, (frame.split as f32).to_bits()]);
+        rec.draw(3);
+        1
+    }
+
+    /// Destroys the targets, pipelines and sampler; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        destroy_pipelines(
+            ctx,
+            self.pipelines.values().chain([&self.sky, &self.composite]),
+        );
+        // SAFETY: the device is idle; the sampler belongs to `self`.
+        unsafe { ctx.device.destroy_sampler(self.sampler, None) };
+        for set in self.sets {
+            set.destroy(ctx);
+        }
+    }
+}

@@ -1,0 +1,59 @@
+//! The raster floors: what a frame costs with no scene at all, measured in
+//! the forward views' own scopes (same attachments, clears, resolves, masks
+//! and shading rate). `Clear` only clears and resolves; `FullscreenTriangle`
+//! adds one full-screen triangle with a trivial fragment shader (the fill
+//! rate floor).
+
+use super::{destroy_pipelines, PipelineSetup, Recorder};
+use crate::error::Result;
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use ash::vk;
+
+/// What the floor measurements draw.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum FloorKind {
+    /// Clear the attachments only.
+    Clear,
+    /// One full-screen triangle with a trivial fragment shader.
+    FullscreenTriangle,
+}
+
+/// The full-screen triangle's pipeline.
+#[derive(Default)]
+pub struct Floor {
+    flat: vk::Pipeline,
+}
+
+impl Floor {
+    /// Builds the pipeline (depth test off, constant colour).
+    pub fn new(setup: &PipelineSetup) -> Result<Floor> {
+        let (vs, fs) = (shaders::FLOOR_VERT.words(), shaders::FLAT_FRAG.words());
+        let flat = GraphicsPipelineDesc {
+            depth_test: false,
+            ..setup.fullscreen_desc("raster floor", &vs, &fs)
+        };
+        Ok(Floor {
+            flat: flat.build(setup.ctx)?,
+        })
+    }
+
+    /// Draws floor `kind` for view `eye` inside the open scope. Returns the
+    /// draw calls.
+    pub fn record(&self, rec: &Recorder, kind: FloorKind, eye: u32) -> u64 {
+        match kind {
+            FloorKind::Clear => 0,
+            FloorKind::FullscreenTriangle => {
+                rec.bind_indices();
+                rec.draw_fullscreen(self.flat, eye);
+                1
+            }
+        }
+    }
+
+    /// Destroys the pipeline; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        destroy_pipelines(ctx, [&self.flat]);
+    }
+}

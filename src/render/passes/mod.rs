@@ -1,0 +1,612 @@
+//! The frame's passes, each created only when the configuration asks for
+//! it, and what they share: the pipeline descriptions they derive their
+//! pipelines from ([`PipelineSetup`]) and the recording helpers
+//! ([`Recorder`]): one rendering scope (colour, depth and resolve
+//! attachments, viewport, scissor, descriptor set) used by the forward
+//! views and the far field alike, push constants, batched scene draws and
+//! the sky.
+
+pub mod far_field;
+pub mod floor;
+pub mod forward;
+pub mod output;
+pub mod rdm;
+pub mod stencil_mask;
+
+use super::attachments::{TargetViews, COLOR_FORMAT};
+use super::batches::{Draw, PipelineKey};
+use super::scene_gpu::{self, SceneGpu, STREAMS};
+use crate::config::RenderConfig;
+use crate::error::Result;
+use crate::gpu::barrier::{self, Use};
+use crate::gpu::memory::{as_bytes, Image};
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use ash::vk;
+use far_field::FarField;
+use floor::Floor;
+use forward::Forward;
+use rdm::Rdm;
+use std::collections::HashMap;
+use stencil_mask::StencilMask;
+
+/// The passes a renderer records, each built only when its configuration
+/// asks for it.
+#[derive(Default)]
+pub struct Passes {
+    /// Scene and sky.
+    pub forward: Forward,
+    /// The raster floors.
+    pub floor: Floor,
+    /// HMD stencil mask (`stencil-mask`).
+    pub stencil_mask: Option<StencilMask>,
+    /// Radial density masking (`rdm`).
+    pub rdm: Option<Rdm>,
+    /// Monoscopic far field (`mffr`).
+    pub far: Option<FarField>,
+}
+
+impl Passes {
+    /// Builds the passes `config` enables for eyes of `extent` with `slots`
+    /// frame slots; on failure, destroys what it built.
+    pub fn new(
+        setup: &PipelineSetup,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        slots: usize,
+    ) -> Result<Passes> {
+        let mut p = Passes::default();
+        match p.build(setup, config, extent, slots) {
+            Ok(()) => Ok(p),
+            Err(e) => {
+                p.destroy(setup.ctx);
+                Err(e)
+            }
+        }
+    }
+
+    fn build(
+        &mut self,
+        setup: &PipelineSetup,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        slots: usize,
+    ) -> Result<()> {
+        self.forward = Forward::new(setup)?;
+        self.floor = Floor::new(setup)?;
+        if config.stencil_mask {
+            self.stencil_mask = Some(StencilMask::new(setup, slots)?);
+        }
+        if let Some(radius) = config.rdm {
+            self.rdm = Some(Rdm::new(setup, radius, config.rdm_fill)?);
+        }
+        if let Some(m) = config.mffr {
+            self.far = Some(FarField::new(setup, m, extent)?);
+        }
+        Ok(())
+    }
+
+    /// Destroys every pass; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        self.forward.destroy(ctx);
+        self.floor.destroy(ctx);
+        if let Some(p) = self.stencil_mask {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.rdm {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.far {
+            p.destroy(ctx);
+        }
+    }
+}
+
+/// What every pass pipeline shares, fixed at creation.
+pub struct PipelineSetup<'a> {
+    /// The device.
+    pub ctx: &'a Context,
+    /// The pipeline layout (descriptor set 0 and the push constants).
+    pub layout: vk::PipelineLayout,
+    /// MSAA samples of the frame's attachments.
+    pub samples: u32,
+    /// Multiview mask of the forward views (0 in two-pass).
+    pub view_mask: u32,
+    /// Whether draws test stencil (stencil mask or RDM on).
+    pub stencil_test: bool,
+    /// Whether the forward views have a fragment-shading-rate attachment.
+    pub shading_rate: bool,
+    /// The scene (vertex streams in use, texture count, features).
+    pub scene: &'a SceneGpu,
+    /// Pipeline key per primitive.
+    pub keys: &'a [PipelineKey],
+}
+
+impl PipelineSetup<'_> {
+    /// The scene pipeline over the scene's vertex streams, drawn into the
+    /// forward views: reverse-Z depth test and write, back faces culled,
+    /// and with the stencil mask (bit 0) or RDM (bit 1) on, passing only
+    /// where neither wrote stencil.
+    pub fn scene_desc<'s>(
+        &self,
+        vertex: &'s [u32],
+        fragment: &'s [u32],
+    ) -> GraphicsPipelineDesc<'s> {
+        let used = scene_gpu::used_streams(&self.scene.features);
+        let formats = [
+            vk::Format::R32G32B32_SFLOAT,
+            vk::Format::R32G32B32_SFLOAT,
+            vk::Format::R32G32B32A32_SFLOAT,
+            vk::Format::R32G32_SFLOAT,
+            vk::Format::R32G32_SFLOAT,
+            vk::Format::R32G32B32A32_SFLOAT,
+        ];
+        let bindings = (0..6)
+            .map(|i| vk::VertexInputBindingDescription {
+                binding: i as u32,
+                stride: if used[i] { STREAMS[i].1 } else { 0 },
+                input_rate: vk::VertexInputRate::VERTEX,
+            })
+            .collect();
+        let attributes = (0..6)
+            .map(|i| vk::VertexInputAttributeDescription {
+                location: i as u32,
+                binding: i as u32,
+                format: formats[i],
+                offset: 0,
+            })
+            .collect();
+        GraphicsPipelineDesc {
+            name: "scene",
+            vertex,
+            fragment,
+            specialization: Vec::new(),
+            bindings,
+            attributes,
+            cull_mode: vk::CullModeFlags::BACK,
+            depth_test: true,
+            depth_write: true,
+            depth_compare: vk::CompareOp::GREATER,
+            stencil: self.stencil_test.then_some(vk::StencilOpState {
+                fail_op: vk::StencilOp::KEEP,
+                pass_op: vk::StencilOp::KEEP,
+                depth_fail_op: vk::StencilOp::KEEP,
+                compare_op: vk::CompareOp::EQUAL,
+                compare_mask: 3,
+                write_mask: 0,
+                reference: 0,
+            }),
+            blend: false,
+            color_write: true,
+            samples: vk::SampleCountFlags::from_raw(self.samples),
+            color_format: COLOR_FORMAT,
+            depth_format: self.ctx.caps.depth_format,
+            view_mask: self.view_mask,
+            layout: self.layout,
+            shading_rate_attachment: self.shading_rate,
+        }
+    }
+
+    /// A full-screen pipeline named `name` (no vertex buffers, no culling,
+    /// depth tested at GREATER_OR_EQUAL and not written) drawn into the
+    /// forward views.
+    pub fn fullscreen_desc<'s>(
+        &self,
+        name: &'s str,
+        vertex: &'s [u32],
+        fragment: &'s [u32],
+    ) -> GraphicsPipelineDesc<'s> {
+        GraphicsPipelineDesc {
+            name,
+            bindings: Vec::new(),
+            attributes: Vec::new(),
+            cull_mode: vk::CullModeFlags::NONE,
+            depth_write: false,
+            depth_compare: vk::CompareOp::GREATER_OR_EQUAL,
+            ..self.scene_desc(vertex, fragment)
+        }
+    }
+
+    /// One scene pipeline per pipeline key the scene uses, derived from
+    /// `base` (a [`PipelineSetup::scene_desc`]): alpha-mask primitives get
+    /// `base`'s fragment shader (late tests, it discards), the others the
+    /// early-test variant.
+    pub fn scene_pipelines(
+        &self,
+        base: &GraphicsPipelineDesc,
+    ) -> Result<HashMap<PipelineKey, vk::Pipeline>> {
+        let early = shaders::SCENE_EARLY_FRAG.words();
+        let mut keys = self.keys.to_vec();
+        keys.sort();
+        keys.dedup();
+        let mut out = HashMap::new();
+        for key in keys {
+            let name = format!(
+                "scene alpha={} double_sided={} unlit={}",
+                key.alpha, key.double_sided, key.unlit
+            );
+            let desc = GraphicsPipelineDesc {
+                name: &name,
+                fragment: if key.alpha == 1 {
+                    base.fragment
+                } else {
+                    &early
+                },
+                specialization: vec![
+                    (0, self.scene.textures.len() as u32),
+                    (1, key.alpha as u32),
+                    (2, self.scene.features.tangents as u32),
+                    (3, key.unlit as u32),
+                ],
+                cull_mode: if key.double_sided {
+                    vk::CullModeFlags::NONE
+                } else {
+                    vk::CullModeFlags::BACK
+                },
+                depth_write: key.alpha < 2,
+                blend: key.alpha == 2,
+                ..base.clone()
+            };
+            out.insert(key, desc.build(self.ctx)?);
+        }
+        Ok(out)
+    }
+}
+
+/// Destroys `pipelines`, skipping null handles; the device must be idle.
+pub fn destroy_pipelines<'p>(ctx: &Context, pipelines: impl IntoIterator<Item = &'p vk::Pipeline>) {
+    for &p in pipelines {
+        if p != vk::Pipeline::null() {
+            // SAFETY: the device is idle and the pipeline belongs to the caller.
+            unsafe { ctx.device.destroy_pipeline(p, None) };
+        }
+    }
+}
+
+/// Stencil state that sets `bits` wherever the pipeline rasterizes (the
+/// hidden-area and RDM masks).
+pub fn stencil_write(bits: u32) -> vk::StencilOpState {
+    vk::StencilOpState {
+        fail_op: vk::StencilOp::KEEP,
+        pass_op: vk::StencilOp::REPLACE,
+        depth_fail_op: vk::StencilOp::REPLACE,
+        compare_op: vk::CompareOp::ALWAYS,
+        compare_mask: bits,
+        write_mask: bits,
+        reference: bits,
+    }
+}
+
+/// Makes a rendered colour image readable by fragment shaders.
+pub fn to_sampled(image: &Image) -> vk::ImageMemoryBarrier2<'static> {
+    barrier::image(
+        image.image,
+        vk::ImageAspectFlags::COLOR,
+        image.layers,
+        Use::COLOR_ATTACHMENT,
+        Use::SAMPLED,
+    )
+}
+
+/// The scene's vertex buffer per stream (the defaults buffer, read at
+/// stride 0, for streams the scene lacks) and their offsets, fixed at
+/// creation.
+pub struct VertexBindings {
+    buffers: Vec<vk::Buffer>,
+    offsets: Vec<u64>,
+}
+
+impl VertexBindings {
+    /// The bindings of `scene`.
+    pub fn new(scene: &SceneGpu) -> VertexBindings {
+        // Offset of each stream's default value inside the defaults buffer.
+        let default_offset = |stream: usize| match stream {
+            2 => 0,
+            3 | 4 => 16,
+            5 => 32,
+            _ => 48,
+        };
+        VertexBindings {
+            buffers: scene
+                .streams
+                .iter()
+                .map(|s| s.as_ref().map_or(scene.defaults.buffer, |b| b.buffer))
+                .collect(),
+            offsets: scene
+                .streams
+                .iter()
+                .enumerate()
+                .map(|(i, s)| if s.is_some() { 0 } else { default_offset(i) })
+                .collect(),
+        }
+    }
+}
+
+/// One rendering scope: where it draws and how it starts.
+pub struct Scope {
+    /// The attachments.
+    pub views: TargetViews,
+    /// Render area, viewport and scissor (from the origin).
+    pub extent: vk::Extent2D,
+    /// Multiview mask (0: one view).
+    pub view_mask: u32,
+    /// Depth clear value (reverse-Z: 0 is infinitely far).
+    pub depth_clear: f32,
+    /// A fragment-shading-rate attachment and its texel size.
+    pub shading_rate: Option<(vk::ImageView, (u32, u32))>,
+}
+
+/// Records a frame's commands: the command buffer, the device, this frame
+/// slot's descriptor set and the scene's geometry.
+pub struct Recorder<'a> {
+    /// The device.
+    pub ctx: &'a Context,
+    /// The frame's command buffer (begun by the ring, not yet submitted).
+    pub cmd: vk::CommandBuffer,
+    /// The pipeline layout.
+    pub layout: vk::PipelineLayout,
+    /// This frame slot's descriptor set.
+    pub set: vk::DescriptorSet,
+    /// The scene.
+    pub scene: &'a SceneGpu,
+    /// Pipeline key per primitive.
+    pub keys: &'a [PipelineKey],
+    /// The scene's vertex buffers.
+    pub vertices: &'a VertexBindings,
+}
+
+impl Recorder<'_> {
+    /// Records `barriers`.
+    pub fn barriers(&self, barriers: &[vk::ImageMemoryBarrier2]) {
+        // SAFETY: recording into the frame's open command buffer, outside
+        // any rendering scope; the images belong to the renderer.
+        unsafe {
+            self.ctx.device.cmd_pipeline_barrier2(
+                self.cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(barriers),
+            )
+        };
+    }
+
+    /// Begins the rendering scope `scope`: colour cleared to black and
+    /// stored (resolved by averaging at more than one sample), depth and
+    /// stencil cleared (stored or resolved from sample zero only when the
+    /// frame keeps its depth), the shading-rate attachment when given; then
+    /// sets the viewport and scissor to the whole extent and binds the
+    /// descriptor set.
+    pub fn begin_scope(&self, scope: &Scope) {
+        let views = scope.views;
+        let mut color = vk::RenderingAttachmentInfo::default()
+            .image_view(views.color)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(vk::AttachmentStoreOp::STORE)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            });
+        if let Some(r) = views.resolve {
+            color = color
+                .store_op(vk::AttachmentStoreOp::DONT_CARE)
+                .resolve_mode(vk::ResolveModeFlags::AVERAGE)
+                .resolve_image_view(r)
+                .resolve_image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL);
+        }
+        let mut depth = vk::RenderingAttachmentInfo::default()
+            .image_view(views.depth)
+            .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .store_op(if views.store_depth {
+                vk::AttachmentStoreOp::STORE
+            } else {
+                vk::AttachmentStoreOp::DONT_CARE
+            })
+            .clear_value(vk::ClearValue {
+                depth_stencil: vk::ClearDepthStencilValue {
+                    depth: scope.depth_clear,
+                    stencil: 0,
+                },
+            });
+        if let Some(r) = views.depth_resolve {
+            // Sample zero: the one depth resolve every device has
+            // (Vulkan 1.2 requires it for depth and stencil alike).
+            depth = depth
+                .resolve_mode(vk::ResolveModeFlags::SAMPLE_ZERO)
+                .resolve_image_view(r)
+                .resolve_image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL);
+        }
+        let colors = [color];
+        let mut rate_info = scope.shading_rate.map(|(view, texel)| {
+            vk::RenderingFragmentShadingRateAttachmentInfoKHR::default()
+                .image_view(view)
+                .image_layout(vk::ImageLayout::FRAGMENT_SHADING_RATE_ATTACHMENT_OPTIMAL_KHR)
+                .shading_rate_attachment_texel_size(vk::Extent2D {
+                    width: texel.0,
+                    height: texel.1,
+                })
+        });
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent: scope.extent,
+        };
+        let mut info = vk::RenderingInfo::default()
+            .render_area(area)
+            .layer_count(1)
+            .view_mask(scope.view_mask)
+            .color_attachments(&colors)
+            .depth_attachment(&depth)
+            .stencil_attachment(&depth);
+        if let Some(r) = rate_info.as_mut() {
+            info = info.push_next(r);
+        }
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: scope.extent.width as f32,
+            height: scope.extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let d = &self.ctx.device;
+        // SAFETY: recording into the frame's open command buffer outside any
+        // rendering scope; the attachments were made writable by the
+        // frame's begin barriers and belong to the renderer.
+        unsafe {
+            d.cmd_begin_rendering(self.cmd, &info);
+            d.cmd_set_viewport(self.cmd, 0, &[viewport]);
+            d.cmd_set_scissor(self.cmd, 0, &[area]);
+            d.cmd_bind_descriptor_sets(
+                self.cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                self.layout,
+                0,
+                &[self.set],
+                &[],
+            );
+        }
+    }
+
+    /// Begins a rendering scope of one colour attachment (loaded as don't
+    /// care, stored) over `extent`, with no depth.
+    pub fn begin_color_only(&self, view: vk::ImageView, extent: vk::Extent2D, view_mask: u32) {
+        let color = [vk::RenderingAttachmentInfo::default()
+            .image_view(view)
+            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+            .load_op(vk::AttachmentLoadOp::DONT_CARE)
+            .store_op(vk::AttachmentStoreOp::STORE)];
+        let info = vk::RenderingInfo::default()
+            .render_area(vk::Rect2D {
+                offset: vk::Offset2D::default(),
+                extent,
+            })
+            .layer_count(1)
+            .view_mask(view_mask)
+            .color_attachments(&color);
+        // SAFETY: recording into the frame's open command buffer outside any
+        // rendering scope; the attachment is in the colour attachment layout.
+        unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
+    }
+
+    /// Ends the rendering scope begun last.
+    pub fn end_scope(&self) {
+        // SAFETY: a rendering scope of this command buffer is open.
+        unsafe { self.ctx.device.cmd_end_rendering(self.cmd) };
+    }
+
+    /// Binds a graphics pipeline.
+    pub fn bind(&self, pipeline: vk::Pipeline) {
+        // SAFETY: recording into the open command buffer; the pipeline
+        // belongs to the renderer and uses its layout.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline)
+        };
+    }
+
+    /// Pushes the four push-constant words (material or flags, view offset,
+    /// two extra words) for the following draws.
+    pub fn push(&self, pc: [u32; 4]) {
+        // SAFETY: recording into the open command buffer; the range matches
+        // the pipeline layout's.
+        unsafe {
+            self.ctx.device.cmd_push_constants(
+                self.cmd,
+                self.layout,
+                vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                0,
+                as_bytes(&pc),
+            )
+        };
+    }
+
+    /// Draws `vertices` vertices of one instance without buffers (the
+    /// shaders make their own positions).
+    pub fn draw(&self, vertices: u32) {
+        // SAFETY: inside a rendering scope with a pipeline bound.
+        unsafe { self.ctx.device.cmd_draw(self.cmd, vertices, 1, 0, 0) };
+    }
+
+    /// Binds the scene's index buffer.
+    pub fn bind_indices(&self) {
+        // SAFETY: recording into the open command buffer; the buffer
+        // belongs to the scene.
+        unsafe {
+            self.ctx.device.cmd_bind_index_buffer(
+                self.cmd,
+                self.scene.indices.buffer,
+                0,
+                vk::IndexType::UINT32,
+            )
+        };
+    }
+
+    /// Draws the full-screen triangle (indices 0, 1, 2 in the scene's index
+    /// buffer, which must be bound) with `pipeline` for view `eye`.
+    pub fn draw_fullscreen(&self, pipeline: vk::Pipeline, eye: u32) {
+        self.bind(pipeline);
+        self.push([0, eye, 0, 0]);
+        let first = self.scene.fullscreen_first_index;
+        // SAFETY: inside a rendering scope with the index buffer bound.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_draw_indexed(self.cmd, 3, 1, first, 0, 0)
+        };
+    }
+
+    /// Draws `draws` with `pipelines` for view `eye` (the push-constant
+    /// view offset), and the sky with `sky` (before the first blended
+    /// batch, or last) when given. Returns the draw calls.
+    pub fn draw_batches(
+        &self,
+        draws: &[Draw],
+        pipelines: &HashMap<PipelineKey, vk::Pipeline>,
+        sky: Option<vk::Pipeline>,
+        eye: u32,
+    ) -> u64 {
+        let d = &self.ctx.device;
+        let vb = self.vertices;
+        // SAFETY: inside a rendering scope; the buffers belong to the scene.
+        unsafe { d.cmd_bind_vertex_buffers(self.cmd, 0, &vb.buffers, &vb.offsets) };
+        self.bind_indices();
+        let mut draw_calls = 0;
+        let mut bound = None;
+        let mut sky_drawn = sky.is_none();
+        for draw in draws {
+            let key = self.keys[draw.primitive as usize];
+            if let (2, Some(sky), false) = (key.alpha, sky, sky_drawn) {
+                self.draw_fullscreen(sky, eye);
+                draw_calls += 1;
+                sky_drawn = true;
+                bound = None;
+            }
+            if bound != Some(key) {
+                self.bind(pipelines[&key]);
+                bound = Some(key);
+            }
+            let r = self.scene.ranges[draw.primitive as usize];
+            self.push([r.material, eye, 0, 0]);
+            // SAFETY: inside a rendering scope with a scene pipeline and the
+            // scene's buffers bound; the range lies in the index buffer.
+            unsafe {
+                d.cmd_draw_indexed(
+                    self.cmd,
+                    r.index_count,
+                    draw.count,
+                    r.first_index,
+                    r.vertex_offset,
+                    draw.first,
+                )
+            };
+            draw_calls += 1;
+        }
+        if let (Some(sky), false) = (sky, sky_drawn) {
+            self.draw_fullscreen(sky, eye);
+            draw_calls += 1;
+        }
+        draw_calls
+    }
+}

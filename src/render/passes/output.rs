@@ -1,0 +1,332 @@
+//! Where a finished frame goes after the passes: copied into the images of
+//! an output (an OpenXR session's swapchains: a copy in the renderer's own
+//! colour format, a blit otherwise; depth copied too when the output takes
+//! it), and read back into host memory for [`Readback::images`] (from the
+//! output's images when there is one, so what is read is what was
+//! delivered).
+
+use crate::error::{Error, Result};
+use crate::gpu::barrier::{self, Use};
+use crate::gpu::memory::{Buffer, BufferDesc};
+use crate::gpu::ring::{FrameRing, Garbage};
+use crate::gpu::Context;
+use crate::render::attachments::{Attachments, COLOR_FORMAT};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+/// What a frame is delivered to besides the renderer's own targets (an
+/// OpenXR session's swapchains), fixed when the renderer is created.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct OutputSpec {
+    /// Format of the colour images (copied when it is the renderer's own
+    /// format, blitted otherwise).
+    pub color_format: vk::Format,
+    /// Whether depth images receive the frame's depth (same format as the
+    /// renderer's depth).
+    pub depth: bool,
+}
+
+/// The images one frame is copied into: one per attachment set (a 2-layer
+/// image under multiview, one image per eye in two-pass). Colour images
+/// arrive and are left in COLOR_ATTACHMENT_OPTIMAL, depth images in
+/// DEPTH_STENCIL_ATTACHMENT_OPTIMAL, as XR_KHR_vulkan_enable2 requires.
+#[derive(Clone, Debug, Default)]
+pub struct FrameOutput {
+    /// Colour images, per set.
+    pub color: Vec<vk::Image>,
+    /// Depth images, per set (empty without a depth output).
+    pub depth: Vec<vk::Image>,
+}
+
+/// The copy of each frame into an output's images.
+pub struct OutputCopy {
+    spec: OutputSpec,
+}
+
+impl OutputCopy {
+    /// The copy into outputs of `spec`.
+    pub fn new(spec: OutputSpec) -> OutputCopy {
+        OutputCopy { spec }
+    }
+
+    /// Copies the resolved colour (and depth) of every set of `targets`
+    /// (`extent` pixels per eye) into `out`'s images, leaving them in the
+    /// attachment layouts the runtime expects. Recorded after the passes.
+    pub fn record(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        targets: &Attachments,
+        extent: vk::Extent2D,
+        out: &FrameOutput,
+    ) -> Result<()> {
+        let spec = self.spec;
+        if out.color.len() != targets.sets.len()
+            || (spec.depth && out.depth.len() != targets.sets.len())
+        {
+            return Err(Error::Gpu(format!(
+                "frame output has {} colour / {} depth images for {} attachment sets",
+                out.color.len(),
+                out.depth.len(),
+                targets.sets.len()
+            )));
+        }
+        let d = &ctx.device;
+        let (w, h) = (extent.width, extent.height);
+        let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let barrier = barrier::image;
+        let color_out = Use::COLOR_ATTACHMENT;
+        let depth_out = Use {
+            layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+            stage: vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+                | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+            access: vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        };
+        let (src, dst) = (Use::TRANSFER_SRC, Use::TRANSFER_DST);
+        let mut before = Vec::new();
+        let mut after = Vec::new();
+        for (i, set) in targets.sets.iter().enumerate() {
+            let layers = set.resolve.layers;
+            let c = vk::ImageAspectFlags::COLOR;
+            before.push(barrier(set.output_image().image, c, layers, color_out, src));
+            before.push(barrier(out.color[i], c, layers, color_out.discarded(), dst));
+            after.push(barrier(out.color[i], c, layers, dst, color_out));
+            if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
+                before.push(barrier(depth.image, ds, layers, depth_out, src));
+                before.push(barrier(
+                    out.depth[i],
+                    ds,
+                    layers,
+                    depth_out.discarded(),
+                    dst,
+                ));
+                after.push(barrier(out.depth[i], ds, layers, dst, depth_out));
+            }
+        }
+        // SAFETY: recording after the rendering scopes into the open command
+        // buffer; the output images belong to the session and are acquired.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            );
+            for (i, set) in targets.sets.iter().enumerate() {
+                let layers = set.resolve.layers;
+                let sub = |aspect| vk::ImageSubresourceLayers {
+                    aspect_mask: aspect,
+                    mip_level: 0,
+                    base_array_layer: 0,
+                    layer_count: layers,
+                };
+                let extent = vk::Extent3D {
+                    width: w,
+                    height: h,
+                    depth: 1,
+                };
+                let c = vk::ImageAspectFlags::COLOR;
+                if spec.color_format == COLOR_FORMAT {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(sub(c))
+                        .dst_subresource(sub(c))
+                        .extent(extent);
+                    d.cmd_copy_image(
+                        cmd,
+                        set.output_image().image,
+                        src.layout,
+                        out.color[i],
+                        dst.layout,
+                        &[region],
+                    );
+                } else {
+                    let corner = vk::Offset3D {
+                        x: w as i32,
+                        y: h as i32,
+                        z: 1,
+                    };
+                    let region = vk::ImageBlit::default()
+                        .src_subresource(sub(c))
+                        .dst_subresource(sub(c))
+                        .src_offsets([vk::Offset3D::default(), corner])
+                        .dst_offsets([vk::Offset3D::default(), corner]);
+                    d.cmd_blit_image(
+                        cmd,
+                        set.output_image().image,
+                        src.layout,
+                        out.color[i],
+                        dst.layout,
+                        &[region],
+                        vk::Filter::NEAREST,
+                    );
+                }
+                if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(sub(vk::ImageAspectFlags::DEPTH))
+                        .dst_subresource(sub(vk::ImageAspectFlags::DEPTH))
+                        .extent(extent);
+                    d.cmd_copy_image(
+                        cmd,
+                        depth.image,
+                        src.layout,
+                        out.depth[i],
+                        dst.layout,
+                        &[region],
+                    );
+                }
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&after),
+            );
+        }
+        Ok(())
+    }
+}
+
+/// The host-visible buffer frames are read back into (grown on demand).
+#[derive(Default)]
+pub struct Readback {
+    buffer: Option<Buffer>,
+}
+
+impl Readback {
+    /// No buffer until the first read-back.
+    pub fn new() -> Readback {
+        Readback::default()
+    }
+
+    /// Copies the frame (both eyes, RGBA8, left then right) into the
+    /// buffer, from `output`'s colour images when given, else from
+    /// `targets`' own; an old buffer too small for `extent` is handed to
+    /// `ring` for deferred destruction.
+    pub fn record(
+        &mut self,
+        ctx: &Context,
+        ring: &mut FrameRing,
+        cmd: vk::CommandBuffer,
+        targets: &Attachments,
+        extent: vk::Extent2D,
+        output: Option<&FrameOutput>,
+    ) -> Result<()> {
+        let (w, h) = (extent.width as u64, extent.height as u64);
+        let size = w * h * 4 * 2;
+        if self.buffer.as_ref().is_none_or(|b| b.size < size) {
+            if let Some(old) = self.buffer.take() {
+                ring.defer(Garbage::Buffer(old));
+            }
+            self.buffer = Some(Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "readback",
+                    size,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "readback",
+                },
+            )?);
+        }
+        let buf = self.buffer.as_ref().expect("created above").buffer;
+        let d = &ctx.device;
+        let mut to_src = Vec::new();
+        let mut copies = Vec::new();
+        let mut back = Vec::new();
+        let mut offset = 0u64;
+        for (i, set) in targets.sets.iter().enumerate() {
+            let layers = set.resolve.layers;
+            // The frame was last written by the output copy (swapchain
+            // image) or by rendering (own image); both end in the colour
+            // attachment layout.
+            let (image, src_access) = match output.and_then(|o| o.color.get(i)) {
+                Some(&img) => (img, vk::AccessFlags2::TRANSFER_WRITE),
+                None => (
+                    set.output_image().image,
+                    vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+                ),
+            };
+            let written = Use {
+                layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+                stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                    | vk::PipelineStageFlags2::ALL_TRANSFER,
+                access: src_access,
+            };
+            let read = Use {
+                layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                stage: vk::PipelineStageFlags2::COPY,
+                access: vk::AccessFlags2::TRANSFER_READ,
+            };
+            let c = vk::ImageAspectFlags::COLOR;
+            to_src.push(barrier::image(image, c, layers, written, read));
+            if output.is_some() {
+                let done = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..read
+                };
+                let handed_back = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..Use::COLOR_ATTACHMENT
+                };
+                back.push(barrier::image(image, c, layers, done, handed_back));
+            }
+            let copy = barrier::color_copy(offset, layers, w as u32, h as u32);
+            copies.push((image, copy));
+            offset += w * h * 4 * layers as u64;
+        }
+        let to_host = [vk::BufferMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)
+            .buffer(buf)
+            .size(vk::WHOLE_SIZE)];
+        // SAFETY: recording after the rendering scopes; buffer large enough for both layers.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
+            );
+            for (image, copy) in copies {
+                d.cmd_copy_image_to_buffer(
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buf,
+                    &[copy],
+                );
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default()
+                    .buffer_memory_barriers(&to_host)
+                    .image_memory_barriers(&back),
+            );
+        }
+        Ok(())
+    }
+
+    /// The last read-back frame of `extent` pixels per eye as two RGBA8
+    /// (sRGB) images, left then right.
+    pub fn images(&mut self, extent: vk::Extent2D) -> Result<[image::RgbaImage; 2]> {
+        let (w, h) = (extent.width, extent.height);
+        let layer = (w * h * 4) as usize;
+        let buf = self
+            .buffer
+            .as_mut()
+            .ok_or_else(|| Error::Gpu("no frame was read back".into()))?;
+        let data = buf
+            .mapped()
+            .ok_or_else(|| Error::Gpu("readback buffer is not mapped".into()))?;
+        let left = image::RgbaImage::from_raw(w, h, data[..layer].to_vec());
+        let right = image::RgbaImage::from_raw(w, h, data[layer..2 * layer].to_vec());
+        match (left, right) {
+            (Some(l), Some(r)) => Ok([l, r]),
+            _ => Err(Error::Gpu("readback buffer too small".into())),
+        }
+    }
+
+    /// Destroys the buffer; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        if let Some(b) = self.buffer {
+            b.destroy(ctx);
+        }
+    }
+}

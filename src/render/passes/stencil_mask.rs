@@ -1,0 +1,151 @@
+//! HMD stencil mask (`stencil-mask`): at the start of each forward scope
+//! (both layers at once under multiview) the hidden-area triangles are drawn
+//! into stencil bit 0 only, and every later draw tests stencil = 0, so the
+//! pixels the lens hides are never shaded. The mesh of each view is a
+//! triangle list in tangent space (the z = -1 plane, as
+//! XR_KHR_visibility_mask gives it); `shaders/hidden.vert` maps it to NDC
+//! with the view's FOV tangents like the projection does:
+//! `x_ndc = (2 tx − (r + l)) / (r − l)`, `y_ndc = −(2 ty − (u + d)) / (u − d)`.
+//! Valve reports 17 % of the Vive's pixels hidden; the lens-ellipse default
+//! (`view::lens`) hides 1 − π/4 ≈ 21.5 %.
+//!
+//! Each frame slot has its own vertex buffer, rewritten only when the rig's
+//! meshes change (a runtime may send new ones).
+
+use super::{destroy_pipelines, stencil_write, PipelineSetup, Recorder};
+use crate::error::{Error, Result};
+use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::view::{HiddenArea, StereoRig};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
+
+/// Most hidden-area vertices per view (a triangle list).
+pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
+
+/// One frame slot's hidden-area vertices.
+struct HiddenSlot {
+    buffer: Buffer,
+    /// The meshes the buffer holds.
+    source: Option<Arc<Vec<HiddenArea>>>,
+    /// Vertices per view (the stride between views in the buffer).
+    per_view: u32,
+}
+
+/// The hidden-area stencil pipeline and each slot's vertices.
+pub struct StencilMask {
+    pipeline: vk::Pipeline,
+    slots: Vec<HiddenSlot>,
+}
+
+impl StencilMask {
+    /// Builds the pipeline and `slots` vertex buffers (room for
+    /// [`MAX_HIDDEN_VERTICES`] per view).
+    pub fn new(setup: &PipelineSetup, slots: usize) -> Result<StencilMask> {
+        let (vs, fs) = (shaders::HIDDEN_VERT.words(), shaders::FLAT_FRAG.words());
+        let pipeline = GraphicsPipelineDesc {
+            depth_test: false,
+            depth_write: false,
+            color_write: false,
+            stencil: Some(stencil_write(1)),
+            ..setup.fullscreen_desc("hidden-area stencil", &vs, &fs)
+        };
+        let mut buffers = Vec::new();
+        for i in 0..slots {
+            buffers.push(HiddenSlot {
+                buffer: Buffer::new(
+                    setup.ctx,
+                    &BufferDesc {
+                        name: &format!("hidden area {i}"),
+                        size: (2 * MAX_HIDDEN_VERTICES * 8) as u64,
+                        usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                        location: MemoryLocation::CpuToGpu,
+                        category: "per-frame",
+                    },
+                )?,
+                source: None,
+                per_view: 0,
+            });
+        }
+        Ok(StencilMask {
+            pipeline: pipeline.build(setup.ctx)?,
+            slots: buffers,
+        })
+    }
+
+    /// `slot`'s vertex buffer (for the descriptor set).
+    pub fn buffer(&self, slot: usize) -> vk::Buffer {
+        self.slots[slot].buffer.buffer
+    }
+
+    /// Writes `rig`'s hidden-area meshes (expanded to triangle lists) into
+    /// `slot`'s buffer when they changed since that slot last saw them.
+    pub fn upload(&mut self, slot: usize, rig: &StereoRig) -> Result<()> {
+        let areas = rig.hidden_area.clone().ok_or_else(|| {
+            Error::config(
+                "--opt stencil-mask",
+                "needs a hidden-area mesh (from the OpenXR runtime or the HMD profile)",
+            )
+        })?;
+        let h = &mut self.slots[slot];
+        if h.source
+            .as_ref()
+            .is_some_and(|s| Arc::ptr_eq(s, &areas) || **s == *areas)
+        {
+            return Ok(());
+        }
+        let lists: Vec<Vec<[f32; 2]>> = (0..2)
+            .map(|v| {
+                areas.get(v).map_or(Vec::new(), |a| {
+                    a.indices
+                        .chunks_exact(3)
+                        .filter(|t| t.iter().all(|&i| (i as usize) < a.vertices.len()))
+                        .flatten()
+                        .map(|&i| a.vertices[i as usize])
+                        .collect()
+                })
+            })
+            .collect();
+        let per_view = lists.iter().map(Vec::len).max().unwrap_or(0);
+        if per_view > MAX_HIDDEN_VERTICES {
+            return Err(Error::config(
+                "hidden-area mesh",
+                format!("{per_view} vertices per view; at most {MAX_HIDDEN_VERTICES}"),
+            ));
+        }
+        let mut data = vec![[0.0f32; 2]; 2 * per_view];
+        for (v, list) in lists.iter().enumerate() {
+            data[v * per_view..v * per_view + list.len()].copy_from_slice(list);
+        }
+        if !data.is_empty() {
+            h.buffer.write(0, as_bytes(&data))?;
+        }
+        h.per_view = per_view as u32;
+        h.source = Some(areas);
+        Ok(())
+    }
+
+    /// Draws `slot`'s hidden area of view `eye` into stencil inside the open
+    /// scope (nothing when the meshes are empty). Returns the draw calls.
+    pub fn record(&self, rec: &Recorder, slot: usize, eye: u32) -> u64 {
+        let per_view = self.slots[slot].per_view;
+        if per_view == 0 {
+            return 0;
+        }
+        rec.bind(self.pipeline);
+        rec.push([0, eye, per_view, 0]);
+        rec.draw(per_view);
+        1
+    }
+
+    /// Destroys the pipeline and buffers; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        destroy_pipelines(ctx, [&self.pipeline]);
+        for s in self.slots {
+            s.buffer.destroy(ctx);
+        }
+    }
+}
