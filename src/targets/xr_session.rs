@@ -18,12 +18,12 @@ use crate::gpu::{Context, Validation};
 use crate::render::driver::FrameDriver;
 use crate::render::{FrameOutput, OutputSpec, Renderer};
 use crate::view::{Fov, HiddenArea, Pose, StereoRig};
+use crate::xr::instance::{connect, Connection};
 use crate::xr::state::{Action, QuitAction, SessionMachine};
 use crate::xr::watchdog::Watchdog;
 use crate::xr::{
-    choose_color_format, fetch_masks, runtime_manifest_hint, sanitize_views, state_of, unavailable,
-    vulkan, world_rig, xr_err, Chain, Messenger, TrackedView, XrCall, CALL_LIMIT,
-    CORE_VALIDATION_LAYER,
+    choose_color_format, fetch_masks, sanitize_views, state_of, vulkan, world_rig, xr_err, Chain,
+    Messenger, TrackedView, XrCall, CALL_LIMIT,
 };
 use ash::vk;
 use ash::vk::Handle;
@@ -63,75 +63,15 @@ impl Drop for Live {
 /// filled as the session goes. No runtime or headset is
 /// [`Error::XrUnavailable`].
 pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
-    // SAFETY: loads the system's OpenXR loader, a conformant library.
-    let entry = unsafe { xr::Entry::load(&()) }.map_err(|e| {
-        Error::XrUnavailable(format!(
-            "cannot load the OpenXR loader libopenxr_loader.so.1 ({e}); install libopenxr-loader1 and a runtime"
-        ))
-    })?;
-    let available = entry
-        .enumerate_extensions()
-        .map_err(|r| unavailable("xrEnumerateInstanceExtensionProperties", r))?;
-    if !available.khr_vulkan_enable2 {
-        return Err(Error::XrUnavailable(format!(
-            "the OpenXR runtime does not offer XR_KHR_vulkan_enable2 ({})",
-            runtime_manifest_hint()
-        )));
-    }
-    let mut exts = xr::ExtensionSet::default();
-    exts.khr_vulkan_enable2 = true;
-    exts.khr_visibility_mask = available.khr_visibility_mask;
-    exts.khr_composition_layer_depth = available.khr_composition_layer_depth;
-    exts.ext_debug_utils = available.ext_debug_utils;
-    exts.fb_display_refresh_rate = available.fb_display_refresh_rate;
-    let foveation = available.fb_foveation
-        && available.fb_foveation_configuration
-        && available.fb_swapchain_update_state;
-    exts.fb_foveation = foveation;
-    exts.fb_foveation_configuration = foveation;
-    exts.fb_swapchain_update_state = foveation;
-    exts.fb_foveation_vulkan = foveation && available.fb_foveation_vulkan;
-    let layers = entry.enumerate_layers().unwrap_or_default();
-    let has_core = layers.iter().any(|l| l.layer_name == CORE_VALIDATION_LAYER);
-    let use_core = match Validation::from_var("VERGENCE_XR_VALIDATION") {
-        Validation::Off => false,
-        Validation::IfAvailable => has_core,
-        Validation::Required if has_core => true,
-        Validation::Required => {
-            return Err(Error::config(
-                "VERGENCE_XR_VALIDATION",
-                format!("{CORE_VALIDATION_LAYER} is required but not installed (apt-get install openxr-layer-corevalidation)"),
-            ))
-        }
-    };
-    let layer_names: Vec<&str> = if use_core {
-        vec![CORE_VALIDATION_LAYER]
-    } else {
-        Vec::new()
-    };
-    let app = xr::ApplicationInfo {
-        application_name: "vergence",
-        application_version: 1,
-        engine_name: "vergence",
-        engine_version: 1,
-        api_version: xr::Version::new(1, 0, 0),
-    };
-    let instance = entry
-        .create_instance(&app, &exts, &layer_names, &())
-        .map_err(|r| unavailable("xrCreateInstance", r))?;
-    let messenger = Messenger::new(&instance);
-    let props = instance.properties().call("xrGetInstanceProperties")?;
-    let system = instance
-        .system(xr::FormFactor::HEAD_MOUNTED_DISPLAY)
-        .map_err(|r| {
-            Error::XrUnavailable(format!(
-                "no headset: the runtime {} answers xrGetSystem with {r} (is the headset connected and on?)",
-                props.runtime_name
-            ))
-        })?;
-    let sys_props = instance
-        .system_properties(system)
-        .call("xrGetSystemProperties")?;
+    let Connection {
+        instance,
+        system,
+        exts,
+        layers: layer_names,
+        messenger,
+        props,
+        system_props: sys_props,
+    } = connect()?;
     stats.mode = "openxr".into();
     stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
     stats.system = sys_props.system_name.clone();

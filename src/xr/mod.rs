@@ -6,6 +6,7 @@
 //! The application's session loop that uses them lives above, in
 //! `targets::xr_session`.
 
+pub mod instance;
 pub mod state;
 pub mod vulkan;
 pub mod watchdog;
