@@ -49,20 +49,22 @@ fn at_most_n_frames_are_in_flight_and_results_come_in_order() {
         let mut driver = FrameDriver::new(renderer, &scene).unwrap();
         let mut seen = Vec::new();
         for (k, rig) in path.iter().enumerate() {
-            driver.frame(rig, 100 + k as u64, false).unwrap();
+            driver.record(rig, 100 + k as u64).unwrap();
             while let Some(r) = driver.take_completed() {
                 seen.push(r);
             }
-            // Recording frame k waited for frame k - n: everything up to
-            // there has finished, at most n frames are still out.
-            let out = k + 1 - seen.len();
+            // Frame k began by waiting for frame k - n: everything before
+            // it has finished, at most n - 1 earlier frames are still out.
+            let earlier_out = k - seen.len();
             assert!(
-                out <= n as usize,
-                "{n} in flight: {out} out after frame {k}"
+                earlier_out < n as usize,
+                "{n} in flight: {earlier_out} earlier frames out while recording frame {k}"
             );
-            if n == 1 {
-                assert_eq!(out, 1, "one in flight waits for each frame");
+            driver.submit(None, false).unwrap();
+            while let Some(r) = driver.take_completed() {
+                seen.push(r);
             }
+            assert!(k + 1 - seen.len() <= n as usize);
         }
         driver.finish().unwrap();
         while let Some(r) = driver.take_completed() {

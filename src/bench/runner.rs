@@ -458,10 +458,6 @@ fn measure(
     let mut frames: Vec<FrameResult> = Vec::new();
     let n_accuracy = plan.frames.min(30) as usize;
     let warmup = plan.warmup as usize;
-    // The visible lists of the first measured frames, judged against exact
-    // culling after the timed loop (a copy per frame; the ground truth
-    // itself stays out of the measured frames).
-    let mut judged: Vec<(usize, Vec<u32>)> = Vec::new();
     let keep = |r: FrameResult, frames: &mut Vec<FrameResult>| {
         if r.index >= plan.warmup as u64 {
             frames.push(r);
@@ -469,11 +465,6 @@ fn measure(
     };
     for (i, rig) in rigs.iter().enumerate() {
         driver.frame(rig, i as u64, false)?;
-        if (warmup..warmup + n_accuracy).contains(&i) {
-            if let Some(c) = driver.culling() {
-                judged.push((i, c.last_visible().to_vec()));
-            }
-        }
         while let Some(r) = driver.take_completed() {
             keep(r, &mut frames);
         }
@@ -485,18 +476,23 @@ fn measure(
     while let Some(r) = driver.take_completed() {
         keep(r, &mut frames);
     }
+    // The exact-culling ground truth, after the timed loop: the first
+    // measured frames' culls replayed (culling depends only on the rig and
+    // the frame number).
     let accuracy = match driver.culling() {
-        Some(c) if !judged.is_empty() => {
+        Some(c) => {
             let mut a = CullAccuracy::default();
-            for (i, visible) in &mut judged {
-                let (fp, fneg) = c.accuracy_of(visible, &rigs[*i])?;
-                a.false_positives += fp as f64 / n_accuracy as f64;
-                a.false_negatives += fneg as f64 / n_accuracy as f64;
+            let judged = warmup..(warmup + n_accuracy).min(rigs.len());
+            let n = judged.len().max(1) as f64;
+            for i in judged {
+                let (fp, fneg) = c.replay_accuracy(&rigs[i], i as u64)?;
+                a.false_positives += fp as f64 / n;
+                a.false_negatives += fneg as f64 / n;
                 a.false_negatives_total += fneg;
             }
             Some(a)
         }
-        _ => None,
+        None => None,
     };
     if let Some(f) = floors_out {
         *f = Some(floors(driver.renderer_mut(), plan, &rigs[0])?);

@@ -120,8 +120,8 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
         .iter()
         .filter(|r| r.name != "reference")
         .collect();
-    // vergence's loop waits for each frame, so the wall-clock time is what
-    // `run` sustains.
+    // The measured wall-clock interval of the loop `run` uses (frames in
+    // flight included) is what `run` sustains.
     let fits = |r: &ConfigResult| r.wall_frame_ms.p95 <= goal.budget_ms;
     let mut why = Vec::new();
     for r in &cands {

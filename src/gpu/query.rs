@@ -98,8 +98,12 @@ impl Queries {
         if let Some(p) = self.timestamps {
             // SAFETY: query index within the pool, reset this frame.
             unsafe {
-                ctx.device
-                    .cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::TOP_OF_PIPE, p, 2 * i)
+                ctx.device.cmd_write_timestamp2(
+                    cmd,
+                    vk::PipelineStageFlags2::ALL_COMMANDS,
+                    p,
+                    2 * i,
+                )
             };
         }
     }

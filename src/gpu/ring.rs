@@ -111,6 +111,29 @@ impl FrameRing {
         Ok(())
     }
 
+    /// Waits until the current slot's previous submission (if any) has
+    /// finished; [`FrameRing::begin`] then finds it done.
+    pub fn wait_current(&mut self, ctx: &Context) -> Result<()> {
+        let f = &self.frames[self.current];
+        if f.submitted {
+            // SAFETY: fence of this device.
+            unsafe { ctx.device.wait_for_fences(&[f.fence], true, u64::MAX) }
+                .vk("waiting for a frame fence")?;
+        }
+        Ok(())
+    }
+
+    /// Whether slot `i`'s last submission has finished (true when nothing
+    /// was submitted from it), without waiting.
+    pub fn is_done(&self, ctx: &Context, i: usize) -> Result<bool> {
+        let f = &self.frames[i];
+        if !f.submitted {
+            return Ok(true);
+        }
+        // SAFETY: fence of this device.
+        unsafe { ctx.device.get_fence_status(f.fence) }.vk("polling a frame fence")
+    }
+
     /// Waits until every submitted frame has finished.
     pub fn wait_all(&mut self, ctx: &Context) -> Result<()> {
         for f in &mut self.frames {

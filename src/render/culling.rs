@@ -57,22 +57,20 @@ impl CullState {
         Ok((&out.visible, out.stats))
     }
 
-    /// The visible list of the last cull.
-    pub fn last_visible(&self) -> &[u32] {
-        &self.culler.last().visible
-    }
-
-    /// False positives and false negatives of `visible` (a list this state
-    /// culled for `rig`, sorted here in place) against exact per-eye
-    /// culling of `rig`.
-    pub fn accuracy_of(
-        &self,
-        visible: &mut [u32],
-        rig: &crate::view::StereoRig,
-    ) -> Result<(u64, u64)> {
+    /// False positives and false negatives of this strategy's cull of
+    /// `rig` at frame number `frame` against exact per-eye culling: the
+    /// cull is replayed with its own buffers (culling depends only on the
+    /// rig and the frame number), so the ground truth can be taken after a
+    /// timed loop instead of inside it.
+    pub fn replay_accuracy(&self, rig: &crate::view::StereoRig, frame: u64) -> Result<(u64, u64)> {
+        let mut culler = Culler::new();
+        let out = culler
+            .cull(self.strategy, rig, frame, &self.bvh, &self.params)
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+        let mut visible = out.visible.clone();
+        visible.sort_unstable();
         let exact = crate::cull::exact_per_eye(rig, &self.bvh, &self.params)
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
-        visible.sort_unstable();
-        Ok(crate::cull::compare(visible, &exact))
+        Ok(crate::cull::compare(&visible, &exact))
     }
 }

@@ -3,9 +3,9 @@
 //! record → submit → results out, so a technique is wired once.
 //!
 //! Frames are pipelined: [`FrameDriver::submit`] does not wait for the GPU.
-//! With N frames in flight, recording frame n waits only for frame n − N
-//! (inside [`Renderer::record_frame`]), so culling and batching of one frame
-//! overlap the GPU work of the previous ones. A frame's [`FrameResult`]
+//! With N frames in flight, frame n starts (before culling) by waiting for
+//! frame n − N only, so culling, batching and recording of one frame overlap
+//! the GPU work of the previous N − 1; with N = 1 nothing overlaps. A frame's [`FrameResult`]
 //! (with its GPU timestamps) comes out of [`FrameDriver::take_completed`]
 //! once its fence has signalled, in submission order.
 
@@ -107,6 +107,10 @@ impl FrameDriver {
         let started = Instant::now();
         let interval_ms = self.last_start.map(|p| ms_between(p, started));
         self.last_start = Some(started);
+        // Frame n - N first: with 1 in flight nothing of this frame, not
+        // even culling, overlaps the previous frame's GPU work.
+        self.renderer.wait_for_slot()?;
+        let cull_start = Instant::now();
         let (visible, cull) = match self.culling.as_mut() {
             Some(c) => {
                 let (v, s) = c.cull(rig, index)?;
@@ -114,7 +118,7 @@ impl FrameDriver {
             }
             None => (None, None),
         };
-        let cull_ms = ms_between(started, Instant::now());
+        let cull_ms = ms_between(cull_start, Instant::now());
         self.renderer.record_frame(rig, visible)?;
         self.recorded = Some(FrameResult {
             index,

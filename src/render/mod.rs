@@ -6,8 +6,10 @@
 //! `Renderer::take_completed` once its fence has signalled. `Renderer::render`
 //! is the one-frame form: record, submit, wait, statistics. The loops use
 //! [`driver::FrameDriver`], which adds culling and per-frame results.
-//! Everything it needs is created in `Renderer::new`; nothing is compiled or
-//! allocated inside a measured frame except growing the visible buffer.
+//! Everything it needs is created in `Renderer::new`; nothing is compiled
+//! inside a measured frame, and buffers grow only when the visible list
+//! outgrows them (a few small per-frame allocations remain: barrier lists,
+//! the per-pass timing names).
 //!
 //! The frame is a sequence of passes (`passes/`), each created only when
 //! the configuration asks for it; this module owns the per-frame resources
@@ -119,6 +121,9 @@ pub struct Renderer {
     in_flight: Vec<Option<FrameStats>>,
     /// Frames whose fence has signalled, oldest first, until taken.
     completed: VecDeque<FrameStats>,
+    /// Milliseconds [`Renderer::wait_for_slot`] waited before this frame's
+    /// recording began (added to its `cpu_ms.wait`).
+    slot_wait_ms: f64,
     batcher: Batcher,
     batches: Batches,
     pending: Option<Pending>,
@@ -214,6 +219,7 @@ impl Renderer {
             slots,
             in_flight: (0..slots).map(|_| None).collect(),
             completed: VecDeque::with_capacity(slots + 1),
+            slot_wait_ms: 0.0,
             batcher: Batcher::new(scene),
             batches: Batches::default(),
             pending: None,
@@ -380,9 +386,42 @@ impl Renderer {
     }
 
     /// The statistics of the oldest frame whose GPU work has finished and
-    /// that was not taken yet (GPU times included).
+    /// that was not taken yet (GPU times included). Polls the fences of the
+    /// frames in flight, oldest first, without waiting.
     pub fn take_completed(&mut self) -> Option<FrameStats> {
+        for k in 0..self.slots {
+            let s = (self.slot + k) % self.slots;
+            if self.in_flight[s].is_none() {
+                continue;
+            }
+            let ring = self.ring.as_ref().expect("ring present until drop");
+            // A fence that cannot be polled is reported by the next wait.
+            if !ring.is_done(&self.ctx, s).unwrap_or(false) || self.collect(s).is_err() {
+                break;
+            }
+        }
         self.completed.pop_front()
+    }
+
+    /// Waits until the frame that last used the next frame's slot (frame
+    /// n − N with N in flight) has finished, so that everything the next
+    /// frame does (culling included) starts after it. Recording waits for
+    /// it anyway; the loops call this first to keep culling out of the
+    /// overlap with 1 frame in flight.
+    pub fn wait_for_slot(&mut self) -> Result<()> {
+        let t = Instant::now();
+        let slot = self.slot;
+        let pass = self.queries[slot]
+            .as_ref()
+            .map_or("none", |q| q.last_pass());
+        self.ring
+            .as_mut()
+            .expect("ring present until drop")
+            .wait_current(&self.ctx)
+            .map_err(|e| device_lost(e, "waiting for a frame slot", pass))?;
+        self.collect(slot)?;
+        self.slot_wait_ms += ms(t, Instant::now());
+        Ok(())
     }
 
     /// Waits until every submitted frame has finished; their statistics
@@ -465,7 +504,7 @@ impl Renderer {
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
         let t0 = Instant::now();
-        stats.cpu_ms.wait = ms(t_wait, t0);
+        stats.cpu_ms.wait = ms(t_wait, t0) + std::mem::take(&mut self.slot_wait_ms);
         let mut batches = std::mem::take(&mut self.batches);
         match self.passes.far.as_mut() {
             Some(far) => {
@@ -561,11 +600,12 @@ impl Renderer {
             .submit(&self.ctx);
         let t3 = Instant::now();
         stats.cpu_ms.submit = ms(t2, t3);
-        self.slot = (slot + 1) % self.slots;
         let last_pass = self.queries[slot]
             .as_ref()
             .map_or("none", |q| q.last_pass());
         submit.map_err(|e| device_lost(e, "submitting a frame", last_pass))?;
+        // Only a submitted slot moves on (the ring moves with it).
+        self.slot = (slot + 1) % self.slots;
         if crate::gpu::fault::device_lost_frame() == Some(self.frame_index) {
             let injected = Error::Vulkan {
                 context: "waiting for frames (injected by VERGENCE_INJECT_FAULT)".into(),

@@ -4,10 +4,8 @@
 //! same frame statistics (`--stats-out`).
 
 use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
-pub use super::session::{
-    spawn_pose, write_capture, FrameRecord, RecordQueue, RssTrack, RunArgs, RunStats, RunSummary,
-    ViewInfo, XrMode, RSS_SAMPLE_EVERY, WARMUP_FRAMES,
-};
+use super::session::{spawn_pose, write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
+pub use super::session::{RunArgs, RunStats, XrMode};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
 use crate::render::driver::{FrameDriver, FrameResult};
