@@ -6,6 +6,7 @@
 
 mod common;
 #[path = "common/monado_remote.rs"]
+#[allow(dead_code)]
 mod monado_remote;
 
 use monado_remote::{RemoteHead, RemotePose};
