@@ -215,6 +215,10 @@ struct RunCli {
     /// framing the scene.
     #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
     spawn: Option<Pose>,
+    /// A further viewpoint, x,y,z,yaw (repeatable): the right stick click
+    /// cycles spawn → viewpoints → spawn.
+    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
+    viewpoint: Vec<Pose>,
     /// Smooth-move speed of the left stick, m/s.
     #[arg(long, default_value_t = 2.0)]
     move_speed: f64,
@@ -368,6 +372,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 capture: a.capture,
                 reconnect: a.reconnect,
                 spawn: a.spawn,
+                viewpoints: a.viewpoint,
                 interact: Settings {
                     move_speed: a.move_speed,
                     snap_turn_deg: a.snap_turn,

@@ -12,7 +12,7 @@
 //! | left stick click | fly mode on/off |
 //! | right stick left/right | snap turn about the head |
 //! | right stick forward, release | aim a teleport arc; release teleports |
-//! | right stick click | recentre (back to the spawn) |
+//! | right stick click | recentre (back to the spawn), or the next viewpoint when there are several |
 //! | trigger (either hand) | the current tool: select, measure or section plane |
 //! | squeeze (one / both hands) | grab and drag the world / scale and turn it |
 //! | menu | next tool (select → measure → section → select) |
@@ -251,8 +251,12 @@ pub enum Event {
         /// On or off.
         on: bool,
     },
-    /// The origin went back to the spawn.
-    Recenter,
+    /// The origin went to a viewpoint: back to the current one with a
+    /// single viewpoint (recentre), else to the next.
+    Recenter {
+        /// Index of the viewpoint now in use (0: the spawn).
+        viewpoint: usize,
+    },
     /// The menu button: the next tool.
     Menu {
         /// The tool now on the trigger.
@@ -305,8 +309,11 @@ pub struct Update {
 pub struct Interaction {
     /// Where tracking space sits in the world now.
     pub origin: Origin,
-    /// Where it started (recentre goes back here).
-    pub spawn: Origin,
+    /// Where it started (recentre goes back here), then further
+    /// viewpoints the right stick click cycles through.
+    pub viewpoints: Vec<Origin>,
+    /// The viewpoint in use.
+    pub viewpoint: usize,
     /// Settings.
     pub settings: Settings,
     /// Fly mode.
@@ -327,16 +334,13 @@ pub struct Interaction {
     hovered: [Option<u32>; 2],
 }
 
-fn flat_pos(p: &Pose) -> DVec3 {
-    p.position
-}
-
 impl Interaction {
     /// Starts at `spawn`.
     pub fn new(spawn: Origin, settings: Settings) -> Interaction {
         Interaction {
             origin: spawn,
-            spawn,
+            viewpoints: vec![spawn],
+            viewpoint: 0,
             settings,
             fly: false,
             tool: Tool::Select,
@@ -422,8 +426,14 @@ impl Interaction {
         if self.clicks[1] != right.stick_click {
             self.clicks[1] = right.stick_click;
             if right.stick_click {
-                self.origin = self.spawn;
-                out.events.push(Event::Recenter);
+                let n = self.viewpoints.len().max(1);
+                self.viewpoint = if n > 1 { (self.viewpoint + 1) % n } else { 0 };
+                if let Some(v) = self.viewpoints.get(self.viewpoint) {
+                    self.origin = *v;
+                }
+                out.events.push(Event::Recenter {
+                    viewpoint: self.viewpoint,
+                });
             }
         }
         let [sx, sy] = right.stick.map(f64::from);
@@ -454,6 +464,8 @@ impl Interaction {
             if self.aiming {
                 let arc = right.aim.map(|aim| {
                     let w = self.origin.pose(&aim);
+                    // A projectile's range goes as v²/g: √scale on the
+                    // launch speed makes the reach scale with the user.
                     cast_teleport(
                         q,
                         w.position,
@@ -554,7 +566,7 @@ impl Interaction {
         }
         let changed = held != self.squeezes;
         self.squeezes = held;
-        let grip = |i: usize| hands[i].grip.map(|p| flat_pos(&p)).unwrap_or_default();
+        let grip = |i: usize| hands[i].grip.map(|p| p.position).unwrap_or_default();
         if changed {
             self.grab = match held {
                 [true, true] => Some(Grab::Two(TwoHandGrab::start(
@@ -716,6 +728,36 @@ mod tests {
             _ => None,
         });
         assert_eq!(d, Some(0.5), "{ev:?}");
+    }
+
+    #[test]
+    fn the_right_stick_click_recentres_or_cycles_viewpoints() {
+        let s = floor_scene();
+        let q = SceneQuery::new(&s);
+        let spawn = Origin::default();
+        let mut it = Interaction::new(spawn, Settings::default());
+        let idle = hand([0.0, 0.0], 0.0);
+        let click = HandInput {
+            stick_click: true,
+            ..idle
+        };
+        it.update(&frame(hand([0.0, 1.0], 0.0), idle), &q);
+        assert_ne!(it.origin, spawn);
+        it.update(&frame(idle, click), &q);
+        assert_eq!(it.origin, spawn, "recentred");
+        let other = Origin {
+            position: DVec3::new(40.0, 2.0, -7.0),
+            yaw: 1.0,
+            scale: 1.0,
+        };
+        it.viewpoints.push(other);
+        it.update(&frame(idle, idle), &q);
+        let u = it.update(&frame(idle, click), &q);
+        assert_eq!(u.events, [Event::Recenter { viewpoint: 1 }]);
+        assert_eq!(it.origin, other);
+        it.update(&frame(idle, idle), &q);
+        it.update(&frame(idle, click), &q);
+        assert_eq!((it.viewpoint, it.origin), (0, spawn), "wraps around");
     }
 
     #[test]

@@ -57,6 +57,9 @@ pub struct RunArgs {
     /// `--spawn x,y,z,yaw`: where the tracking origin starts (else the
     /// scene is framed, see [`spawn_pose`]).
     pub spawn: Option<Pose>,
+    /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
+    /// click cycles through after the spawn.
+    pub viewpoints: Vec<Pose>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
 }
@@ -70,6 +73,9 @@ impl RunArgs {
             .map_err(|m| Error::config("locomotion", m))?;
         if let Some(p) = &self.spawn {
             p.validate().map_err(|m| Error::config("--spawn", m))?;
+        }
+        for p in &self.viewpoints {
+            p.validate().map_err(|m| Error::config("--viewpoint", m))?;
         }
         if let Some(s) = self.seconds {
             if !(s.is_finite() && s > 0.0) {

@@ -376,7 +376,12 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         args,
         records: RecordQueue::default(),
         masks,
-        interaction: Interaction::new(Origin::from_pose(&spawn), args.interact),
+        interaction: {
+            let mut it = Interaction::new(Origin::from_pose(&spawn), args.interact);
+            it.viewpoints
+                .extend(args.viewpoints.iter().map(Origin::from_pose));
+            it
+        },
         query,
         last_display_ns: None,
         blend,
@@ -672,7 +677,13 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             if let Some(c) = &live.controls {
                 for hand in (0..2).filter(|&h| update.haptic[h]) {
                     let _w = live.watchdog.watch("xrApplyHapticFeedback");
-                    c.tick(&session, hand)?;
+                    // A missed tick is no reason to end the session.
+                    if let Err(e) = c.tick(&session, hand) {
+                        tracing::warn!(
+                            "haptic tick on the {} hand: {e}",
+                            crate::interact::HANDS[hand]
+                        );
+                    }
                 }
             }
             for e in &update.events {
