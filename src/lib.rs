@@ -16,6 +16,7 @@ pub mod bench;
 pub mod config;
 pub mod cull;
 pub mod gpu;
+pub mod interact;
 pub mod quit;
 pub mod render;
 pub mod rss;

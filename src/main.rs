@@ -6,6 +6,7 @@ use glam::DVec3;
 use std::path::PathBuf;
 use std::process::ExitCode;
 use vergence::config::{RenderConfig, StereoMode};
+use vergence::interact::{MoveDirection, Settings};
 use vergence::scene::Scene;
 use vergence::targets::headless::{self, RenderJob};
 use vergence::targets::run::{RunArgs, XrMode};
@@ -209,6 +210,58 @@ struct RunCli {
     /// it is back (instead of exiting with an error).
     #[arg(long)]
     reconnect: bool,
+    /// Where the tracking origin (the floor under the user) starts:
+    /// x,y,z in metres and the yaw in degrees (0 looks down -Z). Default:
+    /// framing the scene.
+    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
+    spawn: Option<Pose>,
+    /// A further viewpoint, x,y,z,yaw (repeatable): the right stick click
+    /// cycles spawn → viewpoints → spawn.
+    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
+    viewpoint: Vec<Pose>,
+    /// Smooth-move speed of the left stick, m/s.
+    #[arg(long, default_value_t = 2.0)]
+    move_speed: f64,
+    /// Snap-turn angle of the right stick, degrees.
+    #[arg(long, default_value_t = 30.0)]
+    snap_turn: f64,
+    /// Turn smoothly at this rate (degrees/s) instead of snap turns.
+    #[arg(long)]
+    smooth_turn: Option<f64>,
+    /// Smooth move goes where the head looks (head) or the left hand points (hand).
+    #[arg(long, default_value = "head", value_parser = parse_move_direction)]
+    move_direction: MoveDirection,
+}
+
+fn parse_spawn(s: &str) -> Result<Pose, String> {
+    let v: Vec<f64> = s
+        .split(',')
+        .map(|p| {
+            p.trim()
+                .parse::<f64>()
+                .map_err(|_| format!("'{p}' is not a number"))
+        })
+        .collect::<Result<_, _>>()?;
+    if v.len() != 4 {
+        return Err(format!("expected 4 numbers x,y,z,yaw, got {}", v.len()));
+    }
+    if v.iter().any(|x| !x.is_finite()) {
+        return Err("spawn values must be finite".into());
+    }
+    Ok(Pose::from_euler_deg(
+        DVec3::new(v[0], v[1], v[2]),
+        v[3],
+        0.0,
+        0.0,
+    ))
+}
+
+fn parse_move_direction(s: &str) -> Result<MoveDirection, String> {
+    match s {
+        "head" => Ok(MoveDirection::Head),
+        "hand" => Ok(MoveDirection::Hand),
+        _ => Err(format!("'{s}': expected head or hand")),
+    }
 }
 
 fn parse_pose(s: &str) -> Result<Pose, String> {
@@ -318,6 +371,15 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 size: a.frame.size(),
                 capture: a.capture,
                 reconnect: a.reconnect,
+                spawn: a.spawn,
+                viewpoints: a.viewpoint,
+                interact: Settings {
+                    move_speed: a.move_speed,
+                    snap_turn_deg: a.snap_turn,
+                    smooth_turn_deg_s: a.smooth_turn,
+                    move_direction: a.move_direction,
+                    ..Settings::default()
+                },
             };
             let stats = vergence::targets::run::run(&args)?;
             println!(

@@ -6,6 +6,7 @@
 
 mod common;
 #[path = "common/monado_remote.rs"]
+#[allow(dead_code)]
 mod monado_remote;
 
 use monado_remote::{RemoteHead, RemotePose};
@@ -348,6 +349,30 @@ fn remote_driver_pose_and_asymmetric_fov_reach_the_submitted_frame() {
     assert_no_validation(&o, &s);
     let rig: Value =
         serde_json::from_str(&std::fs::read_to_string(cap.join("rig.json")).unwrap()).unwrap();
+    // Controllers inactive in the packet: head-only, no events, and the
+    // last frame's head_world is the captured rig's head.
+    let rendered: Vec<&Value> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["should_render"] == true)
+        .collect();
+    for f in &rendered {
+        assert_eq!(f["events"], serde_json::json!([]), "frame {}", f["index"]);
+        assert!(f["head_world"]["orientation"].is_array(), "{}", f["index"]);
+    }
+    let last = rendered.last().expect("rendered frames");
+    for key in ["position", "orientation"] {
+        let (got, want) = (&last["head_world"][key], &rig["head"][key]);
+        let n = want.as_array().expect("rig head").len();
+        for i in 0..n {
+            let (g, w) = (got[i].as_f64().unwrap(), want[i].as_f64().unwrap());
+            assert!(
+                (g - w).abs() < 1e-6,
+                "head_world {key} {got} vs the captured rig's {want}"
+            );
+        }
+    }
     for (eye, want) in fovs.iter().enumerate() {
         let want = want.map(|x| x as f64);
         assert!(

@@ -10,7 +10,7 @@ use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
 use crate::render::driver::{FrameDriver, FrameResult};
 use crate::render::Renderer;
-use crate::view::Pose;
+use crate::view::{Pose, PoseFile};
 use glam::DVec3;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
@@ -89,7 +89,9 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let extent = eye_extent(&profile, args.size);
     let renderer = Renderer::new(ctx.clone(), &scene, &args.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
-    let spawn = spawn_pose(&scene, &profile.views[0].fov);
+    let spawn = args
+        .spawn
+        .unwrap_or_else(|| spawn_pose(&scene, &profile.views[0].fov));
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(&scene));
     stats.config = driver.renderer().config.clone();
@@ -111,8 +113,20 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let started = Instant::now();
     let mut index = 0u64;
     // A finished frame's record: written when its GPU times are known.
-    let record = |r: FrameResult, stats: &mut RunStats| -> Result<()> {
+    // Heads of the frames in flight, by frame index, for their records.
+    let mut heads: std::collections::VecDeque<(u64, Pose)> = Default::default();
+    let record = |r: FrameResult,
+                  stats: &mut RunStats,
+                  heads: &mut std::collections::VecDeque<(u64, Pose)>|
+     -> Result<()> {
         stats.cull = r.cull;
+        while heads.front().is_some_and(|(i, _)| *i < r.index) {
+            heads.pop_front();
+        }
+        let head = heads
+            .front()
+            .filter(|(i, _)| *i == r.index)
+            .map(|(_, h)| PoseFile::from(h));
         stats.push_frame(FrameRecord {
             index: r.index,
             should_render: true,
@@ -125,6 +139,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             missed_periods: 0,
             instances_drawn: r.stats.instances_drawn,
             fov: r.fov.to_vec(),
+            head_world: head,
+            events: Vec::new(),
         })
     };
     stats.exit = loop {
@@ -143,6 +159,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             0.0,
         ));
         let rig = profile.rig(head);
+        heads.push_back((index, head));
         let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
         driver.frame(&rig, index, capture)?;
         if capture {
@@ -153,7 +170,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         stats.frames_rendered += 1;
         index += 1;
         while let Some(r) = driver.take_completed() {
-            record(r, stats)?;
+            record(r, stats, &mut heads)?;
         }
         if index == WARMUP_FRAMES {
             stats.sample_memory(&ctx, false);
@@ -161,7 +178,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     };
     driver.finish()?;
     while let Some(r) = driver.take_completed() {
-        record(r, stats)?;
+        record(r, stats, &mut heads)?;
     }
     stats.sample_memory(&ctx, true);
     stats.duration_s = started.elapsed().as_secs_f64();

@@ -7,10 +7,12 @@ use crate::config::RenderConfig;
 use crate::cull::CullStats;
 use crate::error::{Error, Result};
 use crate::gpu::Context;
+use crate::interact::locomotion::Origin;
+use crate::interact::{Event, Settings};
 use crate::render::driver::FrameResult;
 use crate::scene::Scene;
 use crate::stats::LogHistogram;
-use crate::view::{frame_bounds, Fov, Pose, RigFile, StereoRig};
+use crate::view::{frame_bounds, Fov, Pose, PoseFile, RigFile, StereoRig};
 use glam::DVec3;
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -52,12 +54,29 @@ pub struct RunArgs {
     /// `--reconnect`: when the OpenXR runtime is lost mid-run, retry every
     /// second until it is back, instead of exiting.
     pub reconnect: bool,
+    /// `--spawn x,y,z,yaw`: where the tracking origin starts (else the
+    /// scene is framed, see [`spawn_pose`]).
+    pub spawn: Option<Pose>,
+    /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
+    /// click cycles through after the spawn.
+    pub viewpoints: Vec<Pose>,
+    /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
+    pub interact: Settings,
 }
 
 impl RunArgs {
     /// Checks values before anything is loaded.
     pub fn validate(&self) -> Result<()> {
         self.config.validate()?;
+        self.interact
+            .validate()
+            .map_err(|m| Error::config("locomotion", m))?;
+        if let Some(p) = &self.spawn {
+            p.validate().map_err(|m| Error::config("--spawn", m))?;
+        }
+        for p in &self.viewpoints {
+            p.validate().map_err(|m| Error::config("--viewpoint", m))?;
+        }
         if let Some(s) = self.seconds {
             if !(s.is_finite() && s > 0.0) {
                 return Err(Error::config(
@@ -113,6 +132,21 @@ pub struct FrameRecord {
     pub instances_drawn: u64,
     /// FOV of each view used for culling and rendering (radians).
     pub fov: Vec<Fov>,
+    /// The head in the world after locomotion (position, quaternion
+    /// x, y, z, w); None when no view was located.
+    pub head_world: Option<PoseFile>,
+    /// What the user did this frame (teleport, turn, grab, select, ...).
+    pub events: Vec<Event>,
+}
+
+/// The interaction profile the runtime bound per hand (top-level
+/// `interaction_profiles` of `--stats-out`).
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct HandProfiles {
+    /// `/user/hand/left`'s profile, None when nothing is bound.
+    pub left: Option<String>,
+    /// `/user/hand/right`'s profile.
+    pub right: Option<String>,
 }
 
 /// A view configuration view as the runtime reports it.
@@ -287,6 +321,13 @@ pub struct RunStats {
     pub visibility_mask_refreshes: u64,
     /// Session states in order.
     pub states: Vec<String>,
+    /// The current interaction profile per hand (updated on
+    /// XrEventDataInteractionProfileChanged).
+    pub interaction_profiles: HandProfiles,
+    /// Interaction profiles whose suggested bindings the runtime accepted.
+    pub suggested_profiles: Vec<String>,
+    /// Tracking origin at the end of the run (after locomotion).
+    pub origin: Option<OriginFile>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,
     /// Frames in the loop (streamed from the spool file when written).
@@ -328,6 +369,27 @@ pub struct RunStats {
     pub exit: String,
     /// Wall time of the loop in seconds.
     pub duration_s: f64,
+}
+
+/// A tracking origin as written to the statistics.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct OriginFile {
+    /// World position of the tracking origin.
+    pub position: [f64; 3],
+    /// Yaw about +Y, degrees.
+    pub yaw_deg: f64,
+    /// Tracking-to-world scale.
+    pub scale: f64,
+}
+
+impl From<&Origin> for OriginFile {
+    fn from(o: &Origin) -> OriginFile {
+        OriginFile {
+            position: o.position.to_array(),
+            yaw_deg: o.yaw.to_degrees(),
+            scale: o.scale,
+        }
+    }
 }
 
 /// Constant-memory summaries of the frame series.

@@ -11,19 +11,24 @@
 
 use super::headless::{load_scene, SceneCounts};
 use super::session::{
-    spawn_pose, write_capture, FrameRecord, RecordQueue, RunArgs, RunStats, ViewInfo,
+    spawn_pose, write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs,
+    RunStats, ViewInfo,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
+use crate::interact::locomotion::Origin;
+use crate::interact::raycast::SceneQuery;
+use crate::interact::{FrameInput, Interaction};
 use crate::render::driver::FrameDriver;
 use crate::render::{FrameOutput, OutputSpec, Renderer};
-use crate::view::{Fov, HiddenArea, Pose, StereoRig};
+use crate::view::{Fov, HiddenArea, Pose, PoseFile, StereoRig};
+use crate::xr::actions::Controls;
 use crate::xr::instance::{connect, Connection};
 use crate::xr::state::{Action, QuitAction, SessionMachine};
 use crate::xr::watchdog::Watchdog;
 use crate::xr::{
-    choose_color_format, fetch_masks, sanitize_views, state_of, vulkan, world_rig, xr_err, Chain,
-    Messenger, TrackedView, XrCall, CALL_LIMIT,
+    choose_color_format, fetch_masks, sanitize_views, state_of, tracking_head, vulkan, world_rig,
+    xr_err, Chain, Messenger, TrackedView, XrCall, CALL_LIMIT,
 };
 use ash::vk;
 use ash::vk::Handle;
@@ -39,6 +44,7 @@ use std::time::{Duration, Instant};
 /// by the caller, goes last.
 /// The watchdog is last so it also covers a teardown that blocks.
 struct Live {
+    controls: Option<Controls>,
     color: Vec<Chain>,
     depth: Vec<Chain>,
     space: Option<xr::Space>,
@@ -71,6 +77,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         messenger,
         props,
         system_props: sys_props,
+        api_version,
     } = connect()?;
     stats.mode = "openxr".into();
     stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
@@ -169,6 +176,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     }
     .call("xrCreateSession")?;
     let mut live = Live {
+        controls: None,
         color: Vec::new(),
         depth: Vec::new(),
         space: None,
@@ -205,6 +213,17 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let space = session
         .create_reference_space(space_type, xr::Posef::IDENTITY)
         .call("xrCreateReferenceSpace")?;
+    // Controllers are optional: without actions the session is head-only.
+    live.controls = match Controls::new(&instance, &session, &exts, api_version) {
+        Ok(c) => {
+            stats.suggested_profiles = c.suggested.clone();
+            Some(c)
+        }
+        Err(e) => {
+            tracing::warn!("no controller input (head-only): {e}");
+            None
+        }
+    };
     let formats: Vec<vk::Format> = session
         .enumerate_swapchain_formats()
         .call("xrEnumerateSwapchainFormats")?
@@ -288,13 +307,23 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
         .collect();
     // No view has been located yet; a typical headset FOV frames the scene.
-    let spawn = spawn_pose(&scene, &Fov::symmetric(0.8, 0.8));
+    let spawn = args
+        .spawn
+        .unwrap_or_else(|| spawn_pose(&scene, &Fov::symmetric(0.8, 0.8)));
+    let query = SceneQuery::new(&scene);
 
     let mut state = LoopState {
         args,
         records: RecordQueue::default(),
         masks,
-        spawn,
+        interaction: {
+            let mut it = Interaction::new(Origin::from_pose(&spawn), args.interact);
+            it.viewpoints
+                .extend(args.viewpoints.iter().map(Origin::from_pose));
+            it
+        },
+        query,
+        last_display_ns: None,
         blend,
         with_depth: depth_format.is_some(),
         last_valid: Vec::new(),
@@ -302,6 +331,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         lens: None,
     };
     let mut result = frame_loop(stats, &mut live, &mut state);
+    stats.origin = Some(OriginFile::from(&state.interaction.origin));
     // The frames in flight finish before the swapchains they were copied
     // into go away; their records join the log.
     if let Some(driver) = live.driver.as_mut() {
@@ -341,7 +371,12 @@ struct LoopState<'a> {
     /// Records of frames whose GPU times are still to come.
     records: RecordQueue,
     masks: Option<Arc<Vec<HiddenArea>>>,
-    spawn: Pose,
+    /// Locomotion, pointing, measuring: the tracking origin and the tools.
+    interaction: Interaction,
+    /// The scene prepared for ray casts.
+    query: SceneQuery<'a>,
+    /// The previous rendered frame's predicted display time (for dt).
+    last_display_ns: Option<i64>,
     blend: xr::EnvironmentBlendMode,
     with_depth: bool,
     last_valid: Vec<Option<TrackedView>>,
@@ -461,6 +496,22 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                     }
                     Err(e) => break 'main Err(e),
                 },
+                xr::Event::InteractionProfileChanged(_) => {
+                    if let Some(c) = &live.controls {
+                        let _w = live.watchdog.watch("xrGetCurrentInteractionProfile");
+                        match c.profiles(&instance, &session) {
+                            Ok([left, right]) => {
+                                tracing::info!(
+                                    "interaction profiles: left {}, right {}",
+                                    left.as_deref().unwrap_or("none"),
+                                    right.as_deref().unwrap_or("none")
+                                );
+                                stats.interaction_profiles = HandProfiles { left, right };
+                            }
+                            Err(e) => break 'main Err(e),
+                        }
+                    }
+                }
                 xr::Event::ReferenceSpaceChangePending(_) => {
                     tracing::info!("the reference space is about to change (recentre)");
                 }
@@ -541,7 +592,49 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         }
         if let Some(sane) = sane {
             let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
-            let mut rig = world_rig(&st.spawn, &tracking);
+            let now_ns = fs.predicted_display_time.as_nanos();
+            let dt = st
+                .last_display_ns
+                .map_or(0.0, |t| (now_ns - t).max(0) as f64 * 1e-9);
+            st.last_display_ns = Some(now_ns);
+            let hands = match &live.controls {
+                Some(c) => {
+                    let _w = live.watchdog.watch("xrSyncActions");
+                    c.read(
+                        &session,
+                        live.space.as_ref().expect("set"),
+                        fs.predicted_display_time,
+                    )?
+                }
+                None => Default::default(),
+            };
+            let input = FrameInput {
+                dt,
+                head: tracking_head(&tracking),
+                hands,
+            };
+            let update = st.interaction.update(&input, &st.query);
+            if let Some(c) = &live.controls {
+                for hand in (0..2).filter(|&h| update.haptic[h]) {
+                    let _w = live.watchdog.watch("xrApplyHapticFeedback");
+                    // A missed tick is no reason to end the session.
+                    if let Err(e) = c.tick(&session, hand) {
+                        tracing::warn!(
+                            "haptic tick on the {} hand: {e}",
+                            crate::interact::HANDS[hand]
+                        );
+                    }
+                }
+            }
+            for e in &update.events {
+                tracing::info!(
+                    "interaction: {}",
+                    serde_json::to_string(e).unwrap_or_default()
+                );
+            }
+            rec.events = update.events;
+            let mut rig = world_rig(&st.interaction.origin, &tracking);
+            rec.head_world = Some(PoseFile::from(&rig.head));
             rig.hidden_area = match &st.masks {
                 Some(m) => Some(m.clone()),
                 None => Some(st.lens_default(&rig)),

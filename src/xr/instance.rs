@@ -24,6 +24,8 @@ pub struct Connection {
     pub props: xr::InstanceProperties,
     /// The system's name and limits.
     pub system_props: xr::SystemProperties,
+    /// The OpenXR API version the instance was created for.
+    pub api_version: xr::Version,
 }
 
 /// Loads the OpenXR loader, creates the instance and finds the headset.
@@ -107,5 +109,6 @@ pub fn connect() -> Result<Connection> {
         messenger,
         props,
         system_props: sys_props,
+        api_version: app.api_version,
     })
 }

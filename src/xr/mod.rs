@@ -6,12 +6,14 @@
 //! The application's session loop that uses them lives above, in
 //! `targets::xr_session`.
 
+pub mod actions;
 pub mod instance;
 pub mod state;
 pub mod vulkan;
 pub mod watchdog;
 
 use crate::error::{Error, Result};
+use crate::interact::locomotion::Origin;
 use crate::view::{Fov, HiddenArea, Pose, StereoRig, View};
 use ash::vk;
 use ash::vk::Handle;
@@ -316,9 +318,9 @@ pub fn sanitize_views(
     (out.filter(|v| !v.is_empty()), replaced)
 }
 
-/// The world-space rig of tracking-space views placed at `spawn`: the head
-/// sits between the eyes with the orientation halfway between theirs.
-pub fn world_rig(spawn: &Pose, views: &[(Pose, Fov)]) -> StereoRig {
+/// The head in tracking space: between the eyes, with the orientation
+/// halfway between theirs.
+pub fn tracking_head(views: &[(Pose, Fov)]) -> Pose {
     let n = views.len().max(1) as f64;
     let center = views.iter().map(|(p, _)| p.position).sum::<DVec3>() / n;
     let orientation = match views {
@@ -326,16 +328,24 @@ pub fn world_rig(spawn: &Pose, views: &[(Pose, Fov)]) -> StereoRig {
         [a] => a.0.orientation,
         [] => DQuat::IDENTITY,
     };
-    let head = spawn.compose(&Pose {
+    Pose {
         position: center,
         orientation,
-    });
+    }
+}
+
+/// The world-space rig of tracking-space views seen through the tracking
+/// origin `origin` (position, yaw and scale: a scaled origin scales the
+/// eye separation too): the head sits between the eyes with the
+/// orientation halfway between theirs.
+pub fn world_rig(origin: &Origin, views: &[(Pose, Fov)]) -> StereoRig {
+    let head = origin.pose(&tracking_head(views));
     StereoRig {
         head,
         views: views
             .iter()
             .map(|(p, f)| View {
-                pose: spawn.compose(p),
+                pose: origin.pose(p),
                 fov: *f,
             })
             .collect(),
@@ -478,7 +488,7 @@ mod tests {
                 f,
             ),
         ];
-        let rig = world_rig(&spawn, &eyes);
+        let rig = world_rig(&Origin::from_pose(&spawn), &eyes);
         assert!((rig.head.position - DVec3::new(10.0, 1.6, 5.0)).length() < 1e-9);
         // Yaw 90° turns tracking +x into world -z.
         assert!((rig.views[0].pose.position - DVec3::new(10.0, 1.6, 5.03)).length() < 1e-9);

@@ -8,8 +8,16 @@
 //! - 8: head: 2 views × 48 bytes {fov: left, right, up, down (f32);
 //!   pose: orientation x, y, z, w, position x, y, z (f32); u32 pad}
 //! - 104: head centre pose (28 bytes); 132: bool per_view_data_valid + 3 pad
-//! - 136: left controller (120 bytes); 256: right controller (120 bytes);
-//!   each starts with its pose (orientation must be a unit quaternion).
+//! - 136: left controller (120 bytes); 256: right controller (120 bytes),
+//!   `struct r_remote_controller_data` (checked against Monado 25's
+//!   `src/xrt/drivers/remote/r_interface.h`): pose @0 (orientation x, y,
+//!   z, w — a unit quaternion — then position x, y, z), linear velocity
+//!   @28, angular velocity @40, hand_curl[5] @52, trigger_value @72,
+//!   squeeze_value @76, squeeze_force @80, thumbstick x, y @84,
+//!   trackpad_force @92, trackpad x, y @96, then one byte each from @104:
+//!   hand_tracking_active, active, system_click, system_touch, a_click,
+//!   a_touch, b_click, b_touch, trigger_click, trigger_touch,
+//!   thumbstick_click, thumbstick_touch, trackpad_touch, 3 bytes padding.
 
 use std::io::{Read, Write};
 use std::net::TcpStream;
@@ -22,6 +30,75 @@ const VIEW_SIZE: usize = 48;
 const CENTER_AT: usize = HEAD_AT + 2 * VIEW_SIZE;
 const PER_VIEW_VALID_AT: usize = CENTER_AT + 28;
 const CONTROLLERS_AT: [usize; 2] = [136, 256];
+const CONTROLLER_SIZE: usize = 120;
+const TRIGGER_AT: usize = 72;
+const SQUEEZE_AT: usize = 76;
+const THUMBSTICK_AT: usize = 84;
+const BOOLS_AT: usize = 104;
+/// Byte index of each bool after [`BOOLS_AT`].
+const ACTIVE: usize = 1;
+const B_CLICK: usize = 6;
+const TRIGGER_CLICK: usize = 8;
+const THUMBSTICK_CLICK: usize = 10;
+
+/// One controller's state as the test sets it (an Index controller to
+/// the runtime).
+#[derive(Clone, Copy, Debug)]
+pub struct RemoteController {
+    /// Pose in the tracking space.
+    pub pose: RemotePose,
+    /// Trigger, 0..1 (trigger_click follows it above 0.5).
+    pub trigger: f32,
+    /// Squeeze, 0..1.
+    pub squeeze: f32,
+    /// Thumbstick x (right), y (forward), −1..1.
+    pub thumbstick: [f32; 2],
+    /// Thumbstick click.
+    pub thumbstick_click: bool,
+    /// B button (vergence's menu on Index).
+    pub b_click: bool,
+}
+
+impl RemoteController {
+    /// A tracked, idle controller at `pose`.
+    pub fn at(pose: RemotePose) -> RemoteController {
+        RemoteController {
+            pose,
+            trigger: 0.0,
+            squeeze: 0.0,
+            thumbstick: [0.0; 2],
+            thumbstick_click: false,
+            b_click: false,
+        }
+    }
+}
+
+fn put_f32(buf: &mut [u8], at: usize, v: f32) {
+    buf[at..at + 4].copy_from_slice(&v.to_le_bytes());
+}
+
+/// Encodes `head` and the controllers (None: not tracked) as one packet.
+pub fn encode_with(
+    head: &RemoteHead,
+    controllers: [Option<RemoteController>; 2],
+) -> [u8; PACKET_SIZE] {
+    let mut b = encode(head);
+    for (at, c) in CONTROLLERS_AT.into_iter().zip(controllers) {
+        let Some(c) = c else { continue };
+        put_pose(&mut b, at, &c.pose);
+        put_f32(&mut b, at + TRIGGER_AT, c.trigger);
+        put_f32(&mut b, at + SQUEEZE_AT, c.squeeze);
+        put_f32(&mut b, at + THUMBSTICK_AT, c.thumbstick[0]);
+        put_f32(&mut b, at + THUMBSTICK_AT + 4, c.thumbstick[1]);
+        let bools = at + BOOLS_AT;
+        b[bools + ACTIVE] = 1;
+        b[bools + B_CLICK] = u8::from(c.b_click);
+        b[bools + TRIGGER_CLICK] = u8::from(c.trigger > 0.5);
+        b[bools + THUMBSTICK_CLICK] = u8::from(c.thumbstick_click);
+    }
+    debug_assert_eq!(CONTROLLERS_AT[1] + CONTROLLER_SIZE, PACKET_SIZE);
+    b
+}
 
 /// A pose: orientation (x, y, z, w) and position.
 #[derive(Clone, Copy, Debug)]
@@ -88,13 +165,18 @@ pub fn connect(timeout: Duration) -> std::io::Result<TcpStream> {
 
 /// Sends `head`, draining whatever the driver sent us first.
 pub fn send(stream: &mut TcpStream, head: &RemoteHead) -> std::io::Result<()> {
+    send_packet(stream, &encode(head))
+}
+
+/// Sends one encoded packet, draining whatever the driver sent us first.
+pub fn send_packet(stream: &mut TcpStream, packet: &[u8; PACKET_SIZE]) -> std::io::Result<()> {
     let mut sink = [0u8; PACKET_SIZE];
     while let Ok(n) = stream.read(&mut sink) {
         if n == 0 {
             break;
         }
     }
-    stream.write_all(&encode(head))
+    stream.write_all(packet)
 }
 
 #[test]
@@ -131,4 +213,44 @@ fn packet_layout_matches_r_remote_data() {
     assert_eq!(b[132], 1, "per_view_data_valid");
     assert_eq!(f(136 + 12), 1.0, "left controller orientation w");
     assert_eq!(f(256 + 12), 1.0, "right controller orientation w");
+}
+
+#[test]
+fn controller_fields_sit_at_r_remote_controller_data_offsets() {
+    let head = RemoteHead {
+        center: RemotePose {
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            position: [0.0, 1.6, 0.0],
+        },
+        views: [(
+            [-0.7, 0.7, 0.7, -0.7],
+            RemotePose {
+                orientation: [0.0, 0.0, 0.0, 1.0],
+                position: [0.0; 3],
+            },
+        ); 2],
+    };
+    let right = RemoteController {
+        trigger: 0.75,
+        squeeze: 0.25,
+        thumbstick: [0.5, -1.0],
+        thumbstick_click: true,
+        b_click: true,
+        ..RemoteController::at(RemotePose {
+            orientation: [0.0, 0.0, 0.0, 1.0],
+            position: [0.3, 1.1, -0.4],
+        })
+    };
+    let b = encode_with(&head, [None, Some(right)]);
+    let f = |at: usize| f32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+    assert_eq!(f(256 + 16), 0.3, "right position x");
+    assert_eq!(f(256 + 72), 0.75, "trigger_value");
+    assert_eq!(f(256 + 76), 0.25, "squeeze_value");
+    assert_eq!((f(256 + 84), f(256 + 88)), (0.5, -1.0), "thumbstick");
+    assert_eq!(b[256 + 105], 1, "active");
+    assert_eq!(b[256 + 110], 1, "b_click");
+    assert_eq!(b[256 + 112], 1, "trigger_click");
+    assert_eq!(b[256 + 114], 1, "thumbstick_click");
+    assert_eq!(b[136 + 105], 0, "left inactive");
+    assert_eq!(b.len(), 376);
 }
