@@ -366,7 +366,8 @@ fn compare(
     // Where the heat map goes, checked before any work: never over an
     // input (the output helper refuses any file this process read).
     let heat = heatmap.unwrap_or_else(|| test.with_extension("flip.png"));
-    vergence::fsio::prepare_output(&heat)?;
+    vergence::fsio::prepare_output(&heat)
+        .map_err(|e| anyhow::anyhow!("{e} (the heat map; choose another --heatmap)"))?;
     if a.dimensions() != b.dimensions() {
         anyhow::bail!(
             "{} is {}x{} but {} is {}x{}; compare needs equal sizes",

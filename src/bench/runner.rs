@@ -495,7 +495,7 @@ fn measure(
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
 ) -> Result<Option<ConfigResult>> {
-    let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
+    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
     let mut driver = FrameDriver::new(renderer, scene)?;
     let mut frames: Vec<FrameResult> = Vec::new();
     let n_accuracy = plan.frames.min(30) as usize;

@@ -88,7 +88,7 @@ fn cells(path: &Path, what: &str, p: &Placement) -> Result<u64> {
         return Ok(1);
     };
     crate::count::within(
-        &format!("grid count {:?} gives cells; their number", g.count),
+        &format!("grid count {:?}: the number of cells", g.count),
         crate::count::product(g.count.iter().map(|&c| c as u64)),
         MAX_PLACEMENTS,
     )

@@ -181,6 +181,41 @@ pub fn load_scene(spec: &str) -> Result<(Scene, f64)> {
     Ok((scene, ms))
 }
 
+/// Creates the renderer; an allocation failure names what was being
+/// allocated for: the per-eye size, the MSAA samples and an estimate of
+/// the render targets' need (colour and depth per sample plus a resolved
+/// colour image, for both views), instead of Vulkan's bare "a device
+/// memory allocation has failed".
+pub fn new_renderer(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    extent: vk::Extent2D,
+) -> Result<Renderer> {
+    Renderer::new(ctx.clone(), scene, config, extent).map_err(|e| {
+        let memory = match &e {
+            Error::Vulkan { result, .. } => matches!(
+                *result,
+                vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY
+            ),
+            Error::Gpu(m) => m.contains("out of GPU memory") || m.contains("allocation"),
+            _ => false,
+        };
+        if !memory {
+            return e;
+        }
+        let per_pixel = 8 * config.msaa as u64 + 4;
+        let need = extent.width as u64 * extent.height as u64 * 2 * per_pixel;
+        Error::Gpu(format!(
+            "cannot allocate the render targets for {}x{} px per eye at {}x MSAA (about {:.1} MiB of colour, depth and resolve images for 2 views, before the scene): {e}; try a smaller --width/--height or --msaa 1",
+            extent.width,
+            extent.height,
+            config.msaa,
+            need as f64 / (1u64 << 20) as f64
+        ))
+    })
+}
+
 /// Per-eye size from the override or the profile.
 pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
     let (w, h) = size.unwrap_or((
@@ -207,7 +242,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
-    let renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
+    let renderer = new_renderer(&ctx, &scene, &job.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
     let rig = match job.rig.clone() {
         // A rig file written before rig.json carried hidden areas: the
