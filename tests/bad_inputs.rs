@@ -267,6 +267,14 @@ struct Case {
     file: String,
     kind: String,
     expect: Vec<String>,
+    /// `cli` cases: the arguments ({dir}, {out}, {fifo}, {big} replaced).
+    #[serde(default)]
+    args: Vec<String>,
+    /// The exit code required (else any failure that is not a panic).
+    exit: Option<i32>,
+    /// Run under the address-space limit (the case needs no GPU).
+    #[serde(default)]
+    memory: bool,
 }
 
 #[derive(serde::Deserialize)]
@@ -274,33 +282,225 @@ struct Cases {
     case: Vec<Case>,
 }
 
-/// The malformed-input corpus: every file gives one error line that says
-/// what the index expects, a non-zero exit and no panic.
+/// Wall-clock bound of every corpus case.
+const CASE_SECONDS: f64 = 10.0;
+/// Peak resident memory bound of every corpus case.
+const CASE_RSS_MB: u64 = 1024;
+/// Address-space limit of `memory = true` cases: a regression that
+/// allocates without bound fails its own case instead of the machine.
+const CASE_ADDRESS_SPACE_MB: u64 = 3072;
+
+/// What a bounded run of vergence gave.
+struct Outcome {
+    code: Option<i32>,
+    stderr: String,
+    seconds: f64,
+    peak_rss_mb: u64,
+}
+
+/// Runs `cmd` with its output in files (no pipe to fill), killed after
+/// twice [`CASE_SECONDS`]; with `limit_as`, under `RLIMIT_AS`. Peak RSS
+/// from `wait4`'s rusage.
+#[cfg(unix)]
+fn run_bounded(cmd: &mut Command, scratch: &Path, name: &str, limit_as: bool) -> Outcome {
+    use std::os::unix::process::CommandExt as _;
+    use std::os::unix::process::ExitStatusExt as _;
+    let err_path = scratch.join(format!("{name}.stderr"));
+    let out_path = scratch.join(format!("{name}.stdout"));
+    cmd.stdin(std::process::Stdio::null())
+        .stdout(std::fs::File::create(&out_path).unwrap())
+        .stderr(std::fs::File::create(&err_path).unwrap());
+    if limit_as {
+        // SAFETY: setrlimit is async-signal-safe; nothing else runs
+        // between fork and exec.
+        unsafe {
+            cmd.pre_exec(|| {
+                let bytes = CASE_ADDRESS_SPACE_MB << 20;
+                let lim = libc::rlimit {
+                    rlim_cur: bytes,
+                    rlim_max: bytes,
+                };
+                if libc::setrlimit(libc::RLIMIT_AS, &lim) != 0 {
+                    return Err(std::io::Error::last_os_error());
+                }
+                Ok(())
+            });
+        }
+    }
+    let t0 = std::time::Instant::now();
+    let child = cmd.spawn().expect("vergence starts");
+    let pid = child.id() as libc::pid_t;
+    let mut status = 0;
+    // SAFETY: an all-zero rusage is a valid value to fill.
+    let mut usage: libc::rusage = unsafe { std::mem::zeroed() };
+    loop {
+        // SAFETY: waiting for our own child with valid out-pointers.
+        let r = unsafe { libc::wait4(pid, &mut status, libc::WNOHANG, &mut usage) };
+        if r == pid {
+            break;
+        }
+        assert!(r == 0, "wait4 failed");
+        if t0.elapsed().as_secs_f64() > 2.0 * CASE_SECONDS {
+            // SAFETY: killing our own child.
+            unsafe { libc::kill(pid, libc::SIGKILL) };
+        }
+        std::thread::sleep(std::time::Duration::from_millis(5));
+    }
+    let seconds = t0.elapsed().as_secs_f64();
+    let exit = std::process::ExitStatus::from_raw(status);
+    Outcome {
+        code: exit.code(),
+        stderr: std::fs::read_to_string(&err_path).unwrap_or_default(),
+        seconds,
+        peak_rss_mb: usage.ru_maxrss as u64 / 1024,
+    }
+}
+
+#[cfg(not(unix))]
+fn run_bounded(cmd: &mut Command, _scratch: &Path, _name: &str, _limit_as: bool) -> Outcome {
+    let t0 = std::time::Instant::now();
+    let out = cmd.output().expect("vergence runs");
+    Outcome {
+        code: out.status.code(),
+        stderr: String::from_utf8_lossy(&out.stderr).into_owned(),
+        seconds: t0.elapsed().as_secs_f64(),
+        peak_rss_mb: 0,
+    }
+}
+
+/// Checks one outcome: one `error:` line, the exit code, no panic, the
+/// expectations, time and memory bounds. Returns the problems.
+fn check(name: &str, c: &Case, o: &Outcome) -> Vec<String> {
+    let mut bad = Vec::new();
+    let err = o.stderr.trim();
+    let errors = o.stderr.lines().filter(|l| l.starts_with("error:")).count();
+    if errors != 1 {
+        bad.push(format!("{name}: {errors} error lines: {err}"));
+    }
+    match (o.code, c.exit) {
+        (Some(0), _) => bad.push(format!("{name}: succeeded: {err}")),
+        (Some(101), _) => bad.push(format!("{name}: panicked: {err}")),
+        (None, _) => bad.push(format!(
+            "{name}: killed by a signal after {:.1} s: {err}",
+            o.seconds
+        )),
+        (Some(code), Some(want)) if code != want => {
+            bad.push(format!("{name}: exit {code}, expected {want}: {err}"))
+        }
+        _ => {}
+    }
+    if o.stderr.contains("panicked") {
+        bad.push(format!("{name}: panicked: {err}"));
+    }
+    for e in &c.expect {
+        if !o.stderr.contains(e.as_str()) {
+            bad.push(format!("{name}: expected '{e}' in: {err}"));
+        }
+    }
+    if o.seconds > CASE_SECONDS {
+        bad.push(format!(
+            "{name}: took {:.1} s (bound {CASE_SECONDS} s)",
+            o.seconds
+        ));
+    }
+    if o.peak_rss_mb > CASE_RSS_MB {
+        bad.push(format!(
+            "{name}: peak RSS {} MB (bound {CASE_RSS_MB} MB)",
+            o.peak_rss_mb
+        ));
+    }
+    bad
+}
+
+/// The malformed-input corpus: every case gives one error line that says
+/// what the index expects, the exit code it names (else a non-zero one
+/// that is not a panic), within [`CASE_SECONDS`] and [`CASE_RSS_MB`]; the
+/// cases that need no GPU run under an address-space limit.
 #[test]
 fn corpus() {
     let dir = root().join("tests/bad_inputs");
     let text = std::fs::read_to_string(dir.join("cases.toml")).unwrap();
     let cases: Cases = toml::from_str(&text).unwrap();
-    assert!(cases.case.len() >= 30, "{} cases", cases.case.len());
-    let out = common::scratch("bad", "corpus");
-    let out = out.to_str().unwrap();
+    assert!(cases.case.len() >= 100, "{} cases", cases.case.len());
+    let scratch = common::scratch("bad", "corpus");
+    let out = scratch.join("out");
+    let fifo = scratch.join("pipe.gltf");
+    let big = scratch.join("big.toml");
+    #[cfg(unix)]
+    {
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+    }
+    // 17 MiB, sparse: over the 16 MiB text limit without using the disk.
+    std::fs::File::create(&big)
+        .unwrap()
+        .set_len(17 << 20)
+        .unwrap();
+    let fill = |a: &str| {
+        a.replace("{dir}", dir.to_str().unwrap())
+            .replace("{out}", out.to_str().unwrap())
+            .replace("{fifo}", fifo.to_str().unwrap())
+            .replace("{big}", big.to_str().unwrap())
+    };
+    let o = out.to_str().unwrap().to_string();
     let mut failures = Vec::new();
-    for c in &cases.case {
+    for (i, c) in cases.case.iter().enumerate() {
         let path = dir.join(&c.file);
-        let p = path.to_str().unwrap();
-        let args: Vec<&str> = match c.kind.as_str() {
-            "scene" => vec!["inspect", p],
-            "hmd" => vec!["render", "--hmd", p, "--out", out],
-            "plan" => vec!["bench", "--plan", p, "--out", out],
-            "config" => vec!["render", "--config", p, "--out", out],
+        let p = path.to_str().unwrap().to_string();
+        let (args, limit_as): (Vec<String>, bool) = match c.kind.as_str() {
+            "scene" => (vec!["inspect".into(), p], true),
+            "hmd" => (
+                vec![
+                    "render".into(),
+                    "--hmd".into(),
+                    p,
+                    "--out".into(),
+                    o.clone(),
+                ],
+                false,
+            ),
+            "plan" => (
+                vec![
+                    "bench".into(),
+                    "--plan".into(),
+                    p,
+                    "--out".into(),
+                    o.clone(),
+                ],
+                false,
+            ),
+            "config" => (
+                vec![
+                    "render".into(),
+                    "--config".into(),
+                    p,
+                    "--out".into(),
+                    o.clone(),
+                ],
+                false,
+            ),
+            "rig" => (
+                vec![
+                    "render".into(),
+                    "--rig".into(),
+                    p,
+                    "--out".into(),
+                    o.clone(),
+                ],
+                false,
+            ),
+            "cli" => (c.args.iter().map(|a| fill(a)).collect(), c.memory),
             other => panic!("{}: unknown kind {other}", c.file),
         };
-        let stderr = fails(&args);
-        for e in &c.expect {
-            if !stderr.contains(e.as_str()) {
-                failures.push(format!("{}: expected '{e}' in: {}", c.file, stderr.trim()));
-            }
-        }
+        let mut cmd = Command::new(env!("CARGO_BIN_EXE_vergence"));
+        cmd.args(&args).current_dir(root());
+        let outcome = run_bounded(&mut cmd, &scratch, &format!("case{i}"), limit_as);
+        failures.extend(check(&c.file, c, &outcome));
     }
+    assert!(
+        !out.join("left.png").exists(),
+        "a failing case wrote output"
+    );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }

@@ -121,7 +121,7 @@ impl Plan {
 
     /// Reads and validates a plan file.
     pub fn load(path: &Path) -> Result<Plan> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
             .map_err(|e| Error::config("--plan", format!("{}: {e}", path.display())))?;
         Plan::parse(&path.display().to_string(), &text)
     }

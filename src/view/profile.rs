@@ -149,9 +149,14 @@ impl HmdProfile {
         if !(raw.refresh_hz.is_finite()
             && (MIN_REFRESH_HZ..=MAX_REFRESH_HZ).contains(&raw.refresh_hz))
         {
+            let hz = raw.refresh_hz;
+            let shown = if hz == 0.0 || (1e-3..1e6).contains(&hz.abs()) {
+                format!("{hz}")
+            } else {
+                format!("{hz:e}")
+            };
             return Err(err(format!(
-                "refresh_hz = {} must be in [{MIN_REFRESH_HZ}, {MAX_REFRESH_HZ}]",
-                raw.refresh_hz
+                "refresh_hz = {shown} must be in [{MIN_REFRESH_HZ}, {MAX_REFRESH_HZ}]"
             )));
         }
         if raw.views.is_empty() || raw.views.len() > 4 {
