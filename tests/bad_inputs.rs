@@ -504,3 +504,306 @@ fn corpus() {
     );
     assert!(failures.is_empty(), "{}", failures.join("\n"));
 }
+
+/// Class 9: a symbolic link planted where an output goes is replaced, never
+/// written through; `run --stats-out` leaves a file named like its old
+/// spool alone.
+#[cfg(unix)]
+#[test]
+fn outputs_never_follow_planted_links() {
+    let dir = common::scratch("bad", "links");
+    let victim = dir.join("victim.txt");
+    std::fs::write(&victim, b"precious").unwrap();
+    let out = dir.join("out");
+    std::fs::create_dir_all(&out).unwrap();
+    for name in ["left.png", "right.png", "stats.json", "stats.json.tmp"] {
+        std::os::unix::fs::symlink(&victim, out.join(name)).unwrap();
+    }
+    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:20",
+            "--width",
+            "32",
+            "--height",
+            "32",
+        ])
+        .args(["--hmd", "monado-sim", "--out", out.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+    for name in ["left.png", "right.png", "stats.json"] {
+        let m = std::fs::symlink_metadata(out.join(name)).unwrap();
+        assert!(m.is_file(), "{name} is a regular file now");
+    }
+    image::open(out.join("left.png")).expect("a real PNG");
+    // The unrelated link is left as it was.
+    assert!(std::fs::symlink_metadata(out.join("stats.json.tmp"))
+        .unwrap()
+        .is_symlink());
+
+    let stats = dir.join("S.json");
+    std::fs::write(dir.join("S.frames.tmp"), b"not vergence's").unwrap();
+    std::os::unix::fs::symlink(&victim, &stats).unwrap();
+    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(["run", "--xr", "headless", "--scene", "factory:20"])
+        .args([
+            "--hmd-fallback",
+            "monado-sim",
+            "--width",
+            "32",
+            "--height",
+            "32",
+        ])
+        .args(["--frames", "3", "--stats-out", stats.to_str().unwrap()])
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert_eq!(std::fs::read(&victim).unwrap(), b"precious");
+    assert_eq!(
+        std::fs::read(dir.join("S.frames.tmp")).unwrap(),
+        b"not vergence's"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&stats).unwrap()).unwrap();
+    assert_eq!(v["frames"].as_array().map(Vec::len), Some(3), "{v}");
+    let left: Vec<String> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
+        .filter(|n| n.starts_with('.') && n.ends_with(".tmp"))
+        .collect();
+    assert!(left.is_empty(), "temporary files left behind: {left:?}");
+}
+
+/// Class 7: `run --capture` writes the hidden areas into rig.json and
+/// `render --rig ... --opt stencil-mask` renders with them; an older rig
+/// file without them takes the --hmd profile's.
+#[test]
+fn rig_round_trip_with_stencil_mask() {
+    let dir = common::scratch("bad", "rig-trip");
+    let cap = dir.join("cap");
+    let run = |args: &[&str]| {
+        let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args(args)
+            .output()
+            .unwrap();
+        let stderr = String::from_utf8_lossy(&out.stderr).into_owned();
+        assert!(out.status.success(), "{args:?}: {stderr}");
+    };
+    run(&[
+        "run",
+        "--xr",
+        "headless",
+        "--scene",
+        "factory:50",
+        "--hmd-fallback",
+        "monado-sim",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--frames",
+        "2",
+        "--capture",
+        cap.to_str().unwrap(),
+    ]);
+    let rig_path = cap.join("rig.json");
+    let mut rig: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&rig_path).unwrap()).unwrap();
+    let area = rig["views"][0]["hidden_area"]
+        .as_array()
+        .expect("hidden_area");
+    assert!(!area.is_empty() && area.len() % 3 == 0);
+    for (name, opt) in [("plain", ""), ("masked", "stencil-mask")] {
+        let out = dir.join(name);
+        run(&[
+            "render",
+            "--scene",
+            "factory:50",
+            "--hmd",
+            "monado-sim",
+            "--rig",
+            rig_path.to_str().unwrap(),
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--opt",
+            opt,
+            "--out",
+            out.to_str().unwrap(),
+        ]);
+    }
+    let img = |p: &Path| image::open(p).unwrap().to_rgba8();
+    let captured = img(&cap.join("left.png"));
+    let plain = img(&dir.join("plain/left.png"));
+    let masked = img(&dir.join("masked/left.png"));
+    let mean_diff = |a: &image::RgbaImage, b: &image::RgbaImage| {
+        a.as_raw()
+            .iter()
+            .zip(b.as_raw())
+            .map(|(x, y)| (*x as f64 - *y as f64).abs())
+            .sum::<f64>()
+            / a.as_raw().len() as f64
+    };
+    assert!(
+        mean_diff(&captured, &plain) < 1.0,
+        "render --rig reproduces the captured views"
+    );
+    let changed = masked
+        .pixels()
+        .zip(plain.pixels())
+        .filter(|(a, b)| a != b)
+        .count();
+    assert!(changed > 0, "the stencil mask hides part of the image");
+    // An older rig file, without hidden areas: the profile's are used.
+    for v in rig["views"].as_array_mut().unwrap() {
+        v.as_object_mut().unwrap().remove("hidden_area");
+    }
+    let old = dir.join("old-rig.json");
+    std::fs::write(&old, rig.to_string()).unwrap();
+    run(&[
+        "render",
+        "--scene",
+        "factory:50",
+        "--hmd",
+        "monado-sim",
+        "--rig",
+        old.to_str().unwrap(),
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--opt",
+        "stencil-mask",
+        "--out",
+        dir.join("old").to_str().unwrap(),
+    ]);
+    assert_eq!(img(&dir.join("old/left.png")), masked);
+}
+
+/// Class 3: one image sampled by 2000 textures is decoded and held once.
+#[cfg(unix)]
+#[test]
+fn shared_image_is_held_once() {
+    let dir = common::scratch("bad", "shared-image");
+    image::RgbaImage::from_pixel(1024, 1024, image::Rgba([90, 120, 200, 255]))
+        .save(dir.join("one.png"))
+        .unwrap();
+    let n = 2000;
+    let bin: Vec<u8> = [0.0f32, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 1.0, 0.0]
+        .iter()
+        .flat_map(|f| f.to_le_bytes())
+        .chain([0u16, 1, 2, 0].iter().flat_map(|i| i.to_le_bytes()))
+        .collect();
+    use base64::Engine as _;
+    let gltf = serde_json::json!({
+        "asset": {"version": "2.0"},
+        "buffers": [{"uri": format!("data:application/octet-stream;base64,{}",
+            base64::engine::general_purpose::STANDARD.encode(&bin)), "byteLength": bin.len()}],
+        "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 36},
+                        {"buffer": 0, "byteOffset": 36, "byteLength": 6}],
+        "accessors": [
+            {"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3", "min": [0,0,0], "max": [1,1,0]},
+            {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}],
+        "images": [{"uri": "one.png"}],
+        "textures": (0..n).map(|_| serde_json::json!({"source": 0})).collect::<Vec<_>>(),
+        "materials": (0..n).map(|i| serde_json::json!({"pbrMetallicRoughness": {"baseColorTexture": {"index": i}}})).collect::<Vec<_>>(),
+        "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1, "material": 0}]}],
+        "nodes": [{"mesh": 0}], "scenes": [{"nodes": [0]}], "scene": 0
+    });
+    let path = dir.join("shared.gltf");
+    std::fs::write(&path, gltf.to_string()).unwrap();
+    let mut cmd = Command::new(env!("CARGO_BIN_EXE_vergence"));
+    cmd.args(["inspect", path.to_str().unwrap()]);
+    let o = run_bounded(&mut cmd, &dir, "inspect", true);
+    assert_eq!(o.code, Some(0), "{}", o.stderr);
+    // 2000 copies of 4 MiB would be 8 GiB; one is 4 MiB.
+    assert!(o.peak_rss_mb < 512, "peak RSS {} MB", o.peak_rss_mb);
+    assert!(o.seconds < CASE_SECONDS, "{} s", o.seconds);
+}
+
+/// Class 12: a scene that fails to load after the first was measured keeps
+/// the first group: the report is written and the error names the scene.
+#[test]
+fn bench_keeps_what_finished() {
+    let dir = common::scratch("bad", "keep");
+    std::fs::write(dir.join("broken.gltf"), "{\"asset\": {\"version\": ").unwrap();
+    let plan = dir.join("plan.toml");
+    std::fs::write(
+        &plan,
+        format!(
+            "name = \"p\"\nscenes = [\"factory:10\", {:?}]\nhmds = [\"monado-sim\"]\nscales = [0.25]\nframes = 2\nwarmup = 1\n[[configs]]\nname = \"a\"\nopt = \"two-pass\"\n",
+            dir.join("broken.gltf").to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    let out = dir.join("out");
+    let stderr = fails(&[
+        "bench",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    assert!(
+        stderr.contains("broken.gltf")
+            && stderr.contains("invalid glTF JSON")
+            && stderr.contains("wrote the 2 finished configurations"),
+        "{stderr}"
+    );
+    let v: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    assert_eq!(v["groups"].as_array().map(Vec::len), Some(1));
+    assert_eq!(v["complete"], false);
+    assert!(v["error"].as_str().unwrap().contains("broken.gltf"));
+    assert!(out.join("report.md").exists());
+}
+
+/// Class 11 and 13: FLIP on images under 100 px works; an error whose
+/// message already holds its cause does not repeat it; compare never
+/// touches its inputs.
+#[test]
+fn small_images_compare_and_errors_say_things_once() {
+    let dir = common::scratch("bad", "small");
+    let a = dir.join("a.png");
+    let b = dir.join("b.png");
+    image::RgbaImage::from_pixel(8, 8, image::Rgba([10, 20, 30, 255]))
+        .save(&a)
+        .unwrap();
+    image::RgbaImage::from_pixel(8, 8, image::Rgba([12, 20, 30, 255]))
+        .save(&b)
+        .unwrap();
+    let before = std::fs::read(&a).unwrap();
+    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "compare",
+            a.to_str().unwrap(),
+            b.to_str().unwrap(),
+            "--json",
+        ])
+        .output()
+        .unwrap();
+    assert!(
+        out.status.success(),
+        "{}",
+        String::from_utf8_lossy(&out.stderr)
+    );
+    let v: serde_json::Value = serde_json::from_slice(&out.stdout).unwrap();
+    assert!(v["flip_p99"].as_f64().unwrap() >= 0.0);
+    assert!(dir.join("b.flip.png").exists());
+    // Heat map over the reference: refused, the reference untouched.
+    let stderr = fails(&[
+        "compare",
+        a.to_str().unwrap(),
+        b.to_str().unwrap(),
+        "--heatmap",
+        a.to_str().unwrap(),
+    ]);
+    assert!(stderr.contains("never writes over an input"), "{stderr}");
+    assert_eq!(std::fs::read(&a).unwrap(), before);
+    let stderr = fails(&["inspect", dir.join("nothing.gltf").to_str().unwrap()]);
+    assert_eq!(stderr.matches("os error 2").count(), 1, "{stderr}");
+}

@@ -54,14 +54,18 @@ pub fn load(path: &Path) -> Result<Scene> {
 /// Loads a `.gltf` or `.glb` file within `budget` (a manifest's, shared by
 /// all it names).
 pub fn load_in(path: &Path, budget: &super::budget::LoadBudget) -> Result<Scene> {
-    let max = budget.left().min(crate::fsio::MAX_SCENE_FILE_BYTES);
-    let bytes = crate::fsio::read_bounded(path, max).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    budget
-        .spend(Some(bytes.len() as u64), "the scene file")
-        .map_err(|m| Error::scene(path, m))?;
+    if let Some(meta) = std::fs::metadata(path).ok().filter(|m| m.is_file()) {
+        budget
+            .spend(Some(meta.len()), "the scene file")
+            .map_err(|m| Error::scene(path, m))?;
+    }
+    let bytes =
+        crate::fsio::read_bounded(path, crate::fsio::MAX_SCENE_FILE_BYTES).map_err(|source| {
+            Error::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     load_bytes_in(path, &bytes, budget)
 }
 

@@ -271,3 +271,29 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
     }
     Ok(scene)
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A manifest's entries share one budget: naming the same file again
+    /// and again runs out of it instead of multiplying memory.
+    #[test]
+    fn entries_share_one_budget() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let path = root.join("manifests/scenes/budget-test.toml");
+        let entry = "[[gltf]]\nfile = \"../../assets/Box/Box.gltf\"\n";
+        let text = format!("name = \"x\"\n{}", entry.repeat(40));
+        let one = {
+            let b = LoadBudget::new(1 << 30);
+            from_text_in(&path, &format!("name = \"x\"\n{entry}"), &b).unwrap();
+            (1u64 << 30) - b.left()
+        };
+        assert!(one > 0, "a load spends from its budget");
+        let budget = LoadBudget::new(one * 10);
+        let e = from_text_in(&path, &text, &budget).unwrap_err().to_string();
+        assert!(e.contains("memory budget of one scene load"), "{e}");
+        let scene = from_text_in(&path, &text, &LoadBudget::new(one * 41)).unwrap();
+        assert_eq!(scene.meshes.len(), 40);
+    }
+}
