@@ -74,13 +74,13 @@ pub fn parse_non_negative(s: &str) -> Result<f64, String> {
     ranged(s, 0.0, 1e6, false)
 }
 
-/// `--ppd`: pixels per degree in (0, 1000).
+/// `--ppd`: pixels per degree in [0.01, 1000) (a positive f32 after
+/// narrowing; found by the property test: a tiny f64 rounds to 0).
 pub fn parse_ppd(s: &str) -> Result<f32, String> {
-    let v = ranged(s, 0.0, 1000.0, true)?;
-    if v >= 1000.0 {
-        return Err(format!("{s} must be below 1000"));
+    match ranged(s, 0.01, 1000.0, false) {
+        Ok(v) if v < 1000.0 => Ok(v as f32),
+        _ => Err(format!("{s} must be a number in [0.01, 1000)")),
     }
-    Ok(v as f32)
 }
 
 /// `--pose x,y,z,yaw,pitch,roll`: metres within ±[`MAX_DISTANCE_M`],

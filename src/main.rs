@@ -78,7 +78,7 @@ enum Command {
         reference: PathBuf,
         /// Test image, same size.
         test: PathBuf,
-        /// Pixels per degree for FLIP (default: a desktop monitor's 67; (0, 1000)).
+        /// Pixels per degree for FLIP (default: a desktop monitor's 67; [0.01, 1000)).
         #[arg(long, value_parser = vergence::cli::parse_ppd)]
         ppd: Option<f32>,
         /// Print JSON instead of text.
