@@ -319,6 +319,9 @@ case("plans/long-name.toml", "plan", ["must be at most 64 characters"],
      PLAN.format(frames=2, opt="two-pass").replace('name = "a"', 'name = "' + "n" * 300 + '"'))
 case("plans/bad-factory.toml", "plan", ["scene factory:0", "1..=50000000"],
      PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "factory:0"]'))
+case("plans/long-scene-path.toml", "plan", ["the image folder name would be", "over 200"],
+     PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "tests/bad_inputs/' + "d/" * 0 + "cases.toml" + "/." * 0 + '"]').replace("tests/bad_inputs/cases.toml", "tests/bad_inputs/./" + "./" * 100 + "cases.toml"))
+cli("cull-strategies-twice", ["cull-bench", "--strategies", "per-eye,per-eye", "--frames", "1", "--instances", "10"], ["--strategies lists per-eye twice"])
 cli("tune-out-is-its-folder", ["tune", "--budget-ms", "10", "--out", "{out}/X.bench"], ["--out", "both the config file and its measurement folder"])
 cli("bench-out-is-a-file", ["bench", "--plan", "smoke", "--out", "{dir}/cases.toml"], ["--out", "is a file"])
 # Class 13, minor.

@@ -82,6 +82,8 @@ fn default_reference() -> String {
 pub const MAX_EYE_PIXELS: u32 = 8192;
 /// Smallest per-eye dimension a scale may produce.
 pub const MIN_EYE_PIXELS: u32 = 16;
+/// Longest image folder name of a group (scene, profile and scale).
+pub const MAX_GROUP_DIR_BYTES: usize = 200;
 /// Longest configuration name (it becomes part of image file names).
 pub const MAX_CONFIG_NAME_CHARS: usize = 64;
 
@@ -228,6 +230,17 @@ impl Plan {
                 ));
             }
             for &scale in &self.scales {
+                for scene in &self.scenes {
+                    // The group's image folder name (runner.rs), one path
+                    // component: it must fit the usual 255-byte limit.
+                    let group = format!("{}-{}-{}", sanitize(scene), sanitize(&p.name), scale);
+                    if group.len() > MAX_GROUP_DIR_BYTES {
+                        return Err(format!(
+                            "scene {scene} with HMD profile {h}: the image folder name would be {} bytes, over {MAX_GROUP_DIR_BYTES}; use a shorter path or profile name",
+                            group.len()
+                        ));
+                    }
+                }
                 let [w, h_px] = p.views[0].resolution;
                 let px = |v: u32| (v as f64 * scale).round();
                 let (sw, sh) = (px(w), px(h_px));

@@ -238,6 +238,17 @@ pub fn run(
             .map(|s| s.parse())
             .collect::<Result<_, _>>()?
     };
+    if let Some(s) = strategies
+        .iter()
+        .enumerate()
+        .find(|(i, s)| strategies[..*i].contains(s))
+        .map(|(_, s)| s)
+    {
+        return Err(CullBenchError::Args(format!(
+            "--strategies lists {} twice (each strategy is timed once)",
+            s.name()
+        )));
+    }
     if !(1..=crate::cli::MAX_THREADS).contains(&args.threads)
         || !(1..=crate::cli::MAX_CULL_BENCH_FRAMES).contains(&args.frames)
     {
