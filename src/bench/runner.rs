@@ -328,10 +328,9 @@ fn run_groups(
                     "scene {scene_spec}, HMD profile {}, scale {scale}",
                     profile.name
                 );
-                // A group cut short keeps the configurations it finished.
-                if !group.results.is_empty() {
-                    results.groups.push(group);
-                }
+                // A group cut short is reported with the configurations
+                // it finished.
+                results.groups.push(group);
                 match finished {
                     Ok(true) => {}
                     Ok(false) => return Ok(false),
