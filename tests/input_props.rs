@@ -52,7 +52,7 @@ proptest! {
             prop_assert!(v.is_finite() && v > 0.0 && v <= 1e3);
         }
         if let Ok(v) = cli::parse_ppd(&s) {
-            prop_assert!(v.is_finite() && v >= 0.0099 && v < 1000.0);
+            prop_assert!(v.is_finite() && (0.0099..1000.0).contains(&v));
         }
         let _ = cli::parse_distance(&s);
         let _ = cli::parse_positive(&s);
