@@ -302,6 +302,10 @@ struct Outcome {
 /// twice [`CASE_SECONDS`]; with `limit_as`, under `RLIMIT_AS`. Peak RSS
 /// from `wait4`'s rusage.
 #[cfg(unix)]
+#[allow(
+    clippy::zombie_processes,
+    reason = "the child is reaped by wait4 below"
+)]
 fn run_bounded(cmd: &mut Command, scratch: &Path, name: &str, limit_as: bool) -> Outcome {
     use std::os::unix::process::CommandExt as _;
     use std::os::unix::process::ExitStatusExt as _;
@@ -615,7 +619,7 @@ fn rig_round_trip_with_stencil_mask() {
     let area = rig["views"][0]["hidden_area"]
         .as_array()
         .expect("hidden_area");
-    assert!(!area.is_empty() && area.len() % 3 == 0);
+    assert!(!area.is_empty() && area.len().is_multiple_of(3));
     for (name, opt) in [("plain", ""), ("masked", "stencil-mask")] {
         let out = dir.join(name);
         run(&[
