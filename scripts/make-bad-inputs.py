@@ -14,7 +14,14 @@ def case(name, kind, expect, content, mode="w"):
     if content is not None:
         with open(path, mode) as f:
             f.write(content)
-    cases.append((name, kind, expect))
+    cases.append((name, kind, expect, None))
+
+
+def cli(name, args, expect, exit=None, memory=False):
+    """A command-line case: vergence ARGS (placeholders: {dir} the corpus,
+    {out} a scratch folder, {fifo} a FIFO, {big} a 17 MiB sparse file);
+    memory: run under an address-space limit (no GPU needed)."""
+    cases.append((name, "cli", expect, {"args": args, "exit": exit, "memory": memory}))
 
 
 def tri_bin(pos=None, idx=(0, 1, 2)):
@@ -215,13 +222,133 @@ case("plans/duplicate-names.toml", "plan", ["appears twice"],
 case("configs/unknown-key.toml", "config", ["colour"], 'opt = "multiview"\ncolour = 3\n')
 case("configs/bad-opt.toml", "config", ["warp"], 'opt = "multiview,warp"\n')
 
+# --- Hardening round 2 (issue 18) ------------------------------------------
+# Class 1, unbounded reads: devices, FIFOs, folders and oversized files are
+# refused before reading. {fifo}, {big} and {out} are made by the runner.
+cli("read-dev-zero", ["inspect", "/dev/zero"], ["/dev/zero", "a character device, not a regular file"], memory=True)
+cli("read-dev-urandom", ["inspect", "/dev/urandom"], ["/dev/urandom", "a character device"], memory=True)
+cli("read-fifo-scene", ["inspect", "{fifo}"], ["pipe.gltf", "a FIFO, not a regular file"], memory=True)
+cli("read-folder-scene", ["inspect", "{dir}/gltf"], ["a directory, not a regular file"], memory=True)
+cli("read-hmd-dev-zero", ["render", "--hmd", "/dev/zero", "--out", "{out}"], ["HMD profile /dev/zero", "a character device"], memory=True)
+cli("read-rig-dev-zero", ["render", "--rig", "/dev/zero", "--out", "{out}"], ["/dev/zero", "a character device"], memory=True)
+cli("read-config-fifo", ["render", "--config", "{fifo}", "--out", "{out}"], ["pipe.gltf", "a FIFO"], memory=True)
+cli("read-plan-dev-zero", ["bench", "--plan", "/dev/zero", "--out", "{out}"], ["/dev/zero", "a character device"], memory=True)
+cli("read-big-profile", ["render", "--hmd", "{big}", "--out", "{out}"], ["big.toml", "over the 16777216-byte limit"], memory=True)
+cli("read-compare-dev-zero", ["compare", "/dev/zero", "/dev/zero"], ["/dev/zero", "a character device"], memory=True)
+case("manifests/gltf-dev-zero.toml", "scene", ["/dev/zero", "a character device"],
+     'name = "x"\n[[gltf]]\nfile = "/dev/zero"\n')
+# Class 2, count overflow: grid products that wrap u64 are errors, checked
+# before anything is allocated.
+case("manifests/grid-wraps.toml", "scene", ["procedural[0]", "overflows a 64-bit count"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 1\ngrid = { count = [2147483648, 2147483648, 4], spacing = [0.0, 0.0, 0.0] }\n')
+case("manifests/grid-max.toml", "scene", ["procedural[0]", "overflows a 64-bit count"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 1\ngrid = { count = [4294967295, 4294967295, 4294967295], spacing = [0.0, 0.0, 0.0] }\n')
+case("manifests/grid-wraps-gltf.toml", "scene", ["gltf[0]", "over the limit of 20000000"],
+     'name = "x"\n[[gltf]]\nfile = "../gltf/index-out-of-range.gltf"\ngrid = { count = [65536, 65536, 4294967295], spacing = [0.0, 0.0, 0.0] }\n')
+case("manifests/instances-times-cells.toml", "scene", ["procedural[0]", "instance limit"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 50000000\ngrid = { count = [20000000, 1, 1], spacing = [0.0, 0.0, 0.0] }\n')
+# Class 4, CLI values outside their documented bounds.
+cli("cli-run-seconds-1e20", ["run", "--seconds", "1e20"], ["--seconds", "(0, 1000000]"], exit=2)
+cli("cli-run-seconds-nan", ["run", "--seconds", "NaN"], ["--seconds"], exit=2)
+cli("cli-run-frames-0", ["run", "--frames", "0"], ["--frames", "1..=1000000000"], exit=2)
+cli("cli-cull-frames-max", ["cull-bench", "--frames", "18446744073709551615"], ["--frames", "1..=1000000"], exit=2)
+cli("cli-cull-frames-1e12", ["cull-bench", "--frames", "1000000000000"], ["--frames", "1..=1000000"], exit=2)
+cli("cli-cull-threads", ["cull-bench", "--threads", "10000"], ["--threads", "1..=64"], exit=2)
+cli("cli-cull-leaf-size", ["cull-bench", "--leaf-size", "0"], ["--leaf-size"], exit=2)
+cli("cli-cull-near", ["cull-bench", "--near=-1"], ["--near"], exit=2)
+cli("cli-render-width", ["render", "--width", "100000", "--height", "10", "--out", "{out}"], ["--width", "1..=16384"], exit=2)
+cli("cli-render-pose", ["render", "--pose", "1e300,0,0,0,0,0", "--out", "{out}"], ["--pose", "within"], exit=2)
+cli("cli-tune-budget", ["tune", "--budget-ms", "inf"], ["--budget-ms"], exit=2)
+cli("cli-compare-ppd", ["compare", "a.png", "b.png", "--ppd", "1e9"], ["--ppd"], exit=2)
+# Class 5, dead or silently ignored options: used, or refused.
+cli("cli-lens-nan", ["cull-bench", "--lens-half-angle", "NaN"], ["--lens-half-angle", "(0, π/2)"], exit=2)
+cli("cli-lens-too-wide", ["cull-bench", "--lens-half-angle", "2"], ["--lens-half-angle"], exit=2)
+cli("opt-conflict-stereo", ["render", "--opt", "multiview,two-pass", "--out", "{out}"], ["--opt", "'two-pass' conflicts with 'multiview'", "stereo mode"])
+cli("opt-conflict-foveation", ["render", "--opt", "foveation=low,foveation=high", "--out", "{out}"], ["--opt", "foveation level"])
+cli("opt-conflict-cull", ["render", "--opt", "per-eye,superfrustum", "--out", "{out}"], ["--opt", "culling strategy"])
+case("configs/conflicting-msaa.toml", "config", ["'no-msaa' conflicts with 'msaa4'"], 'opt = "msaa4,no-msaa"\n')
+RIG_HEAD = '"head": {"position": [0, 1.7, 0], "orientation": [0, 0, 0, 1]}'
+RIG_VIEW = '{"pose": {"position": [%s, 1.7, 0], "orientation": [0, 0, 0, 1]}, "fov": {"left": -0.8, "right": 0.8, "up": 0.8, "down": -0.8}%s}'
+def rig(extra_top="", view_extra="", views=None):
+    vs = views if views is not None else [RIG_VIEW % ("-0.03", view_extra), RIG_VIEW % ("0.03", view_extra)]
+    return "{" + RIG_HEAD + ', "views": [' + ", ".join(vs) + "]" + extra_top + "}\n"
+case("rigs/unknown-key.json", "rig", ["not a rig file", "unknown field `extra`"], rig(extra_top=', "extra": 1'))
+case("rigs/unknown-view-key.json", "rig", ["unknown field `colour`"], rig(view_extra=', "colour": 3'))
+case("rigs/unknown-fov-key.json", "rig", ["unknown field `near`"],
+     rig(views=[(RIG_VIEW % ("0", "")).replace('"down": -0.8', '"down": -0.8, "near": 0.1')]))
+# Class 6, exact array shapes in profiles and rigs.
+case("hmd/orientation-five.toml", "hmd", ["malformed profile", "invalid type: string"],
+     hmd().replace("orientation = [0.0, 0.0, 0.0, 1.0]", 'orientation = [0, 0, 0, 1, "x"]', 1))
+case("hmd/orientation-extra-number.toml", "hmd", ["expected an array of 4 numbers, found 5 elements"],
+     hmd().replace("orientation = [0.0, 0.0, 0.0, 1.0]", "orientation = [0.0, 0.0, 0.0, 1.0, 0.0]", 1))
+case("hmd/position-four.toml", "hmd", ["expected an array of 3 numbers, found 4 elements"],
+     hmd().replace("position = [-0.03, 0.0, 0.0]", "position = [-0.03, 0.0, 0.0, 9.0]", 1))
+case("hmd/resolution-three.toml", "hmd", ["expected an array of 2 numbers, found 3 elements"],
+     hmd().replace("resolution = [640, 480]", "resolution = [640, 480, 3]", 1))
+case("hmd/hidden-area-point-three.toml", "hmd", ["point 1 has 3 numbers"],
+     hmd().replace("resolution = [640, 480]\n", "resolution = [640, 480]\nhidden_area = [[0.0, 0.0], [0.1, 0.0, 0.5], [0.0, 0.1]]\n", 1))
+case("rigs/position-four.json", "rig", ["expected an array of 3 numbers, found 4 elements"],
+     rig().replace('"position": [0, 1.7, 0]', '"position": [0, 1.7, 0, 1]'))
+# Class 7, rig hidden areas: what a rig file may carry.
+case("rigs/hidden-area-one-view.json", "rig", ["every view has a hidden_area or none"],
+     rig(views=[RIG_VIEW % ("-0.03", ', "hidden_area": [[0, 0], [0.1, 0], [0, 0.1]]'), RIG_VIEW % ("0.03", "")]))
+case("rigs/hidden-area-not-triangles.json", "rig", ["view 0: hidden_area has 2 points"],
+     rig(view_extra=', "hidden_area": [[0, 0], [0.1, 0]]'))
+case("rigs/no-views.json", "rig", ["needs 1 to 4 views, found 0"], rig(views=[]))
+# Class 8, never write over an input (the heat map).
+cli("compare-heatmap-over-reference", ["compare", "{dir}/images/t.flip.png", "{dir}/images/t.png"],
+    ["t.flip.png", "never writes over an input"], memory=True)
+cli("compare-heatmap-is-test", ["compare", "{dir}/images/t.flip.png", "{dir}/images/t.png", "--heatmap", "{dir}/images/t.png"],
+    ["t.png", "never writes over an input"], memory=True)
+cli("compare-heatmap-is-folder", ["compare", "{dir}/images/t.flip.png", "{dir}/images/t.png", "--heatmap", "{dir}/images"],
+    ["images", "is a directory"], memory=True)
+case("images/t.png", None, None, png(4, 4), "wb")
+case("images/t.flip.png", None, None, png(4, 4), "wb")
+# Class 11, errors that name their cause.
+case("manifests/procedural-zero.toml", "scene", ["procedural[0]: instances = 0 must be within"],
+     'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 0\n')
+case("hmd/narrow.toml", None, None, hmd(l="-0.005").replace("right = 0.8", "right = 0.005").replace("640", "4096").replace("480]", "4096]"))
+case("plans/narrow-fov.toml", "plan", ["HMD profile", "narrow.toml", "pixels per degree", "2^34"],
+     PLAN.format(frames=2, opt="two-pass").replace('hmds = ["monado-sim"]', 'hmds = ["tests/bad_inputs/hmd/narrow.toml"]'))
+# Class 12, the whole plan and every output name checked up front.
+case("plans/second-scene-missing.toml", "plan", ["scene no-such-scene.glb", "No such file"],
+     PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "no-such-scene.glb"]'))
+case("plans/tiny-scale.toml", "plan", ["scale 0.000000001 gives 0x0 px per eye"],
+     PLAN.format(frames=2, opt="two-pass") .replace("frames = 2\n", "frames = 2\nscales = [1.0, 1e-9]\n"))
+case("plans/long-name.toml", "plan", ["must be at most 64 characters"],
+     PLAN.format(frames=2, opt="two-pass").replace('name = "a"', 'name = "' + "n" * 300 + '"'))
+case("plans/bad-factory.toml", "plan", ["scene factory:0", "1..=50000000"],
+     PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "factory:0"]'))
+case("plans/long-scene-path.toml", "plan", ["the image folder name would be", "over 200"],
+     PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "tests/bad_inputs/' + "d/" * 0 + "cases.toml" + "/." * 0 + '"]').replace("tests/bad_inputs/cases.toml", "tests/bad_inputs/./" + "./" * 100 + "cases.toml"))
+cli("cull-strategies-twice", ["cull-bench", "--strategies", "per-eye,per-eye", "--frames", "1", "--instances", "10"], ["--strategies lists per-eye twice"])
+cli("tune-out-is-its-folder", ["tune", "--budget-ms", "10", "--out", "{out}/X.bench"], ["--out", "both the config file and its measurement folder"])
+cli("bench-out-is-a-file", ["bench", "--plan", "smoke", "--out", "{dir}/cases.toml"], ["--out", "is a file"])
+# Class 13, minor.
+cli("opt-mffr-tiny", ["render", "--opt", "mffr=1e-46", "--out", "{out}"], ["mffr=1e-46", "[0.1, 1000000]"])
+case("configs/mffr-tiny.toml", "config", ["mffr=1e-46"], 'opt = "mffr=1e-46"\n')
+case("hmd/refresh-tiny.toml", "hmd", ["refresh_hz = 1e-300 must be in [1, 1000]"], hmd(refresh="1e-300"))
+case("plans/newline-name.toml", "plan", ["without control characters"],
+     PLAN.format(frames=2, opt="two-pass").replace('name = "a"', 'name = "a\\nb"'))
+case("glb/header-shorter.glb", "scene", ["header declares", "bytes but the file has"],
+     glb(good_json, tri_bin()) + b"trailing bytes past the declared length", "wb")
+
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"
             "# them). Written by scripts/make-bad-inputs.py.\n"
             "# kind: scene = vergence inspect FILE; hmd = vergence render --hmd FILE;\n"
-            "# plan = vergence bench --plan FILE; config = vergence render --config FILE.\n")
-    for name, kind, expect in cases:
+            "# plan = vergence bench --plan FILE; config = vergence render --config FILE;\n"
+            "# rig = vergence render --rig FILE; cli = vergence ARGS (file is only a name).\n"
+            "# exit: the exit code required (else any failure but a panic); memory: run\n"
+            "# under an address-space limit. Every case must end within 10 s.\n")
+    for name, kind, expect, extra in cases:
         if kind is None:
             continue
-        f.write(f'\n[[case]]\nfile = "{name}"\nkind = "{kind}"\nexpect = {json.dumps(expect)}\n')
+        f.write(f'\n[[case]]\nfile = "{name}"\nkind = "{kind}"\nexpect = {json.dumps(expect, ensure_ascii=False)}\n')
+        if extra:
+            f.write(f'args = {json.dumps(extra["args"])}\n')
+            if extra["exit"] is not None:
+                f.write(f'exit = {extra["exit"]}\n')
+            if extra["memory"]:
+                f.write("memory = true\n")
 print(sum(1 for c in cases if c[1]), "cases")

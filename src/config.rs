@@ -139,6 +139,30 @@ pub struct Mffr {
     pub no_split: bool,
 }
 
+/// Nearest far-field split `mffr=D` accepts (metres; nearer would leave the
+/// near field empty and draw everything flat).
+pub const MIN_MFFR_SPLIT_M: f64 = 0.1;
+/// Farthest far-field split `mffr=D` accepts (metres).
+pub const MAX_MFFR_SPLIT_M: f64 = 1e6;
+
+/// What an `--opt` entry sets and to what, for finding two entries of one
+/// list that disagree; None for entries that only switch something on.
+fn opt_slot(item: &str, cull_names: &[&str]) -> Option<(&'static str, String)> {
+    let value = |prefix: &str| item[prefix.len()..].trim().to_string();
+    Some(match item {
+        "multiview" | "two-pass" => ("stereo mode", item.to_string()),
+        "msaa" | "msaa4" => ("MSAA sample count", "4".into()),
+        "no-msaa" => ("MSAA sample count", "1".into()),
+        "foveation" => ("foveation level", "medium".into()),
+        f if f.starts_with("foveation=") => ("foveation level", value("foveation=")),
+        g if g.starts_with("gaze=") => ("gaze centre", value("gaze=")),
+        r if r.starts_with("rdm=") => ("radial density masking radius", value("rdm=")),
+        m if m.starts_with("mffr=") => ("far-field split distance", value("mffr=")),
+        c if cull_names.contains(&c) => ("culling strategy", c.to_string()),
+        _ => return None,
+    })
+}
+
 /// Default radial-density-masking radius (NDC).
 pub const DEFAULT_RDM_RADIUS: f32 = 0.55;
 
@@ -189,9 +213,29 @@ impl RenderConfig {
     }
 
     /// Applies a comma-separated `--opt` list (e.g. `multiview,superfrustum`).
-    /// Names it does not know are an error naming them.
+    /// Names it does not know are an error naming them, and so are two
+    /// entries of one list that set the same thing differently
+    /// (`multiview,two-pass`, `foveation=low,foveation=high`, two culling
+    /// strategies); repeating an entry is allowed. A later list (`--opt`
+    /// after a `--config` file's) still overrides an earlier one.
     pub fn apply_opts(&mut self, list: &str, cull_names: &[&str]) -> Result<()> {
+        // (what an entry sets, the value it sets, the entry), per list.
+        let mut claimed: Vec<(&'static str, String, &str)> = Vec::new();
         for item in list.split(',').map(str::trim).filter(|s| !s.is_empty()) {
+            if let Some((slot, value)) = opt_slot(item, cull_names) {
+                match claimed.iter().find(|(s, ..)| *s == slot) {
+                    Some((_, v, prev)) if *v != value => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!(
+                                "'{item}' conflicts with '{prev}' (both set the {slot}); keep one"
+                            ),
+                        ))
+                    }
+                    Some(_) => {}
+                    None => claimed.push((slot, value, item)),
+                }
+            }
             match item {
                 "multiview" => self.stereo = StereoMode::Multiview,
                 "two-pass" => self.stereo = StereoMode::TwoPass,
@@ -216,7 +260,7 @@ impl RenderConfig {
                         .depth_shift = true;
                 }
                 m if m.starts_with("mffr=") => match m["mffr=".len()..].parse::<f64>() {
-                    Ok(v) if v.is_finite() && v > 0.0 => {
+                    Ok(v) if v.is_finite() && (MIN_MFFR_SPLIT_M..=MAX_MFFR_SPLIT_M).contains(&v) => {
                         self.mffr
                             .get_or_insert_with(Mffr::default)
                             .split = Some(v);
@@ -224,7 +268,7 @@ impl RenderConfig {
                     _ => {
                         return Err(Error::config(
                             "--opt",
-                            format!("'{m}': expected mffr=D with D > 0 metres"),
+                            format!("'{m}': expected mffr=D with D in [{MIN_MFFR_SPLIT_M}, {MAX_MFFR_SPLIT_M}] metres"),
                         ))
                     }
                 },
@@ -295,7 +339,36 @@ mod tests {
         assert_eq!(c.gaze, [0.25, -0.5]);
         c.apply_opts("rdm=0.4,rdm-nofill", &["none"]).unwrap();
         assert_eq!((c.rdm, c.rdm_fill), (Some(0.4), false));
+        for (list, says) in [
+            (
+                "multiview,two-pass",
+                "'two-pass' conflicts with 'multiview'",
+            ),
+            ("msaa4,no-msaa", "MSAA sample count"),
+            ("foveation=low,foveation=high", "foveation level"),
+            ("none,per-eye", "culling strategy"),
+            ("mffr=2,mffr=3", "far-field split"),
+        ] {
+            let e = RenderConfig::default()
+                .apply_opts(list, &["none", "per-eye"])
+                .unwrap_err()
+                .to_string();
+            assert!(e.contains("--opt") && e.contains(says), "{list}: {e}");
+        }
+        let mut c = RenderConfig::default();
+        c.apply_opts(
+            "foveation,foveation=medium,msaa,msaa4,two-pass,two-pass",
+            &["none"],
+        )
+        .unwrap();
+        assert_eq!(
+            (c.foveation, c.msaa, c.stereo),
+            (Level::Medium, 4, StereoMode::TwoPass)
+        );
+        c.apply_opts("multiview", &["none"]).unwrap();
+        assert_eq!(c.stereo, StereoMode::Multiview, "a later list overrides");
         for bad in [
+            "mffr=1e-46",
             "foveation=extreme",
             "gaze=2:0",
             "gaze=0.1",

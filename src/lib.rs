@@ -5,7 +5,7 @@
 //! `main` and `bench` on top; `targets` (where frames go and the loops that
 //! drive them); `xr` (the OpenXR wrapper); `render` (passes, the frame
 //! driver); `scene` (content), `gpu` (Vulkan), `config`; `cull` and `view`
-//! (pure math); `stats`, `quit` and `error` at the bottom.
+//! (pure math); `stats`, `quit`, `count`, `fsio` and `error` at the bottom.
 
 pub mod error;
 pub mod scene;
@@ -13,8 +13,11 @@ pub mod view;
 
 pub use error::{Error, Result};
 pub mod bench;
+pub mod cli;
 pub mod config;
+pub mod count;
 pub mod cull;
+pub mod fsio;
 pub mod gpu;
 pub mod interact;
 pub mod quit;

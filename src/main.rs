@@ -51,11 +51,11 @@ enum Command {
     /// frame budget with the least error (or the fastest under an error cap);
     /// writes it as a config file for `run --config`.
     Tune {
-        /// Frame budget in ms (frame time p95 must fit).
-        #[arg(long)]
+        /// Frame budget in ms (frame time p95 must fit; (0, 1e6]).
+        #[arg(long, value_parser = vergence::cli::parse_positive)]
         budget_ms: f64,
         /// Largest acceptable FLIP mean; then the fastest stack under it wins.
-        #[arg(long)]
+        #[arg(long, value_parser = vergence::cli::parse_non_negative)]
         max_flip: Option<f64>,
         /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
         #[arg(long, default_value = "factory")]
@@ -79,8 +79,8 @@ enum Command {
         reference: PathBuf,
         /// Test image, same size.
         test: PathBuf,
-        /// Pixels per degree for FLIP (default: a desktop monitor's 67).
-        #[arg(long)]
+        /// Pixels per degree for FLIP (default: a desktop monitor's 67; [0.01, 1000)).
+        #[arg(long, value_parser = vergence::cli::parse_ppd)]
         ppd: Option<f32>,
         /// Print JSON instead of text.
         #[arg(long)]
@@ -106,7 +106,7 @@ struct RenderArgs {
     #[arg(long, default_value = DEFAULT_PROFILE)]
     hmd: String,
     /// Head pose: x,y,z (metres), yaw, pitch, roll (degrees).
-    #[arg(long, value_parser = parse_pose, allow_hyphen_values = true, conflicts_with = "rig")]
+    #[arg(long, value_parser = vergence::cli::parse_pose, allow_hyphen_values = true, conflicts_with = "rig")]
     pose: Option<Pose>,
     /// Render exactly the views in a rig.json (as `run --capture` writes it)
     /// instead of the profile's eyes at --pose.
@@ -136,12 +136,14 @@ struct FrameOpts {
     /// 1 waits for each frame before starting the next).
     #[arg(long, default_value_t = 2)]
     frames_in_flight: u32,
-    /// Per-eye width in pixels (default: the runtime's recommended size,
-    /// else the profile's).
-    #[arg(long, requires = "height")]
+    /// Per-eye width in pixels, 1 to 16384 (default: the runtime's
+    /// recommended size, else the profile's).
+    #[arg(long, requires = "height",
+          value_parser = clap::value_parser!(u32).range(1..=vergence::cli::MAX_EYE_PIXELS as i64))]
     width: Option<u32>,
-    /// Per-eye height in pixels.
-    #[arg(long, requires = "width")]
+    /// Per-eye height in pixels, 1 to 16384.
+    #[arg(long, requires = "width",
+          value_parser = clap::value_parser!(u32).range(1..=vergence::cli::MAX_EYE_PIXELS as i64))]
     height: Option<u32>,
     /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
     /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
@@ -191,11 +193,11 @@ struct RunCli {
     /// openxr: OpenXR or an error; headless: no OpenXR.
     #[arg(long, value_enum, default_value_t = XrMode::Auto)]
     xr: XrMode,
-    /// Stop after N submitted frames.
-    #[arg(long)]
+    /// Stop after N submitted frames (1 to 1,000,000,000).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..=vergence::cli::MAX_RUN_FRAMES))]
     frames: Option<u64>,
-    /// Stop after T seconds.
-    #[arg(long)]
+    /// Stop after T seconds ((0, 1e6]).
+    #[arg(long, value_parser = vergence::cli::parse_seconds)]
     seconds: Option<f64>,
     /// Write per-frame statistics as JSON.
     #[arg(long)]
@@ -264,32 +266,6 @@ fn parse_move_direction(s: &str) -> Result<MoveDirection, String> {
     }
 }
 
-fn parse_pose(s: &str) -> Result<Pose, String> {
-    let v: Vec<f64> = s
-        .split(',')
-        .map(|p| {
-            p.trim()
-                .parse::<f64>()
-                .map_err(|_| format!("'{p}' is not a number"))
-        })
-        .collect::<Result<_, _>>()?;
-    if v.len() != 6 {
-        return Err(format!(
-            "expected 6 numbers x,y,z,yaw,pitch,roll, got {}",
-            v.len()
-        ));
-    }
-    if v.iter().any(|x| !x.is_finite()) {
-        return Err("pose values must be finite".into());
-    }
-    Ok(Pose::from_euler_deg(
-        DVec3::new(v[0], v[1], v[2]),
-        v[3],
-        v[4],
-        v[5],
-    ))
-}
-
 /// Default head pose: standing at the hall's entrance, looking in.
 fn default_pose() -> Pose {
     Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0)
@@ -299,19 +275,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => {
             let config = a.frame.config()?;
-            let rig = match &a.rig {
-                Some(path) => {
-                    let text = std::fs::read_to_string(path)
-                        .with_context(|| format!("{}: cannot read", path.display()))?;
-                    let file: vergence::view::RigFile = serde_json::from_str(&text)
-                        .with_context(|| format!("{}: not a rig file", path.display()))?;
-                    Some(
-                        file.rig()
-                            .map_err(|m| anyhow::anyhow!("{}: {m}", path.display()))?,
-                    )
-                }
-                None => None,
-            };
+            let rig = a
+                .rig
+                .as_deref()
+                .map(vergence::view::RigFile::load)
+                .transpose()?;
             let job = RenderJob {
                 scene: a.scene,
                 hmd: a.hmd,
@@ -451,11 +419,17 @@ fn compare(
 ) -> anyhow::Result<()> {
     use vergence::bench::metrics;
     let open = |p: &std::path::Path| -> anyhow::Result<image::RgbaImage> {
-        Ok(image::open(p)
-            .map_err(|e| anyhow::anyhow!("{}: cannot read image: {e}", p.display()))?
-            .to_rgba8())
+        let bytes = vergence::fsio::read_bounded(p, vergence::fsio::MAX_IMAGE_FILE_BYTES)
+            .map_err(|e| anyhow::anyhow!("{}: cannot read image: {e}", p.display()))?;
+        vergence::scene::image_decode::decode_rgba8(&bytes)
+            .map_err(|e| anyhow::anyhow!("{}: cannot decode image: {e}", p.display()))
     };
     let (a, b) = (open(reference)?, open(test)?);
+    // Where the heat map goes, checked before any work: never over an
+    // input (the output helper refuses any file this process read).
+    let heat = heatmap.unwrap_or_else(|| test.with_extension("flip.png"));
+    vergence::fsio::prepare_output(&heat)
+        .map_err(|e| anyhow::anyhow!("{e} (the heat map; choose another --heatmap)"))?;
     if a.dimensions() != b.dimensions() {
         anyhow::bail!(
             "{} is {}x{} but {} is {}x{}; compare needs equal sizes",
@@ -468,16 +442,10 @@ fn compare(
         );
     }
     let ppd = ppd.unwrap_or(metrics::DESKTOP_PPD);
-    if !(ppd.is_finite() && ppd > 0.0 && ppd < 1000.0) {
-        anyhow::bail!("invalid --ppd: {ppd} must be in (0, 1000)");
-    }
     let f = metrics::flip(&a, &b, ppd)?;
     let psnr = metrics::psnr(&a, &b);
     let ssim = metrics::ssim(&a, &b);
-    let heat = heatmap.unwrap_or_else(|| test.with_extension("flip.png"));
-    f.heatmap()
-        .save(&heat)
-        .map_err(|e| anyhow::anyhow!("{}: cannot write: {e}", heat.display()))?;
+    headless::save_png(&f.heatmap(), &heat)?;
     if json {
         println!(
             "{}",
@@ -525,6 +493,13 @@ fn run_bench(
     bar.finish_and_clear();
     let results = results?;
     vergence::bench::report::write_all(out, &results)?;
+    let finished: usize = results.groups.iter().map(|g| g.results.len()).sum();
+    if let Some(e) = &results.error {
+        anyhow::bail!(
+            "{e} (wrote the {finished} finished configurations to {})",
+            out.display()
+        );
+    }
     if !results.complete {
         anyhow::bail!(
             "interrupted: wrote the {} finished configurations to {}",
@@ -558,6 +533,11 @@ fn bench(
     if let Some(n) = frames {
         plan.frames = n;
         plan.error_frames = plan.error_frames.min(n);
+    }
+    plan.check_inputs()
+        .map_err(|m| anyhow::anyhow!("invalid --plan: {m}"))?;
+    if out.is_file() {
+        anyhow::bail!("invalid --out: {} is a file, not a folder", out.display());
     }
     let results = run_bench(&plan, out)?;
     for g in &results.groups {
@@ -594,21 +574,28 @@ fn tune(
     out: &std::path::Path,
 ) -> anyhow::Result<()> {
     use vergence::bench::tune;
-    if !(goal.budget_ms.is_finite() && goal.budget_ms > 0.0) {
-        anyhow::bail!(
-            "invalid --budget-ms: {} must be a positive number",
-            goal.budget_ms
-        );
-    }
-    if let Some(m) = goal.max_flip {
-        if !(m.is_finite() && m >= 0.0) {
-            anyhow::bail!("invalid --max-flip: {m} must be a number ≥ 0");
-        }
-    }
     let plan = tune::plan(scene, hmd, scale, frames);
     plan.validate()
         .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
+    plan.check_inputs()
+        .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
     let dir = out.with_extension("bench");
+    // Every output name up front, before anything is measured.
+    if dir == out {
+        anyhow::bail!(
+            "invalid --out: {} would be both the config file and its measurement folder {}; use another extension (e.g. .toml)",
+            out.display(),
+            dir.display()
+        );
+    }
+    vergence::fsio::prepare_output(out)?;
+    if dir.is_file() {
+        anyhow::bail!(
+            "invalid --out: the measurement folder {} of {} is a file",
+            dir.display(),
+            out.display()
+        );
+    }
     let results = run_bench(&plan, &dir)?;
     let choice = tune::choose(&results, &goal)?;
     for line in &choice.why {
@@ -624,8 +611,7 @@ fn tune(
             "the least FLIP error within the budget"
         }
     );
-    std::fs::write(out, tune::config_file(&choice, &goal, &results))
-        .with_context(|| format!("{}: cannot write", out.display()))?;
+    vergence::fsio::write_bytes(out, tune::config_file(&choice, &goal, &results).as_bytes())?;
     println!(
         "wrote {} (use: vergence run --config {}); measurements in {}",
         out.display(),
@@ -717,11 +703,19 @@ trait RootChain {
 }
 
 impl RootChain for anyhow::Error {
+    /// The causes after the top-level context, joined with ": ", each
+    /// left out when the one before already ends with its text (an error
+    /// whose message includes its source: "Is a directory (os error 21)"
+    /// once, not twice). Line breaks become spaces: one error, one line.
     fn root_cause_chain(&self) -> String {
-        self.chain()
-            .skip(1)
-            .map(|e| e.to_string())
-            .collect::<Vec<_>>()
-            .join(": ")
+        let mut parts: Vec<String> = Vec::new();
+        for e in self.chain().skip(1) {
+            let text = e.to_string();
+            if parts.last().is_some_and(|p| p.ends_with(&text)) {
+                continue;
+            }
+            parts.push(text);
+        }
+        parts.join(": ").replace(['\n', '\r'], " ")
     }
 }

@@ -34,7 +34,35 @@ pub struct FlipResult {
 fn rgb(img: &image::RgbaImage) -> Result<flip_rs::RgbImage<u8>> {
     let px: Vec<u8> = img.pixels().flat_map(|p| [p[0], p[1], p[2]]).collect();
     flip_rs::RgbImage::new(img.width() as usize, img.height() as usize, px)
-        .map_err(|e| Error::config("image", format!("{e:?}")))
+        .map_err(|e| Error::config("image", format!("{}x{} px: {e}", img.width(), img.height())))
+}
+
+/// Checks that FLIP can evaluate a `width`×`height` image at `ppd`
+/// (flip-rs's limits: kernels of at most 8193 taps, at most 2^34 filter
+/// additions), so a plan is refused before measuring rather than after.
+pub fn check_flip(width: u32, height: u32, ppd: f32) -> std::result::Result<(), String> {
+    use std::f32::consts::PI;
+    if !(ppd.is_finite() && ppd > 0.0) {
+        return Err(format!(
+            "FLIP needs a positive pixels-per-degree, got {ppd}"
+        ));
+    }
+    // flip-rs filters.rs: the spatial and feature filter radii.
+    let radius = (3.0 * (0.04 / (2.0 * (PI * PI))).sqrt() * ppd).ceil();
+    let feature = (3.0 * 0.5 * 0.082 * ppd).ceil();
+    if radius.max(feature) > 4096.0 {
+        return Err(format!(
+            "FLIP at {ppd:.0} pixels per degree needs filter kernels over its 8193-tap limit (a narrower FOV or a larger image raises it)"
+        ));
+    }
+    let work = (width as u64 * height as u64)
+        .saturating_mul(16 * (2 * radius as u64 + 1) + 14 * (2 * feature as u64 + 1));
+    if work > 1 << 34 {
+        return Err(format!(
+            "FLIP of {width}x{height} px at {ppd:.0} pixels per degree needs {work} filter additions, over its 2^34 limit"
+        ));
+    }
+    Ok(())
 }
 
 /// LDR FLIP between a reference and a test image of the same size (sRGB).
@@ -49,13 +77,13 @@ pub fn flip(reference: &image::RgbaImage, test: &image::RgbaImage, ppd: f32) -> 
             ),
         ));
     }
+    let (w, h) = reference.dimensions();
+    check_flip(w, h, ppd).map_err(|m| Error::config("FLIP", m))?;
     let map = flip_rs::ldr_flip(&rgb(reference)?, &rgb(test)?, ppd)
-        .map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
+        .map_err(|e| Error::config("FLIP", format!("{w}x{h} px at {ppd} ppd: {e}")))?;
     let stats = map.statistics();
-    let p99 = map
-        .percentile(0.99, flip_rs::Weighting::Unweighted)
-        .map_err(|e| Error::config("FLIP", format!("{e:?}")))?;
     let errors = map.pixels().to_vec();
+    let p99 = percentile_99(&errors);
     let max = errors.iter().copied().fold(0.0f32, f32::max);
     Ok(FlipResult {
         mean: stats.mean,
@@ -65,6 +93,19 @@ pub fn flip(reference: &image::RgbaImage, test: &image::RgbaImage, ppd: f32) -> 
         width: reference.width(),
         height: reference.height(),
     })
+}
+
+/// The 99th percentile of `values` by nearest rank (the value at index
+/// ⌈0.99·n⌉, clamped to the last): defined for every non-empty image,
+/// where flip-rs's unweighted percentile refuses images under 100 pixels.
+pub fn percentile_99(values: &[f32]) -> f32 {
+    if values.is_empty() {
+        return 0.0;
+    }
+    let mut v = values.to_vec();
+    v.sort_by(f32::total_cmp);
+    let i = ((v.len() as f64 * 0.99).ceil() as usize).min(v.len() - 1);
+    v[i]
 }
 
 impl FlipResult {

@@ -80,6 +80,12 @@ fn default_reference() -> String {
 
 /// Largest per-eye dimension a scale may produce.
 pub const MAX_EYE_PIXELS: u32 = 8192;
+/// Smallest per-eye dimension a scale may produce.
+pub const MIN_EYE_PIXELS: u32 = 16;
+/// Longest image folder name of a group (scene, profile and scale).
+pub const MAX_GROUP_DIR_BYTES: usize = 200;
+/// Longest configuration name (it becomes part of image file names).
+pub const MAX_CONFIG_NAME_CHARS: usize = 64;
 
 /// The shipped plans, usable by name from any folder.
 pub const BUILTIN: &[(&str, &str)] = &[
@@ -117,7 +123,7 @@ impl Plan {
 
     /// Reads and validates a plan file.
     pub fn load(path: &Path) -> Result<Plan> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
             .map_err(|e| Error::config("--plan", format!("{}: {e}", path.display())))?;
         Plan::parse(&path.display().to_string(), &text)
     }
@@ -172,6 +178,14 @@ impl Plan {
                     c.name
                 ));
             }
+            if c.name.chars().count() > MAX_CONFIG_NAME_CHARS
+                || c.name.chars().any(char::is_control)
+            {
+                return Err(format!(
+                    "config name {:?} must be at most {MAX_CONFIG_NAME_CHARS} characters without control characters (it names image files and report rows)",
+                    c.name.chars().take(80).collect::<String>()
+                ));
+            }
             if c.name == "reference" {
                 return Err("config name 'reference' is reserved for the image reference".into());
             }
@@ -192,6 +206,56 @@ impl Plan {
         if let Some(b) = &self.baseline {
             if !names.contains(b.as_str()) {
                 return Err(format!("baseline '{b}' is not a config name"));
+            }
+        }
+        Ok(())
+    }
+
+    /// Checks what [`Plan::validate`] cannot see from the text alone,
+    /// before anything is measured: every scene names a loadable source
+    /// ([`crate::scene::Scene::check_spec`]), every HMD profile loads, and
+    /// every profile × scale gives a per-eye size within
+    /// [`MIN_EYE_PIXELS`]..=[`MAX_EYE_PIXELS`] that FLIP can evaluate at
+    /// the profile's pixels per degree. Errors name the scene or profile.
+    pub fn check_inputs(&self) -> std::result::Result<(), String> {
+        for s in &self.scenes {
+            crate::scene::Scene::check_spec(s).map_err(|e| format!("scene {s}: {e}"))?;
+        }
+        for h in &self.hmds {
+            let p = crate::view::profile::HmdProfile::load(h).map_err(|e| e.to_string())?;
+            if p.views.len() != 2 {
+                return Err(format!(
+                    "HMD profile {h}: the renderer needs exactly 2 views, it has {}",
+                    p.views.len()
+                ));
+            }
+            for &scale in &self.scales {
+                for scene in &self.scenes {
+                    // The group's image folder name (runner.rs), one path
+                    // component: it must fit the usual 255-byte limit.
+                    let group = format!("{}-{}-{}", sanitize(scene), sanitize(&p.name), scale);
+                    if group.len() > MAX_GROUP_DIR_BYTES {
+                        return Err(format!(
+                            "scene {scene} with HMD profile {h}: the image folder name would be {} bytes, over {MAX_GROUP_DIR_BYTES}; use a shorter path or profile name",
+                            group.len()
+                        ));
+                    }
+                }
+                let [w, h_px] = p.views[0].resolution;
+                let px = |v: u32| (v as f64 * scale).round();
+                let (sw, sh) = (px(w), px(h_px));
+                let range = MIN_EYE_PIXELS as f64..=MAX_EYE_PIXELS as f64;
+                if !(range.contains(&sw) && range.contains(&sh)) {
+                    return Err(format!(
+                        "HMD profile {h}: scale {scale} gives {sw}x{sh} px per eye (from {w}x{h_px}); each side must be within {MIN_EYE_PIXELS}..={MAX_EYE_PIXELS}"
+                    ));
+                }
+                let fov = &p.views[0].fov;
+                let ppd = (super::metrics::headset_ppd(sw as u32, fov.left, fov.right) as f64)
+                    .max(super::runner::MIN_FLIP_PPD);
+                super::metrics::check_flip(sw as u32, sh as u32, ppd as f32).map_err(|m| {
+                    format!("HMD profile {h} at scale {scale} ({sw}x{sh} px, {ppd:.0} pixels per degree): {m}")
+                })?;
             }
         }
         Ok(())

@@ -3,7 +3,7 @@
 
 use super::runner::{BenchResults, ConfigResult};
 use super::tables::{facts, group_rows, group_title, pass_rows, target_line};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
@@ -15,18 +15,9 @@ pub fn write_all(dir: &Path, results: &BenchResults) -> Result<()> {
     write_text(&dir.join("report.html"), &super::html::html(results))
 }
 
-/// Writes `text` to `path`.
+/// Writes `text` to `path` ([`crate::fsio::write_output`]).
 pub fn write_text(path: &Path, text: &str) -> Result<()> {
-    if let Some(d) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(d).map_err(|e| Error::Output {
-            path: d.to_path_buf(),
-            message: e.to_string(),
-        })?;
-    }
-    std::fs::write(path, text).map_err(|e| Error::Output {
-        path: path.to_path_buf(),
-        message: e.to_string(),
-    })
+    crate::fsio::write_bytes(path, text.as_bytes())
 }
 
 /// CSV header of [`csv`].

@@ -14,7 +14,7 @@ use crate::rss::process_rss_bytes;
 use crate::scene::Scene;
 use crate::stats::Summary;
 use crate::targets::headless::load_scene;
-use crate::view::lens::mask_image;
+use crate::view::lens::mask_image_until;
 use crate::view::profile::HmdProfile;
 use crate::view::StereoRig;
 use ash::vk;
@@ -203,8 +203,13 @@ pub struct BenchResults {
     pub command: String,
     /// Unix time the run started.
     pub started_unix: u64,
-    /// Whether every group and configuration finished (false after Ctrl-C).
+    /// Whether every group and configuration finished (false after Ctrl-C
+    /// or an error).
     pub complete: bool,
+    /// The error that stopped the run early, naming the group (None when
+    /// it finished or was interrupted); what finished before it is kept.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub error: Option<String>,
     /// Validation messages seen (0 without validation).
     pub validation_messages: usize,
     /// The groups.
@@ -223,7 +228,10 @@ fn path_rigs(plan: &Plan, scene: &Scene, profile: &HmdProfile) -> Vec<StereoRig>
 /// Per-eye resolution of `profile` at `scale` (at least 16 px, at most
 /// [`super::plan::MAX_EYE_PIXELS`]).
 pub fn scaled_extent(profile: &HmdProfile, scale: f64) -> vk::Extent2D {
-    let px = |v: u32| ((v as f64 * scale).round() as u32).clamp(16, super::plan::MAX_EYE_PIXELS);
+    let px = |v: u32| {
+        ((v as f64 * scale).round() as u32)
+            .clamp(super::plan::MIN_EYE_PIXELS, super::plan::MAX_EYE_PIXELS)
+    };
     vk::Extent2D {
         width: px(profile.views[0].resolution[0]),
         height: px(profile.views[0].resolution[1]),
@@ -259,15 +267,35 @@ pub fn run_plan(
         ..BenchResults::default()
     };
     let total = plan.scenes.len() * plan.hmds.len() * plan.scales.len() * (plan.configs.len() + 1);
-    let mut done = 0;
     let profiles = plan
         .hmds
         .iter()
         .map(|h| crate::targets::headless::load_stereo_profile(h))
         .collect::<Result<Vec<_>>>()?;
+    match run_groups(ctx, plan, &profiles, out, total, progress, &mut results) {
+        Ok(finished) => results.complete = finished,
+        // Keep what finished: the caller writes it, then reports the error.
+        Err(e) => results.error = Some(e),
+    }
+    results.validation_messages = ctx.validation_messages();
+    Ok(results)
+}
+
+/// The groups of [`run_plan`], appended to `results` as they finish;
+/// false when a quit was requested. An error names its group.
+fn run_groups(
+    ctx: &Arc<Context>,
+    plan: &Plan,
+    profiles: &[HmdProfile],
+    out: &Path,
+    total: usize,
+    progress: Progress,
+    results: &mut BenchResults,
+) -> std::result::Result<bool, String> {
+    let mut done = 0;
     for scene_spec in &plan.scenes {
-        let (scene, _) = load_scene(scene_spec)?;
-        for profile in &profiles {
+        let (scene, _) = load_scene(scene_spec).map_err(|e| format!("scene {scene_spec}: {e}"))?;
+        for profile in profiles {
             for &scale in &plan.scales {
                 let mut group = Group {
                     scene: scene_spec.clone(),
@@ -295,18 +323,23 @@ pub fn run_plan(
                         done += 1;
                         progress(done, total, label);
                     },
-                )?;
+                );
+                let label = format!(
+                    "scene {scene_spec}, HMD profile {}, scale {scale}",
+                    profile.name
+                );
+                // A group cut short is reported with the configurations
+                // it finished.
                 results.groups.push(group);
-                if !finished {
-                    results.validation_messages = ctx.validation_messages();
-                    return Ok(results);
+                match finished {
+                    Ok(true) => {}
+                    Ok(false) => return Ok(false),
+                    Err(e) => return Err(format!("{label}: {e}")),
                 }
             }
         }
     }
-    results.complete = true;
-    results.validation_messages = ctx.validation_messages();
-    Ok(results)
+    Ok(true)
 }
 
 /// Reference images of one group: per compared frame, both eyes.
@@ -325,7 +358,9 @@ fn run_group(
 ) -> Result<bool> {
     let extent = scaled_extent(profile, scale);
     let rigs = path_rigs(plan, scene, profile);
-    let masks = visible_masks(&rigs[0], extent);
+    let Some(masks) = visible_masks(&rigs[0], extent) else {
+        return Ok(false);
+    };
     let ppd = (metrics::headset_ppd(
         extent.width,
         profile.views[0].fov.left,
@@ -425,14 +460,20 @@ struct Comparison<'a> {
 }
 
 /// Per eye, which pixels the lens hides (the profile's hidden area, or its
-/// lens-circle default).
-fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> [Vec<bool>; 2] {
+/// lens-circle default). None when a quit was requested meanwhile.
+fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> Option<[Vec<bool>; 2]> {
     let n = (extent.width * extent.height) as usize;
     let mask = |eye: usize| match rig.hidden_area.as_deref().and_then(|h| h.get(eye)) {
-        Some(area) => mask_image(area, &rig.views[eye].fov, extent.width, extent.height),
-        None => vec![false; n],
+        Some(area) => mask_image_until(
+            area,
+            &rig.views[eye].fov,
+            extent.width,
+            extent.height,
+            &crate::quit::requested,
+        ),
+        None => Some(vec![false; n]),
     };
-    [mask(0), mask(1)]
+    Some([mask(0)?, mask(1)?])
 }
 
 /// Renders `config` along `rigs`: warm-up, measured frames, then the
@@ -453,7 +494,7 @@ fn measure(
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
 ) -> Result<Option<ConfigResult>> {
-    let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
+    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
     let mut driver = FrameDriver::new(renderer, scene)?;
     let mut frames: Vec<FrameResult> = Vec::new();
     let n_accuracy = plan.frames.min(30) as usize;

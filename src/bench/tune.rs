@@ -222,7 +222,7 @@ pub struct ConfigFile {
 impl ConfigFile {
     /// Reads and checks a config file.
     pub fn load(path: &std::path::Path) -> Result<ConfigFile> {
-        let text = std::fs::read_to_string(path)
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
             .map_err(|e| Error::config("--config", format!("{}: {e}", path.display())))?;
         let file: ConfigFile = toml::from_str(&text).map_err(|e| {
             Error::config("--config", format!("{}: {}", path.display(), e.message()))

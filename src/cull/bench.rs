@@ -18,8 +18,9 @@ use crate::view::{Fov, Pose, StereoRig};
 /// Command-line arguments of `cull-bench`.
 #[derive(clap::Args, Clone, Debug)]
 pub struct CullBenchArgs {
-    /// Number of instances in the scene.
-    #[arg(long, default_value_t = 100_000)]
+    /// Number of instances in the scene (1 to 50,000,000).
+    #[arg(long, default_value_t = 100_000,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=crate::scene::factory::MAX_INSTANCES as u64))]
     pub instances: usize,
     /// Comma-separated strategies to time (default: all).
     #[arg(long, value_delimiter = ',')]
@@ -27,11 +28,13 @@ pub struct CullBenchArgs {
     /// HMD profile giving the eye poses and FOVs (resolved by the caller).
     #[arg(long)]
     pub hmd: Option<String>,
-    /// Frames along the head path.
-    #[arg(long, default_value_t = 200)]
+    /// Frames along the head path (1 to 1,000,000).
+    #[arg(long, default_value_t = 200,
+          value_parser = clap::value_parser!(u64).range(1..=crate::cli::MAX_CULL_BENCH_FRAMES))]
     pub frames: u64,
-    /// Worker threads of the culling thread pool.
-    #[arg(long, default_value_t = 2)]
+    /// Worker threads of the culling thread pool (1 to 64).
+    #[arg(long, default_value_t = 2,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=crate::cli::MAX_THREADS as u64))]
     pub threads: usize,
     /// Seed of the head path (and of the stand-in scene).
     #[arg(long, default_value_t = 1)]
@@ -39,18 +42,20 @@ pub struct CullBenchArgs {
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
-    /// Draw distance in metres (far plane along each eye's view axis).
-    #[arg(long)]
+    /// Draw distance in metres (far plane along each eye's view axis;
+    /// (0, 1e9]).
+    #[arg(long, value_parser = crate::cli::parse_distance)]
     pub draw_distance: Option<f64>,
-    /// Near plane in metres.
-    #[arg(long, default_value_t = 0.05)]
+    /// Near plane in metres ((0, 1000]).
+    #[arg(long, default_value_t = 0.05, value_parser = crate::cli::parse_near)]
     pub near: f64,
-    /// Half-angle (radians) of the lens-visible circle used by the conical
-    /// strategies instead of the cone around the FOV rectangle.
-    #[arg(long)]
+    /// Half-angle (radians, (0, π/2)) of the lens-visible circle used by
+    /// the conical strategies instead of the cone around the FOV rectangle.
+    #[arg(long, value_parser = crate::cli::parse_lens_half_angle)]
     pub lens_half_angle: Option<f64>,
-    /// Largest number of instances per hierarchy leaf.
-    #[arg(long, default_value_t = DEFAULT_LEAF_SIZE)]
+    /// Largest number of instances per hierarchy leaf (1 to 65,536).
+    #[arg(long, default_value_t = DEFAULT_LEAF_SIZE,
+          value_parser = clap::builder::RangedU64ValueParser::<usize>::new().range(1..=crate::cli::MAX_LEAF_SIZE as u64))]
     pub leaf_size: usize,
     /// Randomly renumber the instances first (measures how much the
     /// timings rely on instances being numbered in spatial order).
@@ -110,6 +115,9 @@ pub struct CullBenchReport {
     pub threads: usize,
     /// Frames timed per strategy.
     pub frames: u64,
+    /// Lens-circle half-angle the conical strategies used (radians; None:
+    /// the cone around the FOV rectangle).
+    pub lens_half_angle: Option<f64>,
     /// Hierarchy build time in milliseconds (in the same pool).
     pub bvh_build_ms: f64,
     /// Hierarchy node count.
@@ -127,6 +135,9 @@ impl CullBenchReport {
             "cull-bench: {} instances, {} threads, {} frames, BVH build {:.1} ms ({} nodes), exact visible {:.0}/frame\n",
             self.instances, self.threads, self.frames, self.bvh_build_ms, self.bvh_nodes, self.exact_visible
         );
+        if let Some(a) = self.lens_half_angle {
+            s += &format!("conical strategies use a lens circle of half-angle {a} rad\n");
+        }
         s += &format!(
             "{:<22} {:>9} {:>9} {:>12} {:>10} {:>10} {:>10} {:>9}\n",
             "strategy",
@@ -227,10 +238,29 @@ pub fn run(
             .map(|s| s.parse())
             .collect::<Result<_, _>>()?
     };
-    if args.threads == 0 || args.frames == 0 {
-        return Err(CullBenchError::Args(
-            "--threads and --frames must be at least 1".into(),
-        ));
+    if let Some(s) = strategies
+        .iter()
+        .enumerate()
+        .find(|(i, s)| strategies[..*i].contains(s))
+        .map(|(_, s)| s)
+    {
+        return Err(CullBenchError::Args(format!(
+            "--strategies lists {} twice (each strategy is timed once)",
+            s.name()
+        )));
+    }
+    if !(1..=crate::cli::MAX_THREADS).contains(&args.threads)
+        || !(1..=crate::cli::MAX_CULL_BENCH_FRAMES).contains(&args.frames)
+    {
+        return Err(CullBenchError::Args(format!(
+            "--threads must be within 1..={} and --frames within 1..={}",
+            crate::cli::MAX_THREADS,
+            crate::cli::MAX_CULL_BENCH_FRAMES
+        )));
+    }
+    if let Some(a) = args.lens_half_angle {
+        crate::cli::parse_lens_half_angle(&a.to_string())
+            .map_err(|m| CullBenchError::Args(format!("--lens-half-angle: {m}")))?;
     }
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
@@ -247,6 +277,7 @@ pub fn run(
         let params = CullParams {
             near: args.near,
             draw_distance: args.draw_distance,
+            lens_half_angle: args.lens_half_angle,
             ..CullParams::default()
         };
         let t0 = Instant::now();
@@ -316,6 +347,7 @@ pub fn run(
             instances: bounds.len(),
             threads: args.threads,
             frames: args.frames,
+            lens_half_angle: args.lens_half_angle,
             bvh_build_ms,
             bvh_nodes: bvh.node_count(),
             exact_visible: exact_total as f64 / fr,

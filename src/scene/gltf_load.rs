@@ -21,15 +21,15 @@ struct Ctx<'a> {
     path: &'a Path,
     dir: PathBuf,
     buffers: Vec<Vec<u8>>,
-    /// Bytes of buffers and decoded textures still allowed
-    /// ([`MAX_SCENE_RESOURCE_BYTES`] in all), so repeated references to one
-    /// large file cannot multiply memory without bound.
-    budget: std::cell::Cell<u64>,
+    /// The load's memory budget (shared with the manifest naming this
+    /// file, if any), so repeated references to one large file cannot
+    /// multiply memory without bound.
+    budget: &'a super::budget::LoadBudget,
 }
 
 /// Most bytes of buffers, image files and decoded textures one glTF file may
 /// make vergence hold.
-pub const MAX_SCENE_RESOURCE_BYTES: u64 = 8 << 30;
+pub const MAX_SCENE_RESOURCE_BYTES: u64 = super::budget::MAX_SCENE_LOAD_BYTES;
 /// Most instances one glTF file may place.
 pub const MAX_SCENE_INSTANCES: usize = 50_000_000;
 
@@ -40,29 +40,47 @@ impl Ctx<'_> {
 
     /// Takes `bytes` from the resource budget for `what`, or fails.
     fn spend(&self, bytes: u64, what: &str) -> Result<()> {
-        let left = self.budget.get();
-        if bytes > left {
-            return Err(self.err(format!(
-                "{what}: {bytes} more bytes would exceed the {MAX_SCENE_RESOURCE_BYTES}-byte limit on a scene's buffers and textures"
-            )));
-        }
-        self.budget.set(left - bytes);
-        Ok(())
+        self.budget
+            .spend(Some(bytes), what)
+            .map_err(|m| self.err(m))
     }
 }
 
 /// Loads a `.gltf` or `.glb` file.
 pub fn load(path: &Path) -> Result<Scene> {
-    let bytes = std::fs::read(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
-    load_bytes(path, &bytes)
+    load_in(path, &super::budget::LoadBudget::default())
+}
+
+/// Loads a `.gltf` or `.glb` file within `budget` (a manifest's, shared by
+/// all it names).
+pub fn load_in(path: &Path, budget: &super::budget::LoadBudget) -> Result<Scene> {
+    if let Some(meta) = std::fs::metadata(path).ok().filter(|m| m.is_file()) {
+        budget
+            .spend(Some(meta.len()), "the scene file")
+            .map_err(|m| Error::scene(path, m))?;
+    }
+    let bytes =
+        crate::fsio::read_bounded(path, crate::fsio::MAX_SCENE_FILE_BYTES).map_err(|source| {
+            Error::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
+    load_bytes_in(path, &bytes, budget)
 }
 
 /// Loads glTF or GLB content already read from `path` (external resources
 /// resolve relative to `path`'s folder).
 pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
+    load_bytes_in(path, bytes, &super::budget::LoadBudget::default())
+}
+
+/// [`load_bytes`] within `budget`.
+pub fn load_bytes_in(
+    path: &Path,
+    bytes: &[u8],
+    budget: &super::budget::LoadBudget,
+) -> Result<Scene> {
     let gltf = parse(path, bytes)?;
     for ext in gltf.document.extensions_required() {
         if !SUPPORTED_REQUIRED.contains(&ext) {
@@ -77,7 +95,7 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
         path,
         dir,
         buffers: Vec::new(),
-        budget: std::cell::Cell::new(MAX_SCENE_RESOURCE_BYTES),
+        budget,
     };
     ctx.buffers = load_buffers(&ctx, &gltf)?;
     check_views_and_accessors(&ctx, &gltf.document)?;
@@ -129,6 +147,23 @@ pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
 /// unwraps), so a bad file is an error instead of a panic.
 fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
     let describe = |e: gltf::Error| Error::scene(path, describe_gltf_error(bytes, &e));
+    // GLB §4.4.3: the header's length is the whole file; the gltf crate
+    // ignores bytes past it, which hides a damaged or concatenated file.
+    if let Some(len) = bytes
+        .get(8..12)
+        .filter(|_| bytes.starts_with(b"glTF"))
+        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    {
+        if len < bytes.len() {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "malformed .glb container: its header declares {len} bytes but the file has {}",
+                    bytes.len()
+                ),
+            ));
+        }
+    }
     let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(describe)?;
     let json = raw.document.as_json();
     for (m, mesh) in json.meshes.iter().enumerate() {
@@ -203,7 +238,7 @@ fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
 /// Resolves a URI inside the scene folder or decodes a data: URI
 /// ([`super::uri`]).
 fn read_uri(ctx: &Ctx, uri: &str, what: &str) -> Result<Vec<u8>> {
-    let bytes = super::uri::read_within(&ctx.dir, uri, ctx.budget.get())
+    let bytes = super::uri::read_within(&ctx.dir, uri, ctx.budget.left())
         .map_err(|e| ctx.err(format!("{what}: {e}")))?;
     ctx.spend(bytes.len() as u64, what)?;
     Ok(bytes)
@@ -356,7 +391,9 @@ fn check_views_and_accessors(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
 #[derive(Default)]
 struct TextureCache {
     map: HashMap<(usize, bool), u32>,
-    images: HashMap<usize, image::RgbaImage>,
+    /// Decoded images by glTF image index: decoded and paid for once,
+    /// shared by every texture that samples them.
+    images: HashMap<usize, (u32, u32, std::sync::Arc<Vec<u8>>)>,
 }
 
 fn texture(
@@ -399,28 +436,25 @@ fn texture(
         let decoded = super::image_decode::decode_rgba8(&bytes)
             .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?;
         ctx.spend(decoded.as_raw().len() as u64, &format!("image '{name}'"))?;
-        slot.insert(decoded);
+        let (w, h) = decoded.dimensions();
+        slot.insert((w, h, std::sync::Arc::new(decoded.into_raw())));
     }
-    let rgba = &cache.images[&img.index()];
+    let (width, height, rgba) = &cache.images[&img.index()];
     let sampler = tex.sampler();
     let repeat = !matches!(sampler.wrap_s(), gltf::texture::WrappingMode::ClampToEdge);
     let linear = !matches!(
         sampler.mag_filter(),
         Some(gltf::texture::MagFilter::Nearest)
     );
-    ctx.spend(
-        rgba.as_raw().len() as u64,
-        &format!("texture {}", tex.index()),
-    )?;
     let index = out.len() as u32;
     out.push(Texture {
         name,
-        width: rgba.width(),
-        height: rgba.height(),
+        width: *width,
+        height: *height,
         srgb,
         repeat,
         linear,
-        rgba8: rgba.as_raw().clone(),
+        rgba8: rgba.clone(),
     });
     cache.map.insert((tex.index(), srgb), index);
     Ok(TexRef {

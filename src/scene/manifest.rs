@@ -15,6 +15,7 @@
 //! seed = 1
 //! ```
 
+use super::budget::LoadBudget;
 use super::{factory, gltf_load, Scene};
 use crate::error::{Error, Result};
 use glam::{DAffine3, DQuat, DVec3};
@@ -80,18 +81,26 @@ struct Manifest {
     procedural: Vec<ProceduralEntry>,
 }
 
-/// Grid cells of a placement (1 without a grid), before anything is built.
-fn cells(p: &Placement) -> usize {
-    p.grid.as_ref().map_or(1, |g| {
-        g.count
-            .iter()
-            .map(|&c| c as u64)
-            .product::<u64>()
-            .min(usize::MAX as u64) as usize
-    })
+/// Grid cells of a placement (1 without a grid), in checked arithmetic,
+/// before anything is built.
+fn cells(path: &Path, what: &str, p: &Placement) -> Result<u64> {
+    let Some(g) = &p.grid else {
+        return Ok(1);
+    };
+    crate::count::within(
+        &format!("grid count {:?}: the number of cells", g.count),
+        crate::count::product(g.count.iter().map(|&c| c as u64)),
+        MAX_PLACEMENTS,
+    )
+    .map_err(|m| Error::scene(path, format!("{what}: {m}")))
 }
 
-fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
+fn placements(
+    path: &Path,
+    what: &str,
+    p: &Placement,
+    budget: &LoadBudget,
+) -> Result<Vec<DAffine3>> {
     let err = |m: String| Error::scene(path, format!("{what}: {m}"));
     if !(p.scale.is_finite() && (1e-6..=1e6).contains(&p.scale)) {
         return Err(err(format!(
@@ -117,13 +126,7 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
     let Some(g) = &p.grid else {
         return Ok(vec![base]);
     };
-    let cells = g.count.iter().map(|&c| c as u64).product::<u64>();
-    if cells == 0 || cells > MAX_PLACEMENTS {
-        return Err(err(format!(
-            "grid count {:?} must give 1..={MAX_PLACEMENTS} cells",
-            g.count
-        )));
-    }
+    let cells = cells(path, what, p)?;
     if !g.spacing.iter().all(|v| v.is_finite() && v.abs() <= 1e6) {
         return Err(err("grid spacing must be finite, at most 1e6 m".into()));
     }
@@ -135,6 +138,12 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
             "the grid reaches {reach:.3e} m from the origin, beyond 1e9 m"
         )));
     }
+    budget
+        .spend(
+            crate::count::bytes_of::<DAffine3>(cells),
+            &format!("{what}: {cells} grid placements"),
+        )
+        .map_err(|m| Error::scene(path, m))?;
     let mut out = Vec::with_capacity(cells as usize);
     for z in 0..g.count[2] {
         for y in 0..g.count[1] {
@@ -152,20 +161,35 @@ fn placements(path: &Path, what: &str, p: &Placement) -> Result<Vec<DAffine3>> {
 }
 
 /// Fails when adding `n` instances at each of `cells` placements would take
-/// the scene over [`MAX_INSTANCES`].
-fn check_budget(path: &Path, scene: &Scene, n: usize, cells: usize) -> Result<()> {
-    let total = (n as u64)
-        .checked_mul(cells as u64)
-        .and_then(|t| t.checked_add(scene.instances.len() as u64));
+/// the scene over [`MAX_INSTANCES`] or its memory budget (checked
+/// arithmetic throughout).
+fn check_budget(
+    path: &Path,
+    what: &str,
+    scene: &Scene,
+    n: u64,
+    cells: u64,
+    budget: &LoadBudget,
+) -> Result<()> {
+    let added = crate::count::product([n, cells]);
+    let total = added.and_then(|a| crate::count::sum([a, scene.instances.len() as u64]));
     match total {
-        Some(t) if t <= MAX_INSTANCES => Ok(()),
-        _ => Err(Error::scene(
-            path,
-            format!(
-                "{n} instances × {cells} placements would exceed the {MAX_INSTANCES} instance limit"
-            ),
-        )),
+        Some(t) if t <= MAX_INSTANCES => {}
+        _ => {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "{what}: {n} instances × {cells} placements would exceed the {MAX_INSTANCES} instance limit"
+                ),
+            ))
+        }
     }
+    budget
+        .spend(
+            added.and_then(crate::count::bytes_of::<super::Instance>),
+            &format!("{what}: {n} instances × {cells} placements"),
+        )
+        .map_err(|m| Error::scene(path, m))
 }
 
 /// Most instances a manifest may produce in all.
@@ -173,15 +197,24 @@ pub const MAX_INSTANCES: u64 = 50_000_000;
 
 /// Loads a scene manifest; relative file paths resolve against its folder.
 pub fn load(path: &Path) -> Result<Scene> {
-    let text = std::fs::read_to_string(path).map_err(|source| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    })?;
+    let text =
+        crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES).map_err(|source| {
+            Error::Io {
+                path: path.to_path_buf(),
+                source,
+            }
+        })?;
     from_text(path, &text)
 }
 
-/// Builds the scene of manifest `text` read from `path`.
+/// Builds the scene of manifest `text` read from `path`, within one
+/// memory budget ([`LoadBudget`]) for everything it names.
 pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
+    from_text_in(path, text, &LoadBudget::default())
+}
+
+/// [`from_text`] within `budget`.
+pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scene> {
     let m: Manifest = toml::from_str(text)
         .map_err(|e| Error::scene(path, format!("malformed scene manifest: {}", e.message())))?;
     if m.gltf.is_empty() && m.procedural.is_empty() {
@@ -196,14 +229,35 @@ pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
         ..Scene::default()
     };
     for (i, g) in m.gltf.iter().enumerate() {
-        let sub = gltf_load::load(&dir.join(&g.file))?;
-        check_budget(path, &scene, sub.instances.len(), cells(&g.place))?;
-        let place = placements(path, &format!("gltf[{i}]"), &g.place)?;
+        let what = format!("gltf[{i}]");
+        let n_cells = cells(path, &what, &g.place)?;
+        let sub = gltf_load::load_in(&dir.join(&g.file), budget)?;
+        check_budget(
+            path,
+            &what,
+            &scene,
+            sub.instances.len() as u64,
+            n_cells,
+            budget,
+        )?;
+        let place = placements(path, &what, &g.place, budget)?;
         scene.append(&sub, &place);
     }
     for (i, p) in m.procedural.iter().enumerate() {
-        check_budget(path, &scene, p.instances, cells(&p.place))?;
-        let place = placements(path, &format!("procedural[{i}]"), &p.place)?;
+        let what = format!("procedural[{i}]");
+        if p.instances == 0 || p.instances > factory::MAX_INSTANCES {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "{what}: instances = {} must be within 1..={}",
+                    p.instances,
+                    factory::MAX_INSTANCES
+                ),
+            ));
+        }
+        let n_cells = cells(path, &what, &p.place)?;
+        check_budget(path, &what, &scene, p.instances as u64, n_cells, budget)?;
+        let place = placements(path, &what, &p.place, budget)?;
         let sub = match p.kind.as_str() {
             "factory" => factory::generate(p.instances, p.seed)?,
             other => {
@@ -216,4 +270,30 @@ pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
         scene.append(&sub, &place);
     }
     Ok(scene)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// A manifest's entries share one budget: naming the same file again
+    /// and again runs out of it instead of multiplying memory.
+    #[test]
+    fn entries_share_one_budget() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let path = root.join("manifests/scenes/budget-test.toml");
+        let entry = "[[gltf]]\nfile = \"../../assets/Box/Box.gltf\"\n";
+        let text = format!("name = \"x\"\n{}", entry.repeat(40));
+        let one = {
+            let b = LoadBudget::new(1 << 30);
+            from_text_in(&path, &format!("name = \"x\"\n{entry}"), &b).unwrap();
+            (1u64 << 30) - b.left()
+        };
+        assert!(one > 0, "a load spends from its budget");
+        let budget = LoadBudget::new(one * 10);
+        let e = from_text_in(&path, &text, &budget).unwrap_err().to_string();
+        assert!(e.contains("memory budget of one scene load"), "{e}");
+        let scene = from_text_in(&path, &text, &LoadBudget::new(one * 41)).unwrap();
+        assert_eq!(scene.meshes.len(), 40);
+    }
 }

@@ -2,6 +2,7 @@
 //! Loaders (glTF, the procedural `factory`, TOML manifests) all produce a
 //! [`Scene`]; the renderer uploads only what the scene uses.
 
+pub mod budget;
 pub mod factory;
 pub mod gltf_load;
 pub mod image_decode;
@@ -12,6 +13,25 @@ pub mod uri;
 use crate::error::{Error, Result};
 use glam::{DAffine3, DVec3, Vec3};
 use std::path::Path;
+
+/// The instance count of a `factory` / `factory:N` spec (None: not a
+/// factory spec).
+fn factory_count(spec: &str) -> Option<Result<usize>> {
+    let rest = spec.strip_prefix("factory")?;
+    Some(match rest.strip_prefix(':') {
+        None if rest.is_empty() => Ok(factory::DEFAULT_INSTANCES),
+        Some(n) => n.replace('_', "").parse::<usize>().map_err(|_| {
+            Error::config(
+                "--scene",
+                format!("'{spec}': expected factory or factory:N with N a count"),
+            )
+        }),
+        None => Err(Error::config(
+            "--scene",
+            format!("'{spec}': unknown built-in scene"),
+        )),
+    })
+}
 
 /// How a material's alpha is interpreted (glTF `alphaMode`).
 #[derive(Clone, Copy, Debug, PartialEq, Eq, Hash, serde::Serialize)]
@@ -102,8 +122,9 @@ pub struct Texture {
     pub repeat: bool,
     /// Whether the sampler filters linearly (else nearest).
     pub linear: bool,
-    /// RGBA8 texels, row-major.
-    pub rgba8: Vec<u8>,
+    /// RGBA8 texels, row-major; shared (not copied) by every texture and
+    /// scene that uses the same decoded image.
+    pub rgba8: std::sync::Arc<Vec<u8>>,
 }
 
 /// One drawable: a vertex/index range with one material.
@@ -227,23 +248,8 @@ impl Scene {
     /// Loads a scene from a `--scene` argument: `factory`, `factory:N`, a
     /// `.gltf`/`.glb` file or a `.toml` scene manifest.
     pub fn load(spec: &str) -> Result<Scene> {
-        if let Some(rest) = spec.strip_prefix("factory") {
-            let n = match rest.strip_prefix(':') {
-                None if rest.is_empty() => factory::DEFAULT_INSTANCES,
-                Some(n) => n.replace('_', "").parse::<usize>().map_err(|_| {
-                    Error::config(
-                        "--scene",
-                        format!("'{spec}': expected factory or factory:N with N a count"),
-                    )
-                })?,
-                None => {
-                    return Err(Error::config(
-                        "--scene",
-                        format!("'{spec}': unknown built-in scene"),
-                    ))
-                }
-            };
-            return factory::generate(n, factory::DEFAULT_SEED);
+        if let Some(n) = factory_count(spec) {
+            return factory::generate(n?, factory::DEFAULT_SEED);
         }
         let path = Path::new(spec);
         match path
@@ -254,6 +260,49 @@ impl Scene {
             Some(e) if e == "toml" => manifest::load(path),
             _ => gltf_load::load(path),
         }
+    }
+
+    /// Checks, without loading it, that a `--scene` value can be loaded:
+    /// `factory[:N]` with N within the factory's limit, or a regular file
+    /// under the size limit (what a bench plan checks for every scene
+    /// before measuring the first).
+    pub fn check_spec(spec: &str) -> Result<()> {
+        if let Some(n) = factory_count(spec) {
+            let n = n?;
+            if n == 0 || n > factory::MAX_INSTANCES {
+                return Err(Error::config(
+                    "--scene",
+                    format!(
+                        "factory:{n}: instance count must be within 1..={}",
+                        factory::MAX_INSTANCES
+                    ),
+                ));
+            }
+            return Ok(());
+        }
+        let path = Path::new(spec);
+        let io = |source: std::io::Error| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        };
+        let meta = std::fs::metadata(path).map_err(io)?;
+        if !meta.is_file() {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                "not a regular file",
+            )));
+        }
+        if meta.len() > crate::fsio::MAX_SCENE_FILE_BYTES {
+            return Err(io(std::io::Error::new(
+                std::io::ErrorKind::InvalidInput,
+                format!(
+                    "{} bytes, over the {}-byte limit",
+                    meta.len(),
+                    crate::fsio::MAX_SCENE_FILE_BYTES
+                ),
+            )));
+        }
+        Ok(())
     }
 
     /// Total triangles over all instances.
@@ -397,6 +446,8 @@ impl Scene {
                 });
             }
         }
-        self.nodes += other.nodes * placements.len();
+        self.nodes = self
+            .nodes
+            .saturating_add(other.nodes.saturating_mul(placements.len()));
     }
 }

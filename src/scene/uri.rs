@@ -13,7 +13,7 @@ use std::path::{Component, Path, PathBuf};
 /// Largest payload a data: URI may decode to.
 pub const MAX_DATA_URI_BYTES: usize = 256 << 20;
 /// Largest external buffer or image file read.
-pub const MAX_RESOURCE_FILE_BYTES: u64 = 4 << 30;
+pub const MAX_RESOURCE_FILE_BYTES: u64 = crate::fsio::MAX_SCENE_FILE_BYTES;
 
 /// Reads the resource `uri` refers to from `dir` (the scene file's folder),
 /// or decodes it when it is a data: URI. The error says why it was refused.
@@ -37,25 +37,15 @@ pub fn read_within(dir: &Path, uri: &str, max_bytes: u64) -> Result<Vec<u8>, Str
     }
     let file = confine(dir, uri)?;
     let meta = std::fs::metadata(&file).map_err(|e| format!("{}: {e}", file.display()))?;
-    if !meta.is_file() {
-        return Err(format!("{} is not a regular file", file.display()));
-    }
-    if meta.len() > max_bytes {
+    if meta.is_file() && meta.len() > max_bytes {
         return Err(format!(
             "{} ({} bytes) would exceed the scene's remaining resource budget of {max_bytes} bytes",
             file.display(),
             meta.len()
         ));
     }
-    if meta.len() > MAX_RESOURCE_FILE_BYTES {
-        return Err(format!(
-            "{} is {} bytes, over the {} byte limit",
-            file.display(),
-            meta.len(),
-            MAX_RESOURCE_FILE_BYTES
-        ));
-    }
-    std::fs::read(&file).map_err(|e| format!("{}: {e}", file.display()))
+    crate::fsio::read_bounded(&file, max_bytes.min(MAX_RESOURCE_FILE_BYTES))
+        .map_err(|e| format!("{}: {e}", file.display()))
 }
 
 fn decode_data(rest: &str) -> Result<Vec<u8>, String> {

@@ -196,6 +196,41 @@ pub fn load_stereo_profile(name: &str) -> Result<HmdProfile> {
     Ok(profile)
 }
 
+/// Creates the renderer; an allocation failure names what was being
+/// allocated for: the per-eye size, the MSAA samples and an estimate of
+/// the render targets' need (colour and depth per sample plus a resolved
+/// colour image, for both views), instead of Vulkan's bare "a device
+/// memory allocation has failed".
+pub fn new_renderer(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    extent: vk::Extent2D,
+) -> Result<Renderer> {
+    Renderer::new(ctx.clone(), scene, config, extent).map_err(|e| {
+        let memory = match &e {
+            Error::Vulkan { result, .. } => matches!(
+                *result,
+                vk::Result::ERROR_OUT_OF_DEVICE_MEMORY | vk::Result::ERROR_OUT_OF_HOST_MEMORY
+            ),
+            Error::Gpu(m) => m.contains("out of GPU memory") || m.contains("allocation"),
+            _ => false,
+        };
+        if !memory {
+            return e;
+        }
+        let per_pixel = 8 * config.msaa as u64 + 4;
+        let need = extent.width as u64 * extent.height as u64 * 2 * per_pixel;
+        Error::Gpu(format!(
+            "cannot allocate the render targets for {}x{} px per eye at {}x MSAA (about {:.1} MiB of colour, depth and resolve images for 2 views, before the scene): {e}; try a smaller --width/--height or --msaa 1",
+            extent.width,
+            extent.height,
+            config.msaa,
+            need as f64 / (1u64 << 20) as f64
+        ))
+    })
+}
+
 /// Per-eye size from the override or the profile.
 pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
     let (w, h) = size.unwrap_or((
@@ -216,9 +251,18 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
-    let renderer = Renderer::new(ctx.clone(), &scene, &job.config, extent)?;
+    let renderer = new_renderer(&ctx, &scene, &job.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
-    let rig = job.rig.clone().unwrap_or_else(|| profile.rig(job.pose));
+    let rig = match job.rig.clone() {
+        // A rig file written before rig.json carried hidden areas: the
+        // profile's masks, when it has as many views.
+        Some(mut r) if r.hidden_area.is_none() && r.views.len() == profile.views.len() => {
+            r.hidden_area = Some(profile.hidden_areas.clone());
+            r
+        }
+        Some(r) => r,
+        None => profile.rig(job.pose),
+    };
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
     let total = warmup + frames;
@@ -325,49 +369,34 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
 }
 
 /// Writes a stereo pair as `dir/left.png` and `dir/right.png`, creating
-/// `dir`.
+/// `dir` ([`crate::fsio::write_output`]: no planted link is followed).
 pub fn save_pair(dir: &Path, images: &[image::RgbaImage; 2]) -> Result<()> {
-    std::fs::create_dir_all(dir).map_err(|e| Error::Output {
-        path: dir.to_path_buf(),
-        message: e.to_string(),
-    })?;
     save_png(&images[0], &dir.join("left.png"))?;
     save_png(&images[1], &dir.join("right.png"))
 }
 
 /// Writes `value` as pretty-printed JSON to `path`, creating its folder.
-/// The JSON streams through a buffered writer into `path.tmp`, renamed
-/// into place at the end (no whole-document string in memory; no
-/// half-written file on failure).
+/// The JSON streams through a buffered writer into a fresh temporary file
+/// renamed into place at the end ([`crate::fsio::write_output`]: no
+/// whole-document string in memory, no half-written file on failure, no
+/// planted link followed).
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    use std::io::Write as _;
-    let out = |e: String| Error::Output {
-        path: path.to_path_buf(),
-        message: e,
-    };
-    if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-        std::fs::create_dir_all(dir).map_err(|e| out(e.to_string()))?;
-    }
-    let tmp = path.with_extension("json.tmp");
-    let file = std::fs::File::create(&tmp).map_err(|e| out(e.to_string()))?;
-    let mut w = std::io::BufWriter::new(file);
-    let written = serde_json::to_writer_pretty(&mut w, value)
-        .map_err(|e| e.to_string())
-        .and_then(|()| w.flush().map_err(|e| e.to_string()));
-    drop(w);
-    match written {
-        Ok(()) => std::fs::rename(&tmp, path).map_err(|e| out(e.to_string())),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            Err(out(e))
-        }
-    }
+    crate::fsio::write_output(path, |w| {
+        serde_json::to_writer_pretty(w, value).map_err(std::io::Error::from)
+    })
 }
 
-/// Writes an RGBA image as PNG.
+/// Writes an RGBA image as PNG ([`crate::fsio::write_output`]).
 pub fn save_png(img: &image::RgbaImage, path: &Path) -> Result<()> {
-    img.save(path).map_err(|e| Error::Output {
-        path: path.to_path_buf(),
-        message: e.to_string(),
+    use image::ImageEncoder as _;
+    crate::fsio::write_output(path, |w| {
+        image::codecs::png::PngEncoder::new(w)
+            .write_image(
+                img.as_raw(),
+                img.width(),
+                img.height(),
+                image::ExtendedColorType::Rgba8,
+            )
+            .map_err(std::io::Error::other)
     })
 }

@@ -9,7 +9,6 @@ pub use super::session::{RunArgs, RunStats, XrMode};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
 use crate::render::driver::{FrameDriver, FrameResult};
-use crate::render::Renderer;
 use crate::view::{Pose, PoseFile};
 use glam::DVec3;
 use std::sync::Arc;
@@ -87,7 +86,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let (scene, _) = load_scene(&args.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, args.size);
-    let renderer = Renderer::new(ctx.clone(), &scene, &args.config, extent)?;
+    let renderer = super::headless::new_renderer(&ctx, &scene, &args.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
     let spawn = args
         .spawn

@@ -160,45 +160,44 @@ pub struct ViewInfo {
     pub fov: Option<Fov>,
 }
 
-/// The per-frame records of `--stats-out`, spooled to a file beside it as
-/// they come (one JSON line each) and streamed into the JSON document at
-/// the end, so memory stays flat however long the run. Without
-/// `--stats-out` nothing is kept.
+/// The per-frame records of `--stats-out`, spooled to a fresh temporary
+/// file beside it as they come (one JSON line each; created with `O_EXCL`
+/// under a unique name, [`crate::fsio::TempFile`], and removed at the end:
+/// nothing vergence did not create is touched) and streamed into the JSON
+/// document at the end, so memory stays flat however long the run.
+/// Without `--stats-out` nothing is kept.
 #[derive(Debug, Default)]
 pub struct FrameLog {
-    spool: Option<(PathBuf, std::io::BufWriter<std::fs::File>)>,
+    spool: Option<(crate::fsio::TempFile, std::io::BufWriter<std::fs::File>)>,
     count: u64,
 }
 
 impl FrameLog {
     /// A log spooled next to `stats_out`.
     pub fn spooled(stats_out: &Path) -> Result<FrameLog> {
-        let path = stats_out.with_extension("frames.tmp");
-        if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
-            std::fs::create_dir_all(dir).map_err(|e| Error::Output {
-                path: dir.to_path_buf(),
-                message: e.to_string(),
-            })?;
-        }
-        let file = std::fs::File::create(&path).map_err(|e| Error::Output {
-            path: path.clone(),
-            message: e.to_string(),
-        })?;
+        crate::fsio::prepare_output(stats_out)?;
+        let out = |e: std::io::Error| Error::Output {
+            path: stats_out.to_path_buf(),
+            message: format!("cannot create the frame spool beside it: {e}"),
+        };
+        let tmp = crate::fsio::TempFile::beside(stats_out).map_err(out)?;
+        let file = tmp.file().try_clone().map_err(out)?;
         Ok(FrameLog {
-            spool: Some((path, std::io::BufWriter::new(file))),
+            spool: Some((tmp, std::io::BufWriter::new(file))),
             count: 0,
         })
     }
 
     fn push(&mut self, f: &FrameRecord) -> Result<()> {
         self.count += 1;
-        if let Some((path, w)) = &mut self.spool {
+        if let Some((tmp, w)) = &mut self.spool {
+            let path = tmp.path().to_path_buf();
             use std::io::Write as _;
             serde_json::to_writer(&mut *w, f)
                 .map_err(std::io::Error::from)
                 .and_then(|()| w.write_all(b"\n"))
                 .map_err(|e| Error::Output {
-                    path: path.clone(),
+                    path,
                     message: e.to_string(),
                 })?;
         }
@@ -216,10 +215,10 @@ impl FrameLog {
     }
 
     fn flush(&mut self) -> Result<()> {
-        if let Some((path, w)) = &mut self.spool {
+        if let Some((tmp, w)) = &mut self.spool {
             use std::io::Write as _;
             w.flush().map_err(|e| Error::Output {
-                path: path.clone(),
+                path: tmp.path().to_path_buf(),
                 message: e.to_string(),
             })?;
         }
@@ -227,15 +226,8 @@ impl FrameLog {
     }
 
     fn remove_spool(&mut self) {
-        if let Some((path, _)) = self.spool.take() {
-            let _ = std::fs::remove_file(path);
-        }
-    }
-}
-
-impl Drop for FrameLog {
-    fn drop(&mut self) {
-        self.remove_spool();
+        // Dropping the TempFile removes the file vergence created.
+        self.spool = None;
     }
 }
 
@@ -243,10 +235,15 @@ impl serde::Serialize for FrameLog {
     fn serialize<S: serde::Serializer>(&self, s: S) -> std::result::Result<S::Ok, S::Error> {
         use serde::ser::Error as _;
         use std::io::BufRead as _;
-        let Some((path, _)) = &self.spool else {
+        use std::io::Seek as _;
+        let Some((tmp, _)) = &self.spool else {
             return s.collect_seq(std::iter::empty::<()>());
         };
-        let file = std::fs::File::open(path).map_err(S::Error::custom)?;
+        // The spool's own handle (not its name, which another process
+        // could replace), read from the start.
+        let mut file = tmp.file().try_clone().map_err(S::Error::custom)?;
+        file.seek(std::io::SeekFrom::Start(0))
+            .map_err(S::Error::custom)?;
         let mut failed = None;
         let records = std::io::BufReader::new(file).lines().map_while(|l| {
             match l.map_err(|e| e.to_string()).and_then(|l| {

@@ -10,6 +10,7 @@ pub mod lens;
 pub mod mffr;
 pub mod profile;
 pub mod projection;
+pub(crate) mod strict;
 pub mod superfrustum;
 
 use glam::{DQuat, DVec3};
@@ -18,6 +19,7 @@ use glam::{DQuat, DVec3};
 /// `XrFovf` convention: `left` and `down` are usually negative, `right` and
 /// `up` positive; the view looks down -Z with +X right and +Y up.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct Fov {
     /// Angle of the left edge (radians, negative to the left of the axis).
     pub left: f64,
@@ -184,6 +186,7 @@ pub struct StereoRig {
 /// `vergence render --rig`: world poses as position and (x, y, z, w)
 /// quaternion, FOV angles in radians.
 #[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct RigFile {
     /// Head pose.
     pub head: PoseFile,
@@ -193,20 +196,59 @@ pub struct RigFile {
 
 /// A pose in a [`RigFile`].
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct PoseFile {
     /// Position in metres.
+    #[serde(deserialize_with = "strict::exact")]
     pub position: [f64; 3],
     /// Orientation quaternion (x, y, z, w).
+    #[serde(deserialize_with = "strict::exact")]
     pub orientation: [f64; 4],
 }
 
 /// A view in a [`RigFile`].
-#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[derive(Clone, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
 pub struct ViewFile {
     /// Eye pose in world space.
     pub pose: PoseFile,
     /// FOV angles.
     pub fov: Fov,
+    /// The view's hidden-area triangle list in tangent space, when the
+    /// rig had one (so `render --rig ... --opt stencil-mask` masks what
+    /// the captured frame masked).
+    #[serde(
+        default,
+        skip_serializing_if = "Option::is_none",
+        deserialize_with = "strict::points"
+    )]
+    pub hidden_area: Option<Vec<[f64; 2]>>,
+}
+
+/// Most points a hidden-area triangle list may have (4096 triangles).
+pub const MAX_HIDDEN_AREA_POINTS: usize = 3 * 4096;
+
+/// Checks a hidden-area triangle list (a multiple of 3 finite points, at
+/// most [`MAX_HIDDEN_AREA_POINTS`]) and builds its mesh.
+pub fn hidden_area_from_points(list: &[[f64; 2]]) -> Result<HiddenArea, String> {
+    if !list.len().is_multiple_of(3) || list.len() > MAX_HIDDEN_AREA_POINTS {
+        return Err(format!(
+            "hidden_area has {} points; it is a triangle list (a multiple of 3, at most {MAX_HIDDEN_AREA_POINTS})",
+            list.len()
+        ));
+    }
+    if let Some(p) = list
+        .iter()
+        .find(|p| !(p[0].is_finite() && p[1].is_finite() && p[0].abs() <= 1e3 && p[1].abs() <= 1e3))
+    {
+        return Err(format!(
+            "hidden_area point {p:?} is not finite or beyond ±1000 (tangent space)"
+        ));
+    }
+    Ok(HiddenArea {
+        vertices: list.iter().map(|p| [p[0] as f32, p[1] as f32]).collect(),
+        indices: (0..list.len() as u32).collect(),
+    })
 }
 
 impl From<&Pose> for PoseFile {
@@ -238,16 +280,69 @@ impl RigFile {
             views: rig
                 .views
                 .iter()
-                .map(|v| ViewFile {
+                .enumerate()
+                .map(|(i, v)| ViewFile {
                     pose: PoseFile::from(&v.pose),
                     fov: v.fov,
+                    hidden_area: rig.hidden_area.as_deref().and_then(|h| h.get(i)).map(|h| {
+                        h.indices
+                            .iter()
+                            .filter_map(|&k| h.vertices.get(k as usize))
+                            .map(|p| [p[0] as f64, p[1] as f64])
+                            .collect()
+                    }),
                 })
                 .collect(),
         }
     }
 
+    /// Parses and validates rig JSON text; `origin` names it in errors.
+    pub fn parse(origin: &str, text: &str) -> crate::Result<StereoRig> {
+        let err = |m: String| crate::Error::config("--rig", format!("{origin}: {m}"));
+        let file: RigFile =
+            serde_json::from_str(text).map_err(|e| err(format!("not a rig file: {e}")))?;
+        file.rig().map_err(err)
+    }
+
+    /// Reads (bounded, [`crate::fsio`]) and validates a rig file.
+    pub fn load(path: &std::path::Path) -> crate::Result<StereoRig> {
+        let text =
+            crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES).map_err(|source| {
+                crate::Error::Io {
+                    path: path.to_path_buf(),
+                    source,
+                }
+            })?;
+        RigFile::parse(&path.display().to_string(), &text)
+    }
+
     /// The rig it describes, validated (finite unit poses, valid FOVs).
     pub fn rig(&self) -> Result<StereoRig, String> {
+        if self.views.is_empty() || self.views.len() > 4 {
+            return Err(format!("needs 1 to 4 views, found {}", self.views.len()));
+        }
+        let with_area = self
+            .views
+            .iter()
+            .filter(|v| v.hidden_area.is_some())
+            .count();
+        if with_area != 0 && with_area != self.views.len() {
+            return Err("either every view has a hidden_area or none has".into());
+        }
+        let hidden_area = if with_area == 0 {
+            None
+        } else {
+            Some(std::sync::Arc::new(
+                self.views
+                    .iter()
+                    .enumerate()
+                    .map(|(i, v)| {
+                        hidden_area_from_points(v.hidden_area.as_deref().unwrap_or_default())
+                            .map_err(|m| format!("view {i}: {m}"))
+                    })
+                    .collect::<Result<Vec<_>, String>>()?,
+            ))
+        };
         let views = self
             .views
             .iter()
@@ -263,7 +358,7 @@ impl RigFile {
         Ok(StereoRig {
             head: self.head.pose().map_err(|m| format!("head: {m}"))?,
             views,
-            hidden_area: None,
+            hidden_area,
         })
     }
 }

@@ -27,6 +27,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
 ];
 
+/// Lowest refresh rate a profile may give (Hz).
+pub const MIN_REFRESH_HZ: f64 = 1.0;
+/// Highest refresh rate a profile may give (Hz).
+pub const MAX_REFRESH_HZ: f64 = 1000.0;
+
 /// The profile used when none is given.
 pub const DEFAULT_PROFILE: &str = "valve-index";
 
@@ -43,12 +48,15 @@ struct FovToml {
 #[derive(Clone, Debug, Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ViewToml {
+    #[serde(deserialize_with = "super::strict::exact")]
     position: [f64; 3],
+    #[serde(deserialize_with = "super::strict::exact")]
     orientation: [f64; 4],
     fov: FovToml,
+    #[serde(deserialize_with = "super::strict::exact")]
     resolution: [u32; 2],
     /// Hidden-area triangle list in tangent space (optional).
-    #[serde(default)]
+    #[serde(default, deserialize_with = "super::strict::points")]
     hidden_area: Option<Vec<[f64; 2]>>,
 }
 
@@ -93,15 +101,26 @@ impl HmdProfile {
         let path = Path::new(name_or_path);
         let looks_like_path = name_or_path.ends_with(".toml") || name_or_path.contains('/');
         if looks_like_path || path.exists() {
-            let text = std::fs::read_to_string(path).map_err(|e| Error::Profile {
-                name: name_or_path.into(),
-                message: format!("cannot read file: {e}"),
-            })?;
+            let text =
+                crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES).map_err(|e| {
+                    Error::Profile {
+                        name: name_or_path.into(),
+                        message: format!("cannot read file: {e}"),
+                    }
+                })?;
             return Self::parse(name_or_path, &text);
         }
         let local = Path::new("manifests/hmd").join(format!("{name_or_path}.toml"));
-        if let Ok(text) = std::fs::read_to_string(&local) {
-            return Self::parse(&local.display().to_string(), &text);
+        if local.exists() {
+            let origin = local.display().to_string();
+            let text =
+                crate::fsio::read_text(&local, crate::fsio::MAX_TEXT_FILE_BYTES).map_err(|e| {
+                    Error::Profile {
+                        name: origin.clone(),
+                        message: format!("cannot read file: {e}"),
+                    }
+                })?;
+            return Self::parse(&origin, &text);
         }
         match BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             Some((n, text)) => Self::parse(n, text),
@@ -127,10 +146,17 @@ impl HmdProfile {
         };
         let raw: ProfileToml =
             toml::from_str(text).map_err(|e| err(format!("malformed profile: {}", e.message())))?;
-        if !(raw.refresh_hz.is_finite() && raw.refresh_hz > 0.0 && raw.refresh_hz <= 1000.0) {
+        if !(raw.refresh_hz.is_finite()
+            && (MIN_REFRESH_HZ..=MAX_REFRESH_HZ).contains(&raw.refresh_hz))
+        {
+            let hz = raw.refresh_hz;
+            let shown = if hz == 0.0 || (1e-3..1e6).contains(&hz.abs()) {
+                format!("{hz}")
+            } else {
+                format!("{hz:e}")
+            };
             return Err(err(format!(
-                "refresh_hz = {} must be in (0, 1000]",
-                raw.refresh_hz
+                "refresh_hz = {shown} must be in [{MIN_REFRESH_HZ}, {MAX_REFRESH_HZ}]"
             )));
         }
         if raw.views.is_empty() || raw.views.len() > 4 {
@@ -165,26 +191,8 @@ impl HmdProfile {
             }
             let hidden_area = match &v.hidden_area {
                 None => super::lens::default_hidden_area(&fov),
-                Some(list) => {
-                    if list.len() % 3 != 0 || list.len() > 3 * 4096 {
-                        return Err(err(format!(
-                            "views[{i}]: hidden_area has {} points; it is a triangle list (a multiple of 3, at most 12288)",
-                            list.len()
-                        )));
-                    }
-                    if let Some(p) = list
-                        .iter()
-                        .find(|p| !(p[0].is_finite() && p[1].is_finite()))
-                    {
-                        return Err(err(format!(
-                            "views[{i}]: hidden_area point {p:?} is not finite"
-                        )));
-                    }
-                    HiddenArea {
-                        vertices: list.iter().map(|p| [p[0] as f32, p[1] as f32]).collect(),
-                        indices: (0..list.len() as u32).collect(),
-                    }
-                }
+                Some(list) => super::hidden_area_from_points(list)
+                    .map_err(|m| err(format!("views[{i}]: {m}")))?,
             };
             views.push(ProfileView {
                 pose,
