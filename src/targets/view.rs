@@ -298,11 +298,12 @@ mod tests {
             height: 360,
         };
         assert_eq!(initial_window_size(small), small);
+        // Valve Index: 2016x2240 per eye, side by side.
         let index_pair = vk::Extent2D {
-            width: 2880,
-            height: 1600,
+            width: 4032,
+            height: 2240,
         };
         let w = initial_window_size(index_pair);
-        assert_eq!((w.width, w.height), (1600, 900));
+        assert_eq!((w.width, w.height), (1600, 889));
     }
 }

@@ -327,14 +327,18 @@ mod tests {
         let mut c = cam;
         assert!(!c.update(&input, 0.1), "no input, no motion");
         input.held.insert(KeyCode::KeyW);
-        assert!(c.update(&input, 0.5));
+        assert!(c.update(&input, 0.2));
         let moved = c.position - cam.position;
-        assert!((moved.length() - FLY_SPEED * 0.5).abs() < 1e-9);
+        assert!((moved.length() - FLY_SPEED * 0.2).abs() < 1e-9);
         assert!(moved.normalize().dot(pose.forward()) > 0.999);
         input.held.insert(KeyCode::ShiftLeft);
         let start = c.position;
-        c.update(&input, 0.5);
-        assert!((c.position.distance(start) - FLY_SPEED * 2.5).abs() < 1e-9);
+        c.update(&input, 0.2);
+        assert!((c.position.distance(start) - FLY_SPEED * 5.0 * 0.2).abs() < 1e-9);
+        // A long stall moves at most a quarter second's worth.
+        let start = c.position;
+        c.update(&input, 3.0);
+        assert!((c.position.distance(start) - FLY_SPEED * 5.0 * 0.25).abs() < 1e-9);
 
         let mut turn = Input {
             look: (-50.0, 1000.0),
