@@ -50,6 +50,9 @@ pub enum Error {
     /// The GPU layer could not be set up (no loader, no device, missing feature).
     #[error("GPU: {0}")]
     Gpu(String),
+    /// A desktop window could not be opened or used.
+    #[error("window: {0}")]
+    Window(String),
     /// No OpenXR runtime or headset is available (the `--xr auto` fallback
     /// applies).
     #[error("OpenXR unavailable: {0}")]

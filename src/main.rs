@@ -27,6 +27,10 @@ enum Command {
     Render(RenderArgs),
     /// Run the scene in a headset through OpenXR (or headless on an HMD profile).
     Run(RunCli),
+    /// Look at a scene in a desktop window through an HMD profile's stereo
+    /// rig: WASD (Q/E down/up) to move, drag with the left mouse button to
+    /// look, Shift for speed, Escape to quit.
+    View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::cull::bench::CullBenchArgs),
     /// Measure every optimization alone and combined along a head path:
@@ -235,6 +239,31 @@ struct RunCli {
     move_direction: MoveDirection,
 }
 
+#[derive(clap::Args)]
+struct ViewCli {
+    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    #[arg(long, default_value = "factory")]
+    scene: String,
+    /// HMD profile whose stereo rig is rendered.
+    #[arg(long, default_value = DEFAULT_PROFILE)]
+    hmd: String,
+    /// Where the camera starts: x,y,z (metres), yaw, pitch, roll (degrees).
+    #[arg(long, value_parser = vergence::cli::parse_pose, allow_hyphen_values = true)]
+    pose: Option<Pose>,
+    /// End after N presented frames (default: until the window closes).
+    #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
+    frames: Option<u64>,
+    /// Write the window's last presented image as PNG (after the last of
+    /// --frames, or when the window is closed).
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Which eyes the window shows.
+    #[arg(long, value_enum, default_value_t = vergence::targets::window::Eyes::Both)]
+    eyes: vergence::targets::window::Eyes,
+    #[command(flatten)]
+    frame: FrameOpts,
+}
+
 fn parse_spawn(s: &str) -> Result<Pose, String> {
     let v: Vec<f64> = s
         .split(',')
@@ -366,6 +395,34 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     "{} Vulkan and {} OpenXR validation messages (see log)",
                     stats.validation_messages,
                     stats.xr_validation_messages
+                );
+            }
+        }
+        Command::View(a) => {
+            let args = vergence::targets::view::ViewArgs {
+                scene: a.scene,
+                hmd: a.hmd,
+                pose: a.pose.unwrap_or_else(default_pose),
+                config: a.frame.config()?,
+                size: a.frame.size(),
+                frames: a.frames,
+                screenshot: a.screenshot,
+                eyes: a.eyes,
+            };
+            let s = vergence::targets::view::view(&args)?;
+            println!(
+                "viewed {} frames at {}x{} per eye in a {}x{} window ({})",
+                s.frames,
+                s.eye_size[0],
+                s.eye_size[1],
+                s.window_size[0],
+                s.window_size[1],
+                s.present_mode
+            );
+            if s.validation_messages > 0 {
+                anyhow::bail!(
+                    "{} Vulkan validation messages (see log)",
+                    s.validation_messages
                 );
             }
         }
@@ -684,7 +741,8 @@ fn inspect(s: &Scene, load_ms: f64) {
 fn main() -> ExitCode {
     tracing_subscriber::fmt()
         .with_env_filter(
-            tracing_subscriber::EnvFilter::try_from_default_env().unwrap_or_else(|_| "warn".into()),
+            tracing_subscriber::EnvFilter::try_from_default_env()
+                .unwrap_or_else(|_| "warn,winit=error".into()),
         )
         .with_writer(std::io::stderr)
         .init();

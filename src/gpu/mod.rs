@@ -11,6 +11,7 @@ pub mod pipeline;
 pub mod query;
 pub mod ring;
 pub mod shaders;
+pub mod surface;
 pub mod validation;
 
 use crate::error::{Error, Result, VkContext};
@@ -87,6 +88,18 @@ pub struct MemoryBudget {
     pub usage: u64,
     /// Bytes this process can use before allocations may fail or slow down.
     pub budget: u64,
+}
+
+/// Extensions a caller needs beyond the renderer's own: a window's surface
+/// extensions on the instance, VK_KHR_swapchain on the device. Under
+/// OpenXR they go into the create infos handed to the runtime
+/// (XR_KHR_vulkan_enable2), which adds its own to them.
+#[derive(Clone, Debug, Default)]
+pub struct ExtraExtensions {
+    /// Instance extensions (all must be offered).
+    pub instance: Vec<&'static CStr>,
+    /// Device extensions (all must be offered).
+    pub device: Vec<&'static CStr>,
 }
 
 /// The Vulkan instance, device, queue and allocator.
@@ -185,6 +198,17 @@ impl Context {
 
     /// Creates a context whose instance and device come from `factory`.
     pub fn new(validation: Validation, factory: &dyn DeviceFactory) -> Result<Context> {
+        Context::with_extensions(validation, factory, &ExtraExtensions::default())
+    }
+
+    /// Creates a context whose instance and device come from `factory`,
+    /// with `extra` extensions enabled (an error names the first one the
+    /// driver does not offer).
+    pub fn with_extensions(
+        validation: Validation,
+        factory: &dyn DeviceFactory,
+        extra: &ExtraExtensions,
+    ) -> Result<Context> {
         // SAFETY: loading the Vulkan loader library; failure is reported.
         let entry = unsafe { ash::Entry::load() }
             .map_err(|e| Error::Gpu(format!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver (e.g. mesa-vulkan-drivers)")))?;
@@ -217,6 +241,18 @@ impl Context {
             .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
         if has_debug_utils {
             ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
+        }
+        for &name in &extra.instance {
+            if !exts
+                .iter()
+                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+            {
+                return Err(Error::Gpu(format!(
+                    "the Vulkan loader offers no {} (needed for a window)",
+                    name.to_string_lossy()
+                )));
+            }
+            ext_names.push(name.as_ptr());
         }
         if validation_enabled {
             layer_names.push(VALIDATION_LAYER.as_ptr());
@@ -270,7 +306,7 @@ impl Context {
             validation_log,
             validation_enabled,
         };
-        let dev = ctx_partial.pick_device(has_debug_utils, factory);
+        let dev = ctx_partial.pick_device(has_debug_utils, factory, &extra.device);
         match dev {
             Ok(c) => Ok(c),
             Err(e) => {
@@ -495,6 +531,7 @@ impl PartialInstance {
         &mut self,
         has_debug_utils: bool,
         factory: &dyn DeviceFactory,
+        extra_device: &[&'static CStr],
     ) -> Result<Context> {
         let inst = &self.instance;
         let required = factory.required_physical_device(inst)?;
@@ -616,6 +653,15 @@ impl PartialInstance {
         }
         if use_fsr {
             dev_ext_names.push(ash::khr::fragment_shading_rate::NAME.as_ptr());
+        }
+        for &name in extra_device {
+            if !has_ext(name) {
+                return Err(Error::Gpu(format!(
+                    "the device offers no {} (needed for a window)",
+                    name.to_string_lossy()
+                )));
+            }
+            dev_ext_names.push(name.as_ptr());
         }
         let prio = [1.0f32];
         let qinfo = [vk::DeviceQueueCreateInfo::default()

@@ -1,7 +1,10 @@
 //! Where frames go: headless images (`render`) and the application loop
-//! (`run`: an OpenXR session, or headless on an HMD profile).
+//! (`run`: an OpenXR session, or headless on an HMD profile), and the
+//! desktop window (`view`: the preview with a fly camera).
 
 pub mod headless;
 pub mod run;
 pub mod session;
+pub mod view;
+pub mod window;
 pub mod xr_session;

@@ -20,7 +20,8 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 /// Host packages: shader compiler, SPIR-V validator, Vulkan loader,
-/// lavapipe, validation layers, and debootstrap for the test root.
+/// lavapipe, validation layers, debootstrap for the test root, and an X
+/// server without a screen plus input scripting for the window tests.
 const HOST_PACKAGES: &[&str] = &[
     "glslc",
     "spirv-tools",
@@ -28,10 +29,13 @@ const HOST_PACKAGES: &[&str] = &[
     "mesa-vulkan-drivers",
     "vulkan-validationlayers",
     "debootstrap",
+    "xvfb",
+    "xdotool",
 ];
 /// Packages inside the Debian 13 root: a current lavapipe (Mesa 22.3 in
 /// Debian 12 misroutes some multiview draws), validation layers, and the
-/// OpenXR runtime Monado with its loader and validation layer.
+/// OpenXR runtime Monado with its loader and validation layer, and for the
+/// window tests Xvfb, xdotool and the X client libraries winit loads.
 const ROOT_PACKAGES: &[&str] = &[
     "mesa-vulkan-drivers",
     "vulkan-validationlayers",
@@ -42,6 +46,14 @@ const ROOT_PACKAGES: &[&str] = &[
     "libopenxr-loader1",
     "openxr-layer-corevalidation",
     "libopenxr-utils",
+    "xvfb",
+    "xdotool",
+    "libx11-6",
+    "libx11-xcb1",
+    "libxcursor1",
+    "libxrandr2",
+    "libxi6",
+    "libxkbcommon-x11-0",
 ];
 const ROOT_SUITE: &str = "trixie";
 /// Monado on distributions that ship it (Debian 13+, Ubuntu 24.04+).
@@ -135,10 +147,43 @@ fn root_ready(root: &Path) -> bool {
         && root.join(".vergence-ready").exists()
 }
 
+/// The packages of [`ROOT_PACKAGES`] that the ready root's record
+/// (`.vergence-ready`, one package a line) does not list: added to the list
+/// after the root was made.
+fn root_missing(root: &Path) -> Vec<&'static str> {
+    let have = std::fs::read_to_string(root.join(".vergence-ready")).unwrap_or_default();
+    let have: Vec<&str> = have.lines().map(str::trim).collect();
+    ROOT_PACKAGES
+        .iter()
+        .copied()
+        .filter(|p| !have.contains(p))
+        .collect()
+}
+
 fn setup_root() -> Result<(), String> {
     let root = root_dir();
     if root_ready(&root) {
-        return Ok(());
+        let missing = root_missing(&root);
+        if missing.is_empty() {
+            return Ok(());
+        }
+        if !is_root() {
+            return Err(format!(
+                "the test root {} lacks {}; as root run: cargo xtask setup",
+                root.display(),
+                missing.join(" ")
+            ));
+        }
+        let install = format!(
+            "apt-get update -qq && apt-get install -y -qq --no-install-recommends {}",
+            missing.join(" ")
+        );
+        run(Command::new("chroot")
+            .arg(&root)
+            .args(["sh", "-c", &install])
+            .env("DEBIAN_FRONTEND", "noninteractive"))?;
+        return std::fs::write(root.join(".vergence-ready"), ROOT_PACKAGES.join("\n"))
+            .map_err(|e| e.to_string());
     }
     if !is_root() {
         return Err(format!(

@@ -1,0 +1,748 @@
+//! A window's Vulkan side: the surface, its swapchain (recreated on resize
+//! or when the driver reports it out of date) and the [`Presenter`], which
+//! blits already rendered eye images into the acquired swapchain image —
+//! side by side and letterboxed to keep their aspect — presents it, and on
+//! request reads the presented image back. Nothing is rendered here: the
+//! sources are images some earlier submission on the same queue wrote.
+
+use super::barrier::{self, Use};
+use super::memory::{Buffer, BufferDesc};
+use super::Context;
+use crate::error::{Error, Result, VkContext};
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use raw_window_handle::{RawDisplayHandle, RawWindowHandle};
+use std::ffi::CStr;
+
+/// The instance extensions a surface on `display` needs (VK_KHR_surface
+/// and the platform's surface extension), or why there are none.
+pub fn instance_extensions(display: RawDisplayHandle) -> Result<Vec<&'static CStr>> {
+    let platform = match display {
+        RawDisplayHandle::Xlib(_) => ash::khr::xlib_surface::NAME,
+        RawDisplayHandle::Xcb(_) => ash::khr::xcb_surface::NAME,
+        RawDisplayHandle::Wayland(_) => ash::khr::wayland_surface::NAME,
+        RawDisplayHandle::Windows(_) => ash::khr::win32_surface::NAME,
+        other => {
+            return Err(Error::Gpu(format!(
+                "no Vulkan surface extension for the display {other:?}"
+            )))
+        }
+    };
+    Ok(vec![ash::khr::surface::NAME, platform])
+}
+
+/// The device extensions a swapchain needs.
+pub fn device_extensions() -> Vec<&'static CStr> {
+    vec![ash::khr::swapchain::NAME]
+}
+
+/// Where content of `content` pixels goes in a `window`-pixel image so that
+/// it is as large as fits with its aspect kept, centred (bars on the two
+/// other sides): the offset and size of the destination rectangle.
+pub fn letterbox(content: vk::Extent2D, window: vk::Extent2D) -> (vk::Offset2D, vk::Extent2D) {
+    if content.width == 0 || content.height == 0 || window.width == 0 || window.height == 0 {
+        return (vk::Offset2D::default(), vk::Extent2D::default());
+    }
+    let (cw, ch) = (content.width as u64, content.height as u64);
+    let (ww, wh) = (window.width as u64, window.height as u64);
+    // Compare aspects exactly in integers: cw/ch against ww/wh.
+    let (w, h) = if cw * wh >= ww * ch {
+        (ww, (ww * ch + cw / 2) / cw)
+    } else {
+        ((wh * cw + ch / 2) / ch, wh)
+    };
+    let (w, h) = (w.clamp(1, ww), h.clamp(1, wh));
+    (
+        vk::Offset2D {
+            x: ((ww - w) / 2) as i32,
+            y: ((wh - h) / 2) as i32,
+        },
+        vk::Extent2D {
+            width: w as u32,
+            height: h as u32,
+        },
+    )
+}
+
+/// How presentation may pace the caller.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Pacing {
+    /// FIFO: the window's refresh paces the loop (a desktop preview).
+    Vsync,
+    /// MAILBOX or IMMEDIATE when offered, so presenting never waits for the
+    /// display (a mirror beside a headset's own frame loop); FIFO otherwise.
+    NeverBlock,
+}
+
+/// One image region shown in the window: a layer of an image in
+/// COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as a colour
+/// attachment; it is left in that layout.
+#[derive(Clone, Copy, Debug)]
+pub struct Source {
+    /// The image.
+    pub image: vk::Image,
+    /// Its array layer.
+    pub layer: u32,
+    /// Its size in pixels.
+    pub extent: vk::Extent2D,
+}
+
+/// What one [`Presenter::present`] did.
+#[derive(Debug)]
+pub enum Presented {
+    /// The image was presented (with its read-back pixels when asked for).
+    Shown(Option<image::RgbaImage>),
+    /// The swapchain was out of date (resize); it was recreated and nothing
+    /// was shown this time.
+    Skipped,
+}
+
+struct Slot {
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+    acquired: vk::Semaphore,
+}
+
+/// A surface, its swapchain and the per-frame objects to blit into it and
+/// present.
+pub struct Presenter {
+    surface_fn: ash::khr::surface::Instance,
+    swapchain_fn: ash::khr::swapchain::Device,
+    surface: vk::SurfaceKHR,
+    swapchain: vk::SwapchainKHR,
+    images: Vec<vk::Image>,
+    /// Signalled by the blit of image i, waited on by its present.
+    ready: Vec<vk::Semaphore>,
+    format: vk::SurfaceFormatKHR,
+    extent: vk::Extent2D,
+    present_mode: vk::PresentModeKHR,
+    pacing: Pacing,
+    slots: Vec<Slot>,
+    next: usize,
+    stale: bool,
+    readback: Option<Buffer>,
+}
+
+impl Presenter {
+    /// Creates the surface of a window (`display`, `window`) and its
+    /// swapchain at `size` pixels (used when the surface does not fix its
+    /// own size). `ctx` must have been created with
+    /// [`instance_extensions`] and [`device_extensions`].
+    pub fn new(
+        ctx: &Context,
+        display: RawDisplayHandle,
+        window: RawWindowHandle,
+        size: vk::Extent2D,
+        pacing: Pacing,
+    ) -> Result<Presenter> {
+        // SAFETY: the handles come from a live window that the caller keeps
+        // open until this presenter is destroyed; the instance has the
+        // surface extensions enabled.
+        let surface =
+            unsafe { ash_window::create_surface(&ctx.entry, &ctx.instance, display, window, None) }
+                .vk("creating the window surface")?;
+        let surface_fn = ash::khr::surface::Instance::new(&ctx.entry, &ctx.instance);
+        let swapchain_fn = ash::khr::swapchain::Device::new(&ctx.instance, &ctx.device);
+        let mut p = Presenter {
+            surface_fn,
+            swapchain_fn,
+            surface,
+            swapchain: vk::SwapchainKHR::null(),
+            images: Vec::new(),
+            ready: Vec::new(),
+            format: vk::SurfaceFormatKHR::default(),
+            extent: vk::Extent2D::default(),
+            present_mode: vk::PresentModeKHR::FIFO,
+            pacing,
+            slots: Vec::new(),
+            next: 0,
+            stale: false,
+            readback: None,
+        };
+        match p.init(ctx, size) {
+            Ok(()) => Ok(p),
+            Err(e) => {
+                p.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    fn init(&mut self, ctx: &Context, size: vk::Extent2D) -> Result<()> {
+        // SAFETY: the surface and physical device are valid.
+        let supported = unsafe {
+            self.surface_fn.get_physical_device_surface_support(
+                ctx.physical_device,
+                ctx.queue_family,
+                self.surface,
+            )
+        }
+        .vk("querying presentation support")?;
+        if !supported {
+            return Err(Error::Gpu(format!(
+                "{} cannot present to this window from its graphics queue",
+                ctx.device_name
+            )));
+        }
+        for i in 0..2 {
+            let (pool, cmd) = ctx.command_pool("window")?;
+            let mut slot = Slot {
+                pool,
+                cmd,
+                fence: vk::Fence::null(),
+                acquired: vk::Semaphore::null(),
+            };
+            // SAFETY: plain object creation on a live device; stored in
+            // the slot, which `destroy` cleans up.
+            unsafe {
+                slot.fence = ctx
+                    .device
+                    .create_fence(
+                        &vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED),
+                        None,
+                    )
+                    .vk("creating a window fence")?;
+                slot.acquired = ctx
+                    .device
+                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+                    .vk("creating a window semaphore")?;
+            }
+            ctx.set_name(slot.cmd, &format!("window blit {i}"));
+            self.slots.push(slot);
+        }
+        self.create_swapchain(ctx, size)
+    }
+
+    /// The swapchain's size in pixels.
+    pub fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    /// The present mode in use.
+    pub fn present_mode(&self) -> vk::PresentModeKHR {
+        self.present_mode
+    }
+
+    /// The swapchain images' format.
+    pub fn format(&self) -> vk::Format {
+        self.format.format
+    }
+
+    /// Marks the swapchain for recreation before the next present (the
+    /// window was resized).
+    pub fn resized(&mut self) {
+        self.stale = true;
+    }
+
+    fn create_swapchain(&mut self, ctx: &Context, size: vk::Extent2D) -> Result<()> {
+        let pd = ctx.physical_device;
+        let sf = &self.surface_fn;
+        // SAFETY: queries on a valid surface and physical device.
+        let (caps, formats, modes) = unsafe {
+            (
+                sf.get_physical_device_surface_capabilities(pd, self.surface)
+                    .vk("querying the surface capabilities")?,
+                sf.get_physical_device_surface_formats(pd, self.surface)
+                    .vk("querying the surface formats")?,
+                sf.get_physical_device_surface_present_modes(pd, self.surface)
+                    .vk("querying the present modes")?,
+            )
+        };
+        let extent = if caps.current_extent.width != u32::MAX {
+            caps.current_extent
+        } else {
+            vk::Extent2D {
+                width: size
+                    .width
+                    .clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+                height: size
+                    .height
+                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+            }
+        };
+        if extent.width == 0 || extent.height == 0 {
+            // Minimized: keep the old swapchain (if any) and try again later.
+            self.stale = true;
+            return Ok(());
+        }
+        let format = [vk::Format::B8G8R8A8_SRGB, vk::Format::R8G8B8A8_SRGB]
+            .into_iter()
+            .find_map(|f| formats.iter().find(|s| s.format == f).copied())
+            .or_else(|| formats.first().copied())
+            .ok_or_else(|| Error::Gpu("the window surface offers no formats".into()))?;
+        let wanted: &[vk::PresentModeKHR] = match self.pacing {
+            Pacing::Vsync => &[vk::PresentModeKHR::FIFO],
+            Pacing::NeverBlock => &[
+                vk::PresentModeKHR::MAILBOX,
+                vk::PresentModeKHR::IMMEDIATE,
+                vk::PresentModeKHR::FIFO,
+            ],
+        };
+        let present_mode = wanted
+            .iter()
+            .copied()
+            .find(|m| modes.contains(m))
+            .unwrap_or(vk::PresentModeKHR::FIFO);
+        let needed = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
+        if !caps.supported_usage_flags.contains(needed) {
+            return Err(Error::Gpu(format!(
+                "the window surface's images cannot be blitted into and read back (usage {:?})",
+                caps.supported_usage_flags
+            )));
+        }
+        let mut count = caps.min_image_count + 1;
+        if caps.max_image_count > 0 {
+            count = count.min(caps.max_image_count);
+        }
+        let alpha = [
+            vk::CompositeAlphaFlagsKHR::OPAQUE,
+            vk::CompositeAlphaFlagsKHR::INHERIT,
+            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+        ]
+        .into_iter()
+        .find(|a| caps.supported_composite_alpha.contains(*a))
+        .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE);
+        let old = self.swapchain;
+        let info = vk::SwapchainCreateInfoKHR::default()
+            .surface(self.surface)
+            .min_image_count(count)
+            .image_format(format.format)
+            .image_color_space(format.color_space)
+            .image_extent(extent)
+            .image_array_layers(1)
+            .image_usage(needed)
+            .image_sharing_mode(vk::SharingMode::EXCLUSIVE)
+            .pre_transform(caps.current_transform)
+            .composite_alpha(alpha)
+            .present_mode(present_mode)
+            .clipped(true)
+            .old_swapchain(old);
+        // SAFETY: valid create info on a live device; the old swapchain
+        // (retired by this call) is idle (the device was waited on).
+        let swapchain = unsafe { self.swapchain_fn.create_swapchain(&info, None) }
+            .vk("creating the window swapchain")?;
+        self.destroy_swapchain(ctx);
+        self.swapchain = swapchain;
+        // SAFETY: the swapchain was just created on this device.
+        self.images = unsafe { self.swapchain_fn.get_swapchain_images(swapchain) }
+            .vk("getting the swapchain images")?;
+        for (i, &img) in self.images.iter().enumerate() {
+            ctx.set_name(img, &format!("window image {i}"));
+            // SAFETY: plain object creation; destroyed with the swapchain.
+            let s = unsafe {
+                ctx.device
+                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+            }
+            .vk("creating a present semaphore")?;
+            self.ready.push(s);
+        }
+        self.format = format;
+        self.extent = extent;
+        self.present_mode = present_mode;
+        self.stale = false;
+        tracing::info!(
+            "window swapchain: {}x{} {:?}, {} images, {:?}",
+            extent.width,
+            extent.height,
+            format.format,
+            self.images.len(),
+            present_mode
+        );
+        Ok(())
+    }
+
+    /// Destroys the swapchain and its semaphores (the device must be idle
+    /// as far as they are concerned).
+    fn destroy_swapchain(&mut self, ctx: &Context) {
+        // SAFETY: the caller waited for the device, so no submission or
+        // present uses these any more.
+        unsafe {
+            for s in self.ready.drain(..) {
+                ctx.device.destroy_semaphore(s, None);
+            }
+            if self.swapchain != vk::SwapchainKHR::null() {
+                self.swapchain_fn.destroy_swapchain(self.swapchain, None);
+            }
+        }
+        self.swapchain = vk::SwapchainKHR::null();
+        self.images.clear();
+    }
+
+    fn recreate(&mut self, ctx: &Context, size: vk::Extent2D) -> Result<()> {
+        // SAFETY: waiting for the device before retiring the swapchain.
+        unsafe { ctx.device.device_wait_idle() }.vk("waiting before a swapchain resize")?;
+        self.create_swapchain(ctx, size)
+    }
+
+    /// Blits `sources` side by side (in order, each at its own size) into
+    /// the next swapchain image, letterboxed on black, and presents it;
+    /// with `read_back`, the presented pixels come back as RGBA8 (this
+    /// waits for the blit). `size` is the window's size, used when the
+    /// swapchain must be recreated.
+    pub fn present(
+        &mut self,
+        ctx: &Context,
+        sources: &[Source],
+        size: vk::Extent2D,
+        read_back: bool,
+    ) -> Result<Presented> {
+        if self.stale || self.swapchain == vk::SwapchainKHR::null() {
+            self.recreate(ctx, size)?;
+            if self.stale {
+                return Ok(Presented::Skipped);
+            }
+        }
+        let d = &ctx.device;
+        let slot_index = self.next;
+        self.next = (self.next + 1) % self.slots.len();
+        let (pool, cmd, fence, acquired) = {
+            let s = &self.slots[slot_index];
+            (s.pool, s.cmd, s.fence, s.acquired)
+        };
+        // SAFETY: the fence belongs to this device; waiting makes the slot's
+        // command buffer and semaphore free for reuse.
+        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.vk("waiting for a window blit")?;
+        // SAFETY: valid swapchain; the semaphore is unsignalled (its last
+        // wait completed with the fence above).
+        let acquire = unsafe {
+            self.swapchain_fn.acquire_next_image(
+                self.swapchain,
+                u64::MAX,
+                acquired,
+                vk::Fence::null(),
+            )
+        };
+        let index = match acquire {
+            Ok((i, suboptimal)) => {
+                if suboptimal {
+                    self.stale = true;
+                }
+                i
+            }
+            Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.recreate(ctx, size)?;
+                return Ok(Presented::Skipped);
+            }
+            Err(e) => return Err(e).vk("acquiring a window image"),
+        };
+        let target = self.images[index as usize];
+        let extent = self.extent;
+        let pixels = extent.width as u64 * extent.height as u64 * 4;
+        if read_back && self.readback.as_ref().is_none_or(|b| b.size < pixels) {
+            if let Some(old) = self.readback.take() {
+                // No submission still uses it: every read-back waits for
+                // its blit before returning.
+                old.destroy(ctx);
+            }
+            self.readback = Some(Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "window readback",
+                    size: pixels,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "readback",
+                },
+            )?);
+        }
+        let readback = read_back.then(|| self.readback.as_ref().map(|b| b.buffer));
+        self.record_blit(ctx, (pool, cmd), target, sources, readback.flatten())?;
+        let waits = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(acquired)
+            .stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)];
+        let signals = [vk::SemaphoreSubmitInfo::default()
+            .semaphore(self.ready[index as usize])
+            .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
+        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+        let submit = vk::SubmitInfo2::default()
+            .wait_semaphore_infos(&waits)
+            .command_buffer_infos(&cmds)
+            .signal_semaphore_infos(&signals);
+        // SAFETY: the command buffer is recorded; the fence is reset only
+        // now that a submission will signal it.
+        unsafe {
+            d.reset_fences(&[fence]).vk("resetting a window fence")?;
+            d.queue_submit2(ctx.queue, &[submit], fence)
+                .vk("submitting a window blit")?;
+        }
+        let swapchains = [self.swapchain];
+        let indices = [index];
+        let wait = [self.ready[index as usize]];
+        let info = vk::PresentInfoKHR::default()
+            .wait_semaphores(&wait)
+            .swapchains(&swapchains)
+            .image_indices(&indices);
+        // SAFETY: the image was acquired and its blit submitted with the
+        // semaphore the present waits on.
+        match unsafe { self.swapchain_fn.queue_present(ctx.queue, &info) } {
+            Ok(false) => {}
+            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => self.stale = true,
+            Err(e) => return Err(e).vk("presenting a window image"),
+        }
+        if !read_back {
+            return Ok(Presented::Shown(None));
+        }
+        // SAFETY: waiting for the submission above before mapping its copy.
+        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }
+            .vk("waiting for a window readback")?;
+        let bgra = matches!(
+            self.format.format,
+            vk::Format::B8G8R8A8_SRGB | vk::Format::B8G8R8A8_UNORM
+        );
+        let buf = self
+            .readback
+            .as_mut()
+            .ok_or_else(|| Error::Gpu("no window readback buffer".into()))?;
+        let data = buf
+            .mapped()
+            .ok_or_else(|| Error::Gpu("the window readback buffer is not mapped".into()))?;
+        let mut px = data[..pixels as usize].to_vec();
+        if bgra {
+            for p in px.chunks_exact_mut(4) {
+                p.swap(0, 2);
+            }
+        }
+        let img = image::RgbaImage::from_raw(extent.width, extent.height, px)
+            .ok_or_else(|| Error::Gpu("window readback has the wrong size".into()))?;
+        Ok(Presented::Shown(Some(img)))
+    }
+
+    fn record_blit(
+        &self,
+        ctx: &Context,
+        (pool, cmd): (vk::CommandPool, vk::CommandBuffer),
+        target: vk::Image,
+        sources: &[Source],
+        readback: Option<vk::Buffer>,
+    ) -> Result<()> {
+        let d = &ctx.device;
+        let c = vk::ImageAspectFlags::COLOR;
+        let written = Use {
+            layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                | vk::PipelineStageFlags2::ALL_TRANSFER,
+            access: vk::AccessFlags2::COLOR_ATTACHMENT_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
+        };
+        let acquired = Use {
+            layout: vk::ImageLayout::UNDEFINED,
+            stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+            access: vk::AccessFlags2::NONE,
+        };
+        let presented = Use {
+            layout: vk::ImageLayout::PRESENT_SRC_KHR,
+            stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+            access: vk::AccessFlags2::NONE,
+        };
+        let layer_barrier = |s: &Source, from: Use, to: Use| {
+            let mut b = barrier::image(s.image, c, 1, from, to);
+            b.subresource_range.base_array_layer = s.layer;
+            b
+        };
+        let mut before: Vec<_> = sources
+            .iter()
+            .map(|s| layer_barrier(s, written, Use::TRANSFER_SRC))
+            .collect();
+        before.push(barrier::image(target, c, 1, acquired, Use::TRANSFER_DST));
+        let after_src: Vec<_> = sources
+            .iter()
+            .map(|s| layer_barrier(s, Use::TRANSFER_SRC, written))
+            .collect();
+        let content = vk::Extent2D {
+            width: sources.iter().map(|s| s.extent.width).sum(),
+            height: sources.iter().map(|s| s.extent.height).max().unwrap_or(0),
+        };
+        let (origin, size) = letterbox(content, self.extent);
+        let range = vk::ImageSubresourceRange {
+            aspect_mask: c,
+            base_mip_level: 0,
+            level_count: 1,
+            base_array_layer: 0,
+            layer_count: 1,
+        };
+        let black = vk::ClearColorValue {
+            float32: [0.0, 0.0, 0.0, 1.0],
+        };
+        let cleared = [barrier::image(
+            target,
+            c,
+            1,
+            Use::TRANSFER_DST,
+            Use::TRANSFER_DST,
+        )];
+        // SAFETY: recording into this slot's command buffer, whose last
+        // submission finished (its fence was waited on); every image is
+        // alive and in the layouts the barriers name.
+        unsafe {
+            d.reset_command_pool(pool, vk::CommandPoolResetFlags::empty())
+                .vk("resetting the window command pool")?;
+            d.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .vk("beginning the window blit")?;
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            );
+            d.cmd_clear_color_image(cmd, target, Use::TRANSFER_DST.layout, &black, &[range]);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&cleared),
+            );
+            let mut x0 = 0u64;
+            for s in sources {
+                // Content pixel columns [x0, x0 + w) map to the letterboxed
+                // rectangle proportionally.
+                let map_x = |x: u64| {
+                    origin.x + (x * size.width as u64 / content.width.max(1) as u64) as i32
+                };
+                let map_y = |y: u64| {
+                    origin.y + (y * size.height as u64 / content.height.max(1) as u64) as i32
+                };
+                let x1 = x0 + s.extent.width as u64;
+                let region = vk::ImageBlit::default()
+                    .src_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: c,
+                        mip_level: 0,
+                        base_array_layer: s.layer,
+                        layer_count: 1,
+                    })
+                    .src_offsets([
+                        vk::Offset3D::default(),
+                        vk::Offset3D {
+                            x: s.extent.width as i32,
+                            y: s.extent.height as i32,
+                            z: 1,
+                        },
+                    ])
+                    .dst_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: c,
+                        mip_level: 0,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    })
+                    .dst_offsets([
+                        vk::Offset3D {
+                            x: map_x(x0),
+                            y: map_y(0),
+                            z: 0,
+                        },
+                        vk::Offset3D {
+                            x: map_x(x1),
+                            y: map_y(s.extent.height as u64),
+                            z: 1,
+                        },
+                    ]);
+                d.cmd_blit_image(
+                    cmd,
+                    s.image,
+                    Use::TRANSFER_SRC.layout,
+                    target,
+                    Use::TRANSFER_DST.layout,
+                    &[region],
+                    vk::Filter::LINEAR,
+                );
+                x0 = x1;
+            }
+            let mut after = after_src;
+            match readback {
+                Some(buf) => {
+                    let to_read = [barrier::image(
+                        target,
+                        c,
+                        1,
+                        Use::TRANSFER_DST,
+                        Use::TRANSFER_SRC,
+                    )];
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+                    );
+                    let copy = barrier::color_copy(0, 1, self.extent.width, self.extent.height);
+                    d.cmd_copy_image_to_buffer(cmd, target, Use::TRANSFER_SRC.layout, buf, &[copy]);
+                    after.push(barrier::image(target, c, 1, Use::TRANSFER_SRC, presented));
+                    let to_host = [vk::BufferMemoryBarrier2::default()
+                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                        .dst_access_mask(vk::AccessFlags2::HOST_READ)
+                        .buffer(buf)
+                        .size(vk::WHOLE_SIZE)];
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default()
+                            .buffer_memory_barriers(&to_host)
+                            .image_memory_barriers(&after),
+                    );
+                }
+                None => {
+                    after.push(barrier::image(target, c, 1, Use::TRANSFER_DST, presented));
+                    d.cmd_pipeline_barrier2(
+                        cmd,
+                        &vk::DependencyInfo::default().image_memory_barriers(&after),
+                    );
+                }
+            }
+            d.end_command_buffer(cmd).vk("ending the window blit")?;
+        }
+        Ok(())
+    }
+
+    /// Waits for the device and destroys everything, the surface last. The
+    /// window must still exist.
+    pub fn destroy(&mut self, ctx: &Context) {
+        // SAFETY: waiting for the device first, so nothing destroyed below
+        // is still in use.
+        unsafe {
+            let _ = ctx.device.device_wait_idle();
+        }
+        self.destroy_swapchain(ctx);
+        if let Some(b) = self.readback.take() {
+            b.destroy(ctx);
+        }
+        for s in self.slots.drain(..) {
+            // SAFETY: the device is idle; each object belongs to it.
+            unsafe {
+                ctx.device.destroy_fence(s.fence, None);
+                ctx.device.destroy_semaphore(s.acquired, None);
+                ctx.device.destroy_command_pool(s.pool, None);
+            }
+        }
+        if self.surface != vk::SurfaceKHR::null() {
+            // SAFETY: the swapchain made from the surface is destroyed.
+            unsafe { self.surface_fn.destroy_surface(self.surface, None) };
+            self.surface = vk::SurfaceKHR::null();
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    fn e(width: u32, height: u32) -> vk::Extent2D {
+        vk::Extent2D { width, height }
+    }
+
+    #[test]
+    fn letterbox_keeps_the_aspect_and_centres() {
+        // Same aspect: fills the window.
+        let (o, s) = letterbox(e(200, 100), e(400, 200));
+        assert_eq!((o.x, o.y, s.width, s.height), (0, 0, 400, 200));
+        // Wider window: bars left and right.
+        let (o, s) = letterbox(e(200, 100), e(600, 200));
+        assert_eq!((o.x, o.y, s.width, s.height), (100, 0, 400, 200));
+        // Taller window: bars top and bottom.
+        let (o, s) = letterbox(e(200, 100), e(400, 400));
+        assert_eq!((o.x, o.y, s.width, s.height), (0, 100, 400, 200));
+        // Odd sizes stay inside the window.
+        for (cw, ch, ww, wh) in [(1440, 1600, 1023, 577), (7, 3, 5, 9), (1, 1000, 1000, 1)] {
+            let (o, s) = letterbox(e(cw, ch), e(ww, wh));
+            assert!(o.x as u32 + s.width <= ww && o.y as u32 + s.height <= wh);
+            assert!(s.width == ww || s.height == wh);
+        }
+    }
+}

@@ -1,0 +1,309 @@
+//! `vergence view`: the desktop preview. An HMD profile's stereo rig,
+//! carried by a mouse-and-keyboard [`FlyCamera`], rendered through the same
+//! renderer and frame driver as every other loop; each frame is copied into
+//! eye images (a [`FrameOutput`], as an OpenXR session's swapchains are)
+//! and blitted into the window's swapchain, one eye or both side by side,
+//! letterboxed to keep their aspect.
+
+use super::headless::{eye_extent, load_scene, load_stereo_profile, save_png};
+use super::window::{display_available, Eyes, FlyCamera, Window};
+use crate::config::{RenderConfig, StereoMode};
+use crate::error::{Error, Result};
+use crate::gpu::memory::{Image, ImageDesc};
+use crate::gpu::surface::{Pacing, Presented, Presenter, Source};
+use crate::gpu::{Context, Direct, Validation};
+use crate::render::attachments::COLOR_FORMAT;
+use crate::render::driver::FrameDriver;
+use crate::render::{FrameOutput, OutputSpec, Renderer};
+use crate::view::Pose;
+use ash::vk;
+use std::path::PathBuf;
+use std::sync::Arc;
+use std::time::Instant;
+
+/// What `vergence view` shows.
+#[derive(Clone, Debug)]
+pub struct ViewArgs {
+    /// `--scene` value.
+    pub scene: String,
+    /// HMD profile name or path.
+    pub hmd: String,
+    /// Where the fly camera starts.
+    pub pose: Pose,
+    /// Renderer configuration.
+    pub config: RenderConfig,
+    /// Per-eye size override (else the profile's resolution).
+    pub size: Option<(u32, u32)>,
+    /// End after this many presented frames (None: until closed).
+    pub frames: Option<u64>,
+    /// Write the last presented window image here (PNG): after the last of
+    /// `frames`, or when the window is closed.
+    pub screenshot: Option<PathBuf>,
+    /// Which eyes the window shows.
+    pub eyes: Eyes,
+}
+
+/// What a `view` session did.
+#[derive(Clone, Debug)]
+pub struct ViewSummary {
+    /// Frames presented.
+    pub frames: u64,
+    /// Per-eye size rendered.
+    pub eye_size: [u32; 2],
+    /// The window's size at the end.
+    pub window_size: [u32; 2],
+    /// The swapchain's present mode.
+    pub present_mode: String,
+    /// Vulkan validation messages seen.
+    pub validation_messages: usize,
+}
+
+/// The largest window `view` opens by default; larger content is shown
+/// scaled down (the window can be resized).
+const MAX_WINDOW: vk::Extent2D = vk::Extent2D {
+    width: 1600,
+    height: 900,
+};
+
+/// The window size for `content` pixels: the content's own size, scaled
+/// down to fit [`MAX_WINDOW`] with its aspect kept.
+pub fn initial_window_size(content: vk::Extent2D) -> vk::Extent2D {
+    if content.width <= MAX_WINDOW.width && content.height <= MAX_WINDOW.height {
+        return content;
+    }
+    crate::gpu::surface::letterbox(content, MAX_WINDOW).1
+}
+
+/// Images the renderer copies each frame into (one set per frame in
+/// flight): one two-layer image under multiview, one image per eye in
+/// two-pass, as an OpenXR session's swapchains would be.
+struct EyeImages {
+    sets: Vec<Vec<Image>>,
+    multiview: bool,
+    extent: vk::Extent2D,
+}
+
+impl EyeImages {
+    fn new(ctx: &Context, stereo: StereoMode, extent: vk::Extent2D, slots: usize) -> Result<Self> {
+        let multiview = stereo == StereoMode::Multiview;
+        let (count, layers) = if multiview { (1, 2) } else { (2, 1) };
+        let mut sets = Vec::new();
+        for s in 0..slots {
+            let mut set = Vec::new();
+            for i in 0..count {
+                set.push(Image::new(
+                    ctx,
+                    &ImageDesc {
+                        name: &format!("window eye image {s}.{i}"),
+                        format: COLOR_FORMAT,
+                        extent,
+                        layers,
+                        mips: 1,
+                        samples: vk::SampleCountFlags::TYPE_1,
+                        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                            | vk::ImageUsageFlags::TRANSFER_DST
+                            | vk::ImageUsageFlags::TRANSFER_SRC,
+                        aspect: vk::ImageAspectFlags::COLOR,
+                        category: "window",
+                    },
+                )?);
+            }
+            sets.push(set);
+        }
+        Ok(EyeImages {
+            sets,
+            multiview,
+            extent,
+        })
+    }
+
+    fn output(&self, slot: usize) -> FrameOutput {
+        FrameOutput {
+            color: self.sets[slot].iter().map(|i| i.image).collect(),
+            depth: Vec::new(),
+        }
+    }
+
+    fn source(&self, slot: usize, eye: usize) -> Source {
+        let set = &self.sets[slot];
+        let (image, layer) = if self.multiview {
+            (set[0].image, eye as u32)
+        } else {
+            (set[eye].image, 0)
+        };
+        Source {
+            image,
+            layer,
+            extent: self.extent,
+        }
+    }
+
+    fn destroy(self, ctx: &Context) {
+        for img in self.sets.into_iter().flatten() {
+            img.destroy(ctx);
+        }
+    }
+}
+
+/// Runs the desktop preview until the window closes (or `args.frames`
+/// frames were presented).
+pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
+    display_available()?;
+    let profile = load_stereo_profile(&args.hmd)?;
+    args.config.validate()?;
+    let (scene, _) = load_scene(&args.scene)?;
+    let extent = eye_extent(&profile, args.size);
+    let shown = args.eyes.indices();
+    let content = vk::Extent2D {
+        width: extent.width * shown.len() as u32,
+        height: extent.height,
+    };
+    let mut window = Window::open(
+        &format!("vergence view: {} ({})", scene.name, profile.name),
+        initial_window_size(content),
+    )?;
+    let ctx = Arc::new(Context::with_extensions(
+        Validation::from_env(),
+        &Direct,
+        &window.extensions()?,
+    )?);
+    let (display, handle) = window.handles()?;
+    let mut presenter = Presenter::new(&ctx, display, handle, window.size(), Pacing::Vsync)?;
+    let slots = args.config.frames_in_flight.max(1) as usize;
+    let result = EyeImages::new(&ctx, args.config.stereo, extent, slots).and_then(|images| {
+        let r = view_loop(
+            args,
+            &ctx,
+            &mut window,
+            &mut presenter,
+            &images,
+            &profile,
+            &scene,
+        );
+        // Destroying waits for the device: nothing reads the eye images after.
+        presenter.destroy(&ctx);
+        images.destroy(&ctx);
+        r
+    });
+    presenter.destroy(&ctx);
+    let frames = result?;
+    let size = window.size();
+    let summary = ViewSummary {
+        frames,
+        eye_size: [extent.width, extent.height],
+        window_size: [size.width, size.height],
+        present_mode: format!("{:?}", presenter.present_mode()),
+        validation_messages: ctx.validation_messages(),
+    };
+    Ok(summary)
+}
+
+fn view_loop(
+    args: &ViewArgs,
+    ctx: &Arc<Context>,
+    window: &mut Window,
+    presenter: &mut Presenter,
+    images: &EyeImages,
+    profile: &crate::view::profile::HmdProfile,
+    scene: &crate::scene::Scene,
+) -> Result<u64> {
+    let extent = eye_extent(profile, args.size);
+    let spec = OutputSpec {
+        color_format: COLOR_FORMAT,
+        depth: false,
+    };
+    let renderer = Renderer::with_output(ctx.clone(), scene, &args.config, extent, Some(spec))?;
+    let slots = renderer.frames_in_flight().min(images.sets.len());
+    let mut driver = FrameDriver::new(renderer, scene)?;
+    let mut camera = FlyCamera::at(args.pose);
+    let mut presented = 0u64;
+    let mut index = 0u64;
+    let mut last = Instant::now();
+    let mut last_slot = None;
+    let run = (|| -> Result<()> {
+        loop {
+            if args.frames.is_some_and(|n| presented >= n) {
+                return Ok(());
+            }
+            let input = window.pump();
+            if input.close {
+                // The window is still there: present the last frame's eye
+                // images once more, read back, so the screenshot is what
+                // the window showed last.
+                if let (Some(path), Some(slot)) = (&args.screenshot, last_slot) {
+                    let sources: Vec<Source> = args
+                        .eyes
+                        .indices()
+                        .iter()
+                        .map(|&e| images.source(slot, e))
+                        .collect();
+                    if let Presented::Shown(Some(img)) =
+                        presenter.present(ctx, &sources, window.size(), true)?
+                    {
+                        save_png(&img, path)?;
+                    }
+                }
+                return Ok(());
+            }
+            if input.resized {
+                presenter.resized();
+            }
+            let now = Instant::now();
+            camera.update(input, (now - last).as_secs_f64());
+            last = now;
+            let rig = profile.rig(camera.pose());
+            let slot = (index % slots as u64) as usize;
+            driver.record(&rig, index)?;
+            driver.submit(Some(&images.output(slot)), false)?;
+            index += 1;
+            while driver.take_completed().is_some() {}
+            let sources: Vec<Source> = args
+                .eyes
+                .indices()
+                .iter()
+                .map(|&e| images.source(slot, e))
+                .collect();
+            let final_frame = args.frames.is_some_and(|n| presented + 1 >= n);
+            let want_shot = final_frame && args.screenshot.is_some();
+            match presenter.present(ctx, &sources, window.size(), want_shot)? {
+                Presented::Shown(shot) => {
+                    presented += 1;
+                    last_slot = Some(slot);
+                    if let (Some(img), Some(path)) = (shot, &args.screenshot) {
+                        save_png(&img, path)?;
+                    }
+                }
+                Presented::Skipped => {}
+            }
+            if index > 100 + 10 * args.frames.unwrap_or(u64::MAX / 20) {
+                return Err(Error::Window(
+                    "the window keeps rejecting its swapchain images".into(),
+                ));
+            }
+        }
+    })();
+    let finished = driver.finish();
+    drop(driver);
+    run.and(finished).map(|()| presented)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_initial_window_fits_the_screen_with_the_content_aspect() {
+        let small = vk::Extent2D {
+            width: 640,
+            height: 360,
+        };
+        assert_eq!(initial_window_size(small), small);
+        // Valve Index: 2016x2240 per eye, side by side.
+        let index_pair = vk::Extent2D {
+            width: 4032,
+            height: 2240,
+        };
+        let w = initial_window_size(index_pair);
+        assert_eq!((w.width, w.height), (1600, 889));
+    }
+}
