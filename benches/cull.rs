@@ -4,7 +4,7 @@
 use std::hint::black_box;
 
 use criterion::{criterion_group, criterion_main, Criterion};
-use vergence::cull::bench::{head_path, scene_bounds};
+use vergence::bench::cull::{head_path, scene_bounds};
 use vergence::cull::{Bvh, CullParams, Culler, Strategy, DEFAULT_LEAF_SIZE};
 use vergence::scene::factory;
 use vergence::view::profile::HmdProfile;

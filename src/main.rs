@@ -32,7 +32,7 @@ enum Command {
     /// look, Shift for speed, Escape to quit.
     View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
-    CullBench(vergence::cull::bench::CullBenchArgs),
+    CullBench(vergence::bench::cull::CullBenchArgs),
     /// Measure every optimization alone and combined along a head path:
     /// CPU and GPU time, pacing, counts, memory and image error; writes
     /// results.json, results.csv, report.md and report.html into DIR.
@@ -678,12 +678,12 @@ fn tune(
     Ok(())
 }
 
-fn cull_bench(args: &vergence::cull::bench::CullBenchArgs) -> anyhow::Result<()> {
+fn cull_bench(args: &vergence::bench::cull::CullBenchArgs) -> anyhow::Result<()> {
     let profile = HmdProfile::load(args.hmd.as_deref().unwrap_or(DEFAULT_PROFILE))?;
     let scene = vergence::scene::factory::generate(args.instances, args.seed)?;
     let bounds = scene.world_aabbs();
     drop(scene);
-    let report = vergence::cull::bench::run(args, &bounds, &profile.eyes())?;
+    let report = vergence::bench::cull::run(args, &bounds, &profile.eyes())?;
     if args.json {
         println!("{}", serde_json::to_string(&report)?);
     } else {

@@ -4,6 +4,10 @@
 
 use crate::error::{Error, Result};
 
+/// Smallest pixels-per-degree FLIP is evaluated at: below it FLIP's
+/// filters degenerate (a few pixels wide), so reduced-resolution runs use it.
+pub const MIN_FLIP_PPD: f64 = 10.0;
+
 /// Pixels per degree of a typical desktop monitor (FLIP's default), for
 /// images that are not viewed in a headset.
 pub const DESKTOP_PPD: f32 = flip_rs::DEFAULT_PPD;

@@ -1,6 +1,7 @@
 //! Measurement: benchmark plans, the runner, image metrics, reports with
 //! plots, and the tuner.
 
+pub mod cull;
 pub mod html;
 pub mod metrics;
 pub mod plan;

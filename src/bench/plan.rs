@@ -252,7 +252,7 @@ impl Plan {
                 }
                 let fov = &p.views[0].fov;
                 let ppd = (super::metrics::headset_ppd(sw as u32, fov.left, fov.right) as f64)
-                    .max(super::runner::MIN_FLIP_PPD);
+                    .max(super::metrics::MIN_FLIP_PPD);
                 super::metrics::check_flip(sw as u32, sh as u32, ppd as f32).map_err(|m| {
                     format!("HMD profile {h} at scale {scale} ({sw}x{sh} px, {ppd:.0} pixels per degree): {m}")
                 })?;

@@ -2,10 +2,10 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
-use super::metrics;
+use super::cull::{head_path, scene_bounds};
+use super::metrics::{self, MIN_FLIP_PPD};
 use super::plan::{sanitize, Plan};
 use crate::config::RenderConfig;
-use crate::cull::bench::{head_path, scene_bounds};
 use crate::error::Result;
 use crate::gpu::Context;
 use crate::render::driver::{FrameDriver, FrameResult};
@@ -237,10 +237,6 @@ pub fn scaled_extent(profile: &HmdProfile, scale: f64) -> vk::Extent2D {
         height: px(profile.views[0].resolution[1]),
     }
 }
-
-/// Smallest pixels-per-degree FLIP is evaluated at: below it FLIP's
-/// filters degenerate (a few pixels wide), so reduced-resolution runs use it.
-pub const MIN_FLIP_PPD: f64 = 10.0;
 
 /// Called after every configuration with (finished, total, label).
 pub type Progress<'a> = &'a mut dyn FnMut(usize, usize, &str);

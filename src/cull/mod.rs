@@ -16,7 +16,6 @@
 //! assert_eq!(out.visible, vec![0]);
 //! ```
 
-pub mod bench;
 pub mod bvh;
 pub mod traverse;
 pub mod volume;

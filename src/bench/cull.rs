@@ -9,7 +9,7 @@ use std::time::Instant;
 
 use glam::DVec3;
 
-use super::{
+use crate::cull::{
     compare, exact_per_eye, Bvh, BvhError, CullError, CullParams, Culler, Strategy,
     DEFAULT_LEAF_SIZE,
 };
