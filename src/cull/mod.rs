@@ -18,6 +18,7 @@
 
 pub mod bench;
 pub mod bvh;
+pub mod gpu;
 pub mod traverse;
 pub mod volume;
 

@@ -77,6 +77,9 @@ pub struct Capabilities {
     pub per_view_render_areas: bool,
     /// VK_EXT_memory_budget is enabled ([`Context::memory_budget`]).
     pub memory_budget: bool,
+    /// The Vulkan 1.2 `drawIndirectCount` feature is enabled
+    /// (vkCmdDrawIndexedIndirectCount, used by `gpu-cull`).
+    pub draw_indirect_count: bool,
 }
 
 /// Device-local memory as VK_EXT_memory_budget reports it, summed over the
@@ -569,10 +572,12 @@ impl PartialInstance {
         };
         let fsr_offered = has_ext(ash::khr::fragment_shading_rate::NAME);
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
+        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
         let mut ffsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default()
             .push_next(&mut f11)
+            .push_next(&mut f12)
             .push_next(&mut f13);
         if fsr_offered {
             f2 = f2.push_next(&mut ffsr);
@@ -593,6 +598,9 @@ impl PartialInstance {
             )
             .sampler_anisotropy(base.sampler_anisotropy != 0);
         let mut e11 = vk::PhysicalDeviceVulkan11Features::default().multiview(true);
+        let draw_indirect_count = f12.draw_indirect_count != 0;
+        let mut e12 =
+            vk::PhysicalDeviceVulkan12Features::default().draw_indirect_count(draw_indirect_count);
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
@@ -626,6 +634,7 @@ impl PartialInstance {
             .enabled_features(&features)
             .enabled_extension_names(&dev_ext_names)
             .push_next(&mut e11)
+            .push_next(&mut e12)
             .push_next(&mut e13);
         if use_fsr {
             dinfo = dinfo.push_next(&mut e_fsr);
@@ -673,6 +682,7 @@ impl PartialInstance {
             fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
             memory_budget,
+            draw_indirect_count,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),
