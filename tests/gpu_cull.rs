@@ -182,3 +182,22 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
     );
     assert!(stderr.contains("gpu-cull and mffr"), "{stderr}");
 }
+
+#[test]
+fn the_gpu_cull_bench_plans_parse_and_their_configs_validate() {
+    for plan in ["gpu-cull.toml", "scale.toml", "default.toml"] {
+        let path = common::root().join("manifests/bench").join(plan);
+        let plan = vergence::bench::plan::Plan::load(&path).unwrap_or_else(|e| panic!("{e}"));
+        let gpu: Vec<_> = plan
+            .configs
+            .iter()
+            .filter(|c| c.opt.contains("gpu-cull"))
+            .collect();
+        assert!(!gpu.is_empty(), "{}: no gpu-cull config", path.display());
+        for c in gpu {
+            config(&c.opt)
+                .validate()
+                .unwrap_or_else(|e| panic!("{}: {e}", c.name));
+        }
+    }
+}
