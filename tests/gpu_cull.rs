@@ -70,9 +70,15 @@ fn drive(
     (results, images)
 }
 
+/// The configuration of `opts`; a trailing `@N` sets N frames in flight.
 fn config(opts: &str) -> RenderConfig {
     let mut c = RenderConfig::default();
-    c.apply_opts(opts, &cull_names()).unwrap();
+    let (opts, slots) = match opts.split_once('@') {
+        Some((o, n)) => (o.to_string(), n.parse().unwrap()),
+        None => (opts.to_string(), 2),
+    };
+    c.apply_opts(&opts, &cull_names()).unwrap();
+    c.frames_in_flight = slots;
     c
 }
 
@@ -80,7 +86,11 @@ fn config(opts: &str) -> RenderConfig {
 /// frame (counts) and on the last frame's pixels.
 fn same_as_cpu(ctx: &Arc<Context>, scene: &Scene, rigs: &[StereoRig], opts: &str) {
     let (cpu, cpu_img) = drive(ctx, scene, &config(opts), rigs);
-    let (gpu, gpu_img) = drive(ctx, scene, &config(&format!("{opts},gpu-cull")), rigs);
+    let gpu_opts = match opts.split_once('@') {
+        Some((o, n)) => format!("{o},gpu-cull@{n}"),
+        None => format!("{opts},gpu-cull"),
+    };
+    let (gpu, gpu_img) = drive(ctx, scene, &config(&gpu_opts), rigs);
     for (k, (c, g)) in cpu.iter().zip(&gpu).enumerate() {
         let kept = c.cull.expect("CPU culling stats").accepted;
         let g_cull = g.stats.gpu_cull.expect("GPU culling stats");
@@ -149,6 +159,8 @@ fn gpu_cull_combines_with_msaa_masks_and_foveation() {
         "multiview,conical,rdm",
         "two-pass,no-msaa,superfrustum,stencil-mask,rdm,foveation",
         "multiview,per-eye,foveation=high",
+        "multiview,superfrustum@1",
+        "two-pass,conical-superfrustum,stencil-mask@3",
     ] {
         same_as_cpu(&ctx, &scene, &rigs, opts);
     }
@@ -181,6 +193,19 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
             .arg(common::scratch("gpu-cull", "mffr")),
     );
     assert!(stderr.contains("gpu-cull and mffr"), "{stderr}");
+    // A CPU visible list (the bench's empty-frame floor) is refused, not
+    // silently replaced by the GPU's.
+    let ctx = context();
+    let scene = load("factory:50");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let extent = ash::vk::Extent2D {
+        width: 16,
+        height: 16,
+    };
+    let mut r = Renderer::new(ctx.clone(), &scene, &config("per-eye,gpu-cull"), extent).unwrap();
+    let rig = profile.rig(Pose::default());
+    let e = r.render(&rig, Some(&[]), false).unwrap_err().to_string();
+    assert!(e.contains("culls on the GPU"), "{e}");
 }
 
 #[test]

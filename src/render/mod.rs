@@ -467,7 +467,8 @@ impl Renderer {
     }
 
     /// Batches and records one stereo frame of `rig` (the command buffer
-    /// stays open); [`Renderer::submit_frame`] completes it.
+    /// stays open); [`Renderer::submit_frame`] completes it. With
+    /// `gpu-cull` the GPU culls and `visible` must be None.
     pub fn record_frame(&mut self, rig: &StereoRig, visible: Option<&[u32]>) -> Result<()> {
         for v in &rig.views {
             v.pose
@@ -484,6 +485,12 @@ impl Renderer {
         if self.pending.is_some() {
             return Err(Error::Gpu(
                 "a frame was recorded but never submitted".into(),
+            ));
+        }
+        if self.passes.gpu_cull.is_some() && visible.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
             ));
         }
         // The slot's previous frame must be done before its buffers are
