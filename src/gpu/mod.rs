@@ -77,8 +77,9 @@ pub struct Capabilities {
     pub per_view_render_areas: bool,
     /// VK_EXT_memory_budget is enabled ([`Context::memory_budget`]).
     pub memory_budget: bool,
-    /// The Vulkan 1.2 `drawIndirectCount` feature is enabled
-    /// (vkCmdDrawIndexedIndirectCount, used by `gpu-cull`).
+    /// VK_KHR_draw_indirect_count is enabled (vkCmdDrawIndexedIndirectCount,
+    /// used by `gpu-cull`; core in Vulkan 1.2 as the drawIndirectCount
+    /// feature).
     pub draw_indirect_count: bool,
 }
 
@@ -572,12 +573,10 @@ impl PartialInstance {
         };
         let fsr_offered = has_ext(ash::khr::fragment_shading_rate::NAME);
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
-        let mut f12 = vk::PhysicalDeviceVulkan12Features::default();
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
         let mut ffsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default()
             .push_next(&mut f11)
-            .push_next(&mut f12)
             .push_next(&mut f13);
         if fsr_offered {
             f2 = f2.push_next(&mut ffsr);
@@ -598,9 +597,12 @@ impl PartialInstance {
             )
             .sampler_anisotropy(base.sampler_anisotropy != 0);
         let mut e11 = vk::PhysicalDeviceVulkan11Features::default().multiview(true);
-        let draw_indirect_count = f12.draw_indirect_count != 0;
-        let mut e12 =
-            vk::PhysicalDeviceVulkan12Features::default().draw_indirect_count(draw_indirect_count);
+        // Enabled through VK_KHR_draw_indirect_count rather than the
+        // Vulkan12Features bit: an OpenXR runtime creating the device
+        // (XR_KHR_vulkan_enable2) may chain its own 1.2-era feature structs,
+        // which must not meet a Vulkan12Features (VUID-VkDeviceCreateInfo-
+        // pNext-02830). The extension implies the feature.
+        let draw_indirect_count = has_ext(ash::khr::draw_indirect_count::NAME);
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
@@ -625,6 +627,9 @@ impl PartialInstance {
         if use_fsr {
             dev_ext_names.push(ash::khr::fragment_shading_rate::NAME.as_ptr());
         }
+        if draw_indirect_count {
+            dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
+        }
         let prio = [1.0f32];
         let qinfo = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
@@ -634,7 +639,6 @@ impl PartialInstance {
             .enabled_features(&features)
             .enabled_extension_names(&dev_ext_names)
             .push_next(&mut e11)
-            .push_next(&mut e12)
             .push_next(&mut e13);
         if use_fsr {
             dinfo = dinfo.push_next(&mut e_fsr);

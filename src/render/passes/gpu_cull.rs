@@ -103,7 +103,7 @@ impl GpuCull {
             return Err(Error::config(
                 "--opt",
                 format!(
-                    "gpu-cull needs the Vulkan 1.2 drawIndirectCount feature, which {} lacks",
+                    "gpu-cull needs VK_KHR_draw_indirect_count (drawIndirectCount), which {} lacks",
                     ctx.device_name
                 ),
             ));
@@ -532,7 +532,7 @@ impl GpuCull {
             // SAFETY: inside a rendering scope with a scene pipeline and the
             // scene's buffers bound; the command and count lie inside this
             // slot's buffers, written by the cull and made visible to the
-            // indirect stage by its barrier; drawIndirectCount is enabled.
+            // indirect stage by its barrier; VK_KHR_draw_indirect_count is enabled.
             unsafe {
                 rec.ctx.device.cmd_draw_indexed_indirect_count(
                     rec.cmd,
