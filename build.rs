@@ -1,4 +1,4 @@
-//! Compiles shaders/*.{vert,frag} to SPIR-V with glslc (Debian/Ubuntu package
+//! Compiles shaders/*.{vert,frag,comp} to SPIR-V with glslc (Debian/Ubuntu package
 //! `glslc`; `cargo xtask` installs it). The SPIR-V lands in OUT_DIR and is
 //! embedded with include_bytes!.
 
@@ -15,7 +15,7 @@ fn main() {
         .filter(|p| {
             matches!(
                 p.extension().and_then(|e| e.to_str()),
-                Some("vert" | "frag")
+                Some("vert" | "frag" | "comp")
             )
         })
         .collect();
@@ -23,8 +23,15 @@ fn main() {
     for src in sources {
         let name = src.file_name().unwrap().to_string_lossy().into_owned();
         let dst = Path::new(&out).join(format!("{name}.spv"));
+        // Compute shaders target Vulkan 1.2: for 1.3 glslc declares the
+        // workgroup size with LocalSizeId, which needs maintenance4.
+        let env = if name.ends_with(".comp") {
+            "--target-env=vulkan1.2"
+        } else {
+            "--target-env=vulkan1.3"
+        };
         let status = Command::new(&glslc)
-            .args(["--target-env=vulkan1.3", "-O", "-Ishaders", "-o"])
+            .args([env, "-O", "-Ishaders", "-o"])
             .arg(&dst)
             .arg(&src)
             .status();

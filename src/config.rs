@@ -118,6 +118,11 @@ pub struct RenderConfig {
     /// Frames the CPU may prepare while the GPU still renders earlier ones
     /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
     pub frames_in_flight: u32,
+    /// GPU-driven culling (`gpu-cull`): a compute pass tests every instance
+    /// against the strategy's volumes and writes the visible lists and the
+    /// indirect draws; the CPU records the same commands whatever the
+    /// instance count.
+    pub gpu_cull: bool,
 }
 
 /// Most frames in flight `--frames-in-flight` accepts.
@@ -181,6 +186,7 @@ impl Default for RenderConfig {
             rdm_fill: true,
             mffr: None,
             frames_in_flight: 2,
+            gpu_cull: false,
         }
     }
 }
@@ -201,6 +207,18 @@ impl RenderConfig {
                     "{} (supported: 1 to {MAX_FRAMES_IN_FLIGHT})",
                     self.frames_in_flight
                 ),
+            ));
+        }
+        if self.gpu_cull && self.cull == Culling::None {
+            return Err(Error::config(
+                "--opt",
+                "gpu-cull needs a culling strategy (per-eye, superfrustum, conical, conical-superfrustum, round-robin, round-robin-conical)",
+            ));
+        }
+        if self.gpu_cull && self.mffr.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "gpu-cull and mffr cannot be combined yet: the near/far instance split runs on the CPU only",
             ));
         }
         if !(self.near.is_finite() && self.near > 0.0) {
@@ -242,6 +260,7 @@ impl RenderConfig {
                 "msaa" | "msaa4" => self.msaa = 4,
                 "no-msaa" => self.msaa = 1,
                 "stencil-mask" => self.stencil_mask = true,
+                "gpu-cull" => self.gpu_cull = true,
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
                 "mffr" => {
                     self.mffr.get_or_insert_with(Mffr::default);

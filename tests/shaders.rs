@@ -11,14 +11,14 @@ fn every_spirv_module_validates() {
         std::fs::read_dir(concat!(env!("CARGO_MANIFEST_DIR"), "/shaders"))
             .unwrap()
             .map(|e| e.unwrap().file_name().to_string_lossy().into_owned())
-            .filter(|n| n.ends_with(".vert") || n.ends_with(".frag"))
+            .filter(|n| n.ends_with(".vert") || n.ends_with(".frag") || n.ends_with(".comp"))
             .collect();
     sources.sort();
     let mut names: Vec<String> = modules.iter().map(|(n, _)| n.to_string()).collect();
     names.sort();
     assert_eq!(
         names, sources,
-        "one embedded module per shaders/*.vert, *.frag"
+        "one embedded module per shaders/*.vert, *.frag, *.comp"
     );
     let dir = std::env::temp_dir().join(format!("vergence-spv-{}", std::process::id()));
     std::fs::create_dir_all(&dir).unwrap();

@@ -131,6 +131,12 @@ pub struct ConfigResult {
     /// Fragment-shader invocations (median; None without pipeline
     /// statistics).
     pub fragment_invocations: Option<f64>,
+    /// With `gpu-cull`: instances the compute cull tested (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_tested: Option<f64>,
+    /// With `gpu-cull`: instances passing the frustum test (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_passed_frustum: Option<f64>,
     /// GPU memory.
     pub gpu_memory: GpuMemory,
     /// Process resident set size after the configuration ran.
@@ -644,6 +650,10 @@ fn summarize(
     let series =
         |get: &dyn Fn(&FrameResult) -> f64| -> Vec<f64> { frames.iter().map(get).collect() };
     let median = |get: &dyn Fn(&FrameResult) -> f64| Summary::of(&series(get)).p50;
+    let gpu_cull_median = |get: &dyn Fn(&crate::render::GpuCullStats) -> u64| {
+        (!frames.is_empty() && frames.iter().all(|f| f.stats.gpu_cull.is_some()))
+            .then(|| median(&|f| f.stats.gpu_cull.map_or(0.0, |c| get(&c) as f64)))
+    };
     let cpu = series(&FrameResult::cpu_ms);
     let gpu = series(&FrameResult::gpu_ms);
     let model: Vec<f64> = cpu.iter().zip(&gpu).map(|(c, g)| c.max(*g)).collect();
@@ -697,6 +707,8 @@ fn summarize(
                 })
             })
             .filter(|_| !frames.is_empty()),
+        gpu_cull_tested: gpu_cull_median(&|c| c.tested),
+        gpu_cull_passed_frustum: gpu_cull_median(&|c| c.passed_frustum),
         ..ConfigResult::default()
     }
 }

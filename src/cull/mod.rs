@@ -17,6 +17,7 @@
 //! ```
 
 pub mod bvh;
+pub mod gpu;
 pub mod traverse;
 pub mod volume;
 

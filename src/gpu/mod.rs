@@ -78,6 +78,10 @@ pub struct Capabilities {
     pub per_view_render_areas: bool,
     /// VK_EXT_memory_budget is enabled ([`Context::memory_budget`]).
     pub memory_budget: bool,
+    /// VK_KHR_draw_indirect_count is enabled (vkCmdDrawIndexedIndirectCount,
+    /// used by `gpu-cull`; core in Vulkan 1.2 as the drawIndirectCount
+    /// feature).
+    pub draw_indirect_count: bool,
 }
 
 /// Device-local memory as VK_EXT_memory_budget reports it, summed over the
@@ -630,6 +634,12 @@ impl PartialInstance {
             )
             .sampler_anisotropy(base.sampler_anisotropy != 0);
         let mut e11 = vk::PhysicalDeviceVulkan11Features::default().multiview(true);
+        // Enabled through VK_KHR_draw_indirect_count rather than the
+        // Vulkan12Features bit: an OpenXR runtime creating the device
+        // (XR_KHR_vulkan_enable2) may chain its own 1.2-era feature structs,
+        // which must not meet a Vulkan12Features (VUID-VkDeviceCreateInfo-
+        // pNext-02830). The extension implies the feature.
+        let draw_indirect_count = has_ext(ash::khr::draw_indirect_count::NAME);
         let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
             .dynamic_rendering(true)
             .synchronization2(true);
@@ -662,6 +672,9 @@ impl PartialInstance {
                 )));
             }
             dev_ext_names.push(name.as_ptr());
+        }
+        if draw_indirect_count {
+            dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
         }
         let prio = [1.0f32];
         let qinfo = [vk::DeviceQueueCreateInfo::default()
@@ -719,6 +732,7 @@ impl PartialInstance {
             fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
             memory_budget,
+            draw_indirect_count,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

@@ -1,5 +1,5 @@
 //! The SPIR-V modules the renderer embeds. `build.rs` compiles every
-//! `shaders/*.{vert,frag}` with glslc into OUT_DIR; each module is included
+//! `shaders/*.{vert,frag,comp}` with glslc into OUT_DIR; each module is included
 //! here at compile time, so a binary carries its shaders and nothing is read
 //! or compiled at run time.
 
@@ -54,8 +54,11 @@ pub static FLOOR_VERT: Module = spirv!("floor.vert");
 /// A constant colour.
 pub static FLAT_FRAG: Module = spirv!("flat.frag");
 
+/// GPU-driven culling's compute shader (`gpu-cull`).
+pub static GPU_CULL_COMP: Module = spirv!("gpu_cull.comp");
+
 /// Every embedded module.
-pub static ALL: [&Module; 11] = [
+pub static ALL: [&Module; 12] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -67,6 +70,7 @@ pub static ALL: [&Module; 11] = [
     &SKY_FRAG,
     &FLOOR_VERT,
     &FLAT_FRAG,
+    &GPU_CULL_COMP,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).

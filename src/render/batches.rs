@@ -145,6 +145,11 @@ impl Batcher {
         }
     }
 
+    /// The non-blended primitives in draw order (grouped by pipeline key).
+    pub fn order(&self) -> &[u32] {
+        &self.order
+    }
+
     /// Like [`Batcher::build`] for a split monoscopic far field: the near
     /// draws get the visible instances whose bounding sphere `near(centre,
     /// radius)` keeps, the far draws (after `far_start`) those `far` keeps.

@@ -25,6 +25,10 @@ impl CullState {
         let Some(strategy) = config.cull.strategy() else {
             return Ok(None);
         };
+        // With gpu-cull the renderer's compute pass culls every frame.
+        if config.gpu_cull {
+            return Ok(None);
+        }
         let t = Instant::now();
         let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
             .map_err(|e| Error::scene(&scene.name, e.to_string()))?;

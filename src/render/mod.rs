@@ -47,6 +47,8 @@ use batches::{Batcher, Batches};
 use descriptors::{Descriptors, SetContents};
 use gpu_allocator::MemoryLocation;
 use passes::far_field::FarField;
+use passes::gpu_cull::GpuCull;
+pub use passes::gpu_cull::GpuCullStats;
 use passes::output::{OutputCopy, Readback};
 use passes::{Passes, PipelineSetup, Recorder, Scope, VertexBindings};
 use scene_gpu::SceneGpu;
@@ -91,6 +93,11 @@ pub struct FrameStats {
     pub gpu_ms: BTreeMap<String, f64>,
     /// Pipeline statistics of the frame (both eyes).
     pub pipeline: Option<PipelineStats>,
+    /// With `gpu-cull`: the compute cull's counters, read back with the
+    /// draws (`draw_calls`, `instances_drawn` and `triangles` are then what
+    /// the GPU drew).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_cull: Option<GpuCullStats>,
 }
 
 struct Pending {
@@ -240,6 +247,10 @@ impl Renderer {
         r.shading_rate = rates;
         r.foveation_path = path;
         r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
+        if config.gpu_cull {
+            let order = r.batcher.order().to_vec();
+            r.passes.gpu_cull = Some(GpuCull::new(&r.pipeline_setup(), scene, &order, slots)?);
+        }
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
@@ -249,7 +260,11 @@ impl Renderer {
             config.rdm.is_some() && config.rdm_fill,
         )?);
         for i in 0..slots {
-            r.ensure_visible_capacity(i, scene.instances.len().max(1))?;
+            if r.passes.gpu_cull.is_some() {
+                r.write_descriptors(i);
+            } else {
+                r.ensure_visible_capacity(i, scene.instances.len().max(1))?;
+            }
         }
         Ok(r)
     }
@@ -320,8 +335,10 @@ impl Renderer {
     }
 
     fn write_descriptors(&self, slot: usize) {
-        let Some(visible) = &self.visible[slot] else {
-            return;
+        let visible = match (&self.passes.gpu_cull, &self.visible[slot]) {
+            (Some(gpu), _) => gpu.visible(slot),
+            (None, Some(v)) => v,
+            (None, None) => return,
         };
         let contents = SetContents {
             frame: &self.ubos[slot],
@@ -473,12 +490,24 @@ impl Renderer {
             *stats.gpu_ms.entry(name.to_string()).or_insert(0.0) += ms;
         }
         stats.pipeline = pipeline;
+        if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+            let drawn = gpu.read(slot)?;
+            let view_sets = match self.config.stereo {
+                StereoMode::Multiview => 1,
+                StereoMode::TwoPass => 2,
+            };
+            stats.draw_calls += view_sets * drawn.draws;
+            stats.instances_drawn = drawn.instances;
+            stats.triangles = drawn.triangles;
+            stats.gpu_cull = Some(drawn.cull);
+        }
         self.completed.push_back(stats);
         Ok(())
     }
 
     /// Batches and records one stereo frame of `rig` (the command buffer
-    /// stays open); [`Renderer::submit_frame`] completes it.
+    /// stays open); [`Renderer::submit_frame`] completes it. With
+    /// `gpu-cull` the GPU culls and `visible` must be None.
     pub fn record_frame(&mut self, rig: &StereoRig, visible: Option<&[u32]>) -> Result<()> {
         for v in &rig.views {
             v.pose
@@ -497,6 +526,12 @@ impl Renderer {
                 "a frame was recorded but never submitted".into(),
             ));
         }
+        if self.passes.gpu_cull.is_some() && visible.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
+            ));
+        }
         // The slot's previous frame must be done before its buffers are
         // written: with N frames in flight, this waits for frame n - N.
         let t_wait = Instant::now();
@@ -506,7 +541,9 @@ impl Renderer {
         let t0 = Instant::now();
         stats.cpu_ms.wait = ms(t_wait, t0) + std::mem::take(&mut self.slot_wait_ms);
         let mut batches = std::mem::take(&mut self.batches);
+        let gpu_cull = self.passes.gpu_cull.is_some();
         match self.passes.far.as_mut() {
+            _ if gpu_cull => batches = Batches::default(),
             Some(far) => {
                 if !far.plan(rig, self.extent.width, self.frame_index) {
                     self.mffr_fallbacks += 1;
@@ -536,12 +573,35 @@ impl Renderer {
         };
         stats.instances_drawn = passes * batches.instances_drawn;
         stats.triangles = passes * batches.triangles;
-        self.ensure_visible_capacity(slot, batches.ids.len())?;
-        let ids: &[u8] = as_bytes(&batches.ids);
-        self.visible[slot]
-            .as_mut()
-            .expect("allocated above")
-            .write(0, ids)?;
+        if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+            let strategy = self
+                .config
+                .cull
+                .strategy()
+                .ok_or_else(|| Error::config("--opt", "gpu-cull needs a culling strategy"))?;
+            let params = crate::cull::CullParams {
+                near: self.config.near,
+                draw_distance: self.config.draw_distance,
+                ..crate::cull::CullParams::default()
+            };
+            // The volumes relative to the frame uniform's render origin.
+            let (data, _) = crate::cull::gpu::volume_data(
+                strategy,
+                rig,
+                self.frame_index,
+                &params,
+                rig.head.position,
+            )
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+            gpu.upload(slot, data)?;
+        } else {
+            self.ensure_visible_capacity(slot, batches.ids.len())?;
+            let ids: &[u8] = as_bytes(&batches.ids);
+            self.visible[slot]
+                .as_mut()
+                .expect("allocated above")
+                .write(0, ids)?;
+        }
         self.frame_index += 1;
         let data = self.frame_data(rig);
         self.ubos[slot].write(0, as_bytes(std::slice::from_ref(&data)))?;
@@ -675,6 +735,10 @@ impl Renderer {
             .as_ref()
             .filter(|f| floor.is_none() && f.frame().is_some());
         let mut draw_calls = 0u64;
+        let gpu_cull = passes.gpu_cull.as_ref().filter(|_| floor.is_none());
+        if let Some(gpu) = gpu_cull {
+            gpu.record(ctx, cmd, q, self.slot);
+        }
         rec.barriers(&targets.begin_barriers());
         q.begin_stats(ctx, cmd);
         if let Some(far) = far {
@@ -716,7 +780,12 @@ impl Renderer {
                     // The sky lies beyond the split: the far field has it.
                     draw_calls += passes.forward.record(&rec, near, eye, false);
                 }
-                (None, None) => draw_calls += passes.forward.record(&rec, near, eye, true),
+                (None, None) => match gpu_cull {
+                    Some(gpu) => {
+                        draw_calls += passes.forward.record_gpu(&rec, gpu, eye, self.slot, true)
+                    }
+                    None => draw_calls += passes.forward.record(&rec, near, eye, true),
+                },
             }
             rec.end_scope();
             q.end_pass(ctx, cmd);

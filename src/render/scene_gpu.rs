@@ -77,7 +77,10 @@ pub fn split_dvec3(v: DVec3) -> ([f32; 3], [f32; 3]) {
     ([x.0, y.0, z.0], [x.1, y.1, z.1])
 }
 
-fn upload(
+/// Uploads `bytes` into a new device-local buffer of `usage` (through a
+/// staging buffer and a one-shot copy), named `name` and tracked under
+/// `category`.
+pub fn upload(
     ctx: &Context,
     name: &str,
     usage: vk::BufferUsageFlags,

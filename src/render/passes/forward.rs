@@ -6,6 +6,7 @@
 //! passes GREATER_OR_EQUAL only where nothing was drawn). Under multiview one
 //! scope draws both eyes (view mask 0b11); in two-pass each eye has its own.
 
+use super::gpu_cull::GpuCull;
 use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::Result;
 use crate::gpu::shaders;
@@ -36,6 +37,26 @@ impl Forward {
     /// `with_sky`. Returns the draw calls.
     pub fn record(&self, rec: &Recorder, draws: &[Draw], eye: u32, with_sky: bool) -> u64 {
         rec.draw_batches(draws, &self.pipelines, with_sky.then_some(self.sky), eye)
+    }
+
+    /// Draws the primitives `gpu` culled into frame slot `slot` for view
+    /// `eye` inside the open scope, then the sky when `with_sky`. Returns
+    /// the draw calls recorded besides the indirect ones.
+    pub fn record_gpu(
+        &self,
+        rec: &Recorder,
+        gpu: &GpuCull,
+        eye: u32,
+        slot: usize,
+        with_sky: bool,
+    ) -> u64 {
+        gpu.record_draws(
+            rec,
+            &self.pipelines,
+            with_sky.then_some(self.sky),
+            eye,
+            slot,
+        )
     }
 
     /// Destroys the pipelines; the device must be idle.

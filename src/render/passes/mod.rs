@@ -9,6 +9,7 @@
 pub mod far_field;
 pub mod floor;
 pub mod forward;
+pub mod gpu_cull;
 pub mod output;
 pub mod rdm;
 pub mod stencil_mask;
@@ -27,6 +28,7 @@ use ash::vk;
 use far_field::FarField;
 use floor::Floor;
 use forward::Forward;
+use gpu_cull::GpuCull;
 use rdm::Rdm;
 use std::collections::HashMap;
 use stencil_mask::StencilMask;
@@ -45,6 +47,9 @@ pub struct Passes {
     pub rdm: Option<Rdm>,
     /// Monoscopic far field (`mffr`).
     pub far: Option<FarField>,
+    /// GPU-driven culling (`gpu-cull`; built by the renderer, which has the
+    /// scene).
+    pub gpu_cull: Option<GpuCull>,
 }
 
 impl Passes {
@@ -98,6 +103,9 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.far {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.gpu_cull {
             p.destroy(ctx);
         }
     }
@@ -557,6 +565,19 @@ impl Recorder<'_> {
         };
     }
 
+    /// Binds the scene's vertex streams and index buffer.
+    pub fn bind_scene_geometry(&self) {
+        let vb = self.vertices;
+        // SAFETY: recording into the open command buffer; the buffers
+        // belong to the scene.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_bind_vertex_buffers(self.cmd, 0, &vb.buffers, &vb.offsets)
+        };
+        self.bind_indices();
+    }
+
     /// Draws `draws` with `pipelines` for view `eye` (the push-constant
     /// view offset), and the sky with `sky` (before the first blended
     /// batch, or last) when given. Returns the draw calls.
@@ -568,10 +589,7 @@ impl Recorder<'_> {
         eye: u32,
     ) -> u64 {
         let d = &self.ctx.device;
-        let vb = self.vertices;
-        // SAFETY: inside a rendering scope; the buffers belong to the scene.
-        unsafe { d.cmd_bind_vertex_buffers(self.cmd, 0, &vb.buffers, &vb.offsets) };
-        self.bind_indices();
+        self.bind_scene_geometry();
         let mut draw_calls = 0;
         let mut bound = None;
         let mut sky_drawn = sky.is_none();

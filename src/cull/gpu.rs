@@ -1,0 +1,236 @@
+//! The culling volumes of one frame as data for the GPU cull pass
+//! (`gpu-cull`): the same planes and cones the CPU strategies test
+//! ([`super::Culler`]), re-expressed relative to the render origin in f32,
+//! in the std140 layout `shaders/gpu_cull.comp` declares. Pure math: no
+//! Vulkan types.
+//!
+//! The GPU test mirrors [`super::volume::Volume::keeps`]: a plane rejects a
+//! box whose p-vertex lies behind it, a cone rejects a box whose
+//! circumscribed sphere lies outside a tangent plane or beyond the far
+//! plane. The shader evaluates in f32 what the CPU evaluates in f64, so it
+//! widens every test by [`GPU_SLACK`] times the magnitudes involved: it may
+//! keep a box lying within that distance outside a volume, never drop one
+//! the CPU keeps.
+
+use glam::DVec3;
+
+use super::{volumes, CullError, CullParams, Strategy, Volumes};
+use crate::view::StereoRig;
+
+/// Relative slack of the GPU tests: a few f32 ulps (2⁻²⁴ ≈ 6e-8) of the
+/// largest magnitude entering a test, times the dozen roundings of a dot
+/// product and the box/plane offsets (Higham, "Accuracy and Stability of
+/// Numerical Algorithms", 2002, §3.1: a dot product of length n has error at
+/// most n·u·Σ|aᵢbᵢ|).
+pub const GPU_SLACK: f32 = 1e-6;
+
+/// Volume kind: up to two sets of planes (frusta, a superfrustum).
+pub const KIND_PLANES: u32 = 0;
+/// Volume kind: up to two cones.
+pub const KIND_CONES: u32 = 1;
+
+/// One frame's culling volumes (std140; `Volumes` in gpu_cull.comp).
+#[repr(C)]
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct VolumeData {
+    /// x: [`KIND_PLANES`] or [`KIND_CONES`]; y: how many volumes (1 or 2;
+    /// an instance is kept when any keeps it); z, w: planes in set 0, 1.
+    pub info: [u32; 4],
+    /// Plane `i` of set `s` at `6 s + i`: unit inward normal (xyz) and
+    /// offset (w), relative to the render origin: kept side `n · p + w ≥ 0`.
+    pub planes: [[f32; 4]; 12],
+    /// Per cone: apex relative to the render origin (xyz), 1.0 in w when
+    /// the cone has a far plane.
+    pub cone_apex: [[f32; 4]; 2],
+    /// Per cone: unit axis (xyz), cos of the half-angle (w).
+    pub cone_axis: [[f32; 4]; 2],
+    /// Per cone: far-plane unit normal (xyz), its distance from the apex
+    /// along that normal (w).
+    pub cone_far: [[f32; 4]; 2],
+    /// x, y: sin of the half-angle of cone 0, 1; z: [`GPU_SLACK`].
+    pub cone_sin: [f32; 4],
+    /// Render origin, high f32 part (xyz).
+    pub origin_hi: [f32; 4],
+    /// Render origin, low f32 part (xyz).
+    pub origin_lo: [f32; 4],
+    /// x: instance count; y: dispatch width in instances (threads per row
+    /// of workgroups); z, w: unused.
+    pub counts: [u32; 4],
+}
+
+/// Bytes of [`VolumeData`]: 2 uvec4 and 21 vec4, no padding.
+pub const VOLUME_DATA_SIZE: usize = 23 * 16;
+
+const _: () = assert!(std::mem::size_of::<VolumeData>() == VOLUME_DATA_SIZE);
+
+/// Splits `v` into a high f32 and the f32 remainder (the two-float
+/// representation the vertex shader uses for translations).
+fn split(v: DVec3) -> ([f32; 3], [f32; 3]) {
+    let hi = v.as_vec3();
+    let lo = (v - hi.as_dvec3()).as_vec3();
+    (hi.to_array(), lo.to_array())
+}
+
+fn v4(v: DVec3, w: f64) -> [f32; 4] {
+    [v.x as f32, v.y as f32, v.z as f32, w as f32]
+}
+
+/// The volumes `strategy` tests for `rig` at frame `frame` (the same ones
+/// [`super::Culler::cull`] builds, with the same per-eye fallback when a
+/// combined volume is impossible), relative to the render origin `origin`.
+/// `PerEyeBrute` tests the per-eye frusta. Returns the data and whether the
+/// fallback was taken.
+pub fn volume_data(
+    strategy: Strategy,
+    rig: &StereoRig,
+    frame: u64,
+    params: &CullParams,
+    origin: DVec3,
+) -> Result<(VolumeData, bool), CullError> {
+    let (vols, fallback) = volumes(strategy, rig, frame, params)?;
+    let (hi, lo) = split(origin);
+    let mut out = VolumeData {
+        origin_hi: [hi[0], hi[1], hi[2], 0.0],
+        origin_lo: [lo[0], lo[1], lo[2], 0.0],
+        ..VolumeData::default()
+    };
+    out.cone_sin[2] = GPU_SLACK;
+    match vols {
+        Volumes::Planes(sets) => {
+            out.info[0] = KIND_PLANES;
+            out.info[1] = sets.len().min(2) as u32;
+            for (s, set) in sets.iter().take(2).enumerate() {
+                out.info[2 + s] = set.len as u32;
+                // n · (p - o_set) + d = n · (p - O) + d + n · (O - o_set).
+                let shift = origin - set.origin;
+                for (i, p) in set.planes().iter().enumerate() {
+                    out.planes[6 * s + i] = v4(p.normal, p.d + p.normal.dot(shift));
+                }
+            }
+        }
+        Volumes::Cones(cones) => {
+            out.info[0] = KIND_CONES;
+            out.info[1] = cones.len().min(2) as u32;
+            for (s, c) in cones.iter().take(2).enumerate() {
+                let far = c.far.is_some();
+                out.cone_apex[s] = v4(c.apex - origin, if far { 1.0 } else { 0.0 });
+                out.cone_axis[s] = v4(c.axis, c.cos);
+                out.cone_sin[s] = c.sin as f32;
+                if let Some(f) = c.far {
+                    out.cone_far[s] = v4(f.normal, f.depth);
+                }
+            }
+        }
+    }
+    Ok((out, fallback))
+}
+
+/// The GPU test of a box (centre `c` relative to the render origin,
+/// half-extents `e`) against `v`, in f32 as gpu_cull.comp evaluates it: the
+/// reference the shader is written against, and what the tests check
+/// against the CPU strategies.
+pub fn keeps(v: &VolumeData, c: [f32; 3], e: [f32; 3]) -> bool {
+    let slack = v.cone_sin[2];
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let abs = |a: [f32; 3]| [a[0].abs(), a[1].abs(), a[2].abs()];
+    let len = |a: [f32; 3]| dot(a, a).sqrt();
+    (0..v.info[1] as usize).any(|s| {
+        if v.info[0] == KIND_PLANES {
+            (0..v.info[2 + s] as usize).all(|i| {
+                let p = v.planes[6 * s + i];
+                let n = [p[0], p[1], p[2]];
+                // max over the box of n · x + d = n · c + |n| · e + d.
+                let reach = dot(n, c) + dot(abs(n), e);
+                let scale = dot(abs(n), abs(c)) + dot(abs(n), e) + p[3].abs() + 1.0;
+                reach + p[3] >= -slack * scale
+            })
+        } else {
+            let a = v.cone_apex[s];
+            let d = [c[0] - a[0], c[1] - a[1], c[2] - a[2]];
+            let r = len(e);
+            let scale = slack * (1.0 + len(d) + r);
+            let ax = v.cone_axis[s];
+            let axis = [ax[0], ax[1], ax[2]];
+            let l = dot(d, axis);
+            let cr = [
+                d[1] * axis[2] - d[2] * axis[1],
+                d[2] * axis[0] - d[0] * axis[2],
+                d[0] * axis[1] - d[1] * axis[0],
+            ];
+            let side = len(cr) * ax[3] - l * v.cone_sin[s];
+            if side > r + scale {
+                return false;
+            }
+            let f = v.cone_far[s];
+            a[3] == 0.0 || dot([f[0], f[1], f[2]], d) - r <= f[3] + scale
+        }
+    })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::cull::{cull_flat, Bvh, DEFAULT_LEAF_SIZE};
+    use crate::view::{Fov, Pose};
+    use glam::DQuat;
+
+    fn rig(at: DVec3, yaw: f64) -> StereoRig {
+        let eye = |x: f64| {
+            (
+                Pose {
+                    position: DVec3::new(x, 0.0, 0.0),
+                    ..Pose::default()
+                },
+                Fov::symmetric(0.9, 0.85),
+            )
+        };
+        let head = Pose {
+            position: at,
+            orientation: DQuat::from_rotation_y(yaw),
+        };
+        StereoRig::from_head(head, &[eye(-0.032), eye(0.032)])
+    }
+
+    /// Every strategy: the f32 GPU test keeps every box the CPU keeps, and
+    /// keeps nothing the CPU drops except boxes within the slack.
+    #[test]
+    fn gpu_test_keeps_what_the_cpu_keeps() {
+        let mut seed = 7u64;
+        let mut rnd = || {
+            seed = seed
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (seed >> 11) as f64 / (1u64 << 53) as f64
+        };
+        let origin = DVec3::new(1.0e4, 3.0, -2.0e4);
+        let boxes: Vec<(DVec3, DVec3)> = (0..4000)
+            .map(|_| {
+                let c = origin + DVec3::new(rnd() - 0.5, rnd() - 0.5, rnd() - 0.5) * 120.0;
+                let e = DVec3::new(rnd(), rnd(), rnd()) * 2.0 + DVec3::splat(0.01);
+                (c - e, c + e)
+            })
+            .collect();
+        let bvh = Bvh::build(&boxes, DEFAULT_LEAF_SIZE).unwrap();
+        for strategy in Strategy::ALL {
+            for (k, draw_distance) in [None, Some(30.0)].into_iter().enumerate() {
+                let params = CullParams {
+                    draw_distance,
+                    ..CullParams::default()
+                };
+                let r = rig(origin, 0.7 * k as f64 + 0.3);
+                let cpu = cull_flat(strategy, &r, 3, &bvh, &params).unwrap().visible;
+                let (v, _) = volume_data(strategy, &r, 3, &params, r.head.position).unwrap();
+                let gpu: Vec<u32> = (0..boxes.len() as u32)
+                    .filter(|&i| {
+                        let (a, b) = boxes[i as usize];
+                        let c = ((a + b) * 0.5 - r.head.position).as_vec3().to_array();
+                        let e = ((b - a) * 0.5).as_vec3().to_array();
+                        keeps(&v, c, e)
+                    })
+                    .collect();
+                assert!(!cpu.is_empty(), "{strategy}: nothing visible");
+                assert_eq!(gpu, cpu, "{strategy}, draw distance {draw_distance:?}");
+            }
+        }
+    }
+}

@@ -1,0 +1,633 @@
+//! GPU-driven culling (`--opt gpu-cull`): the instance boxes and their
+//! meshes' primitive lists live on the GPU; each frame a compute pass
+//! (`shaders/gpu_cull.comp`, timed as `cull-early`) tests every instance
+//! against the strategy's stereo volumes ([`crate::cull::gpu`]), appends the
+//! kept ones to each primitive's range of this frame slot's visible buffer
+//! and counts them into one indexed indirect command per primitive. The
+//! forward views then draw each primitive with
+//! vkCmdDrawIndexedIndirectCount (a draw count of 0 or 1 the cull writes),
+//! so the CPU records the same commands whatever the instance count.
+//!
+//! Every buffer the GPU writes per frame is per frame slot. The slot's
+//! commands and counters are host-visible: once the slot's fence has
+//! signalled, [`GpuCull::read`] turns them into what the GPU drew (draw
+//! calls, instances, triangles) and the cull's counters.
+
+use super::{PipelineSetup, Recorder};
+use crate::cull::gpu::{VolumeData, VOLUME_DATA_SIZE};
+use crate::error::{Error, Result, VkContext};
+use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
+use crate::gpu::query::Queries;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::render::batches::PipelineKey;
+use crate::render::scene_gpu::{split_dvec3, upload};
+use crate::scene::Scene;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::collections::HashMap;
+
+// SAFETY: repr(C) of u32 and f32 arrays whose sizes add up to the struct's
+// (asserted in cull::gpu), so there is no padding.
+unsafe impl Pod for VolumeData {}
+
+/// Threads per workgroup (local_size_x in gpu_cull.comp).
+const GROUP: u32 = 64;
+/// Workgroups per dispatch row: Vulkan guarantees at least 65535 per
+/// dimension (maxComputeWorkGroupCount), so larger scenes use rows.
+const ROW: u32 = 65_535;
+/// Bytes of one VkDrawIndexedIndirectCommand.
+const COMMAND: u64 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u64;
+
+/// What the GPU did in one frame, read back after its fence.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
+pub struct GpuCullStats {
+    /// Instances the compute pass tested.
+    pub tested: u64,
+    /// Instances inside the stereo volume.
+    pub passed_frustum: u64,
+}
+
+/// What the frame's stats take from the GPU.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
+pub struct Drawn {
+    /// Indirect draws the GPU issued (non-empty primitives), per view set.
+    pub draws: u64,
+    /// Instance-primitive pairs drawn.
+    pub instances: u64,
+    /// Triangles drawn.
+    pub triangles: u64,
+    /// The cull's counters.
+    pub cull: GpuCullStats,
+}
+
+struct Slot {
+    volumes: Buffer,
+    commands: Buffer,
+    counts: Buffer,
+    visible: Buffer,
+    set: vk::DescriptorSet,
+}
+
+/// The GPU cull pass and its buffers.
+pub struct GpuCull {
+    instances: Buffer,
+    prims: Buffer,
+    template: Buffer,
+    slots: Vec<Slot>,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    pipeline: vk::Pipeline,
+    instance_count: u32,
+    /// Non-blended primitives in draw order (as the CPU batches them).
+    order: Vec<u32>,
+    /// Triangles per primitive.
+    tris: Vec<u64>,
+}
+
+impl GpuCull {
+    /// Uploads `scene`'s instance boxes and primitive lists and creates the
+    /// pipeline and `slots` frame slots of buffers. `order` lists the
+    /// non-blended primitives in draw order; a scene whose instances use
+    /// blended primitives is an error (they need a back-to-front sort the
+    /// GPU path does not do).
+    pub fn new(
+        setup: &PipelineSetup,
+        scene: &Scene,
+        order: &[u32],
+        slots: usize,
+    ) -> Result<GpuCull> {
+        let ctx = setup.ctx;
+        if !ctx.caps.draw_indirect_count {
+            return Err(Error::config(
+                "--opt",
+                format!(
+                    "gpu-cull needs VK_KHR_draw_indirect_count (drawIndirectCount), which {} lacks",
+                    ctx.device_name
+                ),
+            ));
+        }
+        let keys: &[PipelineKey] = setup.keys;
+        let n_prims = scene.primitives.len();
+        // Mesh slices into one flat primitive list, and how many instances
+        // use each primitive (the capacity of its visible range).
+        let mut slices = Vec::with_capacity(scene.meshes.len());
+        let mut flat: Vec<u32> = Vec::new();
+        for m in &scene.meshes {
+            slices.push((flat.len() as u32, m.primitives.len() as u32));
+            flat.extend_from_slice(&m.primitives);
+        }
+        let mut users = vec![0u64; n_prims];
+        for inst in &scene.instances {
+            for &p in &scene.meshes[inst.mesh as usize].primitives {
+                if keys[p as usize].alpha == 2 {
+                    return Err(Error::config(
+                        "--opt",
+                        format!(
+                            "gpu-cull cannot draw scene '{}': it has blended primitives, which must be sorted back to front on the CPU",
+                            scene.name
+                        ),
+                    ));
+                }
+                users[p as usize] += 1;
+            }
+        }
+        let total: u64 = users.iter().sum();
+        if total > u32::MAX as u64 / 4 {
+            return Err(Error::scene(
+                &scene.name,
+                format!("{total} instance-primitive pairs exceed what gpu-cull addresses"),
+            ));
+        }
+        let ranges = &setup.scene.ranges;
+        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); n_prims];
+        let mut base = 0u32;
+        for &p in order {
+            let r = ranges[p as usize];
+            commands[p as usize] = vk::DrawIndexedIndirectCommand {
+                index_count: r.index_count,
+                instance_count: 0,
+                first_index: r.first_index,
+                vertex_offset: r.vertex_offset,
+                first_instance: base,
+            };
+            base += users[p as usize] as u32;
+        }
+        let mut words: Vec<u32> = Vec::with_capacity(commands.len() * 5);
+        for c in &commands {
+            words.extend_from_slice(&[
+                c.index_count,
+                c.instance_count,
+                c.first_index,
+                c.vertex_offset as u32,
+                c.first_instance,
+            ]);
+        }
+        // Per instance: box centre as a two-float split (the vertex shader's
+        // scheme), the mesh's primitive slice in the w lanes, half-extents
+        // rounded up so the f32 box contains the f64 one.
+        let mut boxes: Vec<f32> = Vec::with_capacity(scene.instances.len() * 12);
+        for ((a, b), inst) in scene.world_aabbs().iter().zip(&scene.instances) {
+            let (hi, lo) = split_dvec3((*a + *b) * 0.5);
+            let e = (*b - *a) * 0.5;
+            let up = |v: f64| {
+                let f = v as f32;
+                if (f as f64) < v {
+                    f.next_up()
+                } else {
+                    f
+                }
+            };
+            let (first, count) = slices[inst.mesh as usize];
+            boxes.extend_from_slice(&[hi[0], hi[1], hi[2], f32::from_bits(first)]);
+            boxes.extend_from_slice(&[lo[0], lo[1], lo[2], f32::from_bits(count)]);
+            boxes.extend_from_slice(&[up(e.x), up(e.y), up(e.z), 0.0]);
+        }
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let instances = upload(
+            ctx,
+            "cull instances",
+            storage,
+            "instances",
+            as_bytes(&boxes),
+        )?;
+        let prims = match upload(
+            ctx,
+            "cull primitives",
+            storage,
+            "instances",
+            as_bytes(&flat),
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                instances.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let template = match upload(
+            ctx,
+            "draw command template",
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            "per-frame",
+            as_bytes(&words),
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                instances.destroy(ctx);
+                prims.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let mut pass = GpuCull {
+            instances,
+            prims,
+            template,
+            slots: Vec::new(),
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            pipeline: vk::Pipeline::null(),
+            instance_count: scene.instances.len() as u32,
+            order: order.to_vec(),
+            tris: scene
+                .primitives
+                .iter()
+                .map(|p| p.triangles() as u64)
+                .collect(),
+        };
+        match pass.build(ctx, n_prims, total, slots) {
+            Ok(()) => Ok(pass),
+            Err(e) => {
+                pass.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    fn build(&mut self, ctx: &Context, n_prims: usize, total: u64, slots: usize) -> Result<()> {
+        for i in 0..slots {
+            let buffer = |name: &str, size: u64, usage, location| {
+                Buffer::new(
+                    ctx,
+                    &BufferDesc {
+                        name: &format!("{name} {i}"),
+                        size,
+                        usage,
+                        location,
+                        category: "per-frame",
+                    },
+                )
+            };
+            let volumes = buffer(
+                "cull volumes",
+                VOLUME_DATA_SIZE as u64,
+                vk::BufferUsageFlags::UNIFORM_BUFFER,
+                MemoryLocation::CpuToGpu,
+            )?;
+            let indirect = vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::INDIRECT_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST;
+            let commands = buffer(
+                "draw commands",
+                COMMAND * n_prims.max(1) as u64,
+                indirect,
+                MemoryLocation::GpuToCpu,
+            );
+            let counts = buffer(
+                "draw counts",
+                4 * (n_prims as u64 + 2),
+                indirect,
+                MemoryLocation::GpuToCpu,
+            );
+            let visible = buffer(
+                "gpu visible instances",
+                4 * total.max(1),
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                MemoryLocation::GpuOnly,
+            );
+            // Keep whatever was made so `destroy` frees it on failure.
+            match (commands, counts, visible) {
+                (Ok(commands), Ok(counts), Ok(visible)) => self.slots.push(Slot {
+                    volumes,
+                    commands,
+                    counts,
+                    visible,
+                    set: vk::DescriptorSet::null(),
+                }),
+                (a, b, c) => {
+                    volumes.destroy(ctx);
+                    let mut err = None;
+                    for r in [a, b, c] {
+                        match r {
+                            Ok(buf) => buf.destroy(ctx),
+                            Err(e) => err = err.or(Some(e)),
+                        }
+                    }
+                    return Err(err.expect("one of them failed"));
+                }
+            }
+        }
+        let d = &ctx.device;
+        let binding = |i: u32, ty| {
+            vk::DescriptorSetLayoutBinding::default()
+                .binding(i)
+                .descriptor_type(ty)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        };
+        let storage = vk::DescriptorType::STORAGE_BUFFER;
+        let bindings = [
+            binding(0, vk::DescriptorType::UNIFORM_BUFFER),
+            binding(1, storage),
+            binding(2, storage),
+            binding(3, storage),
+            binding(4, storage),
+            binding(5, storage),
+        ];
+        // SAFETY: object creation on a live device; the handles are stored
+        // in `self` at once, so `destroy` frees them on any later failure.
+        unsafe {
+            self.set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("creating the gpu-cull set layout")?;
+            let ranges = [vk::PushConstantRange {
+                stage_flags: vk::ShaderStageFlags::COMPUTE,
+                offset: 0,
+                size: 4,
+            }];
+            let set_layouts = [self.set_layout];
+            self.layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&set_layouts)
+                        .push_constant_ranges(&ranges),
+                    None,
+                )
+                .vk("creating the gpu-cull pipeline layout")?;
+            let n = slots as u32;
+            let sizes = [
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::UNIFORM_BUFFER,
+                    descriptor_count: n,
+                },
+                vk::DescriptorPoolSize {
+                    ty: storage,
+                    descriptor_count: 5 * n,
+                },
+            ];
+            self.pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(n)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("creating the gpu-cull descriptor pool")?;
+            let layouts = vec![self.set_layout; slots];
+            let sets = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(self.pool)
+                        .set_layouts(&layouts),
+                )
+                .vk("allocating the gpu-cull descriptor sets")?;
+            for (slot, set) in self.slots.iter_mut().zip(sets) {
+                slot.set = set;
+            }
+        }
+        for slot in &self.slots {
+            let info = |b: &Buffer| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(b.buffer)
+                    .range(vk::WHOLE_SIZE)]
+            };
+            let infos = [
+                info(&slot.volumes),
+                info(&self.instances),
+                info(&self.prims),
+                info(&slot.commands),
+                info(&slot.counts),
+                info(&slot.visible),
+            ];
+            let writes: Vec<vk::WriteDescriptorSet> = infos
+                .iter()
+                .enumerate()
+                .map(|(i, b)| {
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(slot.set)
+                        .dst_binding(i as u32)
+                        .descriptor_type(if i == 0 {
+                            vk::DescriptorType::UNIFORM_BUFFER
+                        } else {
+                            storage
+                        })
+                        .buffer_info(b)
+                })
+                .collect();
+            // SAFETY: the set is not in use (created above) and every buffer
+            // is live and owned by this pass.
+            unsafe { d.update_descriptor_sets(&writes, &[]) };
+        }
+        self.pipeline = build_compute(ctx, self.layout, &shaders::GPU_CULL_COMP.words())?;
+        Ok(())
+    }
+
+    /// The visible buffer of `slot` (the scene vertex shader's binding 2 in
+    /// place of the CPU-written list).
+    pub fn visible(&self, slot: usize) -> &Buffer {
+        &self.slots[slot].visible
+    }
+
+    /// Writes `slot`'s volumes for the coming frame (the slot's previous
+    /// frame has finished: its fence was waited on).
+    pub fn upload(&mut self, slot: usize, mut data: VolumeData) -> Result<()> {
+        let groups = self.instance_count.div_ceil(GROUP).max(1);
+        data.counts = [self.instance_count, groups.min(ROW) * GROUP, 0, 0];
+        self.slots[slot]
+            .volumes
+            .write(0, as_bytes(std::slice::from_ref(&data)))
+    }
+
+    /// Records the cull for `slot`: resets its commands from the template
+    /// and its counters to zero, dispatches one thread per instance, and
+    /// makes the results visible to the indirect draws, the vertex shaders
+    /// and (after the fence) the host.
+    pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
+        let s = &self.slots[slot];
+        let d = &ctx.device;
+        let groups = self.instance_count.div_ceil(GROUP).max(1);
+        let n_prims = self.tris.len() as u32;
+        q.begin_pass(ctx, cmd, "cull-early");
+        let to_compute = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            )];
+        let to_draw = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+            .dst_stage_mask(
+                vk::PipelineStageFlags2::DRAW_INDIRECT
+                    | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::HOST,
+            )
+            .dst_access_mask(
+                vk::AccessFlags2::INDIRECT_COMMAND_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::HOST_READ,
+            )];
+        // SAFETY: recording into the frame's open command buffer outside any
+        // rendering scope; every buffer belongs to this pass and this
+        // slot's were last used by the slot's previous frame, whose fence
+        // the renderer has waited on.
+        unsafe {
+            d.cmd_copy_buffer(
+                cmd,
+                self.template.buffer,
+                s.commands.buffer,
+                &[vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size: COMMAND * n_prims.max(1) as u64,
+                }],
+            );
+            d.cmd_fill_buffer(cmd, s.counts.buffer, 0, vk::WHOLE_SIZE, 0);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_compute),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[s.set],
+                &[],
+            );
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(&[n_prims]),
+            );
+            d.cmd_dispatch(cmd, groups.min(ROW), groups.div_ceil(ROW), 1);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_draw),
+            );
+        }
+        q.end_pass(ctx, cmd);
+    }
+
+    /// Draws every non-blended primitive for view `eye` inside the open
+    /// scope with one indirect-count draw each (the count the cull wrote),
+    /// then the sky when given. Returns the draw calls recorded outside the
+    /// indirect ones (the sky); [`GpuCull::read`] counts the rest.
+    pub fn record_draws(
+        &self,
+        rec: &Recorder,
+        pipelines: &HashMap<PipelineKey, vk::Pipeline>,
+        sky: Option<vk::Pipeline>,
+        eye: u32,
+        slot: usize,
+    ) -> u64 {
+        let s = &self.slots[slot];
+        rec.bind_scene_geometry();
+        let mut bound = None;
+        for &p in &self.order {
+            let key = rec.keys[p as usize];
+            if bound != Some(key) {
+                rec.bind(pipelines[&key]);
+                bound = Some(key);
+            }
+            rec.push([rec.scene.ranges[p as usize].material, eye, 0, 0]);
+            // SAFETY: inside a rendering scope with a scene pipeline and the
+            // scene's buffers bound; the command and count lie inside this
+            // slot's buffers, written by the cull and made visible to the
+            // indirect stage by its barrier; VK_KHR_draw_indirect_count is enabled.
+            unsafe {
+                rec.ctx.device.cmd_draw_indexed_indirect_count(
+                    rec.cmd,
+                    s.commands.buffer,
+                    COMMAND * p as u64,
+                    s.counts.buffer,
+                    4 * p as u64,
+                    1,
+                    COMMAND as u32,
+                )
+            };
+        }
+        match sky {
+            Some(sky) => {
+                rec.draw_fullscreen(sky, eye);
+                1
+            }
+            None => 0,
+        }
+    }
+
+    /// What `slot`'s last frame drew and counted; call once its fence has
+    /// signalled.
+    pub fn read(&mut self, slot: usize) -> Result<Drawn> {
+        let s = &mut self.slots[slot];
+        let words = |b: &mut Buffer| -> Result<Vec<u32>> {
+            let m = b
+                .mapped()
+                .ok_or_else(|| Error::Gpu("gpu-cull readback is not mapped".into()))?;
+            Ok(m.chunks_exact(4)
+                .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
+                .collect())
+        };
+        let commands = words(&mut s.commands)?;
+        let counts = words(&mut s.counts)?;
+        let n = self.tris.len();
+        let mut out = Drawn::default();
+        for p in 0..n {
+            let instances = commands[5 * p + 1] as u64;
+            out.draws += counts[p] as u64;
+            out.instances += instances;
+            out.triangles += instances * self.tris[p];
+        }
+        out.cull = GpuCullStats {
+            tested: counts[n] as u64,
+            passed_frustum: counts[n + 1] as u64,
+        };
+        Ok(out)
+    }
+
+    /// Destroys the pass; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        // SAFETY: the device is idle; null handles are ignored by Vulkan.
+        unsafe {
+            ctx.device.destroy_pipeline(self.pipeline, None);
+            ctx.device.destroy_descriptor_pool(self.pool, None);
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+        for s in self.slots {
+            for b in [s.volumes, s.commands, s.counts, s.visible] {
+                b.destroy(ctx);
+            }
+        }
+        for b in [self.instances, self.prims, self.template] {
+            b.destroy(ctx);
+        }
+    }
+}
+
+/// Creates a compute pipeline of `code` (entry point `main`) over `layout`.
+fn build_compute(ctx: &Context, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline> {
+    // SAFETY: SPIR-V embedded at build time (spirv-val in tests); the
+    // module is destroyed once the pipeline holds it.
+    unsafe {
+        let module = ctx
+            .device
+            .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None)
+            .vk("creating the gpu-cull shader module")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        let made = ctx
+            .device
+            .create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+        ctx.device.destroy_shader_module(module, None);
+        let pipeline = made
+            .map_err(|(_, r)| r)
+            .vk("creating the gpu-cull pipeline")?;
+        ctx.set_name(pipeline[0], "gpu-cull");
+        Ok(pipeline[0])
+    }
+}
