@@ -129,6 +129,8 @@ pub struct Renderer {
     output: Option<OutputCopy>,
     readback: Readback,
     frame_index: u64,
+    /// The scene's own sun (a glTF directional light), else the default.
+    sun: Option<crate::scene::Sun>,
     /// Frames where MFFR fell back to stereo (no finite centre camera).
     pub mffr_fallbacks: u64,
     /// Whether the monoscopic far field splits the visible instances by
@@ -215,6 +217,7 @@ impl Renderer {
             in_flight: (0..slots).map(|_| None).collect(),
             completed: VecDeque::with_capacity(slots + 1),
             batcher: Batcher::new(scene),
+            sun: scene.sun,
             batches: Batches::default(),
             pending: None,
             shading_rate: None,
@@ -343,7 +346,12 @@ impl Renderer {
             .map_or(([None, None], self.config.near), |f| {
                 f.cameras(self.config.near)
             });
-        FrameUniforms::new(rig, self.config.near, far_views, far_near)
+        let mut u = FrameUniforms::new(rig, self.config.near, far_views, far_near);
+        if let Some(sun) = &self.sun {
+            u.sun_dir = sun.direction.as_vec3().extend(0.0);
+            u.sun_color = glam::Vec3::from_array(sun.color).extend(0.0);
+        }
+        u
     }
 
     /// Renders one stereo frame of `rig` drawing the instances in `visible`
