@@ -4,7 +4,8 @@
 #   NAME.q.glb   gltfpack defaults (KHR_mesh_quantization)
 #   NAME.cc.glb  gltfpack -cc (KHR_mesh_quantization + EXT_meshopt_compression)
 # Textures stay references to the originals beside them (-tr), so the
-# variants are small. Needs npm (the gltfpack package, pinned below).
+# variants are small. Needs npm (the gltfpack and gltf-pipeline packages,
+# pinned below).
 set -euo pipefail
 here="$(cd "$(dirname "${BASH_SOURCE[0]}")/.." && pwd)"
 version=1.3.0
@@ -17,3 +18,6 @@ done
 dir="$here/assets/retroufo"
 pack -i "$dir/retroufo.glb" -o "$dir/retroufo.q.glb"
 pack -cc -i "$dir/retroufo.glb" -o "$dir/retroufo.cc.glb"
+# Draco (KHR_draco_mesh_compression) as gltf-pipeline writes it: vergence
+# refuses it with the reason (tests/gltf_features.rs).
+npx --yes gltf-pipeline@4.3.1 -d -i "$here/assets/Box/Box.gltf" -o "$here/assets/Box/Box.draco.glb" >/dev/null

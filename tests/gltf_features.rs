@@ -539,3 +539,17 @@ fn inspect_lists_extensions_and_support() {
         );
     }
 }
+
+#[test]
+fn draco_from_gltf_pipeline_is_refused_with_the_reason() {
+    let stderr = common::fails_with_one_error(
+        Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .arg("inspect")
+            .arg(common::root().join("assets/Box/Box.draco.glb")),
+    );
+    assert!(
+        stderr.contains("requires glTF extension KHR_draco_mesh_compression")
+            && stderr.contains("no Draco decoder"),
+        "{stderr}"
+    );
+}

@@ -1601,6 +1601,36 @@ mod tests {
     use super::*;
 
     #[test]
+    fn required_list_matches_the_extension_table() {
+        let mut from_table: Vec<&str> = EXTENSIONS
+            .iter()
+            .filter(|(_, s, _)| *s != Support::Refused)
+            .map(|(n, _, _)| *n)
+            .collect();
+        let mut listed = SUPPORTED_REQUIRED.to_vec();
+        from_table.sort_unstable();
+        listed.sort_unstable();
+        assert_eq!(from_table, listed);
+        assert_eq!(
+            support("KHR_draco_mesh_compression").map(|s| s.0),
+            Some(Support::Refused)
+        );
+    }
+
+    #[test]
+    fn texture_transform_follows_the_extension_matrix() {
+        // T · R · S with R(θ) = [cos −sin; sin cos]: (1, 0) → (s·cos, s·sin) + offset.
+        let (s, c) = 0.3f32.sin_cos();
+        let m = [[c * 2.0, s * 2.0], [-s * 3.0, c * 3.0], [0.5, 0.25]];
+        let mut uv = [[1.0, 0.0], [0.0, 1.0]];
+        apply_uv_transform(&mut uv, &m);
+        assert!((uv[0][0] - (2.0 * c + 0.5)).abs() < 1e-6);
+        assert!((uv[0][1] - (2.0 * s + 0.25)).abs() < 1e-6);
+        assert!((uv[1][0] - (-3.0 * s + 0.5)).abs() < 1e-6);
+        assert!((uv[1][1] - (3.0 * c + 0.25)).abs() < 1e-6);
+    }
+
+    #[test]
     fn strips_and_fans_become_lists() {
         assert_eq!(strip_to_list(&[0, 1, 2, 3]), vec![0, 1, 2, 2, 1, 3]);
         assert_eq!(fan_to_list(&[0, 1, 2, 3]), vec![0, 1, 2, 0, 2, 3]);
