@@ -273,6 +273,11 @@ def ktx2_case(name, expect, data):
     case("images/" + name, None, None, data, "wb")
 ktx2_case("ktx2-bad-level.ktx2", ["invalid KTX2 container"], ktx2(level_offset=1 << 40))
 ktx2_case("ktx2-truncated.ktx2", ["invalid KTX2 container"], ktx2(cut=90))
+# Found by fuzzing (gltf_decoders): ktx2 0.5 adds one to a 255 texel block
+# dimension in a u8 and unwraps it as non-zero.
+dims = bytearray(ktx2())
+dims[108 + 12] = 255
+ktx2_case("ktx2-block-dimension.ktx2", ["texel block dimension of 256"], bytes(dims))
 ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal ETC1S", "no Basis Universal transcoder"], ktx2(fmt=0, scheme=1))
 ktx2_case("ktx2-uastc.ktx2", ["Basis Universal UASTC"], ktx2(fmt=0))
 ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
@@ -298,6 +303,10 @@ def glb(json_bytes, bin_bytes=None, version=2, cut=None):
 case("glb/truncated.glb", "scene", ["malformed or truncated .glb container", "could not completely read"], glb(good_json, tri_bin(), cut=60), "wb")
 case("glb/version-1.glb", "scene", ["unsupported version"], glb(good_json, tri_bin(), version=1), "wb")
 case("glb/missing-bin.glb", "scene", ["GLB binary chunk, which is missing"], glb(good_json), "wb")
+# Found by fuzzing (gltf_scene): gltf 1.4.1 subtracts the header from the
+# declared length unchecked.
+case("glb/short-length.glb", "scene", ["declared length 4 is shorter than its 12-byte header"],
+     struct.pack("<4sII", b"glTF", 2, 4) + glb(good_json, tri_bin())[12:], "wb")
 case("glb/bad-length.glb", "scene", ["malformed or truncated .glb container"],
      struct.pack("<4sII", b"glTF", 2, 0xFFFFFFF0) + glb(good_json, tri_bin())[12:], "wb")
 # --- HMD profiles --------------------------------------------------------------

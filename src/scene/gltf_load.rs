@@ -283,6 +283,18 @@ pub fn load_bytes_scene(path: &Path, bytes: &[u8], selector: Option<&str>) -> Re
 /// before the crate's validator (which only knows its compiled-in ones).
 fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Gltf, Vec<String>)> {
     let describe = |e: gltf::Error| Error::scene(path, describe_gltf_error(bytes, &e));
+    // gltf 1.4.1 binary.rs subtracts the 12-byte header from the declared
+    // length without a check (an overflow panic in debug builds; found by
+    // fuzzing).
+    if let Some(h) = bytes.get(..12).filter(|h| h.starts_with(b"glTF")) {
+        let declared = u32::from_le_bytes([h[8], h[9], h[10], h[11]]);
+        if declared < 12 {
+            return Err(Error::scene(
+                path,
+                format!("malformed or truncated .glb container: declared length {declared} is shorter than its 12-byte header"),
+            ));
+        }
+    }
     let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(describe)?;
     let blob = raw.blob;
     let mut json = raw.document.into_json();

@@ -51,6 +51,7 @@ pub const KTX2_MAGIC: [u8; 12] = [
 /// KHR_texture_basisu files hold) need a transcoder vergence does not
 /// include, and are refused with that reason.
 pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
+    check_dfd_block_dimensions(bytes)?;
     let r = ktx2::Reader::new(bytes).map_err(|e| format!("invalid KTX2 container: {e}"))?;
     let h = r.header();
     let (w, ht) = (h.pixel_width, h.pixel_height.max(1));
@@ -98,6 +99,44 @@ pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
     }
     image::RgbaImage::from_raw(w, ht, level.data[..need].to_vec())
         .ok_or_else(|| "KTX2 level 0 does not match its size".to_string())
+}
+
+/// Refuses basic data format descriptor blocks whose texel block
+/// dimension bytes are 255 (a dimension of 256, which `ktx2` 0.5 adds one
+/// to in a `u8` and unwraps as non-zero: a panic found by fuzzing). Walks
+/// the DFD as KTX 2.0 §3.10 lays it out (a u32 total size, then blocks of
+/// an 8-byte header whose last u16 is the block size); anything out of
+/// range is left for the `ktx2` parser to report.
+fn check_dfd_block_dimensions(bytes: &[u8]) -> Result<(), String> {
+    let u32_at = |o: usize| {
+        bytes
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let (Some(off), Some(len)) = (u32_at(48), u32_at(52)) else {
+        return Ok(());
+    };
+    let Some(dfd) = off
+        .checked_add(len)
+        .and_then(|end| bytes.get(off.checked_add(4)?..end))
+    else {
+        return Ok(());
+    };
+    let mut rest = dfd;
+    while rest.len() >= 16 {
+        let size = u16::from_le_bytes([rest[6], rest[7]]) as usize;
+        let basic = rest[..4] == [0, 0, 0, 0] && rest[4..6] == [2, 0];
+        if basic && rest[12..16].contains(&255) {
+            return Err(
+                "invalid KTX2 container: a texel block dimension of 256 is out of range".into(),
+            );
+        }
+        if size < 8 || size > rest.len() {
+            break;
+        }
+        rest = &rest[size..];
+    }
+    Ok(())
 }
 
 /// Builds a minimal KTX2 file (one level, no supercompression) holding
@@ -164,6 +203,10 @@ mod tests {
         bad_level[80..88].copy_from_slice(&(1u64 << 40).to_le_bytes());
         let e = decode_ktx2_rgba8(&bad_level).unwrap_err();
         assert!(e.contains("invalid KTX2"), "{e}");
+        let mut dims = file.clone();
+        dims[108 + 12] = 255;
+        let e = decode_ktx2_rgba8(&dims).unwrap_err();
+        assert!(e.contains("texel block dimension"), "{e}");
         let e = decode_ktx2_rgba8(&file[..100]).unwrap_err();
         assert!(e.contains("invalid KTX2"), "{e}");
     }
