@@ -116,12 +116,6 @@ case("gltf/deep-nodes.gltf", "scene", ["deeper than 256"], gltf(nodes=deep))
 case("gltf/overflowing-scale.gltf", "scene", ["non-finite transform"],
      gltf(nodes=[{"scale": [1e300, 1e300, 1e300], "children": [1]},
                  {"mesh": 0, "scale": [1e300, 1e300, 1e300]}]))
-case("gltf/sparse-accessor.gltf", "scene", ["sparse accessors are not supported"],
-     gltf(accessors=[{"bufferView": 0, "componentType": 5126, "count": 3, "type": "VEC3",
-                      "min": [0, 0, 0], "max": [1, 1, 0],
-                      "sparse": {"count": 1, "indices": {"bufferView": 1, "componentType": 5123},
-                                 "values": {"bufferView": 0}}},
-                     {"bufferView": 1, "componentType": 5123, "count": 3, "type": "SCALAR"}]))
 case("gltf/bad-accessor-ref.gltf", "scene", ["attribute POSITION refers to accessor 7"],
      gltf(prim={"attributes": {"POSITION": 7}, "indices": 1}))
 # Found by fuzzing (cargo fuzz, gltf_scene): accessor types the gltf
@@ -171,6 +165,138 @@ case("images/truncated-image.gltf", "scene", ["truncated.png", "cannot be decode
 case("images/truncated.png", None, None, png(8, 8, truncate=45), "wb")
 case("images/zero-size-image.gltf", "scene", ["zero.png", "cannot be decoded"], textured("zero.png"))
 case("images/zero.png", None, None, png(1, 1, claim=(0, 0)), "wb")
+# --- glTF extensions and newer paths (issue 15) -----------------------------
+def ext_gltf(used, required=None, **kw):
+    doc = json.loads(gltf(**kw))
+    doc["extensionsUsed"] = used
+    if required:
+        doc["extensionsRequired"] = required
+    return doc
+
+MO = "EXT_meshopt_compression"
+def meshopt(view_ext, stream=b"\xa0" + b"\x00" * 40, view_stride=12, drop=()):
+    b = tri_bin() + stream
+    doc = ext_gltf([MO], [MO], buf=b)
+    doc["buffers"].append({"byteLength": 36, "extensions": {MO: {"fallback": True}}})
+    doc["bufferViews"][0] = {"buffer": 1, "byteOffset": 0, "byteLength": 36, "byteStride": view_stride,
+                             "extensions": {MO: dict({"buffer": 0, "byteOffset": 44,
+                                                      "byteLength": len(stream), "byteStride": 12,
+                                                      "count": 3, "mode": "ATTRIBUTES"}, **view_ext)}}
+    for key in drop:
+        del doc["bufferViews"][0]["extensions"][MO][key]
+    if view_stride is None:
+        del doc["bufferViews"][0]["byteStride"]
+    return json.dumps(doc, indent=1)
+case("gltf/meshopt-stream-past-buffer.gltf", "scene", ["bufferView 0", "meshopt", "longer than buffer 0"],
+     meshopt({"byteLength": 100000}))
+case("gltf/meshopt-filter-on-triangles.gltf", "scene", ["bufferView 0", "filter OCTAHEDRAL is only allowed with ATTRIBUTES"],
+     meshopt({"mode": "TRIANGLES", "filter": "OCTAHEDRAL", "byteStride": 2, "count": 18}, view_stride=None))
+case("gltf/meshopt-quaternion-stride.gltf", "scene", ["filter QUATERNION does not allow byteStride 12"],
+     meshopt({"filter": "QUATERNION"}))
+case("gltf/meshopt-unknown-mode.gltf", "scene", ["unknown mode 'STRIPS'"], meshopt({"mode": "STRIPS"}))
+case("gltf/meshopt-garbage-stream.gltf", "scene", ["bufferView 0", "does not decode"], meshopt({}))
+case("gltf/meshopt-missing-count.gltf", "scene", ["meshopt compression has no count"],
+     meshopt({}, drop=["count"]))
+doc = json.loads(meshopt({}))
+del doc["bufferViews"][0]["extensions"]
+case("gltf/meshopt-plain-view-in-fallback.gltf", "scene", ["bufferView 0", "fallback buffer, but is not compressed"],
+     json.dumps(doc, indent=1))
+# KHR_mesh_quantization: normals must be normalized signed integers.
+qbin = struct.pack("<9b", 0, 0, 127, 0, 0, 127, 0, 0, 127) + b"\0" * 3
+doc = ext_gltf(["KHR_mesh_quantization"], ["KHR_mesh_quantization"], buf=tri_bin() + qbin)
+doc["bufferViews"].append({"buffer": 0, "byteOffset": 44, "byteLength": 12, "byteStride": 4})
+doc["accessors"].append({"bufferView": 2, "componentType": 5120, "count": 3, "type": "VEC3"})
+doc["meshes"][0]["primitives"][0]["attributes"]["NORMAL"] = 2
+case("gltf/quantized-normal-not-normalized.gltf", "scene", ["NORMAL accessor 2 is I8", "normalized signed byte or short"],
+     json.dumps(doc, indent=1))
+# Sparse accessors: indices out of range, values past their view.
+def sparse(count, idx_bytes, values_offset=0):
+    b = tri_bin() + idx_bytes + b"\0" * (-len(idx_bytes) % 4)
+    doc = json.loads(gltf(buf=b))
+    doc["bufferViews"].append({"buffer": 0, "byteOffset": 44, "byteLength": len(idx_bytes)})
+    doc["accessors"][0]["sparse"] = {"count": count, "indices": {"bufferView": 2, "componentType": 5123},
+                                     "values": {"bufferView": 0, "byteOffset": values_offset}}
+    return json.dumps(doc, indent=1)
+case("gltf/sparse-index-out-of-range.gltf", "scene", ["accessor 0", "sparse index 7 is out of range"],
+     sparse(1, struct.pack("<H", 7)))
+case("gltf/sparse-values-past-view.gltf", "scene", ["accessor 0", "sparse values at offset 30 run past bufferView 0"],
+     sparse(1, struct.pack("<H", 1), values_offset=30))
+case("gltf/sparse-too-many.gltf", "scene", ["accessor 0", "4 sparse values for 3 elements"],
+     sparse(4, struct.pack("<4H", 0, 1, 2, 2)))
+# KHR_draco_mesh_compression is refused with its reason, required or not.
+doc = json.loads(gltf())
+doc["extensionsUsed"] = ["KHR_draco_mesh_compression"]
+prim = doc["meshes"][0]["primitives"][0]
+doc["accessors"][0].pop("bufferView")
+prim["extensions"] = {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}
+case("gltf/draco-without-fallback.gltf", "scene", ["KHR_draco_mesh_compression", "no uncompressed fallback", "no Draco decoder"],
+     json.dumps(doc, indent=1))
+# KHR_texture_transform, emissive strength, lights.
+def material_case(material, extra_ext=None):
+    doc = json.loads(textured("tiny.png"))
+    doc["materials"][0].update(material)
+    doc["extensionsUsed"] = ["KHR_texture_transform", "KHR_materials_emissive_strength"]
+    return json.dumps(doc, indent=1)
+case("images/tiny.png", None, None, png(2, 2), "wb")
+case("images/transform-bad-rotation.gltf", "scene", ["base colour texture", "KHR_texture_transform rotation \"x\" is not a finite number"],
+     material_case({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"rotation": "x"}}}}}))
+case("images/transform-bad-texcoord.gltf", "scene", ["KHR_texture_transform texCoord 5"],
+     material_case({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"texCoord": 5}}}}}))
+case("images/transform-short-offset.gltf", "scene", ["KHR_texture_transform offset [0.5] is not two finite numbers"],
+     material_case({"pbrMetallicRoughness": {"baseColorTexture": {"index": 0, "extensions": {"KHR_texture_transform": {"offset": [0.5]}}}}}))
+case("images/emissive-strength-negative.gltf", "scene", ["material 0", "emissiveStrength -2.0 is not a number"],
+     material_case({"extensions": {"KHR_materials_emissive_strength": {"emissiveStrength": -2.0}}}))
+doc = json.loads(gltf())
+doc["extensionsUsed"] = ["KHR_lights_punctual"]
+doc["extensions"] = {"KHR_lights_punctual": {"lights": [{"type": "directional"}]}}
+doc["nodes"].append({"extensions": {"KHR_lights_punctual": {"light": 3}}})
+doc["scenes"][0]["nodes"].append(1)
+case("gltf/light-missing.gltf", "scene", ["node 1", "light 3 does not exist"], json.dumps(doc, indent=1))
+doc["extensions"]["KHR_lights_punctual"]["lights"][0] = {"type": "laser"}
+case("gltf/light-unknown-type.gltf", "scene", ["light 0", "unknown type 'laser'"], json.dumps(doc, indent=1))
+doc["extensions"]["KHR_lights_punctual"]["lights"][0] = {"type": "directional", "intensity": -1}
+case("gltf/light-negative-intensity.gltf", "scene", ["light 0", "intensity -1 is not a number"], json.dumps(doc, indent=1))
+# KHR_texture_basisu (KTX2) and EXT_texture_webp images.
+def ktx2(w=2, h=2, fmt=37, scheme=0, level_offset=None, cut=None, texels=None):
+    px = b"\x80\x40\x20\xff" * (texels if texels is not None else w * h)
+    dfd = struct.pack("<I", 92) + struct.pack("<II", 0, 2 | (88 << 16)) + bytes([1, 1, 1, 0, 0, 0, 0, 0]) \
+        + bytes([4, 0, 0, 0, 0, 0, 0, 0])
+    for c, off in ((0, 0), (1, 8), (2, 16), (15, 24)):
+        dfd += struct.pack("<HBB4sII", off, 7, c, b"\0\0\0\0", 0, 255)
+    start = 80 + 24 + len(dfd)
+    head = bytes([0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A]) \
+        + struct.pack("<9I", fmt, 1, w, h, 0, 0, 1, 1, scheme) \
+        + struct.pack("<4I2Q", 104, len(dfd), 0, 0, 0, 0) \
+        + struct.pack("<3Q", level_offset if level_offset is not None else start, len(px), len(px))
+    data = head + dfd + px
+    return data[:cut] if cut else data
+def ktx2_case(name, expect, data):
+    doc = json.loads(textured(name))
+    doc["extensionsUsed"] = ["KHR_texture_basisu"]
+    doc["extensionsRequired"] = ["KHR_texture_basisu"]
+    doc["images"][0]["mimeType"] = "image/ktx2"
+    doc["textures"][0] = {"extensions": {"KHR_texture_basisu": {"source": 0}}}
+    case("images/" + name.replace(".ktx2", ".gltf"), "scene", [name] + expect, json.dumps(doc, indent=1))
+    case("images/" + name, None, None, data, "wb")
+ktx2_case("ktx2-bad-level.ktx2", ["invalid KTX2 container"], ktx2(level_offset=1 << 40))
+ktx2_case("ktx2-truncated.ktx2", ["invalid KTX2 container"], ktx2(cut=90))
+# Found by fuzzing (gltf_decoders): ktx2 0.5 adds one to a 255 texel block
+# dimension in a u8 and unwraps it as non-zero.
+dims = bytearray(ktx2())
+dims[108 + 12] = 255
+ktx2_case("ktx2-block-dimension.ktx2", ["texel block dimension of 256"], bytes(dims))
+ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal ETC1S", "no Basis Universal transcoder"], ktx2(fmt=0, scheme=1))
+ktx2_case("ktx2-uastc.ktx2", ["Basis Universal UASTC"], ktx2(fmt=0))
+ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
+          ktx2(w=4, h=4, texels=4))
+doc = json.loads(textured("garbage.webp"))
+doc["extensionsUsed"] = ["EXT_texture_webp"]
+doc["images"][0]["mimeType"] = "image/webp"
+doc["textures"][0] = {"extensions": {"EXT_texture_webp": {"source": 0}}}
+case("images/webp-garbage.gltf", "scene", ["garbage.webp", "cannot be decoded"], json.dumps(doc, indent=1))
+case("images/garbage.webp", None, None, b"RIFF\x20\x00\x00\x00WEBPVP8 " + b"\x07" * 24, "wb")
+doc["textures"][0] = {"extensions": {"EXT_texture_webp": {"source": 9}}}
+case("images/webp-missing-source.gltf", "scene", ["texture 0 refers to image 9, but there are 1"], json.dumps(doc, indent=1))
 # --- GLB -------------------------------------------------------------------
 good_json = gltf(uri="").replace('"uri": "",', "").encode()
 def glb(json_bytes, bin_bytes=None, version=2, cut=None):
@@ -184,6 +310,10 @@ def glb(json_bytes, bin_bytes=None, version=2, cut=None):
 case("glb/truncated.glb", "scene", ["malformed or truncated .glb container", "could not completely read"], glb(good_json, tri_bin(), cut=60), "wb")
 case("glb/version-1.glb", "scene", ["unsupported version"], glb(good_json, tri_bin(), version=1), "wb")
 case("glb/missing-bin.glb", "scene", ["GLB binary chunk, which is missing"], glb(good_json), "wb")
+# Found by fuzzing (gltf_scene): gltf 1.4.1 subtracts the header from the
+# declared length unchecked.
+case("glb/short-length.glb", "scene", ["declared length 4 is shorter than its 12-byte header"],
+     struct.pack("<4sII", b"glTF", 2, 4) + glb(good_json, tri_bin())[12:], "wb")
 case("glb/bad-length.glb", "scene", ["malformed or truncated .glb container"],
      struct.pack("<4sII", b"glTF", 2, 0xFFFFFFF0) + glb(good_json, tri_bin())[12:], "wb")
 # --- HMD profiles --------------------------------------------------------------

@@ -116,6 +116,11 @@ struct RenderArgs {
     /// instead of the profile's eyes at --pose.
     #[arg(long)]
     rig: Option<PathBuf>,
+    /// Use a camera of the glTF file as the head pose: its index or name
+    /// (eyes and FOVs stay the profile's). Without --pose, --rig or
+    /// --camera the head frames the scene's bounds as `run` does.
+    #[arg(long, conflicts_with_all = ["pose", "rig"])]
+    camera: Option<String>,
     #[command(flatten)]
     frame: FrameOpts,
     /// Output folder.
@@ -295,11 +300,6 @@ fn parse_move_direction(s: &str) -> Result<MoveDirection, String> {
     }
 }
 
-/// Default head pose: standing at the hall's entrance, looking in.
-fn default_pose() -> Pose {
-    Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0)
-}
-
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => {
@@ -313,7 +313,8 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 scene: a.scene,
                 hmd: a.hmd,
                 rig,
-                pose: a.pose.unwrap_or_else(default_pose),
+                pose: a.pose,
+                camera: a.camera,
                 config,
                 size: a.frame.size(),
                 out: a.out,
@@ -402,7 +403,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let args = vergence::targets::view::ViewArgs {
                 scene: a.scene,
                 hmd: a.hmd,
-                pose: a.pose.unwrap_or_else(default_pose),
+                pose: a.pose,
                 config: a.frame.config()?,
                 size: a.frame.size(),
                 frames: a.frames,
@@ -712,6 +713,43 @@ fn inspect(s: &Scene, load_ms: f64) {
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
     println!("features    {:?}", c.features);
+    let support = |e: &str| match vergence::scene::gltf_load::support(e) {
+        Some((level, note)) => format!("{level:?}: {note}"),
+        None => "not supported (ignored when only used)".to_string(),
+    };
+    for (label, list) in [
+        ("extensions used", &s.extensions_used),
+        ("extensions required", &s.extensions_required),
+    ] {
+        println!("{label:<11} {}", list.len());
+        for e in list {
+            println!("  {e:32} {}", support(e));
+        }
+    }
+    if s.scene_names.len() > 1 {
+        println!("scenes      {}", s.scene_names.join(", "));
+    }
+    for c in &s.cameras {
+        let p = c.pose.position;
+        println!(
+            "  camera {:3} {:24} at [{:.3}, {:.3}, {:.3}]{}",
+            c.index,
+            c.name,
+            p.x,
+            p.y,
+            p.z,
+            c.yfov.map_or(" orthographic".into(), |f| format!(
+                ", yfov {:.1}°",
+                f.to_degrees()
+            ))
+        );
+    }
+    if let Some(sun) = &s.sun {
+        println!(
+            "sun         towards [{:.3}, {:.3}, {:.3}], colour {:?}",
+            sun.direction.x, sun.direction.y, sun.direction.z, sun.color
+        );
+    }
     for (i, m) in s.meshes.iter().enumerate().take(20) {
         let tris: usize = m
             .primitives

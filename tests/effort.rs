@@ -221,7 +221,13 @@ fn stats_name_the_paths_that_ran() {
     let job = RenderJob {
         scene: "factory:500".into(),
         hmd: "monado-sim".into(),
-        pose: Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0),
+        pose: Some(Pose::from_euler_deg(
+            DVec3::new(3.0, 1.7, 2.0),
+            -25.0,
+            -5.0,
+            0.0,
+        )),
+        camera: None,
         rig: None,
         config,
         size: Some((96, 64)),

@@ -18,7 +18,13 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
     let job = RenderJob {
         scene: "factory:4000".into(),
         hmd: "valve-index".into(),
-        pose: Pose::from_euler_deg(DVec3::new(20.0, 1.7, -20.0), 30.0, 0.0, 0.0),
+        pose: Some(Pose::from_euler_deg(
+            DVec3::new(20.0, 1.7, -20.0),
+            30.0,
+            0.0,
+            0.0,
+        )),
+        camera: None,
         rig: None,
         config,
         size: Some((128, 128)),

@@ -141,6 +141,8 @@ pub struct Renderer {
     output: Option<OutputCopy>,
     readback: Readback,
     frame_index: u64,
+    /// The scene's own sun (a glTF directional light), else the default.
+    sun: Option<crate::scene::Sun>,
     /// Frames where MFFR fell back to stereo (no finite centre camera).
     pub mffr_fallbacks: u64,
     /// Whether the monoscopic far field splits the visible instances by
@@ -228,6 +230,7 @@ impl Renderer {
             completed: VecDeque::with_capacity(slots + 1),
             slot_wait_ms: 0.0,
             batcher: Batcher::new(scene),
+            sun: scene.sun,
             batches: Batches::default(),
             pending: None,
             shading_rate: None,
@@ -366,7 +369,12 @@ impl Renderer {
             .map_or(([None, None], self.config.near), |f| {
                 f.cameras(self.config.near)
             });
-        FrameUniforms::new(rig, self.config.near, far_views, far_near)
+        let mut u = FrameUniforms::new(rig, self.config.near, far_views, far_near);
+        if let Some(sun) = &self.sun {
+            u.sun_dir = sun.direction.as_vec3().extend(0.0);
+            u.sun_color = glam::Vec3::from_array(sun.color).extend(0.0);
+        }
+        u
     }
 
     /// Renders one stereo frame of `rig` drawing the instances in `visible`

@@ -5,15 +5,109 @@
 //! problem, and checks every accessor and index range against the real buffer
 //! sizes before reading, so a malformed file is an error, never a panic.
 
-use super::{AlphaMode, Instance, Material, Mesh, Primitive, Scene, TexRef, Texture};
+use super::gltf_data::{self, Meshopt, ViewData, Views};
+use super::{
+    AlphaMode, Instance, Material, Mesh, Primitive, Scene, SceneCamera, Sun, TexRef, Texture,
+};
 use crate::error::{Error, Result};
 use glam::{DAffine3, DMat4, DQuat, DVec3, Vec2, Vec3};
 use gltf::accessor::Dimensions;
 use std::collections::HashMap;
 use std::path::{Path, PathBuf};
 
-/// Extensions a file may list in `extensionsRequired`.
-pub const SUPPORTED_REQUIRED: &[&str] = &["KHR_materials_unlit", "EXT_mesh_gpu_instancing"];
+/// How vergence treats a glTF extension.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+pub enum Support {
+    /// Read and rendered.
+    Supported,
+    /// Read, with the parts vergence cannot draw ignored (the note says which).
+    Partial,
+    /// A file that requires it is refused (the note says why).
+    Refused,
+}
+
+/// Every glTF extension vergence knows, how it is treated, and a note.
+/// Extensions not listed are ignored when only used, refused when required.
+pub const EXTENSIONS: &[(&str, Support, &str)] = &[
+    (
+        "KHR_mesh_quantization",
+        Support::Supported,
+        "8/16-bit integer attributes, dequantized to f32 on load",
+    ),
+    (
+        "EXT_meshopt_compression",
+        Support::Supported,
+        "meshoptimizer decoders (attributes, triangles, indices; octahedral, quaternion, exponential filters); fallback buffers are not read",
+    ),
+    (
+        "KHR_meshopt_compression",
+        Support::Supported,
+        "as EXT_meshopt_compression, plus the color filter",
+    ),
+    (
+        "KHR_texture_transform",
+        Support::Supported,
+        "offset, rotation, scale and texCoord, applied to the UVs on load",
+    ),
+    (
+        "EXT_texture_webp",
+        Support::Supported,
+        "WebP images decoded with the image crate",
+    ),
+    (
+        "KHR_materials_emissive_strength",
+        Support::Supported,
+        "multiplies the emissive factor",
+    ),
+    (
+        "KHR_materials_unlit",
+        Support::Supported,
+        "base colour only",
+    ),
+    (
+        "EXT_mesh_gpu_instancing",
+        Support::Supported,
+        "TRANSLATION, ROTATION, SCALE per instance",
+    ),
+    (
+        "KHR_lights_punctual",
+        Support::Partial,
+        "the first directional light becomes the sun; point and spot lights are ignored",
+    ),
+    (
+        "KHR_texture_basisu",
+        Support::Partial,
+        "KTX2 images holding uncompressed RGBA8 load; Basis Universal (ETC1S/UASTC) payloads are refused: no transcoder is built in",
+    ),
+    (
+        "KHR_draco_mesh_compression",
+        Support::Refused,
+        "no Draco decoder is built in (see the README's glTF support section)",
+    ),
+];
+
+/// How `name` is treated, with the note, if vergence knows it.
+pub fn support(name: &str) -> Option<(Support, &'static str)> {
+    EXTENSIONS
+        .iter()
+        .find(|(n, _, _)| *n == name)
+        .map(|&(_, s, note)| (s, note))
+}
+
+/// Extensions a file may list in `extensionsRequired` (the supported and
+/// partly supported entries of [`EXTENSIONS`]).
+pub const SUPPORTED_REQUIRED: &[&str] = &[
+    "KHR_mesh_quantization",
+    "EXT_meshopt_compression",
+    "KHR_meshopt_compression",
+    "KHR_texture_transform",
+    "EXT_texture_webp",
+    "KHR_materials_emissive_strength",
+    "KHR_materials_unlit",
+    "EXT_mesh_gpu_instancing",
+    "KHR_lights_punctual",
+    "KHR_texture_basisu",
+];
 /// Deepest node hierarchy accepted.
 pub const MAX_NODE_DEPTH: usize = 256;
 
@@ -25,6 +119,11 @@ struct Ctx<'a> {
     /// file, if any), so repeated references to one large file cannot
     /// multiply memory without bound.
     budget: &'a super::budget::LoadBudget,
+    /// Which buffers are meshopt fallback buffers (never read).
+    fallback: Vec<bool>,
+    views: Vec<ViewData>,
+    /// Whether the file declares KHR_mesh_quantization.
+    quantization: bool,
 }
 
 /// Most bytes of buffers, image files and decoded textures one glTF file may
@@ -44,35 +143,64 @@ impl Ctx<'_> {
             .spend(Some(bytes), what)
             .map_err(|m| self.err(m))
     }
+
+    fn data(&self) -> Views<'_> {
+        Views {
+            buffers: &self.buffers,
+            views: &self.views,
+        }
+    }
+
+    /// Reads accessor `a` as `N`-component floats.
+    fn floats<const N: usize>(&self, a: &gltf::Accessor) -> Result<Vec<[f32; N]>> {
+        gltf_data::read_f32(&self.data(), a).map_err(|e| self.err(e))
+    }
 }
 
-/// Loads a `.gltf` or `.glb` file.
+/// Loads a `.gltf` or `.glb` file. A path that does not exist but ends in
+/// `#N` or `#NAME` loads that scene of the file instead of the default one.
 pub fn load(path: &Path) -> Result<Scene> {
     load_in(path, &super::budget::LoadBudget::default())
 }
 
 /// Loads a `.gltf` or `.glb` file within `budget` (a manifest's, shared by
-/// all it names).
+/// all it names). A path that does not exist but ends in `#N` or `#NAME`
+/// loads that scene of the file instead of the default one.
 pub fn load_in(path: &Path, budget: &super::budget::LoadBudget) -> Result<Scene> {
-    if let Some(meta) = std::fs::metadata(path).ok().filter(|m| m.is_file()) {
+    let (path, selector) = split_scene_selector(path);
+    if let Some(meta) = std::fs::metadata(&path).ok().filter(|m| m.is_file()) {
         budget
             .spend(Some(meta.len()), "the scene file")
-            .map_err(|m| Error::scene(path, m))?;
+            .map_err(|m| Error::scene(&path, m))?;
     }
     let bytes =
-        crate::fsio::read_bounded(path, crate::fsio::MAX_SCENE_FILE_BYTES).map_err(|source| {
+        crate::fsio::read_bounded(&path, crate::fsio::MAX_SCENE_FILE_BYTES).map_err(|source| {
             Error::Io {
                 path: path.to_path_buf(),
                 source,
             }
         })?;
-    load_bytes_in(path, &bytes, budget)
+    load_bytes_scene_in(&path, &bytes, selector.as_deref(), budget)
+}
+
+/// Splits `file.glb#2` or `file.glb#Name` into the file and the scene
+/// selector, when the path as given is not itself a file.
+fn split_scene_selector(path: &Path) -> (PathBuf, Option<String>) {
+    let text = path.to_string_lossy();
+    if !path.exists() {
+        if let Some((file, sel)) = text.rsplit_once('#') {
+            if !sel.is_empty() && !sel.contains(['/', '\\']) {
+                return (PathBuf::from(file), Some(sel.to_string()));
+            }
+        }
+    }
+    (path.to_path_buf(), None)
 }
 
 /// Loads glTF or GLB content already read from `path` (external resources
 /// resolve relative to `path`'s folder).
 pub fn load_bytes(path: &Path, bytes: &[u8]) -> Result<Scene> {
-    load_bytes_in(path, bytes, &super::budget::LoadBudget::default())
+    load_bytes_scene(path, bytes, None)
 }
 
 /// [`load_bytes`] within `budget`.
@@ -81,24 +209,42 @@ pub fn load_bytes_in(
     bytes: &[u8],
     budget: &super::budget::LoadBudget,
 ) -> Result<Scene> {
-    let gltf = parse(path, bytes)?;
-    for ext in gltf.document.extensions_required() {
-        if !SUPPORTED_REQUIRED.contains(&ext) {
-            return Err(Error::scene(
-                path,
-                format!("requires glTF extension {ext}, which vergence does not support (supported: {})", SUPPORTED_REQUIRED.join(", ")),
-            ));
-        }
-    }
+    load_bytes_scene_in(path, bytes, None, budget)
+}
+
+/// As [`load_bytes`], placing the nodes of the scene `selector` names (an
+/// index or a name; None: the default scene, else the first).
+pub fn load_bytes_scene(path: &Path, bytes: &[u8], selector: Option<&str>) -> Result<Scene> {
+    load_bytes_scene_in(path, bytes, selector, &super::budget::LoadBudget::default())
+}
+
+/// [`load_bytes_scene`] within `budget`.
+pub fn load_bytes_scene_in(
+    path: &Path,
+    bytes: &[u8],
+    selector: Option<&str>,
+    budget: &super::budget::LoadBudget,
+) -> Result<Scene> {
+    let (gltf, required) = parse(path, bytes)?;
     let dir = path.parent().map(Path::to_path_buf).unwrap_or_default();
+    let used: Vec<String> = gltf
+        .document
+        .extensions_used()
+        .map(str::to_string)
+        .collect();
     let mut ctx = Ctx {
         path,
         dir,
         buffers: Vec::new(),
         budget,
+        fallback: Vec::new(),
+        views: Vec::new(),
+        quantization: used.iter().any(|e| e == "KHR_mesh_quantization")
+            || required.iter().any(|e| e == "KHR_mesh_quantization"),
     };
-    ctx.buffers = load_buffers(&ctx, &gltf)?;
-    check_views_and_accessors(&ctx, &gltf.document)?;
+    (ctx.buffers, ctx.fallback) = load_buffers(&ctx, &gltf)?;
+    ctx.views = build_views(&ctx, &gltf.document)?;
+    check_accessors(&ctx, &gltf.document)?;
     check_attribute_types(&ctx, &gltf.document)?;
 
     let mut scene = Scene {
@@ -107,12 +253,21 @@ pub fn load_bytes_in(
             .map(|n| n.to_string_lossy().into_owned())
             .unwrap_or_default(),
         nodes: gltf.document.nodes().len(),
+        extensions_used: used,
+        extensions_required: required,
         ..Scene::default()
     };
-    let mut textures = TextureCache::default();
+    let images = decode_images(&ctx, &gltf.document)?;
+    let mut textures = TextureCache {
+        images,
+        ..TextureCache::default()
+    };
+    let mut uv_transforms = Vec::new();
     for m in gltf.document.materials() {
-        let mat = convert_material(&ctx, &m, &mut textures, &mut scene.textures)?;
+        let (mat, uvt) =
+            convert_material(&ctx, &gltf.document, &m, &mut textures, &mut scene.textures)?;
         scene.materials.push(mat);
+        uv_transforms.push(uvt);
     }
     let default_material = scene.materials.len() as u32;
     scene.materials.push(Material {
@@ -120,6 +275,7 @@ pub fn load_bytes_in(
         roughness: 0.8,
         ..Material::default()
     });
+    uv_transforms.push([None; 2]);
 
     for mesh in gltf.document.meshes() {
         let mut out = Mesh {
@@ -127,47 +283,90 @@ pub fn load_bytes_in(
             primitives: Vec::new(),
         };
         for prim in mesh.primitives() {
-            if let Some(p) =
-                convert_primitive(&ctx, &mesh, &prim, &scene.materials, default_material)?
-            {
+            if let Some(p) = convert_primitive(
+                &ctx,
+                &mesh,
+                &prim,
+                &scene.materials,
+                &uv_transforms,
+                default_material,
+            )? {
                 out.primitives.push(scene.primitives.len() as u32);
                 scene.primitives.push(p);
             }
         }
         scene.meshes.push(out);
     }
-    place_nodes(&ctx, &gltf.document, &mut scene)?;
+    let lights = punctual_lights(&ctx, &gltf.document)?;
+    place_nodes(&ctx, &gltf.document, selector, &lights, &mut scene)?;
     Ok(scene)
 }
 
-/// Parses and validates glTF or GLB bytes. What the `gltf` crates assume
-/// without checking is checked first (a primitive's attribute accessor
-/// indexes, which gltf-json 1.4.1's validator indexes without a bounds
-/// check; an image's uri or bufferView + mimeType, which gltf 1.4.1
-/// unwraps), so a bad file is an error instead of a panic.
-fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
+/// Parses and validates glTF or GLB bytes; returns the document and its
+/// `extensionsRequired`. What the `gltf` crates assume without checking is
+/// checked first (a primitive's attribute accessor indexes, which
+/// gltf-json 1.4.1's validator indexes without a bounds check; an image's
+/// uri or bufferView + mimeType, which gltf 1.4.1 unwraps; texture
+/// sources), so a bad file is an error instead of a panic. Required
+/// extensions are checked against [`SUPPORTED_REQUIRED`] here, and removed
+/// before the crate's validator (which only knows its compiled-in ones).
+fn parse(path: &Path, bytes: &[u8]) -> Result<(gltf::Gltf, Vec<String>)> {
     let describe = |e: gltf::Error| Error::scene(path, describe_gltf_error(bytes, &e));
-    // GLB §4.4.3: the header's length is the whole file; the gltf crate
-    // ignores bytes past it, which hides a damaged or concatenated file.
-    if let Some(len) = bytes
-        .get(8..12)
-        .filter(|_| bytes.starts_with(b"glTF"))
-        .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
-    {
-        if len < bytes.len() {
+    // gltf 1.4.1 binary.rs subtracts the 12-byte header from the declared
+    // length without a check (an overflow panic in debug builds; found by
+    // fuzzing). GLB §4.4.3: the header's length is the whole file; the
+    // gltf crate ignores bytes past it, which hides a damaged or
+    // concatenated file.
+    if let Some(h) = bytes.get(..12).filter(|h| h.starts_with(b"glTF")) {
+        let declared = u32::from_le_bytes([h[8], h[9], h[10], h[11]]);
+        if declared < 12 {
+            return Err(Error::scene(
+                path,
+                format!("malformed or truncated .glb container: declared length {declared} is shorter than its 12-byte header"),
+            ));
+        }
+        if (declared as usize) < bytes.len() {
             return Err(Error::scene(
                 path,
                 format!(
-                    "malformed .glb container: its header declares {len} bytes but the file has {}",
+                    "malformed .glb container: its header declares {declared} bytes but the file has {}",
                     bytes.len()
                 ),
             ));
         }
     }
     let raw = gltf::Gltf::from_slice_without_validation(bytes).map_err(describe)?;
-    let json = raw.document.as_json();
+    let blob = raw.blob;
+    let mut json = raw.document.into_json();
+    let required = std::mem::take(&mut json.extensions_required);
+    for ext in &required {
+        if !SUPPORTED_REQUIRED.contains(&ext.as_str()) {
+            return Err(Error::scene(path, unsupported_required(ext)));
+        }
+    }
     for (m, mesh) in json.meshes.iter().enumerate() {
         for (p, prim) in mesh.primitives.iter().enumerate() {
+            // Draco-compressed accessors have no bufferView, which the
+            // crate's validator reports as missing data; name the real
+            // reason instead when there is no uncompressed fallback.
+            let draco = prim
+                .extensions
+                .as_ref()
+                .is_some_and(|e| e.others.contains_key("KHR_draco_mesh_compression"));
+            let no_fallback = prim.attributes.values().any(|i| {
+                json.accessors
+                    .get(i.value())
+                    .is_some_and(|a| a.buffer_view.is_none() && a.sparse.is_none())
+            });
+            if draco && no_fallback {
+                return Err(Error::scene(
+                    path,
+                    format!(
+                        "mesh {m} primitive {p} is compressed with KHR_draco_mesh_compression and has no uncompressed fallback; {}",
+                        support("KHR_draco_mesh_compression").map_or("", |s| s.1)
+                    ),
+                ));
+            }
             for (semantic, index) in &prim.attributes {
                 if index.value() >= json.accessors.len() {
                     return Err(Error::scene(
@@ -200,9 +399,21 @@ fn parse(path: &Path, bytes: &[u8]) -> Result<gltf::Gltf> {
             ));
         }
     }
-    let blob = raw.blob;
-    let document = gltf::Document::from_json(raw.document.into_json()).map_err(describe)?;
-    Ok(gltf::Gltf { document, blob })
+    let document = gltf::Document::from_json(json).map_err(describe)?;
+    Ok((gltf::Gltf { document, blob }, required))
+}
+
+/// The message for a required extension vergence cannot honour.
+fn unsupported_required(name: &str) -> String {
+    match support(name) {
+        Some((Support::Refused, why)) => {
+            format!("requires glTF extension {name}, which vergence does not support: {why}")
+        }
+        _ => format!(
+            "requires glTF extension {name}, which vergence does not support (supported: {})",
+            SUPPORTED_REQUIRED.join(", ")
+        ),
+    }
 }
 
 fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
@@ -214,16 +425,6 @@ fn describe_gltf_error(bytes: &[u8], e: &gltf::Error) -> String {
         }
         gltf::Error::Deserialize(d) => format!("invalid glTF JSON: {d}"),
         gltf::Error::Validation(v) => {
-            if let Some((p, _)) = v
-                .iter()
-                .find(|(p, _)| p.as_str().starts_with("extensionsRequired"))
-            {
-                let name = p.as_str().split('"').nth(1).unwrap_or("?").to_string();
-                return format!(
-                    "requires glTF extension {name}, which vergence does not support (supported: {})",
-                    SUPPORTED_REQUIRED.join(", ")
-                );
-            }
             let list: Vec<String> = v
                 .iter()
                 .take(5)
@@ -244,12 +445,21 @@ fn read_uri(ctx: &Ctx, uri: &str, what: &str) -> Result<Vec<u8>> {
     Ok(bytes)
 }
 
-fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
+/// Reads every buffer except meshopt fallback buffers (which the
+/// extension says a loader that decodes it must not fetch; they are left
+/// empty). Only buffer 0 may be the GLB binary chunk (glTF 2.0 §4.4.3.3).
+fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<(Vec<Vec<u8>>, Vec<bool>)> {
     let mut out = Vec::new();
+    let mut fallback = Vec::new();
     for b in gltf.document.buffers() {
         let what = format!("buffer {}", b.index());
+        if gltf_data::is_fallback(&b) {
+            out.push(Vec::new());
+            fallback.push(true);
+            continue;
+        }
         let mut data = match b.source() {
-            gltf::buffer::Source::Bin => {
+            gltf::buffer::Source::Bin if b.index() == 0 => {
                 let blob = gltf.blob.as_ref().ok_or_else(|| {
                     ctx.err(format!(
                         "{what} refers to the GLB binary chunk, which is missing"
@@ -257,6 +467,11 @@ fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
                 })?;
                 ctx.spend(blob.len() as u64, &what)?;
                 blob.clone()
+            }
+            gltf::buffer::Source::Bin => {
+                return Err(ctx.err(format!(
+                    "{what} has no uri (only buffer 0 may be the GLB binary chunk, and it is not a meshopt fallback buffer)"
+                )))
             }
             gltf::buffer::Source::Uri(uri) => read_uri(ctx, uri, &what)?,
         };
@@ -269,16 +484,109 @@ fn load_buffers(ctx: &Ctx, gltf: &gltf::Gltf) -> Result<Vec<Vec<u8>>> {
         }
         data.truncate(b.length());
         out.push(data);
+        fallback.push(false);
+    }
+    Ok((out, fallback))
+}
+
+/// Resolves every bufferView: a checked range of a loaded buffer, or the
+/// decoded output of its meshopt stream. A view into a fallback buffer
+/// must be compressed (its bytes do not exist otherwise).
+fn build_views(ctx: &Ctx, doc: &gltf::Document) -> Result<Vec<ViewData>> {
+    let mut out = Vec::with_capacity(doc.views().len());
+    for v in doc.views() {
+        let label = format!("bufferView {}", v.index());
+        if let Some(ext) = gltf_data::meshopt_of(&v) {
+            let m = Meshopt::parse(ext)
+                .map_err(|e| ctx.err(format!("{label}: meshopt compression {e}")))?;
+            out.push(decode_meshopt_view(ctx, &v, &m, &label)?);
+            continue;
+        }
+        let b = v.buffer().index();
+        if ctx.fallback[b] {
+            return Err(ctx.err(format!(
+                "{label} points into buffer {b}, a meshopt fallback buffer, but is not compressed; its data is not in the file"
+            )));
+        }
+        let len = ctx.buffers[b].len();
+        let end = v.offset().checked_add(v.length());
+        match end {
+            Some(end) if end <= len => out.push(ViewData::Range {
+                buffer: b,
+                start: v.offset(),
+                end,
+            }),
+            _ => {
+                return Err(ctx.err(format!(
+                    "{label} (offset {}, length {}) runs past the end of buffer {b} ({len} bytes)",
+                    v.offset(),
+                    v.length(),
+                )))
+            }
+        }
     }
     Ok(out)
 }
 
+fn decode_meshopt_view(
+    ctx: &Ctx,
+    v: &gltf::buffer::View,
+    m: &Meshopt,
+    label: &str,
+) -> Result<ViewData> {
+    let fail = |e: String| ctx.err(format!("{label}: meshopt {e}"));
+    let source = ctx
+        .buffers
+        .get(m.buffer)
+        .ok_or_else(|| fail(format!("stream refers to missing buffer {}", m.buffer)))?;
+    if ctx.fallback[m.buffer] {
+        return Err(fail(format!(
+            "stream is in buffer {}, which is itself a fallback buffer",
+            m.buffer
+        )));
+    }
+    let end = m.byte_offset.checked_add(m.byte_length);
+    let Some(stream) = end.and_then(|e| source.get(m.byte_offset..e)) else {
+        return Err(fail(format!(
+            "stream (offset {}, length {}) is longer than buffer {} ({} bytes)",
+            m.byte_offset,
+            m.byte_length,
+            m.buffer,
+            source.len()
+        )));
+    };
+    if let Some(s) = v.stride() {
+        if s != m.byte_stride {
+            return Err(fail(format!(
+                "byteStride {} differs from the bufferView's {s}",
+                m.byte_stride
+            )));
+        }
+    }
+    let decoded = m.count.checked_mul(m.byte_stride);
+    if decoded.is_none_or(|d| d < v.length()) {
+        return Err(fail(format!(
+            "stream decodes to {} × {} bytes, less than the bufferView's byteLength {}",
+            m.count,
+            m.byte_stride,
+            v.length()
+        )));
+    }
+    m.validate().map_err(&fail)?;
+    ctx.spend(decoded.unwrap_or(0) as u64, label)?;
+    let (words, _) = m.decode(stream).map_err(fail)?;
+    Ok(ViewData::Decoded {
+        words,
+        len: v.length(),
+    })
+}
+
 /// Component types and shapes glTF 2.0 allows for the attributes vergence
 /// reads (spec §3.7.2.1 "Overview" table of mesh attributes, and §3.7.2.1
-/// for indices). The `gltf` crate's readers assume them (`unreachable!`
-/// otherwise), so each primitive is checked before it is read.
+/// for indices), widened by KHR_mesh_quantization's table ("Extending Mesh
+/// Attributes") when the file declares it.
 fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
-    use gltf::accessor::DataType::{F32, U16, U32, U8};
+    use gltf::accessor::DataType::{F32, I16, I8, U16, U32, U8};
     use gltf::mesh::Semantic;
     for mesh in doc.meshes() {
         for prim in mesh.primitives() {
@@ -300,28 +608,45 @@ fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
             }
             for (semantic, a) in prim.attributes() {
                 let (dt, dims, norm) = (a.data_type(), a.dimensions(), a.normalized());
-                let ok = match &semantic {
-                    Semantic::Positions | Semantic::Normals => {
-                        dt == F32 && dims == Dimensions::Vec3
-                    }
-                    Semantic::Tangents => dt == F32 && dims == Dimensions::Vec4,
+                let int8_16 = matches!(dt, I8 | U8 | I16 | U16);
+                let signed_norm = matches!(dt, I8 | I16) && norm;
+                // (core glTF, KHR_mesh_quantization's additions).
+                let (core, quantized) = match &semantic {
+                    Semantic::Positions => (dt == F32, int8_16),
+                    Semantic::Normals => (dt == F32, signed_norm),
+                    Semantic::Tangents => (dt == F32, signed_norm),
                     Semantic::TexCoords(_) => {
-                        dims == Dimensions::Vec2 && (dt == F32 || (matches!(dt, U8 | U16) && norm))
+                        (dt == F32 || (matches!(dt, U8 | U16) && norm), int8_16)
                     }
-                    Semantic::Colors(_) => {
-                        matches!(dims, Dimensions::Vec3 | Dimensions::Vec4)
-                            && (dt == F32 || (matches!(dt, U8 | U16) && norm))
-                    }
-                    Semantic::Joints(_) => matches!(dt, U8 | U16) && dims == Dimensions::Vec4,
-                    Semantic::Weights(_) => {
-                        dims == Dimensions::Vec4 && (dt == F32 || (matches!(dt, U8 | U16) && norm))
-                    }
+                    Semantic::Colors(_) => (dt == F32 || (matches!(dt, U8 | U16) && norm), false),
+                    Semantic::Joints(_) => (matches!(dt, U8 | U16) && !norm, false),
+                    Semantic::Weights(_) => (dt == F32 || (matches!(dt, U8 | U16) && norm), false),
                 };
-                if !ok {
+                let shape = match &semantic {
+                    Semantic::Positions | Semantic::Normals => dims == Dimensions::Vec3,
+                    Semantic::Tangents | Semantic::Joints(_) | Semantic::Weights(_) => {
+                        dims == Dimensions::Vec4
+                    }
+                    Semantic::TexCoords(_) => dims == Dimensions::Vec2,
+                    Semantic::Colors(_) => matches!(dims, Dimensions::Vec3 | Dimensions::Vec4),
+                };
+                if shape && !core && quantized && !ctx.quantization {
                     return Err(bad(
                         &semantic.to_string(),
                         &a,
-                        "the types in the glTF 2.0 attribute table",
+                        "this only with KHR_mesh_quantization, which the file does not declare",
+                    ));
+                }
+                if !shape || !(core || quantized) {
+                    return Err(bad(
+                        &semantic.to_string(),
+                        &a,
+                        match &semantic {
+                            Semantic::Normals | Semantic::Tangents if int8_16 => {
+                                "integer normals and tangents only as normalized signed byte or short (KHR_mesh_quantization)"
+                            }
+                            _ => "the types in the glTF 2.0 and KHR_mesh_quantization attribute tables",
+                        },
                     ));
                 }
             }
@@ -330,58 +655,35 @@ fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
     Ok(())
 }
 
-fn check_views_and_accessors(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
-    for v in doc.views() {
-        let len = ctx.buffers[v.buffer().index()].len();
-        let end = v.offset().checked_add(v.length());
-        if end.is_none_or(|e| e > len) {
-            return Err(ctx.err(format!(
-                "bufferView {} (offset {}, length {}) runs past the end of buffer {} ({len} bytes)",
-                v.index(),
-                v.offset(),
-                v.length(),
-                v.buffer().index()
-            )));
-        }
-    }
+fn check_accessors(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
+    let data = ctx.data();
     for a in doc.accessors() {
-        if a.sparse().is_some() {
-            return Err(ctx.err(format!(
-                "accessor {}: sparse accessors are not supported",
-                a.index()
-            )));
-        }
         if a.count() == 0 {
-            // The gltf readers compute `count - 1`.
             return Err(ctx.err(format!("accessor {} has count 0", a.index())));
         }
         let Some(view) = a.view() else { continue };
         let elem = a.size();
         let stride = view.stride().unwrap_or(elem);
         if stride < elem {
-            // glTF 2.0 §3.6.2.4: byteStride must hold a whole element (the
-            // gltf readers assert it).
+            // glTF 2.0 §3.6.2.4: byteStride must hold a whole element.
             return Err(ctx.err(format!(
                 "accessor {}: bufferView {} byteStride {stride} is smaller than its {elem}-byte elements",
                 a.index(),
                 view.index()
             )));
         }
-        let need = match a.count() {
-            0 => Some(0),
-            c => (c - 1)
-                .checked_mul(stride)
-                .and_then(|x| x.checked_add(elem))
-                .and_then(|x| x.checked_add(a.offset())),
-        };
-        if need.is_none_or(|n| n > view.length()) {
+        let len = data.bytes(view.index()).len();
+        let need = (a.count() - 1)
+            .checked_mul(stride)
+            .and_then(|x| x.checked_add(elem))
+            .and_then(|x| x.checked_add(a.offset()));
+        if need.is_none_or(|n| n > len) {
             return Err(ctx.err(format!(
-                "accessor {} ({} elements of {elem} bytes at offset {}) is out of range of bufferView {} ({} bytes)",
+                "accessor {} ({} elements of {elem} bytes at offset {}) is out of range of bufferView {} ({len} bytes)",
                 a.index(),
                 a.count(),
                 a.offset(),
                 view.index(),
-                view.length()
             )));
         }
     }
@@ -393,11 +695,186 @@ struct TextureCache {
     map: HashMap<(usize, bool), u32>,
     /// Decoded images by glTF image index: decoded and paid for once,
     /// shared by every texture that samples them.
-    images: HashMap<usize, (u32, u32, std::sync::Arc<Vec<u8>>)>,
+    images: HashMap<usize, DecodedImage>,
+}
+
+/// A decoded image: width, height and its shared RGBA8 texels.
+type DecodedImage = (u32, u32, std::sync::Arc<Vec<u8>>);
+
+/// The image a texture samples: the EXT_texture_webp source, else the core
+/// source, else the KHR_texture_basisu source (a KTX2 image).
+fn texture_image(ctx: &Ctx, doc: &gltf::Document, tex: &gltf::Texture) -> Result<usize> {
+    let ext = |name: &str| {
+        tex.extension_value(name)
+            .and_then(|e| e.get("source"))
+            .map(|v| v.as_u64().map_or(usize::MAX, |i| i as usize))
+    };
+    let core = doc.as_json().textures[tex.index()].source.value();
+    let core = (core != u32::MAX as usize).then_some(core);
+    let index = ext("EXT_texture_webp")
+        .or(core)
+        .or_else(|| ext("KHR_texture_basisu"))
+        .ok_or_else(|| ctx.err(format!("texture {} has no image source", tex.index())))?;
+    if index >= doc.images().len() {
+        return Err(ctx.err(format!(
+            "texture {} refers to image {index}, but there are {}",
+            tex.index(),
+            doc.images().len()
+        )));
+    }
+    Ok(index)
+}
+
+/// Every texture a material slot uses, as (texture, image) indices.
+fn material_textures(ctx: &Ctx, doc: &gltf::Document) -> Result<Vec<(usize, usize)>> {
+    let mut out = Vec::new();
+    for m in doc.materials() {
+        let pbr = m.pbr_metallic_roughness();
+        let slots = [
+            pbr.base_color_texture().map(|t| t.texture()),
+            pbr.metallic_roughness_texture().map(|t| t.texture()),
+            m.normal_texture().map(|t| t.texture()),
+            m.occlusion_texture().map(|t| t.texture()),
+            m.emissive_texture().map(|t| t.texture()),
+        ];
+        for t in slots.into_iter().flatten() {
+            out.push((t.index(), texture_image(ctx, doc, &t)?));
+        }
+    }
+    Ok(out)
+}
+
+/// Reads the bytes of every image a material uses (in file order, against
+/// the resource budget), then decodes them in parallel with rayon.
+fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, DecodedImage>> {
+    let mut wanted: Vec<usize> = material_textures(ctx, doc)?
+        .into_iter()
+        .map(|(_, i)| i)
+        .collect();
+    wanted.sort_unstable();
+    wanted.dedup();
+    let images: Vec<gltf::Image> = doc.images().collect();
+    let mut sources = Vec::with_capacity(wanted.len());
+    for &i in &wanted {
+        let img = &images[i];
+        let (name, bytes, mime) = match img.source() {
+            gltf::image::Source::Uri { uri, mime_type } => (
+                uri.to_string(),
+                read_uri(ctx, uri, &format!("image {i}"))?,
+                mime_type.map(str::to_string),
+            ),
+            gltf::image::Source::View { view, mime_type } => (
+                format!("image {i} (bufferView {})", view.index()),
+                ctx.data().bytes(view.index()).to_vec(),
+                Some(mime_type.to_string()),
+            ),
+        };
+        sources.push((i, name, bytes, mime));
+    }
+    use rayon::prelude::*;
+    let decoded: Vec<Result<(usize, String, image::RgbaImage)>> = sources
+        .into_par_iter()
+        .map(|(i, name, bytes, mime)| {
+            let ktx2 = mime.as_deref() == Some("image/ktx2")
+                || bytes.starts_with(&super::image_decode::KTX2_MAGIC);
+            let img = if ktx2 {
+                super::image_decode::decode_ktx2_rgba8(&bytes)
+            } else {
+                super::image_decode::decode_rgba8(&bytes)
+            };
+            img.map(|img| (i, name.clone(), img)).map_err(|e| {
+                ctx_err_path(ctx.path, format!("image '{name}' cannot be decoded: {e}"))
+            })
+        })
+        .collect();
+    let mut out = HashMap::new();
+    for d in decoded {
+        let (i, name, img) = d?;
+        ctx.spend(img.as_raw().len() as u64, &format!("image '{name}'"))?;
+        let (w, h) = img.dimensions();
+        out.insert(i, (w, h, std::sync::Arc::new(img.into_raw())));
+    }
+    Ok(out)
+}
+
+/// A scene error for `path` (usable from threads without the context).
+fn ctx_err_path(path: &Path, message: String) -> Error {
+    Error::scene(path, message)
+}
+
+/// A KHR_texture_transform as the 2×3 matrix `T · R · S` of the extension's
+/// README (its GLSL: `rotation = mat3(cos, sin, 0, -sin, cos, 0, 0, 0, 1)`
+/// in column order, so `R·(u, v) = (cos·u − sin·v, sin·u + cos·v)`), stored
+/// as columns `[a, b, c]` with `uv' = a·u + b·v + c`.
+type UvTransform = [[f32; 2]; 3];
+
+/// Reads a texture info's KHR_texture_transform (None when absent or the
+/// identity) and its texCoord override.
+fn texture_transform(
+    ctx: &Ctx,
+    ext: Option<&serde_json::Value>,
+    what: &str,
+) -> Result<(Option<UvTransform>, Option<u32>)> {
+    let Some(ext) = ext else {
+        return Ok((None, None));
+    };
+    let pair = |name: &str, default: [f32; 2]| -> Result<[f32; 2]> {
+        match ext.get(name) {
+            None => Ok(default),
+            Some(v) => {
+                let a = v.as_array().filter(|a| a.len() == 2);
+                let p = a.and_then(|a| Some([a[0].as_f64()? as f32, a[1].as_f64()? as f32]));
+                p.filter(|p| p.iter().all(|c| c.is_finite()))
+                    .ok_or_else(|| {
+                        ctx.err(format!(
+                            "{what}: KHR_texture_transform {name} {v} is not two finite numbers"
+                        ))
+                    })
+            }
+        }
+    };
+    let offset = pair("offset", [0.0, 0.0])?;
+    let scale = pair("scale", [1.0, 1.0])?;
+    let rotation = match ext.get("rotation") {
+        None => 0.0,
+        Some(v) => v.as_f64().filter(|r| r.is_finite()).ok_or_else(|| {
+            ctx.err(format!(
+                "{what}: KHR_texture_transform rotation {v} is not a finite number"
+            ))
+        })? as f32,
+    };
+    let tex_coord = match ext.get("texCoord") {
+        None => None,
+        Some(v) => Some(v.as_u64().filter(|&c| c <= 1).ok_or_else(|| {
+            ctx.err(format!(
+                "{what}: KHR_texture_transform texCoord {v}: only 0 and 1 are supported"
+            ))
+        })? as u32),
+    };
+    let (sin, cos) = rotation.sin_cos();
+    let m = [
+        [cos * scale[0], sin * scale[0]],
+        [-sin * scale[1], cos * scale[1]],
+        offset,
+    ];
+    let identity = [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]];
+    Ok(((m != identity).then_some(m), tex_coord))
+}
+
+/// Applies `m` to every UV.
+fn apply_uv_transform(uv: &mut [[f32; 2]], m: &UvTransform) {
+    for p in uv {
+        let [u, v] = *p;
+        *p = [
+            m[0][0] * u + m[1][0] * v + m[2][0],
+            m[0][1] * u + m[1][1] * v + m[2][1],
+        ];
+    }
 }
 
 fn texture(
     ctx: &Ctx,
+    doc: &gltf::Document,
     tex: gltf::Texture,
     tex_coord: u32,
     srgb: bool,
@@ -416,30 +893,21 @@ fn texture(
             tex_coord,
         });
     }
-    let img = tex.source();
+    let image = texture_image(ctx, doc, &tex)?;
+    let img = doc
+        .images()
+        .nth(image)
+        .ok_or_else(|| ctx.err(format!("texture {}: no image {image}", tex.index())))?;
     let name = match img.source() {
         gltf::image::Source::Uri { uri, .. } => uri.to_string(),
         gltf::image::Source::View { view, .. } => {
             format!("image {} (bufferView {})", img.index(), view.index())
         }
     };
-    if let std::collections::hash_map::Entry::Vacant(slot) = cache.images.entry(img.index()) {
-        let bytes = match img.source() {
-            gltf::image::Source::Uri { uri, .. } => {
-                read_uri(ctx, uri, &format!("image {}", img.index()))?
-            }
-            gltf::image::Source::View { view, .. } => {
-                let b = &ctx.buffers[view.buffer().index()];
-                b[view.offset()..view.offset() + view.length()].to_vec()
-            }
-        };
-        let decoded = super::image_decode::decode_rgba8(&bytes)
-            .map_err(|e| ctx.err(format!("image '{name}' cannot be decoded: {e}")))?;
-        ctx.spend(decoded.as_raw().len() as u64, &format!("image '{name}'"))?;
-        let (w, h) = decoded.dimensions();
-        slot.insert((w, h, std::sync::Arc::new(decoded.into_raw())));
-    }
-    let (width, height, rgba) = &cache.images[&img.index()];
+    let (width, height, rgba) = cache
+        .images
+        .get(&image)
+        .ok_or_else(|| ctx.err(format!("image '{name}' was not decoded")))?;
     let sampler = tex.sampler();
     let repeat = !matches!(sampler.wrap_s(), gltf::texture::WrappingMode::ClampToEdge);
     let linear = !matches!(
@@ -463,12 +931,15 @@ fn texture(
     })
 }
 
+/// Converts a material; also returns the UV transform each UV set needs
+/// (KHR_texture_transform, baked into the primitives' UVs on load).
 fn convert_material(
     ctx: &Ctx,
+    doc: &gltf::Document,
     m: &gltf::Material,
     cache: &mut TextureCache,
     out: &mut Vec<Texture>,
-) -> Result<Material> {
+) -> Result<(Material, [Option<UvTransform>; 2])> {
     let pbr = m.pbr_metallic_roughness();
     let mut mat = Material {
         name: m.name().unwrap_or("material").to_string(),
@@ -485,37 +956,106 @@ fn convert_material(
         double_sided: m.double_sided(),
         ..Material::default()
     };
+    let label = format!(
+        "material {} ('{}')",
+        m.index().map_or("default".into(), |i| i.to_string()),
+        m.name().unwrap_or("")
+    );
     if let Some(ext) = m.extensions() {
         mat.unlit = ext.contains_key("KHR_materials_unlit");
-        if let Some(s) = ext
+        if let Some(v) = ext
             .get("KHR_materials_emissive_strength")
             .and_then(|v| v.get("emissiveStrength"))
-            .and_then(|v| v.as_f64())
         {
+            let s = v.as_f64().filter(|s| s.is_finite() && *s >= 0.0).ok_or_else(|| {
+                ctx.err(format!(
+                    "{label}: KHR_materials_emissive_strength emissiveStrength {v} is not a number ≥ 0"
+                ))
+            })?;
             mat.emissive = mat.emissive.map(|c| c * s as f32);
         }
     }
-    let mut load =
-        |t: gltf::Texture, coord: u32, srgb: bool| texture(ctx, t, coord, srgb, cache, out);
+    let mut transforms: [Option<(UvTransform, &'static str)>; 2] = [None; 2];
+    let mut slot = |t: gltf::Texture,
+                    coord: u32,
+                    ext: Option<&serde_json::Value>,
+                    srgb: bool,
+                    name: &'static str|
+     -> Result<TexRef> {
+        let (m, over) = texture_transform(ctx, ext, &format!("{label} {name} texture"))?;
+        let coord = over.unwrap_or(coord);
+        let r = texture(ctx, doc, t, coord, srgb, cache, out)?;
+        let m = m.unwrap_or([[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]]);
+        match &transforms[coord as usize] {
+            None => transforms[coord as usize] = Some((m, name)),
+            Some((prev, first)) if *prev != m => tracing::warn!(
+                "{}: {label}: the {name} texture's KHR_texture_transform differs from the {first} texture's on TEXCOORD_{coord}; the {first} texture's is used",
+                ctx.path.display()
+            ),
+            Some(_) => {}
+        }
+        Ok(r)
+    };
+    const TT: &str = "KHR_texture_transform";
     mat.base_color_tex = pbr
         .base_color_texture()
-        .map(|t| load(t.texture(), t.tex_coord(), true))
+        .map(|t| {
+            slot(
+                t.texture(),
+                t.tex_coord(),
+                t.extension_value(TT),
+                true,
+                "base colour",
+            )
+        })
         .transpose()?;
     mat.metallic_roughness_tex = pbr
         .metallic_roughness_texture()
-        .map(|t| load(t.texture(), t.tex_coord(), false))
+        .map(|t| {
+            slot(
+                t.texture(),
+                t.tex_coord(),
+                t.extension_value(TT),
+                false,
+                "metallic-roughness",
+            )
+        })
         .transpose()?;
     if let Some(t) = m.normal_texture() {
-        mat.normal_tex = Some((load(t.texture(), t.tex_coord(), false)?, t.scale()));
+        let r = slot(
+            t.texture(),
+            t.tex_coord(),
+            t.extension_value(TT),
+            false,
+            "normal",
+        )?;
+        mat.normal_tex = Some((r, t.scale()));
     }
     if let Some(t) = m.occlusion_texture() {
-        mat.occlusion_tex = Some((load(t.texture(), t.tex_coord(), false)?, t.strength()));
+        let r = slot(
+            t.texture(),
+            t.tex_coord(),
+            t.extension_value(TT),
+            false,
+            "occlusion",
+        )?;
+        mat.occlusion_tex = Some((r, t.strength()));
     }
     mat.emissive_tex = m
         .emissive_texture()
-        .map(|t| load(t.texture(), t.tex_coord(), true))
+        .map(|t| {
+            slot(
+                t.texture(),
+                t.tex_coord(),
+                t.extension_value(TT),
+                true,
+                "emissive",
+            )
+        })
         .transpose()?;
-    Ok(mat)
+    let identity = [[1.0, 0.0], [0.0, 1.0], [0.0, 0.0]];
+    let uvt = transforms.map(|t| t.map(|(m, _)| m).filter(|m| *m != identity));
+    Ok((mat, uvt))
 }
 
 fn convert_primitive(
@@ -523,6 +1063,7 @@ fn convert_primitive(
     mesh: &gltf::Mesh,
     prim: &gltf::Primitive,
     materials: &[Material],
+    uv_transforms: &[[Option<UvTransform>; 2]],
     default_material: u32,
 ) -> Result<Option<Primitive>> {
     let label = format!(
@@ -543,9 +1084,9 @@ fn convert_primitive(
             return Ok(None);
         }
     };
-    let reader = prim.reader(|b| Some(ctx.buffers[b.index()].as_slice()));
-    let positions: Vec<[f32; 3]> = match reader.read_positions() {
-        Some(p) => p.collect(),
+    let attr = |s: gltf::Semantic| prim.get(&s);
+    let positions: Vec<[f32; 3]> = match attr(gltf::Semantic::Positions) {
+        Some(a) => ctx.floats(&a)?,
         None => return Err(ctx.err(format!("{label} has no POSITION attribute"))),
     };
     let n = positions.len();
@@ -557,8 +1098,8 @@ fn convert_primitive(
         }
         Ok(())
     };
-    let raw_indices: Vec<u32> = match reader.read_indices() {
-        Some(i) => i.into_u32().collect(),
+    let raw_indices: Vec<u32> = match prim.indices() {
+        Some(a) => gltf_data::read_u32(&ctx.data(), &a).map_err(|e| ctx.err(e))?,
         None => (0..n as u32).collect(),
     };
     if let Some(bad) = raw_indices.iter().find(|&&i| i as usize >= n) {
@@ -580,29 +1121,36 @@ fn convert_primitive(
         material,
         ..Primitive::default()
     };
-    p.normals = match reader.read_normals() {
-        Some(it) => it.collect(),
+    p.normals = match attr(gltf::Semantic::Normals) {
+        Some(a) => ctx.floats(&a)?,
         None => generate_normals(&p.positions, &p.indices),
     };
     check_len("NORMAL", p.normals.len())?;
-    if let Some(t) = reader.read_tex_coords(0) {
-        let v: Vec<[f32; 2]> = t.into_f32().collect();
-        check_len("TEXCOORD_0", v.len())?;
-        p.uv0 = Some(v);
+    for (set, slot) in [(0u32, &mut p.uv0), (1, &mut p.uv1)] {
+        if let Some(a) = attr(gltf::Semantic::TexCoords(set)) {
+            let mut v: Vec<[f32; 2]> = ctx.floats(&a)?;
+            check_len(&format!("TEXCOORD_{set}"), v.len())?;
+            if let Some(m) = &uv_transforms[material as usize][set as usize] {
+                apply_uv_transform(&mut v, m);
+            }
+            *slot = Some(v);
+        }
     }
-    if let Some(t) = reader.read_tex_coords(1) {
-        let v: Vec<[f32; 2]> = t.into_f32().collect();
-        check_len("TEXCOORD_1", v.len())?;
-        p.uv1 = Some(v);
-    }
-    if let Some(c) = reader.read_colors(0) {
-        let v: Vec<[f32; 4]> = c.into_rgba_f32().collect();
+    if let Some(a) = attr(gltf::Semantic::Colors(0)) {
+        let v: Vec<[f32; 4]> = if a.dimensions() == Dimensions::Vec3 {
+            ctx.floats::<3>(&a)?
+                .into_iter()
+                .map(|[r, g, b]| [r, g, b, 1.0])
+                .collect()
+        } else {
+            ctx.floats(&a)?
+        };
         check_len("COLOR_0", v.len())?;
         p.colors = Some(v);
     }
     if let Some((nt, _)) = &mat.normal_tex {
-        if let Some(t) = reader.read_tangents() {
-            let v: Vec<[f32; 4]> = t.collect();
+        if let Some(a) = attr(gltf::Semantic::Tangents) {
+            let v: Vec<[f32; 4]> = ctx.floats(&a)?;
             check_len("TANGENT", v.len())?;
             p.tangents = Some(v);
         } else {
@@ -741,13 +1289,8 @@ fn generate_tangents(
         .collect()
 }
 
-fn read_vec<T: gltf::accessor::Item + Copy>(ctx: &Ctx, a: &gltf::Accessor) -> Result<Vec<T>> {
-    let it = gltf::accessor::Iter::<T>::new(a.clone(), |b| Some(ctx.buffers[b.index()].as_slice()))
-        .ok_or_else(|| ctx.err(format!("accessor {} cannot be read", a.index())))?;
-    Ok(it.collect())
-}
-
-/// EXT_mesh_gpu_instancing: per-instance TRANSLATION / ROTATION / SCALE.
+/// EXT_mesh_gpu_instancing: per-instance TRANSLATION / ROTATION / SCALE
+/// (float, or the integer types KHR_mesh_quantization allows).
 fn gpu_instances(
     ctx: &Ctx,
     doc: &gltf::Document,
@@ -771,22 +1314,25 @@ fn gpu_instances(
                 node.index()
             ))
         })?;
-        if a.dimensions() != dims || a.data_type() != gltf::accessor::DataType::F32 {
+        let float = a.data_type() == gltf::accessor::DataType::F32;
+        if a.dimensions() != dims
+            || !(float || (ctx.quantization && a.data_type() != gltf::accessor::DataType::U32))
+        {
             return Err(ctx.err(format!(
-                "node {}: EXT_mesh_gpu_instancing {name} must be float {dims:?}",
+                "node {}: EXT_mesh_gpu_instancing {name} must be float {dims:?} (or 8/16-bit with KHR_mesh_quantization)",
                 node.index()
             )));
         }
         Ok(Some(a))
     };
     let t: Option<Vec<[f32; 3]>> = accessor("TRANSLATION", Dimensions::Vec3)?
-        .map(|a| read_vec(ctx, &a))
+        .map(|a| ctx.floats(&a))
         .transpose()?;
     let r: Option<Vec<[f32; 4]>> = accessor("ROTATION", Dimensions::Vec4)?
-        .map(|a| read_vec(ctx, &a))
+        .map(|a| ctx.floats(&a))
         .transpose()?;
     let s: Option<Vec<[f32; 3]>> = accessor("SCALE", Dimensions::Vec3)?
-        .map(|a| read_vec(ctx, &a))
+        .map(|a| ctx.floats(&a))
         .transpose()?;
     let count = [
         t.as_ref().map(Vec::len),
@@ -824,14 +1370,102 @@ fn gpu_instances(
     Ok(Some(out))
 }
 
+/// A node's local transform: its `matrix`, or `T · R · S` from its
+/// translation, rotation and scale (glTF 2.0 §3.5.3; the crate composes
+/// TRS into a matrix).
 fn node_transform(node: &gltf::Node) -> DAffine3 {
     let m = node.transform().matrix();
     let d = DMat4::from_cols_array_2d(&m.map(|c| c.map(|v| v as f64)));
     DAffine3::from_mat4(d)
 }
 
-fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()> {
-    let roots: Vec<gltf::Node> = match doc.default_scene().or_else(|| doc.scenes().next()) {
+/// A KHR_lights_punctual light as vergence uses it.
+#[derive(Clone, Copy, Debug)]
+enum Light {
+    /// A directional light: linear colour × intensity (lux).
+    Directional([f32; 3]),
+    /// Point or spot (ignored).
+    Other,
+}
+
+/// The document's KHR_lights_punctual lights.
+fn punctual_lights(ctx: &Ctx, doc: &gltf::Document) -> Result<Vec<Light>> {
+    let Some(list) = doc
+        .extension_value("KHR_lights_punctual")
+        .and_then(|e| e.get("lights"))
+    else {
+        return Ok(Vec::new());
+    };
+    let list = list
+        .as_array()
+        .ok_or_else(|| ctx.err("KHR_lights_punctual lights is not an array"))?;
+    let mut out = Vec::with_capacity(list.len());
+    for (i, l) in list.iter().enumerate() {
+        let bad = |what: &str| ctx.err(format!("KHR_lights_punctual light {i}: {what}"));
+        let kind = l
+            .get("type")
+            .and_then(|t| t.as_str())
+            .ok_or_else(|| bad("has no type"))?;
+        let color = match l.get("color") {
+            None => [1.0; 3],
+            Some(c) => {
+                let a = c.as_array().filter(|a| a.len() == 3);
+                let v = a.and_then(|a| {
+                    Some([
+                        a[0].as_f64()? as f32,
+                        a[1].as_f64()? as f32,
+                        a[2].as_f64()? as f32,
+                    ])
+                });
+                v.filter(|v| v.iter().all(|x| x.is_finite() && *x >= 0.0))
+                    .ok_or_else(|| bad(&format!("color {c} is not three numbers ≥ 0")))?
+            }
+        };
+        let intensity = match l.get("intensity") {
+            None => 1.0,
+            Some(v) => v
+                .as_f64()
+                .filter(|x| x.is_finite() && *x >= 0.0)
+                .ok_or_else(|| bad(&format!("intensity {v} is not a number ≥ 0")))?
+                as f32,
+        };
+        out.push(match kind {
+            "directional" => Light::Directional(color.map(|c| c * intensity)),
+            "point" | "spot" => Light::Other,
+            other => return Err(bad(&format!("unknown type '{other}'"))),
+        });
+    }
+    Ok(out)
+}
+
+/// The nodes of the selected scene (`selector`: an index or a name), the
+/// default scene, the first scene, or (with no scenes) every root node.
+fn root_nodes<'a>(
+    ctx: &Ctx,
+    doc: &'a gltf::Document,
+    selector: Option<&str>,
+) -> Result<Vec<gltf::Node<'a>>> {
+    if let Some(sel) = selector {
+        let found = match sel.parse::<usize>() {
+            Ok(i) => doc.scenes().nth(i),
+            Err(_) => doc.scenes().find(|s| s.name() == Some(sel)),
+        };
+        let names: Vec<String> = doc
+            .scenes()
+            .map(|s| format!("{} '{}'", s.index(), s.name().unwrap_or("")))
+            .collect();
+        return found.map(|s| s.nodes().collect()).ok_or_else(|| {
+            ctx.err(format!(
+                "has no scene '{sel}' (scenes: {})",
+                if names.is_empty() {
+                    "none".into()
+                } else {
+                    names.join(", ")
+                }
+            ))
+        });
+    }
+    Ok(match doc.default_scene().or_else(|| doc.scenes().next()) {
         Some(s) => s.nodes().collect(),
         None => {
             let mut is_child = vec![false; doc.nodes().len()];
@@ -842,9 +1476,47 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
             }
             doc.nodes().filter(|n| !is_child[n.index()]).collect()
         }
+    })
+}
+
+/// A world transform as a camera pose: its translation and its rotation
+/// with scale removed (the columns normalized, then made orthonormal by
+/// the quaternion conversion).
+fn camera_pose(world: &DAffine3) -> Option<crate::view::Pose> {
+    let m = world.matrix3;
+    let cols = [m.x_axis, m.y_axis, m.z_axis].map(|c| c.try_normalize());
+    let [Some(x), Some(y), Some(z)] = cols else {
+        return None;
     };
+    let mut r = glam::DMat3::from_cols(x, y, z);
+    if r.determinant() < 0.0 {
+        r.z_axis = -r.z_axis;
+    }
+    let q = DQuat::from_mat3(&r).normalize();
+    q.is_finite().then_some(crate::view::Pose {
+        position: world.translation,
+        orientation: q,
+    })
+}
+
+fn place_nodes(
+    ctx: &Ctx,
+    doc: &gltf::Document,
+    selector: Option<&str>,
+    lights: &[Light],
+    scene: &mut Scene,
+) -> Result<()> {
+    let roots = root_nodes(ctx, doc, selector)?;
+    scene.scene_names = doc
+        .scenes()
+        .map(|s| {
+            s.name()
+                .map_or_else(|| format!("scene {}", s.index()), str::to_string)
+        })
+        .collect();
     let mut visited = vec![false; doc.nodes().len()];
     let mut dropped: std::collections::BTreeMap<&'static str, usize> = Default::default();
+    let mut ignored_lights = 0usize;
     let mut stack: Vec<(gltf::Node, DAffine3, usize)> = roots
         .into_iter()
         .map(|n| (n, DAffine3::IDENTITY, 0))
@@ -865,6 +1537,53 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
         let world = parent * node_transform(&node);
         if !world.is_finite() {
             return Err(ctx.err(format!("node {} has a non-finite transform", node.index())));
+        }
+        if let Some(cam) = node.camera() {
+            if let Some(pose) = camera_pose(&world) {
+                let yfov = match cam.projection() {
+                    gltf::camera::Projection::Perspective(p) => Some(p.yfov() as f64),
+                    gltf::camera::Projection::Orthographic(_) => None,
+                };
+                scene.cameras.push(SceneCamera {
+                    index: cam.index(),
+                    name: cam
+                        .name()
+                        .or(node.name())
+                        .map_or_else(|| format!("camera {}", cam.index()), str::to_string),
+                    pose,
+                    yfov,
+                });
+            }
+        }
+        if let Some(i) = node
+            .extension_value("KHR_lights_punctual")
+            .and_then(|e| e.get("light"))
+        {
+            let light = i
+                .as_u64()
+                .and_then(|i| lights.get(i as usize))
+                .ok_or_else(|| {
+                    ctx.err(format!(
+                        "node {}: KHR_lights_punctual light {i} does not exist ({} lights)",
+                        node.index(),
+                        lights.len()
+                    ))
+                })?;
+            match light {
+                Light::Directional(color) if scene.sun.is_none() => {
+                    // The light shines along its node's local -Z
+                    // (KHR_lights_punctual, "Directional"): the sun lies
+                    // along +Z.
+                    let towards = world.matrix3 * DVec3::Z;
+                    if let Some(direction) = towards.try_normalize() {
+                        scene.sun = Some(Sun {
+                            direction,
+                            color: *color,
+                        });
+                    }
+                }
+                _ => ignored_lights += 1,
+            }
         }
         if let Some(mesh) = node.mesh() {
             let locals =
@@ -893,6 +1612,12 @@ fn place_nodes(ctx: &Ctx, doc: &gltf::Document, scene: &mut Scene) -> Result<()>
     }
     for (why, n) in dropped {
         tracing::warn!("{}: dropped {n} instance(s) with {why}", ctx.path.display());
+    }
+    if ignored_lights > 0 {
+        tracing::warn!(
+            "{}: ignored {ignored_lights} KHR_lights_punctual light(s) (point and spot lights, and directional lights after the first)",
+            ctx.path.display()
+        );
     }
     Ok(())
 }
@@ -928,6 +1653,36 @@ pub fn instance_problem(t: &DAffine3) -> Option<&'static str> {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn required_list_matches_the_extension_table() {
+        let mut from_table: Vec<&str> = EXTENSIONS
+            .iter()
+            .filter(|(_, s, _)| *s != Support::Refused)
+            .map(|(n, _, _)| *n)
+            .collect();
+        let mut listed = SUPPORTED_REQUIRED.to_vec();
+        from_table.sort_unstable();
+        listed.sort_unstable();
+        assert_eq!(from_table, listed);
+        assert_eq!(
+            support("KHR_draco_mesh_compression").map(|s| s.0),
+            Some(Support::Refused)
+        );
+    }
+
+    #[test]
+    fn texture_transform_follows_the_extension_matrix() {
+        // T · R · S with R(θ) = [cos −sin; sin cos]: (1, 0) → (s·cos, s·sin) + offset.
+        let (s, c) = 0.3f32.sin_cos();
+        let m = [[c * 2.0, s * 2.0], [-s * 3.0, c * 3.0], [0.5, 0.25]];
+        let mut uv = [[1.0, 0.0], [0.0, 1.0]];
+        apply_uv_transform(&mut uv, &m);
+        assert!((uv[0][0] - (2.0 * c + 0.5)).abs() < 1e-6);
+        assert!((uv[0][1] - (2.0 * s + 0.25)).abs() < 1e-6);
+        assert!((uv[1][0] - (-3.0 * s + 0.5)).abs() < 1e-6);
+        assert!((uv[1][1] - (3.0 * c + 0.25)).abs() < 1e-6);
+    }
 
     #[test]
     fn strips_and_fans_become_lists() {

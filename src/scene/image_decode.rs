@@ -12,7 +12,8 @@ pub const MAX_TEXTURE_PIXELS: u64 = 64 << 20;
 /// Largest allocation the decoder may make.
 pub const MAX_DECODE_ALLOC: u64 = 1 << 30;
 
-/// Decodes PNG or JPEG `bytes` into RGBA8, refusing images over the limits.
+/// Decodes PNG, JPEG or WebP `bytes` into RGBA8, refusing images over the
+/// limits.
 pub fn decode_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
     let reader = || {
         image::ImageReader::new(Cursor::new(bytes))
@@ -37,9 +38,189 @@ pub fn decode_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
     Ok(r.decode().map_err(|e| e.to_string())?.to_rgba8())
 }
 
+/// The 12-byte KTX 2.0 file identifier (KTX 2.0 specification §3.1).
+pub const KTX2_MAGIC: [u8; 12] = [
+    0xAB, 0x4B, 0x54, 0x58, 0x20, 0x32, 0x30, 0xBB, 0x0D, 0x0A, 0x1A, 0x0A,
+];
+
+/// Decodes level 0 of a KTX2 texture (KHR_texture_basisu) into RGBA8.
+/// The container is parsed and bounds-checked with the `ktx2` crate
+/// (header, data format descriptor, level index). Only uncompressed 2D
+/// `R8G8B8A8_UNORM` / `R8G8B8A8_SRGB` data without supercompression is
+/// decoded: Basis Universal payloads (BasisLZ/ETC1S or UASTC, which
+/// KHR_texture_basisu files hold) need a transcoder vergence does not
+/// include, and are refused with that reason.
+pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
+    check_dfd_block_dimensions(bytes)?;
+    let r = ktx2::Reader::new(bytes).map_err(|e| format!("invalid KTX2 container: {e}"))?;
+    let h = r.header();
+    let (w, ht) = (h.pixel_width, h.pixel_height.max(1));
+    if h.pixel_depth > 1 || h.layer_count > 1 || h.face_count != 1 {
+        return Err(format!(
+            "KTX2 image is not a plain 2D texture (depth {}, layers {}, faces {})",
+            h.pixel_depth, h.layer_count, h.face_count
+        ));
+    }
+    if w > MAX_TEXTURE_SIDE || ht > MAX_TEXTURE_SIDE || w as u64 * ht as u64 > MAX_TEXTURE_PIXELS {
+        return Err(format!(
+            "image is {w}x{ht}, over the limits ({MAX_TEXTURE_SIDE} per side, {MAX_TEXTURE_PIXELS} pixels)"
+        ));
+    }
+    if let Some(s) = h.supercompression_scheme {
+        return Err(match s {
+            ktx2::SupercompressionScheme::BasisLZ => {
+                "KTX2 image is Basis Universal ETC1S (BasisLZ); vergence has no Basis Universal transcoder".to_string()
+            }
+            other => format!("KTX2 image uses supercompression {other:?}, which vergence does not decode"),
+        });
+    }
+    let rgba8 = [ktx2::Format::R8G8B8A8_UNORM, ktx2::Format::R8G8B8A8_SRGB];
+    match h.format {
+        None => {
+            return Err(
+                "KTX2 image is Basis Universal UASTC (VK_FORMAT_UNDEFINED); vergence has no Basis Universal transcoder"
+                    .into(),
+            )
+        }
+        Some(f) if !rgba8.contains(&f) => {
+            return Err(format!(
+                "KTX2 image format {f:?} is not decoded (only uncompressed R8G8B8A8)"
+            ))
+        }
+        Some(_) => {}
+    }
+    let level = r.levels().next().ok_or("KTX2 image has no levels")?;
+    let need = w as usize * ht as usize * 4;
+    if level.data.len() < need {
+        return Err(format!(
+            "KTX2 level 0 holds {} bytes, but {w}x{ht} RGBA8 needs {need}",
+            level.data.len()
+        ));
+    }
+    image::RgbaImage::from_raw(w, ht, level.data[..need].to_vec())
+        .ok_or_else(|| "KTX2 level 0 does not match its size".to_string())
+}
+
+/// Refuses basic data format descriptor blocks whose texel block
+/// dimension bytes are 255 (a dimension of 256, which `ktx2` 0.5 adds one
+/// to in a `u8` and unwraps as non-zero: a panic found by fuzzing). Walks
+/// the DFD as KTX 2.0 §3.10 lays it out (a u32 total size, then blocks of
+/// an 8-byte header whose last u16 is the block size); anything out of
+/// range is left for the `ktx2` parser to report.
+fn check_dfd_block_dimensions(bytes: &[u8]) -> Result<(), String> {
+    let u32_at = |o: usize| {
+        bytes
+            .get(o..o + 4)
+            .map(|b| u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let (Some(off), Some(len)) = (u32_at(48), u32_at(52)) else {
+        return Ok(());
+    };
+    let Some(dfd) = off
+        .checked_add(len)
+        .and_then(|end| bytes.get(off.checked_add(4)?..end))
+    else {
+        return Ok(());
+    };
+    let mut rest = dfd;
+    while rest.len() >= 16 {
+        let size = u16::from_le_bytes([rest[6], rest[7]]) as usize;
+        let basic = rest[..4] == [0, 0, 0, 0] && rest[4..6] == [2, 0];
+        if basic && rest[12..16].contains(&255) {
+            return Err(
+                "invalid KTX2 container: a texel block dimension of 256 is out of range".into(),
+            );
+        }
+        if size < 8 || size > rest.len() {
+            break;
+        }
+        rest = &rest[size..];
+    }
+    Ok(())
+}
+
+/// Builds a minimal KTX2 file (one level, no supercompression) holding
+/// `rgba` as `R8G8B8A8_UNORM`, with the basic data format descriptor the
+/// KTX 2.0 specification (§4 and Khronos Data Format 1.3 §5.6) requires.
+/// For tests and the bad-input generator.
+pub fn encode_ktx2_rgba8(w: u32, h: u32, rgba: &[u8]) -> Vec<u8> {
+    let level_offset = 80 + 24 + 4 + 88;
+    let mut out = Vec::new();
+    out.extend_from_slice(&KTX2_MAGIC);
+    for v in [37u32, 1, w, h, 0, 0, 1, 1, 0] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    // Index: dfd offset/length, kvd offset/length, sgd offset/length (u64).
+    for v in [80u32 + 24, 4 + 88, 0, 0] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    out.extend_from_slice(&0u64.to_le_bytes());
+    out.extend_from_slice(&0u64.to_le_bytes());
+    // Level index: byteOffset, byteLength, uncompressedByteLength.
+    for v in [level_offset as u64, rgba.len() as u64, rgba.len() as u64] {
+        out.extend_from_slice(&v.to_le_bytes());
+    }
+    // DFD: total size, then one basic block of 24 + 4 × 16 bytes.
+    out.extend_from_slice(&(4u32 + 88).to_le_bytes());
+    out.extend_from_slice(&0u32.to_le_bytes()); // vendor 0, type 0
+    out.extend_from_slice(&(2u32 | (88 << 16)).to_le_bytes()); // version 2, size 88
+    out.extend_from_slice(&[1, 1, 1, 0]); // RGBSDA, BT.709, linear, no flags
+    out.extend_from_slice(&[0, 0, 0, 0]); // texel block dimensions 1×1×1×1
+    out.extend_from_slice(&[4, 0, 0, 0, 0, 0, 0, 0]); // bytes per plane
+    for (c, off) in [(0u8, 0u16), (1, 8), (2, 16), (15, 24)] {
+        out.extend_from_slice(&off.to_le_bytes());
+        out.push(7); // bit length - 1
+        out.push(c);
+        out.extend_from_slice(&[0, 0, 0, 0]); // sample positions
+        out.extend_from_slice(&0u32.to_le_bytes()); // lower
+        out.extend_from_slice(&255u32.to_le_bytes()); // upper
+    }
+    debug_assert_eq!(out.len(), level_offset);
+    out.extend_from_slice(rgba);
+    out
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn ktx2_rgba8_round_trips_and_basis_is_refused() {
+        let px: Vec<u8> = (0..2 * 3 * 4).map(|i| i as u8 * 9).collect();
+        let file = encode_ktx2_rgba8(2, 3, &px);
+        let img = decode_ktx2_rgba8(&file).unwrap();
+        assert_eq!(img.dimensions(), (2, 3));
+        assert_eq!(img.as_raw(), &px);
+        let mut basis = file.clone();
+        basis[44..48].copy_from_slice(&1u32.to_le_bytes());
+        let e = decode_ktx2_rgba8(&basis).unwrap_err();
+        assert!(e.contains("Basis Universal"), "{e}");
+        let mut uastc = file.clone();
+        uastc[12..16].copy_from_slice(&0u32.to_le_bytes());
+        let e = decode_ktx2_rgba8(&uastc).unwrap_err();
+        assert!(e.contains("UASTC"), "{e}");
+        let mut bad_level = file.clone();
+        bad_level[80..88].copy_from_slice(&(1u64 << 40).to_le_bytes());
+        let e = decode_ktx2_rgba8(&bad_level).unwrap_err();
+        assert!(e.contains("invalid KTX2"), "{e}");
+        let mut dims = file.clone();
+        dims[108 + 12] = 255;
+        let e = decode_ktx2_rgba8(&dims).unwrap_err();
+        assert!(e.contains("texel block dimension"), "{e}");
+        let e = decode_ktx2_rgba8(&file[..100]).unwrap_err();
+        assert!(e.contains("invalid KTX2"), "{e}");
+    }
+
+    #[test]
+    fn webp_decodes() {
+        let mut out = Vec::new();
+        image::RgbaImage::from_pixel(5, 4, image::Rgba([10, 200, 30, 255]))
+            .write_to(&mut Cursor::new(&mut out), image::ImageFormat::WebP)
+            .unwrap();
+        let img = decode_rgba8(&out).unwrap();
+        assert_eq!(img.dimensions(), (5, 4));
+        assert_eq!(img.get_pixel(2, 2).0, [10, 200, 30, 255]);
+    }
 
     fn png(w: u32, h: u32) -> Vec<u8> {
         let mut out = Vec::new();

@@ -4,6 +4,7 @@
 
 pub mod budget;
 pub mod factory;
+pub mod gltf_data;
 pub mod gltf_load;
 pub mod image_decode;
 pub mod manifest;
@@ -220,6 +221,39 @@ pub struct Scene {
     pub textures: Vec<Texture>,
     /// Placed mesh instances.
     pub instances: Vec<Instance>,
+    /// glTF `extensionsUsed` of the source file.
+    pub extensions_used: Vec<String>,
+    /// glTF `extensionsRequired` of the source file.
+    pub extensions_required: Vec<String>,
+    /// Viewpoints from the file's cameras (glTF camera nodes), in node
+    /// traversal order.
+    pub cameras: Vec<SceneCamera>,
+    /// The sun the file defines (a KHR_lights_punctual directional light).
+    pub sun: Option<Sun>,
+    /// Names of the file's scenes (glTF `scenes`; one was placed).
+    pub scene_names: Vec<String>,
+}
+
+/// A viewpoint a scene file defines.
+#[derive(Clone, Debug, PartialEq)]
+pub struct SceneCamera {
+    /// Index of the camera in the file (glTF `cameras`).
+    pub index: usize,
+    /// The camera's name, else its node's, else `camera N`.
+    pub name: String,
+    /// World pose (looking down its local -Z, +Y up, as [`crate::view::Pose`]).
+    pub pose: crate::view::Pose,
+    /// Vertical field of view in radians (None: orthographic).
+    pub yfov: Option<f64>,
+}
+
+/// A directional light standing in for the renderer's default sun.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sun {
+    /// Unit vector from the scene towards the light, world space.
+    pub direction: DVec3,
+    /// Linear RGB colour times intensity (lux for glTF lights).
+    pub color: [f32; 3],
 }
 
 /// Which optional vertex streams and pipeline features a scene uses; the

@@ -23,8 +23,11 @@ pub struct RenderJob {
     pub scene: String,
     /// HMD profile name or path.
     pub hmd: String,
-    /// Head pose.
-    pub pose: Pose,
+    /// Head pose (None: a camera of the scene, or framing the scene's
+    /// bounds as `run` spawns).
+    pub pose: Option<Pose>,
+    /// A camera of the scene (index or name) as the head pose.
+    pub camera: Option<String>,
     /// Exact views to render instead of the profile's eyes at `pose`.
     pub rig: Option<crate::view::StereoRig>,
     /// Renderer configuration.
@@ -231,6 +234,43 @@ pub fn new_renderer(
     })
 }
 
+/// The pose of the scene camera `name` (its index in the file, or its
+/// name), or an error listing the cameras there are.
+pub fn scene_camera(scene: &Scene, name: &str) -> Result<Pose> {
+    let found = match name.parse::<usize>() {
+        Ok(i) => scene.cameras.iter().find(|c| c.index == i),
+        Err(_) => scene.cameras.iter().find(|c| c.name == name),
+    };
+    found.map(|c| c.pose).ok_or_else(|| {
+        let list: Vec<String> = scene
+            .cameras
+            .iter()
+            .map(|c| format!("{} '{}'", c.index, c.name))
+            .collect();
+        Error::config(
+            "--camera",
+            format!(
+                "'{name}': {} has {}",
+                scene.name,
+                if list.is_empty() {
+                    "no cameras".to_string()
+                } else {
+                    format!("cameras {}", list.join(", "))
+                }
+            ),
+        )
+    })
+}
+
+/// The head pose `run` starts at: the spawn pose framing the scene's
+/// bounds, at standing eye height above it.
+pub fn framing_head(scene: &Scene, profile: &HmdProfile) -> Pose {
+    crate::targets::session::spawn_pose(scene, &profile.views[0].fov).compose(&Pose {
+        position: glam::DVec3::new(0.0, 1.6, 0.0),
+        orientation: glam::DQuat::IDENTITY,
+    })
+}
+
 /// Per-eye size from the override or the profile.
 pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
     let (w, h) = size.unwrap_or((
@@ -253,6 +293,11 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let extent = eye_extent(&profile, job.size);
     let renderer = new_renderer(&ctx, &scene, &job.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
+    let head = match (&job.camera, job.pose) {
+        (Some(name), _) => scene_camera(&scene, name)?,
+        (None, Some(pose)) => pose,
+        (None, None) => framing_head(&scene, &profile),
+    };
     let rig = match job.rig.clone() {
         // A rig file written before rig.json carried hidden areas: the
         // profile's masks, when it has as many views.
@@ -261,7 +306,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
             r
         }
         Some(r) => r,
-        None => profile.rig(job.pose),
+        None => profile.rig(head),
     };
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };

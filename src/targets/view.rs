@@ -28,8 +28,9 @@ pub struct ViewArgs {
     pub scene: String,
     /// HMD profile name or path.
     pub hmd: String,
-    /// Where the fly camera starts.
-    pub pose: Pose,
+    /// Where the fly camera starts (None: framing the scene, as `render`
+    /// does without `--pose`).
+    pub pose: Option<Pose>,
     /// Renderer configuration.
     pub config: RenderConfig,
     /// Per-eye size override (else the profile's resolution).
@@ -215,7 +216,10 @@ fn view_loop(
     let renderer = Renderer::with_output(ctx.clone(), scene, &args.config, extent, Some(spec))?;
     let slots = renderer.frames_in_flight().min(images.sets.len());
     let mut driver = FrameDriver::new(renderer, scene)?;
-    let mut camera = FlyCamera::at(args.pose);
+    let start = args
+        .pose
+        .unwrap_or_else(|| super::headless::framing_head(scene, profile));
+    let mut camera = FlyCamera::at(start);
     let mut presented = 0u64;
     let mut index = 0u64;
     let mut last = Instant::now();
