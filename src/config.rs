@@ -343,6 +343,39 @@ impl RenderConfig {
     }
 }
 
+/// Names `--opt` accepts for culling: `none` plus every strategy.
+pub fn cull_names() -> Vec<&'static str> {
+    std::iter::once("none")
+        .chain(Strategy::ALL.iter().map(|s| s.name()))
+        .collect()
+}
+
+/// A config file as `vergence tune` writes it (`opt = "..."`), read by
+/// `render --config` and `run --config`.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+pub struct ConfigFile {
+    /// The `--opt` list.
+    pub opt: String,
+}
+
+impl ConfigFile {
+    /// Reads and checks a config file: size-bounded, known keys only, and
+    /// an `--opt` list that applies and validates.
+    pub fn load(path: &std::path::Path) -> Result<ConfigFile> {
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
+            .map_err(|e| Error::config("--config", format!("{}: {e}", path.display())))?;
+        let file: ConfigFile = toml::from_str(&text).map_err(|e| {
+            Error::config("--config", format!("{}: {}", path.display(), e.message()))
+        })?;
+        let mut c = RenderConfig::default();
+        c.apply_opts(&file.opt, &cull_names())
+            .and_then(|()| c.validate())
+            .map_err(|e| Error::config("--config", format!("{}: {e}", path.display())))?;
+        Ok(file)
+    }
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;

@@ -177,7 +177,7 @@ impl FrameOpts {
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {
-            let file = vergence::bench::tune::ConfigFile::load(path)?;
+            let file = vergence::config::ConfigFile::load(path)?;
             config.apply_opts(&file.opt, &cull_names())?;
         }
         config.apply_opts(&self.opt, &cull_names())?;

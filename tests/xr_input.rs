@@ -380,9 +380,14 @@ fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
         (seen_s - held_s).abs() <= 0.25,
         "the runtime delivered the stick for {seen_s} s of a {held_s} s hold"
     );
+    // Within one display period of movement: the frame the stick arrives
+    // in and the one it leaves in may each count a step or not.
+    let period = (si + 1..ti)
+        .map(|i| (time(i) - time(i - 1)) as f64 * 1e-9)
+        .fold(0.0, f64::max);
     assert!(
-        (moved - SPEED * seen_s).abs() <= 0.01 * SPEED * seen_s,
-        "moved {moved} m for {SPEED} m/s × {seen_s} s ({before:?} → {after:?})"
+        (moved - SPEED * seen_s).abs() <= 0.01 * SPEED * seen_s + SPEED * period,
+        "moved {moved} m for {SPEED} m/s × {seen_s} s (one period {period} s; {before:?} → {after:?})"
     );
     assert!(
         (after[0] - before[0]) > 0.9 * moved,

@@ -311,12 +311,7 @@ pub fn sanitize(s: &str) -> String {
         .collect()
 }
 
-/// Names `--opt` accepts for culling: `none` plus every strategy.
-pub fn cull_names() -> Vec<&'static str> {
-    std::iter::once("none")
-        .chain(crate::cull::Strategy::ALL.iter().map(|s| s.name()))
-        .collect()
-}
+pub use crate::config::cull_names;
 
 /// The renderer configuration an `--opt` list gives over the defaults.
 pub fn config_from_opt(opt: &str) -> Result<RenderConfig> {

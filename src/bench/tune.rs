@@ -211,27 +211,7 @@ pub fn config_file(choice: &Choice, goal: &TuneGoal, results: &BenchResults) -> 
     s
 }
 
-/// A config file as `tune` writes it.
-#[derive(Clone, Debug, serde::Deserialize)]
-#[serde(deny_unknown_fields)]
-pub struct ConfigFile {
-    /// The `--opt` list.
-    pub opt: String,
-}
-
-impl ConfigFile {
-    /// Reads and checks a config file.
-    pub fn load(path: &std::path::Path) -> Result<ConfigFile> {
-        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
-            .map_err(|e| Error::config("--config", format!("{}: {e}", path.display())))?;
-        let file: ConfigFile = toml::from_str(&text).map_err(|e| {
-            Error::config("--config", format!("{}: {}", path.display(), e.message()))
-        })?;
-        super::plan::config_from_opt(&file.opt)
-            .map_err(|e| Error::config("--config", format!("{}: {e}", path.display())))?;
-        Ok(file)
-    }
-}
+pub use crate::config::ConfigFile;
 
 #[cfg(test)]
 mod tests {
