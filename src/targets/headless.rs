@@ -265,10 +265,26 @@ pub fn scene_camera(scene: &Scene, name: &str) -> Result<Pose> {
 /// The head pose `run` starts at: the spawn pose framing the scene's
 /// bounds, at standing eye height above it.
 pub fn framing_head(scene: &Scene, profile: &HmdProfile) -> Pose {
-    crate::targets::session::spawn_pose(scene, &profile.views[0].fov).compose(&Pose {
+    spawn_pose(scene, &profile.views[0].fov).compose(&Pose {
         position: glam::DVec3::new(0.0, 1.6, 0.0),
         orientation: glam::DQuat::IDENTITY,
     })
+}
+
+/// Where the tracking origin sits in the scene: at the hall entrance for
+/// large scenes, else where a standing viewer (eyes 1.6 m above the
+/// origin) sees the whole scene.
+pub fn spawn_pose(scene: &Scene, fov: &crate::view::Fov) -> Pose {
+    let (lo, hi) = scene.bounds();
+    let radius = (hi - lo).length() * 0.5;
+    if !radius.is_finite() || radius > 50.0 {
+        return Pose::from_euler_deg(glam::DVec3::new(3.0, 0.0, 2.0), -25.0, 0.0, 0.0);
+    }
+    let framed = crate::view::frame_bounds(lo, hi, fov, 0.0);
+    Pose {
+        position: framed.position - glam::DVec3::new(0.0, 1.6, 0.0),
+        orientation: framed.orientation,
+    }
 }
 
 /// Per-eye size from the override or the profile.

@@ -3,8 +3,9 @@
 //! is there (`--xr auto`) or when asked (`--xr headless`). Both write the
 //! same frame statistics (`--stats-out`).
 
+use super::headless::spawn_pose;
 use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
-use super::session::{spawn_pose, write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
+use super::session::{write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
 pub use super::session::{RunArgs, RunStats, XrMode};
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};

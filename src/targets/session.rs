@@ -10,10 +10,8 @@ use crate::gpu::Context;
 use crate::interact::locomotion::Origin;
 use crate::interact::{Event, Settings};
 use crate::render::driver::FrameResult;
-use crate::scene::Scene;
 use crate::stats::LogHistogram;
-use crate::view::{frame_bounds, Fov, Pose, PoseFile, RigFile, StereoRig};
-use glam::DVec3;
+use crate::view::{Fov, Pose, PoseFile, RigFile, StereoRig};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
 
@@ -55,7 +53,7 @@ pub struct RunArgs {
     /// second until it is back, instead of exiting.
     pub reconnect: bool,
     /// `--spawn x,y,z,yaw`: where the tracking origin starts (else the
-    /// scene is framed, see [`spawn_pose`]).
+    /// scene is framed, see `targets::headless::spawn_pose`).
     pub spawn: Option<Pose>,
     /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
     /// click cycles through after the spawn.
@@ -585,22 +583,6 @@ impl RunStats {
         let result = write_json(path, self);
         self.frames.remove_spool();
         result
-    }
-}
-
-/// Where the tracking origin sits in the scene: at the hall entrance for
-/// large scenes, else where a standing viewer (eyes 1.6 m above the
-/// origin) sees the whole scene.
-pub fn spawn_pose(scene: &Scene, fov: &Fov) -> Pose {
-    let (lo, hi) = scene.bounds();
-    let radius = (hi - lo).length() * 0.5;
-    if !radius.is_finite() || radius > 50.0 {
-        return Pose::from_euler_deg(DVec3::new(3.0, 0.0, 2.0), -25.0, 0.0, 0.0);
-    }
-    let framed = frame_bounds(lo, hi, fov, 0.0);
-    Pose {
-        position: framed.position - DVec3::new(0.0, 1.6, 0.0),
-        orientation: framed.orientation,
     }
 }
 

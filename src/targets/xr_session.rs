@@ -9,10 +9,9 @@
 //! wait for the GPU: xrWaitFrame paces the loop, and a frame's record is
 //! completed when its fence signals.
 
-use super::headless::{load_scene, SceneCounts};
+use super::headless::{load_scene, spawn_pose, SceneCounts};
 use super::session::{
-    spawn_pose, write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs,
-    RunStats, ViewInfo,
+    write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats, ViewInfo,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
