@@ -20,8 +20,9 @@ use std::path::{Path, PathBuf};
 use std::process::{Command, ExitCode};
 
 /// Host packages: shader compiler, SPIR-V validator, Vulkan loader,
-/// lavapipe, validation layers, debootstrap for the test root, and an X
-/// server without a screen plus input scripting for the window tests.
+/// lavapipe, validation layers, debootstrap for the test root, an X
+/// server without a screen plus input scripting for the window tests, and
+/// the MinGW C++ compiler the Windows check needs for meshoptimizer.
 const HOST_PACKAGES: &[&str] = &[
     "glslc",
     "spirv-tools",
@@ -31,6 +32,7 @@ const HOST_PACKAGES: &[&str] = &[
     "debootstrap",
     "xvfb",
     "xdotool",
+    "g++-mingw-w64-x86-64",
 ];
 /// Packages inside the Debian 13 root: a current lavapipe (Mesa 22.3 in
 /// Debian 12 misroutes some multiview draws), validation layers, and the
