@@ -6,6 +6,15 @@
 // primitive's indirect draw. The draws' firstInstance (each primitive's
 // base in the visible buffer) and the other command fields come from the
 // template the frame copies in before the dispatch, instanceCount zeroed.
+//
+// With `occlusion` the pass runs twice (src/cull/hiz.rs has the math and
+// its tests): phase 1 (`cull-early`) draws the instances inside the volumes
+// that were visible last frame; phase 2 (`cull-late`), after this frame's
+// depth pyramid is built from what phase 1 drew, tests every instance inside
+// the volumes against it in both eyes, records which are visible for the
+// next frame, and draws those phase 1 did not. The late commands and
+// counts follow the early ones (index + primitives), and the late visible
+// ranges follow the early ones (firstInstance in the late template).
 
 layout(local_size_x = 64) in;
 
@@ -38,16 +47,36 @@ layout(std140, set = 0, binding = 0) uniform Volumes {
 layout(std430, set = 0, binding = 1) readonly buffer Instances { CullInstance instances[]; };
 layout(std430, set = 0, binding = 2) readonly buffer Prims { uint prim_of_slot[]; };
 layout(std430, set = 0, binding = 3) buffer Commands { DrawCommand commands[]; };
-// [p]: draws of primitive p this frame (0 or 1); then tested, kept.
+// [p]: early draws of primitive p this frame (0 or 1); [primitives + p]:
+// late draws; then tested, inside the volumes, drawn early, drawn late,
+// hidden.
 layout(std430, set = 0, binding = 4) buffer Counts { uint draw_count[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Visible { uint visible[]; };
+// The frame's uniform block, its first member only (common.glsl's FrameData).
+layout(std140, set = 0, binding = 6) uniform FrameData { mat4 view_proj[4]; } frame;
+// Per eye, every pyramid level; then the levels' shape (width, height, offset).
+layout(std430, set = 0, binding = 7) readonly buffer Pyramid { float texel[]; };
+layout(std430, set = 0, binding = 8) readonly buffer Levels { uvec4 level[]; };
+// 1 where the instance was visible at the end of the last frame.
+layout(std430, set = 0, binding = 9) buffer Visibility { uint visibility[]; };
 
 layout(push_constant) uniform Push {
-    uint primitives;  // index of the "tested" counter in draw_count
+    uint primitives;  // primitive count (the late commands' offset)
+    uint phase;       // 0: no occlusion, 1: early, 2: late
+    uint levels;      // pyramid levels
+    uint eye_stride;  // pyramid texels per eye
+    uvec2 size;       // eye image pixels
+    float near;       // near plane distance
+    uint unused;
 } pc;
+
+const float PIXEL_SLACK = 0.5;
+const float DEPTH_SLACK = 1e-6;
 
 shared uint group_tested;
 shared uint group_kept;
+shared uint group_drawn;
+shared uint group_hidden;
 
 // The conservative box test of src/cull/volume.rs (`Volume::keeps`), widened
 // by the relative slack so f32 rounding never drops what the f64 CPU keeps.
@@ -90,10 +119,75 @@ bool keeps(vec3 c, vec3 e) {
     return false;
 }
 
+// src/cull/hiz.rs `footprint` + `occluded` for eye `eye`.
+bool hidden_in(uint eye, vec3 c, vec3 e) {
+    mat4 m = frame.view_proj[eye];
+    vec2 lo = vec2(uintBitsToFloat(0x7f800000u));
+    vec2 hi = -lo;
+    float depth = 0.0;
+    for (uint k = 0u; k < 8u; ++k) {
+        vec3 s = vec3((k & 1u) == 0u ? -1.0 : 1.0, (k & 2u) == 0u ? -1.0 : 1.0, (k & 4u) == 0u ? -1.0 : 1.0);
+        vec4 clip = m * vec4(c + s * e, 1.0);
+        if (!(clip.w > pc.near)) {
+            return false;
+        }
+        vec3 ndc = clip.xyz / clip.w;
+        lo = min(lo, ndc.xy);
+        hi = max(hi, ndc.xy);
+        depth = max(depth, ndc.z);
+    }
+    vec2 size = vec2(pc.size);
+    vec2 px_lo = (lo + 1.0) * 0.5 * size - PIXEL_SLACK;
+    vec2 px_hi = (hi + 1.0) * 0.5 * size + PIXEL_SLACK;
+    if (px_hi.x < 0.0 || px_hi.y < 0.0 || px_lo.x >= size.x || px_lo.y >= size.y) {
+        return true;
+    }
+    uvec2 a = min(uvec2(floor(max(px_lo, vec2(0.0)))), pc.size - 1u);
+    uvec2 b = min(uvec2(floor(max(px_hi, vec2(0.0)))), pc.size - 1u);
+    depth *= 1.0 + DEPTH_SLACK;
+    uint k = 0u;
+    while (k + 1u < pc.levels) {
+        uint shift = k + 1u;
+        if ((b.x >> shift) - (a.x >> shift) <= 1u && (b.y >> shift) - (a.y >> shift) <= 1u) {
+            break;
+        }
+        k += 1u;
+    }
+    uvec4 l = level[k];
+    uint shift = k + 1u;
+    uvec2 t0 = a >> shift;
+    uvec2 t1 = min(b >> shift, l.xy - 1u);
+    float farthest = uintBitsToFloat(0x7f800000u);
+    uint base = eye * pc.eye_stride + l.z;
+    for (uint ty = t0.y; ty <= t1.y; ++ty) {
+        for (uint tx = t0.x; tx <= t1.x; ++tx) {
+            farthest = min(farthest, texel[base + ty * l.x + tx]);
+        }
+    }
+    return depth < farthest;
+}
+
+// Appends instance `i` to the visible list of each of its primitives and
+// counts it in their draws at command offset `base` (0 early, primitives late).
+void append(uint i, CullInstance inst, uint base) {
+    uint first = floatBitsToUint(inst.center_hi.w);
+    uint n = floatBitsToUint(inst.center_lo.w);
+    for (uint k = 0u; k < n; ++k) {
+        uint p = base + prim_of_slot[first + k];
+        uint at = atomicAdd(commands[p].instance_count, 1u);
+        visible[commands[p].first_instance + at] = i;
+        if (at == 0u) {
+            draw_count[p] = 1u;
+        }
+    }
+}
+
 void main() {
     if (gl_LocalInvocationIndex == 0u) {
         group_tested = 0u;
         group_kept = 0u;
+        group_drawn = 0u;
+        group_hidden = 0u;
     }
     barrier();
     uint i = gl_WorkGroupID.y * vol.counts.y + gl_GlobalInvocationID.x;
@@ -101,24 +195,40 @@ void main() {
         CullInstance inst = instances[i];
         // Relative-to-origin centre from the two-float split, as scene.vert.
         vec3 c = (inst.center_hi.xyz - vol.origin_hi.xyz) + (inst.center_lo.xyz - vol.origin_lo.xyz);
-        atomicAdd(group_tested, 1u);
-        if (keeps(c, inst.extent.xyz)) {
-            atomicAdd(group_kept, 1u);
-            uint first = floatBitsToUint(inst.center_hi.w);
-            uint n = floatBitsToUint(inst.center_lo.w);
-            for (uint k = 0u; k < n; ++k) {
-                uint p = prim_of_slot[first + k];
-                uint at = atomicAdd(commands[p].instance_count, 1u);
-                visible[commands[p].first_instance + at] = i;
-                if (at == 0u) {
-                    draw_count[p] = 1u;
+        bool inside = keeps(c, inst.extent.xyz);
+        if (pc.phase < 2u) {
+            atomicAdd(group_tested, 1u);
+            if (inside) {
+                atomicAdd(group_kept, 1u);
+                if (pc.phase == 0u || visibility[i] != 0u) {
+                    atomicAdd(group_drawn, 1u);
+                    append(i, inst, 0u);
                 }
             }
+        } else if (!inside) {
+            visibility[i] = 0u;
+        } else {
+            bool seen = !hidden_in(0u, c, inst.extent.xyz) || !hidden_in(1u, c, inst.extent.xyz);
+            if (seen && visibility[i] == 0u) {
+                atomicAdd(group_drawn, 1u);
+                append(i, inst, pc.primitives);
+            }
+            if (!seen) {
+                atomicAdd(group_hidden, 1u);
+            }
+            visibility[i] = seen ? 1u : 0u;
         }
     }
     barrier();
     if (gl_LocalInvocationIndex == 0u) {
-        atomicAdd(draw_count[pc.primitives], group_tested);
-        atomicAdd(draw_count[pc.primitives + 1u], group_kept);
+        uint at = 2u * pc.primitives;
+        if (pc.phase < 2u) {
+            atomicAdd(draw_count[at], group_tested);
+            atomicAdd(draw_count[at + 1u], group_kept);
+            atomicAdd(draw_count[at + 2u], group_drawn);
+        } else {
+            atomicAdd(draw_count[at + 3u], group_drawn);
+            atomicAdd(draw_count[at + 4u], group_hidden);
+        }
     }
 }

@@ -123,6 +123,10 @@ pub struct RenderConfig {
     /// indirect draws; the CPU records the same commands whatever the
     /// instance count.
     pub gpu_cull: bool,
+    /// Two-phase hierarchical-Z occlusion culling on the GPU (`occlusion`,
+    /// with `gpu-cull`): draw what was visible last frame, build a depth
+    /// pyramid per eye, draw what it shows became visible.
+    pub occlusion: bool,
 }
 
 /// Most frames in flight `--frames-in-flight` accepts.
@@ -187,6 +191,7 @@ impl Default for RenderConfig {
             mffr: None,
             frames_in_flight: 2,
             gpu_cull: false,
+            occlusion: false,
         }
     }
 }
@@ -213,6 +218,12 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "gpu-cull needs a culling strategy (per-eye, superfrustum, conical, conical-superfrustum, round-robin, round-robin-conical)",
+            ));
+        }
+        if self.occlusion && !self.gpu_cull {
+            return Err(Error::config(
+                "--opt",
+                "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
             ));
         }
         if self.gpu_cull && self.mffr.is_some() {
@@ -261,6 +272,7 @@ impl RenderConfig {
                 "no-msaa" => self.msaa = 1,
                 "stencil-mask" => self.stencil_mask = true,
                 "gpu-cull" => self.gpu_cull = true,
+                "occlusion" => self.occlusion = true,
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
                 "mffr" => {
                     self.mffr.get_or_insert_with(Mffr::default);
@@ -334,7 +346,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, {})", cull_names.join(", ")),
                     ))
                 }
             }

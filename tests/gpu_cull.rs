@@ -210,7 +210,12 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
 
 #[test]
 fn the_gpu_cull_bench_plans_parse_and_their_configs_validate() {
-    for plan in ["gpu-cull.toml", "scale.toml", "default.toml"] {
+    for plan in [
+        "gpu-cull.toml",
+        "occlusion.toml",
+        "scale.toml",
+        "default.toml",
+    ] {
         let path = common::root().join("manifests/bench").join(plan);
         let plan = vergence::bench::plan::Plan::load(&path).unwrap_or_else(|e| panic!("{e}"));
         let gpu: Vec<_> = plan

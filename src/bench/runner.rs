@@ -137,6 +137,14 @@ pub struct ConfigResult {
     /// With `gpu-cull`: instances passing the frustum test (median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gpu_cull_passed_frustum: Option<f64>,
+    /// With `gpu-cull,occlusion`: instances drawn by the late phase
+    /// (newly visible; median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_drawn_late: Option<f64>,
+    /// With `gpu-cull,occlusion`: instances inside the volumes hidden by
+    /// the depth pyramid (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_occluded: Option<f64>,
     /// GPU memory.
     pub gpu_memory: GpuMemory,
     /// Process resident set size after the configuration ran.
@@ -709,6 +717,8 @@ fn summarize(
             .filter(|_| !frames.is_empty()),
         gpu_cull_tested: gpu_cull_median(&|c| c.tested),
         gpu_cull_passed_frustum: gpu_cull_median(&|c| c.passed_frustum),
+        gpu_cull_drawn_late: gpu_cull_median(&|c| c.drawn_late),
+        gpu_cull_occluded: gpu_cull_median(&|c| c.occluded),
         ..ConfigResult::default()
     }
 }

@@ -18,6 +18,7 @@
 
 pub mod bvh;
 pub mod gpu;
+pub mod hiz;
 pub mod traverse;
 pub mod volume;
 

@@ -42,6 +42,25 @@ impl Use {
         access: vk::AccessFlags2::TRANSFER_WRITE,
     };
 
+    /// Written as a depth-stencil attachment.
+    pub const DEPTH_ATTACHMENT: Use = Use {
+        layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        stage: vk::PipelineStageFlags2::from_raw(
+            vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS.as_raw()
+                | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS.as_raw(),
+        ),
+        access: vk::AccessFlags2::from_raw(
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_READ.as_raw()
+                | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw(),
+        ),
+    };
+    /// Depth-stencil read by compute shaders (the depth pyramid).
+    pub const DEPTH_COMPUTE_READ: Use = Use {
+        layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
+        stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+        access: vk::AccessFlags2::SHADER_SAMPLED_READ,
+    };
+
     /// Read as a fragment-shading-rate attachment. The stage is
     /// ALL_COMMANDS rather than the shading-rate stage: older validation
     /// layers mistake that bit for the NV shading-rate-image stage it

@@ -194,3 +194,35 @@ impl GraphicsPipelineDesc<'_> {
         Ok(pipeline)
     }
 }
+
+/// Creates a compute pipeline of `code` (entry point `main`) over
+/// `layout`, named `name` for debuggers.
+pub fn compute_pipeline(
+    ctx: &Context,
+    layout: vk::PipelineLayout,
+    code: &[u32],
+    name: &str,
+) -> Result<vk::Pipeline> {
+    // SAFETY: SPIR-V embedded at build time (spirv-val in tests); the
+    // module is destroyed once the pipeline holds it.
+    unsafe {
+        let module = ctx
+            .device
+            .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None)
+            .vk("creating a compute shader module")?;
+        let stage = vk::PipelineShaderStageCreateInfo::default()
+            .stage(vk::ShaderStageFlags::COMPUTE)
+            .module(module)
+            .name(c"main");
+        let info = [vk::ComputePipelineCreateInfo::default()
+            .stage(stage)
+            .layout(layout)];
+        let made = ctx
+            .device
+            .create_compute_pipelines(vk::PipelineCache::null(), &info, None);
+        ctx.device.destroy_shader_module(module, None);
+        let pipeline = made.map_err(|(_, r)| r).vk("creating a compute pipeline")?;
+        ctx.set_name(pipeline[0], name);
+        Ok(pipeline[0])
+    }
+}

@@ -56,9 +56,15 @@ pub static FLAT_FRAG: Module = spirv!("flat.frag");
 
 /// GPU-driven culling's compute shader (`gpu-cull`).
 pub static GPU_CULL_COMP: Module = spirv!("gpu_cull.comp");
+/// Occlusion's depth pyramid, level 0 from a single-sample depth image.
+pub static HIZ_INIT_COMP: Module = spirv!("hiz_init.comp");
+/// Occlusion's depth pyramid, level 0 from a multisampled depth image.
+pub static HIZ_INIT_MS_COMP: Module = spirv!("hiz_init_ms.comp");
+/// Occlusion's depth pyramid, one level from the one before.
+pub static HIZ_REDUCE_COMP: Module = spirv!("hiz_reduce.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 12] = [
+pub static ALL: [&Module; 15] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -71,6 +77,9 @@ pub static ALL: [&Module; 12] = [
     &FLOOR_VERT,
     &FLAT_FRAG,
     &GPU_CULL_COMP,
+    &HIZ_INIT_COMP,
+    &HIZ_INIT_MS_COMP,
+    &HIZ_REDUCE_COMP,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).

@@ -46,19 +46,42 @@ pub struct AttachmentSet {
     pub filled: Option<(Image, vk::ImageView)>,
 }
 
+/// What a set's images must support beyond drawing and resolving.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SetOptions {
+    /// Keep a single-sample copy of the frame's depth (for output).
+    pub keep_depth: bool,
+    /// Add radial density masking's reconstruction target.
+    pub rdm_fill: bool,
+    /// Make the resolve image sampleable.
+    pub sampled: bool,
+    /// Occlusion culling: the frame is drawn in two rendering scopes, so
+    /// the multisampled colour and depth are stored between them (not
+    /// transient), and the depth is sampleable (the depth pyramid).
+    pub occlusion: bool,
+}
+
 impl AttachmentSet {
-    /// Creates one set; `sampled` makes the resolve image sampleable.
+    /// Creates one set of `layers` layers with `samples` per pixel.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
         samples: u32,
         layers: u32,
-        keep_depth: bool,
-        rdm_fill: bool,
-        sampled: bool,
+        opts: SetOptions,
     ) -> Result<AttachmentSet> {
+        let SetOptions {
+            keep_depth,
+            rdm_fill,
+            sampled,
+            occlusion,
+        } = opts;
         let s = vk::SampleCountFlags::from_raw(samples);
-        let transient = vk::ImageUsageFlags::TRANSIENT_ATTACHMENT;
+        let transient = if occlusion {
+            vk::ImageUsageFlags::empty()
+        } else {
+            vk::ImageUsageFlags::TRANSIENT_ATTACHMENT
+        };
         let desc = |name, format, samples, usage, aspect| ImageDesc {
             name,
             format,
@@ -85,6 +108,11 @@ impl AttachmentSet {
         let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
         let stored_depth = keep_depth && samples == 1;
+        let depth_sampled = if occlusion {
+            vk::ImageUsageFlags::SAMPLED
+        } else {
+            vk::ImageUsageFlags::empty()
+        };
         let depth = Image::new(
             ctx,
             &desc(
@@ -92,9 +120,9 @@ impl AttachmentSet {
                 ctx.caps.depth_format,
                 s,
                 if stored_depth {
-                    depth_usage | vk::ImageUsageFlags::TRANSFER_SRC
+                    depth_usage | depth_sampled | vk::ImageUsageFlags::TRANSFER_SRC
                 } else {
-                    depth_usage | transient
+                    depth_usage | depth_sampled | transient
                 },
                 ds,
             ),
@@ -221,31 +249,29 @@ impl AttachmentSet {
 pub struct Attachments {
     /// One 2-layer set (multiview) or one single-layer set per eye (two-pass).
     pub sets: Vec<AttachmentSet>,
+    /// Per-eye size.
+    pub extent: vk::Extent2D,
 }
 
 impl Attachments {
-    /// Creates the attachments for `extent` per eye with `samples` (1 or 4);
-    /// `keep_depth` keeps a single-sample copy of the frame's depth;
-    /// `rdm_fill` adds the radial-density-masking reconstruction target.
+    /// Creates the attachments for `extent` per eye with `samples` (1 or 4)
+    /// and what `opts` asks for.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
         samples: u32,
         multiview: bool,
-        keep_depth: bool,
-        rdm_fill: bool,
+        opts: SetOptions,
     ) -> Result<Attachments> {
         let sets = if multiview {
-            vec![AttachmentSet::new(
-                ctx, extent, samples, 2, keep_depth, rdm_fill, false,
-            )?]
+            vec![AttachmentSet::new(ctx, extent, samples, 2, opts)?]
         } else {
             vec![
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill, false)?,
-                AttachmentSet::new(ctx, extent, samples, 1, keep_depth, rdm_fill, false)?,
+                AttachmentSet::new(ctx, extent, samples, 1, opts)?,
+                AttachmentSet::new(ctx, extent, samples, 1, opts)?,
             ]
         };
-        Ok(Attachments { sets })
+        Ok(Attachments { sets, extent })
     }
 
     /// Whether the transient attachments got lazily allocated memory.
@@ -336,4 +362,17 @@ pub fn begin_barriers(sets: &[AttachmentSet]) -> Vec<vk::ImageMemoryBarrier2<'st
         }
     }
     out
+}
+
+/// The barrier between a frame's first and second rendering scopes
+/// (occlusion): the colour the first stored is loaded and written by the
+/// second. (The depth goes through the depth pyramid's own barriers.)
+pub fn between_scopes() -> vk::MemoryBarrier2<'static> {
+    vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+        .src_access_mask(vk::AccessFlags2::COLOR_ATTACHMENT_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT)
+        .dst_access_mask(
+            vk::AccessFlags2::COLOR_ATTACHMENT_READ | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+        )
 }

@@ -42,7 +42,7 @@ use crate::scene::Scene;
 use crate::view::foveation::Level;
 use crate::view::StereoRig;
 use ash::vk;
-use attachments::Attachments;
+use attachments::{Attachments, SetOptions};
 use batches::{Batcher, Batches};
 use descriptors::{Descriptors, SetContents};
 use gpu_allocator::MemoryLocation;
@@ -50,7 +50,7 @@ use passes::far_field::FarField;
 use passes::gpu_cull::GpuCull;
 pub use passes::gpu_cull::GpuCullStats;
 use passes::output::{OutputCopy, Readback};
-use passes::{Passes, PipelineSetup, Recorder, Scope, VertexBindings};
+use passes::{Passes, PipelineSetup, Recorder, Scope, ScopePart, VertexBindings};
 use scene_gpu::SceneGpu;
 use shading_rate::ShadingRate;
 use std::collections::{BTreeMap, VecDeque};
@@ -207,7 +207,7 @@ impl Renderer {
         let ring = FrameRing::new(&ctx, slots)?;
         let mut queries = Vec::new();
         for _ in 0..slots {
-            queries.push(Some(Queries::new(&ctx, 8)?));
+            queries.push(Some(Queries::new(&ctx, 32)?));
         }
         let mut r = Renderer {
             ctx: ctx.clone(),
@@ -250,18 +250,24 @@ impl Renderer {
         r.shading_rate = rates;
         r.foveation_path = path;
         r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
-        if config.gpu_cull {
-            let order = r.batcher.order().to_vec();
-            r.passes.gpu_cull = Some(GpuCull::new(&r.pipeline_setup(), scene, &order, slots)?);
-        }
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
             samples,
             config.stereo == StereoMode::Multiview,
-            output.is_some_and(|o| o.depth),
-            config.rdm.is_some() && config.rdm_fill,
+            SetOptions {
+                keep_depth: output.is_some_and(|o| o.depth),
+                rdm_fill: config.rdm.is_some() && config.rdm_fill,
+                sampled: false,
+                occlusion: config.occlusion,
+            },
         )?);
+        if config.gpu_cull {
+            let order = r.batcher.order().to_vec();
+            let occlusion = config.occlusion.then(|| (r.targets(), config.near as f32));
+            let gpu = GpuCull::new(&r.pipeline_setup(), scene, &order, &r.ubos, occlusion)?;
+            r.passes.gpu_cull = Some(gpu);
+        }
         for i in 0..slots {
             if r.passes.gpu_cull.is_some() {
                 r.write_descriptors(i);
@@ -765,38 +771,59 @@ impl Renderer {
                 Some((&targets.sets[1], 0, 1)),
             ],
         };
-        for (set, view_mask, eye) in view_sets.into_iter().flatten() {
-            q.begin_pass(ctx, cmd, "forward");
-            rec.begin_scope(&Scope {
-                views: set.views(),
-                extent: self.extent,
-                view_mask,
-                depth_clear,
-                shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
-            });
-            if let Some(mask) = &passes.stencil_mask {
-                draw_calls += mask.record(&rec, self.slot, eye);
+        // With occlusion the frame is drawn in two scopes per view set: the
+        // early draws, then (after the depth pyramid and the late cull) the
+        // late draws and the sky.
+        let occlusion = gpu_cull.filter(|g| g.occlusion());
+        let parts: &[ScopePart] = match occlusion {
+            Some(_) => &[ScopePart::First, ScopePart::Second],
+            None => &[ScopePart::Whole],
+        };
+        for &part in parts {
+            if let (ScopePart::Second, Some(gpu)) = (part, occlusion) {
+                gpu.record_late(ctx, cmd, q, self.slot);
+                rec.memory_barriers(&[attachments::between_scopes()]);
             }
-            if let Some(rdm) = &passes.rdm {
-                draw_calls += rdm.record(&rec, self.extent, eye);
-            }
-            let near = batches.near_draws();
-            match (floor, far) {
-                (Some(kind), _) => draw_calls += passes.floor.record(&rec, kind, eye),
-                (None, Some(far)) => {
-                    draw_calls += far.record_composite(&rec, eye);
-                    // The sky lies beyond the split: the far field has it.
-                    draw_calls += passes.forward.record(&rec, near, eye, false);
-                }
-                (None, None) => match gpu_cull {
-                    Some(gpu) => {
-                        draw_calls += passes.forward.record_gpu(&rec, gpu, eye, self.slot, true)
+            for (set, view_mask, eye) in view_sets.into_iter().flatten() {
+                let late = part == ScopePart::Second;
+                q.begin_pass(ctx, cmd, if late { "forward-late" } else { "forward" });
+                rec.begin_scope(&Scope {
+                    part,
+                    views: set.views(),
+                    extent: self.extent,
+                    view_mask,
+                    depth_clear,
+                    shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
+                });
+                if !late {
+                    if let Some(mask) = &passes.stencil_mask {
+                        draw_calls += mask.record(&rec, self.slot, eye);
                     }
-                    None => draw_calls += passes.forward.record(&rec, near, eye, true),
-                },
+                    if let Some(rdm) = &passes.rdm {
+                        draw_calls += rdm.record(&rec, self.extent, eye);
+                    }
+                }
+                let near = batches.near_draws();
+                let sky = part != ScopePart::First;
+                match (floor, far) {
+                    (Some(kind), _) => draw_calls += passes.floor.record(&rec, kind, eye),
+                    (None, Some(far)) => {
+                        draw_calls += far.record_composite(&rec, eye);
+                        // The sky lies beyond the split: the far field has it.
+                        draw_calls += passes.forward.record(&rec, near, eye, false);
+                    }
+                    (None, None) => match gpu_cull {
+                        Some(gpu) => {
+                            draw_calls += passes
+                                .forward
+                                .record_gpu(&rec, gpu, eye, self.slot, sky, late)
+                        }
+                        None => draw_calls += passes.forward.record(&rec, near, eye, true),
+                    },
+                }
+                rec.end_scope();
+                q.end_pass(ctx, cmd);
             }
-            rec.end_scope();
-            q.end_pass(ctx, cmd);
         }
         if let Some(rdm) = &passes.rdm {
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());

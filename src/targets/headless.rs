@@ -130,6 +130,11 @@ pub struct RenderStats {
     pub floor_gpu_ms: Option<Floors>,
     /// Culling counters of the last frame (None without a culling strategy).
     pub cull: Option<CullStats>,
+    /// With `gpu-cull`: the compute cull's counters of the last frame, read
+    /// back from the GPU (tested, inside the volumes, drawn early, drawn
+    /// late, occluded).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub gpu_cull: Option<crate::render::GpuCullStats>,
     /// Which foveation path ran ("off", the Vulkan path, or why it fell
     /// back to off).
     pub foveation: String,
@@ -421,6 +426,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         frame_interval_ms: Percentiles::of(&intervals),
         floor_gpu_ms,
         cull: cull_stats,
+        gpu_cull: frame.gpu_cull,
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
     };

@@ -21,14 +21,14 @@
 //! out of a pass would have been clipped or depth-rejected there, so the
 //! split changes no pixel.
 
-use super::{destroy_pipelines, to_sampled, PipelineSetup, Recorder, Scope};
+use super::{destroy_pipelines, to_sampled, PipelineSetup, Recorder, Scope, ScopePart};
 use crate::config::Mffr;
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
-use crate::render::attachments::{self, AttachmentSet};
+use crate::render::attachments::{self, AttachmentSet, SetOptions};
 use crate::render::batches::{Batcher, Batches, PipelineKey};
 use crate::view::{mffr, Pose, StereoRig, View};
 use ash::vk;
@@ -113,9 +113,10 @@ impl FarField {
                 self.extent,
                 setup.samples,
                 1,
-                false,
-                false,
-                true,
+                SetOptions {
+                    sampled: true,
+                    ..SetOptions::default()
+                },
             )?);
         }
         let (vs, fs) = (shaders::SCENE_VERT.words(), shaders::SCENE_FRAG.words());
@@ -268,6 +269,7 @@ impl FarField {
             let set = &self.sets[i];
             rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
             rec.begin_scope(&Scope {
+                part: ScopePart::Whole,
                 views: set.views(),
                 extent: self.extent,
                 view_mask: 0,

@@ -39,9 +39,10 @@ impl Forward {
         rec.draw_batches(draws, &self.pipelines, with_sky.then_some(self.sky), eye)
     }
 
-    /// Draws the primitives `gpu` culled into frame slot `slot` for view
-    /// `eye` inside the open scope, then the sky when `with_sky`. Returns
-    /// the draw calls recorded besides the indirect ones.
+    /// Draws the primitives `gpu` culled into frame slot `slot` (its late
+    /// phase's with `late`) for view `eye` inside the open scope, then the
+    /// sky when `with_sky`. Returns the draw calls recorded besides the
+    /// indirect ones.
     pub fn record_gpu(
         &self,
         rec: &Recorder,
@@ -49,6 +50,7 @@ impl Forward {
         eye: u32,
         slot: usize,
         with_sky: bool,
+        late: bool,
     ) -> u64 {
         gpu.record_draws(
             rec,
@@ -56,6 +58,7 @@ impl Forward {
             with_sky.then_some(self.sky),
             eye,
             slot,
+            late,
         )
     }
 

@@ -12,14 +12,24 @@
 //! commands and counters are host-visible: once the slot's fence has
 //! signalled, [`GpuCull::read`] turns them into what the GPU drew (draw
 //! calls, instances, triangles) and the cull's counters.
+//!
+//! With `occlusion` (two-phase hierarchical Z, `cull::hiz`), the pass runs
+//! twice: `cull-early` draws what was visible last frame, the forward views
+//! draw it, [`DepthPyramid`] reduces their depth, and `cull-late` tests the
+//! rest against it, draws what became visible after the early draws, and
+//! keeps each instance's visibility for the next frame (one persistent
+//! buffer: frame n reads what frame n − 1 wrote, ordered by the queue).
 
+use super::depth_pyramid::DepthPyramid;
 use super::{PipelineSetup, Recorder};
 use crate::cull::gpu::{VolumeData, VOLUME_DATA_SIZE};
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
+use crate::gpu::pipeline::compute_pipeline;
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
+use crate::render::attachments::Attachments;
 use crate::render::batches::PipelineKey;
 use crate::render::scene_gpu::{split_dvec3, upload};
 use crate::scene::Scene;
@@ -39,6 +49,10 @@ const ROW: u32 = 65_535;
 /// Bytes of one VkDrawIndexedIndirectCommand.
 const COMMAND: u64 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u64;
 
+/// Counters after the cull's statistics words: tested, inside the
+/// volumes, drawn early, drawn late, hidden.
+const COUNTERS: u64 = 5;
+
 /// What the GPU did in one frame, read back after its fence.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct GpuCullStats {
@@ -46,6 +60,15 @@ pub struct GpuCullStats {
     pub tested: u64,
     /// Instances inside the stereo volume.
     pub passed_frustum: u64,
+    /// Instances drawn by the early phase: without occlusion, every one
+    /// inside the volume; with it, those also visible last frame.
+    pub drawn_early: u64,
+    /// With occlusion: instances inside the volume that passed this
+    /// frame's depth pyramid and were not drawn early (newly visible).
+    pub drawn_late: u64,
+    /// With occlusion: instances inside the volume hidden by the pyramid
+    /// in both eyes.
+    pub occluded: u64,
 }
 
 /// What the frame's stats take from the GPU.
@@ -74,6 +97,15 @@ pub struct GpuCull {
     instances: Buffer,
     prims: Buffer,
     template: Buffer,
+    /// Per instance: 1 when visible at the end of the last frame
+    /// (occlusion), else a 4-byte placeholder.
+    visibility: Buffer,
+    /// A placeholder bound for the pyramid and its levels without occlusion.
+    placeholder: Buffer,
+    /// The depth pyramid (occlusion only).
+    pyramid: Option<DepthPyramid>,
+    near: f32,
+    extent: vk::Extent2D,
     slots: Vec<Slot>,
     set_layout: vk::DescriptorSetLayout,
     layout: vk::PipelineLayout,
@@ -88,16 +120,20 @@ pub struct GpuCull {
 
 impl GpuCull {
     /// Uploads `scene`'s instance boxes and primitive lists and creates the
-    /// pipeline and `slots` frame slots of buffers. `order` lists the
-    /// non-blended primitives in draw order; a scene whose instances use
-    /// blended primitives is an error (they need a back-to-front sort the
-    /// GPU path does not do).
+    /// pipeline and `slots` frame slots of buffers, reading each slot's
+    /// view-projections from `frame_ubos`. `order` lists the non-blended
+    /// primitives in draw order; a scene whose instances use blended
+    /// primitives is an error (they need a back-to-front sort the GPU path
+    /// does not do). With `occlusion` (the frame's attachments, created with
+    /// sampleable depth, and the near plane), the two-phase scheme runs.
     pub fn new(
         setup: &PipelineSetup,
         scene: &Scene,
         order: &[u32],
-        slots: usize,
+        frame_ubos: &[Buffer],
+        occlusion: Option<(&Attachments, f32)>,
     ) -> Result<GpuCull> {
+        let slots = frame_ubos.len();
         let ctx = setup.ctx;
         if !ctx.caps.draw_indirect_count {
             return Err(Error::config(
@@ -141,7 +177,8 @@ impl GpuCull {
             ));
         }
         let ranges = &setup.scene.ranges;
-        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); n_prims];
+        let phases = if occlusion.is_some() { 2 } else { 1 };
+        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); phases * n_prims];
         let mut base = 0u32;
         for &p in order {
             let r = ranges[p as usize];
@@ -153,6 +190,13 @@ impl GpuCull {
                 first_instance: base,
             };
             base += users[p as usize] as u32;
+        }
+        // The late commands draw from the late ranges, after the early ones.
+        for p in 0..n_prims * (phases - 1) {
+            commands[n_prims + p] = vk::DrawIndexedIndirectCommand {
+                first_instance: commands[p].first_instance + total as u32,
+                ..commands[p]
+            };
         }
         let mut words: Vec<u32> = Vec::with_capacity(commands.len() * 5);
         for c in &commands {
@@ -219,10 +263,52 @@ impl GpuCull {
                 return Err(e);
             }
         };
+        // Every instance starts visible: the first frame draws all that is
+        // inside the volumes early, so its late phase already knows what
+        // is hidden.
+        let ones = vec![
+            1u32;
+            if occlusion.is_some() {
+                scene.instances.len()
+            } else {
+                1
+            }
+        ];
+        let extras = upload(
+            ctx,
+            "instance visibility",
+            storage,
+            "instances",
+            as_bytes(&ones),
+        )
+        .and_then(|v| {
+            upload(
+                ctx,
+                "occlusion placeholder",
+                storage,
+                "per-frame",
+                as_bytes(&[0u32; 4]),
+            )
+            .map(|p| (v, p))
+        });
+        let (visibility, placeholder) = match extras {
+            Ok(b) => b,
+            Err(e) => {
+                for b in [instances, prims, template] {
+                    b.destroy(ctx);
+                }
+                return Err(e);
+            }
+        };
         let mut pass = GpuCull {
             instances,
             prims,
             template,
+            visibility,
+            placeholder,
+            pyramid: None,
+            near: occlusion.map_or(0.0, |o| o.1),
+            extent: occlusion.map_or(vk::Extent2D::default(), |o| o.0.extent),
             slots: Vec::new(),
             set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
@@ -236,7 +322,16 @@ impl GpuCull {
                 .map(|p| p.triangles() as u64)
                 .collect(),
         };
-        match pass.build(ctx, n_prims, total, slots) {
+        if let Some((targets, _)) = occlusion {
+            match DepthPyramid::new(ctx, targets, targets.extent, setup.samples, slots) {
+                Ok(p) => pass.pyramid = Some(p),
+                Err(e) => {
+                    pass.destroy(ctx);
+                    return Err(e);
+                }
+            }
+        }
+        match pass.build(ctx, n_prims, phases as u64 * total, frame_ubos) {
             Ok(()) => Ok(pass),
             Err(e) => {
                 pass.destroy(ctx);
@@ -245,7 +340,14 @@ impl GpuCull {
         }
     }
 
-    fn build(&mut self, ctx: &Context, n_prims: usize, total: u64, slots: usize) -> Result<()> {
+    fn build(
+        &mut self,
+        ctx: &Context,
+        n_prims: usize,
+        total: u64,
+        frame_ubos: &[Buffer],
+    ) -> Result<()> {
+        let slots = frame_ubos.len();
         for i in 0..slots {
             let buffer = |name: &str, size: u64, usage, location| {
                 Buffer::new(
@@ -270,13 +372,13 @@ impl GpuCull {
                 | vk::BufferUsageFlags::TRANSFER_DST;
             let commands = buffer(
                 "draw commands",
-                COMMAND * n_prims.max(1) as u64,
+                2 * COMMAND * n_prims.max(1) as u64,
                 indirect,
                 MemoryLocation::GpuToCpu,
             );
             let counts = buffer(
                 "draw counts",
-                4 * (n_prims as u64 + 2),
+                4 * (2 * n_prims as u64 + COUNTERS),
                 indirect,
                 MemoryLocation::GpuToCpu,
             );
@@ -324,6 +426,10 @@ impl GpuCull {
             binding(3, storage),
             binding(4, storage),
             binding(5, storage),
+            binding(6, vk::DescriptorType::UNIFORM_BUFFER),
+            binding(7, storage),
+            binding(8, storage),
+            binding(9, storage),
         ];
         // SAFETY: object creation on a live device; the handles are stored
         // in `self` at once, so `destroy` frees them on any later failure.
@@ -337,7 +443,7 @@ impl GpuCull {
             let ranges = [vk::PushConstantRange {
                 stage_flags: vk::ShaderStageFlags::COMPUTE,
                 offset: 0,
-                size: 4,
+                size: 32,
             }];
             let set_layouts = [self.set_layout];
             self.layout = d
@@ -352,11 +458,11 @@ impl GpuCull {
             let sizes = [
                 vk::DescriptorPoolSize {
                     ty: vk::DescriptorType::UNIFORM_BUFFER,
-                    descriptor_count: n,
+                    descriptor_count: 2 * n,
                 },
                 vk::DescriptorPoolSize {
                     ty: storage,
-                    descriptor_count: 5 * n,
+                    descriptor_count: 8 * n,
                 },
             ];
             self.pool = d
@@ -379,7 +485,7 @@ impl GpuCull {
                 slot.set = set;
             }
         }
-        for slot in &self.slots {
+        for (i, slot) in self.slots.iter().enumerate() {
             let info = |b: &Buffer| {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.buffer)
@@ -392,6 +498,18 @@ impl GpuCull {
                 info(&slot.commands),
                 info(&slot.counts),
                 info(&slot.visible),
+                info(&frame_ubos[i]),
+                info(
+                    self.pyramid
+                        .as_ref()
+                        .map_or(&self.placeholder, |p| p.buffer(i)),
+                ),
+                info(
+                    self.pyramid
+                        .as_ref()
+                        .map_or(&self.placeholder, |p| p.level_buffer()),
+                ),
+                info(&self.visibility),
             ];
             let writes: Vec<vk::WriteDescriptorSet> = infos
                 .iter()
@@ -400,7 +518,7 @@ impl GpuCull {
                     vk::WriteDescriptorSet::default()
                         .dst_set(slot.set)
                         .dst_binding(i as u32)
-                        .descriptor_type(if i == 0 {
+                        .descriptor_type(if i == 0 || i == 6 {
                             vk::DescriptorType::UNIFORM_BUFFER
                         } else {
                             storage
@@ -412,7 +530,12 @@ impl GpuCull {
             // is live and owned by this pass.
             unsafe { d.update_descriptor_sets(&writes, &[]) };
         }
-        self.pipeline = build_compute(ctx, self.layout, &shaders::GPU_CULL_COMP.words())?;
+        self.pipeline = compute_pipeline(
+            ctx,
+            self.layout,
+            &shaders::GPU_CULL_COMP.words(),
+            "gpu-cull",
+        )?;
         Ok(())
     }
 
@@ -432,35 +555,92 @@ impl GpuCull {
             .write(0, as_bytes(std::slice::from_ref(&data)))
     }
 
-    /// Records the cull for `slot`: resets its commands from the template
-    /// and its counters to zero, dispatches one thread per instance, and
-    /// makes the results visible to the indirect draws, the vertex shaders
-    /// and (after the fence) the host.
-    pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
-        let s = &self.slots[slot];
+    /// Whether the two-phase occlusion scheme runs.
+    pub fn occlusion(&self) -> bool {
+        self.pyramid.is_some()
+    }
+
+    fn dispatch(&self, ctx: &Context, cmd: vk::CommandBuffer, slot: usize, phase: u32) {
         let d = &ctx.device;
         let groups = self.instance_count.div_ceil(GROUP).max(1);
-        let n_prims = self.tris.len() as u32;
-        q.begin_pass(ctx, cmd, "cull-early");
-        let to_compute = [vk::MemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-            .dst_access_mask(
-                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
-            )];
+        let (levels, stride) = self
+            .pyramid
+            .as_ref()
+            .map_or((0, 0), |p| (p.level_count(), p.eye_stride()));
+        let push = [
+            self.tris.len() as u32,
+            phase,
+            levels,
+            stride,
+            self.extent.width,
+            self.extent.height,
+            self.near.to_bits(),
+            0,
+        ];
         let to_draw = [vk::MemoryBarrier2::default()
             .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
             .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
             .dst_stage_mask(
                 vk::PipelineStageFlags2::DRAW_INDIRECT
                     | vk::PipelineStageFlags2::VERTEX_SHADER
+                    | vk::PipelineStageFlags2::COMPUTE_SHADER
                     | vk::PipelineStageFlags2::HOST,
             )
             .dst_access_mask(
                 vk::AccessFlags2::INDIRECT_COMMAND_READ
                     | vk::AccessFlags2::SHADER_STORAGE_READ
+                    | vk::AccessFlags2::SHADER_STORAGE_WRITE
                     | vk::AccessFlags2::HOST_READ,
+            )];
+        // SAFETY: recording outside any rendering scope; the set's buffers
+        // belong to this pass and slot (see `record`).
+        unsafe {
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.layout,
+                0,
+                &[self.slots[slot].set],
+                &[],
+            );
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(&push),
+            );
+            d.cmd_dispatch(cmd, groups.min(ROW), groups.div_ceil(ROW), 1);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_draw),
+            );
+        }
+    }
+
+    /// Records the (early) cull for `slot`: resets its commands from the
+    /// template and its counters to zero, dispatches one thread per
+    /// instance, and makes the results visible to the indirect draws, the
+    /// vertex shaders and (after the fence) the host. The barrier before
+    /// the dispatch also orders the previous frame's late writes of the
+    /// visibility buffer before this frame's reads.
+    pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
+        let s = &self.slots[slot];
+        let d = &ctx.device;
+        let phases = if self.occlusion() { 2 } else { 1 };
+        let n_prims = self.tris.len() as u64;
+        q.begin_pass(ctx, cmd, "cull-early");
+        let to_compute = [vk::MemoryBarrier2::default()
+            .src_stage_mask(
+                vk::PipelineStageFlags2::ALL_TRANSFER | vk::PipelineStageFlags2::COMPUTE_SHADER,
+            )
+            .src_access_mask(
+                vk::AccessFlags2::TRANSFER_WRITE | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            )
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             )];
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; every buffer belongs to this pass and this
@@ -474,7 +654,7 @@ impl GpuCull {
                 &[vk::BufferCopy {
                     src_offset: 0,
                     dst_offset: 0,
-                    size: COMMAND * n_prims.max(1) as u64,
+                    size: COMMAND * (phases * n_prims).max(1),
                 }],
             );
             d.cmd_fill_buffer(cmd, s.counts.buffer, 0, vk::WHOLE_SIZE, 0);
@@ -482,35 +662,29 @@ impl GpuCull {
                 cmd,
                 &vk::DependencyInfo::default().memory_barriers(&to_compute),
             );
-            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_bind_descriptor_sets(
-                cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.layout,
-                0,
-                &[s.set],
-                &[],
-            );
-            d.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&[n_prims]),
-            );
-            d.cmd_dispatch(cmd, groups.min(ROW), groups.div_ceil(ROW), 1);
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().memory_barriers(&to_draw),
-            );
         }
+        self.dispatch(ctx, cmd, slot, if self.occlusion() { 1 } else { 0 });
+        q.end_pass(ctx, cmd);
+    }
+
+    /// With occlusion, after the early views: builds `slot`'s depth
+    /// pyramid and records the late cull (`cull-late`), whose draws the
+    /// late views issue ([`GpuCull::record_draws`] with `late`).
+    pub fn record_late(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
+        let Some(pyramid) = &self.pyramid else {
+            return;
+        };
+        pyramid.record(ctx, cmd, q, slot);
+        q.begin_pass(ctx, cmd, "cull-late");
+        self.dispatch(ctx, cmd, slot, 2);
         q.end_pass(ctx, cmd);
     }
 
     /// Draws every non-blended primitive for view `eye` inside the open
-    /// scope with one indirect-count draw each (the count the cull wrote),
-    /// then the sky when given. Returns the draw calls recorded outside the
-    /// indirect ones (the sky); [`GpuCull::read`] counts the rest.
+    /// scope with one indirect-count draw each (the count the cull wrote;
+    /// the late phase's with `late`), then the sky when given. Returns the
+    /// draw calls recorded outside the indirect ones (the sky);
+    /// [`GpuCull::read`] counts the rest.
     pub fn record_draws(
         &self,
         rec: &Recorder,
@@ -518,8 +692,10 @@ impl GpuCull {
         sky: Option<vk::Pipeline>,
         eye: u32,
         slot: usize,
+        late: bool,
     ) -> u64 {
         let s = &self.slots[slot];
+        let shift = if late { self.tris.len() as u64 } else { 0 };
         rec.bind_scene_geometry();
         let mut bound = None;
         for &p in &self.order {
@@ -529,6 +705,7 @@ impl GpuCull {
                 bound = Some(key);
             }
             rec.push([rec.scene.ranges[p as usize].material, eye, 0, 0]);
+            let at = shift + p as u64;
             // SAFETY: inside a rendering scope with a scene pipeline and the
             // scene's buffers bound; the command and count lie inside this
             // slot's buffers, written by the cull and made visible to the
@@ -537,9 +714,9 @@ impl GpuCull {
                 rec.ctx.device.cmd_draw_indexed_indirect_count(
                     rec.cmd,
                     s.commands.buffer,
-                    COMMAND * p as u64,
+                    COMMAND * at,
                     s.counts.buffer,
-                    4 * p as u64,
+                    4 * at,
                     1,
                     COMMAND as u32,
                 )
@@ -569,16 +746,21 @@ impl GpuCull {
         let commands = words(&mut s.commands)?;
         let counts = words(&mut s.counts)?;
         let n = self.tris.len();
+        let phases = if self.pyramid.is_some() { 2 } else { 1 };
         let mut out = Drawn::default();
-        for p in 0..n {
+        for p in 0..phases * n {
             let instances = commands[5 * p + 1] as u64;
             out.draws += counts[p] as u64;
             out.instances += instances;
-            out.triangles += instances * self.tris[p];
+            out.triangles += instances * self.tris[p % n];
         }
+        let c = |k: usize| counts[2 * n + k] as u64;
         out.cull = GpuCullStats {
-            tested: counts[n] as u64,
-            passed_frustum: counts[n + 1] as u64,
+            tested: c(0),
+            passed_frustum: c(1),
+            drawn_early: c(2),
+            drawn_late: c(3),
+            occluded: c(4),
         };
         Ok(out)
     }
@@ -598,36 +780,17 @@ impl GpuCull {
                 b.destroy(ctx);
             }
         }
-        for b in [self.instances, self.prims, self.template] {
+        for b in [
+            self.instances,
+            self.prims,
+            self.template,
+            self.visibility,
+            self.placeholder,
+        ] {
             b.destroy(ctx);
         }
-    }
-}
-
-/// Creates a compute pipeline of `code` (entry point `main`) over `layout`.
-fn build_compute(ctx: &Context, layout: vk::PipelineLayout, code: &[u32]) -> Result<vk::Pipeline> {
-    // SAFETY: SPIR-V embedded at build time (spirv-val in tests); the
-    // module is destroyed once the pipeline holds it.
-    unsafe {
-        let module = ctx
-            .device
-            .create_shader_module(&vk::ShaderModuleCreateInfo::default().code(code), None)
-            .vk("creating the gpu-cull shader module")?;
-        let stage = vk::PipelineShaderStageCreateInfo::default()
-            .stage(vk::ShaderStageFlags::COMPUTE)
-            .module(module)
-            .name(c"main");
-        let info = [vk::ComputePipelineCreateInfo::default()
-            .stage(stage)
-            .layout(layout)];
-        let made = ctx
-            .device
-            .create_compute_pipelines(vk::PipelineCache::null(), &info, None);
-        ctx.device.destroy_shader_module(module, None);
-        let pipeline = made
-            .map_err(|(_, r)| r)
-            .vk("creating the gpu-cull pipeline")?;
-        ctx.set_name(pipeline[0], "gpu-cull");
-        Ok(pipeline[0])
+        if let Some(p) = self.pyramid {
+            p.destroy(ctx);
+        }
     }
 }

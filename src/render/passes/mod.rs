@@ -6,6 +6,7 @@
 //! views and the far field alike, push constants, batched scene draws and
 //! the sky.
 
+pub mod depth_pyramid;
 pub mod far_field;
 pub mod floor;
 pub mod forward;
@@ -331,8 +332,22 @@ impl VertexBindings {
     }
 }
 
+/// Which part of a frame's drawing a rendering scope holds.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum ScopePart {
+    /// All of it: clear, draw, resolve.
+    Whole,
+    /// The first of two (occlusion's early views): clear, draw, store
+    /// colour and depth unresolved.
+    First,
+    /// The second of two (the late views): load, draw, resolve.
+    Second,
+}
+
 /// One rendering scope: where it draws and how it starts.
 pub struct Scope {
+    /// Which part of the frame's drawing it holds.
+    pub part: ScopePart,
     /// The attachments.
     pub views: TargetViews,
     /// Render area, viewport and scissor (from the origin).
@@ -365,6 +380,18 @@ pub struct Recorder<'a> {
 }
 
 impl Recorder<'_> {
+    /// Records global memory `barriers`.
+    pub fn memory_barriers(&self, barriers: &[vk::MemoryBarrier2]) {
+        // SAFETY: recording into the frame's open command buffer, outside
+        // any rendering scope.
+        unsafe {
+            self.ctx.device.cmd_pipeline_barrier2(
+                self.cmd,
+                &vk::DependencyInfo::default().memory_barriers(barriers),
+            )
+        };
+    }
+
     /// Records `barriers`.
     pub fn barriers(&self, barriers: &[vk::ImageMemoryBarrier2]) {
         // SAFETY: recording into the frame's open command buffer, outside
@@ -385,17 +412,23 @@ impl Recorder<'_> {
     /// descriptor set.
     pub fn begin_scope(&self, scope: &Scope) {
         let views = scope.views;
+        let load = if scope.part == ScopePart::Second {
+            vk::AttachmentLoadOp::LOAD
+        } else {
+            vk::AttachmentLoadOp::CLEAR
+        };
         let mut color = vk::RenderingAttachmentInfo::default()
             .image_view(views.color)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
+            .load_op(load)
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 color: vk::ClearColorValue {
                     float32: [0.0, 0.0, 0.0, 1.0],
                 },
             });
-        if let Some(r) = views.resolve {
+        let first = scope.part == ScopePart::First;
+        if let Some(r) = views.resolve.filter(|_| !first) {
             color = color
                 .store_op(vk::AttachmentStoreOp::DONT_CARE)
                 .resolve_mode(vk::ResolveModeFlags::AVERAGE)
@@ -405,8 +438,8 @@ impl Recorder<'_> {
         let mut depth = vk::RenderingAttachmentInfo::default()
             .image_view(views.depth)
             .image_layout(vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::CLEAR)
-            .store_op(if views.store_depth {
+            .load_op(load)
+            .store_op(if views.store_depth || first {
                 vk::AttachmentStoreOp::STORE
             } else {
                 vk::AttachmentStoreOp::DONT_CARE
@@ -417,7 +450,7 @@ impl Recorder<'_> {
                     stencil: 0,
                 },
             });
-        if let Some(r) = views.depth_resolve {
+        if let Some(r) = views.depth_resolve.filter(|_| !first) {
             // Sample zero: the one depth resolve every device has
             // (Vulkan 1.2 requires it for depth and stencil alike).
             depth = depth
