@@ -21,7 +21,7 @@ layout(local_size_x = 64) in;
 struct CullInstance {
     vec4 center_hi;  // box centre, high f32 part (xyz); w: first primitive slot (bits)
     vec4 center_lo;  // box centre, low f32 part (xyz); w: primitive count (bits)
-    vec4 extent;     // half-extents (xyz)
+    vec4 extent;     // half-extents (xyz); w: largest axis scale of the transform
 };
 
 struct DrawCommand {  // VkDrawIndexedIndirectCommand
@@ -48,8 +48,8 @@ layout(std430, set = 0, binding = 1) readonly buffer Instances { CullInstance in
 layout(std430, set = 0, binding = 2) readonly buffer Prims { uint prim_of_slot[]; };
 layout(std430, set = 0, binding = 3) buffer Commands { DrawCommand commands[]; };
 // [p]: early draws of primitive p this frame (0 or 1); [primitives + p]:
-// late draws; then tested, inside the volumes, drawn early, drawn late,
-// hidden.
+// late draws (p counts draw commands: primitives × LOD levels); then
+// tested, inside the volumes, drawn early, drawn late, hidden, dropped.
 layout(std430, set = 0, binding = 4) buffer Counts { uint draw_count[]; };
 layout(std430, set = 0, binding = 5) writeonly buffer Visible { uint visible[]; };
 // The frame's uniform block, its first member only (common.glsl's FrameData).
@@ -59,15 +59,23 @@ layout(std430, set = 0, binding = 7) readonly buffer Pyramid { float texel[]; };
 layout(std430, set = 0, binding = 8) readonly buffer Levels { uvec4 level[]; };
 // 1 where the instance was visible at the end of the last frame.
 layout(std430, set = 0, binding = 9) buffer Visibility { uint visibility[]; };
+// Per primitive: its level-0 draw command and LOD level count.
+layout(std430, set = 0, binding = 10) readonly buffer LodLevels { uvec4 lod_level[]; };
+// Per draw command: its level's object-space error (src/scene/lod.rs).
+layout(std430, set = 0, binding = 11) readonly buffer LodErrors { float lod_error[]; };
 
 layout(push_constant) uniform Push {
-    uint primitives;  // primitive count (the late commands' offset)
+    uint primitives;  // draw commands per phase (the late commands' offset)
     uint phase;       // 0: no occlusion, 1: early, 2: late
     uint levels;      // pyramid levels
     uint eye_stride;  // pyramid texels per eye
     uvec2 size;       // eye image pixels
     float near;       // near plane distance
-    uint unused;
+    uint lod;         // 1: select LOD levels and drop sub-bound instances
+    float lod_k;      // pixel density over the error bound
+    float eye_slack;  // the eyes' largest distance from the render origin
+    uint unused0;
+    uint unused1;
 } pc;
 
 const float PIXEL_SLACK = 0.5;
@@ -77,6 +85,7 @@ shared uint group_tested;
 shared uint group_kept;
 shared uint group_drawn;
 shared uint group_hidden;
+shared uint group_dropped;
 
 // The conservative box test of src/cull/volume.rs (`Volume::keeps`), widened
 // by the relative slack so f32 rounding never drops what the f64 CPU keeps.
@@ -167,13 +176,38 @@ bool hidden_in(uint eye, vec3 c, vec3 e) {
     return depth < farthest;
 }
 
-// Appends instance `i` to the visible list of each of its primitives and
-// counts it in their draws at command offset `base` (0 early, primitives late).
-void append(uint i, CullInstance inst, uint base) {
+// src/view/lod.rs `selection_distance`: to the bounding sphere's nearest
+// point, less the eyes' offset, at least the near plane.
+float lod_distance(vec3 c, vec3 e) {
+    return max(length(c) - length(e) - pc.eye_slack, pc.near);
+}
+
+// src/view/lod.rs `select` (the drop test is in main): the coarsest level
+// of primitive p whose world error projects to at most the bound.
+uint lod_command(uint p, float scale, float dist) {
+    uvec4 l = lod_level[p];
+    uint level = 0u;
+    if (pc.lod != 0u) {
+        for (uint j = 1u; j < l.y; ++j) {
+            if (lod_error[l.x + j] * scale * pc.lod_k <= dist) {
+                level = j;
+            } else {
+                break;
+            }
+        }
+    }
+    return l.x + level;
+}
+
+// Appends instance `i` to the visible list of each of its primitives (at
+// the level LOD picks) and counts it in their draws at command offset
+// `base` (0 early, the command count late).
+void append(uint i, CullInstance inst, vec3 c, uint base) {
     uint first = floatBitsToUint(inst.center_hi.w);
     uint n = floatBitsToUint(inst.center_lo.w);
+    float dist = lod_distance(c, inst.extent.xyz);
     for (uint k = 0u; k < n; ++k) {
-        uint p = base + prim_of_slot[first + k];
+        uint p = base + lod_command(prim_of_slot[first + k], inst.extent.w, dist);
         uint at = atomicAdd(commands[p].instance_count, 1u);
         visible[commands[p].first_instance + at] = i;
         if (at == 0u) {
@@ -188,6 +222,7 @@ void main() {
         group_kept = 0u;
         group_drawn = 0u;
         group_hidden = 0u;
+        group_dropped = 0u;
     }
     barrier();
     uint i = gl_WorkGroupID.y * vol.counts.y + gl_GlobalInvocationID.x;
@@ -196,22 +231,28 @@ void main() {
         // Relative-to-origin centre from the two-float split, as scene.vert.
         vec3 c = (inst.center_hi.xyz - vol.origin_hi.xyz) + (inst.center_lo.xyz - vol.origin_lo.xyz);
         bool inside = keeps(c, inst.extent.xyz);
+        // src/view/lod.rs: an instance whose bounding sphere's diameter
+        // projects to at most the bound is not drawn.
+        bool dropped = pc.lod != 0u
+            && 2.0 * length(inst.extent.xyz) * pc.lod_k <= lod_distance(c, inst.extent.xyz);
         if (pc.phase < 2u) {
             atomicAdd(group_tested, 1u);
             if (inside) {
                 atomicAdd(group_kept, 1u);
-                if (pc.phase == 0u || visibility[i] != 0u) {
+                if (dropped) {
+                    atomicAdd(group_dropped, 1u);
+                } else if (pc.phase == 0u || visibility[i] != 0u) {
                     atomicAdd(group_drawn, 1u);
-                    append(i, inst, 0u);
+                    append(i, inst, c, 0u);
                 }
             }
         } else if (!inside) {
             visibility[i] = 0u;
         } else {
             bool seen = !hidden_in(0u, c, inst.extent.xyz) || !hidden_in(1u, c, inst.extent.xyz);
-            if (seen && visibility[i] == 0u) {
+            if (seen && visibility[i] == 0u && !dropped) {
                 atomicAdd(group_drawn, 1u);
-                append(i, inst, pc.primitives);
+                append(i, inst, c, pc.primitives);
             }
             if (!seen) {
                 atomicAdd(group_hidden, 1u);
@@ -226,6 +267,7 @@ void main() {
             atomicAdd(draw_count[at], group_tested);
             atomicAdd(draw_count[at + 1u], group_kept);
             atomicAdd(draw_count[at + 2u], group_drawn);
+            atomicAdd(draw_count[at + 5u], group_dropped);
         } else {
             atomicAdd(draw_count[at + 3u], group_drawn);
             atomicAdd(draw_count[at + 4u], group_hidden);

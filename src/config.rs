@@ -127,6 +127,11 @@ pub struct RenderConfig {
     /// with `gpu-cull`): draw what was visible last frame, build a depth
     /// pyramid per eye, draw what it shows became visible.
     pub occlusion: bool,
+    /// Level of detail on the GPU (`lod`, `lod=PX`, with `gpu-cull`): each
+    /// instance draws the coarsest level of its meshes' simplified chains
+    /// whose error projects to at most this many pixels, and none when the
+    /// whole instance does (None: off).
+    pub lod: Option<f64>,
 }
 
 /// Most frames in flight `--frames-in-flight` accepts.
@@ -166,11 +171,19 @@ fn opt_slot(item: &str, cull_names: &[&str]) -> Option<(&'static str, String)> {
         f if f.starts_with("foveation=") => ("foveation level", value("foveation=")),
         g if g.starts_with("gaze=") => ("gaze centre", value("gaze=")),
         r if r.starts_with("rdm=") => ("radial density masking radius", value("rdm=")),
+        "lod" => (
+            "LOD error bound",
+            crate::view::lod::DEFAULT_BOUND_PX.to_string(),
+        ),
+        l if l.starts_with("lod=") => ("LOD error bound", value("lod=")),
         m if m.starts_with("mffr=") => ("far-field split distance", value("mffr=")),
         c if cull_names.contains(&c) => ("culling strategy", c.to_string()),
         _ => return None,
     })
 }
+
+/// Largest LOD error bound `lod=PX` accepts, in pixels.
+pub const MAX_LOD_BOUND_PX: f64 = 64.0;
 
 /// Default radial-density-masking radius (NDC).
 pub const DEFAULT_RDM_RADIUS: f32 = 0.55;
@@ -192,6 +205,7 @@ impl Default for RenderConfig {
             frames_in_flight: 2,
             gpu_cull: false,
             occlusion: false,
+            lod: None,
         }
     }
 }
@@ -224,6 +238,12 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
+            ));
+        }
+        if self.lod.is_some() && !self.gpu_cull {
+            return Err(Error::config(
+                "--opt",
+                "lod selects levels inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,lod)",
             ));
         }
         if self.gpu_cull && self.mffr.is_some() {
@@ -273,6 +293,20 @@ impl RenderConfig {
                 "stencil-mask" => self.stencil_mask = true,
                 "gpu-cull" => self.gpu_cull = true,
                 "occlusion" => self.occlusion = true,
+                "lod" => {
+                    self.lod = Some(self.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX));
+                }
+                l if l.starts_with("lod=") => match l["lod=".len()..].parse::<f64>() {
+                    Ok(v) if v.is_finite() && v > 0.0 && v <= MAX_LOD_BOUND_PX => {
+                        self.lod = Some(v)
+                    }
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{l}': expected lod=PX with 0 < PX <= {MAX_LOD_BOUND_PX} (pixels of projected error)"),
+                        ))
+                    }
+                },
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
                 "mffr" => {
                     self.mffr.get_or_insert_with(Mffr::default);
@@ -346,7 +380,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], {})", cull_names.join(", ")),
                     ))
                 }
             }

@@ -157,7 +157,8 @@ struct FrameOpts {
     /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
     /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
     /// rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye,
-    /// mffr-no-split, gpu-cull, occlusion (with gpu-cull) and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
+    /// mffr-no-split, gpu-cull, occlusion and lod[=PX] (both with gpu-cull)
+    /// and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
     /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]
     opt: String,

@@ -3,11 +3,13 @@
 //! own counters), the visible ones are, and every frame's image equals the
 //! unculled one — also while the camera moves past the wall and boxes come
 //! into view (disocclusion), in multiview and two-pass, at 1 and 4
-//! samples, with the stencil mask; zero validation messages.
+//! samples, with the stencil mask; zero validation messages. LOD
+//! (`--opt gpu-cull,lod`): a far RetroUFO draws coarser levels within FLIP
+//! 0.01 of LOD off, and instances under the error bound are dropped.
 
 mod common;
 
-use common::context;
+use common::{context, framing_pose, load};
 use glam::{DAffine3, DVec3};
 use std::sync::Arc;
 use vergence::bench::plan::cull_names;
@@ -211,6 +213,124 @@ fn walking_past_the_wall_never_loses_a_visible_box() {
         last.occluded < HIDDEN as u64,
         "past the wall fewer boxes stay hidden: {last:?}"
     );
+}
+
+/// Both eyes' FLIP mean against `reference`, at the headset's ppd for
+/// this image size.
+fn flip_mean(reference: &[image::RgbaImage; 2], test: &[image::RgbaImage; 2]) -> f32 {
+    let fov = HmdProfile::load("valve-index").unwrap().views[0].fov;
+    let ppd = vergence::bench::metrics::headset_ppd(SIZE, fov.left, fov.right).max(10.0);
+    reference
+        .iter()
+        .zip(test)
+        .map(|(r, t)| vergence::bench::metrics::flip(r, t, ppd).unwrap().mean)
+        .sum::<f32>()
+        / 2.0
+}
+
+#[test]
+fn lod_draws_coarser_levels_within_flip_of_lod_off() {
+    let ctx = context();
+    let scene = load("assets/retroufo/retroufo.glb");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let near = framing_pose(&scene, &profile);
+    let (lo, hi) = scene.bounds();
+    let size = (hi - lo).length();
+    // The framed view, then twice and four times as far: farther views
+    // draw coarser levels.
+    let back = |k: f64| {
+        let mut p = near;
+        p.position += near.orientation * DVec3::new(0.0, 0.0, k * size);
+        profile.rig(p)
+    };
+    let rigs: Vec<StereoRig> = [0.0, 1.0, 3.0].into_iter().map(back).collect();
+    for extra in ["", ",occlusion"] {
+        let base = format!("multiview,msaa4,superfrustum,gpu-cull{extra}");
+        let (plain, reference) = frames(&ctx, &scene, &base, &rigs);
+        let opts = format!("{base},lod");
+        let (lod, images) = frames(&ctx, &scene, &opts, &rigs);
+        let mut coarse_before = 0;
+        for i in 0..rigs.len() {
+            let c = lod[i].stats.gpu_cull.unwrap();
+            let coarse: u64 = c.lod_triangles[1..].iter().sum();
+            assert_eq!(
+                c.lod_triangles.iter().sum::<u64>(),
+                lod[i].stats.triangles,
+                "{opts} frame {i}: per-level triangles add up"
+            );
+            assert!(
+                lod[i].stats.triangles <= plain[i].stats.triangles,
+                "{opts} frame {i}"
+            );
+            assert!(
+                coarse >= coarse_before || c.lod_dropped > 0,
+                "{opts} frame {i}"
+            );
+            coarse_before = coarse;
+            let e = flip_mean(&reference[i], &images[i]);
+            assert!(e <= 0.01, "{opts} frame {i}: FLIP mean {e} against LOD off");
+        }
+        let last = &lod.last().unwrap().stats;
+        assert!(
+            last.triangles < plain.last().unwrap().stats.triangles,
+            "{opts}: the far view draws fewer triangles ({} vs {})",
+            last.triangles,
+            plain.last().unwrap().stats.triangles
+        );
+    }
+}
+
+#[test]
+fn lod_drops_instances_under_the_error_bound() {
+    let ctx = context();
+    // The wall scene and a row of 10 cm boxes 60 m away, far under a
+    // pixel at this image size.
+    let mut scene = wall_scene();
+    scene.primitives.push(shapes::cuboid([0.05, 0.05, 0.05], 1));
+    scene.meshes.push(Mesh {
+        name: "speck".into(),
+        primitives: vec![2],
+    });
+    for i in 0..21 {
+        let p = DVec3::new(-40.0 + 4.0 * i as f64, 1.7, -60.0);
+        scene.instances.push(Instance {
+            mesh: 2,
+            transform: DAffine3::from_translation(p),
+        });
+    }
+    scene.nodes = scene.instances.len();
+    let rigs = vec![rig_at(0.0)];
+    let base = "multiview,msaa4,superfrustum,gpu-cull";
+    let (plain, reference) = frames(&ctx, &scene, base, &rigs);
+    let (lod, images) = frames(&ctx, &scene, &format!("{base},lod=1"), &rigs);
+    let c = lod[0].stats.gpu_cull.unwrap();
+    assert!(c.lod_dropped > 0, "{c:?}");
+    assert_eq!(
+        lod[0].stats.instances_drawn + c.lod_dropped,
+        plain[0].stats.instances_drawn,
+        "every instance inside the volume is drawn or dropped"
+    );
+    let e = flip_mean(&reference[0], &images[0]);
+    assert!(e <= 0.01, "FLIP mean {e} against LOD off");
+    // A looser bound drops more.
+    let (loose, _) = frames(&ctx, &scene, &format!("{base},lod=8"), &rigs);
+    assert!(loose[0].stats.gpu_cull.unwrap().lod_dropped > c.lod_dropped);
+}
+
+#[test]
+fn lod_without_gpu_cull_and_bad_bounds_are_one_clear_error() {
+    let mut c = RenderConfig::default();
+    c.apply_opts("multiview,superfrustum,lod", &cull_names())
+        .unwrap();
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("lod") && e.contains("gpu-cull"), "{e}");
+    for bad in ["lod=0", "lod=-1", "lod=x", "lod=1e9", "lod=nan"] {
+        let e = RenderConfig::default()
+            .apply_opts(bad, &cull_names())
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("lod=PX"), "{bad}: {e}");
+    }
 }
 
 #[test]

@@ -184,6 +184,25 @@ pub fn head_path(frame: u64, seed: u64, lo: DVec3, hi: DVec3) -> Pose {
     Pose::from_euler_deg(pos, yaw, pitch, roll)
 }
 
+/// Head pose of frame `f` on the orbit path: outside the box `lo`..`hi`
+/// at 0.8 of its diagonal from the centre, raised by a quarter of it,
+/// circling slowly and looking at the centre, so the whole scene is in
+/// view.
+pub fn orbit_path(frame: u64, seed: u64, lo: DVec3, hi: DVec3) -> Pose {
+    let t = frame as f64 / 90.0;
+    let ph = (seed % 1000) as f64 * 0.618;
+    let c = (lo + hi) * 0.5;
+    let r = (hi - lo).length().max(1.0);
+    let a = std::f64::consts::TAU * t / 30.0 + ph;
+    let pos = c + DVec3::new(0.8 * r * a.sin(), 0.25 * r, 0.8 * r * a.cos());
+    let d = c - pos;
+    // Yaw about +Y from -Z, pitch up from the horizontal (Pose's Euler
+    // convention: -Z forward).
+    let yaw = (-d.x).atan2(-d.z).to_degrees();
+    let pitch = (d.y / d.length()).asin().to_degrees();
+    Pose::from_euler_deg(pos, yaw, pitch, 0.0)
+}
+
 /// The box enclosing all `bounds` (origin for none).
 pub fn scene_bounds(bounds: &[(DVec3, DVec3)]) -> (DVec3, DVec3) {
     let lo = bounds
@@ -354,4 +373,23 @@ pub fn run(
             strategies: reports,
         })
     })
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_orbit_path_stays_outside_and_looks_at_the_centre() {
+        let (lo, hi) = (DVec3::new(-60.0, 0.0, -5.0), DVec3::new(60.0, 3.0, 150.0));
+        let c = (lo + hi) * 0.5;
+        for f in (0..2000).step_by(37) {
+            let p = orbit_path(f, 3, lo, hi);
+            let inside = p.position.cmpge(lo).all() && p.position.cmple(hi).all();
+            assert!(!inside, "frame {f} at {:?}", p.position);
+            let forward = p.orientation * DVec3::NEG_Z;
+            let to_centre = (c - p.position).normalize();
+            assert!(forward.dot(to_centre) > 0.9999, "frame {f}");
+        }
+    }
 }

@@ -46,6 +46,11 @@ pub struct Plan {
     /// Seed of the head path.
     #[serde(default)]
     pub path_seed: u64,
+    /// The head path: `walk` (default) walks through the scene at standing
+    /// height; `orbit` circles outside its bounds looking at its centre
+    /// (the whole scene in view).
+    #[serde(default)]
+    pub path: PathKind,
     /// `--opt` list of the image reference: full quality, every
     /// optimization off.
     #[serde(default = "default_reference")]
@@ -100,6 +105,17 @@ pub const BUILTIN: &[(&str, &str)] = &[
         include_str!("../../manifests/bench/in-flight.toml"),
     ),
 ];
+
+/// The kind of head path a plan's frames follow.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
+#[serde(rename_all = "lowercase")]
+pub enum PathKind {
+    /// Through the scene at standing height ([`super::cull::head_path`]).
+    #[default]
+    Walk,
+    /// Outside the scene's bounds, looking at it ([`super::cull::orbit_path`]).
+    Orbit,
+}
 
 impl Plan {
     /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`,

@@ -2,8 +2,9 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
-use super::cull::{head_path, scene_bounds};
+use super::cull::{head_path, orbit_path, scene_bounds};
 use super::metrics::{self, MIN_FLIP_PPD};
+use super::plan::PathKind;
 use super::plan::{sanitize, Plan};
 use crate::config::RenderConfig;
 use crate::error::Result;
@@ -145,6 +146,10 @@ pub struct ConfigResult {
     /// the depth pyramid (median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gpu_cull_occluded: Option<f64>,
+    /// With `gpu-cull,lod`: instances inside the volumes dropped as under
+    /// the error bound (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_lod_dropped: Option<f64>,
     /// GPU memory.
     pub gpu_memory: GpuMemory,
     /// Process resident set size after the configuration ran.
@@ -235,7 +240,12 @@ pub struct BenchResults {
 fn path_rigs(plan: &Plan, scene: &Scene, profile: &HmdProfile) -> Vec<StereoRig> {
     let (lo, hi) = scene_bounds(&scene.world_aabbs());
     (0..(plan.warmup + plan.frames) as u64)
-        .map(|i| profile.rig(head_path(i, plan.path_seed, lo, hi)))
+        .map(|i| {
+            profile.rig(match plan.path {
+                PathKind::Walk => head_path(i, plan.path_seed, lo, hi),
+                PathKind::Orbit => orbit_path(i, plan.path_seed, lo, hi),
+            })
+        })
         .collect()
 }
 
@@ -719,6 +729,7 @@ fn summarize(
         gpu_cull_passed_frustum: gpu_cull_median(&|c| c.passed_frustum),
         gpu_cull_drawn_late: gpu_cull_median(&|c| c.drawn_late),
         gpu_cull_occluded: gpu_cull_median(&|c| c.occluded),
+        gpu_cull_lod_dropped: gpu_cull_median(&|c| c.lod_dropped),
         ..ConfigResult::default()
     }
 }

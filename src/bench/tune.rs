@@ -73,6 +73,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
         frames,
         error_frames: frames.min(2),
         path_seed: 1,
+        path: super::plan::PathKind::Walk,
         reference: "two-pass,msaa4".into(),
         baseline: Some("baseline".into()),
         frames_in_flight: crate::config::RenderConfig::default().frames_in_flight,

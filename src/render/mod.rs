@@ -47,8 +47,8 @@ use batches::{Batcher, Batches};
 use descriptors::{Descriptors, SetContents};
 use gpu_allocator::MemoryLocation;
 use passes::far_field::FarField;
-use passes::gpu_cull::GpuCull;
 pub use passes::gpu_cull::GpuCullStats;
+use passes::gpu_cull::{GpuCull, LodFrame};
 use passes::output::{OutputCopy, Readback};
 use passes::{Passes, PipelineSetup, Recorder, Scope, ScopePart, VertexBindings};
 use scene_gpu::SceneGpu;
@@ -154,6 +154,8 @@ pub struct Renderer {
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
     pub foveation_path: String,
+    /// With `lod`: what building the chains made and cost.
+    pub lod: Option<LodReport>,
 }
 
 impl Renderer {
@@ -189,7 +191,14 @@ impl Renderer {
         }
         let samples = config.msaa.min(ctx.caps.max_samples);
         let slots = config.frames_in_flight as usize;
-        let scene_gpu = SceneGpu::new(&ctx, scene)?;
+        let chains = config.lod.map(|_| crate::scene::lod::build(scene));
+        let lod_report = chains.as_ref().map(|c| LodReport {
+            levels: c.level_count(),
+            index_bytes: c.index_bytes(),
+            build_ms: c.build_ms,
+        });
+        let scene_gpu = SceneGpu::new(&ctx, scene, chains.as_ref())?;
+        drop(chains);
         let descriptors = Descriptors::new(&ctx, scene_gpu.textures.len() as u32, slots)?;
         let mut ubos = Vec::new();
         for i in 0..slots {
@@ -241,6 +250,7 @@ impl Renderer {
             mffr_fallbacks: 0,
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
+            lod: lod_report,
         };
         // Pipelines depend on the shading-rate attachment: foveation first.
         let (rates, path) = ShadingRate::new(&ctx, &r.config, extent)?;
@@ -265,7 +275,14 @@ impl Renderer {
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
             let occlusion = config.occlusion.then(|| (r.targets(), config.near as f32));
-            let gpu = GpuCull::new(&r.pipeline_setup(), scene, &order, &r.ubos, occlusion)?;
+            let gpu = GpuCull::new(
+                &r.pipeline_setup(),
+                scene,
+                &order,
+                &r.ubos,
+                occlusion,
+                config.lod.is_some(),
+            )?;
             r.passes.gpu_cull = Some(gpu);
         }
         for i in 0..slots {
@@ -607,7 +624,23 @@ impl Renderer {
                 rig.head.position,
             )
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
-            gpu.upload(slot, data)?;
+            let lod = match self.config.lod {
+                Some(bound) => {
+                    let e = (self.extent.width, self.extent.height);
+                    let eyes: Vec<_> = rig.views.iter().map(|v| (v.fov, e)).collect();
+                    let slack = rig
+                        .views
+                        .iter()
+                        .map(|v| (v.pose.position - rig.head.position).length())
+                        .fold(0.0, f64::max);
+                    LodFrame {
+                        k: crate::view::lod::pixel_density(&eyes) / bound,
+                        eye_slack: slack,
+                    }
+                }
+                None => LodFrame::default(),
+            };
+            gpu.upload(slot, data, lod)?;
         } else {
             self.ensure_visible_capacity(slot, batches.ids.len())?;
             let ids: &[u8] = as_bytes(&batches.ids);
@@ -871,6 +904,17 @@ impl Renderer {
     pub fn lazily_allocated(&self) -> bool {
         self.targets.as_ref().is_some_and(|t| t.lazily_allocated())
     }
+}
+
+/// What building the LOD chains made (`lod`), for stats.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct LodReport {
+    /// Simplified levels built over all primitives.
+    pub levels: usize,
+    /// Bytes of their index lists (GPU memory, in the index buffer).
+    pub index_bytes: u64,
+    /// Wall-clock ms of the build.
+    pub build_ms: f64,
 }
 
 /// A device loss while `context` becomes [`Error::DeviceLost`] naming the

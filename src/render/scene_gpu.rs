@@ -6,6 +6,7 @@ use crate::error::{Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::Context;
+use crate::scene::lod::Chains;
 use crate::scene::{AlphaMode, Scene, SceneFeatures};
 use ash::vk;
 use glam::DVec3;
@@ -59,6 +60,9 @@ pub struct SceneGpu {
     samplers: Vec<vk::Sampler>,
     /// Draw range of each primitive.
     pub ranges: Vec<DrawRange>,
+    /// With `lod`: per primitive, the draw ranges and object-space errors
+    /// of its simplified levels (after the original; empty without).
+    pub lod_ranges: Vec<Vec<(DrawRange, f32)>>,
     /// Features in use.
     pub features: SceneFeatures,
     /// First index of the triangle (0, 1, 2) used for full-screen draws.
@@ -135,8 +139,9 @@ fn bytes_of<T: Copy>(v: &[T]) -> &[u8] {
 }
 
 impl SceneGpu {
-    /// Uploads `scene`.
-    pub fn new(ctx: &Context, scene: &Scene) -> Result<SceneGpu> {
+    /// Uploads `scene`, and with `lod` its primitives' simplified index
+    /// lists after the originals.
+    pub fn new(ctx: &Context, scene: &Scene, lod: Option<&Chains>) -> Result<SceneGpu> {
         let features = scene.features();
         let used = used_streams(&features);
         let mut data: [Vec<f32>; 6] = Default::default();
@@ -212,6 +217,20 @@ impl SceneGpu {
             "vertex",
             bytes_of(&defaults_data),
         )?;
+        let mut lod_ranges = vec![Vec::new(); scene.primitives.len()];
+        if let Some(chains) = lod {
+            for (p, levels) in chains.levels.iter().enumerate() {
+                for l in levels {
+                    let range = DrawRange {
+                        first_index: indices.len() as u32,
+                        index_count: l.indices.len() as u32,
+                        ..ranges[p]
+                    };
+                    indices.extend_from_slice(&l.indices);
+                    lod_ranges[p].push((range, l.error));
+                }
+            }
+        }
         // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
         // drops non-indexed draws from every view but the first under multiview.
         let fullscreen_first_index = indices.len() as u32;
@@ -330,6 +349,7 @@ impl SceneGpu {
             texture_samplers,
             samplers,
             ranges,
+            lod_ranges,
             features,
             fullscreen_first_index,
         })

@@ -7,6 +7,7 @@ pub mod factory;
 pub mod gltf_data;
 pub mod gltf_load;
 pub mod image_decode;
+pub mod lod;
 pub mod manifest;
 pub mod shapes;
 pub mod uri;

@@ -135,6 +135,9 @@ pub struct RenderStats {
     /// late, occluded).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu_cull: Option<crate::render::GpuCullStats>,
+    /// With `lod`: the chains built at load (levels, index bytes, build ms).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lod: Option<crate::render::LodReport>,
     /// Which foveation path ran ("off", the Vulkan path, or why it fell
     /// back to off).
     pub foveation: String,
@@ -427,6 +430,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         floor_gpu_ms,
         cull: cull_stats,
         gpu_cull: frame.gpu_cull,
+        lod: renderer.lod,
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
     };

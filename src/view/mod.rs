@@ -7,6 +7,7 @@ pub mod cone;
 pub mod foveation;
 pub mod frustum;
 pub mod lens;
+pub mod lod;
 pub mod mffr;
 pub mod profile;
 pub mod projection;

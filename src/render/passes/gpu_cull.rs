@@ -33,6 +33,7 @@ use crate::render::attachments::Attachments;
 use crate::render::batches::PipelineKey;
 use crate::render::scene_gpu::{split_dvec3, upload};
 use crate::scene::Scene;
+use crate::view::lod::MAX_LEVELS;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 use std::collections::HashMap;
@@ -49,9 +50,9 @@ const ROW: u32 = 65_535;
 /// Bytes of one VkDrawIndexedIndirectCommand.
 const COMMAND: u64 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u64;
 
-/// Counters after the cull's statistics words: tested, inside the
-/// volumes, drawn early, drawn late, hidden.
-const COUNTERS: u64 = 5;
+/// Counters after the draw counts: tested, inside the volumes, drawn
+/// early, drawn late, hidden, dropped by LOD.
+const COUNTERS: u64 = 6;
 
 /// What the GPU did in one frame, read back after its fence.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
@@ -69,6 +70,22 @@ pub struct GpuCullStats {
     /// With occlusion: instances inside the volume hidden by the pyramid
     /// in both eyes.
     pub occluded: u64,
+    /// With LOD: instances inside the volume not drawn because they project
+    /// to at most the error bound.
+    pub lod_dropped: u64,
+    /// With LOD: triangles drawn per level (0: the original meshes).
+    pub lod_triangles: [u64; MAX_LEVELS],
+}
+
+/// The LOD parameters of one frame.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct LodFrame {
+    /// Pixel density (pixels per radian, `view::lod::pixel_density`) over
+    /// the error bound in pixels: a level is drawn when its world error
+    /// times this is at most the selection distance.
+    pub k: f64,
+    /// The eyes' largest distance from the render origin.
+    pub eye_slack: f64,
 }
 
 /// What the frame's stats take from the GPU.
@@ -83,6 +100,9 @@ pub struct Drawn {
     /// The cull's counters.
     pub cull: GpuCullStats,
 }
+
+/// Bytes of the cull's push constants (`Push` in gpu_cull.comp).
+const PUSH_BYTES: u32 = 48;
 
 struct Slot {
     volumes: Buffer,
@@ -102,6 +122,23 @@ pub struct GpuCull {
     visibility: Buffer,
     /// A placeholder bound for the pyramid and its levels without occlusion.
     placeholder: Buffer,
+    /// Per primitive: its first draw command and level count (u32 pairs
+    /// padded to uvec4).
+    lod_levels: Buffer,
+    /// Per draw command: the level's object-space error.
+    lod_errors: Buffer,
+    /// Whether LOD selection (and dropping sub-bound instances) runs.
+    lod: bool,
+    /// Pixel density over the error bound for the coming frame.
+    lod_k: f32,
+    /// The eyes' largest distance from the render origin this frame.
+    eye_slack: f32,
+    /// Per primitive: index of its level-0 draw command.
+    cmd_first: Vec<u32>,
+    /// Per draw command: triangles.
+    cmd_tris: Vec<u64>,
+    /// Per draw command: its LOD level.
+    cmd_level: Vec<u8>,
     /// The depth pyramid (occlusion only).
     pyramid: Option<DepthPyramid>,
     near: f32,
@@ -114,8 +151,6 @@ pub struct GpuCull {
     instance_count: u32,
     /// Non-blended primitives in draw order (as the CPU batches them).
     order: Vec<u32>,
-    /// Triangles per primitive.
-    tris: Vec<u64>,
 }
 
 impl GpuCull {
@@ -132,6 +167,7 @@ impl GpuCull {
         order: &[u32],
         frame_ubos: &[Buffer],
         occlusion: Option<(&Attachments, f32)>,
+        lod: bool,
     ) -> Result<GpuCull> {
         let slots = frame_ubos.len();
         let ctx = setup.ctx;
@@ -169,7 +205,17 @@ impl GpuCull {
                 users[p as usize] += 1;
             }
         }
-        let total: u64 = users.iter().sum();
+        // One draw command per primitive and LOD level (level 0 the
+        // original); each level's visible range can hold every user.
+        let lod_ranges = &setup.scene.lod_ranges;
+        let levels = |p: usize| 1 + lod_ranges[p].len();
+        let mut cmd_first = Vec::with_capacity(n_prims);
+        let mut n_cmds = 0usize;
+        for p in 0..n_prims {
+            cmd_first.push(n_cmds as u32);
+            n_cmds += levels(p);
+        }
+        let total: u64 = (0..n_prims).map(|p| users[p] * levels(p) as u64).sum();
         if total > u32::MAX as u64 / 4 {
             return Err(Error::scene(
                 &scene.name,
@@ -178,26 +224,48 @@ impl GpuCull {
         }
         let ranges = &setup.scene.ranges;
         let phases = if occlusion.is_some() { 2 } else { 1 };
-        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); phases * n_prims];
+        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); phases * n_cmds];
+        let mut cmd_tris = vec![0u64; n_cmds];
+        let mut cmd_level = vec![0u8; n_cmds];
+        let mut cmd_error = vec![0f32; n_cmds];
+        for p in 0..n_prims {
+            let c = cmd_first[p] as usize;
+            cmd_tris[c] = scene.primitives[p].triangles() as u64;
+            for (j, (r, e)) in lod_ranges[p].iter().enumerate() {
+                cmd_tris[c + 1 + j] = r.index_count as u64 / 3;
+                cmd_level[c + 1 + j] = (j + 1) as u8;
+                cmd_error[c + 1 + j] = *e;
+            }
+        }
         let mut base = 0u32;
         for &p in order {
-            let r = ranges[p as usize];
-            commands[p as usize] = vk::DrawIndexedIndirectCommand {
-                index_count: r.index_count,
-                instance_count: 0,
-                first_index: r.first_index,
-                vertex_offset: r.vertex_offset,
-                first_instance: base,
-            };
-            base += users[p as usize] as u32;
+            let p = p as usize;
+            for j in 0..levels(p) {
+                let r = if j == 0 {
+                    ranges[p]
+                } else {
+                    lod_ranges[p][j - 1].0
+                };
+                commands[cmd_first[p] as usize + j] = vk::DrawIndexedIndirectCommand {
+                    index_count: r.index_count,
+                    instance_count: 0,
+                    first_index: r.first_index,
+                    vertex_offset: r.vertex_offset,
+                    first_instance: base,
+                };
+                base += users[p] as u32;
+            }
         }
         // The late commands draw from the late ranges, after the early ones.
-        for p in 0..n_prims * (phases - 1) {
-            commands[n_prims + p] = vk::DrawIndexedIndirectCommand {
-                first_instance: commands[p].first_instance + total as u32,
-                ..commands[p]
+        for c in 0..n_cmds * (phases - 1) {
+            commands[n_cmds + c] = vk::DrawIndexedIndirectCommand {
+                first_instance: commands[c].first_instance + total as u32,
+                ..commands[c]
             };
         }
+        let lod_info: Vec<u32> = (0..n_prims)
+            .flat_map(|p| [cmd_first[p], levels(p) as u32, 0, 0])
+            .collect();
         let mut words: Vec<u32> = Vec::with_capacity(commands.len() * 5);
         for c in &commands {
             words.extend_from_slice(&[
@@ -210,7 +278,8 @@ impl GpuCull {
         }
         // Per instance: box centre as a two-float split (the vertex shader's
         // scheme), the mesh's primitive slice in the w lanes, half-extents
-        // rounded up so the f32 box contains the f64 one.
+        // rounded up so the f32 box contains the f64 one, and the largest
+        // axis scale of the transform (LOD errors are object-space).
         let mut boxes: Vec<f32> = Vec::with_capacity(scene.instances.len() * 12);
         for ((a, b), inst) in scene.world_aabbs().iter().zip(&scene.instances) {
             let (hi, lo) = split_dvec3((*a + *b) * 0.5);
@@ -226,7 +295,13 @@ impl GpuCull {
             let (first, count) = slices[inst.mesh as usize];
             boxes.extend_from_slice(&[hi[0], hi[1], hi[2], f32::from_bits(first)]);
             boxes.extend_from_slice(&[lo[0], lo[1], lo[2], f32::from_bits(count)]);
-            boxes.extend_from_slice(&[up(e.x), up(e.y), up(e.z), 0.0]);
+            let m = inst.transform.matrix3;
+            let scale = m
+                .x_axis
+                .length()
+                .max(m.y_axis.length())
+                .max(m.z_axis.length());
+            boxes.extend_from_slice(&[up(e.x), up(e.y), up(e.z), up(scale)]);
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let instances = upload(
@@ -274,38 +349,42 @@ impl GpuCull {
                 1
             }
         ];
-        let extras = upload(
-            ctx,
-            "instance visibility",
-            storage,
-            "instances",
-            as_bytes(&ones),
-        )
-        .and_then(|v| {
-            upload(
-                ctx,
-                "occlusion placeholder",
-                storage,
-                "per-frame",
-                as_bytes(&[0u32; 4]),
-            )
-            .map(|p| (v, p))
-        });
-        let (visibility, placeholder) = match extras {
-            Ok(b) => b,
-            Err(e) => {
-                for b in [instances, prims, template] {
-                    b.destroy(ctx);
+        let made = [
+            ("instance visibility", as_bytes(&ones)),
+            ("occlusion placeholder", as_bytes(&[0u32; 4])),
+            ("lod levels", as_bytes(&lod_info)),
+            ("lod errors", as_bytes(&cmd_error)),
+        ]
+        .map(|(name, bytes)| upload(ctx, name, storage, "instances", bytes));
+        if made.iter().any(|b| b.is_err()) {
+            let mut err = None;
+            for b in made {
+                match b {
+                    Ok(b) => b.destroy(ctx),
+                    Err(e) => err = err.or(Some(e)),
                 }
-                return Err(e);
             }
-        };
+            for b in [instances, prims, template] {
+                b.destroy(ctx);
+            }
+            return Err(err.expect("one upload failed"));
+        }
+        let [visibility, placeholder, lod_levels, lod_errors] =
+            made.map(|b| b.expect("checked above"));
         let mut pass = GpuCull {
             instances,
             prims,
             template,
             visibility,
             placeholder,
+            lod_levels,
+            lod_errors,
+            lod,
+            lod_k: 0.0,
+            eye_slack: 0.0,
+            cmd_first,
+            cmd_tris,
+            cmd_level,
             pyramid: None,
             near: occlusion.map_or(0.0, |o| o.1),
             extent: occlusion.map_or(vk::Extent2D::default(), |o| o.0.extent),
@@ -316,11 +395,6 @@ impl GpuCull {
             pipeline: vk::Pipeline::null(),
             instance_count: scene.instances.len() as u32,
             order: order.to_vec(),
-            tris: scene
-                .primitives
-                .iter()
-                .map(|p| p.triangles() as u64)
-                .collect(),
         };
         if let Some((targets, _)) = occlusion {
             match DepthPyramid::new(ctx, targets, targets.extent, setup.samples, slots) {
@@ -331,7 +405,7 @@ impl GpuCull {
                 }
             }
         }
-        match pass.build(ctx, n_prims, phases as u64 * total, frame_ubos) {
+        match pass.build(ctx, n_cmds, phases as u64 * total, frame_ubos) {
             Ok(()) => Ok(pass),
             Err(e) => {
                 pass.destroy(ctx);
@@ -343,7 +417,7 @@ impl GpuCull {
     fn build(
         &mut self,
         ctx: &Context,
-        n_prims: usize,
+        n_cmds: usize,
         total: u64,
         frame_ubos: &[Buffer],
     ) -> Result<()> {
@@ -372,13 +446,13 @@ impl GpuCull {
                 | vk::BufferUsageFlags::TRANSFER_DST;
             let commands = buffer(
                 "draw commands",
-                2 * COMMAND * n_prims.max(1) as u64,
+                2 * COMMAND * n_cmds.max(1) as u64,
                 indirect,
                 MemoryLocation::GpuToCpu,
             );
             let counts = buffer(
                 "draw counts",
-                4 * (2 * n_prims as u64 + COUNTERS),
+                4 * (2 * n_cmds as u64 + COUNTERS),
                 indirect,
                 MemoryLocation::GpuToCpu,
             );
@@ -430,6 +504,8 @@ impl GpuCull {
             binding(7, storage),
             binding(8, storage),
             binding(9, storage),
+            binding(10, storage),
+            binding(11, storage),
         ];
         // SAFETY: object creation on a live device; the handles are stored
         // in `self` at once, so `destroy` frees them on any later failure.
@@ -443,7 +519,7 @@ impl GpuCull {
             let ranges = [vk::PushConstantRange {
                 stage_flags: vk::ShaderStageFlags::COMPUTE,
                 offset: 0,
-                size: 32,
+                size: PUSH_BYTES,
             }];
             let set_layouts = [self.set_layout];
             self.layout = d
@@ -462,7 +538,7 @@ impl GpuCull {
                 },
                 vk::DescriptorPoolSize {
                     ty: storage,
-                    descriptor_count: 8 * n,
+                    descriptor_count: 10 * n,
                 },
             ];
             self.pool = d
@@ -510,6 +586,8 @@ impl GpuCull {
                         .map_or(&self.placeholder, |p| p.level_buffer()),
                 ),
                 info(&self.visibility),
+                info(&self.lod_levels),
+                info(&self.lod_errors),
             ];
             let writes: Vec<vk::WriteDescriptorSet> = infos
                 .iter()
@@ -547,7 +625,9 @@ impl GpuCull {
 
     /// Writes `slot`'s volumes for the coming frame (the slot's previous
     /// frame has finished: its fence was waited on).
-    pub fn upload(&mut self, slot: usize, mut data: VolumeData) -> Result<()> {
+    pub fn upload(&mut self, slot: usize, mut data: VolumeData, lod: LodFrame) -> Result<()> {
+        self.lod_k = lod.k as f32;
+        self.eye_slack = lod.eye_slack as f32;
         let groups = self.instance_count.div_ceil(GROUP).max(1);
         data.counts = [self.instance_count, groups.min(ROW) * GROUP, 0, 0];
         self.slots[slot]
@@ -568,13 +648,17 @@ impl GpuCull {
             .as_ref()
             .map_or((0, 0), |p| (p.level_count(), p.eye_stride()));
         let push = [
-            self.tris.len() as u32,
+            self.cmd_tris.len() as u32,
             phase,
             levels,
             stride,
             self.extent.width,
             self.extent.height,
             self.near.to_bits(),
+            self.lod as u32,
+            self.lod_k.to_bits(),
+            self.eye_slack.to_bits(),
+            0,
             0,
         ];
         let to_draw = [vk::MemoryBarrier2::default()
@@ -629,7 +713,7 @@ impl GpuCull {
         let s = &self.slots[slot];
         let d = &ctx.device;
         let phases = if self.occlusion() { 2 } else { 1 };
-        let n_prims = self.tris.len() as u64;
+        let n_cmds = self.cmd_tris.len() as u64;
         q.begin_pass(ctx, cmd, "cull-early");
         let to_compute = [vk::MemoryBarrier2::default()
             .src_stage_mask(
@@ -654,7 +738,7 @@ impl GpuCull {
                 &[vk::BufferCopy {
                     src_offset: 0,
                     dst_offset: 0,
-                    size: COMMAND * (phases * n_prims).max(1),
+                    size: COMMAND * (phases * n_cmds).max(1),
                 }],
             );
             d.cmd_fill_buffer(cmd, s.counts.buffer, 0, vk::WHOLE_SIZE, 0);
@@ -695,7 +779,8 @@ impl GpuCull {
         late: bool,
     ) -> u64 {
         let s = &self.slots[slot];
-        let shift = if late { self.tris.len() as u64 } else { 0 };
+        let n_cmds = self.cmd_tris.len();
+        let shift = if late { n_cmds as u64 } else { 0 };
         rec.bind_scene_geometry();
         let mut bound = None;
         for &p in &self.order {
@@ -705,22 +790,30 @@ impl GpuCull {
                 bound = Some(key);
             }
             rec.push([rec.scene.ranges[p as usize].material, eye, 0, 0]);
-            let at = shift + p as u64;
-            // SAFETY: inside a rendering scope with a scene pipeline and the
-            // scene's buffers bound; the command and count lie inside this
-            // slot's buffers, written by the cull and made visible to the
-            // indirect stage by its barrier; VK_KHR_draw_indirect_count is enabled.
-            unsafe {
-                rec.ctx.device.cmd_draw_indexed_indirect_count(
-                    rec.cmd,
-                    s.commands.buffer,
-                    COMMAND * at,
-                    s.counts.buffer,
-                    4 * at,
-                    1,
-                    COMMAND as u32,
-                )
-            };
+            let first = self.cmd_first[p as usize] as usize;
+            let end = self
+                .cmd_first
+                .get(p as usize + 1)
+                .map_or(n_cmds, |&c| c as usize);
+            for c in first..end {
+                let at = shift + c as u64;
+                // SAFETY: inside a rendering scope with a scene pipeline and
+                // the scene's buffers bound; the command and count lie inside
+                // this slot's buffers, written by the cull and made visible to
+                // the indirect stage by its barrier; VK_KHR_draw_indirect_count
+                // is enabled.
+                unsafe {
+                    rec.ctx.device.cmd_draw_indexed_indirect_count(
+                        rec.cmd,
+                        s.commands.buffer,
+                        COMMAND * at,
+                        s.counts.buffer,
+                        4 * at,
+                        1,
+                        COMMAND as u32,
+                    )
+                };
+            }
         }
         match sky {
             Some(sky) => {
@@ -745,14 +838,16 @@ impl GpuCull {
         };
         let commands = words(&mut s.commands)?;
         let counts = words(&mut s.counts)?;
-        let n = self.tris.len();
+        let n = self.cmd_tris.len();
         let phases = if self.pyramid.is_some() { 2 } else { 1 };
         let mut out = Drawn::default();
-        for p in 0..phases * n {
-            let instances = commands[5 * p + 1] as u64;
-            out.draws += counts[p] as u64;
+        for c in 0..phases * n {
+            let instances = commands[5 * c + 1] as u64;
+            let tris = instances * self.cmd_tris[c % n];
+            out.draws += counts[c] as u64;
             out.instances += instances;
-            out.triangles += instances * self.tris[p % n];
+            out.triangles += tris;
+            out.cull.lod_triangles[self.cmd_level[c % n] as usize] += tris;
         }
         let c = |k: usize| counts[2 * n + k] as u64;
         out.cull = GpuCullStats {
@@ -761,6 +856,8 @@ impl GpuCull {
             drawn_early: c(2),
             drawn_late: c(3),
             occluded: c(4),
+            lod_dropped: c(5),
+            lod_triangles: out.cull.lod_triangles,
         };
         Ok(out)
     }
@@ -786,6 +883,8 @@ impl GpuCull {
             self.template,
             self.visibility,
             self.placeholder,
+            self.lod_levels,
+            self.lod_errors,
         ] {
             b.destroy(ctx);
         }
