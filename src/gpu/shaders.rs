@@ -54,8 +54,10 @@ pub static FLOOR_VERT: Module = spirv!("floor.vert");
 /// A constant colour.
 pub static FLAT_FRAG: Module = spirv!("flat.frag");
 
-/// GPU-driven culling's compute shader (`gpu-cull`).
+/// GPU-driven culling's compute shader (`gpu-cull`), with subgroup ballots.
 pub static GPU_CULL_COMP: Module = spirv!("gpu_cull.comp");
+/// GPU-driven culling without subgroup operations (devices lacking ballots).
+pub static GPU_CULL_PLAIN_COMP: Module = spirv!("gpu_cull_plain.comp");
 /// Occlusion's depth pyramid, level 0 from a single-sample depth image.
 pub static HIZ_INIT_COMP: Module = spirv!("hiz_init.comp");
 /// Occlusion's depth pyramid, level 0 from a multisampled depth image.
@@ -64,7 +66,7 @@ pub static HIZ_INIT_MS_COMP: Module = spirv!("hiz_init_ms.comp");
 pub static HIZ_REDUCE_COMP: Module = spirv!("hiz_reduce.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 15] = [
+pub static ALL: [&Module; 16] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -77,6 +79,7 @@ pub static ALL: [&Module; 15] = [
     &FLOOR_VERT,
     &FLAT_FRAG,
     &GPU_CULL_COMP,
+    &GPU_CULL_PLAIN_COMP,
     &HIZ_INIT_COMP,
     &HIZ_INIT_MS_COMP,
     &HIZ_REDUCE_COMP,

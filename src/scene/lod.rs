@@ -65,7 +65,10 @@ pub fn chain(p: &Primitive) -> Vec<Level> {
             &p.positions,
             target,
             f32::MAX,
-            meshopt::SimplifyOptions::ErrorAbsolute,
+            // Permissive: collapses may cross attribute seams (UV and normal
+            // splits), without which many-part CAD and game meshes stop
+            // after a level or two; the error stays the geometric one.
+            meshopt::SimplifyOptions::ErrorAbsolute | meshopt::SimplifyOptions::Permissive,
             Some(&mut error),
         );
         // No progress (or a degenerate result): the chain ends.
@@ -115,8 +118,13 @@ mod tests {
         assert!(err > 0.0 && err < 2.0, "{err}");
     }
 
+    /// Twelve triangles are the fewest a closed box has: any coarser level
+    /// deviates, and must say so.
     #[test]
-    fn a_box_cannot_be_simplified() {
-        assert!(chain(&shapes::cuboid([1.0, 1.0, 1.0], 0)).is_empty());
+    fn a_box_loses_triangles_only_with_an_error() {
+        for l in chain(&shapes::cuboid([1.0, 1.0, 1.0], 0)) {
+            assert!(l.indices.len() / 3 < 12);
+            assert!(l.error > 0.1, "{}", l.error);
+        }
     }
 }

@@ -77,6 +77,21 @@ pub struct GpuCullStats {
     pub lod_triangles: [u64; MAX_LEVELS],
 }
 
+/// Whether compute shaders on `ctx` have subgroup ballots (Vulkan 1.1's
+/// subgroup properties): the cull then aggregates its atomics per subgroup.
+fn subgroup_ballots(ctx: &Context) -> bool {
+    let mut sub = vk::PhysicalDeviceSubgroupProperties::default();
+    let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut sub);
+    // SAFETY: a valid physical device and a correctly chained query.
+    unsafe {
+        ctx.instance
+            .get_physical_device_properties2(ctx.physical_device, &mut p2)
+    };
+    let ops = vk::SubgroupFeatureFlags::BASIC | vk::SubgroupFeatureFlags::BALLOT;
+    sub.supported_stages.contains(vk::ShaderStageFlags::COMPUTE)
+        && sub.supported_operations.contains(ops)
+}
+
 /// The LOD parameters of one frame.
 #[derive(Clone, Copy, Debug, Default)]
 pub struct LodFrame {
@@ -608,12 +623,12 @@ impl GpuCull {
             // is live and owned by this pass.
             unsafe { d.update_descriptor_sets(&writes, &[]) };
         }
-        self.pipeline = compute_pipeline(
-            ctx,
-            self.layout,
-            &shaders::GPU_CULL_COMP.words(),
-            "gpu-cull",
-        )?;
+        let module = if subgroup_ballots(ctx) {
+            &shaders::GPU_CULL_COMP
+        } else {
+            &shaders::GPU_CULL_PLAIN_COMP
+        };
+        self.pipeline = compute_pipeline(ctx, self.layout, &module.words(), "gpu-cull")?;
         Ok(())
     }
 
