@@ -57,8 +57,14 @@ pub static FLAT_FRAG: Module = spirv!("flat.frag");
 /// GPU-driven culling's compute shader (`gpu-cull`).
 pub static GPU_CULL_COMP: Module = spirv!("gpu_cull.comp");
 
+/// The interaction overlay's vertex shader (boxes from the frame uniforms).
+pub static OVERLAY_VERT: Module = spirv!("overlay.vert");
+
+/// The interaction overlay's fragment shader.
+pub static OVERLAY_FRAG: Module = spirv!("overlay.frag");
+
 /// Every embedded module.
-pub static ALL: [&Module; 12] = [
+pub static ALL: [&Module; 14] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -71,6 +77,8 @@ pub static ALL: [&Module; 12] = [
     &FLOOR_VERT,
     &FLAT_FRAG,
     &GPU_CULL_COMP,
+    &OVERLAY_VERT,
+    &OVERLAY_FRAG,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).
