@@ -476,38 +476,48 @@ fn capture_session_in(
     let dir = out_dir(name);
     let s_path = dir.join("stats.json");
     let cap = dir.join("capture");
-    let done = Arc::new(AtomicBool::new(false));
-    let feeder = {
-        let done = done.clone();
-        std::thread::spawn(move || -> Result<(), String> {
-            let mut s = monado_remote::connect(Duration::from_secs(30))
-                .map_err(|e| format!("cannot reach the remote driver: {e}"))?;
-            let packet = monado_remote::encode_with(&head(), controllers);
-            while !done.load(Ordering::SeqCst) {
-                if monado_remote::send_packet(&mut s, &packet).is_err() {
-                    break;
+    // One retry when monado-service itself failed to start in time (this
+    // shared machine is sometimes too loaded for with-monado's 10 s).
+    let attempt = || {
+        let done = Arc::new(AtomicBool::new(false));
+        let feeder = {
+            let done = done.clone();
+            std::thread::spawn(move || -> Result<(), String> {
+                let mut s = monado_remote::connect(Duration::from_secs(30))
+                    .map_err(|e| format!("cannot reach the remote driver: {e}"))?;
+                let packet = monado_remote::encode_with(&head(), controllers);
+                while !done.load(Ordering::SeqCst) {
+                    if monado_remote::send_packet(&mut s, &packet).is_err() {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
                 }
-                std::thread::sleep(Duration::from_millis(10));
-            }
-            Ok(())
-        })
+                Ok(())
+            })
+        };
+        let out = Command::new(common::root().join("scripts/with-monado"))
+            .arg("--remote")
+            .arg(env!("CARGO_BIN_EXE_vergence"))
+            .args(["run", "--xr", "openxr", "--scene", scene])
+            .args(["--frames", "40", "--width", "320", "--height", "240"])
+            .args(["--spawn", SPAWN])
+            .arg("--capture")
+            .arg(&cap)
+            .arg("--stats-out")
+            .arg(&s_path)
+            .env("VERGENCE_XR_RUNDIR", dir.join("run"))
+            .env("NO_COLOR", "1")
+            .output()
+            .expect("with-monado");
+        done.store(true, Ordering::SeqCst);
+        let _ = feeder.join();
+        out
     };
-    let out = Command::new(common::root().join("scripts/with-monado"))
-        .arg("--remote")
-        .arg(env!("CARGO_BIN_EXE_vergence"))
-        .args(["run", "--xr", "openxr", "--scene", scene])
-        .args(["--frames", "40", "--width", "320", "--height", "240"])
-        .args(["--spawn", SPAWN])
-        .arg("--capture")
-        .arg(&cap)
-        .arg("--stats-out")
-        .arg(&s_path)
-        .env("VERGENCE_XR_RUNDIR", dir.join("run"))
-        .env("NO_COLOR", "1")
-        .output()
-        .expect("with-monado");
-    done.store(true, Ordering::SeqCst);
-    let _ = feeder.join();
+    let mut out = attempt();
+    if String::from_utf8_lossy(&out.stderr).contains("did not open its socket") {
+        std::thread::sleep(Duration::from_secs(2));
+        out = attempt();
+    }
     let log = String::from_utf8_lossy(&out.stderr).into_owned();
     assert!(out.status.success(), "{name}: {log}");
     let s: Value = serde_json::from_str(&std::fs::read_to_string(&s_path).expect("stats"))

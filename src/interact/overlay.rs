@@ -1,11 +1,13 @@
 //! What the user sees of the tools, as world-space boxes for the renderer's
 //! overlay pass: a simple procedural controller model at each grip pose,
 //! the pointing ray from each aim pose to what it hits, the teleport arc
-//! and its landing marker, the measure points with the line between them
+//! and its landing marker, an outline around the instance a ray points at,
+//! the measure points with the line between them
 //! and the distance drawn as seven-segment digits facing the head. Pure
 //! data (no Vulkan types); sizes follow the world scale so the models stay
 //! hand-sized when the world is scaled.
 
+use super::raycast::SceneQuery;
 use super::{FrameInput, Interaction, Update};
 use crate::view::Pose;
 use glam::DVec3;
@@ -24,6 +26,8 @@ pub const RING_COLORS: [[f32; 3]; 2] = [[0.1, 0.35, 1.0], [1.0, 0.3, 0.1]];
 pub const ARC_OK_COLOR: [f32; 3] = [0.1, 1.0, 0.25];
 /// A teleport arc without a target.
 pub const ARC_NONE_COLOR: [f32; 3] = [1.0, 0.1, 0.05];
+/// The outline of the instance a ray points at.
+pub const HIGHLIGHT_COLOR: [f32; 3] = [0.0, 0.85, 1.0];
 /// Measure points and the line between them.
 pub const MEASURE_COLOR: [f32; 3] = [1.0, 0.85, 0.0];
 /// The measure label.
@@ -151,10 +155,42 @@ pub fn push_label(out: &mut Vec<OverlayBox>, text: &str, anchor: DVec3, eye: DVe
     }
 }
 
+/// Appends the twelve edges of the box `[lo, hi]`, grown by `pad`, as bars
+/// of `thickness`.
+pub fn push_outline(out: &mut Vec<OverlayBox>, lo: DVec3, hi: DVec3, pad: f64, thickness: f64) {
+    let (lo, hi) = (lo - DVec3::splat(pad), hi + DVec3::splat(pad));
+    let corner = |i: usize| {
+        DVec3::new(
+            if i & 1 == 0 { lo.x } else { hi.x },
+            if i & 2 == 0 { lo.y } else { hi.y },
+            if i & 4 == 0 { lo.z } else { hi.z },
+        )
+    };
+    // Corners differing in one bit share an edge.
+    for a in 0..8 {
+        for bit in [1, 2, 4] {
+            if a & bit == 0 {
+                out.extend(OverlayBox::segment(
+                    corner(a),
+                    corner(a | bit),
+                    thickness,
+                    HIGHLIGHT_COLOR,
+                ));
+            }
+        }
+    }
+}
+
 /// The frame's overlay for `it` after [`Interaction::update`] gave
-/// `update` for `input`: replaces `out`'s contents (at most
-/// [`MAX_BOXES`]).
-pub fn build(it: &Interaction, input: &FrameInput, update: &Update, out: &mut Vec<OverlayBox>) {
+/// `update` for `input` over the scene `q`: replaces `out`'s contents (at
+/// most [`MAX_BOXES`]).
+pub fn build(
+    it: &Interaction,
+    input: &FrameInput,
+    update: &Update,
+    q: &SceneQuery,
+    out: &mut Vec<OverlayBox>,
+) {
     out.clear();
     let s = it.origin.scale;
     for (i, hand) in input.hands.iter().enumerate() {
@@ -189,6 +225,18 @@ pub fn build(it: &Interaction, input: &FrameInput, update: &Update, out: &mut Ve
                 RAY_THICKNESS_M * s,
                 RAY_COLOR,
             ));
+        }
+    }
+    // The instances the rays point at, outlined (once when both hands
+    // point at the same one).
+    let mut seen: Option<u32> = None;
+    for i in update.hover.iter().flatten().map(|h| h.instance) {
+        if seen == Some(i) {
+            continue;
+        }
+        seen = Some(i);
+        if let Some((lo, hi)) = q.instance_bounds(i) {
+            push_outline(out, lo, hi, 0.01 * s, 0.006 * s);
         }
     }
     if let Some(arc) = &update.arc {
@@ -259,6 +307,24 @@ mod tests {
     use crate::interact::locomotion::Origin;
     use crate::interact::raycast::Hit;
     use crate::interact::{HandInput, Settings};
+    use crate::scene::{shapes, Instance, Material, Mesh, Scene};
+    use glam::DAffine3;
+
+    /// One 2 × 2 × 2 m box centred at (10, 1, −3).
+    fn one_box() -> Scene {
+        let mut scene = Scene::default();
+        scene.materials.push(Material::default());
+        scene.primitives.push(shapes::cuboid([1.0, 1.0, 1.0], 0));
+        scene.meshes.push(Mesh {
+            name: "box".into(),
+            primitives: vec![0],
+        });
+        scene.instances.push(Instance {
+            mesh: 0,
+            transform: DAffine3::from_translation(DVec3::new(10.0, 1.0, -3.0)),
+        });
+        scene
+    }
 
     fn hand(at: DVec3) -> HandInput {
         let p = Pose {
@@ -294,8 +360,10 @@ mod tests {
             point: DVec3::new(10.2, 1.0, -2.3),
             normal: DVec3::Z,
         });
+        let scene = one_box();
+        let q = SceneQuery::new(&scene);
         let mut out = Vec::new();
-        build(&it, &input, &update, &mut out);
+        build(&it, &input, &update, &q, &mut out);
         let rays: Vec<&OverlayBox> = out.iter().filter(|b| b.color == RAY_COLOR).collect();
         assert_eq!(rays.len(), 1);
         let r = rays[0];
@@ -305,8 +373,27 @@ mod tests {
         assert!((r.axes[0].length() - RAY_THICKNESS_M / 2.0).abs() < 1e-12);
         // Body and ring of the right controller only.
         assert_eq!(out.iter().filter(|b| b.color == BODY_COLOR).count(), 1);
+        // The box the ray points at is outlined: twelve edges on its
+        // bounds grown by a centimetre.
+        let edges: Vec<&OverlayBox> = out.iter().filter(|b| b.color == HIGHLIGHT_COLOR).collect();
+        assert_eq!(edges.len(), 12);
+        for e in edges {
+            for end in [e.center - e.axes[2], e.center + e.axes[2]] {
+                let off = (end - DVec3::new(10.0, 1.0, -3.0)).abs();
+                assert!(
+                    (off - DVec3::splat(1.01)).abs().max_element() < 1e-9,
+                    "{end}"
+                );
+            }
+        }
         // No hands, no boxes.
-        build(&it, &FrameInput::default(), &Update::default(), &mut out);
+        build(
+            &it,
+            &FrameInput::default(),
+            &Update::default(),
+            &q,
+            &mut out,
+        );
         assert!(out.is_empty());
     }
 
@@ -315,8 +402,15 @@ mod tests {
         let mut it = Interaction::new(Origin::from_pose(&Pose::default()), Settings::default());
         it.measure.press(DVec3::new(-0.175, 0.0, -2.0));
         it.measure.press(DVec3::new(0.175, 0.0, -2.0));
+        let scene = one_box();
         let mut out = Vec::new();
-        build(&it, &FrameInput::default(), &Update::default(), &mut out);
+        build(
+            &it,
+            &FrameInput::default(),
+            &Update::default(),
+            &SceneQuery::new(&scene),
+            &mut out,
+        );
         let measure = out.iter().filter(|b| b.color == MEASURE_COLOR).count();
         assert_eq!(measure, 3, "two points and the line");
         // "0.350 m": 6 + 5 + 5 + 6 segments, the point and the m's 4 bars.
@@ -348,8 +442,9 @@ mod tests {
             }),
             ..Update::default()
         };
+        let scene = one_box();
         let mut out = Vec::new();
-        build(&it, &input, &update, &mut out);
+        build(&it, &input, &update, &SceneQuery::new(&scene), &mut out);
         assert!(out.len() <= MAX_BOXES);
         let arc = out.iter().filter(|b| b.color == ARC_OK_COLOR).count();
         assert!((40..=ARC_SEGMENTS + 2).contains(&arc), "{arc}");

@@ -631,7 +631,13 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 hands,
             };
             let update = st.interaction.update(&input, &st.query);
-            crate::interact::overlay::build(&st.interaction, &input, &update, &mut st.overlay);
+            crate::interact::overlay::build(
+                &st.interaction,
+                &input,
+                &update,
+                &st.query,
+                &mut st.overlay,
+            );
             if let Some(c) = &live.controls {
                 for hand in (0..2).filter(|&h| update.haptic[h]) {
                     let _w = live.watchdog.watch("xrApplyHapticFeedback");
