@@ -388,6 +388,7 @@ cli("cli-cull-leaf-size", ["cull-bench", "--leaf-size", "0"], ["--leaf-size"], e
 cli("cli-cull-near", ["cull-bench", "--near=-1"], ["--near"], exit=2)
 cli("cli-render-width", ["render", "--width", "100000", "--height", "10", "--out", "{out}"], ["--width", "1..=16384"], exit=2)
 cli("cli-render-pose", ["render", "--pose", "1e300,0,0,0,0,0", "--out", "{out}"], ["--pose", "within"], exit=2)
+cli("cli-render-section", ["render", "--section", "0,0,0,0,0,0", "--out", "{out}"], ["--section", "no direction"], exit=2)
 cli("cli-tune-budget", ["tune", "--budget-ms", "inf"], ["--budget-ms"], exit=2)
 cli("cli-compare-ppd", ["compare", "a.png", "b.png", "--ppd", "1e9"], ["--ppd"], exit=2)
 # Class 5, dead or silently ignored options: used, or refused.

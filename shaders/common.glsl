@@ -26,6 +26,9 @@ layout(set = 0, binding = 0) uniform FrameData {
     vec4 sky_zenith;
     vec4 sky_horizon;
     vec4 ground;
+    vec4 section;          // clip distance dot(section.xyz, p) + section.w < 0: cut away
+    vec4 overlay_info;     // x: overlay boxes in use
+    vec4 overlay[640];     // 4 per box: centre + r, half axes + g, b, 1 (MAX_BOXES = 160)
 } frame;
 
 layout(push_constant) uniform Push {

@@ -19,6 +19,11 @@ layout(location = 2) out vec4 v_tangent;
 layout(location = 3) out vec4 v_uv;
 layout(location = 4) out vec4 v_color;
 
+out gl_PerVertex {
+    vec4 gl_Position;
+    float gl_ClipDistance[1];
+};
+
 void main() {
     InstanceData inst = instances[visible[gl_InstanceIndex]];
     mat3 m = transpose(mat3(inst.row0.xyz, inst.row1.xyz, inst.row2.xyz));
@@ -38,4 +43,6 @@ void main() {
     v_uv = vec4(in_uv0, in_uv1);
     v_color = in_color;
     gl_Position = frame.view_proj[view] * vec4(p, 1.0);
+    // The section plane: negative beyond it, so the rasterizer cuts there.
+    gl_ClipDistance[0] = dot(frame.section.xyz, p) + frame.section.w;
 }

@@ -116,6 +116,40 @@ pub fn parse_pose(s: &str) -> Result<Pose, String> {
     ))
 }
 
+/// `--section x,y,z,nx,ny,nz`: a plane through the point (metres within
+/// ±[`MAX_DISTANCE_M`]) with the normal pointing into the side cut away, as
+/// (n.x, n.y, n.z, d) with a unit normal and `n · x + d = 0` on the plane.
+pub fn parse_section(s: &str) -> Result<[f64; 4], String> {
+    let parts: Vec<&str> = s.split(',').collect();
+    if parts.len() != 6 {
+        return Err(format!(
+            "expected 6 numbers x,y,z,nx,ny,nz (a point and the normal of the side cut away), got {}",
+            parts.len()
+        ));
+    }
+    let mut v = [0.0f64; 6];
+    for (i, p) in parts.iter().enumerate() {
+        let x: f64 = p
+            .trim()
+            .parse()
+            .map_err(|_| format!("'{p}' is not a number"))?;
+        if !(x.is_finite() && x.abs() <= MAX_DISTANCE_M) {
+            return Err(format!("'{p}' must be finite and within ±{MAX_DISTANCE_M}"));
+        }
+        v[i] = x;
+    }
+    let point = DVec3::new(v[0], v[1], v[2]);
+    let raw = DVec3::new(v[3], v[4], v[5]);
+    if raw.length() <= 1e-9 {
+        return Err(format!(
+            "the normal {},{},{} has no direction",
+            v[3], v[4], v[5]
+        ));
+    }
+    let n = raw.normalize();
+    Ok([n.x, n.y, n.z, -n.dot(point)])
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -134,5 +168,12 @@ mod tests {
         assert!(parse_pose("1,2,3,0,0").unwrap_err().contains("got 5"));
         assert!(parse_pose("1e300,0,0,0,0,0").is_err());
         assert!(parse_pose("0,1.7,0,90,-10,0").is_ok());
+        assert_eq!(parse_section("0,0,2,0,0,-3"), Ok([0.0, 0.0, -1.0, 2.0]));
+        assert!(parse_section("0,0,0,0,0,0")
+            .unwrap_err()
+            .contains("no direction"));
+        assert!(parse_section("0,0,0,1,0").unwrap_err().contains("got 5"));
+        assert!(parse_section("0,0,0,1,0,nan").is_err());
+        assert!(parse_section("1e300,0,0,1,0,0").is_err());
     }
 }

@@ -132,6 +132,11 @@ pub struct RenderConfig {
     /// whose error projects to at most this many pixels, and none when the
     /// whole instance does (None: off).
     pub lod: Option<f64>,
+    /// A section plane `n · x + d = 0` as (n.x, n.y, n.z, d) with a unit
+    /// normal `n` (`--section`): geometry on its positive side is clipped
+    /// by the scene shaders and culling skips instances wholly beyond it.
+    /// In a headset the section tool replaces it at run time.
+    pub section: Option<[f64; 4]>,
 }
 
 /// Most frames in flight `--frames-in-flight` accepts.
@@ -206,6 +211,7 @@ impl Default for RenderConfig {
             gpu_cull: false,
             occlusion: false,
             lod: None,
+            section: None,
         }
     }
 }
@@ -251,6 +257,15 @@ impl RenderConfig {
                 "--opt",
                 "gpu-cull and mffr cannot be combined yet: the near/far instance split runs on the CPU only",
             ));
+        }
+        if let Some(p) = self.section {
+            let n = glam::DVec3::new(p[0], p[1], p[2]);
+            if !(p.iter().all(|v| v.is_finite()) && (n.length() - 1.0).abs() < 1e-6) {
+                return Err(Error::config(
+                    "--section",
+                    format!("{p:?} is not a plane with a unit normal"),
+                ));
+            }
         }
         if !(self.near.is_finite() && self.near > 0.0) {
             return Err(Error::config(

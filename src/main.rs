@@ -166,6 +166,11 @@ struct FrameOpts {
     /// applied before --opt.
     #[arg(long)]
     config: Option<PathBuf>,
+    /// A section plane x,y,z,nx,ny,nz: through the point (metres), cutting
+    /// away the side the normal points to (clipped in the shaders; culling
+    /// skips instances wholly beyond).
+    #[arg(long, value_parser = vergence::cli::parse_section, allow_hyphen_values = true)]
+    section: Option<[f64; 4]>,
 }
 
 impl FrameOpts {
@@ -175,6 +180,7 @@ impl FrameOpts {
             stereo: self.stereo,
             msaa: self.msaa,
             frames_in_flight: self.frames_in_flight,
+            section: self.section,
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {

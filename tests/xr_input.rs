@@ -26,6 +26,10 @@ const MEASURED: f64 = 0.35;
 /// Spawn: bay 0 of the factory, facing +X (yaw −90°), clear floor around.
 const SPAWN: &str = "1,0,-1,-90";
 
+/// One Monado session at a time (the remote driver's port and the run
+/// directory are shared).
+static SESSION: Mutex<()> = Mutex::new(());
+
 fn out_dir(name: &str) -> PathBuf {
     let d = common::root().join("target/xr-tests").join(name);
     let _ = std::fs::remove_dir_all(&d);
@@ -126,7 +130,12 @@ fn script() -> Vec<Step> {
     c[1].trigger = 1.0;
     push("section-press", ms(300), c);
     c[1].trigger = 0.0;
-    push("section-release", ms(300), c);
+    push("section-release", ms(600), c);
+    // A second press removes the plane.
+    c[1].trigger = 1.0;
+    push("section-off-press", ms(300), c);
+    c[1].trigger = 0.0;
+    push("section-off", ms(600), c);
     c[1].b_click = true;
     push("menu-select", ms(300), c);
     c[1].b_click = false;
@@ -205,6 +214,7 @@ fn dist(a: [f64; 3], b: [f64; 3]) -> f64 {
 
 #[test]
 fn controllers_move_turn_teleport_and_select_through_the_runtime() {
+    let _one = SESSION.lock().unwrap_or_else(|e| e.into_inner());
     let dir = out_dir("input");
     let s_path = dir.join("stats.json");
     let rundir = dir.join("run");
@@ -235,6 +245,7 @@ fn controllers_move_turn_teleport_and_select_through_the_runtime() {
         .arg(env!("CARGO_BIN_EXE_vergence"))
         .args(["run", "--xr", "openxr", "--scene", "factory:2000"])
         .args(["--seconds", "60", "--width", "160", "--height", "120"])
+        .args(["--opt", "superfrustum"])
         .args(["--spawn", SPAWN, "--move-speed", "1.5", "--snap-turn", "45"])
         .arg("--stats-out")
         .arg(&s_path)
@@ -341,11 +352,37 @@ fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
     // Section: placed through the hand, facing where it points (+X at the
     // spawn's yaw −90°).
     let sections = events(&frames, "section");
-    assert_eq!(sections.len(), 1, "{sections:?}");
+    assert_eq!(sections.len(), 2, "placed and removed: {sections:?}");
     let plane = &sections[0].1["plane"];
     assert!(
         (plane[0].as_f64().unwrap() - 1.0).abs() < 1e-6,
         "normal +X: {plane}"
+    );
+    assert!(sections[1].1["plane"].is_null(), "{sections:?}");
+    // The plane cuts away everything ahead of the hand: culling skips it
+    // while the plane is there, and draws it again once it is removed.
+    let (on, off) = (sections[0].0, sections[1].0);
+    let drawn = |r: std::ops::Range<usize>| {
+        let mut v: Vec<u64> = frames[r]
+            .iter()
+            .filter(|f| f["head_world"].is_object())
+            .map(|f| f["instances_drawn"].as_u64().unwrap())
+            .collect();
+        v.sort_unstable();
+        assert!(!v.is_empty(), "frames with a view");
+        v[v.len() / 2]
+    };
+    let before = drawn(on.saturating_sub(6)..on);
+    let during = drawn(on..off);
+    let after = drawn(off..(off + 6).min(frames.len()));
+    eprintln!("instances drawn: {before} before the plane, {during} with it, {after} after");
+    assert!(
+        during * 2 < before,
+        "{during} drawn with the plane, {before} without"
+    );
+    assert!(
+        after * 10 >= before * 9,
+        "{after} drawn after removing it, {before} before"
     );
 
     // Smooth move: from the select to the turn the head moved speed × 1 s
@@ -418,4 +455,163 @@ fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
         "profiles {} / {}; select {sel}; moved {moved:.3} m; turned {d:.3}°; teleport to {to:?}",
         s["interaction_profiles"]["left"], s["interaction_profiles"]["right"]
     );
+}
+
+/// Runs `vergence run` under Monado's remote driver for 40 frames with the
+/// controllers held still as `controllers` (None: not tracked) and returns
+/// the stats and the captured left eye.
+fn capture_session(
+    name: &str,
+    controllers: [Option<RemoteController>; 2],
+) -> (Value, image::RgbaImage) {
+    capture_session_in(name, "factory:2000", controllers)
+}
+
+/// [`capture_session`] of `scene`.
+fn capture_session_in(
+    name: &str,
+    scene: &str,
+    controllers: [Option<RemoteController>; 2],
+) -> (Value, image::RgbaImage) {
+    let dir = out_dir(name);
+    let s_path = dir.join("stats.json");
+    let cap = dir.join("capture");
+    // One retry when monado-service itself failed to start in time (this
+    // shared machine is sometimes too loaded for with-monado's 10 s).
+    let attempt = || {
+        let done = Arc::new(AtomicBool::new(false));
+        let feeder = {
+            let done = done.clone();
+            std::thread::spawn(move || -> Result<(), String> {
+                let mut s = monado_remote::connect(Duration::from_secs(30))
+                    .map_err(|e| format!("cannot reach the remote driver: {e}"))?;
+                let packet = monado_remote::encode_with(&head(), controllers);
+                while !done.load(Ordering::SeqCst) {
+                    if monado_remote::send_packet(&mut s, &packet).is_err() {
+                        break;
+                    }
+                    std::thread::sleep(Duration::from_millis(10));
+                }
+                Ok(())
+            })
+        };
+        let out = Command::new(common::root().join("scripts/with-monado"))
+            .arg("--remote")
+            .arg(env!("CARGO_BIN_EXE_vergence"))
+            .args(["run", "--xr", "openxr", "--scene", scene])
+            .args(["--frames", "40", "--width", "320", "--height", "240"])
+            .args(["--spawn", SPAWN])
+            .arg("--capture")
+            .arg(&cap)
+            .arg("--stats-out")
+            .arg(&s_path)
+            .env("VERGENCE_XR_RUNDIR", dir.join("run"))
+            .env("NO_COLOR", "1")
+            .output()
+            .expect("with-monado");
+        done.store(true, Ordering::SeqCst);
+        let _ = feeder.join();
+        out
+    };
+    let mut out = attempt();
+    if String::from_utf8_lossy(&out.stderr).contains("did not open its socket") {
+        std::thread::sleep(Duration::from_secs(2));
+        out = attempt();
+    }
+    let log = String::from_utf8_lossy(&out.stderr).into_owned();
+    assert!(out.status.success(), "{name}: {log}");
+    let s: Value = serde_json::from_str(&std::fs::read_to_string(&s_path).expect("stats"))
+        .expect("stats JSON");
+    assert_eq!(s["validation_messages"], 0, "Vulkan validation: {log}");
+    assert_eq!(s["xr_validation_messages"], 0, "OpenXR validation: {log}");
+    let img = image::open(cap.join("left.png"))
+        .expect("left.png")
+        .to_rgba8();
+    (s, img)
+}
+
+/// Pixels of the pointing ray's colour (magenta), as (x, y).
+fn ray_pixels(img: &image::RgbaImage) -> Vec<(u32, u32)> {
+    img.enumerate_pixels()
+        .filter(|(_, _, p)| p.0[0] > 140 && p.0[2] > 140 && p.0[1] < 90)
+        .map(|(x, y, _)| (x, y))
+        .collect()
+}
+
+#[test]
+fn the_controller_ray_shows_where_the_hand_points() {
+    let _one = SESSION.lock().unwrap_or_else(|e| e.into_inner());
+    // Both hands held forward and level, 0.6 m below the eyes, 0.2 m to
+    // the left and right: each ray runs from a lower corner towards the
+    // image centre.
+    let c = idle();
+    let (_, with) = capture_session("ray", [Some(c[0]), Some(c[1])]);
+    let (_, without) = capture_session("no-ray", [None, None]);
+    let (w, h) = with.dimensions();
+    let ray = ray_pixels(&with);
+    let none = ray_pixels(&without);
+    eprintln!(
+        "{} ray pixels with controllers, {} without",
+        ray.len(),
+        none.len()
+    );
+    assert!(ray.len() >= 30, "{} ray pixels", ray.len());
+    let lower = |left: bool| {
+        ray.iter()
+            .filter(|(x, y)| *y >= h / 2 && (*x < w / 2) == left)
+            .count()
+    };
+    let (ll, lr) = (lower(true), lower(false));
+    assert!(
+        ll >= 10 && lr >= 10,
+        "left hand's ray {ll} px lower left, right's {lr} px lower right"
+    );
+    assert!(
+        (ll + lr) * 10 >= ray.len() * 9,
+        "{} of {} ray pixels in the lower half",
+        ll + lr,
+        ray.len()
+    );
+    assert!(
+        none.is_empty(),
+        "{} ray-coloured pixels without controllers",
+        none.len()
+    );
+}
+
+#[test]
+fn the_stick_click_goes_to_a_manifest_viewpoint() {
+    let _one = SESSION.lock().unwrap_or_else(|e| e.into_inner());
+    let dir = out_dir("viewpoint-scene");
+    let manifest = dir.join("hall.toml");
+    let box_gltf = common::root().join("assets/Box/Box.gltf");
+    std::fs::write(
+        &manifest,
+        format!(
+            "name = \"hall\"\n[[procedural]]\nkind = \"factory\"\ninstances = 500\n\
+             [[gltf]]\nfile = {:?}\n\
+             [[viewpoint]]\nname = \"mezzanine\"\nposition = [12.0, 3.0, -7.0]\nyaw_deg = 90.0\n",
+            box_gltf.to_str().unwrap()
+        ),
+    )
+    .unwrap();
+    // The right stick held clicked from the start: one press, so the
+    // origin goes from the spawn to the next viewpoint, the manifest's.
+    let mut c = idle();
+    c[1].thumbstick_click = true;
+    let (s, _) = capture_session_in(
+        "viewpoint",
+        manifest.to_str().unwrap(),
+        [Some(c[0]), Some(c[1])],
+    );
+    let frames = s["frames"].as_array().expect("frames");
+    let recentres = events(frames, "recenter");
+    assert_eq!(recentres.len(), 1, "{recentres:?}");
+    let (i, e) = recentres[0];
+    assert_eq!(e["viewpoint"], 1, "{e}");
+    let h = vec3(&frames[i]["head_world"]["position"]);
+    // The tracked head stands at (0, 1.6, 0) over the tracking origin.
+    assert!(dist(h, [12.0, 4.6, -7.0]) < 1e-3, "head at {h:?}");
+    let yaw = yaw_of(&frames[i]["head_world"]["orientation"]).to_degrees();
+    assert!((yaw - 90.0).abs() < 0.01, "yaw {yaw}");
 }

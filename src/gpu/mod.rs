@@ -626,9 +626,16 @@ impl PartialInstance {
                 "the device lacks multiview, dynamic rendering or synchronization2".into(),
             ));
         }
+        // The section plane clips in the scene's vertex shader.
+        if base.shader_clip_distance == 0 {
+            return Err(Error::Gpu(
+                "the device lacks shaderClipDistance (the section plane needs it)".into(),
+            ));
+        }
         let pipeline_statistics = base.pipeline_statistics_query != 0;
         let features = vk::PhysicalDeviceFeatures::default()
             .pipeline_statistics_query(pipeline_statistics)
+            .shader_clip_distance(true)
             .shader_sampled_image_array_dynamic_indexing(
                 base.shader_sampled_image_array_dynamic_indexing != 0,
             )

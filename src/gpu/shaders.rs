@@ -65,8 +65,14 @@ pub static HIZ_INIT_MS_COMP: Module = spirv!("hiz_init_ms.comp");
 /// Occlusion's depth pyramid, one level from the one before.
 pub static HIZ_REDUCE_COMP: Module = spirv!("hiz_reduce.comp");
 
+/// The interaction overlay's vertex shader (boxes from the frame uniforms).
+pub static OVERLAY_VERT: Module = spirv!("overlay.vert");
+
+/// The interaction overlay's fragment shader.
+pub static OVERLAY_FRAG: Module = spirv!("overlay.frag");
+
 /// Every embedded module.
-pub static ALL: [&Module; 16] = [
+pub static ALL: [&Module; 18] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -83,6 +89,8 @@ pub static ALL: [&Module; 16] = [
     &HIZ_INIT_COMP,
     &HIZ_INIT_MS_COMP,
     &HIZ_REDUCE_COMP,
+    &OVERLAY_VERT,
+    &OVERLAY_FRAG,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).

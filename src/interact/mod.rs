@@ -19,6 +19,7 @@
 
 pub mod locomotion;
 pub mod measure;
+pub mod overlay;
 pub mod raycast;
 pub mod section;
 
@@ -167,10 +168,14 @@ pub struct Picked {
     pub instance: u32,
     /// The source node's name, when the scene keeps node names.
     pub node: Option<String>,
+    /// The node's path from the scene root, names joined by `/`.
+    pub path: Option<String>,
     /// Mesh name.
     pub mesh: String,
     /// Material name of the primitive hit.
     pub material: String,
+    /// The node's glTF `extras`.
+    pub extras: Option<serde_json::Value>,
     /// World-space hit point.
     pub point: [f64; 3],
     /// Distance from the hand, metres.
@@ -188,11 +193,17 @@ pub fn describe(scene: &Scene, hit: &Hit, from: DVec3) -> Picked {
         .get(hit.primitive as usize)
         .and_then(|p| scene.materials.get(p.material as usize))
         .map_or_else(String::new, |m| m.name.clone());
+    let node = scene.node_of(hit.instance as usize);
+    let info = node.and_then(|n| scene.node_info.get(n as usize));
     Picked {
         instance: hit.instance,
-        node: None,
+        node: info.and_then(|i| i.name.clone()),
+        path: node.map(|n| scene.node_path(n)),
         mesh,
         material,
+        extras: info
+            .and_then(|i| i.extras.as_deref())
+            .and_then(|t| serde_json::from_str(t).ok()),
         point: hit.point.to_array(),
         distance_m: hit.point.distance(from),
     }

@@ -156,6 +156,13 @@ impl<'a> SceneQuery<'a> {
         self.scene
     }
 
+    /// The world bounds of instance `i` (None when out of range or when
+    /// ray casts are disabled).
+    pub fn instance_bounds(&self, i: u32) -> Option<(DVec3, DVec3)> {
+        let b = self.bvh.as_ref()?;
+        ((i as usize) < b.len()).then(|| b.instances.get(i as usize))
+    }
+
     /// The closest triangle of instance `i` along `ray`, at most `max_t`.
     fn instance_hit(&self, i: u32, ray: &Ray, max_t: f64) -> Option<Hit> {
         let placed = self.placed.get(i as usize).copied().flatten()?;

@@ -13,6 +13,8 @@ use super::culling::CullState;
 use super::{FrameOutput, FrameStats, Renderer};
 use crate::cull::CullStats;
 use crate::error::{Error, Result};
+use crate::interact::overlay::OverlayBox;
+use crate::interact::section::SectionPlane;
 use crate::scene::Scene;
 use crate::view::{Fov, StereoRig};
 use std::collections::VecDeque;
@@ -93,6 +95,25 @@ impl FrameDriver {
     /// The culling state (None without a strategy).
     pub fn culling(&self) -> Option<&CullState> {
         self.culling.as_ref()
+    }
+
+    /// Sets the section plane of the following frames: the scene shaders
+    /// clip beyond it and CPU culling skips instances wholly beyond it
+    /// (GPU culling, `gpu-cull`, does not: its instances beyond the plane
+    /// are drawn and clipped).
+    pub fn set_section(&mut self, plane: Option<SectionPlane>) {
+        self.renderer.extras.section = plane;
+        if let Some(c) = self.culling.as_mut() {
+            c.set_section(plane);
+        }
+    }
+
+    /// Sets the overlay boxes (controllers, rays, arcs, labels) of the
+    /// following frames.
+    pub fn set_overlay(&mut self, boxes: &[OverlayBox]) {
+        let o = &mut self.renderer.extras.overlay;
+        o.clear();
+        o.extend_from_slice(boxes);
     }
 
     /// Culls `rig` and records frame `index` (the command buffer stays open

@@ -143,6 +143,8 @@ pub struct Renderer {
     frame_index: u64,
     /// The scene's own sun (a glTF directional light), else the default.
     sun: Option<crate::scene::Sun>,
+    /// The section plane and overlay boxes of the next frames.
+    pub extras: uniforms::FrameExtras,
     /// Frames where MFFR fell back to stereo (no finite centre camera).
     pub mffr_fallbacks: u64,
     /// Whether the monoscopic far field splits the visible instances by
@@ -240,6 +242,10 @@ impl Renderer {
             slot_wait_ms: 0.0,
             batcher: Batcher::new(scene),
             sun: scene.sun,
+            extras: uniforms::FrameExtras {
+                section: config.section.map(culling::plane_of),
+                overlay: Vec::new(),
+            },
             batches: Batches::default(),
             pending: None,
             shading_rate: None,
@@ -397,6 +403,7 @@ impl Renderer {
             u.sun_dir = sun.direction.as_vec3().extend(0.0);
             u.sun_color = glam::Vec3::from_array(sun.color).extend(0.0);
         }
+        self.extras.apply(&mut u, rig.head.position);
         u
     }
 
@@ -853,6 +860,9 @@ impl Renderer {
                         }
                         None => draw_calls += passes.forward.record(&rec, near, eye, true),
                     },
+                }
+                if floor.is_none() && part != ScopePart::First {
+                    draw_calls += passes.overlay.record(&rec, self.extras.overlay.len(), eye);
                 }
                 rec.end_scope();
                 q.end_pass(ctx, cmd);

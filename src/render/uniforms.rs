@@ -2,8 +2,8 @@
 //! binding 0, std140) as a `#[repr(C)]` struct with the same members in the
 //! same order. Every member is a mat4 or vec4 (arrays of them have a 16-byte
 //! stride), so std140 adds no padding and the Rust layout equals the GLSL
-//! one; the tests check the size (752 bytes) and every offset against the
-//! GLSL block.
+//! one; the tests check the size (11 024 bytes) and every offset against
+//! the GLSL block.
 //!
 //! Positions are camera-relative: the view-projections take world points
 //! relative to the render origin (the head), whose f64 position travels
@@ -11,8 +11,10 @@
 //! way and recombined on the GPU).
 
 use crate::gpu::memory::Pod;
+use crate::interact::overlay::{OverlayBox, MAX_BOXES};
+use crate::interact::section::SectionPlane;
 use crate::view::{projection, StereoRig, View};
-use glam::{DMat3, Mat4, Vec3, Vec4};
+use glam::{DMat3, DVec3, Mat4, Vec3, Vec4};
 
 use super::scene_gpu::split_dvec3;
 
@@ -44,15 +46,79 @@ pub struct FrameUniforms {
     pub sky_horizon: Vec4,
     /// Ground colour below the horizon.
     pub ground: Vec4,
+    /// The section plane relative to the render origin as the clip
+    /// distance's coefficients: `dot(section.xyz, p) + section.w` is
+    /// negative (clipped) beyond the plane; (0, 0, 0, 1) keeps everything.
+    pub section: Vec4,
+    /// x: the number of overlay boxes in `overlay`.
+    pub overlay_info: Vec4,
+    /// Overlay boxes (controllers, rays, arcs, markers, labels), four
+    /// vec4 each: centre relative to the render origin and red, then the
+    /// three half-axis vectors with green, blue and 1.
+    pub overlay: [Vec4; 4 * MAX_BOXES],
 }
 
 /// Size of [`FrameUniforms`] in bytes (the uniform buffer's size).
 pub const SIZE: u64 = std::mem::size_of::<FrameUniforms>() as u64;
 
 const _: () = assert!(
-    SIZE == 8 * 64 + 15 * 16,
-    "FrameUniforms has no padding: 8 mat4s and 15 vec4s"
+    SIZE == 8 * 64 + (17 + 4 * MAX_BOXES as u64) * 16,
+    "FrameUniforms has no padding: 8 mat4s and only vec4s besides"
 );
+const _: () = assert!(
+    SIZE <= 16384,
+    "within the smallest maxUniformBufferRange Vulkan allows"
+);
+
+/// The clip-distance coefficients of `plane` for positions relative to
+/// `origin` (what `FrameUniforms::section` holds): a world point `x = p +
+/// origin` is beyond the plane when `n · p + (d + n · origin) > 0`; the
+/// offset is formed in f64 so a plane far from the world origin keeps its
+/// precision. None keeps everything.
+pub fn section_coefficients(plane: Option<&SectionPlane>, origin: DVec3) -> Vec4 {
+    match plane {
+        Some(p) => {
+            let d = p.d + p.normal.dot(origin);
+            (-p.normal).as_vec3().extend(-d as f32)
+        }
+        None => Vec4::new(0.0, 0.0, 0.0, 1.0),
+    }
+}
+
+/// What the user's tools add to a frame: the section plane and the overlay
+/// boxes, set by the frame loop before each frame (the renderer's starting
+/// plane is the configuration's `--section`).
+#[derive(Clone, Debug, Default)]
+pub struct FrameExtras {
+    /// The section plane (None: nothing is cut).
+    pub section: Option<SectionPlane>,
+    /// Controllers, rays, the teleport arc and marker, measure points and
+    /// the label, world space.
+    pub overlay: Vec<OverlayBox>,
+}
+
+impl FrameExtras {
+    /// Writes the plane and the boxes into `u` (positions relative to
+    /// `origin`, the render origin).
+    pub fn apply(&self, u: &mut FrameUniforms, origin: DVec3) {
+        u.section = section_coefficients(self.section.as_ref(), origin);
+        write_overlay(u, &self.overlay, origin);
+    }
+}
+
+/// Writes `boxes` (at most [`MAX_BOXES`]; more are dropped) into `u`'s
+/// overlay, positions relative to `origin`.
+pub fn write_overlay(u: &mut FrameUniforms, boxes: &[OverlayBox], origin: DVec3) {
+    let n = boxes.len().min(MAX_BOXES);
+    for (i, b) in boxes[..n].iter().enumerate() {
+        let [r, g, bl] = b.color;
+        u.overlay[4 * i] = (b.center - origin).as_vec3().extend(r);
+        u.overlay[4 * i + 1] = b.axes[0].as_vec3().extend(g);
+        u.overlay[4 * i + 2] = b.axes[1].as_vec3().extend(bl);
+        u.overlay[4 * i + 3] = b.axes[2].as_vec3().extend(1.0);
+    }
+    u.overlay_info = Vec4::new(n as f32, 0.0, 0.0, 0.0);
+}
 
 // SAFETY: repr(C) of f32 matrices and vectors whose sizes add up to the
 // struct's (asserted above), so there is no padding.
@@ -87,6 +153,9 @@ impl FrameUniforms {
             sky_zenith: Vec4::new(0.30, 0.45, 0.75, 1.0),
             sky_horizon: Vec4::new(0.75, 0.80, 0.85, 1.0),
             ground: Vec4::new(0.25, 0.22, 0.20, 1.0),
+            section: section_coefficients(None, origin),
+            overlay_info: Vec4::ZERO,
+            overlay: [Vec4::ZERO; 4 * MAX_BOXES],
         }
     }
 }
@@ -162,6 +231,8 @@ mod tests {
         f.extend([0.30, 0.45, 0.75, 1.0]);
         f.extend([0.75, 0.80, 0.85, 1.0]);
         f.extend([0.25, 0.22, 0.20, 1.0]);
+        f.extend([0.0, 0.0, 0.0, 1.0]);
+        f.extend(std::iter::repeat_n(0.0, 4 + 16 * MAX_BOXES));
         f
     }
 
@@ -180,8 +251,8 @@ mod tests {
         ] {
             let u = FrameUniforms::new(&rig, 0.05, far, 8.0);
             let reference = float_layout(&rig, 0.05, far, 8.0);
-            assert_eq!(SIZE, 752);
-            assert_eq!(reference.len() * 4, 752);
+            assert_eq!(SIZE, 11024);
+            assert_eq!(reference.len() * 4, 11024);
             assert_eq!(as_bytes(std::slice::from_ref(&u)), as_bytes(&reference));
         }
     }
@@ -233,9 +304,44 @@ mod tests {
             ("sky_zenith", offset_of!(FrameUniforms, sky_zenith)),
             ("sky_horizon", offset_of!(FrameUniforms, sky_horizon)),
             ("ground", offset_of!(FrameUniforms, ground)),
+            ("section", offset_of!(FrameUniforms, section)),
+            ("overlay_info", offset_of!(FrameUniforms, overlay_info)),
+            ("overlay", offset_of!(FrameUniforms, overlay)),
             ("<end>", SIZE as usize),
         ];
         let rust: Vec<(String, usize)> = rust.iter().map(|(n, o)| (n.to_string(), *o)).collect();
         assert_eq!(glsl, rust);
+    }
+
+    #[test]
+    fn section_coefficients_clip_beyond_the_plane_far_from_the_origin() {
+        let origin = DVec3::new(1.0e5, 2.0, -3.0e5);
+        let plane = SectionPlane::through(origin + DVec3::new(0.5, 0.0, 0.0), DVec3::X).unwrap();
+        let c = section_coefficients(Some(&plane), origin);
+        let clip = |rel: Vec3| c.truncate().dot(rel) + c.w;
+        assert!(clip(Vec3::new(0.49, 0.0, 0.0)) > 0.0, "kept short of it");
+        assert!(clip(Vec3::new(0.51, 7.0, -4.0)) < 0.0, "clipped beyond");
+        assert!((clip(Vec3::ZERO) - 0.5).abs() < 1e-6);
+        assert_eq!(
+            section_coefficients(None, origin),
+            Vec4::new(0.0, 0.0, 0.0, 1.0)
+        );
+    }
+
+    #[test]
+    fn overlay_boxes_are_written_relative_to_the_origin_and_bounded() {
+        let rig = rig();
+        let mut u = FrameUniforms::new(&rig, 0.05, [None, None], 8.0);
+        let origin = rig.head.position;
+        let b = OverlayBox {
+            center: origin + DVec3::new(1.0, 2.0, 3.0),
+            axes: [DVec3::X * 0.1, DVec3::Y * 0.2, DVec3::Z * 0.3],
+            color: [0.25, 0.5, 0.75],
+        };
+        write_overlay(&mut u, &vec![b; MAX_BOXES + 5], origin);
+        assert_eq!(u.overlay_info.x, MAX_BOXES as f32);
+        assert_eq!(u.overlay[0], Vec4::new(1.0, 2.0, 3.0, 0.25));
+        assert_eq!(u.overlay[2], Vec4::new(0.0, 0.2, 0.0, 0.75));
+        assert_eq!(u.overlay[4 * MAX_BOXES - 1], Vec4::new(0.0, 0.0, 0.3, 1.0));
     }
 }

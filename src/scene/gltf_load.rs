@@ -621,6 +621,9 @@ fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
                     Semantic::Colors(_) => (dt == F32 || (matches!(dt, U8 | U16) && norm), false),
                     Semantic::Joints(_) => (matches!(dt, U8 | U16) && !norm, false),
                     Semantic::Weights(_) => (dt == F32 || (matches!(dt, U8 | U16) && norm), false),
+                    // Application-specific attributes (`_NAME`) are not
+                    // read; any type is theirs to choose.
+                    Semantic::Extras(_) => (true, false),
                 };
                 let shape = match &semantic {
                     Semantic::Positions | Semantic::Normals => dims == Dimensions::Vec3,
@@ -629,6 +632,7 @@ fn check_attribute_types(ctx: &Ctx, doc: &gltf::Document) -> Result<()> {
                     }
                     Semantic::TexCoords(_) => dims == Dimensions::Vec2,
                     Semantic::Colors(_) => matches!(dims, Dimensions::Vec3 | Dimensions::Vec4),
+                    Semantic::Extras(_) => true,
                 };
                 if shape && !core && quantized && !ctx.quantization {
                     return Err(bad(
@@ -1514,6 +1518,22 @@ fn place_nodes(
                 .map_or_else(|| format!("scene {}", s.index()), str::to_string)
         })
         .collect();
+    // Every node's name, parent and extras, for naming selections.
+    scene.node_info = doc
+        .nodes()
+        .map(|n| super::NodeInfo {
+            name: n.name().map(str::to_string),
+            parent: None,
+            extras: n.extras().as_ref().map(|r| r.get().to_string()),
+        })
+        .collect();
+    for n in doc.nodes() {
+        for c in n.children() {
+            if let Some(info) = scene.node_info.get_mut(c.index()) {
+                info.parent = Some(n.index() as u32);
+            }
+        }
+    }
     let mut visited = vec![false; doc.nodes().len()];
     let mut dropped: std::collections::BTreeMap<&'static str, usize> = Default::default();
     let mut ignored_lights = 0usize;
@@ -1598,10 +1618,13 @@ fn place_nodes(
             for local in locals {
                 let transform = world * local;
                 match instance_problem(&transform) {
-                    None => scene.instances.push(Instance {
-                        mesh: mesh.index() as u32,
-                        transform,
-                    }),
+                    None => {
+                        scene.instances.push(Instance {
+                            mesh: mesh.index() as u32,
+                            transform,
+                        });
+                        scene.instance_node.push(node.index() as u32);
+                    }
                     Some(why) => *dropped.entry(why).or_default() += 1,
                 }
             }

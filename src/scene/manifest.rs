@@ -13,10 +13,14 @@
 //! kind = "factory"
 //! instances = 10000
 //! seed = 1
+//! [[viewpoint]]                 # where a user may stand (run's viewpoint cycle)
+//! name = "fleet overview"
+//! position = [0.0, 0.0, 20.0]  # the floor under the user
+//! yaw_deg = 0.0                # 0 looks down -Z
 //! ```
 
 use super::budget::LoadBudget;
-use super::{factory, gltf_load, Scene};
+use super::{factory, gltf_load, Scene, SceneCamera};
 use crate::error::{Error, Result};
 use glam::{DAffine3, DQuat, DVec3};
 use serde::Deserialize;
@@ -71,6 +75,20 @@ fn default_seed() -> u64 {
     factory::DEFAULT_SEED
 }
 
+/// A named place to stand: the floor point under the user and the yaw.
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct ViewpointEntry {
+    name: String,
+    position: [f64; 3],
+    #[serde(default)]
+    yaw_deg: f64,
+}
+
+/// Eye height above the floor of a manifest viewpoint, metres (a
+/// standing viewer, as `run`'s spawn assumes).
+pub const VIEWPOINT_EYE_HEIGHT_M: f64 = 1.6;
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct Manifest {
@@ -79,6 +97,36 @@ struct Manifest {
     gltf: Vec<GltfEntry>,
     #[serde(default)]
     procedural: Vec<ProceduralEntry>,
+    #[serde(default)]
+    viewpoint: Vec<ViewpointEntry>,
+}
+
+/// The manifest's viewpoints as scene cameras (eyes at
+/// [`VIEWPOINT_EYE_HEIGHT_M`] over each floor point, looking level along
+/// the yaw), numbered after the cameras already there.
+fn viewpoint_cameras(path: &Path, entries: &[ViewpointEntry], scene: &mut Scene) -> Result<()> {
+    for (i, v) in entries.iter().enumerate() {
+        let ok = v.position.iter().all(|c| c.is_finite() && c.abs() <= 1e9)
+            && v.yaw_deg.is_finite()
+            && v.yaw_deg.abs() <= 36_000.0;
+        if !ok {
+            return Err(Error::scene(
+                path,
+                format!(
+                    "viewpoint[{i}] '{}': position (at most 1e9 m) and yaw_deg (at most 36000) must be finite",
+                    v.name
+                ),
+            ));
+        }
+        let eye = DVec3::from(v.position) + DVec3::Y * VIEWPOINT_EYE_HEIGHT_M;
+        scene.cameras.push(SceneCamera {
+            index: scene.cameras.len(),
+            name: v.name.clone(),
+            pose: crate::view::Pose::from_euler_deg(eye, v.yaw_deg, 0.0, 0.0),
+            yfov: None,
+        });
+    }
+    Ok(())
 }
 
 /// Grid cells of a placement (1 without a grid), in checked arithmetic,
@@ -269,12 +317,32 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
         };
         scene.append(&sub, &place);
     }
+    viewpoint_cameras(path, &m.viewpoint, &mut scene)?;
     Ok(scene)
 }
 
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    #[test]
+    fn viewpoints_become_named_cameras_at_eye_height() {
+        let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+        let path = root.join("manifests/scenes/viewpoints-test.toml");
+        let text = "name = \"v\"\n[[gltf]]\nfile = \"../../assets/Box/Box.gltf\"\n\
+                    [[viewpoint]]\nname = \"front\"\nposition = [0.0, 0.0, 3.0]\n\
+                    [[viewpoint]]\nname = \"side\"\nposition = [3.0, 1.0, 0.0]\nyaw_deg = 90.0\n";
+        let scene = from_text_in(&path, text, &LoadBudget::new(1 << 30)).unwrap();
+        let names: Vec<&str> = scene.cameras.iter().map(|c| c.name.as_str()).collect();
+        assert_eq!(names, ["front", "side"]);
+        let side = &scene.cameras[1];
+        assert!(side.pose.position.distance(DVec3::new(3.0, 2.6, 0.0)) < 1e-12);
+        // Yaw 90° looks down −X (a left turn from −Z).
+        assert!(side.pose.forward().distance(DVec3::NEG_X) < 1e-12);
+        let bad = text.replace("yaw_deg = 90.0", "yaw_deg = nan");
+        let e = from_text_in(&path, &bad, &LoadBudget::new(1 << 30)).unwrap_err();
+        assert!(e.to_string().contains("viewpoint[1] 'side'"), "{e}");
+    }
 
     /// A manifest's entries share one budget: naming the same file again
     /// and again runs out of it instead of multiplying memory.

@@ -233,7 +233,32 @@ pub struct Scene {
     pub sun: Option<Sun>,
     /// Names of the file's scenes (glTF `scenes`; one was placed).
     pub scene_names: Vec<String>,
+    /// The source file's nodes, for naming what the user points at (glTF
+    /// scenes; empty for generated ones, so a 10M-instance factory keeps
+    /// no names).
+    pub node_info: Vec<NodeInfo>,
+    /// Per instance, its node in [`Scene::node_info`] ([`NO_NODE`]: none);
+    /// empty when the scene keeps no nodes.
+    pub instance_node: Vec<u32>,
 }
+
+/// A source node (glTF) as selection names it.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct NodeInfo {
+    /// The node's name.
+    pub name: Option<String>,
+    /// The parent node (index into [`Scene::node_info`]).
+    pub parent: Option<u32>,
+    /// The node's `extras`, as JSON text.
+    pub extras: Option<String>,
+}
+
+/// [`Scene::instance_node`] of an instance that came from no node.
+pub const NO_NODE: u32 = u32::MAX;
+
+/// Deepest node path [`Scene::node_path`] walks (deeper ancestors are
+/// left out).
+pub const MAX_PATH_DEPTH: usize = 64;
 
 /// A viewpoint a scene file defines.
 #[derive(Clone, Debug, PartialEq)]
@@ -409,6 +434,31 @@ impl Scene {
             .collect()
     }
 
+    /// The node instance `instance` came from, when the scene keeps nodes.
+    pub fn node_of(&self, instance: usize) -> Option<u32> {
+        self.instance_node
+            .get(instance)
+            .copied()
+            .filter(|&n| (n as usize) < self.node_info.len())
+    }
+
+    /// The names from the root down to `node`, joined by `/` (an unnamed
+    /// node shows as `node N`; at most [`MAX_PATH_DEPTH`] levels, the
+    /// deepest kept).
+    pub fn node_path(&self, node: u32) -> String {
+        let mut parts = Vec::new();
+        let mut at = Some(node);
+        while let Some(n) = at.filter(|_| parts.len() < MAX_PATH_DEPTH) {
+            let Some(info) = self.node_info.get(n as usize) else {
+                break;
+            };
+            parts.push(info.name.clone().unwrap_or_else(|| format!("node {n}")));
+            at = info.parent;
+        }
+        parts.reverse();
+        parts.join("/")
+    }
+
     /// Bounds of the whole scene.
     pub fn bounds(&self) -> (DVec3, DVec3) {
         let mut lo = DVec3::splat(f64::INFINITY);
@@ -445,6 +495,25 @@ impl Scene {
     /// textures), placing its instances with `place` applied after their own
     /// transforms, once per entry of `placements`.
     pub fn append(&mut self, other: &Scene, placements: &[DAffine3]) {
+        let nodes = !(other.instance_node.is_empty() && self.instance_node.is_empty());
+        if nodes {
+            let n0 = self.node_info.len() as u32;
+            self.instance_node.resize(self.instances.len(), NO_NODE);
+            self.node_info
+                .extend(other.node_info.iter().map(|n| NodeInfo {
+                    parent: n.parent.map(|p| p + n0),
+                    ..n.clone()
+                }));
+            for _ in placements {
+                self.instance_node
+                    .extend(
+                        (0..other.instances.len()).map(|i| match other.instance_node.get(i) {
+                            Some(&k) if k != NO_NODE => k + n0,
+                            _ => NO_NODE,
+                        }),
+                    );
+            }
+        }
         let p0 = self.primitives.len() as u32;
         let m0 = self.meshes.len() as u32;
         let mat0 = self.materials.len() as u32;

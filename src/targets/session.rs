@@ -323,6 +323,9 @@ pub struct RunStats {
     pub suggested_profiles: Vec<String>,
     /// Tracking origin at the end of the run (after locomotion).
     pub origin: Option<OriginFile>,
+    /// What the last select named (instance, node name and path, mesh,
+    /// material, extras, point, distance), as in its `select` event.
+    pub selected: Option<crate::interact::Picked>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,
     /// Frames in the loop (streamed from the spool file when written).

@@ -319,9 +319,17 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             let mut it = Interaction::new(Origin::from_pose(&spawn), args.interact);
             it.viewpoints
                 .extend(args.viewpoints.iter().map(Origin::from_pose));
+            // Then the scene's own: glTF cameras and manifest viewpoints,
+            // the user's eyes where the camera is.
+            it.viewpoints
+                .extend(scene.cameras.iter().map(|c| camera_viewpoint(&c.pose)));
+            // `--section` is where the plane starts; the tool moves or
+            // removes it.
+            it.section = stats.config.section.map(crate::render::culling::plane_of);
             it
         },
         query,
+        overlay: Vec::new(),
         last_display_ns: None,
         blend,
         with_depth: depth_format.is_some(),
@@ -364,6 +372,14 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     result
 }
 
+/// The tracking origin that puts a standing user's eyes (1.6 m over the
+/// floor) at a scene camera, facing its yaw.
+fn camera_viewpoint(camera: &Pose) -> Origin {
+    let mut o = Origin::from_pose(camera);
+    o.position.y -= crate::scene::manifest::VIEWPOINT_EYE_HEIGHT_M;
+    o
+}
+
 /// What the frame loop carries from frame to frame.
 struct LoopState<'a> {
     args: &'a RunArgs,
@@ -374,6 +390,8 @@ struct LoopState<'a> {
     interaction: Interaction,
     /// The scene prepared for ray casts.
     query: SceneQuery<'a>,
+    /// This frame's overlay boxes (reused from frame to frame).
+    overlay: Vec<crate::interact::overlay::OverlayBox>,
     /// The previous rendered frame's predicted display time (for dt).
     last_display_ns: Option<i64>,
     blend: xr::EnvironmentBlendMode,
@@ -613,6 +631,13 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 hands,
             };
             let update = st.interaction.update(&input, &st.query);
+            crate::interact::overlay::build(
+                &st.interaction,
+                &input,
+                &update,
+                &st.query,
+                &mut st.overlay,
+            );
             if let Some(c) = &live.controls {
                 for hand in (0..2).filter(|&h| update.haptic[h]) {
                     let _w = live.watchdog.watch("xrApplyHapticFeedback");
@@ -631,6 +656,12 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                     serde_json::to_string(e).unwrap_or_default()
                 );
             }
+            if let Some(picked) = update.events.iter().rev().find_map(|e| match e {
+                crate::interact::Event::Select { picked, .. } => Some(picked),
+                _ => None,
+            }) {
+                stats.selected = Some(picked.clone());
+            }
             rec.events = update.events;
             let mut rig = world_rig(&st.interaction.origin, &tracking);
             rec.head_world = Some(PoseFile::from(&rig.head));
@@ -646,6 +677,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             }
             rec.fov = rig.views.iter().map(|v| v.fov).collect();
             let driver = live.driver.as_mut().expect("set");
+            driver.set_section(st.interaction.section);
+            driver.set_overlay(&st.overlay);
             driver.record(&rig, index)?;
             let mut out = FrameOutput::default();
             for (ci, chain) in live

@@ -12,6 +12,7 @@ pub mod floor;
 pub mod forward;
 pub mod gpu_cull;
 pub mod output;
+pub mod overlay;
 pub mod rdm;
 pub mod stencil_mask;
 
@@ -30,6 +31,7 @@ use far_field::FarField;
 use floor::Floor;
 use forward::Forward;
 use gpu_cull::GpuCull;
+use overlay::Overlay;
 use rdm::Rdm;
 use std::collections::HashMap;
 use stencil_mask::StencilMask;
@@ -42,6 +44,8 @@ pub struct Passes {
     pub forward: Forward,
     /// The raster floors.
     pub floor: Floor,
+    /// Controllers, rays, arcs, markers and labels.
+    pub overlay: Overlay,
     /// HMD stencil mask (`stencil-mask`).
     pub stencil_mask: Option<StencilMask>,
     /// Radial density masking (`rdm`).
@@ -81,6 +85,7 @@ impl Passes {
     ) -> Result<()> {
         self.forward = Forward::new(setup)?;
         self.floor = Floor::new(setup)?;
+        self.overlay = Overlay::new(setup)?;
         if config.stencil_mask {
             self.stencil_mask = Some(StencilMask::new(setup, slots)?);
         }
@@ -97,6 +102,7 @@ impl Passes {
     pub fn destroy(self, ctx: &Context) {
         self.forward.destroy(ctx);
         self.floor.destroy(ctx);
+        self.overlay.destroy(ctx);
         if let Some(p) = self.stencil_mask {
             p.destroy(ctx);
         }
