@@ -1,7 +1,8 @@
 //! gltfpack output of the vendored assets (KHR_mesh_quantization by
-//! default, plus EXT_meshopt_compression with `-cc`; made by
-//! scripts/make-gltfpack-assets.sh, see each folder's ATTRIBUTION.md) must
-//! render like its uncompressed source: FLIP mean ≤ 0.01 in both eyes, from
+//! default, plus EXT_meshopt_compression with `-cc`) and gltf-pipeline's
+//! `-d` output (KHR_draco_mesh_compression, NAME.draco.glb or
+//! NAME.draco.gltf; all made by scripts/make-gltfpack-assets.sh, see each
+//! folder's ATTRIBUTION.md) must render like its uncompressed source: FLIP mean ≤ 0.01 in both eyes, from
 //! the same pose, with the same triangle count. (gltfpack merges nodes and
 //! meshes, so instance counts differ, and bakes transforms into vertices,
 //! so the variant's world boxes are tighter: they must lie inside the
@@ -70,7 +71,11 @@ fn matches_source(source: &str, variants: &[&str]) {
 fn box_() {
     matches_source(
         "assets/Box/Box.gltf",
-        &["assets/Box/Box.q.glb", "assets/Box/Box.cc.glb"],
+        &[
+            "assets/Box/Box.q.glb",
+            "assets/Box/Box.cc.glb",
+            "assets/Box/Box.draco.glb",
+        ],
     );
 }
 
@@ -81,6 +86,7 @@ fn box_textured() {
         &[
             "assets/BoxTextured/BoxTextured.q.glb",
             "assets/BoxTextured/BoxTextured.cc.glb",
+            "assets/BoxTextured/BoxTextured.draco.gltf",
         ],
     );
 }
@@ -92,6 +98,7 @@ fn multi_uv() {
         &[
             "assets/MultiUVTest/MultiUVTest.q.glb",
             "assets/MultiUVTest/MultiUVTest.cc.glb",
+            "assets/MultiUVTest/MultiUVTest.draco.gltf",
         ],
     );
 }
@@ -103,6 +110,7 @@ fn orientation() {
         &[
             "assets/OrientationTest/OrientationTest.q.glb",
             "assets/OrientationTest/OrientationTest.cc.glb",
+            "assets/OrientationTest/OrientationTest.draco.glb",
         ],
     );
 }
@@ -114,6 +122,7 @@ fn normal_tangent_mirror() {
         &[
             "assets/NormalTangentMirrorTest/NormalTangentMirrorTest.q.glb",
             "assets/NormalTangentMirrorTest/NormalTangentMirrorTest.cc.glb",
+            "assets/NormalTangentMirrorTest/NormalTangentMirrorTest.draco.gltf",
         ],
     );
 }
@@ -125,6 +134,7 @@ fn alpha_blend_modes() {
         &[
             "assets/AlphaBlendModeTest/AlphaBlendModeTest.q.glb",
             "assets/AlphaBlendModeTest/AlphaBlendModeTest.cc.glb",
+            "assets/AlphaBlendModeTest/AlphaBlendModeTest.draco.gltf",
         ],
     );
 }
@@ -144,7 +154,11 @@ fn simple_instancing() {
 fn garage() {
     matches_source(
         "assets/garage/garage.gltf",
-        &["assets/garage/garage.q.glb", "assets/garage/garage.cc.glb"],
+        &[
+            "assets/garage/garage.q.glb",
+            "assets/garage/garage.cc.glb",
+            "assets/garage/garage.draco.glb",
+        ],
     );
 }
 

@@ -541,15 +541,34 @@ fn inspect_lists_extensions_and_support() {
 }
 
 #[test]
-fn draco_from_gltf_pipeline_is_refused_with_the_reason() {
-    let stderr = common::fails_with_one_error(
-        Command::new(env!("CARGO_BIN_EXE_vergence"))
-            .arg("inspect")
-            .arg(common::root().join("assets/Box/Box.draco.glb")),
-    );
+fn draco_from_gltf_pipeline_loads_with_its_geometry() {
+    // gltf-pipeline's Box: 12 triangles over 24 vertices, positions
+    // quantized to 11 bits and dequantized by the decoder (the source's
+    // unit cube, within a quantization step).
+    let scene = load(&common::root().join("assets/Box/Box.draco.glb"));
+    let source = load(&common::root().join("assets/Box/Box.gltf"));
+    assert_eq!(scene.instanced_triangles(), 12);
+    let p = &scene.primitives[0];
+    assert_eq!(p.positions.len(), 24);
+    assert_eq!(p.indices.len(), 36);
+    let (lo, hi) = scene.bounds();
+    let (slo, shi) = source.bounds();
+    assert!((lo - slo).abs().max_element() < 2e-3, "{lo:?} vs {slo:?}");
+    assert!((hi - shi).abs().max_element() < 2e-3, "{hi:?} vs {shi:?}");
+    for n in &p.normals {
+        let len = glam::Vec3::from_array(*n).length();
+        assert!((len - 1.0).abs() < 0.01, "normal {n:?}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .arg("inspect")
+        .arg(common::root().join("assets/Box/Box.draco.glb"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
     assert!(
-        stderr.contains("requires glTF extension KHR_draco_mesh_compression")
-            && stderr.contains("no Draco decoder"),
-        "{stderr}"
+        text.lines()
+            .any(|l| l.contains("KHR_draco_mesh_compression") && l.contains("Supported")),
+        "{text}"
     );
 }

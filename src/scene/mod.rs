@@ -3,6 +3,7 @@
 //! [`Scene`]; the renderer uploads only what the scene uses.
 
 pub mod budget;
+pub mod draco;
 pub mod factory;
 pub mod gltf_data;
 pub mod gltf_load;
