@@ -291,8 +291,20 @@ ktx2_case("ktx2-truncated.ktx2", ["invalid KTX2 container"], ktx2(cut=90))
 dims = bytearray(ktx2())
 dims[108 + 12] = 255
 ktx2_case("ktx2-block-dimension.ktx2", ["texel block dimension of 256"], bytes(dims))
-ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal ETC1S", "no Basis Universal transcoder"], ktx2(fmt=0, scheme=1))
-ktx2_case("ktx2-uastc.ktx2", ["Basis Universal UASTC"], ktx2(fmt=0))
+ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal payload cannot be"], ktx2(fmt=0, scheme=1))
+ktx2_case("ktx2-uastc.ktx2", ["Basis Universal payload cannot be"], ktx2(fmt=0))
+# The basisu encoder's real output (assets/BoxTextured), damaged.
+with open("assets/BoxTextured/CesiumLogoFlat.etc1s.ktx2", "rb") as f:
+    etc1s = f.read()
+with open("assets/BoxTextured/CesiumLogoFlat.uastc.ktx2", "rb") as f:
+    uastc = f.read()
+ktx2_case("ktx2-etc1s-truncated.ktx2", ["invalid KTX2 container"], etc1s[:len(etc1s) // 2])
+ktx2_case("ktx2-etc1s-garbled.ktx2", ["Basis Universal payload cannot be"],
+          etc1s[:-600] + bytes(b ^ 0x5A for b in etc1s[-600:]))
+ktx2_case("ktx2-uastc-garbled-zstd.ktx2", ["Basis Universal payload cannot be"],
+          uastc[:-2000] + bytes(b ^ 0x5A for b in uastc[-2000:]))
+ktx2_case("ktx2-etc1s-wrong-size.ktx2", ["KTX2"],
+          etc1s[:20] + struct.pack("<II", 4096, 4096) + etc1s[28:])
 ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
           ktx2(w=4, h=4, texels=4))
 doc = json.loads(textured("garbage.webp"))

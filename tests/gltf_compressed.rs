@@ -22,6 +22,11 @@ const SIZE: u32 = 160;
 /// Renders `source` and each of `variants` (paths under assets/) from the
 /// pose that frames the source, and compares each eye.
 fn matches_source(source: &str, variants: &[&str]) {
+    matches_source_within(source, variants, MAX_MEAN);
+}
+
+/// [`matches_source`] with its own bound on the mean FLIP error.
+fn matches_source_within(source: &str, variants: &[&str], max_mean: f32) {
     let ctx = context();
     let profile = HmdProfile::load("monado-sim").unwrap();
     let reference = load(source);
@@ -49,7 +54,7 @@ fn matches_source(source: &str, variants: &[&str]) {
         for (eye, label) in ["left", "right"].iter().enumerate() {
             let r = flip(&want.images[eye], &got.images[eye], DESKTOP_PPD).unwrap();
             eprintln!("{v} {label}: FLIP mean {:.5}", r.mean);
-            if r.mean > MAX_MEAN {
+            if r.mean > max_mean {
                 let dir = common::root().join("target/gltf-compressed-diff");
                 std::fs::create_dir_all(&dir).unwrap();
                 let stem = v.replace('/', "_");
@@ -59,7 +64,7 @@ fn matches_source(source: &str, variants: &[&str]) {
                 want.images[eye]
                     .save(dir.join(format!("{stem}-{label}-source.png")))
                     .unwrap();
-                failures.push(format!("{v} {label}: FLIP mean {:.4} > {MAX_MEAN}", r.mean));
+                failures.push(format!("{v} {label}: FLIP mean {:.4} > {max_mean}", r.mean));
             }
         }
         assert!(got.stats.instances_drawn > 0, "{v}: nothing drawn");
@@ -88,6 +93,22 @@ fn box_textured() {
             "assets/BoxTextured/BoxTextured.cc.glb",
             "assets/BoxTextured/BoxTextured.draco.gltf",
         ],
+    );
+}
+
+/// BoxTextured's texture as KTX2 (KHR_texture_basisu) from the Basis
+/// Universal encoder, transcoded on load. UASTC is near-lossless and meets
+/// the bar; ETC1S is a lossy codec even at quality 255 (its transcode is
+/// exact: tests/gltf_features.rs compares it with the reference decoder's),
+/// so it gets 0.015 (measured 0.0123).
+#[test]
+fn box_textured_basis_universal() {
+    let source = "assets/BoxTextured/BoxTextured.gltf";
+    matches_source(source, &["assets/BoxTextured/BoxTextured.uastc.gltf"]);
+    matches_source_within(
+        source,
+        &["assets/BoxTextured/BoxTextured.etc1s.gltf"],
+        0.015,
     );
 }
 

@@ -572,3 +572,45 @@ fn draco_from_gltf_pipeline_loads_with_its_geometry() {
         "{text}"
     );
 }
+
+/// The basisu encoder's KTX2 files transcode to exactly what the reference
+/// C++ transcoder decodes them to (`basisu -unpack`: ETC1S as ETC1, UASTC
+/// as ASTC 4×4, both lossless from the payload), and land within a few
+/// levels of the PNG they were encoded from.
+#[test]
+fn basis_universal_transcodes_like_the_reference() {
+    use vergence::scene::image_decode::{decode_ktx2_rgba8, decode_rgba8};
+    let dir = common::root().join("assets/BoxTextured");
+    let png = decode_rgba8(&std::fs::read(dir.join("CesiumLogoFlat.png")).unwrap()).unwrap();
+    for (codec, channels) in [("etc1s", 3), ("uastc", 4)] {
+        let ktx2 = std::fs::read(dir.join(format!("CesiumLogoFlat.{codec}.ktx2"))).unwrap();
+        let got = decode_ktx2_rgba8(&ktx2).unwrap_or_else(|e| panic!("{codec}: {e}"));
+        let reference = std::fs::read(dir.join(format!("CesiumLogoFlat.{codec}.reference.png")));
+        let want = decode_rgba8(&reference.unwrap()).unwrap();
+        assert_eq!(got.dimensions(), want.dimensions(), "{codec}");
+        let differ = got
+            .pixels()
+            .zip(want.pixels())
+            .filter(|(a, b)| a.0[..channels] != b.0[..channels])
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{codec}: {differ} pixels differ from the reference decode"
+        );
+        let err: f64 = got
+            .pixels()
+            .zip(png.pixels())
+            .map(|(a, b)| {
+                (0..3)
+                    .map(|k| (a.0[k] as f64 - b.0[k] as f64).abs())
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / (3.0 * got.pixels().len() as f64);
+        assert!(
+            err < 8.0,
+            "{codec}: mean error {err:.2} levels against the PNG"
+        );
+        eprintln!("{codec}: identical to the reference decode; mean error {err:.2} levels against the PNG");
+    }
+}

@@ -76,8 +76,8 @@ pub const EXTENSIONS: &[(&str, Support, &str)] = &[
     ),
     (
         "KHR_texture_basisu",
-        Support::Partial,
-        "KTX2 images holding uncompressed RGBA8 load; Basis Universal (ETC1S/UASTC) payloads are refused: no transcoder is built in",
+        Support::Supported,
+        "KTX2 images: Basis Universal ETC1S and UASTC transcoded to RGBA8 (pure-Rust basisu transcoder), uncompressed RGBA8 read as is",
     ),
     (
         "KHR_draco_mesh_compression",

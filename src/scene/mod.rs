@@ -2,6 +2,7 @@
 //! Loaders (glTF, the procedural `factory`, TOML manifests) all produce a
 //! [`Scene`]; the renderer uploads only what the scene uses.
 
+pub mod basis;
 pub mod budget;
 pub mod draco;
 pub mod factory;
