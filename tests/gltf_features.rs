@@ -614,3 +614,84 @@ fn basis_universal_transcodes_like_the_reference() {
         eprintln!("{codec}: identical to the reference decode; mean error {err:.2} levels against the PNG");
     }
 }
+
+/// `run` starts at `--camera` (headless: the first frame's head is at the
+/// camera, looking along it) and offers every camera of the file as a
+/// viewpoint (listed in the stats, the start first).
+#[test]
+fn run_starts_at_a_camera_and_offers_the_cameras() {
+    let doc = quad_scene(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 1.0, 0.0, 1.0]}}),
+        json!({"nodes": [{"camera": 1, "name": "side-node",
+                          "translation": [4.0, 1.0, 0.0],
+                          "rotation": [0.0, 0.7071068, 0.0, 0.7071068]}]}),
+    );
+    let mut doc = doc;
+    doc["cameras"].as_array_mut().unwrap().push(
+        json!({"name": "side", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}}),
+    );
+    let path = write("run-camera", &doc);
+    let run = |extra: &[&str]| -> Value {
+        let stats = path.with_extension(format!("{}.json", extra.len()));
+        let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args([
+                "run", "--xr", "headless", "--frames", "3", "--width", "32", "--height", "32",
+            ])
+            .arg("--scene")
+            .arg(&path)
+            .arg("--stats-out")
+            .arg(&stats)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap()
+    };
+    let s = run(&["--camera", "side"]);
+    assert_eq!(
+        s["viewpoints"],
+        json!(["camera 1 'side'", "camera 0 'front'"]),
+        "{}",
+        s["viewpoints"]
+    );
+    let head = &s["frames"][0]["head_world"];
+    let p: Vec<f64> = serde_json::from_value(head["position"].clone()).unwrap();
+    assert!(
+        (p[0] - 4.0).abs() < 1e-6 && (p[1] - 1.0).abs() < 1e-6 && p[2].abs() < 1e-6,
+        "head {p:?}"
+    );
+    // Rotated +90° about Y, the side camera looks down -X (towards the
+    // quad's edge at the origin): the head's -Z axis points along -X.
+    let q: Vec<f64> = serde_json::from_value(head["orientation"].clone()).unwrap();
+    let rot = glam::DQuat::from_xyzw(q[0], q[1], q[2], q[3]);
+    let fwd = rot * DVec3::NEG_Z;
+    assert!((fwd - DVec3::NEG_X).length() < 1e-6, "forward {fwd:?}");
+    // By index, and without --camera: the framing spawn first, then both.
+    assert_eq!(
+        run(&["--camera", "0"])["viewpoints"][0],
+        json!("camera 0 'front'")
+    );
+    assert_eq!(
+        run(&[])["viewpoints"],
+        json!(["spawn", "camera 0 'front'", "camera 1 'side'"])
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "run", "--xr", "headless", "--frames", "1", "--camera", "nope", "--scene",
+        ])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("--camera")
+            && err.contains("0 'front'")
+            && err.contains("1 'side'"),
+        "{err}"
+    );
+}

@@ -58,6 +58,9 @@ pub struct RunArgs {
     /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
     /// click cycles through after the spawn.
     pub viewpoints: Vec<Pose>,
+    /// `--camera N|NAME`: start at this camera of the scene file (see
+    /// [`super::viewpoints`]).
+    pub camera: Option<String>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
 }
@@ -323,6 +326,10 @@ pub struct RunStats {
     pub suggested_profiles: Vec<String>,
     /// Tracking origin at the end of the run (after locomotion).
     pub origin: Option<OriginFile>,
+    /// The places the right stick click cycles through, the start first
+    /// (`spawn`, `--viewpoint N`, `camera N 'NAME'`; see
+    /// [`super::viewpoints`]).
+    pub viewpoints: Vec<String>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,
     /// Frames in the loop (streamed from the spool file when written).
