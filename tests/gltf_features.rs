@@ -624,7 +624,7 @@ fn run_starts_at_a_camera_and_offers_the_cameras() {
         json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 1.0, 0.0, 1.0]}}),
         json!({"nodes": [{"camera": 1, "name": "side-node",
                           "translation": [4.0, 1.0, 0.0],
-                          "rotation": [0.0, 0.7071068, 0.0, 0.7071068]}]}),
+                          "rotation": [0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0, std::f64::consts::FRAC_1_SQRT_2]}]}),
     );
     let mut doc = doc;
     doc["cameras"].as_array_mut().unwrap().push(
