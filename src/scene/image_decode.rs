@@ -45,11 +45,11 @@ pub const KTX2_MAGIC: [u8; 12] = [
 
 /// Decodes level 0 of a KTX2 texture (KHR_texture_basisu) into RGBA8.
 /// The container is parsed and bounds-checked with the `ktx2` crate
-/// (header, data format descriptor, level index). Only uncompressed 2D
-/// `R8G8B8A8_UNORM` / `R8G8B8A8_SRGB` data without supercompression is
-/// decoded: Basis Universal payloads (BasisLZ/ETC1S or UASTC, which
-/// KHR_texture_basisu files hold) need a transcoder vergence does not
-/// include, and are refused with that reason.
+/// (header, data format descriptor, level index) and its size checked
+/// against the texture limits first. Basis Universal payloads (BasisLZ/ETC1S
+/// or UASTC, what KHR_texture_basisu files hold) are transcoded
+/// ([`super::basis`]); otherwise only uncompressed 2D `R8G8B8A8_UNORM` /
+/// `R8G8B8A8_SRGB` data without supercompression is decoded.
 pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
     check_dfd_block_dimensions(bytes)?;
     let r = ktx2::Reader::new(bytes).map_err(|e| format!("invalid KTX2 container: {e}"))?;
@@ -66,28 +66,30 @@ pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
             "image is {w}x{ht}, over the limits ({MAX_TEXTURE_SIDE} per side, {MAX_TEXTURE_PIXELS} pixels)"
         ));
     }
+    // Basis Universal: ETC1S is always BasisLZ-supercompressed; UASTC has
+    // VK_FORMAT_UNDEFINED, with or without Zstandard.
+    let basis = matches!(
+        (h.supercompression_scheme, h.format),
+        (Some(ktx2::SupercompressionScheme::BasisLZ), _)
+            | (None | Some(ktx2::SupercompressionScheme::Zstandard), None)
+    );
+    if basis {
+        return super::basis::transcode_rgba8(bytes, w, ht);
+    }
     if let Some(s) = h.supercompression_scheme {
-        return Err(match s {
-            ktx2::SupercompressionScheme::BasisLZ => {
-                "KTX2 image is Basis Universal ETC1S (BasisLZ); vergence has no Basis Universal transcoder".to_string()
-            }
-            other => format!("KTX2 image uses supercompression {other:?}, which vergence does not decode"),
-        });
+        return Err(format!(
+            "KTX2 image uses supercompression {s:?} with format {:?}, which vergence does not decode (only Basis Universal and uncompressed R8G8B8A8)",
+            h.format
+        ));
     }
     let rgba8 = [ktx2::Format::R8G8B8A8_UNORM, ktx2::Format::R8G8B8A8_SRGB];
     match h.format {
-        None => {
-            return Err(
-                "KTX2 image is Basis Universal UASTC (VK_FORMAT_UNDEFINED); vergence has no Basis Universal transcoder"
-                    .into(),
-            )
-        }
         Some(f) if !rgba8.contains(&f) => {
             return Err(format!(
-                "KTX2 image format {f:?} is not decoded (only uncompressed R8G8B8A8)"
+                "KTX2 image format {f:?} is not decoded (only Basis Universal and uncompressed R8G8B8A8)"
             ))
         }
-        Some(_) => {}
+        _ => {}
     }
     let level = r.levels().next().ok_or("KTX2 image has no levels")?;
     let need = w as usize * ht as usize * 4;
@@ -191,14 +193,15 @@ mod tests {
         let img = decode_ktx2_rgba8(&file).unwrap();
         assert_eq!(img.dimensions(), (2, 3));
         assert_eq!(img.as_raw(), &px);
+        // A BasisLZ or UASTC header over RGBA8 bytes is no Basis payload.
         let mut basis = file.clone();
         basis[44..48].copy_from_slice(&1u32.to_le_bytes());
         let e = decode_ktx2_rgba8(&basis).unwrap_err();
-        assert!(e.contains("Basis Universal"), "{e}");
+        assert!(e.contains("Basis Universal payload"), "{e}");
         let mut uastc = file.clone();
         uastc[12..16].copy_from_slice(&0u32.to_le_bytes());
         let e = decode_ktx2_rgba8(&uastc).unwrap_err();
-        assert!(e.contains("UASTC"), "{e}");
+        assert!(e.contains("Basis Universal payload"), "{e}");
         let mut bad_level = file.clone();
         bad_level[80..88].copy_from_slice(&(1u64 << 40).to_le_bytes());
         let e = decode_ktx2_rgba8(&bad_level).unwrap_err();

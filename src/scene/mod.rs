@@ -2,7 +2,9 @@
 //! Loaders (glTF, the procedural `factory`, TOML manifests) all produce a
 //! [`Scene`]; the renderer uploads only what the scene uses.
 
+pub mod basis;
 pub mod budget;
+pub mod draco;
 pub mod factory;
 pub mod gltf_data;
 pub mod gltf_load;

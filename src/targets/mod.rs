@@ -6,5 +6,6 @@ pub mod headless;
 pub mod run;
 pub mod session;
 pub mod view;
+pub mod viewpoints;
 pub mod window;
 pub mod xr_session;

@@ -3,7 +3,6 @@
 //! is there (`--xr auto`) or when asked (`--xr headless`). Both write the
 //! same frame statistics (`--stats-out`).
 
-use super::headless::spawn_pose;
 use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
 use super::session::{write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
 pub use super::session::{RunArgs, RunStats, XrMode};
@@ -89,9 +88,9 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     let extent = eye_extent(&profile, args.size);
     let renderer = super::headless::new_renderer(&ctx, &scene, &args.config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
-    let spawn = args
-        .spawn
-        .unwrap_or_else(|| spawn_pose(&scene, &profile.views[0].fov));
+    let places = super::viewpoints::plan(args, &scene, &profile.views[0].fov)?;
+    stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
+    let spawn = places[0].origin;
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(&scene));
     stats.config = driver.renderer().config.clone();

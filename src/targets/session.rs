@@ -58,6 +58,9 @@ pub struct RunArgs {
     /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
     /// click cycles through after the spawn.
     pub viewpoints: Vec<Pose>,
+    /// `--camera N|NAME`: start at this camera of the scene file (see
+    /// [`super::viewpoints`]).
+    pub camera: Option<String>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
 }
@@ -326,6 +329,10 @@ pub struct RunStats {
     /// What the last select named (instance, node name and path, mesh,
     /// material, extras, point, distance), as in its `select` event.
     pub selected: Option<crate::interact::Picked>,
+    /// The places the right stick click cycles through, the start first
+    /// (`spawn`, `--viewpoint N`, `camera N 'NAME'`; see
+    /// [`super::viewpoints`]).
+    pub viewpoints: Vec<String>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,
     /// Frames in the loop (streamed from the spool file when written).

@@ -9,13 +9,12 @@
 //! wait for the GPU: xrWaitFrame paces the loop, and a frame's record is
 //! completed when its fence signals.
 
-use super::headless::{load_scene, spawn_pose, SceneCounts};
+use super::headless::{load_scene, SceneCounts};
 use super::session::{
     write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats, ViewInfo,
 };
 use crate::error::{Error, Result};
 use crate::gpu::{Context, Validation};
-use crate::interact::locomotion::Origin;
 use crate::interact::raycast::SceneQuery;
 use crate::interact::{FrameInput, Interaction};
 use crate::render::driver::FrameDriver;
@@ -306,9 +305,8 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
         .collect();
     // No view has been located yet; a typical headset FOV frames the scene.
-    let spawn = args
-        .spawn
-        .unwrap_or_else(|| spawn_pose(&scene, &Fov::symmetric(0.8, 0.8)));
+    let places = super::viewpoints::plan(args, &scene, &Fov::symmetric(0.8, 0.8))?;
+    stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
     let query = SceneQuery::new(&scene);
 
     let mut state = LoopState {
@@ -316,13 +314,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         records: RecordQueue::default(),
         masks,
         interaction: {
-            let mut it = Interaction::new(Origin::from_pose(&spawn), args.interact);
-            it.viewpoints
-                .extend(args.viewpoints.iter().map(Origin::from_pose));
-            // Then the scene's own: glTF cameras and manifest viewpoints,
-            // the user's eyes where the camera is.
-            it.viewpoints
-                .extend(scene.cameras.iter().map(|c| camera_viewpoint(&c.pose)));
+            let mut it = super::viewpoints::interaction(&places, args.interact);
             // `--section` is where the plane starts; the tool moves or
             // removes it.
             it.section = stats.config.section.map(crate::render::culling::plane_of);
@@ -370,14 +362,6 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     drop(live);
     drop(ctx);
     result
-}
-
-/// The tracking origin that puts a standing user's eyes (1.6 m over the
-/// floor) at a scene camera, facing its yaw.
-fn camera_viewpoint(camera: &Pose) -> Origin {
-    let mut o = Origin::from_pose(camera);
-    o.position.y -= crate::scene::manifest::VIEWPOINT_EYE_HEIGHT_M;
-    o
 }
 
 /// What the frame loop carries from frame to frame.
