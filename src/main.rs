@@ -29,7 +29,8 @@ enum Command {
     Run(RunCli),
     /// Look at a scene in a desktop window through an HMD profile's stereo
     /// rig: WASD (Q/E down/up) to move, drag with the left mouse button to
-    /// look, Shift for speed, Escape to quit.
+    /// look, Shift for speed, Escape to quit; keys 1-8 switch
+    /// optimizations, P prints the --opt list, F2 saves it, H lists the keys.
     View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::bench::cull::CullBenchArgs),
@@ -242,6 +243,19 @@ struct RunCli {
     /// Smooth move goes where the head looks (head) or the left hand points (hand).
     #[arg(long, default_value = "head", value_parser = parse_move_direction)]
     move_direction: MoveDirection,
+    /// A desktop window showing the submitted eye images: left, right,
+    /// both, cropped (the left eye, hidden area masked) or off. Default:
+    /// left when a display is there. Keys in it switch optimizations (H
+    /// lists them); closing it ends the run.
+    #[arg(long, value_enum)]
+    mirror: Option<vergence::targets::mirror::MirrorMode>,
+    /// Write the mirror window's last presented image as PNG at the end.
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Where F2 in the window writes the current --opt list as a config
+    /// file for --config (default: vergence-live.toml).
+    #[arg(long)]
+    save_config: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -265,6 +279,10 @@ struct ViewCli {
     /// Which eyes the window shows.
     #[arg(long, value_enum, default_value_t = vergence::targets::window::Eyes::Both)]
     eyes: vergence::targets::window::Eyes,
+    /// Where F2 writes the current --opt list as a config file for
+    /// --config (default: vergence-live.toml).
+    #[arg(long)]
+    save_config: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameOpts,
 }
@@ -378,6 +396,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     move_direction: a.move_direction,
                     ..Settings::default()
                 },
+                mirror: a.mirror,
+                screenshot: a.screenshot,
+                save_config: a.save_config,
             };
             let stats = vergence::targets::run::run(&args)?;
             println!(
@@ -409,6 +430,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 frames: a.frames,
                 screenshot: a.screenshot,
                 eyes: a.eyes,
+                save_config: a.save_config,
             };
             let s = vergence::targets::view::view(&args)?;
             println!(

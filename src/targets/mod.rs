@@ -3,8 +3,10 @@
 //! desktop window (`view`: the preview with a fly camera).
 
 pub mod headless;
+pub mod mirror;
 pub mod run;
 pub mod session;
+pub mod toggles;
 pub mod view;
 pub mod window;
 pub mod xr_session;

@@ -60,6 +60,14 @@ pub struct RunArgs {
     pub viewpoints: Vec<Pose>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
+    /// `--mirror`: the desktop window showing the submitted eye images
+    /// (None: `left` when a display is there, else none).
+    pub mirror: Option<crate::targets::mirror::MirrorMode>,
+    /// `--screenshot FILE.png`: the mirror window's last presented image.
+    pub screenshot: Option<PathBuf>,
+    /// `--save-config FILE`: where the live toggles' F2 writes the config
+    /// file (default `vergence-live.toml`).
+    pub save_config: Option<PathBuf>,
 }
 
 impl RunArgs {
@@ -85,6 +93,16 @@ impl RunArgs {
         }
         if self.frames == Some(0) {
             return Err(Error::config("--frames", "must be at least 1"));
+        }
+        if self.mirror == Some(crate::targets::mirror::MirrorMode::Off) && self.screenshot.is_some()
+        {
+            return Err(Error::config(
+                "--screenshot",
+                "writes the mirror window's image; it cannot be combined with --mirror off",
+            ));
+        }
+        if let Some(p) = &self.screenshot {
+            crate::fsio::prepare_output(p)?;
         }
         if self.capture.is_some() && self.frames.is_none() {
             return Err(Error::config(
@@ -135,6 +153,9 @@ pub struct FrameRecord {
     pub head_world: Option<PoseFile>,
     /// What the user did this frame (teleport, turn, grab, select, ...).
     pub events: Vec<Event>,
+    /// The `--opt` string the frame was rendered with (changes when a live
+    /// toggle switched an optimization).
+    pub opt: String,
 }
 
 /// The interaction profile the runtime bound per hand (top-level
@@ -358,6 +379,10 @@ pub struct RunStats {
     pub foveation: String,
     /// Series summary.
     pub summary: RunSummary,
+    /// The mirror window (None: no mirror).
+    pub mirror: Option<crate::targets::mirror::MirrorStats>,
+    /// Optimizations switched by the live toggles, in order.
+    pub toggles: Vec<crate::targets::toggles::ToggleEvent>,
     /// Sessions re-established after the runtime was lost (`--reconnect`).
     pub reconnects: u64,
     /// Why the loop ended.

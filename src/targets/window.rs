@@ -206,6 +206,11 @@ impl Window {
         &mut self.app.input
     }
 
+    /// The input gathered by the last [`Window::pump`].
+    pub fn input(&self) -> &Input {
+        &self.app.input
+    }
+
     fn window(&self) -> &WinitWindow {
         self.app.window.as_ref().expect("opened in Window::open")
     }
@@ -217,6 +222,11 @@ impl Window {
             width: s.width,
             height: s.height,
         }
+    }
+
+    /// Sets the title.
+    pub fn set_title(&self, title: &str) {
+        self.window().set_title(title);
     }
 
     /// Asks the window system for a new drawable size.
