@@ -256,6 +256,12 @@ struct RunCli {
     /// file for --config (default: vergence-live.toml).
     #[arg(long)]
     save_config: Option<PathBuf>,
+    /// A kiosk file (see manifests/kiosk/demo.toml): the scenes on offer
+    /// (N in the mirror window moves to the next), their spawns and
+    /// viewpoints, the optimizations and allowed toggles, reconnecting,
+    /// returning to the spawn when nobody moves, a rotating log file.
+    #[arg(long, conflicts_with_all = ["scene", "spawn", "viewpoint"])]
+    kiosk: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -375,9 +381,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::Run(a) => {
-            let config = a.frame.config()?;
+            let mut config = a.frame.config()?;
+            let kiosk = a
+                .kiosk
+                .as_deref()
+                .map(vergence::targets::kiosk::Kiosk::load)
+                .transpose()?;
+            let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
+            let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
+            if let Some(k) = &kiosk {
+                config.apply_opts(&k.opt, &cull_names())?;
+                config.validate()?;
+                let first = &k.scenes[0];
+                scene = first.scene.clone();
+                spawn = first.spawn;
+                viewpoints = first.viewpoints.clone();
+                reconnect |= k.reconnect;
+                mirror = mirror.or(k.mirror);
+                if let Some(log) = &k.log {
+                    vergence::targets::kiosk::start_log(log)?;
+                }
+            }
             let args = RunArgs {
-                scene: a.scene,
+                scene,
                 hmd_fallback: a.hmd_fallback,
                 xr: a.xr,
                 frames: a.frames,
@@ -386,9 +412,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 config,
                 size: a.frame.size(),
                 capture: a.capture,
-                reconnect: a.reconnect,
-                spawn: a.spawn,
-                viewpoints: a.viewpoint,
+                reconnect,
+                spawn,
+                viewpoints,
                 interact: Settings {
                     move_speed: a.move_speed,
                     snap_turn_deg: a.snap_turn,
@@ -396,11 +422,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     move_direction: a.move_direction,
                     ..Settings::default()
                 },
-                mirror: a.mirror,
+                mirror,
                 screenshot: a.screenshot,
                 save_config: a.save_config,
+                kiosk,
             };
             let stats = vergence::targets::run::run(&args)?;
+            tracing::info!(
+                "ran {} {}: {} frames submitted; {}",
+                stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
+                stats.mode,
+                stats.frames_submitted,
+                stats.exit
+            );
             println!(
                 "ran {} {} on {}: {} frames submitted ({} missed display periods), GPU {:.3} ms median, CPU {:.3} ms median; {}",
                 stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
@@ -799,12 +833,28 @@ fn inspect(s: &Scene, load_ms: f64) {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
+    use tracing_subscriber::layer::SubscriberExt as _;
+    use tracing_subscriber::util::SubscriberInitExt as _;
+    use tracing_subscriber::Layer as _;
+    let stderr = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| "warn,winit=error".into()),
-        )
-        .with_writer(std::io::stderr)
+        );
+    // `run --kiosk` with a [log]: vergence's own events at info and above
+    // also go to the rotating log file (nothing is formatted without one).
+    let kiosk_log = tracing_subscriber::fmt::layer()
+        .with_ansi(false)
+        .with_writer(vergence::targets::kiosk::LogWriter::default)
+        .with_filter(tracing_subscriber::filter::filter_fn(|m| {
+            vergence::targets::kiosk::logging()
+                && *m.level() <= tracing::Level::INFO
+                && m.target().starts_with("vergence")
+        }));
+    tracing_subscriber::registry()
+        .with(stderr)
+        .with(kiosk_log)
         .init();
     let cli = Cli::parse();
     match run(cli).context("vergence") {

@@ -166,6 +166,8 @@ pub struct Mirror {
     pub stats: MirrorStats,
     /// The window (None only once handed back by [`Mirror::into_window`]).
     window: Option<MirrorWindow>,
+    /// A title waiting for the first frame shown.
+    title: Option<String>,
 }
 
 impl Mirror {
@@ -219,6 +221,7 @@ impl Mirror {
             masks: [None, None],
             mode,
             window: Some(window),
+            title: None,
         };
         // On failure `m` drops, destroying what was made.
         m.init()?;
@@ -296,9 +299,14 @@ impl Mirror {
         input
     }
 
-    /// Sets the window's title.
-    pub fn set_title(&self, title: &str) {
-        self.win().set_title(title);
+    /// Sets the window's title; before the first frame is shown it waits
+    /// for it (so a title with the configuration means frames are shown).
+    pub fn set_title(&mut self, title: &str) {
+        if self.stats.presented == 0 {
+            self.title = Some(title.to_string());
+        } else {
+            self.win().set_title(title);
+        }
     }
 
     /// Copies the shown eyes of a frame's submitted images (`eyes[e]` is eye
@@ -532,7 +540,12 @@ impl Mirror {
         let sources = self.sources();
         let size = self.win().size();
         match self.presenter.present(&self.ctx, &sources, size, false)? {
-            Presented::Shown(_) => self.stats.presented += 1,
+            Presented::Shown(_) => {
+                self.stats.presented += 1;
+                if let Some(t) = self.title.take() {
+                    self.win().set_title(&t);
+                }
+            }
             Presented::Busy => self.stats.busy += 1,
             Presented::Skipped => self.stats.resized += 1,
         }
@@ -622,6 +635,12 @@ pub struct Desk {
     tried: bool,
     /// The window was closed (or Escape pressed): the run ends in order.
     pub closed: bool,
+    /// Scenes on offer (a kiosk's; N moves to the next when there are two
+    /// or more).
+    pub scenes: usize,
+    /// N was pressed: this session ends in order and the run goes on with
+    /// the next scene.
+    pub next_scene: bool,
     /// The configuration the keys switch.
     pub live: crate::targets::toggles::LiveConfig,
     /// The mirror's statistics so far (None: no mirror yet).
@@ -641,6 +660,8 @@ impl Desk {
             window: None,
             tried: false,
             closed: false,
+            scenes: 1,
+            next_scene: false,
             live: crate::targets::toggles::LiveConfig::new(config, save_to),
             stats: None,
         }
@@ -711,7 +732,16 @@ impl Desk {
             self.closed = true;
         }
         let pressed = std::mem::take(&mut input.pressed);
+        if self.scenes > 1 && pressed.contains(&winit::keyboard::KeyCode::KeyN) {
+            self.next_scene = true;
+        }
         self.live.handle(&pressed, next_frame)
+    }
+
+    /// Whether the session should end (the window closed, or the next
+    /// scene asked for).
+    pub fn ending(&self) -> bool {
+        self.closed || self.next_scene
     }
 }
 

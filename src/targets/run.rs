@@ -19,7 +19,7 @@ use crate::scene::Scene;
 use crate::view::{Pose, PoseFile};
 use glam::DVec3;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Runs `args`: OpenXR or headless as `--xr` says, writing `--stats-out`.
 pub fn run(args: &RunArgs) -> Result<RunStats> {
@@ -27,24 +27,45 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     crate::quit::install();
     let mut stats = RunStats::new(args.stats_out.as_deref())?;
     let mut desk = Desk::new(args.mirror, args.config.clone(), args.save_config.clone());
-    let result = match args.xr {
-        XrMode::Headless => run_headless(args, &mut stats, &mut desk),
-        XrMode::Openxr => xr_with_reconnect(args, &mut stats, &mut desk),
-        XrMode::Auto => match super::xr_session::run_session(args, &mut stats, &mut desk) {
-            Err(Error::XrUnavailable(reason)) => {
-                eprintln!(
-                    "vergence: no OpenXR headset ({reason}); running headless on the {} profile",
-                    args.hmd_fallback
-                );
-                stats.fall_back(reason);
-                run_headless(args, &mut stats, &mut desk)
-            }
-            Err(e) if args.reconnect && e.is_runtime_loss() => {
-                reconnect_after(&e, args, &mut stats)
-                    .and_then(|()| xr_with_reconnect(args, &mut stats, &mut desk))
-            }
-            other => other,
-        },
+    if let Some(k) = &args.kiosk {
+        desk.live.allowed = k.toggles.clone();
+        desk.scenes = k.scenes.len();
+        if k.scenes.len() > 1 {
+            desk.live.extra_help = Some("  N        the next scene".into());
+        }
+        tracing::info!(
+            "kiosk {}: {} scenes, starting with {}",
+            k.name,
+            k.scenes.len(),
+            k.scenes[0].name
+        );
+    }
+    // A kiosk's N ends a session in order and starts one on the next scene.
+    let mut mode = args.xr;
+    let mut at = 0;
+    let result = loop {
+        let a = args.for_scene(at);
+        let r = run_once(&a, mode, &mut stats, &mut desk);
+        let started = stats.run_started();
+        let go_on = r.is_ok()
+            && desk.next_scene
+            && !desk.closed
+            && !crate::quit::requested()
+            && !args.limit_reached(stats.frames_submitted, started);
+        if !go_on {
+            break r;
+        }
+        desk.next_scene = false;
+        if stats.mode == "headless" {
+            // The fallback is not tried again for every scene.
+            mode = XrMode::Headless;
+        }
+        let n = args.kiosk.as_ref().map_or(1, |k| k.scenes.len());
+        at = (at + 1) % n;
+        if let Some(k) = &args.kiosk {
+            tracing::info!("kiosk: next scene {}", k.scenes[at].name);
+            println!("next scene: {}", k.scenes[at].name);
+        }
     };
     stats.mirror = desk.stats.clone();
     stats.toggles = desk.live.events.clone();
@@ -55,6 +76,29 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
         }
     }
     result.map(|()| stats)
+}
+
+/// One run of `args` as `mode` says: OpenXR, headless, or OpenXR with the
+/// headless fallback.
+fn run_once(args: &RunArgs, mode: XrMode, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
+    match mode {
+        XrMode::Headless => run_headless(args, stats, desk),
+        XrMode::Openxr => xr_with_reconnect(args, stats, desk),
+        XrMode::Auto => match super::xr_session::run_session(args, stats, desk) {
+            Err(Error::XrUnavailable(reason)) => {
+                eprintln!(
+                    "vergence: no OpenXR headset ({reason}); running headless on the {} profile",
+                    args.hmd_fallback
+                );
+                stats.fall_back(reason);
+                run_headless(args, stats, desk)
+            }
+            Err(e) if args.reconnect && e.is_runtime_loss() => {
+                reconnect_after(&e, args, stats).and_then(|()| xr_with_reconnect(args, stats, desk))
+            }
+            other => other,
+        },
+    }
 }
 
 /// An OpenXR run that, with `--reconnect`, outlives losing the runtime:
@@ -68,7 +112,7 @@ fn xr_with_reconnect(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> R
         }
         let started = stats.run_started();
         if crate::quit::requested()
-            || desk.closed
+            || desk.ending()
             || args.limit_reached(stats.frames_submitted, started)
         {
             return Ok(());
@@ -137,7 +181,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             fov: Some(v.fov),
         })
         .collect();
-    if let Some(m) = &mirror {
+    if let Some(m) = &mut mirror {
         m.set_title(&format!(
             "vergence run: {} [{}]",
             scene.name,
@@ -145,7 +189,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
         ));
     }
     let period_ns = (1e9 / profile.refresh_hz.max(1.0)) as i64;
-    let started = Instant::now();
+    // --seconds counts from the run's start (across a kiosk's scenes).
+    let started = stats.run_started();
     let mut index = 0u64;
     // A finished frame's record: written when its GPU times are known.
     // Heads and `--opt` strings of the frames in flight, by frame index.
@@ -202,6 +247,9 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                 }
                 if desk.closed {
                     return Ok("the mirror window was closed".into());
+                }
+                if desk.next_scene {
+                    return Ok("the next scene was asked for".into());
                 }
             }
             let t = started.elapsed().as_secs_f64();

@@ -68,6 +68,10 @@ pub struct RunArgs {
     /// `--save-config FILE`: where the live toggles' F2 writes the config
     /// file (default `vergence-live.toml`).
     pub save_config: Option<PathBuf>,
+    /// `--kiosk FILE`: the demo install (scenes on offer, allowed toggles,
+    /// idle return); `scene`, `spawn` and `viewpoints` are its first
+    /// scene's.
+    pub kiosk: Option<crate::targets::kiosk::Kiosk>,
 }
 
 impl RunArgs {
@@ -111,6 +115,18 @@ impl RunArgs {
             ));
         }
         Ok(())
+    }
+
+    /// These arguments for the kiosk's scene `i` (its scene, spawn and
+    /// viewpoints); unchanged without a kiosk.
+    pub fn for_scene(&self, i: usize) -> RunArgs {
+        let mut a = self.clone();
+        if let Some(s) = self.kiosk.as_ref().and_then(|k| k.scenes.get(i)) {
+            a.scene = s.scene.clone();
+            a.spawn = s.spawn;
+            a.viewpoints = s.viewpoints.clone();
+        }
+        a
     }
 
     /// Whether the frame or time limit is reached.

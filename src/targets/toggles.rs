@@ -219,6 +219,8 @@ pub struct LiveConfig {
     pub save_to: PathBuf,
     /// Every switch made, in order.
     pub events: Vec<ToggleEvent>,
+    /// More lines for the key listing (a kiosk's N for the next scene).
+    pub extra_help: Option<String>,
 }
 
 /// Where F2 writes by default.
@@ -232,6 +234,7 @@ impl LiveConfig {
             allowed: Toggle::ALL.to_vec(),
             save_to: save_to.unwrap_or_else(|| PathBuf::from(DEFAULT_SAVE_PATH)),
             events: Vec::new(),
+            extra_help: None,
         }
     }
 
@@ -253,7 +256,12 @@ impl LiveConfig {
         for &key in pressed {
             match action(key) {
                 None => {}
-                Some(KeyAction::Help) => println!("{}", help(&self.allowed, &self.save_to)),
+                Some(KeyAction::Help) => {
+                    println!("{}", help(&self.allowed, &self.save_to));
+                    if let Some(more) = &self.extra_help {
+                        println!("{more}");
+                    }
+                }
                 Some(KeyAction::Print) => println!("opt: {}", self.config.opt_string()),
                 Some(KeyAction::Save) => match self.save() {
                     Ok(()) => println!(
@@ -275,6 +283,7 @@ impl LiveConfig {
                             changed = true;
                             let opt = self.config.opt_string();
                             println!("opt: {opt} ({} switched)", t.name());
+                            tracing::info!("live toggle {} at frame {next_frame}: {opt}", t.name());
                             self.events.push(ToggleEvent {
                                 frame: next_frame,
                                 toggle: t.name().into(),

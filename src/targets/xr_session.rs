@@ -287,7 +287,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     chains.create(&session, &mut live, config.stereo)?;
     live.space = Some(space);
     live.mirror = desk.mirror(&ctx, window, color_format);
-    if let Some(m) = &live.mirror {
+    if let Some(m) = &mut live.mirror {
         m.set_title(&format!(
             "vergence run: {} [{}]",
             scene.name,
@@ -320,6 +320,11 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         desk,
         chains,
         opt: config.opt_string(),
+        idle: args
+            .kiosk
+            .as_ref()
+            .and_then(|k| k.idle_return_s)
+            .map(super::kiosk::IdleWatch::new),
         records: RecordQueue::default(),
         masks,
         interaction: {
@@ -449,6 +454,8 @@ struct LoopState<'a> {
     chains: ChainSpec,
     /// The current configuration's `--opt` string, for the frame records.
     opt: String,
+    /// A kiosk's return to the spawn when the head stays still.
+    idle: Option<super::kiosk::IdleWatch>,
     /// Records of frames whose GPU times are still to come.
     records: RecordQueue,
     masks: Option<Arc<Vec<HiddenArea>>>,
@@ -505,9 +512,10 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                 }
             }
         }
-        let window_closed = st.desk.closed;
+        let (window_closed, next_scene) = (st.desk.closed, st.desk.next_scene);
         if crate::quit::requested()
             || window_closed
+            || next_scene
             || args.limit_reached(stats.frames_submitted, started)
         {
             match machine.on_quit() {
@@ -550,6 +558,8 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                             machine.performed(action);
                             break 'main Ok(if machine.exit_requested && window_closed {
                                 "session exited after the mirror window was closed".into()
+                            } else if machine.exit_requested && next_scene {
+                                "session exited for the next scene".into()
                             } else if machine.exit_requested {
                                 "session exited after vergence asked to exit".into()
                             } else {
@@ -682,7 +692,7 @@ fn switch_config(
     stats.foveation = driver.renderer().foveation_path.clone();
     live.driver = Some(driver);
     st.opt = st.desk.live.config.opt_string();
-    if let Some(m) = &live.mirror {
+    if let Some(m) = &mut live.mirror {
         m.set_title(&format!("vergence run: {} [{}]", st.scene.name, st.opt));
     }
     Ok(())
@@ -780,6 +790,23 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 );
             }
             rec.events = update.events;
+            if st.idle.as_mut().is_some_and(|w| w.observe(&input.head, dt)) {
+                // Kiosk: nobody has moved for the idle time; the next
+                // visitor starts at the spawn.
+                st.interaction.viewpoint = 0;
+                if let Some(spawn) = st.interaction.viewpoints.first() {
+                    st.interaction.origin = *spawn;
+                }
+                tracing::info!(
+                    "kiosk: back to the spawn after {:.0} s without head motion",
+                    args.kiosk
+                        .as_ref()
+                        .and_then(|k| k.idle_return_s)
+                        .unwrap_or(0.0)
+                );
+                rec.events
+                    .push(crate::interact::Event::Recenter { viewpoint: 0 });
+            }
             let mut rig = world_rig(&st.interaction.origin, &tracking);
             rec.head_world = Some(PoseFile::from(&rig.head));
             rig.hidden_area = match &st.masks {
