@@ -468,13 +468,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             };
             let s = vergence::targets::view::view(&args)?;
             println!(
-                "viewed {} frames at {}x{} per eye in a {}x{} window ({})",
+                "viewed {} frames at {}x{} per eye in a {}x{} window ({}); opt {}",
                 s.frames,
                 s.eye_size[0],
                 s.eye_size[1],
                 s.window_size[0],
                 s.window_size[1],
-                s.present_mode
+                s.present_mode,
+                s.opt
             );
             if s.validation_messages > 0 {
                 anyhow::bail!(

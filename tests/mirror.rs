@@ -114,11 +114,25 @@ impl Xvfb {
                 return None;
             }
             if start.elapsed() > Duration::from_secs(180) {
-                let _ = child.kill();
                 let out = self.xdotool(&["search", "--name", "vergence"]);
+                let titles: Vec<String> = String::from_utf8_lossy(&out.stdout)
+                    .lines()
+                    .map(|id| {
+                        let t = self.xdotool(&["getwindowname", id.trim()]);
+                        String::from_utf8_lossy(&t.stdout).trim().to_string()
+                    })
+                    .collect();
+                let _ = child.kill();
+                let mut log = String::new();
+                use std::io::Read as _;
+                if let Some(mut o) = child.stdout.take() {
+                    let _ = o.read_to_string(&mut log);
+                }
+                if let Some(mut e) = child.stderr.take() {
+                    let _ = e.read_to_string(&mut log);
+                }
                 panic!(
-                    "no window '{name}' appeared within 180 s (vergence windows: {:?})",
-                    String::from_utf8_lossy(&out.stdout)
+                    "no window '{name}' appeared within 180 s (vergence windows: {titles:?}); its output:\n{log}"
                 );
             }
             std::thread::sleep(Duration::from_millis(100));
@@ -804,4 +818,72 @@ fn under_monado_a_kiosk_returns_a_still_head_to_the_spawn() {
     assert!(log.contains("back to the spawn after 1 s"), "{log}");
     assert_eq!(s["validation_messages"], 0);
     assert_eq!(s["xr_validation_messages"], 0);
+}
+
+#[test]
+fn keys_switch_optimizations_in_view_too() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("view_keys") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping view_keys: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "view-keys");
+    let shot = dir.join("shot.png");
+    let mut run = Running(Some(
+        vergence(Some(&x))
+            .args([
+                "view",
+                "--scene",
+                "factory:2000",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ])
+            .arg("--screenshot")
+            .arg(&shot)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("vergence starts"),
+    ));
+    let Some(id) = x.window("vergence view: .* \\[multiview", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    std::thread::sleep(Duration::from_secs(1));
+    // 1: two-pass (new eye images), 7: 1x MSAA, H: the key listing.
+    x.key(id, "1");
+    x.key(id, "7");
+    x.key(id, "h");
+    let Some(id) = x.window("vergence view: .* \\[two-pass,no-msaa", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    std::thread::sleep(Duration::from_millis(500));
+    x.key(id, "Escape");
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "opt: two-pass,msaa4,none (stereo switched)",
+        "opt: two-pass,no-msaa,none (msaa switched)",
+        "keys:",
+        "F2 ",
+        "; opt two-pass,no-msaa,none",
+    ] {
+        assert!(stdout.contains(want), "'{want}' missing: {stdout}");
+    }
+    // The last image shown (after the switch) is a real frame.
+    let img = load(&shot);
+    assert_eq!(img.dimensions(), (320, 120));
+    let distinct: std::collections::HashSet<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 50, "{} colours", distinct.len());
 }

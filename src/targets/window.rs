@@ -111,13 +111,18 @@ impl ApplicationHandler for App {
                         repeat,
                         ..
                     },
+                is_synthetic,
                 ..
             } => match state {
                 ElementState::Pressed => {
-                    if code == KeyCode::Escape {
+                    // Synthetic presses (keys found held when the window
+                    // gains focus) are no key strokes: they would switch a
+                    // toggle twice.
+                    let stroke = !repeat && !is_synthetic;
+                    if code == KeyCode::Escape && stroke {
                         input.close = true;
                     }
-                    if !repeat {
+                    if stroke {
                         input.pressed.push(code);
                     }
                     input.held.insert(code);
