@@ -672,30 +672,37 @@ impl Desk {
         Desk::new(Some(MirrorMode::Off), config, None)
     }
 
-    /// The mirror window for a session of `eye`-sized images: the run's
-    /// window when one is open, else opened now (once per run).
-    pub fn window(&mut self, title: &str, eye: vk::Extent2D) -> Option<MirrorWindow> {
-        if let Some(mut w) = self.window.take() {
-            w.eye = eye;
-            return Some(w);
+    /// Readies the mirror window for a session of `eye`-sized images (the
+    /// run's window when one is open, else opened now, once per run) and
+    /// returns the extensions the Vulkan context needs for it (none
+    /// without a window). The window stays here until [`Desk::mirror`]
+    /// takes it, so a session that fails before leaves it to the next.
+    pub fn prepare(&mut self, title: &str, eye: vk::Extent2D) -> ExtraExtensions {
+        if self.window.is_none() && !self.tried {
+            if let Some(mode) = self.mode {
+                self.tried = true;
+                self.window = MirrorWindow::open(mode, title, eye);
+            }
         }
-        let mode = self.mode?;
-        if self.tried {
-            return None;
+        let Some(w) = self.window.as_mut() else {
+            return ExtraExtensions::default();
+        };
+        w.eye = eye;
+        match w.extensions() {
+            Ok(e) => e,
+            Err(e) => {
+                eprintln!("vergence: mirror off: {e}");
+                self.window = None;
+                ExtraExtensions::default()
+            }
         }
-        self.tried = true;
-        MirrorWindow::open(mode, title, eye)
     }
 
-    /// The mirror of `window` on `ctx` for images of `format`; a failure is
-    /// one line on stderr and no mirror.
-    pub fn mirror(
-        &mut self,
-        ctx: &Arc<Context>,
-        window: Option<MirrorWindow>,
-        format: vk::Format,
-    ) -> Option<Mirror> {
-        match Mirror::new(ctx, window?, format) {
+    /// The mirror on `ctx` (made with [`Desk::prepare`]'s extensions) for
+    /// images of `format`, when a window is ready; a failure is one line on
+    /// stderr and no mirror.
+    pub fn mirror(&mut self, ctx: &Arc<Context>, format: vk::Format) -> Option<Mirror> {
+        match Mirror::new(ctx, self.window.take()?, format) {
             Ok(m) => Some(m),
             Err(e) => {
                 eprintln!("vergence: mirror off: {e}");

@@ -5,13 +5,13 @@
 
 use super::headless::spawn_pose;
 use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
-use super::mirror::{Desk, Mirror, MirrorWindow};
+use super::mirror::{Desk, Mirror};
 use super::session::{write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
 pub use super::session::{RunArgs, RunStats, XrMode};
 use super::view::EyeImages;
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
-use crate::gpu::{Context, Direct, ExtraExtensions, Validation};
+use crate::gpu::{Context, Direct, Validation};
 use crate::render::attachments::COLOR_FORMAT;
 use crate::render::driver::{FrameDriver, FrameResult};
 use crate::render::{OutputSpec, Renderer};
@@ -144,21 +144,16 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     let profile = load_stereo_profile(&args.hmd_fallback)?;
     let (scene, _) = load_scene(&args.scene)?;
     let extent = eye_extent(&profile, args.size);
-    let window = desk.window(
+    let extra = desk.prepare(
         &format!("vergence run: {} ({})", scene.name, profile.name),
         extent,
     );
-    let extra = match window.as_ref().map(MirrorWindow::extensions) {
-        Some(Ok(e)) => e,
-        Some(Err(e)) => return Err(e),
-        None => ExtraExtensions::default(),
-    };
     let ctx = Arc::new(Context::with_extensions(
         Validation::from_env(),
         &Direct,
         &extra,
     )?);
-    let mut mirror = desk.mirror(&ctx, window, COLOR_FORMAT);
+    let mut mirror = desk.mirror(&ctx, COLOR_FORMAT);
     let config = desk.live.config.clone();
     let mut frames = HeadlessFrames::new(&ctx, &scene, &config, extent, mirror.is_some())?;
     let spawn = args

@@ -10,13 +10,13 @@
 //! completed when its fence signals.
 
 use super::headless::{load_scene, spawn_pose, SceneCounts};
-use super::mirror::{Desk, Mirror, MirrorWindow};
+use super::mirror::{Desk, Mirror};
 use super::session::{
     write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats, ViewInfo,
 };
 use crate::error::{Error, Result};
 use crate::gpu::surface::Source;
-use crate::gpu::{Context, ExtraExtensions, Validation};
+use crate::gpu::{Context, Validation};
 use crate::interact::locomotion::Origin;
 use crate::interact::raycast::SceneQuery;
 use crate::interact::{FrameInput, Interaction};
@@ -175,15 +175,10 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     // The mirror window first: its surface's extensions go into the create
     // infos handed to the runtime (XR_KHR_vulkan_enable2), which adds its
     // own; some runtimes would not add these.
-    let window = desk.window(
+    let extra = desk.prepare(
         &format!("vergence run: {} ({})", scene.name, sys_props.system_name),
         extent,
     );
-    let extra = match window.as_ref().map(MirrorWindow::extensions) {
-        Some(Ok(e)) => e,
-        Some(Err(e)) => return Err(e),
-        None => ExtraExtensions::default(),
-    };
     let ctx = Arc::new(Context::with_extensions(
         Validation::from_env(),
         &vulkan::XrDeviceFactory {
@@ -286,7 +281,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, config.stereo)?;
     live.space = Some(space);
-    live.mirror = desk.mirror(&ctx, window, color_format);
+    live.mirror = desk.mirror(&ctx, color_format);
     if let Some(m) = &mut live.mirror {
         m.set_title(&format!(
             "vergence run: {} [{}]",
