@@ -535,12 +535,35 @@ case("glb/draco-missing-view.glb", "scene", ["KHR_draco_mesh_compression: buffer
 case("glb/draco-unmapped-attribute-without-data.glb", "scene", ["accessors[2].bufferView", "Missing"],
      draco_box(lambda d: d["meshes"][0]["primitives"][0]["extensions"]["KHR_draco_mesh_compression"]["attributes"].pop("POSITION")), "wb")
 
+
+# --- Kiosk files (vergence run --kiosk FILE) ----------------------------------
+KIOSK = 'name = "k"\n{top}[[scenes]]\nname = "a"\nscene = "factory:10"\n{scene}'
+def kiosk(top="", scene=""):
+    return KIOSK.format(top=top, scene=scene)
+case("kiosk/unknown-key.toml", "kiosk", ["unknown field `colour`"], kiosk(top="colour = 3\n"))
+case("kiosk/no-scenes.toml", "kiosk", ["scenes"], 'name = "k"\n')
+case("kiosk/empty-scenes.toml", "kiosk", ["needs 1 to 64 [[scenes]], found 0"], 'name = "k"\nscenes = []\n')
+case("kiosk/bad-toggle.toml", "kiosk", ["toggles: unknown toggle 'warp'"], kiosk(top='toggles = ["msaa", "warp"]\n'))
+case("kiosk/twice-toggle.toml", "kiosk", ["toggle 'msaa' is listed twice"], kiosk(top='toggles = ["msaa", "msaa"]\n'))
+case("kiosk/bad-opt.toml", "kiosk", ["opt:", "warp"], kiosk(top='opt = "multiview,warp"\n'))
+case("kiosk/short-spawn.toml", "kiosk", ["scenes[0].spawn: expected [x, y, z, yaw] (4 numbers), got 2"], kiosk(scene="spawn = [1.0, 2.0]\n"))
+case("kiosk/nan-viewpoint.toml", "kiosk", ["scenes[0].viewpoints[0]", "finite"], kiosk(scene="viewpoints = [[0.0, nan, 0.0, 0.0]]\n"))
+case("kiosk/idle-negative.toml", "kiosk", ["idle_return_s = -5"], kiosk(top="idle_return_s = -5\n"))
+case("kiosk/twice-scene.toml", "kiosk", ["scenes[1]: the name 'a' is used twice"], kiosk() + '[[scenes]]\nname = "a"\nscene = "factory"\n')
+case("kiosk/bad-mirror.toml", "kiosk", ["mirror = \"sideways\""], kiosk(top='mirror = "sideways"\n'))
+case("kiosk/log-keep.toml", "kiosk", ["log.keep = 0: expected 1 to 100"], 'name = "k"\n[log]\nfile = "k.log"\nkeep = 0\n[[scenes]]\nname = "a"\nscene = "factory:10"\n')
+case("kiosk/empty-name.toml", "kiosk", ["name is empty"], 'name = " "\n[[scenes]]\nname = "a"\nscene = "factory:10"\n')
+case("kiosk/not-toml.toml", "kiosk", ["--kiosk", "not-toml.toml"], "name = \n[[[\n")
+cli("kiosk-missing", ["run", "--xr", "headless", "--frames", "1", "--kiosk", "{dir}/kiosk/nothing-here.toml"], ["--kiosk", "nothing-here.toml"])
+cli("kiosk-with-scene", ["run", "--kiosk", "{dir}/kiosk/unknown-key.toml", "--scene", "factory"], ["--kiosk", "--scene"], exit=2)
+
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"
             "# them). Written by scripts/make-bad-inputs.py.\n"
             "# kind: scene = vergence inspect FILE; hmd = vergence render --hmd FILE;\n"
             "# plan = vergence bench --plan FILE; config = vergence render --config FILE;\n"
-            "# rig = vergence render --rig FILE; cli = vergence ARGS (file is only a name).\n"
+            "# rig = vergence render --rig FILE; kiosk = vergence run --kiosk FILE (headless,\n"
+            "# no mirror, one frame); cli = vergence ARGS (file is only a name).\n"
             "# exit: the exit code required (else any failure but a panic); memory: run\n"
             "# under an address-space limit. Every case must end within 10 s.\n")
     for name, kind, expect, extra in cases:

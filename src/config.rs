@@ -404,6 +404,62 @@ impl RenderConfig {
     }
 }
 
+impl RenderConfig {
+    /// The `--opt` list that sets this configuration's optimizations
+    /// (stereo mode, MSAA, culling and every technique that is on), as
+    /// the live toggles show it and write it to a config file: applied to
+    /// [`RenderConfig::default`] with the same frames in flight, near plane
+    /// and draw distance, it gives this configuration back.
+    pub fn opt_string(&self) -> String {
+        let mut v: Vec<String> = vec![
+            self.stereo.name().into(),
+            if self.msaa == 1 { "no-msaa" } else { "msaa4" }.into(),
+            self.cull.name().into(),
+        ];
+        if self.gpu_cull {
+            v.push("gpu-cull".into());
+        }
+        if self.stencil_mask {
+            v.push("stencil-mask".into());
+        }
+        use crate::view::foveation::Level;
+        let level = match self.foveation {
+            Level::Off => None,
+            Level::Low => Some("low"),
+            Level::Medium => Some("medium"),
+            Level::High => Some("high"),
+        };
+        if let Some(l) = level {
+            v.push(format!("foveation={l}"));
+        }
+        if self.gaze != [0.0, 0.0] {
+            v.push(format!("gaze={}:{}", self.gaze[0], self.gaze[1]));
+        }
+        if let Some(r) = self.rdm {
+            v.push(format!("rdm={r}"));
+            if !self.rdm_fill {
+                v.push("rdm-nofill".into());
+            }
+        }
+        if let Some(m) = &self.mffr {
+            v.push(match m.split {
+                Some(d) => format!("mffr={d}"),
+                None => "mffr".into(),
+            });
+            for (on, name) in [
+                (m.depth_shift, "mffr-depth-shift"),
+                (m.alternate_eye, "mffr-alternate-eye"),
+                (m.no_split, "mffr-no-split"),
+            ] {
+                if on {
+                    v.push(name.into());
+                }
+            }
+        }
+        v.join(",")
+    }
+}
+
 /// Names `--opt` accepts for culling: `none` plus every strategy.
 pub fn cull_names() -> Vec<&'static str> {
     std::iter::once("none")
@@ -441,6 +497,27 @@ impl ConfigFile {
 mod tests {
     use super::*;
     use crate::view::foveation::Level;
+
+    #[test]
+    fn the_opt_string_gives_the_configuration_back() {
+        let names = cull_names();
+        for list in [
+            "",
+            "two-pass,no-msaa",
+            "superfrustum,gpu-cull,stencil-mask,foveation=high,gaze=0.25:-0.5",
+            "conical,rdm=0.4,rdm-nofill",
+            "mffr=12.5,mffr-depth-shift,mffr-alternate-eye,mffr-no-split",
+            "round-robin,mffr,rdm,foveation=low",
+        ] {
+            let mut c = RenderConfig::default();
+            c.apply_opts(list, &names).unwrap();
+            let opt = c.opt_string();
+            let mut back = RenderConfig::default();
+            back.apply_opts(&opt, &names).unwrap();
+            assert_eq!(back, c, "{list} -> {opt}");
+        }
+        assert_eq!(RenderConfig::default().opt_string(), "multiview,msaa4,none");
+    }
 
     #[test]
     fn effort_options_parse_and_bad_values_name_themselves() {

@@ -29,7 +29,8 @@ enum Command {
     Run(RunCli),
     /// Look at a scene in a desktop window through an HMD profile's stereo
     /// rig: WASD (Q/E down/up) to move, drag with the left mouse button to
-    /// look, Shift for speed, Escape to quit.
+    /// look, Shift for speed, Escape to quit; keys 1-8 switch
+    /// optimizations, P prints the --opt list, F2 saves it, H lists the keys.
     View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::bench::cull::CullBenchArgs),
@@ -254,6 +255,25 @@ struct RunCli {
     /// Smooth move goes where the head looks (head) or the left hand points (hand).
     #[arg(long, default_value = "head", value_parser = parse_move_direction)]
     move_direction: MoveDirection,
+    /// A desktop window showing the submitted eye images: left, right,
+    /// both, cropped (the left eye, hidden area masked) or off. Default:
+    /// left when a display is there. Keys in it switch optimizations (H
+    /// lists them); closing it ends the run.
+    #[arg(long, value_enum)]
+    mirror: Option<vergence::targets::mirror::MirrorMode>,
+    /// Write the mirror window's last presented image as PNG at the end.
+    #[arg(long)]
+    screenshot: Option<PathBuf>,
+    /// Where F2 in the window writes the current --opt list as a config
+    /// file for --config (default: vergence-live.toml).
+    #[arg(long)]
+    save_config: Option<PathBuf>,
+    /// A kiosk file (see manifests/kiosk/demo.toml): the scenes on offer
+    /// (N in the mirror window moves to the next), their spawns and
+    /// viewpoints, the optimizations and allowed toggles, reconnecting,
+    /// returning to the spawn when nobody moves, a rotating log file.
+    #[arg(long, conflicts_with_all = ["scene", "spawn", "viewpoint"])]
+    kiosk: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -277,6 +297,10 @@ struct ViewCli {
     /// Which eyes the window shows.
     #[arg(long, value_enum, default_value_t = vergence::targets::window::Eyes::Both)]
     eyes: vergence::targets::window::Eyes,
+    /// Where F2 writes the current --opt list as a config file for
+    /// --config (default: vergence-live.toml).
+    #[arg(long)]
+    save_config: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameOpts,
 }
@@ -369,9 +393,29 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::Run(a) => {
-            let config = a.frame.config()?;
+            let mut config = a.frame.config()?;
+            let kiosk = a
+                .kiosk
+                .as_deref()
+                .map(vergence::targets::kiosk::Kiosk::load)
+                .transpose()?;
+            let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
+            let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
+            if let Some(k) = &kiosk {
+                config.apply_opts(&k.opt, &cull_names())?;
+                config.validate()?;
+                let first = &k.scenes[0];
+                scene = first.scene.clone();
+                spawn = first.spawn;
+                viewpoints = first.viewpoints.clone();
+                reconnect |= k.reconnect;
+                mirror = mirror.or(k.mirror);
+                if let Some(log) = &k.log {
+                    vergence::targets::kiosk::start_log(log)?;
+                }
+            }
             let args = RunArgs {
-                scene: a.scene,
+                scene,
                 hmd_fallback: a.hmd_fallback,
                 xr: a.xr,
                 frames: a.frames,
@@ -380,9 +424,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 config,
                 size: a.frame.size(),
                 capture: a.capture,
-                reconnect: a.reconnect,
-                spawn: a.spawn,
-                viewpoints: a.viewpoint,
+                reconnect,
+                spawn,
+                viewpoints,
                 camera: a.camera,
                 interact: Settings {
                     move_speed: a.move_speed,
@@ -391,8 +435,19 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     move_direction: a.move_direction,
                     ..Settings::default()
                 },
+                mirror,
+                screenshot: a.screenshot,
+                save_config: a.save_config,
+                kiosk,
             };
             let stats = vergence::targets::run::run(&args)?;
+            tracing::info!(
+                "ran {} {}: {} frames submitted; {}",
+                stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
+                stats.mode,
+                stats.frames_submitted,
+                stats.exit
+            );
             println!(
                 "ran {} {} on {}: {} frames submitted ({} missed display periods), GPU {:.3} ms median, CPU {:.3} ms median; {}",
                 stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
@@ -422,16 +477,18 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 frames: a.frames,
                 screenshot: a.screenshot,
                 eyes: a.eyes,
+                save_config: a.save_config,
             };
             let s = vergence::targets::view::view(&args)?;
             println!(
-                "viewed {} frames at {}x{} per eye in a {}x{} window ({})",
+                "viewed {} frames at {}x{} per eye in a {}x{} window ({}); opt {}",
                 s.frames,
                 s.eye_size[0],
                 s.eye_size[1],
                 s.window_size[0],
                 s.window_size[1],
-                s.present_mode
+                s.present_mode,
+                s.opt
             );
             if s.validation_messages > 0 {
                 anyhow::bail!(
@@ -790,12 +847,28 @@ fn inspect(s: &Scene, load_ms: f64) {
 }
 
 fn main() -> ExitCode {
-    tracing_subscriber::fmt()
-        .with_env_filter(
+    use tracing_subscriber::layer::SubscriberExt as _;
+    use tracing_subscriber::util::SubscriberInitExt as _;
+    use tracing_subscriber::Layer as _;
+    let stderr = tracing_subscriber::fmt::layer()
+        .with_writer(std::io::stderr)
+        .with_filter(
             tracing_subscriber::EnvFilter::try_from_default_env()
                 .unwrap_or_else(|_| "warn,winit=error".into()),
-        )
-        .with_writer(std::io::stderr)
+        );
+    // `run --kiosk` with a [log]: vergence's own events at info and above
+    // also go to the rotating log file (nothing is formatted without one).
+    let kiosk_log = tracing_subscriber::fmt::layer()
+        .with_ansi(false)
+        .with_writer(vergence::targets::kiosk::LogWriter::default)
+        .with_filter(tracing_subscriber::filter::filter_fn(|m| {
+            vergence::targets::kiosk::logging()
+                && *m.level() <= tracing::Level::INFO
+                && m.target().starts_with("vergence")
+        }));
+    tracing_subscriber::registry()
+        .with(stderr)
+        .with(kiosk_log)
         .init();
     let cli = Cli::parse();
     match run(cli).context("vergence") {

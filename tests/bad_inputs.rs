@@ -494,6 +494,16 @@ fn corpus() {
                 ],
                 false,
             ),
+            "kiosk" => (
+                [
+                    "run", "--xr", "headless", "--frames", "1", "--mirror", "off", "--kiosk",
+                ]
+                .iter()
+                .map(|a| a.to_string())
+                .chain([p])
+                .collect(),
+                false,
+            ),
             "cli" => (c.args.iter().map(|a| fill(a)).collect(), c.memory),
             other => panic!("{}: unknown kind {other}", c.file),
         };

@@ -95,6 +95,9 @@ pub enum Presented {
     /// The swapchain was out of date (resize); it was recreated and nothing
     /// was shown this time.
     Skipped,
+    /// [`Pacing::NeverBlock`]: no swapchain image was free, or the previous
+    /// blit of this slot still ran; nothing was shown, nothing waited.
+    Busy,
 }
 
 struct Slot {
@@ -380,7 +383,9 @@ impl Presenter {
     /// the next swapchain image, letterboxed on black, and presents it;
     /// with `read_back`, the presented pixels come back as RGBA8 (this
     /// waits for the blit). `size` is the window's size, used when the
-    /// swapchain must be recreated.
+    /// swapchain must be recreated. Under [`Pacing::NeverBlock`] a present
+    /// without `read_back` waits for nothing: when no image is free yet it
+    /// returns [`Presented::Busy`].
     pub fn present(
         &mut self,
         ctx: &Context,
@@ -395,25 +400,44 @@ impl Presenter {
             }
         }
         let d = &ctx.device;
+        let never_block = self.pacing == Pacing::NeverBlock && !read_back;
         let slot_index = self.next;
-        self.next = (self.next + 1) % self.slots.len();
         let (pool, cmd, fence, acquired) = {
             let s = &self.slots[slot_index];
             (s.pool, s.cmd, s.fence, s.acquired)
         };
-        // SAFETY: the fence belongs to this device; waiting makes the slot's
-        // command buffer and semaphore free for reuse.
-        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.vk("waiting for a window blit")?;
+        if never_block {
+            // SAFETY: the fence belongs to this device.
+            let done = unsafe { d.get_fence_status(fence) }.vk("querying a window blit")?;
+            if !done {
+                return Ok(Presented::Busy);
+            }
+        } else {
+            // SAFETY: the fence belongs to this device; waiting makes the
+            // slot's command buffer and semaphore free for reuse.
+            unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }
+                .vk("waiting for a window blit")?;
+        }
         // SAFETY: valid swapchain; the semaphore is unsignalled (its last
-        // wait completed with the fence above).
+        // wait completed with the fence above, and a failed acquire leaves
+        // it untouched).
         let acquire = unsafe {
             self.swapchain_fn.acquire_next_image(
                 self.swapchain,
-                u64::MAX,
+                if never_block { 0 } else { u64::MAX },
                 acquired,
                 vk::Fence::null(),
             )
         };
+        if never_block
+            && matches!(
+                acquire,
+                Err(vk::Result::NOT_READY) | Err(vk::Result::TIMEOUT)
+            )
+        {
+            return Ok(Presented::Busy);
+        }
+        self.next = (self.next + 1) % self.slots.len();
         let index = match acquire {
             Ok((i, suboptimal)) => {
                 if suboptimal {

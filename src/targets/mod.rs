@@ -3,8 +3,11 @@
 //! desktop window (`view`: the preview with a fly camera).
 
 pub mod headless;
+pub mod kiosk;
+pub mod mirror;
 pub mod run;
 pub mod session;
+pub mod toggles;
 pub mod view;
 pub mod viewpoints;
 pub mod window;

@@ -4,40 +4,70 @@
 //! same frame statistics (`--stats-out`).
 
 use super::headless::{eye_extent, load_scene, load_stereo_profile, SceneCounts};
+use super::mirror::{Desk, Mirror};
 use super::session::{write_capture, FrameRecord, ViewInfo, WARMUP_FRAMES};
 pub use super::session::{RunArgs, RunStats, XrMode};
+use super::view::EyeImages;
+use crate::config::RenderConfig;
 use crate::error::{Error, Result};
-use crate::gpu::{Context, Validation};
+use crate::gpu::{Context, Direct, Validation};
+use crate::render::attachments::COLOR_FORMAT;
 use crate::render::driver::{FrameDriver, FrameResult};
+use crate::render::{OutputSpec, Renderer};
+use crate::scene::Scene;
 use crate::view::{Pose, PoseFile};
 use glam::DVec3;
 use std::sync::Arc;
-use std::time::{Duration, Instant};
+use std::time::Duration;
 
 /// Runs `args`: OpenXR or headless as `--xr` says, writing `--stats-out`.
 pub fn run(args: &RunArgs) -> Result<RunStats> {
     args.validate()?;
     crate::quit::install();
     let mut stats = RunStats::new(args.stats_out.as_deref())?;
-    let result = match args.xr {
-        XrMode::Headless => run_headless(args, &mut stats),
-        XrMode::Openxr => xr_with_reconnect(args, &mut stats),
-        XrMode::Auto => match super::xr_session::run_session(args, &mut stats) {
-            Err(Error::XrUnavailable(reason)) => {
-                eprintln!(
-                    "vergence: no OpenXR headset ({reason}); running headless on the {} profile",
-                    args.hmd_fallback
-                );
-                stats.fall_back(reason);
-                run_headless(args, &mut stats)
-            }
-            Err(e) if args.reconnect && e.is_runtime_loss() => {
-                reconnect_after(&e, args, &mut stats)
-                    .and_then(|()| xr_with_reconnect(args, &mut stats))
-            }
-            other => other,
-        },
+    let mut desk = Desk::new(args.mirror, args.config.clone(), args.save_config.clone());
+    if let Some(k) = &args.kiosk {
+        desk.live.allowed = k.toggles.clone();
+        desk.scenes = k.scenes.len();
+        if k.scenes.len() > 1 {
+            desk.live.extra_help = Some("  N        the next scene".into());
+        }
+        tracing::info!(
+            "kiosk {}: {} scenes, starting with {}",
+            k.name,
+            k.scenes.len(),
+            k.scenes[0].name
+        );
+    }
+    // A kiosk's N ends a session in order and starts one on the next scene.
+    let mut mode = args.xr;
+    let mut at = 0;
+    let result = loop {
+        let a = args.for_scene(at);
+        let r = run_once(&a, mode, &mut stats, &mut desk);
+        let started = stats.run_started();
+        let go_on = r.is_ok()
+            && desk.next_scene
+            && !desk.closed
+            && !crate::quit::requested()
+            && !args.limit_reached(stats.frames_submitted, started);
+        if !go_on {
+            break r;
+        }
+        desk.next_scene = false;
+        if stats.mode == "headless" {
+            // The fallback is not tried again for every scene.
+            mode = XrMode::Headless;
+        }
+        let n = args.kiosk.as_ref().map_or(1, |k| k.scenes.len());
+        at = (at + 1) % n;
+        if let Some(k) = &args.kiosk {
+            tracing::info!("kiosk: next scene {}", k.scenes[at].name);
+            println!("next scene: {}", k.scenes[at].name);
+        }
     };
+    stats.mirror = desk.stats.clone();
+    stats.toggles = desk.live.events.clone();
     stats.summarize();
     if let Some(path) = &args.stats_out {
         if !stats.mode.is_empty() {
@@ -47,17 +77,43 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     result.map(|()| stats)
 }
 
+/// One run of `args` as `mode` says: OpenXR, headless, or OpenXR with the
+/// headless fallback.
+fn run_once(args: &RunArgs, mode: XrMode, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
+    match mode {
+        XrMode::Headless => run_headless(args, stats, desk),
+        XrMode::Openxr => xr_with_reconnect(args, stats, desk),
+        XrMode::Auto => match super::xr_session::run_session(args, stats, desk) {
+            Err(Error::XrUnavailable(reason)) => {
+                eprintln!(
+                    "vergence: no OpenXR headset ({reason}); running headless on the {} profile",
+                    args.hmd_fallback
+                );
+                stats.fall_back(reason);
+                run_headless(args, stats, desk)
+            }
+            Err(e) if args.reconnect && e.is_runtime_loss() => {
+                reconnect_after(&e, args, stats).and_then(|()| xr_with_reconnect(args, stats, desk))
+            }
+            other => other,
+        },
+    }
+}
+
 /// An OpenXR run that, with `--reconnect`, outlives losing the runtime:
 /// each loss is reported on one line and retried every second until a
 /// session runs again, a quit is requested or the frame limit is reached.
-fn xr_with_reconnect(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+fn xr_with_reconnect(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
     loop {
-        match super::xr_session::run_session(args, stats) {
+        match super::xr_session::run_session(args, stats, desk) {
             Err(e) if args.reconnect && e.is_runtime_loss() => reconnect_after(&e, args, stats)?,
             other => return other,
         }
         let started = stats.run_started();
-        if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
+        if crate::quit::requested()
+            || desk.ending()
+            || args.limit_reached(stats.frames_submitted, started)
+        {
             return Ok(());
         }
     }
@@ -80,21 +136,32 @@ fn reconnect_after(e: &Error, args: &RunArgs, stats: &mut RunStats) -> Result<()
 
 /// The headless loop: the fallback profile's rig at the spawn pose, the
 /// head turning slowly (±20° yaw over 10 s) so culling and batching see
-/// motion; paced by nothing (frames run back to back).
-fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+/// motion; paced by nothing (frames run back to back). With a mirror each
+/// frame is copied into eye images (as a session's swapchains) that the
+/// mirror shows, and the window's keys switch optimizations.
+fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
     let profile = load_stereo_profile(&args.hmd_fallback)?;
     let (scene, _) = load_scene(&args.scene)?;
-    let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, args.size);
-    let renderer = super::headless::new_renderer(&ctx, &scene, &args.config, extent)?;
-    let mut driver = FrameDriver::new(renderer, &scene)?;
+    let extra = desk.prepare(
+        &format!("vergence run: {} ({})", scene.name, profile.name),
+        extent,
+    );
+    let ctx = Arc::new(Context::with_extensions(
+        Validation::from_env(),
+        &Direct,
+        &extra,
+    )?);
+    let mut mirror = desk.mirror(&ctx, COLOR_FORMAT);
+    let config = desk.live.config.clone();
+    let mut frames = HeadlessFrames::new(&ctx, &scene, &config, extent, mirror.is_some())?;
     let places = super::viewpoints::plan(args, &scene, &profile.views[0].fov)?;
     stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
     let spawn = places[0].origin;
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(&scene));
-    stats.config = driver.renderer().config.clone();
-    stats.foveation = driver.renderer().foveation_path.clone();
+    stats.config = frames.driver.renderer().config.clone();
+    stats.foveation = frames.driver.renderer().foveation_path.clone();
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
     stats.system = format!("HMD profile {}", profile.name);
@@ -108,24 +175,29 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             fov: Some(v.fov),
         })
         .collect();
+    if let Some(m) = &mut mirror {
+        m.set_title(&format!(
+            "vergence run: {} [{}]",
+            scene.name,
+            config.opt_string()
+        ));
+    }
     let period_ns = (1e9 / profile.refresh_hz.max(1.0)) as i64;
-    let started = Instant::now();
+    // --seconds counts from the run's start (across a kiosk's scenes).
+    let started = stats.run_started();
     let mut index = 0u64;
     // A finished frame's record: written when its GPU times are known.
-    // Heads of the frames in flight, by frame index, for their records.
-    let mut heads: std::collections::VecDeque<(u64, Pose)> = Default::default();
+    // Heads and `--opt` strings of the frames in flight, by frame index.
+    let mut heads: std::collections::VecDeque<(u64, Pose, String)> = Default::default();
     let record = |r: FrameResult,
                   stats: &mut RunStats,
-                  heads: &mut std::collections::VecDeque<(u64, Pose)>|
+                  heads: &mut std::collections::VecDeque<(u64, Pose, String)>|
      -> Result<()> {
         stats.cull = r.cull;
-        while heads.front().is_some_and(|(i, _)| *i < r.index) {
+        while heads.front().is_some_and(|(i, ..)| *i < r.index) {
             heads.pop_front();
         }
-        let head = heads
-            .front()
-            .filter(|(i, _)| *i == r.index)
-            .map(|(_, h)| PoseFile::from(h));
+        let this = heads.front().filter(|(i, ..)| *i == r.index);
         stats.push_frame(FrameRecord {
             index: r.index,
             should_render: true,
@@ -138,50 +210,191 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             missed_periods: 0,
             instances_drawn: r.stats.instances_drawn,
             fov: r.fov.to_vec(),
-            head_world: head,
+            head_world: this.map(|(_, h, _)| PoseFile::from(h)),
             events: Vec::new(),
+            opt: this.map(|(.., o)| o.clone()).unwrap_or_default(),
         })
     };
-    stats.exit = loop {
-        if crate::quit::requested() {
-            break "quit requested (signal)".into();
+    let mut opt = config.opt_string();
+    let looped = (|| -> Result<String> {
+        loop {
+            if crate::quit::requested() {
+                return Ok("quit requested (signal)".into());
+            }
+            if args.limit_reached(stats.frames_submitted, started) {
+                return Ok("frame or time limit reached".into());
+            }
+            if let Some(m) = mirror.as_mut() {
+                if let Some(new) = desk.handle(m, index) {
+                    let old = frames.driver.renderer().config.clone();
+                    let finished = frames.drain(m);
+                    while let Some(r) = frames.driver.take_completed() {
+                        record(r, stats, &mut heads)?;
+                    }
+                    finished?;
+                    if let Err(e) = frames.rebuild(&ctx, &scene, &new, extent) {
+                        desk.live.revert(old.clone(), &e);
+                        frames.rebuild(&ctx, &scene, &old, extent)?;
+                    }
+                    opt = desk.live.config.opt_string();
+                    m.set_title(&format!("vergence run: {} [{opt}]", scene.name));
+                }
+                if desk.closed {
+                    return Ok("the mirror window was closed".into());
+                }
+                if desk.next_scene {
+                    return Ok("the next scene was asked for".into());
+                }
+            }
+            let t = started.elapsed().as_secs_f64();
+            let yaw = 20.0 * (t * std::f64::consts::TAU / 10.0).sin();
+            let head = spawn.compose(&Pose::from_euler_deg(
+                DVec3::new(0.0, 1.6, 0.0),
+                yaw,
+                0.0,
+                0.0,
+            ));
+            let rig = profile.rig(head);
+            heads.push_back((index, head, opt.clone()));
+            let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+            frames.driver.record(&rig, index)?;
+            let output = frames.eyes.as_ref().map(|e| e.output(0));
+            frames.driver.submit(output.as_ref(), capture)?;
+            if let (Some(m), Some(eyes)) = (mirror.as_mut(), frames.eyes.as_ref()) {
+                let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
+                m.copy(
+                    &[eyes.source(0, 0), eyes.source(0, 1)],
+                    rig.hidden_area.as_deref().map(Vec::as_slice),
+                    &fovs,
+                )?;
+                m.present()?;
+            }
+            if capture {
+                let images = frames.driver.read_images()?;
+                write_capture(args.capture.as_deref().expect("checked"), &images, &rig)?;
+            }
+            stats.frames_submitted += 1;
+            stats.frames_rendered += 1;
+            index += 1;
+            while let Some(r) = frames.driver.take_completed() {
+                record(r, stats, &mut heads)?;
+            }
+            if index == WARMUP_FRAMES {
+                stats.sample_memory(&ctx, false);
+            }
         }
-        if args.limit_reached(stats.frames_submitted, started) {
-            break "frame or time limit reached".into();
-        }
-        let t = started.elapsed().as_secs_f64();
-        let yaw = 20.0 * (t * std::f64::consts::TAU / 10.0).sin();
-        let head = spawn.compose(&Pose::from_euler_deg(
-            DVec3::new(0.0, 1.6, 0.0),
-            yaw,
-            0.0,
-            0.0,
-        ));
-        let rig = profile.rig(head);
-        heads.push_back((index, head));
-        let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
-        driver.frame(&rig, index, capture)?;
-        if capture {
-            let images = driver.read_images()?;
-            write_capture(args.capture.as_deref().expect("checked"), &images, &rig)?;
-        }
-        stats.frames_submitted += 1;
-        stats.frames_rendered += 1;
-        index += 1;
-        while let Some(r) = driver.take_completed() {
-            record(r, stats, &mut heads)?;
-        }
-        if index == WARMUP_FRAMES {
-            stats.sample_memory(&ctx, false);
-        }
-    };
-    driver.finish()?;
-    while let Some(r) = driver.take_completed() {
+    })();
+    let finished = frames.driver.finish();
+    while let Some(r) = frames.driver.take_completed() {
         record(r, stats, &mut heads)?;
     }
+    let shot = match (mirror.as_mut(), &args.screenshot, &looped) {
+        (Some(m), Some(path), Ok(_)) => write_screenshot(m, path),
+        _ => Ok(()),
+    };
     stats.sample_memory(&ctx, true);
     stats.duration_s = started.elapsed().as_secs_f64();
+    // The mirror goes first (it waits for the device, so nothing still
+    // reads the eye images), then the frames.
+    if let Some(m) = mirror.take() {
+        desk.put_back(m);
+    }
+    frames.destroy(&ctx);
     stats.validation_messages = ctx.validation_messages();
-    drop(driver);
+    stats.exit = looped?;
+    finished.and(shot)
+}
+
+/// Writes the mirror's last presented image to `path` (one line on stderr
+/// when no frame was shown).
+pub(crate) fn write_screenshot(m: &mut Mirror, path: &std::path::Path) -> Result<()> {
+    if !m.screenshot(path)? {
+        eprintln!(
+            "vergence: no frame reached the mirror; {} not written",
+            path.display()
+        );
+    }
     Ok(())
+}
+
+/// The headless loop's renderer, driver and (with a mirror) the eye images
+/// each frame is copied into.
+struct HeadlessFrames {
+    driver: FrameDriver,
+    eyes: Option<EyeImages>,
+    with_eyes: bool,
+}
+
+impl HeadlessFrames {
+    fn new(
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: ash::vk::Extent2D,
+        with_eyes: bool,
+    ) -> Result<HeadlessFrames> {
+        let renderer = if with_eyes {
+            let spec = OutputSpec {
+                color_format: COLOR_FORMAT,
+                depth: false,
+            };
+            Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?
+        } else {
+            super::headless::new_renderer(ctx, scene, config, extent)?
+        };
+        let driver = FrameDriver::new(renderer, scene)?;
+        let eyes = if with_eyes {
+            Some(EyeImages::new(ctx, config.stereo, extent, 1)?)
+        } else {
+            None
+        };
+        Ok(HeadlessFrames {
+            driver,
+            eyes,
+            with_eyes,
+        })
+    }
+
+    /// Waits for the frames in flight and the mirror's copies (their
+    /// results stay in the driver).
+    fn drain(&mut self, mirror: &mut Mirror) -> Result<()> {
+        self.driver.finish()?;
+        mirror.finish()
+    }
+
+    /// A new renderer (and eye images when the stereo mode changed) for
+    /// `config`; the frames in flight must have been drained.
+    fn rebuild(
+        &mut self,
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: ash::vk::Extent2D,
+    ) -> Result<()> {
+        let with_eyes = self.with_eyes;
+        if let Some(eyes) = self.eyes.take() {
+            eyes.destroy(ctx);
+        }
+        let renderer = if with_eyes {
+            let spec = OutputSpec {
+                color_format: COLOR_FORMAT,
+                depth: false,
+            };
+            Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?
+        } else {
+            super::headless::new_renderer(ctx, scene, config, extent)?
+        };
+        self.driver = FrameDriver::new(renderer, scene)?;
+        if with_eyes {
+            self.eyes = Some(EyeImages::new(ctx, config.stereo, extent, 1)?);
+        }
+        Ok(())
+    }
+
+    fn destroy(self, ctx: &Context) {
+        drop(self.driver);
+        if let Some(e) = self.eyes {
+            e.destroy(ctx);
+        }
+    }
 }

@@ -63,6 +63,18 @@ pub struct RunArgs {
     pub camera: Option<String>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
+    /// `--mirror`: the desktop window showing the submitted eye images
+    /// (None: `left` when a display is there, else none).
+    pub mirror: Option<crate::targets::mirror::MirrorMode>,
+    /// `--screenshot FILE.png`: the mirror window's last presented image.
+    pub screenshot: Option<PathBuf>,
+    /// `--save-config FILE`: where the live toggles' F2 writes the config
+    /// file (default `vergence-live.toml`).
+    pub save_config: Option<PathBuf>,
+    /// `--kiosk FILE`: the demo install (scenes on offer, allowed toggles,
+    /// idle return); `scene`, `spawn` and `viewpoints` are its first
+    /// scene's.
+    pub kiosk: Option<crate::targets::kiosk::Kiosk>,
 }
 
 impl RunArgs {
@@ -89,6 +101,16 @@ impl RunArgs {
         if self.frames == Some(0) {
             return Err(Error::config("--frames", "must be at least 1"));
         }
+        if self.mirror == Some(crate::targets::mirror::MirrorMode::Off) && self.screenshot.is_some()
+        {
+            return Err(Error::config(
+                "--screenshot",
+                "writes the mirror window's image; it cannot be combined with --mirror off",
+            ));
+        }
+        if let Some(p) = &self.screenshot {
+            crate::fsio::prepare_output(p)?;
+        }
         if self.capture.is_some() && self.frames.is_none() {
             return Err(Error::config(
                 "--capture",
@@ -96,6 +118,18 @@ impl RunArgs {
             ));
         }
         Ok(())
+    }
+
+    /// These arguments for the kiosk's scene `i` (its scene, spawn and
+    /// viewpoints); unchanged without a kiosk.
+    pub fn for_scene(&self, i: usize) -> RunArgs {
+        let mut a = self.clone();
+        if let Some(s) = self.kiosk.as_ref().and_then(|k| k.scenes.get(i)) {
+            a.scene = s.scene.clone();
+            a.spawn = s.spawn;
+            a.viewpoints = s.viewpoints.clone();
+        }
+        a
     }
 
     /// Whether the frame or time limit is reached.
@@ -138,6 +172,9 @@ pub struct FrameRecord {
     pub head_world: Option<PoseFile>,
     /// What the user did this frame (teleport, turn, grab, select, ...).
     pub events: Vec<Event>,
+    /// The `--opt` string the frame was rendered with (changes when a live
+    /// toggle switched an optimization).
+    pub opt: String,
 }
 
 /// The interaction profile the runtime bound per hand (top-level
@@ -368,6 +405,10 @@ pub struct RunStats {
     pub foveation: String,
     /// Series summary.
     pub summary: RunSummary,
+    /// The mirror window (None: no mirror).
+    pub mirror: Option<crate::targets::mirror::MirrorStats>,
+    /// Optimizations switched by the live toggles, in order.
+    pub toggles: Vec<crate::targets::toggles::ToggleEvent>,
     /// Sessions re-established after the runtime was lost (`--reconnect`).
     pub reconnects: u64,
     /// Why the loop ended.

@@ -6,9 +6,10 @@
 //! letterboxed to keep their aspect.
 
 use super::headless::{eye_extent, load_scene, load_stereo_profile, save_png};
+use super::toggles::LiveConfig;
 use super::window::{display_available, Eyes, FlyCamera, Window};
 use crate::config::{RenderConfig, StereoMode};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::memory::{Image, ImageDesc};
 use crate::gpu::surface::{Pacing, Presented, Presenter, Source};
 use crate::gpu::{Context, Direct, Validation};
@@ -42,6 +43,8 @@ pub struct ViewArgs {
     pub screenshot: Option<PathBuf>,
     /// Which eyes the window shows.
     pub eyes: Eyes,
+    /// Where F2 writes the live configuration (default `vergence-live.toml`).
+    pub save_config: Option<PathBuf>,
 }
 
 /// What a `view` session did.
@@ -57,6 +60,8 @@ pub struct ViewSummary {
     pub present_mode: String,
     /// Vulkan validation messages seen.
     pub validation_messages: usize,
+    /// The `--opt` string at the end (after the live toggles).
+    pub opt: String,
 }
 
 /// The largest window `view` opens by default; larger content is shown
@@ -78,14 +83,19 @@ pub fn initial_window_size(content: vk::Extent2D) -> vk::Extent2D {
 /// Images the renderer copies each frame into (one set per frame in
 /// flight): one two-layer image under multiview, one image per eye in
 /// two-pass, as an OpenXR session's swapchains would be.
-struct EyeImages {
+pub(crate) struct EyeImages {
     sets: Vec<Vec<Image>>,
     multiview: bool,
     extent: vk::Extent2D,
 }
 
 impl EyeImages {
-    fn new(ctx: &Context, stereo: StereoMode, extent: vk::Extent2D, slots: usize) -> Result<Self> {
+    pub(crate) fn new(
+        ctx: &Context,
+        stereo: StereoMode,
+        extent: vk::Extent2D,
+        slots: usize,
+    ) -> Result<Self> {
         let multiview = stereo == StereoMode::Multiview;
         let (count, layers) = if multiview { (1, 2) } else { (2, 1) };
         let mut sets = Vec::new();
@@ -118,14 +128,14 @@ impl EyeImages {
         })
     }
 
-    fn output(&self, slot: usize) -> FrameOutput {
+    pub(crate) fn output(&self, slot: usize) -> FrameOutput {
         FrameOutput {
             color: self.sets[slot].iter().map(|i| i.image).collect(),
             depth: Vec::new(),
         }
     }
 
-    fn source(&self, slot: usize, eye: usize) -> Source {
+    pub(crate) fn source(&self, slot: usize, eye: usize) -> Source {
         let set = &self.sets[slot];
         let (image, layer) = if self.multiview {
             (set[0].image, eye as u32)
@@ -139,7 +149,7 @@ impl EyeImages {
         }
     }
 
-    fn destroy(self, ctx: &Context) {
+    pub(crate) fn destroy(self, ctx: &Context) {
         for img in self.sets.into_iter().flatten() {
             img.destroy(ctx);
         }
@@ -171,19 +181,29 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
     let (display, handle) = window.handles()?;
     let mut presenter = Presenter::new(&ctx, display, handle, window.size(), Pacing::Vsync)?;
     let slots = args.config.frames_in_flight.max(1) as usize;
+    let mut live = LiveConfig::new(args.config.clone(), args.save_config.clone());
+    window.set_title(&format!(
+        "vergence view: {} ({}) [{}]",
+        scene.name,
+        profile.name,
+        live.config.opt_string()
+    ));
     let result = EyeImages::new(&ctx, args.config.stereo, extent, slots).and_then(|images| {
+        let mut images = Some(images);
         let r = view_loop(
             args,
             &ctx,
-            &mut window,
-            &mut presenter,
-            &images,
+            (&mut window, &mut presenter),
+            &mut images,
+            &mut live,
             &profile,
             &scene,
         );
         // Destroying waits for the device: nothing reads the eye images after.
         presenter.destroy(&ctx);
-        images.destroy(&ctx);
+        if let Some(images) = images {
+            images.destroy(&ctx);
+        }
         r
     });
     presenter.destroy(&ctx);
@@ -195,27 +215,43 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
         window_size: [size.width, size.height],
         present_mode: format!("{:?}", presenter.present_mode()),
         validation_messages: ctx.validation_messages(),
+        opt: live.config.opt_string(),
     };
     Ok(summary)
+}
+
+/// Makes the renderer and driver for `config` (and, when `images` is
+/// empty, the eye images for its stereo mode).
+fn make_driver(
+    ctx: &Arc<Context>,
+    scene: &crate::scene::Scene,
+    config: &RenderConfig,
+    extent: vk::Extent2D,
+    images: &mut Option<EyeImages>,
+) -> Result<FrameDriver> {
+    let spec = OutputSpec {
+        color_format: COLOR_FORMAT,
+        depth: false,
+    };
+    if images.is_none() {
+        let slots = config.frames_in_flight.max(1) as usize;
+        *images = Some(EyeImages::new(ctx, config.stereo, extent, slots)?);
+    }
+    let renderer = Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?;
+    FrameDriver::new(renderer, scene)
 }
 
 fn view_loop(
     args: &ViewArgs,
     ctx: &Arc<Context>,
-    window: &mut Window,
-    presenter: &mut Presenter,
-    images: &EyeImages,
+    (window, presenter): (&mut Window, &mut Presenter),
+    images: &mut Option<EyeImages>,
+    live: &mut LiveConfig,
     profile: &crate::view::profile::HmdProfile,
     scene: &crate::scene::Scene,
 ) -> Result<u64> {
     let extent = eye_extent(profile, args.size);
-    let spec = OutputSpec {
-        color_format: COLOR_FORMAT,
-        depth: false,
-    };
-    let renderer = Renderer::with_output(ctx.clone(), scene, &args.config, extent, Some(spec))?;
-    let slots = renderer.frames_in_flight().min(images.sets.len());
-    let mut driver = FrameDriver::new(renderer, scene)?;
+    let mut driver = make_driver(ctx, scene, &live.config, extent, images)?;
     let start = args
         .pose
         .unwrap_or_else(|| super::headless::framing_head(scene, profile));
@@ -230,7 +266,48 @@ fn view_loop(
                 return Ok(());
             }
             let input = window.pump();
-            if input.close {
+            let pressed = std::mem::take(&mut input.pressed);
+            let close = input.close;
+            if let Some(new) = live.handle(&pressed, index) {
+                // The frames in flight finish and the presenter's blits
+                // are done (they read the eye images) before the renderer,
+                // and the eye images when the stereo mode changed, are
+                // made again.
+                let old = driver.renderer().config.clone();
+                driver.finish()?;
+                while driver.take_completed().is_some() {}
+                // SAFETY: waiting for the device on this thread.
+                unsafe { ctx.device.device_wait_idle() }.vk("waiting before a live switch")?;
+                let remake = |c: &RenderConfig, images: &mut Option<EyeImages>| {
+                    if images
+                        .as_ref()
+                        .is_some_and(|i| i.multiview != (c.stereo == StereoMode::Multiview))
+                    {
+                        if let Some(i) = images.take() {
+                            i.destroy(ctx);
+                        }
+                    }
+                    make_driver(ctx, scene, c, extent, images)
+                };
+                driver = match remake(&new, images) {
+                    Ok(d) => d,
+                    Err(e) => {
+                        live.revert(old.clone(), &e);
+                        remake(&old, images)?
+                    }
+                };
+                last_slot = None;
+                window.set_title(&format!(
+                    "vergence view: {} ({}) [{}]",
+                    scene.name,
+                    profile.name,
+                    live.config.opt_string()
+                ));
+            }
+            let images = images.as_ref().expect("made with the driver");
+            let slots = driver.renderer().frames_in_flight().min(images.sets.len());
+            let input = window.input();
+            if close {
                 // The window is still there: present the last frame's eye
                 // images once more, read back, so the screenshot is what
                 // the window showed last.
@@ -277,7 +354,7 @@ fn view_loop(
                         save_png(&img, path)?;
                     }
                 }
-                Presented::Skipped => {}
+                Presented::Skipped | Presented::Busy => {}
             }
             if index > 100 + 10 * args.frames.unwrap_or(u64::MAX / 20) {
                 return Err(Error::Window(

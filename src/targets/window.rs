@@ -111,13 +111,18 @@ impl ApplicationHandler for App {
                         repeat,
                         ..
                     },
+                is_synthetic,
                 ..
             } => match state {
                 ElementState::Pressed => {
-                    if code == KeyCode::Escape {
+                    // Synthetic presses (keys found held when the window
+                    // gains focus) are no key strokes: they would switch a
+                    // toggle twice.
+                    let stroke = !repeat && !is_synthetic;
+                    if code == KeyCode::Escape && stroke {
                         input.close = true;
                     }
-                    if !repeat {
+                    if stroke {
                         input.pressed.push(code);
                     }
                     input.held.insert(code);
@@ -206,6 +211,11 @@ impl Window {
         &mut self.app.input
     }
 
+    /// The input gathered by the last [`Window::pump`].
+    pub fn input(&self) -> &Input {
+        &self.app.input
+    }
+
     fn window(&self) -> &WinitWindow {
         self.app.window.as_ref().expect("opened in Window::open")
     }
@@ -217,6 +227,11 @@ impl Window {
             width: s.width,
             height: s.height,
         }
+    }
+
+    /// Sets the title.
+    pub fn set_title(&self, title: &str) {
+        self.window().set_title(title);
     }
 
     /// Asks the window system for a new drawable size.

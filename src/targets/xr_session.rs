@@ -10,15 +10,18 @@
 //! completed when its fence signals.
 
 use super::headless::{load_scene, SceneCounts};
+use super::mirror::{Desk, Mirror};
 use super::session::{
     write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats, ViewInfo,
 };
 use crate::error::{Error, Result};
+use crate::gpu::surface::Source;
 use crate::gpu::{Context, Validation};
 use crate::interact::raycast::SceneQuery;
 use crate::interact::{FrameInput, Interaction};
 use crate::render::driver::FrameDriver;
 use crate::render::{FrameOutput, OutputSpec, Renderer};
+use crate::scene::Scene;
 use crate::view::{Fov, HiddenArea, Pose, PoseFile, StereoRig};
 use crate::xr::actions::Controls;
 use crate::xr::instance::{connect, Connection};
@@ -42,6 +45,9 @@ use std::time::{Duration, Instant};
 /// by the caller, goes last.
 /// The watchdog is last so it also covers a teardown that blocks.
 struct Live {
+    /// The mirror window's Vulkan side goes first: dropping it waits for
+    /// the device, so its copies are done before the swapchains go.
+    mirror: Option<Mirror>,
     controls: Option<Controls>,
     color: Vec<Chain>,
     depth: Vec<Chain>,
@@ -66,7 +72,7 @@ impl Drop for Live {
 /// runtime to exit and follows the session down to EXITING). `stats` is
 /// filled as the session goes. No runtime or headset is
 /// [`Error::XrUnavailable`].
-pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
+pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
     let Connection {
         instance,
         system,
@@ -147,12 +153,38 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
         );
     }
     let (scene, _) = load_scene(&args.scene)?;
-    let ctx = Arc::new(Context::new(
+    let extent = match args.size {
+        Some((w, h)) => vk::Extent2D {
+            width: w,
+            height: h,
+        },
+        None => vk::Extent2D {
+            width: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_width)
+                .max()
+                .unwrap_or(1),
+            height: config_views
+                .iter()
+                .map(|v| v.recommended_image_rect_height)
+                .max()
+                .unwrap_or(1),
+        },
+    };
+    // The mirror window first: its surface's extensions go into the create
+    // infos handed to the runtime (XR_KHR_vulkan_enable2), which adds its
+    // own; some runtimes would not add these.
+    let extra = desk.prepare(
+        &format!("vergence run: {} ({})", scene.name, sys_props.system_name),
+        extent,
+    );
+    let ctx = Arc::new(Context::with_extensions(
         Validation::from_env(),
         &vulkan::XrDeviceFactory {
             instance: &instance,
             system,
         },
+        &extra,
     )?);
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
@@ -174,6 +206,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     }
     .call("xrCreateSession")?;
     let mut live = Live {
+        mirror: None,
         controls: None,
         color: Vec::new(),
         depth: Vec::new(),
@@ -238,60 +271,25 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     .then_some(ctx.caps.depth_format);
     stats.color_format = Some(format!("{color_format:?}"));
     stats.depth_format = depth_format.map(|f| format!("{f:?}"));
-    let extent = match args.size {
-        Some((w, h)) => vk::Extent2D {
-            width: w,
-            height: h,
-        },
-        None => vk::Extent2D {
-            width: config_views
-                .iter()
-                .map(|v| v.recommended_image_rect_width)
-                .max()
-                .unwrap_or(1),
-            height: config_views
-                .iter()
-                .map(|v| v.recommended_image_rect_height)
-                .max()
-                .unwrap_or(1),
-        },
-    };
     stats.image_size = [extent.width, extent.height];
-    let multiview = args.config.stereo == crate::config::StereoMode::Multiview;
-    let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
-    let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
-        | xr::SwapchainUsageFlags::TRANSFER_DST
-        | xr::SwapchainUsageFlags::TRANSFER_SRC;
-    for _ in 0..sets {
-        live.color.push(Chain::new(
-            &session,
-            color_format,
-            color_usage,
-            extent,
-            layers,
-        )?);
-        if let Some(df) = depth_format {
-            live.depth.push(Chain::new(
-                &session,
-                df,
-                xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
-                    | xr::SwapchainUsageFlags::TRANSFER_DST,
-                extent,
-                layers,
-            )?);
-        }
-    }
-    live.space = Some(space);
-    let renderer = Renderer::with_output(
-        ctx.clone(),
-        &scene,
-        &args.config,
+    let chains = ChainSpec {
+        color_format,
+        depth_format,
         extent,
-        Some(OutputSpec {
-            color_format,
-            depth: depth_format.is_some(),
-        }),
-    )?;
+    };
+    let config = desk.live.config.clone();
+    chains.create(&session, &mut live, config.stereo)?;
+    live.space = Some(space);
+    live.mirror = desk.mirror(&ctx, color_format);
+    if let Some(m) = &mut live.mirror {
+        m.set_title(&format!(
+            "vergence run: {} [{}]",
+            scene.name,
+            config.opt_string()
+        ));
+    }
+    let renderer =
+        Renderer::with_output(ctx.clone(), &scene, &config, extent, Some(chains.output()))?;
     stats.config = renderer.config.clone();
     stats.foveation = renderer.foveation_path.clone();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
@@ -311,6 +309,15 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
 
     let mut state = LoopState {
         args,
+        scene: &scene,
+        desk,
+        chains,
+        opt: config.opt_string(),
+        idle: args
+            .kiosk
+            .as_ref()
+            .and_then(|k| k.idle_return_s)
+            .map(super::kiosk::IdleWatch::new),
         records: RecordQueue::default(),
         masks,
         interaction: {
@@ -343,6 +350,19 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
             result = finished.and(flushed);
         }
     }
+    // The mirror's last image is the last frame's: written on request, then
+    // the window goes back to the run (its Vulkan side is destroyed, after
+    // waiting for the device) for a later session.
+    if let Some(mut m) = live.mirror.take() {
+        let shot = match (&args.screenshot, &result) {
+            (Some(path), Ok(())) => super::run::write_screenshot(&mut m, path),
+            _ => Ok(()),
+        };
+        state.desk.put_back(m);
+        if result.is_ok() {
+            result = shot;
+        }
+    }
     stats.sample_memory(&ctx, true);
     // Added, not assigned: with --reconnect a run holds several sessions.
     stats.validation_messages += ctx.validation_messages();
@@ -364,9 +384,73 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats) -> Result<()> {
     result
 }
 
+/// The swapchains' formats and size (kept to make them again when a live
+/// toggle switches the stereo mode).
+#[derive(Clone, Copy)]
+struct ChainSpec {
+    color_format: vk::Format,
+    depth_format: Option<vk::Format>,
+    extent: vk::Extent2D,
+}
+
+impl ChainSpec {
+    /// What the renderer copies each frame into.
+    fn output(&self) -> OutputSpec {
+        OutputSpec {
+            color_format: self.color_format,
+            depth: self.depth_format.is_some(),
+        }
+    }
+
+    /// The colour (and depth) swapchains for `stereo`: one of two-layer
+    /// images under multiview, one per eye in two-pass.
+    fn create(
+        &self,
+        session: &xr::Session<xr::Vulkan>,
+        live: &mut Live,
+        stereo: crate::config::StereoMode,
+    ) -> Result<()> {
+        let multiview = stereo == crate::config::StereoMode::Multiview;
+        let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
+        let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
+            | xr::SwapchainUsageFlags::TRANSFER_DST
+            | xr::SwapchainUsageFlags::TRANSFER_SRC;
+        live.color.clear();
+        live.depth.clear();
+        for _ in 0..sets {
+            live.color.push(Chain::new(
+                session,
+                self.color_format,
+                color_usage,
+                self.extent,
+                layers,
+            )?);
+            if let Some(df) = self.depth_format {
+                live.depth.push(Chain::new(
+                    session,
+                    df,
+                    xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
+                        | xr::SwapchainUsageFlags::TRANSFER_DST,
+                    self.extent,
+                    layers,
+                )?);
+            }
+        }
+        Ok(())
+    }
+}
+
 /// What the frame loop carries from frame to frame.
 struct LoopState<'a> {
     args: &'a RunArgs,
+    scene: &'a Scene,
+    /// The mirror's run-long side and the live configuration.
+    desk: &'a mut Desk,
+    chains: ChainSpec,
+    /// The current configuration's `--opt` string, for the frame records.
+    opt: String,
+    /// A kiosk's return to the spawn when the head stays still.
+    idle: Option<super::kiosk::IdleWatch>,
     /// Records of frames whose GPU times are still to come.
     records: RecordQueue,
     masks: Option<Arc<Vec<HiddenArea>>>,
@@ -418,7 +502,19 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     stats.begin_session();
     let mut index = 0u64;
     let result: Result<String> = 'main: loop {
-        if crate::quit::requested() || args.limit_reached(stats.frames_submitted, started) {
+        if let Some(m) = live.mirror.as_mut() {
+            if let Some(new) = st.desk.handle(m, index) {
+                if let Err(e) = switch_config(live, stats, st, &session, new) {
+                    break 'main Err(e);
+                }
+            }
+        }
+        let (window_closed, next_scene) = (st.desk.closed, st.desk.next_scene);
+        if crate::quit::requested()
+            || window_closed
+            || next_scene
+            || args.limit_reached(stats.frames_submitted, started)
+        {
             match machine.on_quit() {
                 QuitAction::RequestExit => {
                     let _w = live.watchdog.watch("xrRequestExitSession");
@@ -457,7 +553,11 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                         }
                         Action::Exit => {
                             machine.performed(action);
-                            break 'main Ok(if machine.exit_requested {
+                            break 'main Ok(if machine.exit_requested && window_closed {
+                                "session exited after the mirror window was closed".into()
+                            } else if machine.exit_requested && next_scene {
+                                "session exited for the next scene".into()
+                            } else if machine.exit_requested {
                                 "session exited after vergence asked to exit".into()
                             } else {
                                 "the runtime ended the session".into()
@@ -543,6 +643,58 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     }
 }
 
+/// Renders from the next frame on with `config` (a live toggle): the frames
+/// in flight finish (their records join the log), the renderer is made
+/// again, and the swapchains too when the stereo mode changed; the session,
+/// the space, the actions and the window stay. A renderer that cannot be
+/// made with `config` is reported on one line and the old one comes back.
+fn switch_config(
+    live: &mut Live,
+    stats: &mut RunStats,
+    st: &mut LoopState,
+    session: &xr::Session<xr::Vulkan>,
+    config: crate::config::RenderConfig,
+) -> Result<()> {
+    let Some(mut driver) = live.driver.take() else {
+        return Ok(());
+    };
+    let finished = driver.finish();
+    while let Some(r) = driver.take_completed() {
+        st.records.complete(&r, stats);
+    }
+    finished?;
+    st.records.flush(stats)?;
+    if let Some(m) = live.mirror.as_mut() {
+        m.finish()?;
+    }
+    let old = driver.renderer().config.clone();
+    let ctx = driver.renderer().context().clone();
+    // The old renderer goes first (it waits for the device).
+    drop(driver);
+    let (chains, scene) = (st.chains, st.scene);
+    let make = |live: &mut Live, c: &crate::config::RenderConfig| -> Result<FrameDriver> {
+        if c.stereo != old.stereo || live.color.is_empty() {
+            chains.create(session, live, c.stereo)?;
+        }
+        let r = Renderer::with_output(ctx.clone(), scene, c, chains.extent, Some(chains.output()))?;
+        FrameDriver::new(r, scene)
+    };
+    let driver = match make(live, &config) {
+        Ok(d) => d,
+        Err(e) => {
+            st.desk.live.revert(old.clone(), &e);
+            make(live, &old)?
+        }
+    };
+    stats.foveation = driver.renderer().foveation_path.clone();
+    live.driver = Some(driver);
+    st.opt = st.desk.live.config.opt_string();
+    if let Some(m) = &mut live.mirror {
+        m.set_title(&format!("vergence run: {} [{}]", st.scene.name, st.opt));
+    }
+    Ok(())
+}
+
 fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
     let args = st.args;
     let session = live.session.clone().expect("set");
@@ -571,6 +723,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         wait_ms: (t_cpu - t_wait).as_secs_f64() * 1e3,
         predicted_display_time_ns: fs.predicted_display_time.as_nanos(),
         predicted_display_period_ns: fs.predicted_display_period.as_nanos(),
+        opt: st.opt.clone(),
         ..FrameRecord::default()
     };
     let mut rendered = false;
@@ -647,6 +800,23 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 stats.selected = Some(picked.clone());
             }
             rec.events = update.events;
+            if st.idle.as_mut().is_some_and(|w| w.observe(&input.head, dt)) {
+                // Kiosk: nobody has moved for the idle time; the next
+                // visitor starts at the spawn.
+                st.interaction.viewpoint = 0;
+                if let Some(spawn) = st.interaction.viewpoints.first() {
+                    st.interaction.origin = *spawn;
+                }
+                tracing::info!(
+                    "kiosk: back to the spawn after {:.0} s without head motion",
+                    args.kiosk
+                        .as_ref()
+                        .and_then(|k| k.idle_return_s)
+                        .unwrap_or(0.0)
+                );
+                rec.events
+                    .push(crate::interact::Event::Recenter { viewpoint: 0 });
+            }
             let mut rig = world_rig(&st.interaction.origin, &tracking);
             rec.head_world = Some(PoseFile::from(&rig.head));
             rig.hidden_area = match &st.masks {
@@ -694,6 +864,28 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
             driver.submit(Some(&out), capture)?;
             rendered = true;
+            if let Some(m) = live.mirror.as_mut() {
+                // Before the release: the runtime owns the images after it.
+                let eyes: Vec<Source> = (0..2)
+                    .map(|eye| {
+                        let (image, layer) = if out.color.len() == 1 {
+                            (out.color[0], eye as u32)
+                        } else {
+                            (out.color[eye], 0)
+                        };
+                        Source {
+                            image,
+                            layer,
+                            extent: st.chains.extent,
+                        }
+                    })
+                    .collect();
+                m.copy(
+                    &eyes,
+                    rig.hidden_area.as_deref().map(Vec::as_slice),
+                    &rec.fov,
+                )?;
+            }
             for chain in live.color.iter_mut().chain(live.depth.iter_mut()) {
                 let _w = live.watchdog.watch("xrReleaseSwapchainImage");
                 chain
@@ -719,6 +911,10 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
     if layer_views.is_some() {
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
+        // After the frame is submitted: the window never holds it up.
+        if let Some(m) = live.mirror.as_mut() {
+            m.present()?;
+        }
     }
     // The CPU time still holds the wait for a frame slot; the record is
     // completed (GPU time, counts, that wait taken out) when its frame

@@ -1,0 +1,523 @@
+//! `run --kiosk FILE.toml`: a demo install in one file. The scenes on offer
+//! (each with its spawn and viewpoints; N in the mirror window moves to the
+//! next, ending the session in order and starting one on the next scene),
+//! the optimizations the run starts with and which toggles may be used,
+//! reconnecting when the runtime goes away, going back to the spawn after
+//! a while without head motion, and a log file that rotates by size.
+//! `manifests/kiosk/demo.toml` is a sample.
+
+use super::toggles::{parse_list, Toggle};
+use crate::config::{cull_names, RenderConfig};
+use crate::error::{Error, Result};
+use crate::view::Pose;
+use glam::DVec3;
+use std::io::Write as _;
+use std::path::{Path, PathBuf};
+use std::sync::{Mutex, OnceLock};
+
+/// The file as written.
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawKiosk {
+    name: String,
+    #[serde(default)]
+    opt: String,
+    #[serde(default)]
+    toggles: Option<Vec<String>>,
+    #[serde(default)]
+    reconnect: bool,
+    #[serde(default)]
+    idle_return_s: f64,
+    #[serde(default)]
+    mirror: Option<String>,
+    #[serde(default)]
+    log: Option<RawLog>,
+    scenes: Vec<RawScene>,
+}
+
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawLog {
+    file: String,
+    #[serde(default = "default_max_kb")]
+    max_kb: u64,
+    #[serde(default = "default_keep")]
+    keep: u32,
+}
+
+fn default_max_kb() -> u64 {
+    1024
+}
+
+fn default_keep() -> u32 {
+    3
+}
+
+#[derive(Clone, Debug, serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct RawScene {
+    name: String,
+    scene: String,
+    #[serde(default)]
+    spawn: Option<Vec<f64>>,
+    #[serde(default)]
+    viewpoints: Vec<Vec<f64>>,
+}
+
+/// One scene on offer.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KioskScene {
+    /// Its name (shown in the window title and the log).
+    pub name: String,
+    /// The `--scene` value (a path relative to the kiosk file's folder when
+    /// such a file exists there).
+    pub scene: String,
+    /// Where visitors start (None: framing the scene).
+    pub spawn: Option<Pose>,
+    /// Further viewpoints (the right stick click cycles through them).
+    pub viewpoints: Vec<Pose>,
+}
+
+/// The log file settings.
+#[derive(Clone, Debug, PartialEq)]
+pub struct KioskLog {
+    /// The file (relative paths from the kiosk file's folder).
+    pub file: PathBuf,
+    /// Size at which it rotates, in bytes.
+    pub max_bytes: u64,
+    /// Rotated files kept (FILE.1 newest ... FILE.keep oldest).
+    pub keep: u32,
+}
+
+/// A checked kiosk file.
+#[derive(Clone, Debug, PartialEq)]
+pub struct Kiosk {
+    /// Its name.
+    pub name: String,
+    /// The `--opt` list the run starts with (applied after `--config` and
+    /// `--opt`).
+    pub opt: String,
+    /// The toggles the mirror window's keys may use.
+    pub toggles: Vec<Toggle>,
+    /// Reconnect when the runtime is lost (as `--reconnect`).
+    pub reconnect: bool,
+    /// Back to the spawn after this many seconds without head motion
+    /// (None: never).
+    pub idle_return_s: Option<f64>,
+    /// The mirror mode (None: as `--mirror` says).
+    pub mirror: Option<super::mirror::MirrorMode>,
+    /// The log file (None: no log file).
+    pub log: Option<KioskLog>,
+    /// The scenes on offer, the first shown first.
+    pub scenes: Vec<KioskScene>,
+}
+
+/// Most scenes a kiosk offers.
+pub const MAX_SCENES: usize = 64;
+/// Most viewpoints per scene.
+pub const MAX_VIEWPOINTS: usize = 64;
+/// Longest idle time accepted (seconds).
+pub const MAX_IDLE_S: f64 = 86_400.0;
+
+fn pose_of(what: &str, v: &[f64]) -> std::result::Result<Pose, String> {
+    if v.len() != 4 {
+        return Err(format!(
+            "{what}: expected [x, y, z, yaw] (4 numbers), got {}",
+            v.len()
+        ));
+    }
+    if v.iter().any(|x| !x.is_finite() || x.abs() > 1e7) {
+        return Err(format!("{what}: values must be finite and within ±1e7"));
+    }
+    let p = Pose::from_euler_deg(DVec3::new(v[0], v[1], v[2]), v[3], 0.0, 0.0);
+    p.validate().map_err(|m| format!("{what}: {m}"))?;
+    Ok(p)
+}
+
+fn printable(what: &str, s: &str) -> std::result::Result<(), String> {
+    if s.trim().is_empty() {
+        return Err(format!("{what} is empty"));
+    }
+    if s.chars().any(char::is_control) || s.len() > 256 {
+        return Err(format!(
+            "{what} must be at most 256 bytes without control characters"
+        ));
+    }
+    Ok(())
+}
+
+impl Kiosk {
+    /// Reads and checks a kiosk file (size-bounded, known keys only, every
+    /// value in range); errors name the file and the problem.
+    pub fn load(path: &Path) -> Result<Kiosk> {
+        let err = |m: String| Error::config("--kiosk", format!("{}: {m}", path.display()));
+        let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
+            .map_err(|e| err(e.to_string()))?;
+        let dir = path.parent().unwrap_or(Path::new("."));
+        Kiosk::parse(&text, dir).map_err(err)
+    }
+
+    /// Parses kiosk text; relative paths resolve against `dir`.
+    pub fn parse(text: &str, dir: &Path) -> std::result::Result<Kiosk, String> {
+        let raw: RawKiosk = toml::from_str(text).map_err(|e| e.message().to_string())?;
+        printable("name", &raw.name)?;
+        let names = cull_names();
+        let mut c = RenderConfig::default();
+        c.apply_opts(&raw.opt, &names)
+            .and_then(|()| c.validate())
+            .map_err(|e| format!("opt: {e}"))?;
+        let toggles = match &raw.toggles {
+            None => Toggle::ALL.to_vec(),
+            Some(list) => parse_list(list).map_err(|m| format!("toggles: {m}"))?,
+        };
+        let s = raw.idle_return_s;
+        let idle_return_s = if s == 0.0 {
+            None
+        } else if s.is_finite() && s > 0.0 && s <= MAX_IDLE_S {
+            Some(s)
+        } else {
+            return Err(format!(
+                "idle_return_s = {s}: expected 0 (never) or up to {MAX_IDLE_S} seconds"
+            ));
+        };
+        let mirror = match raw.mirror.as_deref() {
+            None => None,
+            Some(m) => Some(
+                <super::mirror::MirrorMode as clap::ValueEnum>::from_str(m, false).map_err(
+                    |_| format!("mirror = \"{m}\": expected left, right, both, cropped or off"),
+                )?,
+            ),
+        };
+        let log = match raw.log {
+            None => None,
+            Some(l) => {
+                printable("log.file", &l.file)?;
+                if !(1..=1_000_000).contains(&l.max_kb) {
+                    return Err(format!("log.max_kb = {}: expected 1 to 1000000", l.max_kb));
+                }
+                if !(1..=100).contains(&l.keep) {
+                    return Err(format!("log.keep = {}: expected 1 to 100", l.keep));
+                }
+                Some(KioskLog {
+                    file: dir.join(&l.file),
+                    max_bytes: l.max_kb * 1024,
+                    keep: l.keep,
+                })
+            }
+        };
+        if raw.scenes.is_empty() || raw.scenes.len() > MAX_SCENES {
+            return Err(format!(
+                "needs 1 to {MAX_SCENES} [[scenes]], found {}",
+                raw.scenes.len()
+            ));
+        }
+        let mut scenes: Vec<KioskScene> = Vec::new();
+        for (i, s) in raw.scenes.iter().enumerate() {
+            let at = format!("scenes[{i}]");
+            printable(&format!("{at}.name"), &s.name)?;
+            printable(&format!("{at}.scene"), &s.scene)?;
+            if scenes.iter().any(|o| o.name == s.name) {
+                return Err(format!("{at}: the name '{}' is used twice", s.name));
+            }
+            if s.viewpoints.len() > MAX_VIEWPOINTS {
+                return Err(format!(
+                    "{at}: at most {MAX_VIEWPOINTS} viewpoints, found {}",
+                    s.viewpoints.len()
+                ));
+            }
+            let spawn = s
+                .spawn
+                .as_deref()
+                .map(|v| pose_of(&format!("{at}.spawn"), v))
+                .transpose()?;
+            let viewpoints = s
+                .viewpoints
+                .iter()
+                .enumerate()
+                .map(|(k, v)| pose_of(&format!("{at}.viewpoints[{k}]"), v))
+                .collect::<std::result::Result<Vec<_>, _>>()?;
+            let local = dir.join(&s.scene);
+            let scene = if local.exists() {
+                local.to_string_lossy().into_owned()
+            } else {
+                s.scene.clone()
+            };
+            scenes.push(KioskScene {
+                name: s.name.clone(),
+                scene,
+                spawn,
+                viewpoints,
+            });
+        }
+        Ok(Kiosk {
+            name: raw.name,
+            opt: raw.opt,
+            toggles,
+            reconnect: raw.reconnect,
+            idle_return_s,
+            mirror,
+            log,
+            scenes,
+        })
+    }
+}
+
+/// Watches the head for motion: [`IdleWatch::observe`] says when it has
+/// stayed within 2 cm and 3° for the whole idle time (once per still spell).
+#[derive(Clone, Debug)]
+pub struct IdleWatch {
+    limit_s: f64,
+    anchor: Option<Pose>,
+    still_s: f64,
+    fired: bool,
+}
+
+/// Head movement that counts as motion (metres).
+pub const IDLE_MOVE_M: f64 = 0.02;
+/// Head rotation that counts as motion (degrees).
+pub const IDLE_TURN_DEG: f64 = 3.0;
+
+impl IdleWatch {
+    /// After `limit_s` seconds without motion.
+    pub fn new(limit_s: f64) -> IdleWatch {
+        IdleWatch {
+            limit_s,
+            anchor: None,
+            still_s: 0.0,
+            fired: false,
+        }
+    }
+
+    /// The head (tracking space) `dt` seconds after the last call; true
+    /// once the head has been still for the idle time.
+    pub fn observe(&mut self, head: &Pose, dt: f64) -> bool {
+        let Some(a) = self.anchor else {
+            self.anchor = Some(*head);
+            return false;
+        };
+        let moved = a.position.distance(head.position) > IDLE_MOVE_M
+            || a.orientation.angle_between(head.orientation).to_degrees() > IDLE_TURN_DEG;
+        if moved {
+            self.anchor = Some(*head);
+            self.still_s = 0.0;
+            self.fired = false;
+            return false;
+        }
+        self.still_s += dt.max(0.0);
+        if self.still_s >= self.limit_s && !self.fired {
+            self.fired = true;
+            return true;
+        }
+        false
+    }
+}
+
+/// A log file rotated by size: FILE, then FILE.1 (newest) ... FILE.keep.
+#[derive(Debug)]
+pub struct RotatingLog {
+    path: PathBuf,
+    max_bytes: u64,
+    keep: u32,
+    file: std::fs::File,
+    size: u64,
+}
+
+impl RotatingLog {
+    /// Opens (appends to) `settings.file`.
+    pub fn open(settings: &KioskLog) -> Result<RotatingLog> {
+        let path = settings.file.clone();
+        let err = |e: std::io::Error| Error::Output {
+            path: path.clone(),
+            message: format!("cannot open the kiosk log: {e}"),
+        };
+        if path.is_dir() {
+            return Err(Error::Output {
+                path: path.clone(),
+                message: "the kiosk log is a directory".into(),
+            });
+        }
+        let file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&path)
+            .map_err(err)?;
+        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        Ok(RotatingLog {
+            path,
+            max_bytes: settings.max_bytes,
+            keep: settings.keep,
+            file,
+            size,
+        })
+    }
+
+    fn rotated(&self, k: u32) -> PathBuf {
+        let mut s = self.path.clone().into_os_string();
+        s.push(format!(".{k}"));
+        PathBuf::from(s)
+    }
+
+    fn rotate(&mut self) -> std::io::Result<()> {
+        let _ = std::fs::remove_file(self.rotated(self.keep));
+        for k in (1..self.keep).rev() {
+            let from = self.rotated(k);
+            if from.exists() {
+                std::fs::rename(&from, self.rotated(k + 1))?;
+            }
+        }
+        std::fs::rename(&self.path, self.rotated(1))?;
+        self.file = std::fs::OpenOptions::new()
+            .create(true)
+            .append(true)
+            .open(&self.path)?;
+        self.size = 0;
+        Ok(())
+    }
+
+    /// Appends `bytes` (one or more whole lines), rotating first when they
+    /// would take the file past its size.
+    pub fn write_lines(&mut self, bytes: &[u8]) -> std::io::Result<()> {
+        if self.size > 0 && self.size + bytes.len() as u64 > self.max_bytes {
+            self.rotate()?;
+        }
+        self.file.write_all(bytes)?;
+        self.size += bytes.len() as u64;
+        Ok(())
+    }
+}
+
+static LOG: OnceLock<Mutex<RotatingLog>> = OnceLock::new();
+
+/// Starts the process's kiosk log (the tracing events of vergence at info
+/// and above go there from now on; see [`LogWriter`]).
+pub fn start_log(settings: &KioskLog) -> Result<()> {
+    let log = RotatingLog::open(settings)?;
+    let _ = LOG.set(Mutex::new(log));
+    Ok(())
+}
+
+/// Whether a kiosk log is open.
+pub fn logging() -> bool {
+    LOG.get().is_some()
+}
+
+/// A `tracing_subscriber` writer into the kiosk log (nothing when none is
+/// open): each event is buffered and written whole.
+#[derive(Default)]
+pub struct LogWriter {
+    buf: Vec<u8>,
+}
+
+impl std::io::Write for LogWriter {
+    fn write(&mut self, b: &[u8]) -> std::io::Result<usize> {
+        self.buf.extend_from_slice(b);
+        Ok(b.len())
+    }
+
+    fn flush(&mut self) -> std::io::Result<()> {
+        Ok(())
+    }
+}
+
+impl Drop for LogWriter {
+    fn drop(&mut self) {
+        if self.buf.is_empty() {
+            return;
+        }
+        if let Some(log) = LOG.get() {
+            if let Ok(mut l) = log.lock() {
+                // A full disk must not end the demo: the line is dropped.
+                let _ = l.write_lines(&self.buf);
+            }
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    const SAMPLE: &str = include_str!("../../manifests/kiosk/demo.toml");
+
+    #[test]
+    fn the_sample_kiosk_parses() {
+        let k = Kiosk::parse(SAMPLE, Path::new("manifests/kiosk")).unwrap();
+        assert!(k.scenes.len() >= 2);
+        assert!(k.reconnect);
+        assert!(k.idle_return_s.is_some());
+        assert!(k.toggles.contains(&Toggle::StencilMask));
+        assert!(k.log.is_some());
+    }
+
+    #[test]
+    fn bad_kiosks_say_what_is_wrong() {
+        let base = "name = \"k\"\n[[scenes]]\nname = \"a\"\nscene = \"factory:10\"\n";
+        assert!(Kiosk::parse(base, Path::new(".")).is_ok());
+        for (text, says) in [
+            ("name = \"k\"\n", "scenes"),
+            ("name = \"k\"\nscenes = []\n", "needs 1 to"),
+            (&format!("{base}colour = 1\n"), "unknown field"),
+            (&format!("opt = \"warp\"\n{base}"), "warp"),
+            (&format!("toggles = [\"warp\"]\n{base}"), "unknown toggle"),
+            (&format!("idle_return_s = -1\n{base}"), "idle_return_s"),
+            (&format!("mirror = \"up\"\n{base}"), "mirror"),
+            (
+                &format!("{base}spawn = [1, 2]\n"),
+                "scenes[0].spawn: expected [x, y, z, yaw]",
+            ),
+            (
+                &format!("{base}[[scenes]]\nname = \"a\"\nscene = \"factory\"\n"),
+                "used twice",
+            ),
+            (
+                "name = \"k\"\n[log]\nfile = \"k.log\"\nkeep = 0\n[[scenes]]\nname = \"a\"\nscene = \"f\"\n",
+                "log.keep",
+            ),
+        ] {
+            let e = Kiosk::parse(text, Path::new(".")).unwrap_err();
+            assert!(e.contains(says), "{text}: {e}");
+        }
+    }
+
+    #[test]
+    fn the_idle_watch_fires_once_per_still_spell() {
+        let mut w = IdleWatch::new(1.0);
+        let p = Pose::from_euler_deg(DVec3::new(0.0, 1.6, 0.0), 0.0, 0.0, 0.0);
+        assert!(!w.observe(&p, 0.0));
+        assert!(!w.observe(&p, 0.6));
+        assert!(w.observe(&p, 0.6), "still for 1.2 s");
+        assert!(!w.observe(&p, 5.0), "once");
+        let turned = Pose::from_euler_deg(p.position, 10.0, 0.0, 0.0);
+        assert!(!w.observe(&turned, 0.1), "motion resets");
+        assert!(!w.observe(&turned, 0.5));
+        assert!(w.observe(&turned, 0.6));
+        // Tiny wobble is not motion.
+        let wobble = Pose::from_euler_deg(turned.position + DVec3::X * 0.005, 10.5, 0.0, 0.0);
+        assert!(!w.observe(&wobble, 0.1));
+    }
+
+    #[test]
+    fn the_log_rotates_by_size() {
+        let dir = std::env::temp_dir().join(format!("vergence-kiosk-log-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let settings = KioskLog {
+            file: dir.join("k.log"),
+            max_bytes: 100,
+            keep: 2,
+        };
+        let mut log = RotatingLog::open(&settings).unwrap();
+        for i in 0..20 {
+            log.write_lines(format!("line {i:02} of the kiosk log\n").as_bytes())
+                .unwrap();
+        }
+        let read = |p: &str| std::fs::read_to_string(dir.join(p)).unwrap_or_default();
+        assert!(read("k.log").contains("line 19"));
+        assert!(!read("k.log.1").is_empty() && !read("k.log.2").is_empty());
+        assert!(!dir.join("k.log.3").exists(), "keeps 2");
+        for f in ["k.log", "k.log.1", "k.log.2"] {
+            assert!(read(f).len() <= 100, "{f}");
+        }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+}

@@ -1,0 +1,848 @@
+//! `run --mirror`: a desktop window showing the eye images a frame
+//! submitted — under OpenXR the swapchain images handed to the runtime,
+//! headless the images the frame was copied into. Nothing is rendered
+//! again: before the images are released, one transfer copies the shown
+//! eyes into the mirror's own image (with `cropped`, the hidden area is
+//! then cleared to black), and after the frame is submitted
+//! ([`Mirror::present`]) that image is blitted into the window's
+//! swapchain, letterboxed, without waiting for anything: when no window
+//! image is free the mirror skips that frame, so the headset's frame loop
+//! never waits for the desktop.
+//!
+//! The window is opened before the Vulkan context ([`MirrorWindow`]),
+//! because the surface's instance and device extensions go into the
+//! context's create infos (under OpenXR those handed to the runtime
+//! through XR_KHR_vulkan_enable2).
+
+use super::headless::save_png;
+use super::view::initial_window_size;
+use super::window::{display_available, Input, Window};
+use crate::error::{Error, Result, VkContext};
+use crate::gpu::barrier::{self, Use};
+use crate::gpu::memory::{Image, ImageDesc};
+use crate::gpu::surface::{Pacing, Presented, Presenter, Source};
+use crate::gpu::{Context, ExtraExtensions};
+use crate::view::{Fov, HiddenArea};
+use ash::vk;
+use std::path::Path;
+use std::sync::Arc;
+
+/// What the mirror window shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum MirrorMode {
+    /// The left eye.
+    Left,
+    /// The right eye.
+    Right,
+    /// Both eyes side by side.
+    Both,
+    /// The left eye with the lens's hidden area masked black.
+    Cropped,
+    /// No window.
+    Off,
+}
+
+impl MirrorMode {
+    /// The eyes shown, left to right.
+    pub fn eyes(self) -> &'static [usize] {
+        match self {
+            MirrorMode::Left | MirrorMode::Cropped => &[0],
+            MirrorMode::Right => &[1],
+            MirrorMode::Both => &[0, 1],
+            MirrorMode::Off => &[],
+        }
+    }
+
+    /// The CLI name.
+    pub fn name(self) -> &'static str {
+        match self {
+            MirrorMode::Left => "left",
+            MirrorMode::Right => "right",
+            MirrorMode::Both => "both",
+            MirrorMode::Cropped => "cropped",
+            MirrorMode::Off => "off",
+        }
+    }
+}
+
+/// The mirror a run gets: `asked` (None: `left` when a display is there,
+/// else none, silently); an explicit mode without a display is off with
+/// one line on stderr saying why.
+pub fn resolve(asked: Option<MirrorMode>) -> Option<MirrorMode> {
+    match asked {
+        Some(MirrorMode::Off) => None,
+        Some(m) => match display_available() {
+            Ok(()) => Some(m),
+            Err(e) => {
+                eprintln!("vergence: mirror off: {e}");
+                None
+            }
+        },
+        None => display_available().ok().map(|()| MirrorMode::Left),
+    }
+}
+
+/// An open mirror window whose Vulkan side is not made yet.
+pub struct MirrorWindow {
+    window: Window,
+    mode: MirrorMode,
+    eye: vk::Extent2D,
+}
+
+impl MirrorWindow {
+    /// Opens the window for `mode` (not `Off`) of `eye`-sized images,
+    /// titled `title`; a failure is one line on stderr and no mirror (the
+    /// run goes on without it).
+    pub fn open(mode: MirrorMode, title: &str, eye: vk::Extent2D) -> Option<MirrorWindow> {
+        let shown = mode.eyes().len().max(1) as u32;
+        let content = vk::Extent2D {
+            width: eye.width * shown,
+            height: eye.height,
+        };
+        match Window::open(title, initial_window_size(content)) {
+            Ok(window) => Some(MirrorWindow { window, mode, eye }),
+            Err(e) => {
+                eprintln!("vergence: mirror off: {e}");
+                None
+            }
+        }
+    }
+
+    /// The Vulkan extensions its surface needs.
+    pub fn extensions(&self) -> Result<ExtraExtensions> {
+        self.window.extensions()
+    }
+}
+
+/// What the mirror did, for `--stats-out`.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct MirrorStats {
+    /// The mode.
+    pub mode: String,
+    /// The window swapchain's present mode.
+    pub present_mode: String,
+    /// The window's size at the end.
+    pub window_size: [u32; 2],
+    /// Frames copied from the submitted images.
+    pub copied: u64,
+    /// Frames presented in the window.
+    pub presented: u64,
+    /// Frames not presented because no window image was free (the loop
+    /// did not wait for one).
+    pub busy: u64,
+    /// Frames not presented because the swapchain was out of date (resize).
+    pub resized: u64,
+}
+
+struct CopySlot {
+    pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+/// Rectangles of hidden pixels of one eye, cached until its mask, FOV or
+/// size changes.
+struct MaskRects {
+    area: HiddenArea,
+    fov: Fov,
+    rects: Vec<vk::ClearRect>,
+}
+
+/// The mirror: window, presenter, its copy of the eye images.
+pub struct Mirror {
+    ctx: Arc<Context>,
+    presenter: Presenter,
+    /// Two layers, one per eye, in the submitted images' format (None
+    /// only while dropping).
+    image: Option<Image>,
+    layer_views: Vec<vk::ImageView>,
+    slots: Vec<CopySlot>,
+    next: usize,
+    copied: bool,
+    masks: [Option<MaskRects>; 2],
+    mode: MirrorMode,
+    /// What it did.
+    pub stats: MirrorStats,
+    /// The window (None only once handed back by [`Mirror::into_window`]).
+    window: Option<MirrorWindow>,
+    /// A title waiting for the first frame shown.
+    title: Option<String>,
+}
+
+impl Mirror {
+    /// Makes the Vulkan side of `window` on `ctx` (created with its
+    /// extensions) for eye images of `format`.
+    pub fn new(ctx: &Arc<Context>, window: MirrorWindow, format: vk::Format) -> Result<Mirror> {
+        let (mode, eye) = (window.mode, window.eye);
+        let (display, handle) = window.window.handles()?;
+        let mut presenter = Presenter::new(
+            ctx,
+            display,
+            handle,
+            window.window.size(),
+            Pacing::NeverBlock,
+        )?;
+        let image = match Image::new(
+            ctx,
+            &ImageDesc {
+                name: "mirror eyes",
+                format,
+                extent: eye,
+                layers: 2,
+                mips: 1,
+                samples: vk::SampleCountFlags::TYPE_1,
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                    | vk::ImageUsageFlags::TRANSFER_DST
+                    | vk::ImageUsageFlags::TRANSFER_SRC,
+                aspect: vk::ImageAspectFlags::COLOR,
+                category: "mirror",
+            },
+        ) {
+            Ok(i) => i,
+            Err(e) => {
+                presenter.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let mut m = Mirror {
+            ctx: ctx.clone(),
+            stats: MirrorStats {
+                mode: mode.name().into(),
+                present_mode: format!("{:?}", presenter.present_mode()),
+                ..MirrorStats::default()
+            },
+            presenter,
+            image: Some(image),
+            layer_views: Vec::new(),
+            slots: Vec::new(),
+            next: 0,
+            copied: false,
+            masks: [None, None],
+            mode,
+            window: Some(window),
+            title: None,
+        };
+        // On failure `m` drops, destroying what was made.
+        m.init()?;
+        Ok(m)
+    }
+
+    fn init(&mut self) -> Result<()> {
+        let ctx = &self.ctx;
+        let (image, format) = (self.image().image, self.image().format);
+        for layer in 0..2 {
+            let info = vk::ImageViewCreateInfo::default()
+                .image(image)
+                .view_type(vk::ImageViewType::TYPE_2D)
+                .format(format)
+                .subresource_range(vk::ImageSubresourceRange {
+                    aspect_mask: vk::ImageAspectFlags::COLOR,
+                    base_mip_level: 0,
+                    level_count: 1,
+                    base_array_layer: layer,
+                    layer_count: 1,
+                });
+            // SAFETY: a view of a live image; destroyed in `drop`.
+            let view = unsafe { ctx.device.create_image_view(&info, None) }
+                .vk("creating a mirror view")?;
+            self.layer_views.push(view);
+        }
+        for i in 0..2 {
+            let (pool, cmd) = ctx.command_pool("mirror copy")?;
+            // SAFETY: plain object creation; destroyed in `drop`.
+            let fence = unsafe {
+                ctx.device.create_fence(
+                    &vk::FenceCreateInfo::default().flags(vk::FenceCreateFlags::SIGNALED),
+                    None,
+                )
+            };
+            let fence = match fence {
+                Ok(f) => f,
+                Err(e) => {
+                    // SAFETY: the pool was just made and never submitted.
+                    unsafe { ctx.device.destroy_command_pool(pool, None) };
+                    return Err(e).vk("creating a mirror fence");
+                }
+            };
+            ctx.set_name(cmd, &format!("mirror copy {i}"));
+            self.slots.push(CopySlot { pool, cmd, fence });
+        }
+        Ok(())
+    }
+
+    fn win(&self) -> &Window {
+        &self
+            .window
+            .as_ref()
+            .expect("present until handed back")
+            .window
+    }
+
+    fn image(&self) -> &Image {
+        self.image.as_ref().expect("present until drop")
+    }
+
+    /// The mode shown.
+    pub fn mode(&self) -> MirrorMode {
+        self.mode
+    }
+
+    /// Handles the window's pending events (a resize marks the swapchain
+    /// for recreation) and returns the input since the last call.
+    pub fn pump(&mut self) -> &mut Input {
+        let w = self.window.as_mut().expect("present until handed back");
+        let input = w.window.pump();
+        if input.resized {
+            self.presenter.resized();
+        }
+        input
+    }
+
+    /// Sets the window's title; before the first frame is shown it waits
+    /// for it (so a title with the configuration means frames are shown).
+    pub fn set_title(&mut self, title: &str) {
+        if self.stats.presented == 0 {
+            self.title = Some(title.to_string());
+        } else {
+            self.win().set_title(title);
+        }
+    }
+
+    /// Copies the shown eyes of a frame's submitted images (`eyes[e]` is eye
+    /// e's image and layer, in COLOR_ATTACHMENT_OPTIMAL after the frame's
+    /// commands, and left so) into the mirror's image, masking the hidden
+    /// area (`hidden`, per eye in tangent space, with the eyes' `fovs`)
+    /// with `cropped`. Submitted on the context's queue after the frame and
+    /// before the images are released; waits only for this slot's copy of
+    /// two frames ago.
+    pub fn copy(
+        &mut self,
+        eyes: &[Source],
+        hidden: Option<&[HiddenArea]>,
+        fovs: &[Fov],
+    ) -> Result<()> {
+        let shown = self.mode.eyes();
+        if shown.iter().any(|&e| e >= eyes.len()) {
+            return Err(Error::Gpu(format!(
+                "the mirror needs eye images {shown:?}, the frame has {}",
+                eyes.len()
+            )));
+        }
+        if self.mode == MirrorMode::Cropped {
+            for &e in shown {
+                let area = match hidden.and_then(|h| h.get(e)) {
+                    Some(a) => a.clone(),
+                    None => match fovs.get(e) {
+                        Some(f) => crate::view::lens::default_hidden_area(f),
+                        None => continue,
+                    },
+                };
+                let Some(&fov) = fovs.get(e) else {
+                    continue;
+                };
+                let stale = self.masks[e]
+                    .as_ref()
+                    .is_none_or(|m| m.fov != fov || m.area != area);
+                if stale {
+                    let rects = mask_rects(&area, &fov, self.image().extent);
+                    self.masks[e] = Some(MaskRects { area, fov, rects });
+                }
+            }
+        }
+        let ctx = self.ctx.clone();
+        let d = &ctx.device;
+        let slot = &self.slots[self.next];
+        let (pool, cmd, fence) = (slot.pool, slot.cmd, slot.fence);
+        self.next = (self.next + 1) % self.slots.len();
+        // SAFETY: this slot's fence; waiting frees its command buffer (its
+        // copy ran two frames ago, before the frames since).
+        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.vk("waiting for a mirror copy")?;
+        let c = vk::ImageAspectFlags::COLOR;
+        let attached = Use::COLOR_ATTACHMENT;
+        // The mask's rendering loads the copied pixels and clears some.
+        let masking = Use {
+            access: vk::AccessFlags2::COLOR_ATTACHMENT_READ
+                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            ..attached
+        };
+        // What the mirror image is in between (Presenter's `Source` contract):
+        // COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as an
+        // attachment, last read by the window's blit (a transfer).
+        let mirrored = Use {
+            layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                | vk::PipelineStageFlags2::ALL_TRANSFER,
+            access: vk::AccessFlags2::COLOR_ATTACHMENT_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
+        };
+        let layer_barrier = |image: vk::Image, layer: u32, from: Use, to: Use| {
+            let mut b = barrier::image(image, c, 1, from, to);
+            b.subresource_range.base_array_layer = layer;
+            b
+        };
+        let mut before = Vec::new();
+        let mut after_src = Vec::new();
+        let mut after_dst = Vec::new();
+        for &e in shown {
+            let s = eyes[e];
+            before.push(layer_barrier(s.image, s.layer, mirrored, Use::TRANSFER_SRC));
+            after_src.push(layer_barrier(s.image, s.layer, Use::TRANSFER_SRC, attached));
+            before.push(layer_barrier(
+                self.image().image,
+                e as u32,
+                mirrored.discarded(),
+                Use::TRANSFER_DST,
+            ));
+        }
+        let masked: Vec<usize> = if self.mode == MirrorMode::Cropped {
+            shown
+                .iter()
+                .copied()
+                .filter(|&e| self.masks[e].as_ref().is_some_and(|m| !m.rects.is_empty()))
+                .collect()
+        } else {
+            Vec::new()
+        };
+        for &e in shown {
+            let to = if masked.contains(&e) {
+                masking
+            } else {
+                mirrored
+            };
+            after_dst.push(layer_barrier(
+                self.image().image,
+                e as u32,
+                Use::TRANSFER_DST,
+                to,
+            ));
+        }
+        let extent = self.image().extent;
+        // SAFETY: recording into this slot's command buffer, whose last
+        // submission finished; the images are alive and in the layouts the
+        // barriers name (the frame's commands, submitted earlier on this
+        // queue, left the eye images in COLOR_ATTACHMENT_OPTIMAL).
+        unsafe {
+            d.reset_command_pool(pool, vk::CommandPoolResetFlags::empty())
+                .vk("resetting the mirror command pool")?;
+            d.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .vk("beginning the mirror copy")?;
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            );
+            for &e in shown {
+                let s = eyes[e];
+                let w = s.extent.width.min(extent.width);
+                let h = s.extent.height.min(extent.height);
+                let region = vk::ImageCopy::default()
+                    .src_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: c,
+                        mip_level: 0,
+                        base_array_layer: s.layer,
+                        layer_count: 1,
+                    })
+                    .dst_subresource(vk::ImageSubresourceLayers {
+                        aspect_mask: c,
+                        mip_level: 0,
+                        base_array_layer: e as u32,
+                        layer_count: 1,
+                    })
+                    .extent(vk::Extent3D {
+                        width: w,
+                        height: h,
+                        depth: 1,
+                    });
+                d.cmd_copy_image(
+                    cmd,
+                    s.image,
+                    Use::TRANSFER_SRC.layout,
+                    self.image().image,
+                    Use::TRANSFER_DST.layout,
+                    &[region],
+                );
+            }
+            after_src.extend(after_dst);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&after_src),
+            );
+            for &e in &masked {
+                let rects = &self.masks[e].as_ref().expect("filtered above").rects;
+                let attachment = [vk::RenderingAttachmentInfo::default()
+                    .image_view(self.layer_views[e])
+                    .image_layout(attached.layout)
+                    .load_op(vk::AttachmentLoadOp::LOAD)
+                    .store_op(vk::AttachmentStoreOp::STORE)];
+                let info = vk::RenderingInfo::default()
+                    .render_area(vk::Rect2D {
+                        offset: vk::Offset2D::default(),
+                        extent,
+                    })
+                    .layer_count(1)
+                    .color_attachments(&attachment);
+                d.cmd_begin_rendering(cmd, &info);
+                let black = [vk::ClearAttachment {
+                    aspect_mask: c,
+                    color_attachment: 0,
+                    clear_value: vk::ClearValue {
+                        color: vk::ClearColorValue {
+                            float32: [0.0, 0.0, 0.0, 1.0],
+                        },
+                    },
+                }];
+                d.cmd_clear_attachments(cmd, &black, rects);
+                d.cmd_end_rendering(cmd);
+            }
+            let done: Vec<_> = masked
+                .iter()
+                .map(|&e| layer_barrier(self.image().image, e as u32, masking, mirrored))
+                .collect();
+            if !done.is_empty() {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&done),
+                );
+            }
+            d.end_command_buffer(cmd).vk("ending the mirror copy")?;
+            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds);
+            d.reset_fences(&[fence]).vk("resetting a mirror fence")?;
+            d.queue_submit2(ctx.queue, &[submit], fence)
+                .vk("submitting the mirror copy")?;
+        }
+        self.copied = true;
+        self.stats.copied += 1;
+        Ok(())
+    }
+
+    fn sources(&self) -> Vec<Source> {
+        self.mode
+            .eyes()
+            .iter()
+            .map(|&e| Source {
+                image: self.image().image,
+                layer: e as u32,
+                extent: self.image().extent,
+            })
+            .collect()
+    }
+
+    /// Shows the last copied frame in the window, without waiting: when no
+    /// window image is free this frame is skipped.
+    pub fn present(&mut self) -> Result<()> {
+        if !self.copied {
+            return Ok(());
+        }
+        let sources = self.sources();
+        let size = self.win().size();
+        match self.presenter.present(&self.ctx, &sources, size, false)? {
+            Presented::Shown(_) => {
+                self.stats.presented += 1;
+                if let Some(t) = self.title.take() {
+                    self.win().set_title(&t);
+                }
+            }
+            Presented::Busy => self.stats.busy += 1,
+            Presented::Skipped => self.stats.resized += 1,
+        }
+        Ok(())
+    }
+
+    /// Presents the last copied frame once more, read back, and writes
+    /// that image (what the window shows) to `path` as PNG. Waits for the
+    /// GPU; for the end of a run. Returns whether an image was written.
+    pub fn screenshot(&mut self, path: &Path) -> Result<bool> {
+        if !self.copied {
+            return Ok(false);
+        }
+        let sources = self.sources();
+        // A resize may need one recreation before an image is shown.
+        for _ in 0..3 {
+            let size = self.win().size();
+            if let Presented::Shown(Some(img)) =
+                self.presenter.present(&self.ctx, &sources, size, true)?
+            {
+                save_png(&img, path)?;
+                return Ok(true);
+            }
+        }
+        Ok(false)
+    }
+
+    /// Waits for the mirror's copies (before the images they read go away).
+    pub fn finish(&mut self) -> Result<()> {
+        let fences: Vec<vk::Fence> = self.slots.iter().map(|s| s.fence).collect();
+        if fences.is_empty() {
+            return Ok(());
+        }
+        // SAFETY: fences of this device.
+        unsafe { self.ctx.device.wait_for_fences(&fences, true, u64::MAX) }
+            .vk("waiting for the mirror copies")
+    }
+
+    /// Fills in the statistics' window figures.
+    pub fn final_stats(&mut self) -> MirrorStats {
+        let s = self.win().size();
+        self.stats.window_size = [s.width, s.height];
+        self.stats.present_mode = format!("{:?}", self.presenter.present_mode());
+        self.stats.clone()
+    }
+}
+
+impl Mirror {
+    /// Destroys the Vulkan side (waiting for the device) and hands the
+    /// window back, with the statistics, for a later session of the run.
+    pub fn into_window(mut self) -> (Option<MirrorWindow>, MirrorStats) {
+        let stats = self.final_stats();
+        let w = self.window.take();
+        (w, stats)
+    }
+}
+
+impl Drop for Mirror {
+    fn drop(&mut self) {
+        let ctx = self.ctx.clone();
+        // Waits for the device, then destroys the swapchain and surface
+        // (the window is still open: it goes after this, or is handed back).
+        self.presenter.destroy(&ctx);
+        // SAFETY: the device is idle (the presenter waited); each object
+        // belongs to it and is destroyed once.
+        unsafe {
+            for s in self.slots.drain(..) {
+                ctx.device.destroy_fence(s.fence, None);
+                ctx.device.destroy_command_pool(s.pool, None);
+            }
+            for v in self.layer_views.drain(..) {
+                ctx.device.destroy_image_view(v, None);
+            }
+        }
+        if let Some(image) = self.image.take() {
+            image.destroy(&ctx);
+        }
+    }
+}
+
+/// What a run's desktop side carries from session to session: the mirror
+/// window (opened once: winit makes one event loop per process), whether it
+/// was closed, and the live toggles' configuration.
+pub struct Desk {
+    mode: Option<MirrorMode>,
+    window: Option<MirrorWindow>,
+    tried: bool,
+    /// The window was closed (or Escape pressed): the run ends in order.
+    pub closed: bool,
+    /// Scenes on offer (a kiosk's; N moves to the next when there are two
+    /// or more).
+    pub scenes: usize,
+    /// N was pressed: this session ends in order and the run goes on with
+    /// the next scene.
+    pub next_scene: bool,
+    /// The configuration the keys switch.
+    pub live: crate::targets::toggles::LiveConfig,
+    /// The mirror's statistics so far (None: no mirror yet).
+    pub stats: Option<MirrorStats>,
+}
+
+impl Desk {
+    /// For a run asked for mirror `asked` (see [`resolve`]) starting from
+    /// `config`; F2 writes to `save_to`.
+    pub fn new(
+        asked: Option<MirrorMode>,
+        config: crate::config::RenderConfig,
+        save_to: Option<std::path::PathBuf>,
+    ) -> Desk {
+        Desk {
+            mode: resolve(asked),
+            window: None,
+            tried: false,
+            closed: false,
+            scenes: 1,
+            next_scene: false,
+            live: crate::targets::toggles::LiveConfig::new(config, save_to),
+            stats: None,
+        }
+    }
+
+    /// No mirror at all.
+    pub fn off(config: crate::config::RenderConfig) -> Desk {
+        Desk::new(Some(MirrorMode::Off), config, None)
+    }
+
+    /// Readies the mirror window for a session of `eye`-sized images (the
+    /// run's window when one is open, else opened now, once per run) and
+    /// returns the extensions the Vulkan context needs for it (none
+    /// without a window). The window stays here until [`Desk::mirror`]
+    /// takes it, so a session that fails before leaves it to the next.
+    pub fn prepare(&mut self, title: &str, eye: vk::Extent2D) -> ExtraExtensions {
+        if self.window.is_none() && !self.tried {
+            if let Some(mode) = self.mode {
+                self.tried = true;
+                self.window = MirrorWindow::open(mode, title, eye);
+            }
+        }
+        let Some(w) = self.window.as_mut() else {
+            return ExtraExtensions::default();
+        };
+        w.eye = eye;
+        match w.extensions() {
+            Ok(e) => e,
+            Err(e) => {
+                eprintln!("vergence: mirror off: {e}");
+                self.window = None;
+                ExtraExtensions::default()
+            }
+        }
+    }
+
+    /// The mirror on `ctx` (made with [`Desk::prepare`]'s extensions) for
+    /// images of `format`, when a window is ready; a failure is one line on
+    /// stderr and no mirror.
+    pub fn mirror(&mut self, ctx: &Arc<Context>, format: vk::Format) -> Option<Mirror> {
+        match Mirror::new(ctx, self.window.take()?, format) {
+            Ok(m) => Some(m),
+            Err(e) => {
+                eprintln!("vergence: mirror off: {e}");
+                None
+            }
+        }
+    }
+
+    /// Takes the window back from a session's mirror (destroying its
+    /// Vulkan side) and adds up its statistics.
+    pub fn put_back(&mut self, mirror: Mirror) {
+        let (window, s) = mirror.into_window();
+        self.window = window;
+        let total = self.stats.get_or_insert_with(MirrorStats::default);
+        total.mode = s.mode;
+        total.present_mode = s.present_mode;
+        total.window_size = s.window_size;
+        total.copied += s.copied;
+        total.presented += s.presented;
+        total.busy += s.busy;
+        total.resized += s.resized;
+    }
+
+    /// Handles a frame's window input: a close ends the run, keys switch
+    /// optimizations. Returns the new configuration when one changed.
+    /// `next_frame` is the index of the next frame rendered.
+    pub fn handle(
+        &mut self,
+        mirror: &mut Mirror,
+        next_frame: u64,
+    ) -> Option<crate::config::RenderConfig> {
+        let input = mirror.pump();
+        if input.close {
+            self.closed = true;
+        }
+        let pressed = std::mem::take(&mut input.pressed);
+        if self.scenes > 1 && pressed.contains(&winit::keyboard::KeyCode::KeyN) {
+            self.next_scene = true;
+        }
+        self.live.handle(&pressed, next_frame)
+    }
+
+    /// Whether the session should end (the window closed, or the next
+    /// scene asked for).
+    pub fn ending(&self) -> bool {
+        self.closed || self.next_scene
+    }
+}
+
+/// The hidden pixels of a `extent`-sized image of `fov` under `area`, as
+/// few rectangles: per row the runs of hidden pixels, rows with the same
+/// runs merged into one taller rectangle.
+pub fn mask_rects(area: &HiddenArea, fov: &Fov, extent: vk::Extent2D) -> Vec<vk::ClearRect> {
+    let (w, h) = (extent.width as usize, extent.height as usize);
+    let mask = crate::view::lens::mask_image(area, fov, extent.width, extent.height);
+    let runs = |y: usize| -> Vec<(u32, u32)> {
+        let row = &mask[y * w..(y + 1) * w];
+        let mut out = Vec::new();
+        let mut x = 0;
+        while x < w {
+            if row[x] {
+                let start = x;
+                while x < w && row[x] {
+                    x += 1;
+                }
+                out.push((start as u32, (x - start) as u32));
+            } else {
+                x += 1;
+            }
+        }
+        out
+    };
+    let mut rects = Vec::new();
+    let mut open: Vec<(u32, u32)> = Vec::new();
+    let mut open_from = 0u32;
+    let close = |rects: &mut Vec<vk::ClearRect>, runs: &[(u32, u32)], y0: u32, y1: u32| {
+        for &(x, len) in runs {
+            rects.push(vk::ClearRect {
+                rect: vk::Rect2D {
+                    offset: vk::Offset2D {
+                        x: x as i32,
+                        y: y0 as i32,
+                    },
+                    extent: vk::Extent2D {
+                        width: len,
+                        height: y1 - y0,
+                    },
+                },
+                base_array_layer: 0,
+                layer_count: 1,
+            });
+        }
+    };
+    for y in 0..h {
+        let r = runs(y);
+        if r != open {
+            close(&mut rects, &open, open_from, y as u32);
+            open = r;
+            open_from = y as u32;
+        }
+    }
+    close(&mut rects, &open, open_from, h as u32);
+    rects
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn mask_rectangles_cover_exactly_the_hidden_pixels() {
+        let fov = Fov::symmetric(0.8, 0.7);
+        let area = crate::view::lens::default_hidden_area(&fov);
+        let extent = vk::Extent2D {
+            width: 97,
+            height: 61,
+        };
+        let mask = crate::view::lens::mask_image(&area, &fov, 97, 61);
+        let mut covered = vec![0u8; mask.len()];
+        let rects = mask_rects(&area, &fov, extent);
+        for r in &rects {
+            for y in r.rect.offset.y as u32..r.rect.offset.y as u32 + r.rect.extent.height {
+                for x in r.rect.offset.x as u32..r.rect.offset.x as u32 + r.rect.extent.width {
+                    covered[(y * 97 + x) as usize] += 1;
+                }
+            }
+        }
+        for (i, (&m, &c)) in mask.iter().zip(&covered).enumerate() {
+            assert_eq!(c, m as u8, "pixel {i}");
+        }
+        assert!(mask.iter().any(|&m| m) && mask.iter().any(|&m| !m));
+        assert!(rects.len() < 61 * 4, "{} rectangles", rects.len());
+    }
+
+    #[test]
+    fn modes_show_their_eyes() {
+        assert_eq!(MirrorMode::Left.eyes(), &[0]);
+        assert_eq!(MirrorMode::Right.eyes(), &[1]);
+        assert_eq!(MirrorMode::Both.eyes(), &[0, 1]);
+        assert_eq!(MirrorMode::Cropped.eyes(), &[0]);
+        assert!(MirrorMode::Off.eyes().is_empty());
+    }
+}

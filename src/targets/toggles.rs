@@ -1,0 +1,403 @@
+//! Live toggles: keys of the desktop window (`view`, and `run`'s mirror)
+//! that switch an optimization while the loop runs. Each key press gives a
+//! new [`RenderConfig`]; the loop rebuilds the renderer with it (the window,
+//! the session and the scene stay) and the frame records show it from the
+//! next frame on. The current `--opt` string is printed on every change
+//! and a key writes it to a config file that `--config` reads.
+
+use crate::config::{Culling, Mffr, RenderConfig, StereoMode};
+use crate::cull::Strategy;
+use crate::error::Result;
+use crate::view::foveation::Level;
+use std::path::{Path, PathBuf};
+use winit::keyboard::KeyCode;
+
+/// An optimization a key switches.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Toggle {
+    /// Multiview ↔ two-pass.
+    Stereo,
+    /// none → each culling strategy in turn → none.
+    Cull,
+    /// The HMD stencil mask on/off.
+    StencilMask,
+    /// Foveation off → low → medium → high → off.
+    Foveation,
+    /// Radial density masking on/off (default radius).
+    Rdm,
+    /// Monoscopic far-field rendering on/off.
+    Mffr,
+    /// MSAA 4× ↔ 1×.
+    Msaa,
+    /// GPU-driven culling on/off (needs a culling strategy).
+    GpuCull,
+}
+
+impl Toggle {
+    /// Every toggle, in key order (keys 1 to 8).
+    pub const ALL: [Toggle; 8] = [
+        Toggle::Stereo,
+        Toggle::Cull,
+        Toggle::StencilMask,
+        Toggle::Foveation,
+        Toggle::Rdm,
+        Toggle::Mffr,
+        Toggle::Msaa,
+        Toggle::GpuCull,
+    ];
+
+    /// The name used in kiosk files and messages.
+    pub fn name(self) -> &'static str {
+        match self {
+            Toggle::Stereo => "stereo",
+            Toggle::Cull => "cull",
+            Toggle::StencilMask => "stencil-mask",
+            Toggle::Foveation => "foveation",
+            Toggle::Rdm => "rdm",
+            Toggle::Mffr => "mffr",
+            Toggle::Msaa => "msaa",
+            Toggle::GpuCull => "gpu-cull",
+        }
+    }
+
+    /// Its key: the digit of its place in [`Toggle::ALL`].
+    pub fn key(self) -> KeyCode {
+        const KEYS: [KeyCode; 8] = [
+            KeyCode::Digit1,
+            KeyCode::Digit2,
+            KeyCode::Digit3,
+            KeyCode::Digit4,
+            KeyCode::Digit5,
+            KeyCode::Digit6,
+            KeyCode::Digit7,
+            KeyCode::Digit8,
+        ];
+        KEYS[Toggle::ALL.iter().position(|t| *t == self).unwrap_or(0)]
+    }
+
+    fn describe(self) -> &'static str {
+        match self {
+            Toggle::Stereo => "stereo mode: multiview / two-pass",
+            Toggle::Cull => "culling: none, then each strategy in turn",
+            Toggle::StencilMask => "HMD stencil mask on / off",
+            Toggle::Foveation => "foveation: off, low, medium, high",
+            Toggle::Rdm => "radial density masking on / off",
+            Toggle::Mffr => "monoscopic far-field rendering on / off",
+            Toggle::Msaa => "MSAA: 4x / 1x",
+            Toggle::GpuCull => "GPU-driven culling on / off (needs a strategy)",
+        }
+    }
+
+    /// `config` with this optimization switched (not yet validated).
+    pub fn apply(self, config: &RenderConfig) -> RenderConfig {
+        let mut c = config.clone();
+        match self {
+            Toggle::Stereo => {
+                c.stereo = match c.stereo {
+                    StereoMode::Multiview => StereoMode::TwoPass,
+                    StereoMode::TwoPass => StereoMode::Multiview,
+                }
+            }
+            Toggle::Cull => {
+                let order: Vec<Culling> = std::iter::once(Culling::None)
+                    .chain(Strategy::ALL.iter().map(|s| Culling::Strategy(*s)))
+                    .collect();
+                let at = order.iter().position(|x| *x == c.cull).unwrap_or(0);
+                c.cull = order[(at + 1) % order.len()];
+                if c.cull == Culling::None {
+                    // GPU culling runs a strategy: it goes off with culling.
+                    c.gpu_cull = false;
+                }
+            }
+            Toggle::StencilMask => c.stencil_mask = !c.stencil_mask,
+            Toggle::Foveation => {
+                c.foveation = match c.foveation {
+                    Level::Off => Level::Low,
+                    Level::Low => Level::Medium,
+                    Level::Medium => Level::High,
+                    Level::High => Level::Off,
+                }
+            }
+            Toggle::Rdm => {
+                c.rdm = match c.rdm {
+                    Some(_) => None,
+                    None => Some(crate::config::DEFAULT_RDM_RADIUS),
+                }
+            }
+            Toggle::Mffr => {
+                c.mffr = match c.mffr {
+                    Some(_) => None,
+                    None => Some(Mffr::default()),
+                }
+            }
+            Toggle::Msaa => c.msaa = if c.msaa == 1 { 4 } else { 1 },
+            Toggle::GpuCull => c.gpu_cull = !c.gpu_cull,
+        }
+        c
+    }
+}
+
+impl std::str::FromStr for Toggle {
+    type Err = String;
+    fn from_str(s: &str) -> std::result::Result<Toggle, String> {
+        Toggle::ALL
+            .into_iter()
+            .find(|t| t.name() == s)
+            .ok_or_else(|| {
+                format!(
+                    "unknown toggle '{s}' (known: {})",
+                    Toggle::ALL.map(|t| t.name()).join(", ")
+                )
+            })
+    }
+}
+
+/// What a key does besides moving the fly camera.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum KeyAction {
+    /// Switch an optimization.
+    Toggle(Toggle),
+    /// Print the key listing (F1 or H).
+    Help,
+    /// Print the current `--opt` string (P).
+    Print,
+    /// Write the current `--opt` string to the config file (F2).
+    Save,
+}
+
+/// The action of `key`, if it has one.
+pub fn action(key: KeyCode) -> Option<KeyAction> {
+    match key {
+        KeyCode::F1 | KeyCode::KeyH => Some(KeyAction::Help),
+        KeyCode::KeyP => Some(KeyAction::Print),
+        KeyCode::F2 => Some(KeyAction::Save),
+        k => Toggle::ALL
+            .into_iter()
+            .find(|t| t.key() == k)
+            .map(KeyAction::Toggle),
+    }
+}
+
+/// The key listing (printed on F1/H, and in the README).
+pub fn help(allowed: &[Toggle], save_to: &Path) -> String {
+    let mut s = String::from("keys:\n");
+    for (i, t) in Toggle::ALL.iter().enumerate() {
+        if allowed.contains(t) {
+            s.push_str(&format!("  {}        {}\n", i + 1, t.describe()));
+        }
+    }
+    s.push_str("  P        print the current --opt string\n");
+    s.push_str(&format!(
+        "  F2       write it to {} (read it with --config)\n",
+        save_to.display()
+    ));
+    s.push_str("  F1, H    this listing\n");
+    s.push_str("  Escape   quit (closing the window does too)");
+    s
+}
+
+/// One switch made while running, as `--stats-out` lists it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct ToggleEvent {
+    /// The first frame rendered with the new configuration.
+    pub frame: u64,
+    /// The toggle's name.
+    pub toggle: String,
+    /// The `--opt` string from that frame on.
+    pub opt: String,
+}
+
+/// The live configuration of a window's loop and what its keys did.
+#[derive(Debug)]
+pub struct LiveConfig {
+    /// The configuration the loop renders with.
+    pub config: RenderConfig,
+    /// Toggles the keys may use (all but a kiosk's restrictions).
+    pub allowed: Vec<Toggle>,
+    /// Where F2 writes the config file.
+    pub save_to: PathBuf,
+    /// Every switch made, in order.
+    pub events: Vec<ToggleEvent>,
+    /// More lines for the key listing (a kiosk's N for the next scene).
+    pub extra_help: Option<String>,
+}
+
+/// Where F2 writes by default.
+pub const DEFAULT_SAVE_PATH: &str = "vergence-live.toml";
+
+impl LiveConfig {
+    /// Starts from `config` with every toggle allowed.
+    pub fn new(config: RenderConfig, save_to: Option<PathBuf>) -> LiveConfig {
+        LiveConfig {
+            config,
+            allowed: Toggle::ALL.to_vec(),
+            save_to: save_to.unwrap_or_else(|| PathBuf::from(DEFAULT_SAVE_PATH)),
+            events: Vec::new(),
+            extra_help: None,
+        }
+    }
+
+    /// The config file text for the current configuration.
+    pub fn file_text(&self) -> String {
+        format!(
+            "# Written by vergence's live toggles (F2); use with --config.\nopt = {:?}\n",
+            self.config.opt_string()
+        )
+    }
+
+    /// Handles the keys `pressed` this frame; `next_frame` is the index of
+    /// the next frame the loop renders. Returns the new configuration when
+    /// a toggle changed it (the caller rebuilds its renderer with it). A
+    /// toggle that would give an invalid combination is refused with one
+    /// line on stderr; everything else prints one line on stdout.
+    pub fn handle(&mut self, pressed: &[KeyCode], next_frame: u64) -> Option<RenderConfig> {
+        let mut changed = false;
+        for &key in pressed {
+            match action(key) {
+                None => {}
+                Some(KeyAction::Help) => {
+                    println!("{}", help(&self.allowed, &self.save_to));
+                    if let Some(more) = &self.extra_help {
+                        println!("{more}");
+                    }
+                }
+                Some(KeyAction::Print) => println!("opt: {}", self.config.opt_string()),
+                Some(KeyAction::Save) => match self.save() {
+                    Ok(()) => println!(
+                        "wrote {} (opt = \"{}\"; use: --config {})",
+                        self.save_to.display(),
+                        self.config.opt_string(),
+                        self.save_to.display()
+                    ),
+                    Err(e) => eprintln!("vergence: cannot write the config file: {e}"),
+                },
+                Some(KeyAction::Toggle(t)) if !self.allowed.contains(&t) => {
+                    eprintln!("vergence: the {} toggle is not allowed here", t.name());
+                }
+                Some(KeyAction::Toggle(t)) => {
+                    let next = t.apply(&self.config);
+                    match next.validate() {
+                        Ok(()) => {
+                            self.config = next;
+                            changed = true;
+                            let opt = self.config.opt_string();
+                            println!("opt: {opt} ({} switched)", t.name());
+                            tracing::info!("live toggle {} at frame {next_frame}: {opt}", t.name());
+                            self.events.push(ToggleEvent {
+                                frame: next_frame,
+                                toggle: t.name().into(),
+                                opt,
+                            });
+                        }
+                        Err(e) => eprintln!("vergence: {} not switched: {e}", t.name()),
+                    }
+                }
+            }
+        }
+        changed.then(|| self.config.clone())
+    }
+
+    /// Goes back to `old` after the loop could not render with the last
+    /// switch (its renderer failed to build): the switch leaves the log.
+    pub fn revert(&mut self, old: RenderConfig, why: &crate::error::Error) {
+        eprintln!(
+            "vergence: cannot render with {} ({why}); back to {}",
+            self.config.opt_string(),
+            old.opt_string()
+        );
+        self.events.pop();
+        self.config = old;
+    }
+
+    /// Writes the config file.
+    pub fn save(&self) -> Result<()> {
+        crate::fsio::write_bytes(&self.save_to, self.file_text().as_bytes())
+    }
+}
+
+/// Checks a toggle list (kiosk files): names known, none twice.
+pub fn parse_list(names: &[String]) -> std::result::Result<Vec<Toggle>, String> {
+    let mut out: Vec<Toggle> = Vec::new();
+    for n in names {
+        let t: Toggle = n.parse()?;
+        if out.contains(&t) {
+            return Err(format!("toggle '{n}' is listed twice"));
+        }
+        out.push(t);
+    }
+    Ok(out)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn every_toggle_has_its_own_key_and_flips_back() {
+        let keys: Vec<KeyCode> = Toggle::ALL.iter().map(|t| t.key()).collect();
+        for (i, k) in keys.iter().enumerate() {
+            assert!(!keys[..i].contains(k));
+            assert_eq!(action(*k), Some(KeyAction::Toggle(Toggle::ALL[i])));
+        }
+        let start = RenderConfig::default();
+        for t in [
+            Toggle::Stereo,
+            Toggle::StencilMask,
+            Toggle::Rdm,
+            Toggle::Mffr,
+            Toggle::Msaa,
+        ] {
+            let once = t.apply(&start);
+            assert_ne!(once, start, "{t:?}");
+            assert_eq!(t.apply(&once), start, "{t:?} twice");
+        }
+        let mut c = start.clone();
+        for _ in 0..4 {
+            c = Toggle::Foveation.apply(&c);
+        }
+        assert_eq!(c, start, "four foveation steps come back");
+        let mut c = start.clone();
+        for _ in 0..=Strategy::ALL.len() {
+            c = Toggle::Cull.apply(&c);
+        }
+        assert_eq!(c, start, "the culling cycle comes back to none");
+    }
+
+    #[test]
+    fn a_toggle_is_logged_from_the_next_frame_and_invalid_ones_are_refused() {
+        let mut live = LiveConfig::new(RenderConfig::default(), None);
+        assert_eq!(live.handle(&[KeyCode::KeyW], 5), None);
+        // GPU culling without a strategy is invalid: refused.
+        assert_eq!(live.handle(&[KeyCode::Digit8], 5), None);
+        let c = live.handle(&[KeyCode::Digit3], 7).expect("changed");
+        assert!(c.stencil_mask);
+        assert_eq!(
+            live.events,
+            vec![ToggleEvent {
+                frame: 7,
+                toggle: "stencil-mask".into(),
+                opt: "multiview,msaa4,none,stencil-mask".into()
+            }]
+        );
+        live.allowed = vec![Toggle::Msaa];
+        assert_eq!(live.handle(&[KeyCode::Digit3], 8), None, "not allowed");
+        assert!(live
+            .file_text()
+            .contains("opt = \"multiview,msaa4,none,stencil-mask\""));
+        assert!(help(&live.allowed, &live.save_to).contains("MSAA"));
+        assert!(!help(&live.allowed, &live.save_to).contains("stencil"));
+    }
+
+    #[test]
+    fn toggle_lists_parse() {
+        let ok = parse_list(&["msaa".into(), "cull".into()]).unwrap();
+        assert_eq!(ok, vec![Toggle::Msaa, Toggle::Cull]);
+        assert!(parse_list(&["warp".into()])
+            .unwrap_err()
+            .contains("unknown toggle"));
+        assert!(parse_list(&["msaa".into(), "msaa".into()])
+            .unwrap_err()
+            .contains("twice"));
+    }
+}

@@ -1,0 +1,889 @@
+//! `run --mirror` and the live toggles, under Xvfb with lavapipe, headless
+//! and against Monado (as tests/xr.rs runs it, inside the Debian 13 root
+//! of `cargo xtask test`): the mirror window shows exactly the eye images
+//! the frame submitted, closing the window (as a window manager does) ends
+//! the session in order with exit 0, keys switch an optimization from the
+//! next frame on and write a config file `--config` reads, and without a
+//! display the mirror is off with one line. Tests that need an X server
+//! start their own Xvfb and skip, saying why, only when Xvfb (or xdotool)
+//! is not installed.
+
+mod common;
+
+use serde_json::Value;
+use std::path::{Path, PathBuf};
+use std::process::{Child, Command, Output, Stdio};
+use std::sync::Mutex;
+use std::time::{Duration, Instant};
+
+/// One Monado (and one window-scripting test) at a time: two cores.
+static SERIAL: Mutex<()> = Mutex::new(());
+
+fn lock() -> std::sync::MutexGuard<'static, ()> {
+    SERIAL.lock().unwrap_or_else(|e| e.into_inner())
+}
+
+fn bin() -> &'static str {
+    env!("CARGO_BIN_EXE_vergence")
+}
+
+fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(program).is_file()))
+}
+
+/// An Xvfb server on its own display number, killed when dropped (also
+/// when the test fails while it starts).
+struct Xvfb {
+    child: Child,
+    display: String,
+}
+
+impl Xvfb {
+    /// Starts one, or returns None (printing why) when Xvfb is missing.
+    fn start(test: &str) -> Option<Xvfb> {
+        if !on_path("Xvfb") {
+            println!("skipping {test}: Xvfb is not installed (apt-get install xvfb)");
+            return None;
+        }
+        let salt = test
+            .bytes()
+            .fold(0u32, |a, b| a.wrapping_mul(31) ^ b as u32);
+        let n = 3300 + (std::process::id() ^ salt) % 3000;
+        let display = format!(":{n}");
+        let mut cmd = Command::new("Xvfb");
+        cmd.args([&display, "-screen", "0", "1280x720x24", "-nolisten", "tcp"])
+            .stdin(Stdio::null())
+            .stdout(Stdio::null())
+            .stderr(Stdio::null());
+        #[cfg(unix)]
+        {
+            use std::os::unix::process::CommandExt as _;
+            // SAFETY: only async-signal-safe close() calls between fork and
+            // exec: the server keeps no descriptor this process inherited
+            // (a lock a build tool holds, say) should it outlive the test.
+            unsafe {
+                cmd.pre_exec(|| {
+                    for fd in 3..1024 {
+                        libc::close(fd);
+                    }
+                    Ok(())
+                });
+            }
+        }
+        let x = Xvfb {
+            child: cmd.spawn().expect("Xvfb starts"),
+            display,
+        };
+        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        let start = Instant::now();
+        while !socket.exists() {
+            assert!(
+                start.elapsed() < Duration::from_secs(10),
+                "Xvfb {} did not come up",
+                x.display
+            );
+            std::thread::sleep(Duration::from_millis(50));
+        }
+        Some(x)
+    }
+
+    fn xdotool(&self, args: &[&str]) -> Output {
+        Command::new("xdotool")
+            .env("DISPLAY", &self.display)
+            .args(args)
+            .output()
+            .expect("xdotool runs")
+    }
+
+    /// The id of the first window whose name matches `name`, waiting up to
+    /// three minutes for it (a loaded two-core machine starts slowly);
+    /// None if `child` ended first.
+    fn window(&self, name: &str, child: &mut Child) -> Option<u32> {
+        let start = Instant::now();
+        loop {
+            let out = self.xdotool(&["search", "--name", name]);
+            let id = String::from_utf8_lossy(&out.stdout)
+                .lines()
+                .next()
+                .and_then(|l| l.trim().parse().ok());
+            if id.is_some() {
+                return id;
+            }
+            if child.try_wait().expect("child state").is_some() {
+                return None;
+            }
+            if start.elapsed() > Duration::from_secs(180) {
+                let out = self.xdotool(&["search", "--name", "vergence"]);
+                let titles: Vec<String> = String::from_utf8_lossy(&out.stdout)
+                    .lines()
+                    .map(|id| {
+                        let t = self.xdotool(&["getwindowname", id.trim()]);
+                        String::from_utf8_lossy(&t.stdout).trim().to_string()
+                    })
+                    .collect();
+                let _ = child.kill();
+                let mut log = String::new();
+                use std::io::Read as _;
+                if let Some(mut o) = child.stdout.take() {
+                    let _ = o.read_to_string(&mut log);
+                }
+                if let Some(mut e) = child.stderr.take() {
+                    let _ = e.read_to_string(&mut log);
+                }
+                panic!(
+                    "no window '{name}' appeared within 180 s (vergence windows: {titles:?}); its output:\n{log}"
+                );
+            }
+            std::thread::sleep(Duration::from_millis(100));
+        }
+    }
+
+    /// Types `key` into window `id` (through XTEST; no window manager
+    /// runs, so the window is focused first).
+    fn key(&self, id: u32, key: &str) {
+        let id = id.to_string();
+        self.xdotool(&["windowfocus", &id]);
+        self.xdotool(&["mousemove", "--window", &id, "20", "20"]);
+        assert!(
+            self.xdotool(&["key", key]).status.success(),
+            "xdotool key {key}"
+        );
+    }
+
+    /// Asks window `id` to close as a window manager does: a
+    /// WM_PROTOCOLS client message carrying WM_DELETE_WINDOW.
+    fn close(&self, id: u32) {
+        use x11rb::connection::Connection as _;
+        use x11rb::protocol::xproto::{ClientMessageEvent, ConnectionExt as _, EventMask};
+        let (conn, _) = x11rb::connect(Some(&self.display)).expect("X connection");
+        let atom = |name: &[u8]| {
+            conn.intern_atom(false, name)
+                .expect("intern_atom")
+                .reply()
+                .expect("atom")
+                .atom
+        };
+        let (protocols, delete) = (atom(b"WM_PROTOCOLS"), atom(b"WM_DELETE_WINDOW"));
+        let event = ClientMessageEvent::new(32, id, protocols, [delete, 0, 0, 0, 0]);
+        conn.send_event(false, id, EventMask::NO_EVENT, event)
+            .expect("send_event");
+        conn.flush().expect("flush");
+    }
+}
+
+impl Drop for Xvfb {
+    fn drop(&mut self) {
+        let _ = self.child.kill();
+        let _ = self.child.wait();
+    }
+}
+
+/// A running vergence, killed when dropped (a failed test leaves none).
+struct Running(Option<Child>);
+
+impl Running {
+    fn child(&mut self) -> &mut Child {
+        self.0.as_mut().expect("running")
+    }
+
+    /// Waits up to `limit` for the end; kills it and fails past that.
+    fn wait(mut self, limit: Duration) -> Output {
+        let start = Instant::now();
+        while self.child().try_wait().expect("child state").is_none() {
+            assert!(
+                start.elapsed() < limit,
+                "vergence did not end within {limit:?}"
+            );
+            std::thread::sleep(Duration::from_millis(100));
+        }
+        self.0
+            .take()
+            .expect("running")
+            .wait_with_output()
+            .expect("output")
+    }
+}
+
+impl Drop for Running {
+    fn drop(&mut self) {
+        if let Some(c) = self.0.as_mut() {
+            let _ = c.kill();
+            let _ = c.wait();
+        }
+    }
+}
+
+fn text(o: &Output) -> String {
+    format!(
+        "status {:?}\nstdout:\n{}\nstderr:\n{}",
+        o.status,
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr)
+    )
+}
+
+fn stats(path: &Path) -> Value {
+    let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
+    serde_json::from_str(&text).expect("stats JSON")
+}
+
+fn load(path: &Path) -> image::RgbaImage {
+    image::open(path)
+        .unwrap_or_else(|e| panic!("{}: {e}", path.display()))
+        .to_rgba8()
+}
+
+fn flip_mean(reference: &image::RgbaImage, test: &image::RgbaImage) -> f64 {
+    let f = vergence::bench::metrics::flip(reference, test, vergence::bench::metrics::DESKTOP_PPD)
+        .expect("same sizes");
+    f.mean as f64
+}
+
+fn half(img: &image::RgbaImage, x0: u32, w: u32) -> image::RgbaImage {
+    image::imageops::crop_imm(img, x0, 0, w, img.height()).to_image()
+}
+
+/// `vergence ARGS` on display `x`, with validation as the suite sets it.
+fn vergence(x: Option<&Xvfb>) -> Command {
+    let mut c = Command::new(bin());
+    match x {
+        Some(x) => c.env("DISPLAY", &x.display),
+        None => c.env_remove("DISPLAY"),
+    };
+    c.env_remove("WAYLAND_DISPLAY");
+    c
+}
+
+/// `scripts/with-monado vergence` on display `x` (fails without Monado,
+/// as tests/xr.rs does).
+fn with_monado(x: &Xvfb) -> Command {
+    assert!(
+        on_path("monado-service"),
+        "monado-service is not installed here: run the suite with `cargo xtask test` (it runs tests inside target/xr-root)"
+    );
+    let mut c = Command::new(common::root().join("scripts/with-monado"));
+    c.arg(bin())
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY");
+    c
+}
+
+const W: u32 = 256;
+const H: u32 = 192;
+
+fn headless_run(x: &Xvfb, dir: &Path, mode: &str, extra: &[&str]) -> (Value, Output) {
+    let s_path = dir.join(format!("{mode}.json"));
+    let size = [W.to_string(), H.to_string()];
+    let o = vergence(Some(x))
+        .args(["run", "--xr", "headless", "--frames", "8"])
+        .args(["--scene", "factory:2000", "--hmd-fallback", "valve-index"])
+        .args(["--width", &size[0], "--height", &size[1], "--mirror", mode])
+        .args(extra)
+        .arg("--screenshot")
+        .arg(dir.join(format!("{mode}.png")))
+        .arg("--capture")
+        .arg(dir.join(mode))
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("vergence runs");
+    assert!(o.status.success(), "{}", text(&o));
+    (stats(&s_path), o)
+}
+
+#[test]
+fn the_headless_mirror_shows_the_submitted_eyes() {
+    let Some(x) = Xvfb::start("headless_mirror") else {
+        return;
+    };
+    let dir = common::scratch("mirror", "headless");
+    for (mode, extra) in [
+        ("left", &[][..]),
+        ("right", &[][..]),
+        ("both", &["--stereo", "two-pass", "--msaa", "1"][..]),
+    ] {
+        let (s, _) = headless_run(&x, &dir, mode, extra);
+        let m = &s["mirror"];
+        assert_eq!(m["mode"], mode, "{s}");
+        assert!(m["presented"].as_u64().unwrap() >= 1, "{m}");
+        assert_eq!(m["copied"], 8, "every frame is copied: {m}");
+        let shot = load(&dir.join(format!("{mode}.png")));
+        let cap = |eye: &str| load(&dir.join(mode).join(eye));
+        match mode {
+            "both" => {
+                assert_eq!(shot.dimensions(), (2 * W, H), "window size");
+                let (l, r) = (
+                    flip_mean(&cap("left.png"), &half(&shot, 0, W)),
+                    flip_mean(&cap("right.png"), &half(&shot, W, W)),
+                );
+                assert!(l <= 0.01 && r <= 0.01, "FLIP mean left {l}, right {r}");
+            }
+            eye => {
+                assert_eq!(shot.dimensions(), (W, H), "window size");
+                let e = flip_mean(&cap(&format!("{eye}.png")), &shot);
+                assert!(e <= 0.01, "{eye}: FLIP mean {e}");
+            }
+        }
+    }
+    // The eyes differ, so left and right were not the same image twice.
+    let (l, r) = (load(&dir.join("left.png")), load(&dir.join("right.png")));
+    assert!(flip_mean(&l, &r) > 0.01, "left and right mirrors differ");
+}
+
+#[test]
+fn the_cropped_mirror_masks_the_hidden_area_only() {
+    let Some(x) = Xvfb::start("cropped_mirror") else {
+        return;
+    };
+    let dir = common::scratch("mirror", "cropped");
+    let (s, _) = headless_run(&x, &dir, "cropped", &[]);
+    let shot = load(&dir.join("cropped.png"));
+    let eye = load(&dir.join("cropped").join("left.png"));
+    assert_eq!(shot.dimensions(), (W, H));
+    // The profile's hidden area of the left eye, as the stencil-mask pass
+    // uses it.
+    let profile = vergence::view::profile::HmdProfile::load("valve-index").expect("profile");
+    let (area, fov) = (&profile.hidden_areas[0], profile.views[0].fov);
+    assert_eq!(s["views"][0]["fov"]["left"], fov.left);
+    let mask = vergence::view::lens::mask_image(area, &fov, W, H);
+    let (mut hidden, mut shown) = (0, 0);
+    for (i, &m) in mask.iter().enumerate() {
+        let (px, py) = (i as u32 % W, i as u32 / W);
+        let got = shot.get_pixel(px, py).0;
+        if m {
+            assert_eq!(&got[..3], &[0, 0, 0], "hidden pixel ({px}, {py})");
+            hidden += 1;
+        } else {
+            assert_eq!(got, eye.get_pixel(px, py).0, "visible pixel ({px}, {py})");
+            shown += 1;
+        }
+    }
+    assert!(
+        hidden > 1000 && shown > 10 * 1000,
+        "{hidden} hidden, {shown} shown"
+    );
+}
+
+#[test]
+fn under_monado_the_mirror_shows_the_swapchain_images_with_no_validation_messages() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("monado_mirror") else {
+        return;
+    };
+    let dir = common::scratch("mirror", "monado");
+    let s_path = dir.join("stats.json");
+    let o = with_monado(&x)
+        .args([
+            "run",
+            "--xr",
+            "openxr",
+            "--frames",
+            "20",
+            "--scene",
+            "factory:2000",
+        ])
+        .args(["--mirror", "both", "--screenshot"])
+        .arg(dir.join("shot.png"))
+        .arg("--capture")
+        .arg(dir.join("capture"))
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(s["mode"], "openxr");
+    assert_eq!(s["validation_messages"], 0, "{}", text(&o));
+    assert_eq!(s["xr_validation_messages"], 0, "{}", text(&o));
+    let m = &s["mirror"];
+    assert_eq!(m["mode"], "both");
+    assert!(m["presented"].as_u64().unwrap() >= 10, "{m}");
+    let [w, h] = [0, 1].map(|i| s["image_size"][i].as_u64().unwrap() as u32);
+    let shot = load(&dir.join("shot.png"));
+    assert_eq!(
+        shot.dimensions(),
+        (2 * w, h),
+        "window: both eyes at Monado's size"
+    );
+    let cap = |eye: &str| load(&dir.join("capture").join(eye));
+    let (l, r) = (
+        flip_mean(&cap("left.png"), &half(&shot, 0, w)),
+        flip_mean(&cap("right.png"), &half(&shot, w, w)),
+    );
+    assert!(l <= 0.01 && r <= 0.01, "FLIP mean left {l}, right {r}");
+    let all = text(&o);
+    let hits: Vec<&str> = all
+        .lines()
+        .filter(|l| l.contains("VUID-") && !l.contains("VUID-CoreValidation-"))
+        .collect();
+    assert!(hits.is_empty(), "validation output: {hits:?}");
+}
+
+/// The frame records' `--opt` strings around `toggle` (first frame with the
+/// new configuration): every earlier record without `needle`, every later
+/// one with it.
+fn check_switch(s: &Value, toggle: &Value, needle: &str, absent_before: bool) {
+    let frame = toggle["frame"].as_u64().expect("toggle frame");
+    let frames = s["frames"].as_array().unwrap();
+    let mut before = 0;
+    let mut after = 0;
+    for f in frames.iter().filter(|f| f["should_render"] == true) {
+        let opt = f["opt"].as_str().unwrap();
+        let has = opt.split(',').any(|o| o == needle);
+        if f["index"].as_u64().unwrap() < frame {
+            assert_eq!(
+                has, !absent_before,
+                "frame {} before the switch: {opt}",
+                f["index"]
+            );
+            before += 1;
+        } else {
+            assert_eq!(
+                has, absent_before,
+                "frame {} from the switch on: {opt}",
+                f["index"]
+            );
+            after += 1;
+        }
+    }
+    assert!(
+        before > 0 && after > 0,
+        "{before} records before, {after} after"
+    );
+}
+
+#[test]
+fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("toggle_keys") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping toggle_keys: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "toggles");
+    let s_path = dir.join("stats.json");
+    let saved = dir.join("live.toml");
+    let mut run = Running(Some(
+        vergence(Some(&x))
+            .args(["run", "--xr", "headless", "--seconds", "120"])
+            .args([
+                "--scene",
+                "factory:2000",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ])
+            .args(["--mirror", "left", "--save-config"])
+            .arg(&saved)
+            .arg("--stats-out")
+            .arg(&s_path)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("vergence starts"),
+    ));
+    // The title shows the configuration once the loop runs.
+    let Some(id) = x.window("vergence run: .* \\[multiview", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    // Frames with the first configuration, then key 3 (the stencil mask)
+    // and F2 (write the configuration).
+    std::thread::sleep(Duration::from_secs(2));
+    x.key(id, "3");
+    let start = Instant::now();
+    while !saved.exists() {
+        assert!(
+            start.elapsed() < Duration::from_secs(60),
+            "F2 wrote nothing"
+        );
+        x.key(id, "F2");
+        std::thread::sleep(Duration::from_millis(500));
+    }
+    // Frames with the new configuration, then Escape ends the run.
+    std::thread::sleep(Duration::from_secs(1));
+    x.key(id, "Escape");
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    assert!(
+        stdout.contains("opt: multiview,msaa4,none,stencil-mask (stencil-mask switched)"),
+        "{stdout}"
+    );
+    let s = stats(&s_path);
+    assert_eq!(s["exit"], "the mirror window was closed");
+    let toggles = s["toggles"].as_array().unwrap();
+    assert_eq!(toggles.len(), 1, "one switch: {toggles:?}");
+    assert_eq!(toggles[0]["toggle"], "stencil-mask");
+    check_switch(&s, &toggles[0], "stencil-mask", true);
+    assert_eq!(
+        s["config"]["stencil_mask"], false,
+        "the run started without it"
+    );
+    // The saved file is a config file `run --config` reads.
+    let text_saved = std::fs::read_to_string(&saved).unwrap();
+    assert!(
+        text_saved.contains("opt = \"multiview,msaa4,none,stencil-mask\""),
+        "{text_saved}"
+    );
+    let again = dir.join("again.json");
+    let o = vergence(None)
+        .args([
+            "run",
+            "--xr",
+            "headless",
+            "--frames",
+            "2",
+            "--scene",
+            "factory:200",
+        ])
+        .args(["--width", "64", "--height", "48", "--config"])
+        .arg(&saved)
+        .arg("--stats-out")
+        .arg(&again)
+        .output()
+        .expect("vergence runs");
+    assert!(o.status.success(), "{}", text(&o));
+    assert_eq!(stats(&again)["config"]["stencil_mask"], true);
+}
+
+#[test]
+fn under_monado_a_stereo_switch_and_closing_the_window_end_in_order() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("monado_close") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping monado_close: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "close");
+    let s_path = dir.join("stats.json");
+    let mut run = Running(Some(
+        with_monado(&x)
+            .args(["run", "--xr", "openxr", "--seconds", "120"])
+            .args(["--scene", "factory:2000", "--mirror", "left"])
+            .arg("--stats-out")
+            .arg(&s_path)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("with-monado starts"),
+    ));
+    let Some(id) = x.window("vergence run: .* \\[multiview", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    std::thread::sleep(Duration::from_secs(2));
+    // Key 1: multiview → two-pass (new swapchains, one per eye).
+    x.key(id, "1");
+    std::thread::sleep(Duration::from_secs(3));
+    x.close(id);
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(
+        s["exit"], "session exited after the mirror window was closed",
+        "{s}"
+    );
+    let states: Vec<&str> = s["states"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(states.last(), Some(&"EXITING"), "{states:?}");
+    assert!(states.contains(&"STOPPING"), "{states:?}");
+    let toggles = s["toggles"].as_array().unwrap();
+    assert_eq!(toggles.len(), 1, "{toggles:?}");
+    assert_eq!(toggles[0]["toggle"], "stereo");
+    check_switch(&s, &toggles[0], "two-pass", true);
+    assert_eq!(s["validation_messages"], 0, "{}", text(&o));
+    assert_eq!(s["xr_validation_messages"], 0, "{}", text(&o));
+    assert!(s["mirror"]["presented"].as_u64().unwrap() > 0);
+}
+
+#[test]
+fn without_a_display_the_mirror_is_off_with_one_line() {
+    let dir = common::scratch("mirror", "no-display");
+    let s_path = dir.join("stats.json");
+    let o = vergence(None)
+        .args([
+            "run",
+            "--xr",
+            "headless",
+            "--frames",
+            "2",
+            "--scene",
+            "factory:200",
+        ])
+        .args([
+            "--width",
+            "64",
+            "--height",
+            "48",
+            "--mirror",
+            "both",
+            "--stats-out",
+        ])
+        .arg(&s_path)
+        .output()
+        .expect("vergence runs");
+    assert!(o.status.success(), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("mirror")).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].contains("mirror off") && lines[0].contains("DISPLAY"),
+        "{stderr}"
+    );
+    assert!(stats(&s_path)["mirror"].is_null());
+    // The default (no --mirror) is off without a word.
+    let o = vergence(None)
+        .args([
+            "run",
+            "--xr",
+            "headless",
+            "--frames",
+            "2",
+            "--scene",
+            "factory:200",
+        ])
+        .args(["--width", "64", "--height", "48"])
+        .output()
+        .expect("vergence runs");
+    assert!(o.status.success(), "{}", text(&o));
+    assert!(
+        !String::from_utf8_lossy(&o.stderr).contains("mirror"),
+        "{}",
+        text(&o)
+    );
+}
+
+#[test]
+fn a_screenshot_without_a_mirror_is_one_error() {
+    let dir = common::scratch("mirror", "shot-off");
+    let stderr = common::fails_with_one_error(
+        vergence(None)
+            .args([
+                "run", "--xr", "headless", "--frames", "2", "--mirror", "off",
+            ])
+            .arg("--screenshot")
+            .arg(dir.join("x.png")),
+    );
+    assert!(
+        stderr.contains("--screenshot") && stderr.contains("--mirror off"),
+        "{stderr}"
+    );
+}
+
+fn write_kiosk(dir: &Path, body: &str) -> PathBuf {
+    let path = dir.join("kiosk.toml");
+    std::fs::write(&path, body).unwrap();
+    path
+}
+
+#[test]
+fn a_kiosk_offers_its_scenes_allows_only_its_toggles_and_logs() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("kiosk_scenes") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping kiosk_scenes: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "kiosk");
+    let kiosk = write_kiosk(
+        &dir,
+        "name = \"test kiosk\"\nopt = \"superfrustum\"\ntoggles = [\"msaa\"]\n\
+         mirror = \"left\"\n[log]\nfile = \"k.log\"\nmax_kb = 64\nkeep = 2\n\
+         [[scenes]]\nname = \"small\"\nscene = \"factory:200\"\nspawn = [0.0, 0.0, 10.0, 0.0]\n\
+         [[scenes]]\nname = \"large\"\nscene = \"factory:300\"\n",
+    );
+    let s_path = dir.join("stats.json");
+    let mut run = Running(Some(
+        vergence(Some(&x))
+            .args(["run", "--xr", "headless", "--seconds", "120"])
+            .args(["--width", "160", "--height", "120", "--kiosk"])
+            .arg(&kiosk)
+            .arg("--stats-out")
+            .arg(&s_path)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("vergence starts"),
+    ));
+    let Some(id) = x.window("vergence run: factory:200 \\[", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    // 3 (the stencil mask) is not on the kiosk's list; 7 (MSAA) is.
+    x.key(id, "3");
+    x.key(id, "7");
+    std::thread::sleep(Duration::from_millis(500));
+    x.key(id, "n");
+    // The next scene, in the same window, with MSAA still switched.
+    let Some(id) = x.window(
+        "vergence run: factory:300 \\[multiview,no-msaa",
+        run.child(),
+    ) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    x.key(id, "Escape");
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let (stdout, stderr) = (
+        String::from_utf8_lossy(&o.stdout),
+        String::from_utf8_lossy(&o.stderr),
+    );
+    assert!(
+        stderr.contains("the stencil-mask toggle is not allowed here"),
+        "{stderr}"
+    );
+    assert!(stdout.contains("next scene: large"), "{stdout}");
+    let s = stats(&s_path);
+    assert_eq!(
+        s["scene"]["name"], "factory:300",
+        "ended on the second scene"
+    );
+    assert_eq!(s["exit"], "the mirror window was closed");
+    let toggles = s["toggles"].as_array().unwrap();
+    assert_eq!(toggles.len(), 1, "{toggles:?}");
+    assert_eq!(toggles[0]["opt"], "multiview,no-msaa,superfrustum");
+    let log = std::fs::read_to_string(dir.join("k.log")).expect("the kiosk log");
+    for want in [
+        "kiosk test kiosk: 2 scenes",
+        "live toggle msaa",
+        "next scene large",
+    ] {
+        assert!(log.contains(want), "'{want}' not in the log:\n{log}");
+    }
+}
+
+#[test]
+fn under_monado_a_kiosk_returns_a_still_head_to_the_spawn() {
+    let _g = lock();
+    let dir = common::scratch("mirror", "idle");
+    let kiosk = write_kiosk(
+        &dir,
+        "name = \"idle\"\nidle_return_s = 1\n[log]\nfile = \"idle.log\"\n\
+         [[scenes]]\nname = \"f\"\nscene = \"factory:200\"\nspawn = [1.0, 0.0, 5.0, 30.0]\n",
+    );
+    let s_path = dir.join("stats.json");
+    assert!(
+        on_path("monado-service"),
+        "run the suite with `cargo xtask test`"
+    );
+    // The remote driver's head stays where it is unless told otherwise.
+    let o = Command::new(common::root().join("scripts/with-monado"))
+        .args(["--remote", bin(), "run", "--xr", "openxr", "--frames", "60"])
+        .args([
+            "--mirror", "off", "--width", "96", "--height", "72", "--kiosk",
+        ])
+        .arg(&kiosk)
+        .arg("--stats-out")
+        .arg(&s_path)
+        .env_remove("DISPLAY")
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    let recentred: Vec<u64> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| {
+            f["events"].as_array().is_some_and(|e| {
+                e.contains(&serde_json::json!({"kind": "recenter", "viewpoint": 0}))
+            })
+        })
+        .map(|f| f["index"].as_u64().unwrap())
+        .collect();
+    assert!(!recentred.is_empty(), "no return to the spawn: {s}");
+    let log = std::fs::read_to_string(dir.join("idle.log")).expect("the kiosk log");
+    assert!(log.contains("back to the spawn after 1 s"), "{log}");
+    assert_eq!(s["validation_messages"], 0);
+    assert_eq!(s["xr_validation_messages"], 0);
+}
+
+#[test]
+fn keys_switch_optimizations_in_view_too() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("view_keys") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping view_keys: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "view-keys");
+    let shot = dir.join("shot.png");
+    let mut run = Running(Some(
+        vergence(Some(&x))
+            .args([
+                "view",
+                "--scene",
+                "factory:2000",
+                "--width",
+                "160",
+                "--height",
+                "120",
+            ])
+            .arg("--screenshot")
+            .arg(&shot)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("vergence starts"),
+    ));
+    let Some(id) = x.window("vergence view: .* \\[multiview", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    std::thread::sleep(Duration::from_secs(1));
+    // 1: two-pass (new eye images), 7: 1x MSAA, H: the key listing.
+    x.key(id, "1");
+    x.key(id, "7");
+    x.key(id, "h");
+    let Some(id) = x.window("vergence view: .* \\[two-pass,no-msaa", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    std::thread::sleep(Duration::from_millis(500));
+    x.key(id, "Escape");
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let stdout = String::from_utf8_lossy(&o.stdout);
+    for want in [
+        "opt: two-pass,msaa4,none (stereo switched)",
+        "opt: two-pass,no-msaa,none (msaa switched)",
+        "keys:",
+        "F2 ",
+        "; opt two-pass,no-msaa,none",
+    ] {
+        assert!(stdout.contains(want), "'{want}' missing: {stdout}");
+    }
+    // The last image shown (after the switch) is a real frame.
+    let img = load(&shot);
+    assert_eq!(img.dimensions(), (320, 120));
+    let distinct: std::collections::HashSet<[u8; 4]> = img.pixels().map(|p| p.0).collect();
+    assert!(distinct.len() > 50, "{} colours", distinct.len());
+}
