@@ -552,6 +552,18 @@ impl Mirror {
         Ok(())
     }
 
+    /// Writes the last presented image to `path`, or says on stderr (one
+    /// line) that no frame was shown.
+    pub fn write_screenshot(&mut self, path: &Path) -> Result<()> {
+        if !self.screenshot(path)? {
+            eprintln!(
+                "vergence: no frame reached the mirror; {} not written",
+                path.display()
+            );
+        }
+        Ok(())
+    }
+
     /// Presents the last copied frame once more, read back, and writes
     /// that image (what the window shows) to `path` as PNG. Waits for the
     /// GPU; for the end of a run. Returns whether an image was written.

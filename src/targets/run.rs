@@ -289,7 +289,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
         record(r, stats, &mut heads)?;
     }
     let shot = match (mirror.as_mut(), &args.screenshot, &looped) {
-        (Some(m), Some(path), Ok(_)) => write_screenshot(m, path),
+        (Some(m), Some(path), Ok(_)) => m.write_screenshot(path),
         _ => Ok(()),
     };
     stats.sample_memory(&ctx, true);
@@ -303,18 +303,6 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     stats.validation_messages = ctx.validation_messages();
     stats.exit = looped?;
     finished.and(shot)
-}
-
-/// Writes the mirror's last presented image to `path` (one line on stderr
-/// when no frame was shown).
-pub(crate) fn write_screenshot(m: &mut Mirror, path: &std::path::Path) -> Result<()> {
-    if !m.screenshot(path)? {
-        eprintln!(
-            "vergence: no frame reached the mirror; {} not written",
-            path.display()
-        );
-    }
-    Ok(())
 }
 
 /// The headless loop's renderer, driver and (with a mirror) the eye images

@@ -59,7 +59,7 @@ pub struct RunArgs {
     /// click cycles through after the spawn.
     pub viewpoints: Vec<Pose>,
     /// `--camera N|NAME`: start at this camera of the scene file (see
-    /// [`super::viewpoints`]).
+    /// `targets/viewpoints.rs`).
     pub camera: Option<String>,
     /// Locomotion settings (`--move-speed`, `--snap-turn`, ...).
     pub interact: Settings,
@@ -368,7 +368,7 @@ pub struct RunStats {
     pub selected: Option<crate::interact::Picked>,
     /// The places the right stick click cycles through, the start first
     /// (`spawn`, `--viewpoint N`, `camera N 'NAME'`; see
-    /// [`super::viewpoints`]).
+    /// `targets/viewpoints.rs`).
     pub viewpoints: Vec<String>,
     /// Whether the session reached FOCUSED.
     pub focused: bool,

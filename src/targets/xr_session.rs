@@ -355,7 +355,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     // waiting for the device) for a later session.
     if let Some(mut m) = live.mirror.take() {
         let shot = match (&args.screenshot, &result) {
-            (Some(path), Ok(())) => super::run::write_screenshot(&mut m, path),
+            (Some(path), Ok(())) => m.write_screenshot(path),
             _ => Ok(()),
         };
         state.desk.put_back(m);
