@@ -224,6 +224,16 @@ impl Plan {
                 return Err(format!("baseline '{b}' is not a config name"));
             }
         }
+        // The empty-frame floor is drawn with the baseline's renderer and a
+        // CPU visible list, which a gpu-cull renderer does not take.
+        let base = self.baseline_name();
+        if let Some(c) = self.configs.iter().find(|c| c.name == base) {
+            if self.config_for(c).is_ok_and(|r| r.gpu_cull) {
+                return Err(format!(
+                    "baseline '{base}' culls on the GPU (gpu-cull), but the bench draws its empty-frame floor with the baseline's CPU visible list: make a CPU-culled config the baseline"
+                ));
+            }
+        }
         Ok(())
     }
 
@@ -383,6 +393,11 @@ opt = "two-pass"
             ),
             ("frames = 4", "frames = 4\nerror_frames = 0", "at least 1"),
             ("frames = 4", "frames = 4\ncolour = 1", "colour"),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"multiview,superfrustum,gpu-cull\"",
+                "culls on the GPU",
+            ),
             ("name = \"a\"", "name = \"reference\"", "reserved"),
             (
                 "frames = 4",
