@@ -307,6 +307,15 @@ ktx2_case("ktx2-etc1s-wrong-size.ktx2", ["KTX2"],
           etc1s[:20] + struct.pack("<II", 4096, 4096) + etc1s[28:])
 ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
           ktx2(w=4, h=4, texels=4))
+# Found by mutation fuzzing (tests/fuzz_mutate.rs): the transcoder
+# allocated a level's declared uncompressed length (here 32 GiB) before
+# inflating it. Level 0's uncompressedByteLength is at bytes 96..104.
+def lying_level(data, n):
+    return data[:96] + struct.pack("<Q", n) + data[104:]
+ktx2_case("ktx2-uastc-level-length-lie.ktx2", ["level 0 declares 34359738368 uncompressed bytes"],
+          lying_level(uastc, 1 << 35))
+ktx2_case("ktx2-uastc-level-length-max.ktx2", ["level 0 declares 18446744073709551615 uncompressed bytes"],
+          lying_level(uastc, (1 << 64) - 1))
 doc = json.loads(textured("garbage.webp"))
 doc["extensionsUsed"] = ["EXT_texture_webp"]
 doc["images"][0]["mimeType"] = "image/webp"

@@ -74,6 +74,20 @@ pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
             | (None | Some(ktx2::SupercompressionScheme::Zstandard), None)
     );
     if basis {
+        // The transcoder allocates each level's declared uncompressed size
+        // before inflating it: a level index that lies would ask for
+        // gigabytes. A Basis level holds at most 16 bytes (UASTC) per 4×4
+        // block of its size (ETC1S under BasisLZ declares 0).
+        for (i, level) in r.levels().enumerate() {
+            let side = |v: u32| (v >> i.min(31)).max(1).div_ceil(4) as u64;
+            let most = 16 * side(w) * side(ht);
+            if level.uncompressed_byte_length > most {
+                return Err(format!(
+                    "KTX2 image's level {i} declares {} uncompressed bytes, more than the {most} its {w}x{ht} size allows",
+                    level.uncompressed_byte_length
+                ));
+            }
+        }
         return super::basis::transcode_rgba8(bytes, w, ht);
     }
     if let Some(s) = h.supercompression_scheme {
