@@ -207,14 +207,28 @@ mod tests {
         let img = decode_ktx2_rgba8(&file).unwrap();
         assert_eq!(img.dimensions(), (2, 3));
         assert_eq!(img.as_raw(), &px);
-        // A BasisLZ or UASTC header over RGBA8 bytes is no Basis payload.
+        // A BasisLZ or UASTC header over RGBA8 bytes is no Basis payload:
+        // 24 bytes for a 2×3 image is more than a Basis level of that size
+        // holds (one 4×4 block, 16 bytes), refused before transcoding.
         let mut basis = file.clone();
         basis[44..48].copy_from_slice(&1u32.to_le_bytes());
         let e = decode_ktx2_rgba8(&basis).unwrap_err();
-        assert!(e.contains("Basis Universal payload"), "{e}");
+        assert!(
+            e.contains("declares 24 uncompressed bytes, more than the 16"),
+            "{e}"
+        );
         let mut uastc = file.clone();
         uastc[12..16].copy_from_slice(&0u32.to_le_bytes());
         let e = decode_ktx2_rgba8(&uastc).unwrap_err();
+        assert!(
+            e.contains("declares 24 uncompressed bytes, more than the 16"),
+            "{e}"
+        );
+        // With a length a Basis level can hold, the payload itself is
+        // refused by the transcoder.
+        let mut short = uastc.clone();
+        short[96..104].copy_from_slice(&16u64.to_le_bytes());
+        let e = decode_ktx2_rgba8(&short).unwrap_err();
         assert!(e.contains("Basis Universal payload"), "{e}");
         let mut bad_level = file.clone();
         bad_level[80..88].copy_from_slice(&(1u64 << 40).to_le_bytes());
