@@ -18,7 +18,7 @@ use crate::scene::Scene;
 use crate::view::{Pose, PoseFile};
 use glam::DVec3;
 use std::sync::Arc;
-use std::time::Duration;
+use std::time::{Duration, Instant};
 
 /// Runs `args`: OpenXR or headless as `--xr` says, writing `--stats-out`.
 pub fn run(args: &RunArgs) -> Result<RunStats> {
@@ -185,6 +185,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     let period_ns = (1e9 / profile.refresh_hz.max(1.0)) as i64;
     // --seconds counts from the run's start (across a kiosk's scenes).
     let started = stats.run_started();
+    let mut turn_start: Option<Instant> = None;
     let mut index = 0u64;
     // A finished frame's record: written when its GPU times are known.
     // Heads and `--opt` strings of the frames in flight, by frame index.
@@ -246,7 +247,12 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                     return Ok("the next scene was asked for".into());
                 }
             }
-            let t = started.elapsed().as_secs_f64();
+            // The turn starts at this loop's first frame (which looks
+            // exactly from the spawn), not at the run's start.
+            let t = turn_start
+                .get_or_insert_with(Instant::now)
+                .elapsed()
+                .as_secs_f64();
             let yaw = 20.0 * (t * std::f64::consts::TAU / 10.0).sin();
             let head = spawn.compose(&Pose::from_euler_deg(
                 DVec3::new(0.0, 1.6, 0.0),
