@@ -306,7 +306,25 @@ impl DepthPyramid {
                 vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             )];
         let stride = self.eye_stride();
-        let groups = |l: &Level| (l.width.div_ceil(GROUP), l.height.div_ceil(GROUP));
+        // One dispatch over `level`'s texels, both eyes, with `push`.
+        // SAFETY (of the calls inside): recorded into the frame's command
+        // buffer outside any rendering scope, with this pass's pipeline
+        // layout bound.
+        let dispatch = |push: &[u32; 8], level: &Level| unsafe {
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(push),
+            );
+            d.cmd_dispatch(
+                cmd,
+                level.width.div_ceil(GROUP),
+                level.height.div_ceil(GROUP),
+                2,
+            );
+        };
         q.begin_pass(ctx, cmd, "depth-pyramid");
         // SAFETY: recording outside any rendering scope into the frame's
         // command buffer; the depth images were last written by the early
@@ -337,15 +355,7 @@ impl DepthPyramid {
                 stride,
                 0,
             ];
-            d.cmd_push_constants(
-                cmd,
-                self.layout,
-                vk::ShaderStageFlags::COMPUTE,
-                0,
-                as_bytes(&push),
-            );
-            let (gx, gy) = groups(&l0);
-            d.cmd_dispatch(cmd, gx, gy, 2);
+            dispatch(&push, &l0);
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default()
@@ -358,15 +368,7 @@ impl DepthPyramid {
                 let push = [
                     src.width, src.height, src.offset, stride, dst.width, dst.height, dst.offset, 0,
                 ];
-                d.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    as_bytes(&push),
-                );
-                let (gx, gy) = groups(&dst);
-                d.cmd_dispatch(cmd, gx, gy, 2);
+                dispatch(&push, &dst);
                 d.cmd_pipeline_barrier2(
                     cmd,
                     &vk::DependencyInfo::default().memory_barriers(&storage),
