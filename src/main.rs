@@ -7,6 +7,7 @@ use std::path::PathBuf;
 use std::process::ExitCode;
 use vergence::config::{RenderConfig, StereoMode};
 use vergence::interact::{MoveDirection, Settings};
+use vergence::render::distortion::Method as DistortionMethod;
 use vergence::scene::Scene;
 use vergence::targets::headless::{self, RenderJob};
 use vergence::targets::run::{RunArgs, XrMode};
@@ -100,6 +101,18 @@ enum Command {
         /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
         scene: String,
     },
+    /// Print an HMD profile's lens sampling density: eye-image pixels per
+    /// panel pixel per ring of the lens, over-rendering, the eye-image
+    /// share no panel pixel reads, and the RDM radius that masks only
+    /// over-rendered pixels.
+    Lens {
+        /// An HMD profile with [views.lens] tables (vive, rift-dk1) or a path.
+        #[arg(long, default_value = "vive")]
+        hmd: String,
+        /// Also write the figures as JSON here.
+        #[arg(long)]
+        json: Option<PathBuf>,
+    },
 }
 
 #[derive(clap::Args)]
@@ -131,6 +144,23 @@ struct RenderArgs {
     /// (after 2 warm-up frames) and the clear / full-screen-triangle floors.
     #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=100_000))]
     frames: u32,
+    /// Also write what the HMD's panels show: `distorted` draws barrel
+    /// distortion and chromatic aberration of the eye images through the
+    /// profile's [views.lens] (left_distorted.png, right_distorted.png;
+    /// with --frames N its GPU time is measured N times).
+    #[arg(long, value_enum)]
+    preview: Option<PreviewMode>,
+    /// How the distortion preview is drawn: per fragment, a grid warped in
+    /// the vertex shader, or a pre-baked mesh.
+    #[arg(long, value_enum, default_value_t = DistortionMethod::Mesh, requires = "preview")]
+    distortion: DistortionMethod,
+}
+
+/// What `render --preview` shows.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum)]
+enum PreviewMode {
+    /// The panel images through the profile's lens.
+    Distorted,
 }
 
 /// How frames are rendered, shared by `render` and `run`.
@@ -355,6 +385,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 size: a.frame.size(),
                 out: a.out,
                 frames: a.frames,
+                distorted: a.preview.map(|PreviewMode::Distorted| a.distortion),
             };
             let stats = headless::render_to_dir(&job)?;
             println!(
@@ -533,6 +564,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Inspect { scene } => {
             let (s, ms) = headless::load_scene(&scene)?;
             inspect(&s, ms);
+        }
+        Command::Lens { hmd, json } => {
+            let profile = HmdProfile::load(&hmd)?;
+            let report = vergence::bench::lens::report(&profile)?;
+            print!("{}", report.markdown());
+            if let Some(path) = json {
+                headless::write_json(&path, &report)?;
+            }
         }
     }
     Ok(())

@@ -233,6 +233,7 @@ fn stats_name_the_paths_that_ran() {
         size: Some((96, 64)),
         out: out.clone(),
         frames: 1,
+        distorted: None,
     };
     let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
     let json: serde_json::Value =

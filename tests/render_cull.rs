@@ -30,6 +30,7 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
         size: Some((128, 128)),
         out: out.clone(),
         frames: 1,
+        distorted: None,
     };
     let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stats.validation_messages, 0);

@@ -3,6 +3,7 @@
 
 pub mod cull;
 pub mod html;
+pub mod lens;
 pub mod metrics;
 pub mod plan;
 pub mod report;

@@ -71,8 +71,21 @@ pub static OVERLAY_VERT: Module = spirv!("overlay.vert");
 /// The interaction overlay's fragment shader.
 pub static OVERLAY_FRAG: Module = spirv!("overlay.frag");
 
+/// Distortion preview: a full-screen triangle over the panel.
+pub static DISTORT_FULLSCREEN_VERT: Module = spirv!("distort_fullscreen.vert");
+/// Distortion preview (a): the lens per fragment.
+pub static DISTORT_FRAGMENT_FRAG: Module = spirv!("distort_fragment.frag");
+/// Distortion preview (b): the grid warped in the vertex shader.
+pub static DISTORT_GRID_VERT: Module = spirv!("distort_grid.vert");
+/// Distortion preview (b): aberration per fragment.
+pub static DISTORT_GRID_FRAG: Module = spirv!("distort_grid.frag");
+/// Distortion preview (c): the pre-baked mesh.
+pub static DISTORT_MESH_VERT: Module = spirv!("distort_mesh.vert");
+/// Distortion preview (c): three samples at the baked uvs.
+pub static DISTORT_MESH_FRAG: Module = spirv!("distort_mesh.frag");
+
 /// Every embedded module.
-pub static ALL: [&Module; 18] = [
+pub static ALL: [&Module; 24] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -91,6 +104,12 @@ pub static ALL: [&Module; 18] = [
     &HIZ_REDUCE_COMP,
     &OVERLAY_VERT,
     &OVERLAY_FRAG,
+    &DISTORT_FULLSCREEN_VERT,
+    &DISTORT_FRAGMENT_FRAG,
+    &DISTORT_GRID_VERT,
+    &DISTORT_GRID_FRAG,
+    &DISTORT_MESH_VERT,
+    &DISTORT_MESH_FRAG,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).

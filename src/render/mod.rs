@@ -21,6 +21,7 @@ pub mod attachments;
 pub mod batches;
 pub mod culling;
 pub mod descriptors;
+pub mod distortion;
 pub mod driver;
 pub mod passes;
 pub mod scene_gpu;

@@ -39,6 +39,23 @@ pub struct RenderJob {
     /// Frames to render (>1 measures: medians over frames after 2 warm-up
     /// frames, plus the raster floors).
     pub frames: u32,
+    /// `--preview distorted`: also write what the panels show
+    /// (`left_distorted.png`, `right_distorted.png`), drawn by this method.
+    pub distorted: Option<crate::render::distortion::Method>,
+}
+
+/// The distortion preview's figures (`preview` in stats.json).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct PreviewStats {
+    /// "distorted".
+    pub mode: &'static str,
+    /// fragment, grid or mesh.
+    pub method: crate::render::distortion::Method,
+    /// Panel pixels per eye.
+    pub panel: [u32; 2],
+    /// GPU ms of the preview for both eyes (median and p95 over the
+    /// frames measured, one run per frame).
+    pub gpu_ms: Percentiles,
 }
 
 /// Scene counts reported in stats.
@@ -143,6 +160,9 @@ pub struct RenderStats {
     pub foveation: String,
     /// Per-view render areas: used, or why not ("not offered").
     pub per_view_render_areas: String,
+    /// With `--preview distorted`: the distortion preview's figures.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub preview: Option<PreviewStats>,
 }
 
 /// Median and 95th percentile of a series.
@@ -312,6 +332,10 @@ pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2
 pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
+    let lenses = match job.distorted {
+        Some(_) => Some(profile_lenses(&profile)?),
+        None => None,
+    };
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
@@ -391,6 +415,27 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     } else {
         None
     };
+    let preview = match (job.distorted, lenses) {
+        (Some(method), Some(lenses)) => {
+            let (Some(l), Some(r)) = (rig.views.first(), rig.views.get(1)) else {
+                return Err(Error::Gpu("the distortion preview needs two views".into()));
+            };
+            let fovs = [&l.fov, &r.fov];
+            let mut p = crate::render::distortion::DistortionPreview::new(
+                &ctx, lenses, fovs, extent, method,
+            )?;
+            let out = p.run(&[left.clone(), right.clone()], frames)?;
+            save_png(&out.images[0], &job.out.join("left_distorted.png"))?;
+            save_png(&out.images[1], &job.out.join("right_distorted.png"))?;
+            Some(PreviewStats {
+                mode: "distorted",
+                method,
+                panel: lenses[0].panel,
+                gpu_ms: Percentiles::of(&out.gpu_ms),
+            })
+        }
+        _ => None,
+    };
     save_pair(&job.out, &[left, right])?;
     let mut cpu_ms = BTreeMap::new();
     cpu_ms.insert("load".to_string(), load_ms);
@@ -433,10 +478,26 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         lod: renderer.lod,
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
+        preview,
     };
     drop(driver);
     write_json(&job.out.join("stats.json"), &stats)?;
     Ok(stats)
+}
+
+/// The lenses of a profile's two views, for the distortion preview; one
+/// error naming the profile when it has none.
+pub fn profile_lenses(profile: &HmdProfile) -> Result<[&crate::view::distortion::Lens; 2]> {
+    let lens = |i: usize| profile.views.get(i).and_then(|v| v.lens.as_ref());
+    match (lens(0), lens(1)) {
+        (Some(l), Some(r)) => Ok([l, r]),
+        _ => Err(Error::Profile {
+            name: profile.name.clone(),
+            message: "has no [views.lens] table for both eyes, which --preview distorted needs \
+                      (profiles with lenses: vive, rift-dk1)"
+                .into(),
+        }),
+    }
 }
 
 /// Writes a stereo pair as `dir/left.png` and `dir/right.png`, creating

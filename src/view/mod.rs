@@ -4,6 +4,7 @@
 //! poses plus four FOV angles per view.
 
 pub mod cone;
+pub mod distortion;
 pub mod foveation;
 pub mod frustum;
 pub mod lens;

@@ -21,6 +21,11 @@ pub const BUILTIN: &[(&str, &str)] = &[
         include_str!("../../manifests/hmd/valve-index.toml"),
     ),
     ("quest-3", include_str!("../../manifests/hmd/quest-3.toml")),
+    ("vive", include_str!("../../manifests/hmd/vive.toml")),
+    (
+        "rift-dk1",
+        include_str!("../../manifests/hmd/rift-dk1.toml"),
+    ),
     (
         "pimax-wide",
         include_str!("../../manifests/hmd/pimax-wide.toml"),
@@ -58,6 +63,8 @@ struct ViewToml {
     /// Hidden-area triangle list in tangent space (optional).
     #[serde(default, deserialize_with = "super::strict::points")]
     hidden_area: Option<Vec<[f64; 2]>>,
+    /// The lens ([`super::distortion`]), optional.
+    lens: Option<super::distortion::LensToml>,
 }
 
 #[derive(Clone, Debug, Deserialize)]
@@ -77,6 +84,8 @@ pub struct ProfileView {
     pub fov: Fov,
     /// Recommended per-eye image size in pixels (width, height).
     pub resolution: [u32; 2],
+    /// The lens, when the profile has a `[views.lens]` table.
+    pub lens: Option<super::distortion::Lens>,
 }
 
 /// A parsed and validated HMD profile.
@@ -194,10 +203,17 @@ impl HmdProfile {
                 Some(list) => super::hidden_area_from_points(list)
                     .map_err(|m| err(format!("views[{i}]: {m}")))?,
             };
+            let lens = v
+                .lens
+                .as_ref()
+                .map(|l| l.lens(v.resolution))
+                .transpose()
+                .map_err(|m| err(format!("views[{i}].{m}")))?;
             views.push(ProfileView {
                 pose,
                 fov,
                 resolution: v.resolution,
+                lens,
             });
             hidden_areas.push(hidden_area);
         }

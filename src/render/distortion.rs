@@ -1,0 +1,729 @@
+//! The distortion preview (`render --preview distorted`): what the HMD's
+//! panels show of a rendered eye pair, barrel distortion and per-channel
+//! chromatic aberration included ([`crate::view::distortion`]).
+//!
+//! The preview runs after the frame, on its own: the two eye images are
+//! uploaded into a sampled two-layer image, and each eye's panel image is
+//! drawn by one of three methods, the three a Vulkan VR simulator compared:
+//! - [`Method::Fragment`]: a full-screen triangle, the lens evaluated per
+//!   panel pixel and channel;
+//! - [`Method::Grid`]: a grid over the eye image warped onto the panel in
+//!   the vertex shader (the inverse map by safeguarded Newton steps),
+//!   aberration in the fragment shader;
+//! - [`Method::Mesh`]: a mesh baked on the CPU
+//!   ([`crate::view::distortion::mesh`]) with per-channel uvs in its
+//!   vertex attributes.
+//!
+//! Each draw is timed with two timestamps around both eyes, so the figure
+//! is the distortion's own GPU cost.
+
+use crate::error::{Error, Result, VkContext};
+use crate::gpu::barrier::{self, Use};
+use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
+use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::view::distortion::{mesh, Lens, Radial};
+use crate::view::Fov;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+use std::sync::Arc;
+
+/// How the panel image is drawn.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Method {
+    /// The lens evaluated per panel pixel.
+    Fragment,
+    /// A grid warped in the vertex shader, aberration per fragment.
+    Grid,
+    /// A pre-baked mesh with per-channel uvs.
+    Mesh,
+}
+
+impl Method {
+    /// The name the CLI takes.
+    pub fn name(self) -> &'static str {
+        match self {
+            Method::Fragment => "fragment",
+            Method::Grid => "grid",
+            Method::Mesh => "mesh",
+        }
+    }
+}
+
+/// Grid cells per side for the grid method (as many as the baked mesh).
+pub const GRID_CELLS: u32 = mesh::GRID_CELLS;
+
+/// The push constants of `shaders/distortion.glsl`.
+#[derive(Clone, Copy, Debug, Default)]
+#[repr(C)]
+struct LensParams {
+    k: [[f32; 4]; 3],
+    centre_unit: [f32; 4],
+    tangent_axis: [f32; 4],
+    fov: [f32; 4],
+    panel: [f32; 2],
+    r_max: f32,
+    model: i32,
+    layer: i32,
+    cells: i32,
+    _pad: [i32; 2],
+}
+
+// SAFETY: plain f32/i32 fields, 128 bytes, no padding (explicit `_pad`).
+unsafe impl Pod for LensParams {}
+
+// SAFETY: eight f32, no padding.
+unsafe impl Pod for mesh::MeshVertex {}
+
+impl LensParams {
+    fn of(lens: &Lens, fov: &Fov, layer: i32) -> LensParams {
+        let f = |v: f64| v as f32;
+        let (model, k) = match &lens.radial {
+            Radial::Panotools(p) => (0, [0, 1, 2].map(|c| p.cubic(c).map(f))),
+            Radial::Dpoly3(p) => (1, p.k.map(|c| c.map(f))),
+        };
+        let [l, r, u, d] = fov.tangents();
+        LensParams {
+            k,
+            centre_unit: [
+                f(lens.centre[0]),
+                f(lens.centre[1]),
+                f(lens.unit[0]),
+                f(lens.unit[1]),
+            ],
+            tangent_axis: [
+                f(lens.tangent[0]),
+                f(lens.tangent[1]),
+                f(lens.axis[0]),
+                f(lens.axis[1]),
+            ],
+            fov: [f(l), f(r), f(u), f(d)],
+            panel: [lens.panel[0] as f32, lens.panel[1] as f32],
+            r_max: f(lens.r_max),
+            model,
+            layer,
+            cells: GRID_CELLS as i32,
+            _pad: [0; 2],
+        }
+    }
+}
+
+/// The distortion preview of one HMD's two eyes.
+pub struct DistortionPreview {
+    ctx: Arc<Context>,
+    method: Method,
+    eye: vk::Extent2D,
+    panel: vk::Extent2D,
+    params: [LensParams; 2],
+    owned: Option<Owned>,
+    target_views: [vk::ImageView; 2],
+    sampler: vk::Sampler,
+    set_layout: vk::DescriptorSetLayout,
+    layout: vk::PipelineLayout,
+    pool: vk::DescriptorPool,
+    set: vk::DescriptorSet,
+    pipeline: vk::Pipeline,
+    queries: vk::QueryPool,
+    command_pool: vk::CommandPool,
+    cmd: vk::CommandBuffer,
+    fence: vk::Fence,
+}
+
+/// The images and buffers, destroyed explicitly in Drop.
+struct Owned {
+    source: Image,
+    target: Image,
+    staging: Buffer,
+    readback: Buffer,
+    meshes: Option<[(Buffer, Buffer, u32); 2]>,
+}
+
+/// What a preview run gives back.
+pub struct PreviewOutput {
+    /// The panel images, left then right (RGBA8, sRGB).
+    pub images: [image::RgbaImage; 2],
+    /// GPU milliseconds of each run (both eyes).
+    pub gpu_ms: Vec<f64>,
+}
+
+const FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+
+impl DistortionPreview {
+    /// Builds the preview for `lenses` (left, right) and their views'
+    /// `fovs`, for eye images of `eye` pixels; both panels must be the
+    /// same size.
+    pub fn new(
+        ctx: &Arc<Context>,
+        lenses: [&Lens; 2],
+        fovs: [&Fov; 2],
+        eye: vk::Extent2D,
+        method: Method,
+    ) -> Result<DistortionPreview> {
+        if lenses[0].panel != lenses[1].panel {
+            return Err(Error::Config {
+                what: "distortion preview".into(),
+                message: format!(
+                    "the two lenses' panels differ ({:?} and {:?})",
+                    lenses[0].panel, lenses[1].panel
+                ),
+            });
+        }
+        let panel = vk::Extent2D {
+            width: lenses[0].panel[0],
+            height: lenses[0].panel[1],
+        };
+        let params = [
+            LensParams::of(lenses[0], fovs[0], 0),
+            LensParams::of(lenses[1], fovs[1], 1),
+        ];
+        let d = &ctx.device;
+        let color = vk::ImageAspectFlags::COLOR;
+        let source = Image::new(
+            ctx,
+            &ImageDesc {
+                name: "distortion source",
+                format: FORMAT,
+                extent: eye,
+                layers: 2,
+                mips: 1,
+                samples: vk::SampleCountFlags::TYPE_1,
+                usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
+                aspect: color,
+                category: "preview",
+            },
+        )?;
+        let target = Image::new(
+            ctx,
+            &ImageDesc {
+                name: "distortion panel",
+                format: FORMAT,
+                extent: panel,
+                layers: 2,
+                mips: 1,
+                samples: vk::SampleCountFlags::TYPE_1,
+                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                aspect: color,
+                category: "preview",
+            },
+        )?;
+        let view = |layer| {
+            Image::make_view(
+                ctx,
+                target.image,
+                FORMAT,
+                color,
+                vk::ImageViewType::TYPE_2D,
+                layer,
+                1,
+                1,
+            )
+        };
+        let target_views = [view(0)?, view(1)?];
+        let eye_bytes = eye.width as u64 * eye.height as u64 * 4 * 2;
+        let panel_bytes = panel.width as u64 * panel.height as u64 * 4 * 2;
+        let staging = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "distortion upload",
+                size: eye_bytes,
+                usage: vk::BufferUsageFlags::TRANSFER_SRC,
+                location: MemoryLocation::CpuToGpu,
+                category: "preview",
+            },
+        )?;
+        let readback = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "distortion readback",
+                size: panel_bytes,
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+                category: "preview",
+            },
+        )?;
+        let meshes = if method == Method::Mesh {
+            let one = |i: usize| -> Result<(Buffer, Buffer, u32)> {
+                let m = mesh::build(lenses[i], fovs[i], mesh::GRID_CELLS);
+                let usage = |u| BufferDesc {
+                    name: "distortion mesh",
+                    size: 0,
+                    usage: u,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "preview",
+                };
+                let v = Buffer::with_data(
+                    ctx,
+                    &usage(vk::BufferUsageFlags::VERTEX_BUFFER),
+                    as_bytes(&m.vertices),
+                )?;
+                let ix = Buffer::with_data(
+                    ctx,
+                    &usage(vk::BufferUsageFlags::INDEX_BUFFER),
+                    as_bytes(&m.indices),
+                )?;
+                Ok((v, ix, m.indices.len() as u32))
+            };
+            Some([one(0)?, one(1)?])
+        } else {
+            None
+        };
+        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        // SAFETY: plain object creation on a live device; everything is
+        // owned by the returned value and destroyed in Drop.
+        let (sampler, set_layout, layout, pool, set) = unsafe {
+            let sampler = d
+                .create_sampler(
+                    &vk::SamplerCreateInfo::default()
+                        .mag_filter(vk::Filter::LINEAR)
+                        .min_filter(vk::Filter::LINEAR)
+                        .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+                        .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_BORDER)
+                        .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+                        .border_color(vk::BorderColor::FLOAT_OPAQUE_BLACK),
+                    None,
+                )
+                .vk("creating the distortion sampler")?;
+            let bindings = [vk::DescriptorSetLayoutBinding::default()
+                .binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .descriptor_count(1)
+                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+            let set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
+                    None,
+                )
+                .vk("creating the distortion set layout")?;
+            let ranges = [vk::PushConstantRange {
+                stage_flags: stages,
+                offset: 0,
+                size: std::mem::size_of::<LensParams>() as u32,
+            }];
+            let layouts = [set_layout];
+            let layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&layouts)
+                        .push_constant_ranges(&ranges),
+                    None,
+                )
+                .vk("creating the distortion pipeline layout")?;
+            let sizes = [vk::DescriptorPoolSize {
+                ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                descriptor_count: 1,
+            }];
+            let pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk("creating the distortion descriptor pool")?;
+            let set = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(pool)
+                        .set_layouts(&layouts),
+                )
+                .vk("allocating the distortion descriptor set")?[0];
+            let info = [vk::DescriptorImageInfo::default()
+                .sampler(sampler)
+                .image_view(source.view)
+                .image_layout(vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL)];
+            let write = vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(0)
+                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                .image_info(&info);
+            d.update_descriptor_sets(&[write], &[]);
+            (sampler, set_layout, layout, pool, set)
+        };
+        let (vertex, fragment) = match method {
+            Method::Fragment => (
+                &shaders::DISTORT_FULLSCREEN_VERT,
+                &shaders::DISTORT_FRAGMENT_FRAG,
+            ),
+            Method::Grid => (&shaders::DISTORT_GRID_VERT, &shaders::DISTORT_GRID_FRAG),
+            Method::Mesh => (&shaders::DISTORT_MESH_VERT, &shaders::DISTORT_MESH_FRAG),
+        };
+        let (bindings, attributes) = if method == Method::Mesh {
+            let stride = std::mem::size_of::<mesh::MeshVertex>() as u32;
+            (
+                vec![vk::VertexInputBindingDescription {
+                    binding: 0,
+                    stride,
+                    input_rate: vk::VertexInputRate::VERTEX,
+                }],
+                (0..4)
+                    .map(|i| vk::VertexInputAttributeDescription {
+                        location: i,
+                        binding: 0,
+                        format: vk::Format::R32G32_SFLOAT,
+                        offset: 8 * i,
+                    })
+                    .collect(),
+            )
+        } else {
+            (Vec::new(), Vec::new())
+        };
+        let pipeline = GraphicsPipelineDesc {
+            name: "distortion preview",
+            vertex: &vertex.words(),
+            fragment: &fragment.words(),
+            specialization: Vec::new(),
+            bindings,
+            attributes,
+            cull_mode: vk::CullModeFlags::NONE,
+            depth_test: false,
+            depth_write: false,
+            depth_compare: vk::CompareOp::ALWAYS,
+            stencil: None,
+            blend: false,
+            color_write: true,
+            samples: vk::SampleCountFlags::TYPE_1,
+            color_format: FORMAT,
+            depth_format: vk::Format::UNDEFINED,
+            view_mask: 0,
+            layout,
+            shading_rate_attachment: false,
+        }
+        .build(ctx)?;
+        let (command_pool, cmd) = ctx.command_pool("distortion preview")?;
+        // SAFETY: plain object creation on a live device.
+        let (queries, fence) = unsafe {
+            (
+                d.create_query_pool(
+                    &vk::QueryPoolCreateInfo::default()
+                        .query_type(vk::QueryType::TIMESTAMP)
+                        .query_count(2),
+                    None,
+                )
+                .vk("creating the distortion query pool")?,
+                d.create_fence(&vk::FenceCreateInfo::default(), None)
+                    .vk("creating the distortion fence")?,
+            )
+        };
+        Ok(DistortionPreview {
+            ctx: ctx.clone(),
+            method,
+            eye,
+            panel,
+            params,
+            owned: Some(Owned {
+                source,
+                target,
+                staging,
+                readback,
+                meshes,
+            }),
+            target_views,
+            sampler,
+            set_layout,
+            layout,
+            pool,
+            set,
+            pipeline,
+            queries,
+            command_pool,
+            cmd,
+            fence,
+        })
+    }
+
+    /// The method this preview draws with.
+    pub fn method(&self) -> Method {
+        self.method
+    }
+
+    /// Uploads `eyes` (left, right; the size given to [`Self::new`]), draws
+    /// the panel images `runs` times (at least once), each run timed, and
+    /// reads the last back.
+    pub fn run(&mut self, eyes: &[image::RgbaImage; 2], runs: u32) -> Result<PreviewOutput> {
+        let layer = self.eye.width as usize * self.eye.height as usize * 4;
+        for (i, img) in eyes.iter().enumerate() {
+            if img.width() != self.eye.width || img.height() != self.eye.height {
+                return Err(Error::Gpu(format!(
+                    "distortion preview: eye image {}x{} is not the {}x{} it was built for",
+                    img.width(),
+                    img.height(),
+                    self.eye.width,
+                    self.eye.height
+                )));
+            }
+            self.owned
+                .as_mut()
+                .expect("resources live until drop")
+                .staging
+                .write(i * layer, img.as_raw())?;
+        }
+        let mut gpu_ms = Vec::new();
+        for run in 0..runs.max(1) {
+            self.submit(|s, cmd| s.record(cmd, run == 0))?;
+            let mut stamps = [0u64; 2];
+            // SAFETY: both queries were written by the finished submission.
+            unsafe {
+                self.ctx.device.get_query_pool_results(
+                    self.queries,
+                    0,
+                    &mut stamps,
+                    vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+                )
+            }
+            .vk("reading the distortion timestamps")?;
+            let ns =
+                stamps[1].wrapping_sub(stamps[0]) as f64 * self.ctx.caps.timestamp_period_ns as f64;
+            gpu_ms.push(ns / 1e6);
+        }
+        self.submit(|s, cmd| s.record_readback(cmd))?;
+        let bytes = self.panel.width as usize * self.panel.height as usize * 4;
+        let (w, h) = (self.panel.width, self.panel.height);
+        let data = self
+            .owned
+            .as_mut()
+            .expect("resources live until drop")
+            .readback
+            .mapped()
+            .ok_or_else(|| Error::Gpu("distortion readback is not mapped".into()))?;
+        let image = |i: usize| {
+            image::RgbaImage::from_raw(w, h, data[i * bytes..(i + 1) * bytes].to_vec())
+                .ok_or_else(|| Error::Gpu("distortion readback too small".into()))
+        };
+        Ok(PreviewOutput {
+            images: [image(0)?, image(1)?],
+            gpu_ms,
+        })
+    }
+
+    fn owned(&self) -> &Owned {
+        self.owned.as_ref().expect("resources live until drop")
+    }
+
+    fn submit(&mut self, record: impl FnOnce(&Self, vk::CommandBuffer)) -> Result<()> {
+        let d = &self.ctx.device;
+        let cmd = self.cmd;
+        // SAFETY: the command buffer is idle (every submission is waited
+        // for), recorded here and submitted with the fence, which is waited
+        // for and reset before returning.
+        unsafe {
+            d.reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
+                .vk("resetting the distortion commands")?;
+            d.begin_command_buffer(
+                cmd,
+                &vk::CommandBufferBeginInfo::default()
+                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+            )
+            .vk("beginning the distortion commands")?;
+            record(self, cmd);
+            d.end_command_buffer(cmd)
+                .vk("ending the distortion commands")?;
+            let cbs = [cmd];
+            d.queue_submit(
+                self.ctx.queue,
+                &[vk::SubmitInfo::default().command_buffers(&cbs)],
+                self.fence,
+            )
+            .vk("submitting the distortion preview")?;
+            let waited = d
+                .wait_for_fences(&[self.fence], true, u64::MAX)
+                .vk("waiting for the distortion preview");
+            d.reset_fences(&[self.fence])
+                .vk("resetting the distortion fence")?;
+            waited
+        }
+    }
+
+    /// Upload (first run only), then both eyes' panel images between two
+    /// timestamps.
+    fn record(&self, cmd: vk::CommandBuffer, upload: bool) {
+        let d = &self.ctx.device;
+        let o = self.owned();
+        let color = vk::ImageAspectFlags::COLOR;
+        // SAFETY: recording into an idle command buffer; all objects live.
+        unsafe {
+            if upload {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                        o.source.image,
+                        color,
+                        2,
+                        Use::TRANSFER_DST.discarded(),
+                        Use::TRANSFER_DST,
+                    )]),
+                );
+                d.cmd_copy_buffer_to_image(
+                    cmd,
+                    o.staging.buffer,
+                    o.source.image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[barrier::color_copy(0, 2, self.eye.width, self.eye.height)],
+                );
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                        o.source.image,
+                        color,
+                        2,
+                        Use::TRANSFER_DST,
+                        Use::SAMPLED,
+                    )]),
+                );
+            }
+            d.cmd_reset_query_pool(cmd, self.queries, 0, 2);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                    o.target.image,
+                    color,
+                    2,
+                    Use::TRANSFER_SRC.discarded(),
+                    Use::COLOR_ATTACHMENT,
+                )]),
+            );
+            d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 0);
+            let area = vk::Rect2D {
+                offset: vk::Offset2D { x: 0, y: 0 },
+                extent: self.panel,
+            };
+            for (eye, &view) in self.target_views.iter().enumerate() {
+                let attachments = [vk::RenderingAttachmentInfo::default()
+                    .image_view(view)
+                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
+                    .load_op(vk::AttachmentLoadOp::CLEAR)
+                    .store_op(vk::AttachmentStoreOp::STORE)
+                    .clear_value(vk::ClearValue {
+                        color: vk::ClearColorValue {
+                            float32: [0.0, 0.0, 0.0, 1.0],
+                        },
+                    })];
+                d.cmd_begin_rendering(
+                    cmd,
+                    &vk::RenderingInfo::default()
+                        .render_area(area)
+                        .layer_count(1)
+                        .color_attachments(&attachments),
+                );
+                d.cmd_set_viewport(
+                    cmd,
+                    0,
+                    &[vk::Viewport {
+                        x: 0.0,
+                        y: 0.0,
+                        width: self.panel.width as f32,
+                        height: self.panel.height as f32,
+                        min_depth: 0.0,
+                        max_depth: 1.0,
+                    }],
+                );
+                d.cmd_set_scissor(cmd, 0, &[area]);
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline);
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout,
+                    0,
+                    &[self.set],
+                    &[],
+                );
+                d.cmd_push_constants(
+                    cmd,
+                    self.layout,
+                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
+                    0,
+                    as_bytes(&[self.params[eye]]),
+                );
+                match (&o.meshes, self.method) {
+                    (Some(meshes), _) => {
+                        let (v, ix, count) = &meshes[eye];
+                        d.cmd_bind_vertex_buffers(cmd, 0, &[v.buffer], &[0]);
+                        d.cmd_bind_index_buffer(cmd, ix.buffer, 0, vk::IndexType::UINT32);
+                        d.cmd_draw_indexed(cmd, *count, 1, 0, 0, 0);
+                    }
+                    (None, Method::Grid) => d.cmd_draw(cmd, GRID_CELLS * GRID_CELLS * 6, 1, 0, 0),
+                    (None, _) => d.cmd_draw(cmd, 3, 1, 0, 0),
+                }
+                d.cmd_end_rendering(cmd);
+            }
+            d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 1);
+        }
+    }
+
+    /// Copies both panel images into the read-back buffer.
+    fn record_readback(&self, cmd: vk::CommandBuffer) {
+        let d = &self.ctx.device;
+        let o = self.owned();
+        let color = vk::ImageAspectFlags::COLOR;
+        // SAFETY: recording into an idle command buffer; the panel image was
+        // last written as a colour attachment by the previous submission.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                    o.target.image,
+                    color,
+                    2,
+                    Use::COLOR_ATTACHMENT,
+                    Use::TRANSFER_SRC,
+                )]),
+            );
+            d.cmd_copy_image_to_buffer(
+                cmd,
+                o.target.image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                o.readback.buffer,
+                &[barrier::color_copy(
+                    0,
+                    2,
+                    self.panel.width,
+                    self.panel.height,
+                )],
+            );
+            let to_host = [vk::BufferMemoryBarrier2::default()
+                .src_stage_mask(vk::PipelineStageFlags2::COPY)
+                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+                .dst_access_mask(vk::AccessFlags2::HOST_READ)
+                .buffer(o.readback.buffer)
+                .size(vk::WHOLE_SIZE)];
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().buffer_memory_barriers(&to_host),
+            );
+        }
+    }
+}
+
+impl Drop for DistortionPreview {
+    fn drop(&mut self) {
+        let ctx = self.ctx.clone();
+        let d = &ctx.device;
+        // SAFETY: every submission was waited for; nothing is in use.
+        unsafe {
+            let _ = d.device_wait_idle();
+            d.destroy_fence(self.fence, None);
+            d.destroy_query_pool(self.queries, None);
+            d.destroy_command_pool(self.command_pool, None);
+            d.destroy_pipeline(self.pipeline, None);
+            d.destroy_descriptor_pool(self.pool, None);
+            d.destroy_pipeline_layout(self.layout, None);
+            d.destroy_descriptor_set_layout(self.set_layout, None);
+            d.destroy_sampler(self.sampler, None);
+            for v in self.target_views {
+                d.destroy_image_view(v, None);
+            }
+        }
+        if let Some(o) = self.owned.take() {
+            o.source.destroy(&ctx);
+            o.target.destroy(&ctx);
+            o.staging.destroy(&ctx);
+            o.readback.destroy(&ctx);
+            for (v, ix, _) in o.meshes.into_iter().flatten() {
+                v.destroy(&ctx);
+                ix.destroy(&ctx);
+            }
+        }
+    }
+}

@@ -1,0 +1,260 @@
+//! The distortion preview on lavapipe, with validation: the three methods
+//! agree, every panel pixel shows the eye-image point the lens model gives
+//! for each colour channel, a straight line bends the way a barrel lens
+//! bends it, and a profile without a lens is one error.
+
+mod common;
+
+use ash::vk;
+use std::process::Command;
+use vergence::bench::metrics::flip;
+use vergence::config::{RenderConfig, StereoMode};
+use vergence::render::distortion::{DistortionPreview, Method};
+use vergence::view::distortion::{eye_uv, Lens};
+use vergence::view::profile::HmdProfile;
+use vergence::view::Fov;
+
+const METHODS: [Method; 3] = [Method::Fragment, Method::Grid, Method::Mesh];
+
+fn lenses(p: &HmdProfile) -> ([&Lens; 2], [&Fov; 2]) {
+    let l = |i: usize| p.views[i].lens.as_ref().expect("lens");
+    ([l(0), l(1)], [&p.views[0].fov, &p.views[1].fov])
+}
+
+fn preview(
+    ctx: &std::sync::Arc<vergence::gpu::Context>,
+    p: &HmdProfile,
+    eyes: &[image::RgbaImage; 2],
+    method: Method,
+) -> [image::RgbaImage; 2] {
+    let before = ctx.validation_messages();
+    let (l, f) = lenses(p);
+    let extent = vk::Extent2D {
+        width: eyes[0].width(),
+        height: eyes[0].height(),
+    };
+    let mut d = DistortionPreview::new(ctx, l, f, extent, method).unwrap_or_else(|e| panic!("{e}"));
+    let out = d.run(eyes, 2).unwrap_or_else(|e| panic!("{e}"));
+    assert_eq!(out.gpu_ms.len(), 2);
+    drop(d);
+    assert_eq!(
+        ctx.validation_messages(),
+        before,
+        "{:#?}",
+        ctx.validation_log()
+    );
+    out.images
+}
+
+/// Eye images whose red channel is 255·u and green 255·v (blue 128).
+fn gradient(w: u32, h: u32) -> image::RgbaImage {
+    image::RgbaImage::from_fn(w, h, |x, y| {
+        let u = (x as f64 + 0.5) / w as f64;
+        let v = (y as f64 + 0.5) / h as f64;
+        image::Rgba([
+            (u * 255.0).round() as u8,
+            (v * 255.0).round() as u8,
+            128,
+            255,
+        ])
+    })
+}
+
+#[test]
+fn the_three_methods_agree_on_a_rendered_scene() {
+    let ctx = common::context();
+    let scene = common::load("factory:3000");
+    for name in ["vive", "rift-dk1"] {
+        let p = HmdProfile::load(name).unwrap();
+        let pose = common::framing_pose(&scene, &p);
+        let config = RenderConfig {
+            stereo: StereoMode::Multiview,
+            msaa: 4,
+            ..RenderConfig::default()
+        };
+        let [w, h] = p.views[0].resolution.map(|v| v / 4);
+        let frame = common::render_config(&ctx, &scene, &p, pose, &config, w, h);
+        let out: Vec<[image::RgbaImage; 2]> = METHODS
+            .iter()
+            .map(|&m| preview(&ctx, &p, &frame.images, m))
+            .collect();
+        let [pw, ph] = p.views[0].lens.unwrap().panel;
+        assert_eq!(out[0][0].dimensions(), (pw, ph));
+        // Pixels per degree of the panel: its width over the eye's FOV.
+        let fov = &p.views[0].fov;
+        let ppd = pw as f32 / (fov.right - fov.left).to_degrees() as f32;
+        let [fragment, grid, mesh] = [&out[0], &out[1], &out[2]];
+        for eye in 0..2 {
+            let images = [&fragment[eye], &grid[eye], &mesh[eye]];
+            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+                let f = flip(images[a], images[b], ppd).unwrap();
+                assert!(
+                    f.mean <= 0.01,
+                    "{name} eye {eye}: {:?} vs {:?}: FLIP mean {}",
+                    METHODS[a],
+                    METHODS[b],
+                    f.mean
+                );
+            }
+            // Not a black image: the scene is there.
+            let lit = images[2].pixels().filter(|p| p.0[0] > 20).count();
+            assert!(lit > (pw * ph / 10) as usize, "{name}: {lit} lit pixels");
+        }
+    }
+}
+
+#[test]
+fn every_panel_pixel_shows_the_eye_point_the_lens_model_gives() {
+    let ctx = common::context();
+    for name in ["vive", "rift-dk1"] {
+        let p = HmdProfile::load(name).unwrap();
+        let [w, h] = p.views[0].resolution.map(|v| v / 2);
+        let eyes = [gradient(w, h), gradient(w, h)];
+        for method in METHODS {
+            let out = preview(&ctx, &p, &eyes, method);
+            for (eye, img) in out.iter().enumerate() {
+                let (lens, fov) = (p.views[eye].lens.unwrap(), p.views[eye].fov);
+                let [pw, ph] = lens.panel;
+                let (mut checked, mut worst) = (0, 0.0f64);
+                for y in (0..ph).step_by(7) {
+                    for x in (0..pw).step_by(7) {
+                        let uv = [(x as f64 + 0.5) / pw as f64, (y as f64 + 0.5) / ph as f64];
+                        let q = lens.lens_of_panel(uv);
+                        if q[0].hypot(q[1]) > 0.95 * lens.r_max {
+                            continue;
+                        }
+                        let at = |c: usize| eye_uv(&fov, lens.tangent_of_panel(uv, c).unwrap());
+                        let (red, green) = (at(0), at(1));
+                        let inside = |e: [f64; 2]| e.iter().all(|v| (0.03..=0.97).contains(v));
+                        if !inside(red) || !inside(green) {
+                            continue;
+                        }
+                        let px = img.get_pixel(x, y).0;
+                        let dr = (px[0] as f64 - red[0] * 255.0).abs();
+                        let dg = (px[1] as f64 - green[1] * 255.0).abs();
+                        worst = worst.max(dr).max(dg);
+                        checked += 1;
+                    }
+                }
+                assert!(
+                    checked > 1000,
+                    "{name} {method:?}: {checked} pixels checked"
+                );
+                assert!(
+                    worst <= 3.0,
+                    "{name} {method:?} eye {eye}: off by {worst} of 255"
+                );
+            }
+        }
+    }
+}
+
+#[test]
+fn a_straight_line_bows_outward_on_the_panel() {
+    // A vertical line in the eye image, right of the lens axis: the panel
+    // point at mid-height reaching it lies farther out than the points near
+    // the top and bottom (there r is larger, D(r) larger, so a smaller
+    // panel offset reaches the same eye column), i.e. barrel-shaped.
+    let ctx = common::context();
+    let p = HmdProfile::load("vive").unwrap();
+    let [w, h] = p.views[0].resolution.map(|v| v / 2);
+    let line_u = 0.7;
+    let img = image::RgbaImage::from_fn(w, h, |x, _| {
+        let u = (x as f64 + 0.5) / w as f64;
+        let on = (u - line_u).abs() < 1.5 / w as f64;
+        image::Rgba(if on {
+            [255, 255, 255, 255]
+        } else {
+            [0, 0, 0, 255]
+        })
+    });
+    for method in METHODS {
+        let out = preview(&ctx, &p, &[img.clone(), img.clone()], method);
+        let lens = p.views[0].lens.unwrap();
+        let [pw, ph] = lens.panel;
+        let cx = lens.centre[0] * pw as f64;
+        let column = |y: u32| -> f64 {
+            let (mut sum, mut weight) = (0.0, 0.0);
+            for x in 0..pw {
+                let g = out[0].get_pixel(x, y).0[1] as f64;
+                sum += g * x as f64;
+                weight += g;
+            }
+            assert!(weight > 0.0, "{method:?}: no line in row {y}");
+            sum / weight
+        };
+        let cy = (lens.centre[1] * ph as f64) as u32;
+        let (mid, top, bottom) = (column(cy), column(cy - ph / 4), column(cy + ph / 4));
+        assert!(
+            mid - cx > top - cx + 5.0 && mid - cx > bottom - cx + 5.0,
+            "{method:?}: columns top {top:.1} mid {mid:.1} bottom {bottom:.1} (centre {cx:.1})"
+        );
+    }
+}
+
+#[test]
+fn render_writes_the_panel_images_and_their_gpu_time() {
+    let out = common::scratch("distortion", "cli");
+    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:200",
+            "--hmd",
+            "rift-dk1",
+            "--width",
+            "128",
+            "--height",
+            "160",
+            "--preview",
+            "distorted",
+            "--distortion",
+            "grid",
+            "--frames",
+            "3",
+            "--out",
+        ])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    for eye in ["left", "right"] {
+        let img = image::open(out.join(format!("{eye}_distorted.png")))
+            .unwrap()
+            .to_rgba8();
+        assert_eq!(img.dimensions(), (640, 800));
+    }
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    assert_eq!(stats["preview"]["mode"], "distorted");
+    assert_eq!(stats["preview"]["method"], "grid");
+    assert_eq!(stats["preview"]["panel"], serde_json::json!([640, 800]));
+    assert!(stats["preview"]["gpu_ms"]["median"].as_f64().unwrap() > 0.0);
+}
+
+#[test]
+fn a_profile_without_a_lens_is_one_error_naming_it() {
+    let out = common::scratch("distortion", "nolens");
+    let stderr = common::fails_with_one_error(
+        Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args([
+                "render",
+                "--scene",
+                "factory:10",
+                "--hmd",
+                "valve-index",
+                "--width",
+                "32",
+                "--height",
+                "32",
+                "--preview",
+                "distorted",
+                "--out",
+            ])
+            .arg(&out),
+    );
+    assert!(
+        stderr.contains("valve-index") && stderr.contains("lens"),
+        "{stderr}"
+    );
+}
