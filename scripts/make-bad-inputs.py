@@ -358,6 +358,17 @@ case("hmd/one-view.toml", "hmd", ["needs exactly 2 views"], hmd(views=1))
 case("hmd/zero-refresh.toml", "hmd", ["refresh_hz = 0 must be in"], hmd(refresh="0.0"))
 case("hmd/hidden-area-not-triangles.toml", "hmd", ["hidden_area has 2 points; it is a triangle list"],
      hmd().replace("resolution = [640, 480]\n", "resolution = [640, 480]\nhidden_area = [[0.0, 0.0], [0.1, 0.0]]\n", 1))
+# Lens tables (the distortion preview's [views.lens]).
+LENS = '[views.lens]\nmodel = "{model}"\nk = {k}\nchroma = [0.99, 1.0, 1.01]\ncentre = [0.5, 0.5]\nunit = [0.5, 0.5]\ntangent = [1.0, 1.0]\n{extra}'
+def lens_hmd(model="panotools", k="[0.0, 0.0, 0.0, 1.0]", extra=""):
+    return hmd().replace("resolution = [640, 480]\n", "resolution = [640, 480]\n" + LENS.format(model=model, k=k, extra=extra))
+case("hmd/lens-folds.toml", "hmd", ["views[0].lens", "does not increase"], lens_hmd(k="[1.0, -3.0, 0.4, 0.6]"))
+case("hmd/lens-nan.toml", "hmd", ["views[0].lens", "not finite"], lens_hmd(k="[nan, 0.0, 0.0, 1.0]"))
+case("hmd/lens-unknown-model.toml", "hmd", ['unknown model "fisheye"'], lens_hmd(model="fisheye"))
+case("hmd/lens-wrong-key.toml", "hmd", ["`red` does not belong"], lens_hmd(extra="red = [0.0, 0.0, 0.0, 0.0]\n"))
+case("hmd/lens-short-k.toml", "hmd", ["expected an array of 4 numbers"], lens_hmd(k="[0.0, 1.0]"))
+case("hmd/lens-zero-unit.toml", "hmd", ["must be positive"], lens_hmd().replace("unit = [0.5, 0.5]", "unit = [0.0, 0.5]"))
+case("hmd/lens-huge-rmax.toml", "hmd", ["r_max", "must be in (0, 1000]"], lens_hmd(extra="r_max = 1e300\n"))
 # --- Scene manifests -----------------------------------------------------------
 case("manifests/empty.toml", "scene", ["no [[gltf]] or [[procedural]]"], 'name = "x"\n')
 case("manifests/zero-scale.toml", "scene", ["scale 0 must be a number in [1e-6, 1e6]"],
@@ -565,6 +576,16 @@ case("kiosk/empty-name.toml", "kiosk", ["name is empty"], 'name = " "\n[[scenes]
 case("kiosk/not-toml.toml", "kiosk", ["--kiosk", "not-toml.toml"], "name = \n[[[\n")
 cli("kiosk-missing", ["run", "--xr", "headless", "--frames", "1", "--kiosk", "{dir}/kiosk/nothing-here.toml"], ["--kiosk", "nothing-here.toml"])
 cli("kiosk-with-scene", ["run", "--kiosk", "{dir}/kiosk/unknown-key.toml", "--scene", "factory"], ["--kiosk", "--scene"], exit=2)
+
+# The simulator's options: the distortion preview and the timewarp.
+cli("preview-no-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--preview", "distorted", "--out", "{out}"], ["valve-index", "[views.lens]"])
+cli("distortion-without-preview", ["render", "--distortion", "grid", "--out", "{out}"], ["--preview"], exit=2)
+cli("timewarp-k-one", ["render", "--frames", "4", "--opt", "timewarp=1", "--out", "{out}"], ["timewarp=1", "2 <= K <= 16"])
+cli("timewarp-too-few-frames", ["render", "--scene", "factory:10", "--hmd", "monado-sim", "--width", "32", "--height", "32", "--frames", "2", "--opt", "timewarp=2", "--out", "{out}"], ["--frames", "more than 2"])
+cli("timewarp-head-turn-huge", ["render", "--head-turn", "1e9", "--out", "{out}"], ["--head-turn", "1e9"], exit=2)
+cli("timewarp-in-run", ["run", "--xr", "headless", "--frames", "1", "--opt", "timewarp=2"], ["timewarp", "render --frames"])
+cli("timewarp-with-occlusion", ["render", "--opt", "timewarp=2,gpu-cull,occlusion,superfrustum", "--out", "{out}"], ["timewarp", "occlusion"])
+cli("lens-unknown-profile", ["lens", "--hmd", "valve-index"], ["valve-index", "[views.lens]"])
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"

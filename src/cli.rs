@@ -54,6 +54,15 @@ pub fn parse_lens_half_angle(s: &str) -> Result<f64, String> {
     }
 }
 
+/// Largest head turn rate `render --head-turn` accepts (degrees per second).
+pub const MAX_HEAD_TURN_DEG_S: f64 = 3600.0;
+
+/// `render --head-turn`: degrees per second in
+/// [−[`MAX_HEAD_TURN_DEG_S`], [`MAX_HEAD_TURN_DEG_S`]].
+pub fn parse_head_turn(s: &str) -> Result<f64, String> {
+    ranged(s, -MAX_HEAD_TURN_DEG_S, MAX_HEAD_TURN_DEG_S, false)
+}
+
 /// `--near`: metres in (0, 1000].
 pub fn parse_near(s: &str) -> Result<f64, String> {
     ranged(s, 0.0, 1e3, true)

@@ -137,7 +137,37 @@ pub struct RenderConfig {
     /// by the scene shaders and culling skips instances wholly beyond it.
     /// In a headset the section tool replaces it at run time.
     pub section: Option<[f64; 4]>,
+    /// The timewarp simulation (`timewarp=K`, `timewarp-rotation`,
+    /// `timewarp-fill`; `render --frames` only): every K-th frame is the
+    /// source that the frames between are reprojected from, and each
+    /// reprojection is compared with the frame truly rendered there.
+    pub timewarp: Option<Timewarp>,
 }
+
+/// The timewarp simulation's settings.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Timewarp {
+    /// Render every K-th frame (2..=MAX_TIMEWARP_K).
+    pub k: u32,
+    /// How the frames between are reprojected.
+    pub variant: TimewarpVariant,
+}
+
+/// How the timewarp simulation reprojects the frames between sources.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum TimewarpVariant {
+    /// The rotation-only homography, no depth (`timewarp-rotation`).
+    Rotation,
+    /// Rotation and translation with depth; holes left black (the default).
+    Depth,
+    /// Rotation and translation with depth; holes filled from the
+    /// background (`timewarp-fill`).
+    Fill,
+}
+
+/// Largest K `timewarp=K` accepts.
+pub const MAX_TIMEWARP_K: u32 = 16;
 
 /// Most frames in flight `--frames-in-flight` accepts.
 pub const MAX_FRAMES_IN_FLIGHT: u32 = 3;
@@ -182,6 +212,8 @@ fn opt_slot(item: &str, cull_names: &[&str]) -> Option<(&'static str, String)> {
         ),
         l if l.starts_with("lod=") => ("LOD error bound", value("lod=")),
         m if m.starts_with("mffr=") => ("far-field split distance", value("mffr=")),
+        t if t.starts_with("timewarp=") => ("timewarp interval", value("timewarp=")),
+        "timewarp-rotation" | "timewarp-fill" => ("timewarp variant", item.to_string()),
         c if cull_names.contains(&c) => ("culling strategy", c.to_string()),
         _ => return None,
     })
@@ -212,6 +244,7 @@ impl Default for RenderConfig {
             occlusion: false,
             lod: None,
             section: None,
+            timewarp: None,
         }
     }
 }
@@ -250,6 +283,12 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "lod selects levels inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,lod)",
+            ));
+        }
+        if self.timewarp.is_some() && (self.occlusion || self.mffr.is_some()) {
+            return Err(Error::config(
+                "--opt",
+                "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
             ));
         }
         if self.gpu_cull && self.mffr.is_some() {
@@ -322,6 +361,29 @@ impl RenderConfig {
                         ))
                     }
                 },
+                t if t.starts_with("timewarp=") => match t["timewarp=".len()..].parse::<u32>() {
+                    Ok(k) if (2..=MAX_TIMEWARP_K).contains(&k) => {
+                        let variant = self
+                            .timewarp
+                            .map_or(TimewarpVariant::Depth, |t| t.variant);
+                        self.timewarp = Some(Timewarp { k, variant });
+                    }
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{t}': expected timewarp=K with 2 <= K <= {MAX_TIMEWARP_K} (render every K-th frame)"),
+                        ))
+                    }
+                },
+                "timewarp-rotation" | "timewarp-fill" => {
+                    let variant = if item == "timewarp-fill" {
+                        TimewarpVariant::Fill
+                    } else {
+                        TimewarpVariant::Rotation
+                    };
+                    let k = self.timewarp.map_or(2, |t| t.k);
+                    self.timewarp = Some(Timewarp { k, variant });
+                }
                 "rdm" => self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
                 "mffr" => {
                     self.mffr.get_or_insert_with(Mffr::default);
@@ -395,7 +457,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -405,6 +467,18 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
+    /// One error when `timewarp` is set for `command`, which does not
+    /// measure it (only `render --frames` does).
+    pub fn refuse_timewarp(&self, command: &str) -> Result<()> {
+        match self.timewarp {
+            Some(_) => Err(Error::config(
+                "--opt",
+                format!("timewarp is measured by `vergence render --frames N --opt timewarp=K`; `{command}` does not run it"),
+            )),
+            None => Ok(()),
+        }
+    }
+
     /// The `--opt` list that sets this configuration's optimizations
     /// (stereo mode, MSAA, culling and every technique that is on), as
     /// the live toggles show it and write it to a config file: applied to
@@ -454,6 +528,14 @@ impl RenderConfig {
                 if on {
                     v.push(name.into());
                 }
+            }
+        }
+        if let Some(t) = &self.timewarp {
+            v.push(format!("timewarp={}", t.k));
+            match t.variant {
+                TimewarpVariant::Rotation => v.push("timewarp-rotation".into()),
+                TimewarpVariant::Fill => v.push("timewarp-fill".into()),
+                TimewarpVariant::Depth => {}
             }
         }
         v.join(",")

@@ -154,6 +154,12 @@ struct RenderArgs {
     /// the vertex shader, or a pre-baked mesh.
     #[arg(long, value_enum, default_value_t = DistortionMethod::Mesh, requires = "preview")]
     distortion: DistortionMethod,
+    /// With --opt timewarp=K: the head turns at this many degrees per
+    /// second (about the vertical axis, at the profile's refresh rate)
+    /// while the warped frames are measured against rendered ones.
+    #[arg(long, default_value_t = 90.0, allow_hyphen_values = true,
+          value_parser = vergence::cli::parse_head_turn)]
+    head_turn: f64,
 }
 
 /// What `render --preview` shows.
@@ -386,8 +392,31 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 out: a.out,
                 frames: a.frames,
                 distorted: a.preview.map(|PreviewMode::Distorted| a.distortion),
+                head_turn_deg_s: a.head_turn,
             };
-            let stats = headless::render_to_dir(&job)?;
+            if job.config.timewarp.is_some() {
+                vergence::bench::timewarp::check(&job)?;
+            }
+            let mut stats = headless::render_to_dir(&job)?;
+            if job.config.timewarp.is_some() {
+                let t = vergence::bench::timewarp::measure(&job)?;
+                println!(
+                    "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
+                    t.k,
+                    t.variant,
+                    t.head_turn_deg_s,
+                    t.frames_warped,
+                    t.flip_mean,
+                    t.flip_max,
+                    100.0 * t.holes_fraction,
+                    100.0 * t.border_fraction,
+                    t.warp_gpu_ms.median,
+                    t.render_gpu_ms.median
+                );
+                stats.validation_messages += t.validation_messages;
+                stats.timewarp = Some(t);
+                headless::write_json(&job.out.join("stats.json"), &stats)?;
+            }
             println!(
                 "rendered {} at {}x{} per eye ({}, {}x MSAA): {} draw calls, {} instances, {} triangles; wrote {}",
                 stats.scene.name,
@@ -425,6 +454,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         }
         Command::Run(a) => {
             let mut config = a.frame.config()?;
+            config.refuse_timewarp("run")?;
             let kiosk = a
                 .kiosk
                 .as_deref()
@@ -499,6 +529,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::View(a) => {
+            a.frame.config()?.refuse_timewarp("view")?;
             let args = vergence::targets::view::ViewArgs {
                 scene: a.scene,
                 hmd: a.hmd,

@@ -204,3 +204,23 @@ mod log_histogram_tests {
         assert_eq!(LogHistogram::default().quantile(0.5), 0.0);
     }
 }
+
+/// Median and 95th percentile of a series.
+#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
+pub struct Percentiles {
+    /// Median.
+    pub median: f64,
+    /// 95th percentile (nearest rank).
+    pub p95: f64,
+}
+
+impl Percentiles {
+    /// Of `v` (unsorted; nearest rank, as [`Summary`]).
+    pub fn of(v: &[f64]) -> Percentiles {
+        let s = Summary::of(v);
+        Percentiles {
+            median: s.p50,
+            p95: s.p95,
+        }
+    }
+}

@@ -82,7 +82,8 @@ fn the_three_methods_agree_on_a_rendered_scene() {
         assert_eq!(out[0][0].dimensions(), (pw, ph));
         // Pixels per degree of the panel: its width over the eye's FOV.
         let fov = &p.views[0].fov;
-        let ppd = pw as f32 / (fov.right - fov.left).to_degrees() as f32;
+        let ppd = (pw as f64 / (fov.right - fov.left).to_degrees())
+            .max(vergence::bench::metrics::MIN_FLIP_PPD) as f32;
         let [fragment, grid, mesh] = [&out[0], &out[1], &out[2]];
         for eye in 0..2 {
             let images = [&fragment[eye], &grid[eye], &mesh[eye]];

@@ -234,6 +234,7 @@ fn stats_name_the_paths_that_ran() {
         out: out.clone(),
         frames: 1,
         distorted: None,
+        head_turn_deg_s: 0.0,
     };
     let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
     let json: serde_json::Value =

@@ -1,6 +1,6 @@
 //! Stable-toolchain mutation fuzzing of the same entry points as the
 //! cargo-fuzz targets in fuzz/ (which need nightly and libFuzzer): CLI value
-//! parsers, rig JSON and bench plans, the Draco decoder, the KTX2 / Basis
+//! parsers, rig JSON and bench plans, HMD profiles with lenses, the Draco decoder, the KTX2 / Basis
 //! Universal transcoder and the whole glTF loader. Each target mutates its
 //! seeds (the bad-input corpus, the vendored assets, built-in plans) with a
 //! seeded RNG for a fixed time; any panic fails the test and the input is
@@ -281,6 +281,51 @@ fn rig_json_and_plans() {
             {
                 let _ = plan.check_inputs();
             }
+        }
+    });
+}
+
+/// Exercises a profile's lenses: forward and inverse maps over the panel,
+/// the baked mesh and the density figures; every number must stay finite
+/// and every round trip land back.
+fn exercise_lenses(p: &vergence::view::profile::HmdProfile) {
+    use vergence::view::distortion::{density, mesh};
+    for v in &p.views {
+        let Some(lens) = &v.lens else { continue };
+        for j in 0..=8 {
+            for i in 0..=8 {
+                let uv = [i as f64 / 8.0, j as f64 / 8.0];
+                for c in 0..3 {
+                    if let Some(t) = lens.tangent_of_panel(uv, c) {
+                        assert!(t.iter().all(|x| x.is_finite()), "{t:?}");
+                        if let Some(back) = lens.panel_of_tangent(t, c) {
+                            assert!(back.iter().all(|x| x.is_finite()), "{back:?}");
+                        }
+                    }
+                }
+            }
+        }
+        let m = mesh::build(lens, &v.fov, 4);
+        assert_eq!(m.indices.len(), 4 * 4 * 6);
+        let small = vergence::view::distortion::Lens {
+            panel: [lens.panel[0].min(64), lens.panel[1].min(64)],
+            ..*lens
+        };
+        let _ = density::density(&small, &v.fov, [64, 64], 4);
+    }
+}
+
+#[test]
+#[ignore]
+fn hmd_profiles_with_lenses() {
+    let mut seeds = files("manifests/hmd", &["toml"]);
+    seeds.extend(files("tests/bad_inputs/hmd", &["toml"]));
+    fuzz("hmd_profiles_with_lenses", 4, seeds, |data| {
+        let Ok(text) = std::str::from_utf8(data) else {
+            return;
+        };
+        if let Ok(p) = vergence::view::profile::HmdProfile::parse("fuzz", text) {
+            exercise_lenses(&p);
         }
     });
 }

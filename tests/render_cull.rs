@@ -31,6 +31,7 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
         out: out.clone(),
         frames: 1,
         distorted: None,
+        head_turn_deg_s: 0.0,
     };
     let stats = render_to_dir(&job).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(stats.validation_messages, 0);

@@ -1,5 +1,5 @@
 //! TOML text → HMD profile (and a rig at the origin, whose views must be
-//! finite), scene manifest, bench plan and tuned config file. Any Err is
+//! finite, and its lenses' maps), scene manifest, bench plan and tuned config file. Any Err is
 //! fine; a panic, abort or hang is a bug.
 #![no_main]
 
@@ -13,6 +13,19 @@ fuzz_target!(|data: &[u8]| {
         let rig = p.rig(vergence::view::Pose::default());
         for v in &rig.views {
             assert!(v.fov.tangents().iter().all(|t| t.is_finite()));
+        }
+        // Lenses: the forward and inverse maps stay finite over the panel.
+        for v in &p.views {
+            let Some(lens) = &v.lens else { continue };
+            for j in 0..=4 {
+                for i in 0..=4 {
+                    let uv = [i as f64 / 4.0, j as f64 / 4.0];
+                    if let Some(t) = lens.tangent_of_panel(uv, 1) {
+                        assert!(t.iter().all(|x| x.is_finite()));
+                        let _ = lens.panel_of_tangent(t, 1);
+                    }
+                }
+            }
         }
     }
     let dir = std::env::temp_dir().join("vergence-fuzz-manifest");

@@ -9,4 +9,5 @@ pub mod plan;
 pub mod report;
 pub mod runner;
 pub mod tables;
+pub mod timewarp;
 pub mod tune;

@@ -302,6 +302,7 @@ impl Plan {
     fn with_frames_in_flight(&self, opt: &str, own: Option<u32>) -> Result<RenderConfig> {
         let mut c = RenderConfig::default();
         c.apply_opts(opt, &cull_names())?;
+        c.refuse_timewarp("bench")?;
         c.frames_in_flight = own.unwrap_or(self.frames_in_flight);
         c.validate()?;
         Ok(c)

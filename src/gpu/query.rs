@@ -207,3 +207,37 @@ impl Queries {
         }
     }
 }
+
+/// A pool of two timestamps, for timing one stretch of commands outside a
+/// frame (the distortion preview, the timewarp simulation).
+pub fn timestamp_pair(ctx: &Context) -> Result<vk::QueryPool> {
+    // SAFETY: plain object creation on a live device; the caller destroys it.
+    unsafe {
+        ctx.device.create_query_pool(
+            &vk::QueryPoolCreateInfo::default()
+                .query_type(vk::QueryType::TIMESTAMP)
+                .query_count(2),
+            None,
+        )
+    }
+    .vk("creating a timestamp query pool")
+}
+
+/// Milliseconds between the two timestamps of `pool`, once both are
+/// written (waits for them).
+pub fn timestamp_pair_ms(ctx: &Context, pool: vk::QueryPool) -> Result<f64> {
+    let mut stamps = [0u64; 2];
+    // SAFETY: both queries were written by a submission that finished or
+    // will finish (WAIT).
+    unsafe {
+        ctx.device.get_query_pool_results(
+            pool,
+            0,
+            &mut stamps,
+            vk::QueryResultFlags::TYPE_64 | vk::QueryResultFlags::WAIT,
+        )
+    }
+    .vk("reading timestamps")?;
+    let ns = stamps[1].wrapping_sub(stamps[0]) as f64 * ctx.caps.timestamp_period_ns as f64;
+    Ok(ns / 1e6)
+}

@@ -84,8 +84,15 @@ pub static DISTORT_MESH_VERT: Module = spirv!("distort_mesh.vert");
 /// Distortion preview (c): three samples at the baked uvs.
 pub static DISTORT_MESH_FRAG: Module = spirv!("distort_mesh.frag");
 
+/// Timewarp: forward reprojection with depth (keys, then colours).
+pub static TIMEWARP_SCATTER_COMP: Module = spirv!("timewarp_scatter.comp");
+/// Timewarp: borders, cracks and holes after the scatter.
+pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
+/// Timewarp: the rotation-only homography.
+pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
+
 /// Every embedded module.
-pub static ALL: [&Module; 24] = [
+pub static ALL: [&Module; 27] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -110,6 +117,9 @@ pub static ALL: [&Module; 24] = [
     &DISTORT_GRID_FRAG,
     &DISTORT_MESH_VERT,
     &DISTORT_MESH_FRAG,
+    &TIMEWARP_SCATTER_COMP,
+    &TIMEWARP_RESOLVE_COMP,
+    &TIMEWARP_ROTATE_COMP,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).

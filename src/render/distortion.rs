@@ -126,9 +126,6 @@ pub struct DistortionPreview {
     set: vk::DescriptorSet,
     pipeline: vk::Pipeline,
     queries: vk::QueryPool,
-    command_pool: vk::CommandPool,
-    cmd: vk::CommandBuffer,
-    fence: vk::Fence,
 }
 
 /// The images and buffers, destroyed explicitly in Drop.
@@ -391,21 +388,7 @@ impl DistortionPreview {
             shading_rate_attachment: false,
         }
         .build(ctx)?;
-        let (command_pool, cmd) = ctx.command_pool("distortion preview")?;
-        // SAFETY: plain object creation on a live device.
-        let (queries, fence) = unsafe {
-            (
-                d.create_query_pool(
-                    &vk::QueryPoolCreateInfo::default()
-                        .query_type(vk::QueryType::TIMESTAMP)
-                        .query_count(2),
-                    None,
-                )
-                .vk("creating the distortion query pool")?,
-                d.create_fence(&vk::FenceCreateInfo::default(), None)
-                    .vk("creating the distortion fence")?,
-            )
-        };
+        let queries = crate::gpu::query::timestamp_pair(ctx)?;
         Ok(DistortionPreview {
             ctx: ctx.clone(),
             method,
@@ -427,9 +410,6 @@ impl DistortionPreview {
             set,
             pipeline,
             queries,
-            command_pool,
-            cmd,
-            fence,
         })
     }
 
@@ -461,7 +441,7 @@ impl DistortionPreview {
         }
         let mut gpu_ms = Vec::new();
         for run in 0..runs.max(1) {
-            self.submit(|s, cmd| s.record(cmd, run == 0))?;
+            self.ctx.one_shot(|cmd| self.record(cmd, run == 0))?;
             let mut stamps = [0u64; 2];
             // SAFETY: both queries were written by the finished submission.
             unsafe {
@@ -477,7 +457,7 @@ impl DistortionPreview {
                 stamps[1].wrapping_sub(stamps[0]) as f64 * self.ctx.caps.timestamp_period_ns as f64;
             gpu_ms.push(ns / 1e6);
         }
-        self.submit(|s, cmd| s.record_readback(cmd))?;
+        self.ctx.one_shot(|cmd| self.record_readback(cmd))?;
         let bytes = self.panel.width as usize * self.panel.height as usize * 4;
         let (w, h) = (self.panel.width, self.panel.height);
         let data = self
@@ -499,40 +479,6 @@ impl DistortionPreview {
 
     fn owned(&self) -> &Owned {
         self.owned.as_ref().expect("resources live until drop")
-    }
-
-    fn submit(&mut self, record: impl FnOnce(&Self, vk::CommandBuffer)) -> Result<()> {
-        let d = &self.ctx.device;
-        let cmd = self.cmd;
-        // SAFETY: the command buffer is idle (every submission is waited
-        // for), recorded here and submitted with the fence, which is waited
-        // for and reset before returning.
-        unsafe {
-            d.reset_command_pool(self.command_pool, vk::CommandPoolResetFlags::empty())
-                .vk("resetting the distortion commands")?;
-            d.begin_command_buffer(
-                cmd,
-                &vk::CommandBufferBeginInfo::default()
-                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )
-            .vk("beginning the distortion commands")?;
-            record(self, cmd);
-            d.end_command_buffer(cmd)
-                .vk("ending the distortion commands")?;
-            let cbs = [cmd];
-            d.queue_submit(
-                self.ctx.queue,
-                &[vk::SubmitInfo::default().command_buffers(&cbs)],
-                self.fence,
-            )
-            .vk("submitting the distortion preview")?;
-            let waited = d
-                .wait_for_fences(&[self.fence], true, u64::MAX)
-                .vk("waiting for the distortion preview");
-            d.reset_fences(&[self.fence])
-                .vk("resetting the distortion fence")?;
-            waited
-        }
     }
 
     /// Upload (first run only), then both eyes' panel images between two
@@ -703,9 +649,7 @@ impl Drop for DistortionPreview {
         // SAFETY: every submission was waited for; nothing is in use.
         unsafe {
             let _ = d.device_wait_idle();
-            d.destroy_fence(self.fence, None);
             d.destroy_query_pool(self.queries, None);
-            d.destroy_command_pool(self.command_pool, None);
             d.destroy_pipeline(self.pipeline, None);
             d.destroy_descriptor_pool(self.pool, None);
             d.destroy_pipeline_layout(self.layout, None);

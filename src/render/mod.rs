@@ -26,6 +26,7 @@ pub mod driver;
 pub mod passes;
 pub mod scene_gpu;
 pub mod shading_rate;
+pub mod timewarp;
 pub mod uniforms;
 
 pub use crate::gpu::shaders::shader_modules;
@@ -273,7 +274,7 @@ impl Renderer {
             samples,
             config.stereo == StereoMode::Multiview,
             SetOptions {
-                keep_depth: output.is_some_and(|o| o.depth),
+                keep_depth: output.is_some_and(|o| o.depth) || config.timewarp.is_some(),
                 rdm_fill: config.rdm.is_some() && config.rdm_fill,
                 sampled: false,
                 occlusion: config.occlusion,
@@ -902,6 +903,13 @@ impl Renderer {
     pub fn read_images(&mut self) -> Result<[image::RgbaImage; 2]> {
         self.finish()?;
         self.readback.images(self.extent)
+    }
+
+    /// The last read-back frame's depth per eye (reverse-Z), when the
+    /// renderer keeps its depth (`timewarp`) and renders headless.
+    pub fn read_depth(&mut self) -> Result<[Vec<f32>; 2]> {
+        self.finish()?;
+        self.readback.depth(self.extent, self.ctx.caps.depth_format)
     }
 
     /// Whether this device offers per-view render areas

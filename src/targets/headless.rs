@@ -42,6 +42,9 @@ pub struct RenderJob {
     /// `--preview distorted`: also write what the panels show
     /// (`left_distorted.png`, `right_distorted.png`), drawn by this method.
     pub distorted: Option<crate::render::distortion::Method>,
+    /// With `timewarp=K`: the head's turn rate along the measured frames
+    /// (degrees per second about the vertical axis).
+    pub head_turn_deg_s: f64,
 }
 
 /// The distortion preview's figures (`preview` in stats.json).
@@ -163,27 +166,14 @@ pub struct RenderStats {
     /// With `--preview distorted`: the distortion preview's figures.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub preview: Option<PreviewStats>,
+    /// With `timewarp=K`: the warp's error against the truly rendered
+    /// frames, its holes and its GPU cost (filled in by
+    /// `bench::timewarp::measure`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub timewarp: Option<crate::render::timewarp::TimewarpStats>,
 }
 
-/// Median and 95th percentile of a series.
-#[derive(Clone, Copy, Debug, Default, serde::Serialize)]
-pub struct Percentiles {
-    /// Median.
-    pub median: f64,
-    /// 95th percentile (nearest rank).
-    pub p95: f64,
-}
-
-impl Percentiles {
-    /// Of `v` (unsorted; nearest rank, as [`crate::stats::Summary`]).
-    pub fn of(v: &[f64]) -> Percentiles {
-        let s = crate::stats::Summary::of(v);
-        Percentiles {
-            median: s.p50,
-            p95: s.p95,
-        }
-    }
-}
+pub use crate::stats::Percentiles;
 
 /// GPU ms of the floor frames.
 #[derive(Clone, Copy, Debug, serde::Serialize)]
@@ -479,6 +469,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
+        timewarp: None,
     };
     drop(driver);
     write_json(&job.out.join("stats.json"), &stats)?;

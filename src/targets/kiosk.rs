@@ -165,6 +165,7 @@ impl Kiosk {
         let mut c = RenderConfig::default();
         c.apply_opts(&raw.opt, &names)
             .and_then(|()| c.validate())
+            .and_then(|()| c.refuse_timewarp("run --kiosk"))
             .map_err(|e| format!("opt: {e}"))?;
         let toggles = match &raw.toggles {
             None => Toggle::ALL.to_vec(),

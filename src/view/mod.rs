@@ -12,6 +12,7 @@ pub mod lod;
 pub mod mffr;
 pub mod profile;
 pub mod projection;
+pub mod reproject;
 pub(crate) mod strict;
 pub mod superfrustum;
 

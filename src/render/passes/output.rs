@@ -187,6 +187,8 @@ impl OutputCopy {
 #[derive(Default)]
 pub struct Readback {
     buffer: Option<Buffer>,
+    /// Whether the last read-back frame's depth follows its colours.
+    depth: bool,
 }
 
 impl Readback {
@@ -209,7 +211,10 @@ impl Readback {
         output: Option<&FrameOutput>,
     ) -> Result<()> {
         let (w, h) = (extent.width as u64, extent.height as u64);
-        let size = w * h * 4 * 2;
+        // Headless frames whose depth is kept also read it back, after the
+        // colours (4 bytes a texel for both depth formats).
+        let depth = output.is_none() && targets.sets.iter().all(|s| s.depth_output().is_some());
+        let size = w * h * 4 * 2 * if depth { 2 } else { 1 };
         if self.buffer.as_ref().is_none_or(|b| b.size < size) {
             if let Some(old) = self.buffer.take() {
                 ring.defer(Garbage::Buffer(old));
@@ -271,6 +276,44 @@ impl Readback {
             copies.push((image, copy));
             offset += w * h * 4 * layers as u64;
         }
+        self.depth = depth;
+        if depth {
+            let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+            // Written by the depth tests (kept depth at 1 sample) or by the
+            // depth resolve, which runs in the colour-output stage with
+            // colour-attachment writes.
+            let rendered = Use {
+                layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+                stage: vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
+                    | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
+                access: vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
+                    | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
+            };
+            let read = Use {
+                layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                stage: vk::PipelineStageFlags2::COPY,
+                access: vk::AccessFlags2::TRANSFER_READ,
+            };
+            for set in &targets.sets {
+                let img = set.depth_output().expect("checked above");
+                let layers = set.resolve.layers;
+                to_src.push(barrier::image(img.image, ds, layers, rendered, read));
+                let done = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..read
+                };
+                let again = Use {
+                    access: vk::AccessFlags2::NONE,
+                    ..rendered
+                };
+                back.push(barrier::image(img.image, ds, layers, done, again));
+                let mut copy = barrier::color_copy(offset, layers, w as u32, h as u32);
+                copy.image_subresource.aspect_mask = vk::ImageAspectFlags::DEPTH;
+                copies.push((img.image, copy));
+                offset += w * h * 4 * layers as u64;
+            }
+        }
         let to_host = [vk::BufferMemoryBarrier2::default()
             .src_stage_mask(vk::PipelineStageFlags2::COPY)
             .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
@@ -321,6 +364,41 @@ impl Readback {
             (Some(l), Some(r)) => Ok([l, r]),
             _ => Err(Error::Gpu("readback buffer too small".into())),
         }
+    }
+
+    /// The depth of the last read-back frame per eye (left, right), as
+    /// reverse-Z values in [0, 1], when the renderer kept its depth
+    /// (`format` is the depth-stencil format: D32 depth reads as floats,
+    /// D24 as the low 24 bits of each texel).
+    pub fn depth(&mut self, extent: vk::Extent2D, format: vk::Format) -> Result<[Vec<f32>; 2]> {
+        if !self.depth {
+            return Err(Error::Gpu("the frame's depth was not read back".into()));
+        }
+        let layer = (extent.width * extent.height) as usize;
+        let data = self
+            .buffer
+            .as_mut()
+            .and_then(|b| b.mapped())
+            .ok_or_else(|| Error::Gpu("no frame was read back".into()))?;
+        let start = layer * 4 * 2;
+        let words = data
+            .get(start..start + layer * 4 * 2)
+            .ok_or_else(|| Error::Gpu("readback buffer too small".into()))?;
+        let value = |c: &[u8]| {
+            let bits = u32::from_le_bytes([c[0], c[1], c[2], c[3]]);
+            if format == vk::Format::D24_UNORM_S8_UINT {
+                (bits & 0x00FF_FFFF) as f32 / 16_777_215.0
+            } else {
+                f32::from_bits(bits)
+            }
+        };
+        let eye = |i: usize| -> Vec<f32> {
+            words[i * layer * 4..(i + 1) * layer * 4]
+                .chunks_exact(4)
+                .map(value)
+                .collect()
+        };
+        Ok([eye(0), eye(1)])
     }
 
     /// Destroys the buffer; the device must be idle.

@@ -318,13 +318,13 @@ impl Lens {
         finite("unit", &self.unit)?;
         finite("tangent", &self.tangent)?;
         finite("axis", &self.axis)?;
-        finite("r_max", &[self.r_max])?;
         if self.unit.iter().any(|&u| u <= 0.0) || self.tangent.iter().any(|&t| t <= 0.0) {
             return Err(format!(
                 "lens: `unit` {:?} and `tangent` {:?} must be positive",
                 self.unit, self.tangent
             ));
         }
+        finite("r_max", &[self.r_max])?;
         if self.r_max <= 0.0 || self.r_max > 1e3 {
             return Err(format!(
                 "lens: `r_max` = {} must be in (0, 1000]",
