@@ -1,4 +1,4 @@
-//! The distortion preview on lavapipe, with validation: the three methods
+//! The distortion preview on lavapipe, with validation: the four methods
 //! agree, every panel pixel shows the eye-image point the lens model gives
 //! for each colour channel, a straight line bends the way a barrel lens
 //! bends it, and a profile without a lens is one error.
@@ -14,7 +14,12 @@ use vergence::view::distortion::{eye_uv, Lens};
 use vergence::view::profile::HmdProfile;
 use vergence::view::Fov;
 
-const METHODS: [Method; 3] = [Method::Fragment, Method::Grid, Method::Mesh];
+const METHODS: [Method; 4] = [
+    Method::Fragment,
+    Method::Grid,
+    Method::Mesh,
+    Method::Compute,
+];
 
 fn lenses(p: &HmdProfile) -> ([&Lens; 2], [&Fov; 2]) {
     let l = |i: usize| p.views[i].lens.as_ref().expect("lens");
@@ -61,7 +66,7 @@ fn gradient(w: u32, h: u32) -> image::RgbaImage {
 }
 
 #[test]
-fn the_three_methods_agree_on_a_rendered_scene() {
+fn the_four_methods_agree_on_a_rendered_scene() {
     let ctx = common::context();
     let scene = common::load("factory:3000");
     for name in ["vive", "rift-dk1"] {
@@ -84,10 +89,10 @@ fn the_three_methods_agree_on_a_rendered_scene() {
         let fov = &p.views[0].fov;
         let ppd = (pw as f64 / (fov.right - fov.left).to_degrees())
             .max(vergence::bench::metrics::MIN_FLIP_PPD) as f32;
-        let [fragment, grid, mesh] = [&out[0], &out[1], &out[2]];
+        let [fragment, grid, mesh, compute] = [&out[0], &out[1], &out[2], &out[3]];
         for eye in 0..2 {
-            let images = [&fragment[eye], &grid[eye], &mesh[eye]];
-            for (a, b) in [(0, 1), (0, 2), (1, 2)] {
+            let images = [&fragment[eye], &grid[eye], &mesh[eye], &compute[eye]];
+            for (a, b) in [(0, 1), (0, 2), (1, 2), (0, 3)] {
                 let f = flip(images[a], images[b], ppd).unwrap();
                 assert!(
                     f.mean <= 0.01,

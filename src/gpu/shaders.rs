@@ -84,6 +84,8 @@ pub static DISTORT_MESH_VERT: Module = spirv!("distort_mesh.vert");
 /// Distortion preview (c): three samples at the baked uvs.
 pub static DISTORT_MESH_FRAG: Module = spirv!("distort_mesh.frag");
 
+/// Distortion preview (d): the lens per panel pixel in compute.
+pub static DISTORT_COMPUTE_COMP: Module = spirv!("distort_compute.comp");
 /// Timewarp: forward reprojection with depth (keys, then colours).
 pub static TIMEWARP_SCATTER_COMP: Module = spirv!("timewarp_scatter.comp");
 /// Timewarp: borders, cracks and holes after the scatter.
@@ -92,7 +94,7 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 27] = [
+pub static ALL: [&Module; 28] = [
     &SCENE_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
@@ -117,6 +119,7 @@ pub static ALL: [&Module; 27] = [
     &DISTORT_GRID_FRAG,
     &DISTORT_MESH_VERT,
     &DISTORT_MESH_FRAG,
+    &DISTORT_COMPUTE_COMP,
     &TIMEWARP_SCATTER_COMP,
     &TIMEWARP_RESOLVE_COMP,
     &TIMEWARP_ROTATE_COMP,

@@ -12,7 +12,10 @@
 //!   aberration in the fragment shader;
 //! - [`Method::Mesh`]: a mesh baked on the CPU
 //!   ([`crate::view::distortion::mesh`]) with per-channel uvs in its
-//!   vertex attributes.
+//!   vertex attributes;
+//! - [`Method::Compute`] (vergence's fourth): the per-fragment math in a
+//!   compute shader writing a storage image, for GPUs whose rasterizer is
+//!   the bottleneck (the H200's is).
 //!
 //! Each draw is timed with two timestamps around both eyes, so the figure
 //! is the distortion's own GPU cost.
@@ -39,6 +42,8 @@ pub enum Method {
     Grid,
     /// A pre-baked mesh with per-channel uvs.
     Mesh,
+    /// The lens per panel pixel in a compute shader.
+    Compute,
 }
 
 impl Method {
@@ -48,6 +53,7 @@ impl Method {
             Method::Fragment => "fragment",
             Method::Grid => "grid",
             Method::Mesh => "mesh",
+            Method::Compute => "compute",
         }
     }
 }
@@ -110,6 +116,13 @@ impl LensParams {
     }
 }
 
+/// The stages that read the push constants.
+const STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
+    vk::ShaderStageFlags::VERTEX.as_raw()
+        | vk::ShaderStageFlags::FRAGMENT.as_raw()
+        | vk::ShaderStageFlags::COMPUTE.as_raw(),
+);
+
 /// The distortion preview of one HMD's two eyes.
 pub struct DistortionPreview {
     ctx: Arc<Context>,
@@ -146,6 +159,27 @@ pub struct PreviewOutput {
 }
 
 const FORMAT: vk::Format = vk::Format::R8G8B8A8_SRGB;
+/// The compute method's panel format: storage images have no sRGB format,
+/// so the shader encodes and stores the bytes an sRGB target would hold.
+const STORAGE_FORMAT: vk::Format = vk::Format::R8G8B8A8_UNORM;
+
+/// The eye images as the graphics methods' fragment shaders and the
+/// compute method read them.
+const SOURCE_READ: Use = Use {
+    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    stage: vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::FRAGMENT_SHADER.as_raw()
+            | vk::PipelineStageFlags2::COMPUTE_SHADER.as_raw(),
+    ),
+    access: vk::AccessFlags2::SHADER_SAMPLED_READ,
+};
+
+/// The compute method's panel image while it is written.
+const STORAGE_WRITE: Use = Use {
+    layout: vk::ImageLayout::GENERAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
+};
 
 impl DistortionPreview {
     /// Builds the preview for `lenses` (left, right) and their views'
@@ -191,16 +225,22 @@ impl DistortionPreview {
                 category: "preview",
             },
         )?;
+        let compute = method == Method::Compute;
+        let (target_format, target_usage) = if compute {
+            (STORAGE_FORMAT, vk::ImageUsageFlags::STORAGE)
+        } else {
+            (FORMAT, vk::ImageUsageFlags::COLOR_ATTACHMENT)
+        };
         let target = Image::new(
             ctx,
             &ImageDesc {
                 name: "distortion panel",
-                format: FORMAT,
+                format: target_format,
                 extent: panel,
                 layers: 2,
                 mips: 1,
                 samples: vk::SampleCountFlags::TYPE_1,
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC,
+                usage: target_usage | vk::ImageUsageFlags::TRANSFER_SRC,
                 aspect: color,
                 category: "preview",
             },
@@ -209,7 +249,7 @@ impl DistortionPreview {
             Image::make_view(
                 ctx,
                 target.image,
-                FORMAT,
+                target_format,
                 color,
                 vk::ImageViewType::TYPE_2D,
                 layer,
@@ -266,7 +306,7 @@ impl DistortionPreview {
         } else {
             None
         };
-        let stages = vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT;
+        let stages = STAGES;
         // SAFETY: plain object creation on a live device; everything is
         // owned by the returned value and destroyed in Drop.
         let (sampler, set_layout, layout, pool, set) = unsafe {
@@ -282,11 +322,18 @@ impl DistortionPreview {
                     None,
                 )
                 .vk("creating the distortion sampler")?;
-            let bindings = [vk::DescriptorSetLayoutBinding::default()
-                .binding(0)
-                .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::FRAGMENT)];
+            let bindings = [
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(0)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE),
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(1)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .descriptor_count(1)
+                    .stage_flags(vk::ShaderStageFlags::COMPUTE),
+            ];
             let set_layout = d
                 .create_descriptor_set_layout(
                     &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
@@ -307,10 +354,16 @@ impl DistortionPreview {
                     None,
                 )
                 .vk("creating the distortion pipeline layout")?;
-            let sizes = [vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                descriptor_count: 1,
-            }];
+            let sizes = [
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                    descriptor_count: 1,
+                },
+                vk::DescriptorPoolSize {
+                    ty: vk::DescriptorType::STORAGE_IMAGE,
+                    descriptor_count: 1,
+                },
+            ];
             let pool = d
                 .create_descriptor_pool(
                     &vk::DescriptorPoolCreateInfo::default()
@@ -335,10 +388,26 @@ impl DistortionPreview {
                 .dst_binding(0)
                 .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
                 .image_info(&info);
-            d.update_descriptor_sets(&[write], &[]);
+            let storage = [vk::DescriptorImageInfo::default()
+                .image_view(target.view)
+                .image_layout(vk::ImageLayout::GENERAL)];
+            if compute {
+                let w = vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
+                    .image_info(&storage);
+                d.update_descriptor_sets(&[write, w], &[]);
+            } else {
+                d.update_descriptor_sets(&[write], &[]);
+            }
             (sampler, set_layout, layout, pool, set)
         };
         let (vertex, fragment) = match method {
+            Method::Compute => (
+                &shaders::DISTORT_FULLSCREEN_VERT,
+                &shaders::DISTORT_FRAGMENT_FRAG,
+            ),
             Method::Fragment => (
                 &shaders::DISTORT_FULLSCREEN_VERT,
                 &shaders::DISTORT_FRAGMENT_FRAG,
@@ -366,28 +435,37 @@ impl DistortionPreview {
         } else {
             (Vec::new(), Vec::new())
         };
-        let pipeline = GraphicsPipelineDesc {
-            name: "distortion preview",
-            vertex: &vertex.words(),
-            fragment: &fragment.words(),
-            specialization: Vec::new(),
-            bindings,
-            attributes,
-            cull_mode: vk::CullModeFlags::NONE,
-            depth_test: false,
-            depth_write: false,
-            depth_compare: vk::CompareOp::ALWAYS,
-            stencil: None,
-            blend: false,
-            color_write: true,
-            samples: vk::SampleCountFlags::TYPE_1,
-            color_format: FORMAT,
-            depth_format: vk::Format::UNDEFINED,
-            view_mask: 0,
-            layout,
-            shading_rate_attachment: false,
-        }
-        .build(ctx)?;
+        let pipeline = if compute {
+            crate::gpu::pipeline::compute_pipeline(
+                ctx,
+                layout,
+                &shaders::DISTORT_COMPUTE_COMP.words(),
+                "distortion preview (compute)",
+            )?
+        } else {
+            GraphicsPipelineDesc {
+                name: "distortion preview",
+                vertex: &vertex.words(),
+                fragment: &fragment.words(),
+                specialization: Vec::new(),
+                bindings,
+                attributes,
+                cull_mode: vk::CullModeFlags::NONE,
+                depth_test: false,
+                depth_write: false,
+                depth_compare: vk::CompareOp::ALWAYS,
+                stencil: None,
+                blend: false,
+                color_write: true,
+                samples: vk::SampleCountFlags::TYPE_1,
+                color_format: FORMAT,
+                depth_format: vk::Format::UNDEFINED,
+                view_mask: 0,
+                layout,
+                shading_rate_attachment: false,
+            }
+            .build(ctx)?
+        };
         let queries = crate::gpu::query::timestamp_pair(ctx)?;
         Ok(DistortionPreview {
             ctx: ctx.clone(),
@@ -514,7 +592,7 @@ impl DistortionPreview {
                         color,
                         2,
                         Use::TRANSFER_DST,
-                        Use::SAMPLED,
+                        SOURCE_READ,
                     )]),
                 );
             }
@@ -526,10 +604,32 @@ impl DistortionPreview {
                     color,
                     2,
                     Use::TRANSFER_SRC.discarded(),
-                    Use::COLOR_ATTACHMENT,
+                    self.target_use(),
                 )]),
             );
             d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 0);
+            if self.method == Method::Compute {
+                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
+                d.cmd_bind_descriptor_sets(
+                    cmd,
+                    vk::PipelineBindPoint::COMPUTE,
+                    self.layout,
+                    0,
+                    &[self.set],
+                    &[],
+                );
+                for params in &self.params {
+                    d.cmd_push_constants(cmd, self.layout, STAGES, 0, as_bytes(&[*params]));
+                    d.cmd_dispatch(
+                        cmd,
+                        self.panel.width.div_ceil(8),
+                        self.panel.height.div_ceil(8),
+                        1,
+                    );
+                }
+                d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 1);
+                return;
+            }
             let area = vk::Rect2D {
                 offset: vk::Offset2D { x: 0, y: 0 },
                 extent: self.panel,
@@ -574,13 +674,7 @@ impl DistortionPreview {
                     &[self.set],
                     &[],
                 );
-                d.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::VERTEX | vk::ShaderStageFlags::FRAGMENT,
-                    0,
-                    as_bytes(&[self.params[eye]]),
-                );
+                d.cmd_push_constants(cmd, self.layout, STAGES, 0, as_bytes(&[self.params[eye]]));
                 match (&o.meshes, self.method) {
                     (Some(meshes), _) => {
                         let (v, ix, count) = &meshes[eye];
@@ -597,13 +691,23 @@ impl DistortionPreview {
         }
     }
 
+    /// How the panel image is written: as a colour attachment, or as a
+    /// storage image by the compute method.
+    fn target_use(&self) -> Use {
+        if self.method == Method::Compute {
+            STORAGE_WRITE
+        } else {
+            Use::COLOR_ATTACHMENT
+        }
+    }
+
     /// Copies both panel images into the read-back buffer.
     fn record_readback(&self, cmd: vk::CommandBuffer) {
         let d = &self.ctx.device;
         let o = self.owned();
         let color = vk::ImageAspectFlags::COLOR;
         // SAFETY: recording into an idle command buffer; the panel image was
-        // last written as a colour attachment by the previous submission.
+        // last written by the previous submission's draws or dispatches.
         unsafe {
             d.cmd_pipeline_barrier2(
                 cmd,
@@ -611,7 +715,7 @@ impl DistortionPreview {
                     o.target.image,
                     color,
                     2,
-                    Use::COLOR_ATTACHMENT,
+                    self.target_use(),
                     Use::TRANSFER_SRC,
                 )]),
             );
