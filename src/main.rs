@@ -120,7 +120,7 @@ struct RenderArgs {
     /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
     #[arg(long, default_value = "factory")]
     scene: String,
-    /// HMD profile: a name in manifests/hmd/ (monado-sim, valve-index, quest-3, pimax-wide) or a path.
+    /// HMD profile: a name in manifests/hmd/ (monado-sim, valve-index, quest-3, pimax-wide, vive, rift-dk1) or a path.
     #[arg(long, default_value = DEFAULT_PROFILE)]
     hmd: String,
     /// Head pose: x,y,z (metres), yaw, pitch, roll (degrees).
