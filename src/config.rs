@@ -142,6 +142,10 @@ pub struct RenderConfig {
     /// source that the frames between are reprojected from, and each
     /// reprojection is compared with the frame truly rendered there.
     pub timewarp: Option<Timewarp>,
+    /// `rdm=auto`: the RDM radius is still to be derived from the HMD
+    /// profile's lens ([`RenderConfig::resolve_lens`]); a renderer refuses
+    /// a configuration where it is not.
+    pub rdm_auto: bool,
 }
 
 /// The timewarp simulation's settings.
@@ -245,6 +249,7 @@ impl Default for RenderConfig {
             lod: None,
             section: None,
             timewarp: None,
+            rdm_auto: false,
         }
     }
 }
@@ -418,12 +423,19 @@ impl RenderConfig {
                     self.rdm = Some(self.rdm.unwrap_or(DEFAULT_RDM_RADIUS));
                     self.rdm_fill = false;
                 }
+                "rdm=auto" => {
+                    self.rdm = Some(DEFAULT_RDM_RADIUS);
+                    self.rdm_auto = true;
+                }
                 r if r.starts_with("rdm=") => match r["rdm=".len()..].parse::<f32>() {
-                    Ok(v) if v.is_finite() && v > 0.0 && v < 1.5 => self.rdm = Some(v),
+                    Ok(v) if v.is_finite() && v > 0.0 && v < 1.5 => {
+                        self.rdm = Some(v);
+                        self.rdm_auto = false;
+                    }
                     _ => {
                         return Err(Error::config(
                             "--opt",
-                            format!("'{r}': expected rdm=R with 0 < R < 1.5 (NDC radius)"),
+                            format!("'{r}': expected rdm=R with 0 < R < 1.5 (NDC radius) or rdm=auto"),
                         ))
                     }
                 },
@@ -467,6 +479,43 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
+    /// Resolves `rdm=auto` for `profile` (None: a runtime's views, which
+    /// carry no lens): the radius becomes the largest, over the views, of
+    /// the NDC radius beyond which the lens reads at least √2 eye pixels
+    /// per panel pixel ([`crate::view::distortion::density`]), so masking
+    /// every other quad there drops only over-rendered pixels. One error
+    /// when the profile has no lens or the lens is nowhere dense enough.
+    pub fn resolve_lens(
+        &mut self,
+        profile: Option<&crate::view::profile::HmdProfile>,
+    ) -> Result<()> {
+        if !self.rdm_auto {
+            return Ok(());
+        }
+        let no_lens = |name: &str| {
+            Error::config(
+                "--opt",
+                format!("rdm=auto derives its radius from the HMD profile's lens, and {name} has no [views.lens] table; give rdm=R"),
+            )
+        };
+        let profile = profile.ok_or_else(|| no_lens("the OpenXR runtime's view"))?;
+        let mut radius = 0.0f64;
+        for v in &profile.views {
+            let lens = v.lens.as_ref().ok_or_else(|| no_lens(&profile.name))?;
+            let d = crate::view::distortion::density::density(lens, &v.fov, v.resolution, 4);
+            let r = d.rdm_radius.ok_or_else(|| {
+                Error::config(
+                    "--opt",
+                    format!("rdm=auto: the {} lens reads under √2 eye pixels per panel pixel everywhere, so no radius masks only over-rendered pixels", profile.name),
+                )
+            })?;
+            radius = radius.max(r);
+        }
+        self.rdm = Some(radius as f32);
+        self.rdm_auto = false;
+        Ok(())
+    }
+
     /// One error when `timewarp` is set for `command`, which does not
     /// measure it (only `render --frames` does).
     pub fn refuse_timewarp(&self, command: &str) -> Result<()> {
@@ -509,7 +558,12 @@ impl RenderConfig {
         if self.gaze != [0.0, 0.0] {
             v.push(format!("gaze={}:{}", self.gaze[0], self.gaze[1]));
         }
-        if let Some(r) = self.rdm {
+        if self.rdm_auto {
+            v.push("rdm=auto".into());
+            if !self.rdm_fill {
+                v.push("rdm-nofill".into());
+            }
+        } else if let Some(r) = self.rdm {
             v.push(format!("rdm={r}"));
             if !self.rdm_fill {
                 v.push("rdm-nofill".into());
@@ -657,5 +711,53 @@ mod tests {
                 "{e}"
             );
         }
+    }
+
+    #[test]
+    fn rdm_auto_takes_its_radius_from_the_lens_density() {
+        use crate::view::profile::HmdProfile;
+        let auto = || {
+            let mut c = RenderConfig::default();
+            c.apply_opts("rdm=auto", &cull_names()).unwrap();
+            c
+        };
+        assert!(auto().opt_string().contains("rdm=auto"));
+        let vive = HmdProfile::load("vive").unwrap();
+        let mut c = auto();
+        c.resolve_lens(Some(&vive)).unwrap();
+        assert!(!c.rdm_auto);
+        // The largest of the views' radii, each from the density figures.
+        let expect = vive
+            .views
+            .iter()
+            .map(|v| {
+                crate::view::distortion::density::density(
+                    v.lens.as_ref().unwrap(),
+                    &v.fov,
+                    v.resolution,
+                    4,
+                )
+                .rdm_radius
+                .unwrap()
+            })
+            .fold(0.0, f64::max);
+        assert_eq!(c.rdm, Some(expect as f32));
+        assert!((0.6..0.9).contains(&expect), "{expect}");
+        let e = auto()
+            .resolve_lens(Some(&HmdProfile::load("valve-index").unwrap()))
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("valve-index") && e.contains("[views.lens]"),
+            "{e}"
+        );
+        let e = auto().resolve_lens(None).unwrap_err().to_string();
+        assert!(e.contains("OpenXR"), "{e}");
+        // A plain radius after auto wins, and needs no lens.
+        let mut c = RenderConfig::default();
+        c.apply_opts("rdm=auto", &cull_names()).unwrap();
+        c.apply_opts("rdm=0.4", &cull_names()).unwrap();
+        assert!(!c.rdm_auto && c.rdm == Some(0.4));
+        c.resolve_lens(None).unwrap();
     }
 }

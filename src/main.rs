@@ -193,8 +193,10 @@ struct FrameOpts {
     height: Option<u32>,
     /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
     /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
-    /// rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye,
-    /// mffr-no-split, gpu-cull, occlusion and lod[=PX] (both with gpu-cull)
+    /// rdm=auto (the radius from the profile's lens), rdm-nofill, mffr[=D],
+    /// mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull,
+    /// occlusion and lod[=PX] (both with gpu-cull), timewarp=K,
+    /// timewarp-rotation, timewarp-fill (render --frames only)
     /// and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
     /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]
@@ -474,6 +476,14 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 if let Some(log) = &k.log {
                     vergence::targets::kiosk::start_log(log)?;
                 }
+            }
+            if config.rdm_auto {
+                // Only the headless fallback profile has a lens; a
+                // runtime's views carry none.
+                let profile = (a.xr == XrMode::Headless)
+                    .then(|| HmdProfile::load(&a.hmd_fallback))
+                    .transpose()?;
+                config.resolve_lens(profile.as_ref())?;
             }
             let args = RunArgs {
                 scene,

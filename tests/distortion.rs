@@ -264,3 +264,32 @@ fn a_profile_without_a_lens_is_one_error_naming_it() {
         "{stderr}"
     );
 }
+
+#[test]
+fn rdm_auto_renders_with_the_radius_the_lens_density_gives() {
+    let out = common::scratch("distortion", "rdm-auto");
+    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:200",
+            "--hmd",
+            "vive",
+            "--width",
+            "96",
+            "--height",
+            "106",
+            "--opt",
+            "rdm=auto",
+            "--out",
+        ])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+    let r = stats["config"]["rdm"].as_f64().unwrap();
+    assert!((0.6..0.9).contains(&r), "{r}");
+    assert_eq!(stats["config"]["rdm_auto"], false);
+}

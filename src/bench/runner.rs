@@ -393,7 +393,8 @@ fn run_group(
         sanitize(&group.hmd),
         scale
     );
-    let reference_config = plan.reference_config()?;
+    let mut reference_config = plan.reference_config()?;
+    reference_config.resolve_lens(Some(profile))?;
     let mut reference_images: RefImages = Vec::new();
     let Some(mut reference) = measure(
         ctx,
@@ -418,7 +419,8 @@ fn run_group(
             fill_speedups(group);
             return Ok(false);
         }
-        let config = plan.config_for(c)?;
+        let mut config = plan.config_for(c)?;
+        config.resolve_lens(Some(profile))?;
         let compare = Comparison {
             reference: &reference_images,
             masks: &masks,

@@ -63,7 +63,9 @@ pub fn measure(job: &RenderJob) -> Result<TimewarpStats> {
         crate::gpu::Validation::from_env(),
     )?);
     let extent = headless::eye_extent(&profile, job.size);
-    let renderer = headless::new_renderer(&ctx, &scene, &job.config, extent)?;
+    let mut config = job.config.clone();
+    config.resolve_lens(Some(&profile))?;
+    let renderer = headless::new_renderer(&ctx, &scene, &config, extent)?;
     let near = renderer.config.near;
     let mut driver = FrameDriver::new(renderer, &scene)?;
     let head = match (&job.camera, job.pose) {

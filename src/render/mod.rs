@@ -183,6 +183,12 @@ impl Renderer {
         output: Option<OutputSpec>,
     ) -> Result<Renderer> {
         config.validate()?;
+        if config.rdm_auto {
+            return Err(Error::config(
+                "--opt",
+                "rdm=auto needs an HMD profile with a lens to derive its radius from (this path does not resolve it); give rdm=R",
+            ));
+        }
         if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384
         {
             return Err(Error::config(

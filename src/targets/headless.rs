@@ -322,6 +322,8 @@ pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2
 pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
+    let mut config = job.config.clone();
+    config.resolve_lens(Some(&profile))?;
     let lenses = match job.distorted {
         Some(_) => Some(profile_lenses(&profile)?),
         None => None,
@@ -329,7 +331,7 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     let (scene, load_ms) = load_scene(&job.scene)?;
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
-    let renderer = new_renderer(&ctx, &scene, &job.config, extent)?;
+    let renderer = new_renderer(&ctx, &scene, &config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
     let head = match (&job.camera, job.pose) {
         (Some(name), _) => scene_camera(&scene, name)?,

@@ -162,6 +162,8 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
     display_available()?;
     let profile = load_stereo_profile(&args.hmd)?;
     args.config.validate()?;
+    let mut config = args.config.clone();
+    config.resolve_lens(Some(&profile))?;
     let (scene, _) = load_scene(&args.scene)?;
     let extent = eye_extent(&profile, args.size);
     let shown = args.eyes.indices();
@@ -180,15 +182,15 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
     )?);
     let (display, handle) = window.handles()?;
     let mut presenter = Presenter::new(&ctx, display, handle, window.size(), Pacing::Vsync)?;
-    let slots = args.config.frames_in_flight.max(1) as usize;
-    let mut live = LiveConfig::new(args.config.clone(), args.save_config.clone());
+    let slots = config.frames_in_flight.max(1) as usize;
+    let mut live = LiveConfig::new(config.clone(), args.save_config.clone());
     window.set_title(&format!(
         "vergence view: {} ({}) [{}]",
         scene.name,
         profile.name,
         live.config.opt_string()
     ));
-    let result = EyeImages::new(&ctx, args.config.stereo, extent, slots).and_then(|images| {
+    let result = EyeImages::new(&ctx, config.stereo, extent, slots).and_then(|images| {
         let mut images = Some(images);
         let r = view_loop(
             args,
