@@ -201,9 +201,8 @@ fn a_straight_line_bows_outward_on_the_panel() {
 #[test]
 fn render_writes_the_panel_images_and_their_gpu_time() {
     let out = common::scratch("distortion", "cli");
-    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args([
-            "render",
+    let stats = common::render_cli(
+        &[
             "--scene",
             "factory:200",
             "--hmd",
@@ -218,20 +217,9 @@ fn render_writes_the_panel_images_and_their_gpu_time() {
             "grid",
             "--frames",
             "3",
-            "--out",
-        ])
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
-    for eye in ["left", "right"] {
-        let img = image::open(out.join(format!("{eye}_distorted.png")))
-            .unwrap()
-            .to_rgba8();
-        assert_eq!(img.dimensions(), (640, 800));
-    }
-    let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+        ],
+        &out,
+    );
     assert_eq!(stats["preview"]["mode"], "distorted");
     assert_eq!(stats["preview"]["method"], "grid");
     assert_eq!(stats["preview"]["panel"], serde_json::json!([640, 800]));
@@ -268,9 +256,8 @@ fn a_profile_without_a_lens_is_one_error_naming_it() {
 #[test]
 fn rdm_auto_renders_with_the_radius_the_lens_density_gives() {
     let out = common::scratch("distortion", "rdm-auto");
-    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args([
-            "render",
+    let stats = common::render_cli(
+        &[
             "--scene",
             "factory:200",
             "--hmd",
@@ -281,14 +268,9 @@ fn rdm_auto_renders_with_the_radius_the_lens_density_gives() {
             "106",
             "--opt",
             "rdm=auto",
-            "--out",
-        ])
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+        ],
+        &out,
+    );
     let r = stats["config"]["rdm"].as_f64().unwrap();
     assert!((0.6..0.9).contains(&r), "{r}");
     assert_eq!(stats["config"]["rdm_auto"], false);

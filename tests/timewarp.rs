@@ -230,9 +230,8 @@ fn holes_open_only_next_to_depth_edges() {
 #[test]
 fn render_measures_timewarp_along_a_turning_head() {
     let out = common::scratch("timewarp", "cli");
-    let status = Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args([
-            "render",
+    let stats = common::render_cli(
+        &[
             "--scene",
             "factory:500",
             "--hmd",
@@ -246,15 +245,10 @@ fn render_measures_timewarp_along_a_turning_head() {
             "--head-turn",
             "120",
             "--opt",
-            "timewarp=3,timewarp-fill",
-            "--out",
-        ])
-        .arg(&out)
-        .status()
-        .unwrap();
-    assert!(status.success());
-    let stats: serde_json::Value =
-        serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
+            "timewarp=3, timewarp-fill",
+        ],
+        &out,
+    );
     let t = &stats["timewarp"];
     assert_eq!(t["k"], 3);
     assert_eq!(t["variant"], "fill");

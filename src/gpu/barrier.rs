@@ -137,3 +137,13 @@ pub fn color_copy(offset: u64, layers: u32, width: u32, height: u32) -> vk::Buff
             depth: 1,
         })
 }
+
+/// The barrier that makes copies into host-visible memory readable by the
+/// host once the submission's fence has signalled.
+pub fn copies_to_host() -> vk::MemoryBarrier2<'static> {
+    vk::MemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)
+}

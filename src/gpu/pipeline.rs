@@ -226,3 +226,113 @@ pub fn compute_pipeline(
         Ok(pipeline[0])
     }
 }
+
+/// One descriptor set with its layout and pool, and a pipeline layout over
+/// it with one push-constant range: what a tool that runs outside the frame
+/// (the distortion preview, the timewarp simulation) binds.
+pub struct SingleSet {
+    /// The set's layout.
+    pub set_layout: vk::DescriptorSetLayout,
+    /// The pipeline layout (the set, then the push constants).
+    pub layout: vk::PipelineLayout,
+    /// The pool the set comes from.
+    pub pool: vk::DescriptorPool,
+    /// The set.
+    pub set: vk::DescriptorSet,
+}
+
+impl SingleSet {
+    /// Creates the set for `bindings` (binding i: one descriptor of the
+    /// given type, seen by the given stages) and a pipeline layout with
+    /// `push` bytes of push constants for `push_stages`; `what` names it in
+    /// errors.
+    pub fn new(
+        ctx: &Context,
+        bindings: &[(vk::DescriptorType, vk::ShaderStageFlags)],
+        push_stages: vk::ShaderStageFlags,
+        push: u32,
+        what: &str,
+    ) -> Result<SingleSet> {
+        let d = &ctx.device;
+        let layout_bindings: Vec<_> = bindings
+            .iter()
+            .enumerate()
+            .map(|(i, &(ty, stages))| {
+                vk::DescriptorSetLayoutBinding::default()
+                    .binding(i as u32)
+                    .descriptor_type(ty)
+                    .descriptor_count(1)
+                    .stage_flags(stages)
+            })
+            .collect();
+        let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
+        for &(ty, _) in bindings {
+            match sizes.iter_mut().find(|s| s.ty == ty) {
+                Some(s) => s.descriptor_count += 1,
+                None => sizes.push(vk::DescriptorPoolSize {
+                    ty,
+                    descriptor_count: 1,
+                }),
+            }
+        }
+        // SAFETY: plain object creation on a live device; the objects are
+        // owned by the returned value and destroyed by `destroy` (the
+        // ones made before a failure are leaked with the error, which ends
+        // the tool).
+        unsafe {
+            let set_layout = d
+                .create_descriptor_set_layout(
+                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                    None,
+                )
+                .vk(&format!("creating the {what} set layout"))?;
+            let ranges = [vk::PushConstantRange {
+                stage_flags: push_stages,
+                offset: 0,
+                size: push,
+            }];
+            let layouts = [set_layout];
+            let layout = d
+                .create_pipeline_layout(
+                    &vk::PipelineLayoutCreateInfo::default()
+                        .set_layouts(&layouts)
+                        .push_constant_ranges(&ranges),
+                    None,
+                )
+                .vk(&format!("creating the {what} pipeline layout"))?;
+            let pool = d
+                .create_descriptor_pool(
+                    &vk::DescriptorPoolCreateInfo::default()
+                        .max_sets(1)
+                        .pool_sizes(&sizes),
+                    None,
+                )
+                .vk(&format!("creating the {what} descriptor pool"))?;
+            let set = d
+                .allocate_descriptor_sets(
+                    &vk::DescriptorSetAllocateInfo::default()
+                        .descriptor_pool(pool)
+                        .set_layouts(&layouts),
+                )
+                .vk(&format!("allocating the {what} descriptor set"))?[0];
+            Ok(SingleSet {
+                set_layout,
+                layout,
+                pool,
+                set,
+            })
+        }
+    }
+
+    /// Destroys the pool (and the set), the layouts; the device must be
+    /// done with them.
+    pub fn destroy(&self, ctx: &Context) {
+        // SAFETY: the caller guarantees the GPU no longer uses them.
+        unsafe {
+            ctx.device.destroy_descriptor_pool(self.pool, None);
+            ctx.device.destroy_pipeline_layout(self.layout, None);
+            ctx.device
+                .destroy_descriptor_set_layout(self.set_layout, None);
+        }
+    }
+}

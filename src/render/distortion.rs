@@ -23,7 +23,7 @@
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
-use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::pipeline::{GraphicsPipelineDesc, SingleSet};
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::view::distortion::{mesh, Lens, Radial};
@@ -133,9 +133,8 @@ pub struct DistortionPreview {
     owned: Option<Owned>,
     target_views: [vk::ImageView; 2],
     sampler: vk::Sampler,
-    set_layout: vk::DescriptorSetLayout,
+    binding: SingleSet,
     layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     pipeline: vk::Pipeline,
     queries: vk::QueryPool,
@@ -306,10 +305,28 @@ impl DistortionPreview {
         } else {
             None
         };
-        let stages = STAGES;
         // SAFETY: plain object creation on a live device; everything is
         // owned by the returned value and destroyed in Drop.
-        let (sampler, set_layout, layout, pool, set) = unsafe {
+        let binding = SingleSet::new(
+            ctx,
+            &[
+                (
+                    vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                    vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE,
+                ),
+                (
+                    vk::DescriptorType::STORAGE_IMAGE,
+                    vk::ShaderStageFlags::COMPUTE,
+                ),
+            ],
+            STAGES,
+            std::mem::size_of::<LensParams>() as u32,
+            "distortion",
+        )?;
+        let (layout, set) = (binding.layout, binding.set);
+        // SAFETY: plain object creation and a descriptor write on a live
+        // device; the sampler is destroyed in Drop.
+        let sampler = unsafe {
             let sampler = d
                 .create_sampler(
                     &vk::SamplerCreateInfo::default()
@@ -322,63 +339,6 @@ impl DistortionPreview {
                     None,
                 )
                 .vk("creating the distortion sampler")?;
-            let bindings = [
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(0)
-                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE),
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(1)
-                    .descriptor_type(vk::DescriptorType::STORAGE_IMAGE)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE),
-            ];
-            let set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("creating the distortion set layout")?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: stages,
-                offset: 0,
-                size: std::mem::size_of::<LensParams>() as u32,
-            }];
-            let layouts = [set_layout];
-            let layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk("creating the distortion pipeline layout")?;
-            let sizes = [
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: 1,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_IMAGE,
-                    descriptor_count: 1,
-                },
-            ];
-            let pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(1)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("creating the distortion descriptor pool")?;
-            let set = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("allocating the distortion descriptor set")?[0];
             let info = [vk::DescriptorImageInfo::default()
                 .sampler(sampler)
                 .image_view(source.view)
@@ -401,7 +361,7 @@ impl DistortionPreview {
             } else {
                 d.update_descriptor_sets(&[write], &[]);
             }
-            (sampler, set_layout, layout, pool, set)
+            sampler
         };
         let (vertex, fragment) = match method {
             Method::Compute => (
@@ -482,9 +442,8 @@ impl DistortionPreview {
             }),
             target_views,
             sampler,
-            set_layout,
+            binding,
             layout,
-            pool,
             set,
             pipeline,
             queries,
@@ -731,16 +690,9 @@ impl DistortionPreview {
                     self.panel.height,
                 )],
             );
-            let to_host = [vk::BufferMemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)
-                .buffer(o.readback.buffer)
-                .size(vk::WHOLE_SIZE)];
             d.cmd_pipeline_barrier2(
                 cmd,
-                &vk::DependencyInfo::default().buffer_memory_barriers(&to_host),
+                &vk::DependencyInfo::default().memory_barriers(&[barrier::copies_to_host()]),
             );
         }
     }
@@ -755,14 +707,12 @@ impl Drop for DistortionPreview {
             let _ = d.device_wait_idle();
             d.destroy_query_pool(self.queries, None);
             d.destroy_pipeline(self.pipeline, None);
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
             d.destroy_sampler(self.sampler, None);
             for v in self.target_views {
                 d.destroy_image_view(v, None);
             }
         }
+        self.binding.destroy(&ctx);
         if let Some(o) = self.owned.take() {
             o.source.destroy(&ctx);
             o.target.destroy(&ctx);

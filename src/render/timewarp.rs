@@ -18,9 +18,10 @@
 //! are black and counted as border. The warp's GPU time is measured by two
 //! timestamps around its dispatches, the clear of its depth keys included.
 
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
+use crate::gpu::barrier;
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
-use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pipeline::{compute_pipeline, SingleSet};
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::view::reproject::{reprojection, rotation_only};
@@ -117,9 +118,8 @@ pub struct Timewarp {
     variant: Variant,
     extent: vk::Extent2D,
     buffers: Option<Buffers>,
-    set_layout: vk::DescriptorSetLayout,
+    binding: SingleSet,
     layout: vk::PipelineLayout,
-    pool: vk::DescriptorPool,
     set: vk::DescriptorSet,
     scatter: vk::Pipeline,
     resolve: vk::Pipeline,
@@ -170,90 +170,50 @@ impl Timewarp {
                 MemoryLocation::GpuToCpu,
             )?,
         };
-        let d = &ctx.device;
-        let bindings: Vec<_> = (0..7)
-            .map(|b| {
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(b)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE)
+        let storage = (
+            vk::DescriptorType::STORAGE_BUFFER,
+            vk::ShaderStageFlags::COMPUTE,
+        );
+        let binding = SingleSet::new(
+            ctx,
+            &[storage; 7],
+            vk::ShaderStageFlags::COMPUTE,
+            std::mem::size_of::<Push>() as u32,
+            "timewarp",
+        )?;
+        let (layout, set) = (binding.layout, binding.set);
+        let b = &buffers;
+        let all = [
+            &b.src_colour,
+            &b.src_depth,
+            &b.keys,
+            &b.out,
+            &b.counters,
+            &b.params,
+            &b.scatter,
+        ];
+        let infos: Vec<[vk::DescriptorBufferInfo; 1]> = all
+            .iter()
+            .map(|buf| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(buf.buffer)
+                    .range(vk::WHOLE_SIZE)]
             })
             .collect();
-        // SAFETY: plain object creation on a live device; owned by the
-        // returned value and destroyed in Drop.
-        let (set_layout, layout, pool, set) = unsafe {
-            let set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("creating the timewarp set layout")?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::COMPUTE,
-                offset: 0,
-                size: std::mem::size_of::<Push>() as u32,
-            }];
-            let layouts = [set_layout];
-            let layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk("creating the timewarp pipeline layout")?;
-            let sizes = [vk::DescriptorPoolSize {
-                ty: vk::DescriptorType::STORAGE_BUFFER,
-                descriptor_count: 7,
-            }];
-            let pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(1)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("creating the timewarp descriptor pool")?;
-            let set = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("allocating the timewarp descriptor set")?[0];
-            let b = &buffers;
-            let all = [
-                &b.src_colour,
-                &b.src_depth,
-                &b.keys,
-                &b.out,
-                &b.counters,
-                &b.params,
-                &b.scatter,
-            ];
-            let infos: Vec<[vk::DescriptorBufferInfo; 1]> = all
-                .iter()
-                .map(|buf| {
-                    [vk::DescriptorBufferInfo::default()
-                        .buffer(buf.buffer)
-                        .range(vk::WHOLE_SIZE)]
-                })
-                .collect();
-            let writes: Vec<_> = infos
-                .iter()
-                .enumerate()
-                .map(|(i, info)| {
-                    vk::WriteDescriptorSet::default()
-                        .dst_set(set)
-                        .dst_binding(i as u32)
-                        .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                        .buffer_info(info)
-                })
-                .collect();
-            d.update_descriptor_sets(&writes, &[]);
-            (set_layout, layout, pool, set)
-        };
+        let writes: Vec<_> = infos
+            .iter()
+            .enumerate()
+            .map(|(i, info)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(i as u32)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(info)
+            })
+            .collect();
+        // SAFETY: every write names a live buffer of this warp and the
+        // binding's own set.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
         let scatter = compute_pipeline(
             ctx,
             layout,
@@ -278,9 +238,8 @@ impl Timewarp {
             variant,
             extent,
             buffers: Some(buffers),
-            set_layout,
+            binding,
             layout,
-            pool,
             set,
             scatter,
             resolve,
@@ -479,14 +438,9 @@ impl Timewarp {
                     size: COUNTERS,
                 }],
             );
-            let to_host = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                .dst_access_mask(vk::AccessFlags2::HOST_READ)];
             d.cmd_pipeline_barrier2(
                 cmd,
-                &vk::DependencyInfo::default().memory_barriers(&to_host),
+                &vk::DependencyInfo::default().memory_barriers(&[barrier::copies_to_host()]),
             );
         }
     }
@@ -503,10 +457,8 @@ impl Drop for Timewarp {
             for p in [self.scatter, self.resolve, self.rotate] {
                 d.destroy_pipeline(p, None);
             }
-            d.destroy_descriptor_pool(self.pool, None);
-            d.destroy_pipeline_layout(self.layout, None);
-            d.destroy_descriptor_set_layout(self.set_layout, None);
         }
+        self.binding.destroy(&ctx);
         if let Some(b) = self.buffers.take() {
             for buf in [
                 b.src_colour,

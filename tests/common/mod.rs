@@ -49,6 +49,21 @@ pub fn fails_with_one_error(cmd: &mut std::process::Command) -> String {
     stderr
 }
 
+/// Runs `vergence render ARGS --out OUT` (the binary of this build),
+/// asserts it succeeded and returns the `stats.json` it wrote.
+pub fn render_cli(args: &[&str], out: &std::path::Path) -> serde_json::Value {
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .arg("render")
+        .args(args)
+        .arg("--out")
+        .arg(out)
+        .status()
+        .expect("vergence runs");
+    assert!(status.success(), "vergence render {args:?} failed");
+    let text = std::fs::read_to_string(out.join("stats.json")).expect("stats.json written");
+    serde_json::from_str(&text).expect("stats.json is JSON")
+}
+
 /// Validation must be on in tests; `VERGENCE_VALIDATION=required` (set by
 /// `cargo xtask test`) makes a missing layer an error.
 pub fn context() -> Arc<Context> {
