@@ -6,64 +6,16 @@
 
 mod common;
 
-use std::path::{Path, PathBuf};
-use std::process::{Child, Command, Stdio};
+use std::path::Path;
+use std::process::{Command, Stdio};
 use std::time::{Duration, Instant};
 
 fn vergence() -> Command {
     Command::new(env!("CARGO_BIN_EXE_vergence"))
 }
 
-fn on_path(program: &str) -> bool {
-    std::env::var_os("PATH")
-        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(program).is_file()))
-}
-
-/// An Xvfb server on its own display number, killed when dropped.
-struct Xvfb {
-    child: Child,
-    display: String,
-}
-
-impl Xvfb {
-    /// Starts one, or returns None (printing why) when Xvfb is missing.
-    fn start(test: &str) -> Option<Xvfb> {
-        if !on_path("Xvfb") {
-            println!("skipping {test}: Xvfb is not installed (apt-get install xvfb)");
-            return None;
-        }
-        // A display number per test process and test, so parallel tests
-        // and concurrent runs do not collide.
-        let salt = test
-            .bytes()
-            .fold(0u32, |a, b| a.wrapping_mul(31) ^ b as u32);
-        let n = 200 + (std::process::id() ^ salt) % 3000;
-        let display = format!(":{n}");
-        let child = Command::new("Xvfb")
-            .args([&display, "-screen", "0", "1280x720x24", "-nolisten", "tcp"])
-            .stdout(Stdio::null())
-            .stderr(Stdio::null())
-            .spawn()
-            .expect("Xvfb starts");
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
-        let start = Instant::now();
-        while !socket.exists() {
-            assert!(
-                start.elapsed() < Duration::from_secs(10),
-                "Xvfb {display} did not come up"
-            );
-            std::thread::sleep(Duration::from_millis(50));
-        }
-        Some(Xvfb { child, display })
-    }
-}
-
-impl Drop for Xvfb {
-    fn drop(&mut self) {
-        let _ = self.child.kill();
-        let _ = self.child.wait();
-    }
-}
+use common::on_path;
+use common::xvfb::Xvfb;
 
 fn load(path: &Path) -> image::RgbaImage {
     image::open(path)
@@ -183,13 +135,7 @@ fn resizing_the_window_keeps_the_aspect() {
         .stderr(Stdio::piped())
         .spawn()
         .expect("vergence starts");
-    let xdotool = |args: &[&str]| {
-        Command::new("xdotool")
-            .env("DISPLAY", &x.display)
-            .args(args)
-            .output()
-            .expect("xdotool runs")
-    };
+    let xdotool = |args: &[&str]| x.xdotool(args);
     let start = Instant::now();
     let id = loop {
         let out = xdotool(&["search", "--name", "vergence view"]);

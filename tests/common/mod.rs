@@ -3,6 +3,8 @@
 
 #![allow(dead_code)]
 
+pub mod xvfb;
+
 use std::path::PathBuf;
 use std::sync::Arc;
 use vergence::config::{RenderConfig, StereoMode};
@@ -47,6 +49,12 @@ pub fn fails_with_one_error(cmd: &mut std::process::Command) -> String {
     let errors = stderr.lines().filter(|l| l.starts_with("error:")).count();
     assert_eq!(errors, 1, "one error line expected: {stderr}");
     stderr
+}
+
+/// Whether `program` is an executable file on PATH.
+pub fn on_path(program: &str) -> bool {
+    std::env::var_os("PATH")
+        .is_some_and(|p| std::env::split_paths(&p).any(|d| d.join(program).is_file()))
 }
 
 /// Runs `vergence render ARGS --out OUT` (the binary of this build),
