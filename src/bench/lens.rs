@@ -85,3 +85,32 @@ impl LensReport {
         s
     }
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn the_report_has_every_view_and_ring_and_refuses_a_profile_without_a_lens() {
+        let vive = HmdProfile::load("vive").unwrap();
+        let r = report(&vive).unwrap();
+        assert_eq!(r.views.len(), 2);
+        assert_eq!(r.model, ["dpoly3", "dpoly3"]);
+        let md = r.markdown();
+        for d in &r.views {
+            assert_eq!(d.rings.len(), crate::view::distortion::density::RINGS);
+            // Every visible panel pixel sampled falls in exactly one ring.
+            let sampled: u64 = d.rings.iter().map(|g| g.panel_pixels).sum();
+            assert!(sampled > 0);
+            assert!(md.contains(&format!("{:.2}", d.centre_density)));
+        }
+        assert_eq!(md.matches("| lens radius |").count(), 2);
+        let e = report(&HmdProfile::load("valve-index").unwrap())
+            .unwrap_err()
+            .to_string();
+        assert!(
+            e.contains("valve-index") && e.contains("[views.lens]"),
+            "{e}"
+        );
+    }
+}
