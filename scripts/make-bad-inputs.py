@@ -586,6 +586,7 @@ cli("timewarp-head-turn-huge", ["render", "--head-turn", "1e9", "--out", "{out}"
 cli("timewarp-in-run", ["run", "--xr", "headless", "--frames", "1", "--opt", "timewarp=2"], ["timewarp", "render --frames"])
 cli("timewarp-with-occlusion", ["render", "--opt", "timewarp=2,gpu-cull,occlusion,superfrustum", "--out", "{out}"], ["timewarp", "occlusion"])
 cli("rdm-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "rdm=auto", "--out", "{out}"], ["rdm=auto", "valve-index", "[views.lens]"])
+cli("foveation-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "foveation=auto", "--out", "{out}"], ["foveation=auto", "valve-index", "[views.lens]"])
 cli("lens-unknown-profile", ["lens", "--hmd", "valve-index"], ["valve-index", "[views.lens]"])
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:

@@ -469,7 +469,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -479,8 +479,11 @@ impl RenderConfig {
 }
 
 impl RenderConfig {
-    /// Resolves `rdm=auto` for `profile` (None: a runtime's views, which
-    /// carry no lens): the radius becomes the largest, over the views, of
+    /// Resolves `rdm=auto` and `foveation=auto` for `profile` (None: a
+    /// runtime's views, which carry no lens). Foveation's full-rate radius
+    /// becomes the largest, over the views, of the NDC radius beyond which
+    /// the lens reads at least 2 eye pixels per panel pixel (2×2 shading
+    /// there still shades every panel pixel apart). RDM's radius becomes the largest, over the views, of
     /// the NDC radius beyond which the lens reads at least √2 eye pixels
     /// per panel pixel ([`crate::view::distortion::density`]), so masking
     /// every other quad there drops only over-rendered pixels. One error
@@ -489,30 +492,53 @@ impl RenderConfig {
         &mut self,
         profile: Option<&crate::view::profile::HmdProfile>,
     ) -> Result<()> {
-        if !self.rdm_auto {
+        use crate::view::foveation::Level;
+        let foveation_auto = self.foveation == Level::Lens(0);
+        if !self.rdm_auto && !foveation_auto {
             return Ok(());
         }
+        let what = if self.rdm_auto {
+            "rdm=auto"
+        } else {
+            "foveation=auto"
+        };
         let no_lens = |name: &str| {
             Error::config(
                 "--opt",
-                format!("rdm=auto derives its radius from the HMD profile's lens, and {name} has no [views.lens] table; give rdm=R"),
+                format!("{what} derives its radius from the HMD profile's lens, and {name} has no [views.lens] table; give rdm=R or a foveation level"),
             )
         };
         let profile = profile.ok_or_else(|| no_lens("the OpenXR runtime's view"))?;
-        let mut radius = 0.0f64;
+        let (mut rdm, mut coarse) = (0.0f64, 0.0f64);
         for v in &profile.views {
             let lens = v.lens.as_ref().ok_or_else(|| no_lens(&profile.name))?;
             let d = crate::view::distortion::density::density(lens, &v.fov, v.resolution, 4);
-            let r = d.rdm_radius.ok_or_else(|| {
-                Error::config(
-                    "--opt",
-                    format!("rdm=auto: the {} lens reads under √2 eye pixels per panel pixel everywhere, so no radius masks only over-rendered pixels", profile.name),
-                )
-            })?;
-            radius = radius.max(r);
+            if self.rdm_auto {
+                let r = d.rdm_radius.ok_or_else(|| {
+                    Error::config(
+                        "--opt",
+                        format!("rdm=auto: the {} lens reads under √2 eye pixels per panel pixel everywhere, so no radius masks only over-rendered pixels", profile.name),
+                    )
+                })?;
+                rdm = rdm.max(r);
+            }
+            if foveation_auto {
+                let r = d.coarse_radius.ok_or_else(|| {
+                    Error::config(
+                        "--opt",
+                        format!("foveation=auto: the {} lens reads under 2 eye pixels per panel pixel everywhere, so 2×2 shading would coarsen what the panel shows; give foveation=low|medium|high", profile.name),
+                    )
+                })?;
+                coarse = coarse.max(r);
+            }
         }
-        self.rdm = Some(radius as f32);
-        self.rdm_auto = false;
+        if self.rdm_auto {
+            self.rdm = Some(rdm as f32);
+            self.rdm_auto = false;
+        }
+        if foveation_auto {
+            self.foveation = Level::Lens(((coarse * 1000.0).round() as u16).max(1));
+        }
         Ok(())
     }
 
@@ -551,6 +577,7 @@ impl RenderConfig {
             Level::Low => Some("low"),
             Level::Medium => Some("medium"),
             Level::High => Some("high"),
+            Level::Lens(_) => Some("auto"),
         };
         if let Some(l) = level {
             v.push(format!("foveation={l}"));
@@ -753,6 +780,58 @@ mod tests {
         );
         let e = auto().resolve_lens(None).unwrap_err().to_string();
         assert!(e.contains("OpenXR"), "{e}");
+        // foveation=auto: 2×2 beyond where the lens reads two eye pixels
+        // per panel pixel; the DK1 has such a rim, the Vive does not.
+        let fov_auto = || {
+            let mut c = RenderConfig::default();
+            c.apply_opts("foveation=auto", &cull_names()).unwrap();
+            c
+        };
+        assert_eq!(fov_auto().foveation, Level::Lens(0));
+        assert!(fov_auto().opt_string().contains("foveation=auto"));
+        let dk1 = HmdProfile::load("rift-dk1").unwrap();
+        let mut c = fov_auto();
+        c.resolve_lens(Some(&dk1)).unwrap();
+        let expect = dk1
+            .views
+            .iter()
+            .map(|v| {
+                crate::view::distortion::density::density(
+                    v.lens.as_ref().unwrap(),
+                    &v.fov,
+                    v.resolution,
+                    4,
+                )
+                .coarse_radius
+                .unwrap()
+            })
+            .fold(0.0, f64::max);
+        assert_eq!(c.foveation, Level::Lens((expect * 1000.0).round() as u16));
+        assert_eq!(c.foveation.size_at(0.0), 1);
+        assert_eq!(c.foveation.size_at(expect as f32 + 0.01), 2);
+        // Coarser shading needs more density than masking: the Vive's
+        // 2×2 ring starts beyond its RDM radius.
+        let mut c = fov_auto();
+        c.apply_opts("rdm=auto", &cull_names()).unwrap();
+        c.resolve_lens(Some(&vive)).unwrap();
+        let Level::Lens(r) = c.foveation else {
+            panic!("{:?}", c.foveation)
+        };
+        assert!(f32::from(r) / 1000.0 >= c.rdm.unwrap(), "{r} {:?}", c.rdm);
+        // A lens that reads one eye pixel per panel pixel: no 2×2 ring.
+        let flat = HmdProfile::parse(
+            "flat",
+            "name = \"flat\"\nrefresh_hz = 60.0\n[[views]]\nposition = [0.0, 0.0, 0.0]\n\
+             orientation = [0.0, 0.0, 0.0, 1.0]\nfov = { left = -0.785, right = 0.785, up = 0.785, down = -0.785 }\n\
+             resolution = [64, 64]\n[views.lens]\nmodel = \"panotools\"\nk = [0.0, 0.0, 0.0, 1.0]\n\
+             chroma = [1.0, 1.0, 1.0]\ncentre = [0.5, 0.5]\nunit = [0.5, 0.5]\ntangent = [1.0, 1.0]\n",
+        )
+        .unwrap();
+        let e = fov_auto()
+            .resolve_lens(Some(&flat))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("under 2 eye pixels"), "{e}");
         // A plain radius after auto wins, and needs no lens.
         let mut c = RenderConfig::default();
         c.apply_opts("rdm=auto", &cull_names()).unwrap();

@@ -192,7 +192,7 @@ struct FrameOpts {
           value_parser = clap::value_parser!(u32).range(1..=vergence::cli::MAX_EYE_PIXELS as i64))]
     height: Option<u32>,
     /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
-    /// stencil-mask, foveation[=off|low|medium|high], gaze=X:Y, rdm[=R],
+    /// stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R],
     /// rdm=auto (the radius from the profile's lens), rdm-nofill, mffr[=D],
     /// mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull,
     /// occlusion and lod[=PX] (both with gpu-cull), timewarp=K,
@@ -477,7 +477,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     vergence::targets::kiosk::start_log(log)?;
                 }
             }
-            if config.rdm_auto {
+            if config.rdm_auto || config.foveation == vergence::view::foveation::Level::Lens(0) {
                 // Only the headless fallback profile has a lens; a
                 // runtime's views carry none.
                 let profile = (a.xr == XrMode::Headless)

@@ -275,3 +275,37 @@ fn rdm_auto_renders_with_the_radius_the_lens_density_gives() {
     assert!((0.6..0.9).contains(&r), "{r}");
     assert_eq!(stats["config"]["rdm_auto"], false);
 }
+
+#[test]
+fn foveation_auto_resolves_the_ring_the_lens_density_gives() {
+    // lavapipe has no shading-rate attachment: the frame renders without
+    // foveation, and the warning names the level that was asked for.
+    let out = common::scratch("distortion", "foveation-auto");
+    let o = Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:200",
+            "--hmd",
+            "rift-dk1",
+            "--width",
+            "96",
+            "--height",
+            "120",
+            "--opt",
+            "foveation=auto",
+            "--out",
+        ])
+        .arg(&out)
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(o.status.success(), "{stderr}");
+    let r: u32 = stderr
+        .split("foveation Lens(")
+        .nth(1)
+        .and_then(|t| t.split(')').next())
+        .and_then(|n| n.parse().ok())
+        .unwrap_or_else(|| panic!("no resolved level in: {stderr}"));
+    assert!((300..1500).contains(&r), "{r}");
+}

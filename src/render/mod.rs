@@ -183,10 +183,10 @@ impl Renderer {
         output: Option<OutputSpec>,
     ) -> Result<Renderer> {
         config.validate()?;
-        if config.rdm_auto {
+        if config.rdm_auto || config.foveation == crate::view::foveation::Level::Lens(0) {
             return Err(Error::config(
                 "--opt",
-                "rdm=auto needs an HMD profile with a lens to derive its radius from (this path does not resolve it); give rdm=R",
+                "rdm=auto and foveation=auto need an HMD profile with a lens to derive their radii from (this path does not resolve them); give rdm=R or a foveation level",
             ));
         }
         if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384

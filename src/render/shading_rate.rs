@@ -47,7 +47,7 @@ impl ShadingRate {
                 }
             );
             tracing::warn!("foveation {level:?} requested; {path}");
-            eprintln!("warning: foveation falls back to {path}");
+            eprintln!("warning: foveation {level:?} falls back to {path}");
             return Ok((None, path));
         };
         let (w, h) = (extent.width, extent.height);

@@ -116,7 +116,7 @@ impl Toggle {
                     Level::Off => Level::Low,
                     Level::Low => Level::Medium,
                     Level::Medium => Level::High,
-                    Level::High => Level::Off,
+                    Level::High | Level::Lens(_) => Level::Off,
                 }
             }
             Toggle::Rdm => {

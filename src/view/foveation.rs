@@ -28,6 +28,11 @@ pub enum Level {
     Medium,
     /// Full rate inside 0.3, 2×2 to 0.6, 4×4 outside.
     High,
+    /// `foveation=auto`: full rate inside the NDC radius (in thousandths)
+    /// beyond which the HMD's lens reads at least two eye pixels per panel
+    /// pixel, 2×2 outside ([`super::distortion::density`]); 0 until the
+    /// profile's lens resolves it.
+    Lens(u16),
 }
 
 impl std::str::FromStr for Level {
@@ -38,8 +43,9 @@ impl std::str::FromStr for Level {
             "low" => Ok(Level::Low),
             "medium" => Ok(Level::Medium),
             "high" => Ok(Level::High),
+            "auto" => Ok(Level::Lens(0)),
             other => Err(format!(
-                "foveation level '{other}' (known: off, low, medium, high)"
+                "foveation level '{other}' (known: off, low, medium, high, auto)"
             )),
         }
     }
@@ -52,12 +58,13 @@ pub const fn rate(w: u32, h: u32) -> u8 {
 
 impl Level {
     /// (outer radius, fragment size) rings from the centre out.
-    pub fn rings(self) -> &'static [(f32, u32)] {
+    pub fn rings(self) -> Vec<(f32, u32)> {
         match self {
-            Level::Off => &[(f32::INFINITY, 1)],
-            Level::Low => &[(0.6, 1), (f32::INFINITY, 2)],
-            Level::Medium => &[(0.45, 1), (0.8, 2), (f32::INFINITY, 4)],
-            Level::High => &[(0.3, 1), (0.6, 2), (f32::INFINITY, 4)],
+            Level::Off => vec![(f32::INFINITY, 1)],
+            Level::Low => vec![(0.6, 1), (f32::INFINITY, 2)],
+            Level::Medium => vec![(0.45, 1), (0.8, 2), (f32::INFINITY, 4)],
+            Level::High => vec![(0.3, 1), (0.6, 2), (f32::INFINITY, 4)],
+            Level::Lens(r) => vec![(f32::from(r) / 1000.0, 1), (f32::INFINITY, 2)],
         }
     }
 

@@ -54,6 +54,11 @@ pub struct Density {
     /// pixel reads at a density of at least √2 (the `rdm=R` radius that
     /// masks only over-rendered pixels); None when there is none below 1.5.
     pub rdm_radius: Option<f64>,
+    /// The smallest eye-image NDC radius beyond which every visible panel
+    /// pixel reads at a density of at least 2 (where 2×2 shading still
+    /// gives every panel pixel its own shade: `foveation=auto`); None when
+    /// there is none below 1.5.
+    pub coarse_radius: Option<f64>,
 }
 
 /// Rings reported per view.
@@ -156,16 +161,20 @@ pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
         }
     }
     // The smallest R (steps of 0.01) such that every sample at NDC radius
-    // ≥ R has density ≥ √2.
+    // ≥ R has at least the given density.
     samples.sort_by(|a, b| a.0.total_cmp(&b.0));
     let mut suffix_min = vec![f64::MAX; samples.len() + 1];
     for i in (0..samples.len()).rev() {
         suffix_min[i] = suffix_min[i + 1].min(samples[i].1);
     }
-    let rdm_radius = (1..150).map(|i| i as f64 / 100.0).find(|&r| {
-        let first = samples.partition_point(|s| s.0 < r);
-        first < samples.len() && suffix_min[first] >= std::f64::consts::SQRT_2
-    });
+    let radius_beyond = |density: f64| {
+        (1..150).map(|i| i as f64 / 100.0).find(|&r| {
+            let first = samples.partition_point(|s| s.0 < r);
+            first < samples.len() && suffix_min[first] >= density
+        })
+    };
+    let rdm_radius = radius_beyond(std::f64::consts::SQRT_2);
+    let coarse_radius = radius_beyond(2.0);
     Density {
         panel: lens.panel,
         eye,
@@ -178,6 +187,7 @@ pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
         },
         eye_unread_fraction: 1.0 - read as f64 / total.max(1) as f64,
         rdm_radius,
+        coarse_radius,
     }
 }
 
@@ -216,6 +226,11 @@ mod tests {
         assert!((d.centre_density - 2.0).abs() < 1e-9);
         assert!((d.over_render - 4.0).abs() < 1e-9);
         assert_eq!(d.rdm_radius, Some(0.01));
+        assert_eq!(d.coarse_radius, Some(0.01));
+        // At √3 per axis RDM may mask everywhere, 2×2 shading nowhere.
+        let d = density(&lens, &fov, [111, 111], 1);
+        assert_eq!(d.rdm_radius, Some(0.01));
+        assert_eq!(d.coarse_radius, None);
     }
 
     #[test]
