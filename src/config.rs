@@ -742,6 +742,7 @@ mod tests {
 
     #[test]
     fn rdm_auto_takes_its_radius_from_the_lens_density() {
+        use crate::view::distortion::density::{density, Density};
         use crate::view::profile::HmdProfile;
         let auto = || {
             let mut c = RenderConfig::default();
@@ -754,20 +755,13 @@ mod tests {
         c.resolve_lens(Some(&vive)).unwrap();
         assert!(!c.rdm_auto);
         // The largest of the views' radii, each from the density figures.
-        let expect = vive
-            .views
-            .iter()
-            .map(|v| {
-                crate::view::distortion::density::density(
-                    v.lens.as_ref().unwrap(),
-                    &v.fov,
-                    v.resolution,
-                    4,
-                )
-                .rdm_radius
-                .unwrap()
-            })
-            .fold(0.0, f64::max);
+        let largest = |p: &HmdProfile, pick: fn(&Density) -> Option<f64>| {
+            p.views
+                .iter()
+                .map(|v| pick(&density(v.lens.as_ref().unwrap(), &v.fov, v.resolution, 4)).unwrap())
+                .fold(0.0, f64::max)
+        };
+        let expect = largest(&vive, |d| d.rdm_radius);
         assert_eq!(c.rdm, Some(expect as f32));
         assert!((0.6..0.9).contains(&expect), "{expect}");
         let e = auto()
@@ -781,7 +775,7 @@ mod tests {
         let e = auto().resolve_lens(None).unwrap_err().to_string();
         assert!(e.contains("OpenXR"), "{e}");
         // foveation=auto: 2×2 beyond where the lens reads two eye pixels
-        // per panel pixel; the DK1 has such a rim, the Vive does not.
+        // per panel pixel.
         let fov_auto = || {
             let mut c = RenderConfig::default();
             c.apply_opts("foveation=auto", &cull_names()).unwrap();
@@ -792,20 +786,7 @@ mod tests {
         let dk1 = HmdProfile::load("rift-dk1").unwrap();
         let mut c = fov_auto();
         c.resolve_lens(Some(&dk1)).unwrap();
-        let expect = dk1
-            .views
-            .iter()
-            .map(|v| {
-                crate::view::distortion::density::density(
-                    v.lens.as_ref().unwrap(),
-                    &v.fov,
-                    v.resolution,
-                    4,
-                )
-                .coarse_radius
-                .unwrap()
-            })
-            .fold(0.0, f64::max);
+        let expect = largest(&dk1, |d| d.coarse_radius);
         assert_eq!(c.foveation, Level::Lens((expect * 1000.0).round() as u16));
         assert_eq!(c.foveation.size_at(0.0), 1);
         assert_eq!(c.foveation.size_at(expect as f32 + 0.01), 2);
