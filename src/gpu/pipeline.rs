@@ -227,105 +227,117 @@ pub fn compute_pipeline(
     }
 }
 
-/// One descriptor set with its layout and pool, and a pipeline layout over
-/// it with one push-constant range: what a tool that runs outside the frame
-/// (the distortion preview, the timewarp simulation) binds.
-pub struct SingleSet {
-    /// The set's layout.
+/// One descriptor-set layout, a pool with `count` sets of it, and a
+/// pipeline layout over it with one push-constant range: what the compute
+/// passes (depth pyramid, GPU culling; one set per frame slot) and the tools
+/// that run outside the frame (distortion preview, timewarp; one set) bind.
+pub struct DescriptorSets {
+    /// The sets' layout.
     pub set_layout: vk::DescriptorSetLayout,
     /// The pipeline layout (the set, then the push constants).
     pub layout: vk::PipelineLayout,
-    /// The pool the set comes from.
+    /// The pool the sets come from.
     pub pool: vk::DescriptorPool,
-    /// The set.
-    pub set: vk::DescriptorSet,
+    /// The sets.
+    pub sets: Vec<vk::DescriptorSet>,
 }
 
-impl SingleSet {
-    /// Creates the set for `bindings` (binding i: one descriptor of the
-    /// given type, seen by the given stages) and a pipeline layout with
+impl DescriptorSets {
+    /// Creates `count` sets for `bindings` (binding i: `n` descriptors of
+    /// the given type, seen by the given stages) and a pipeline layout with
     /// `push` bytes of push constants for `push_stages`; `what` names it in
-    /// errors.
+    /// errors. On a failure, what was made is destroyed again.
     pub fn new(
         ctx: &Context,
-        bindings: &[(vk::DescriptorType, vk::ShaderStageFlags)],
+        bindings: &[(vk::DescriptorType, u32, vk::ShaderStageFlags)],
         push_stages: vk::ShaderStageFlags,
         push: u32,
+        count: usize,
         what: &str,
-    ) -> Result<SingleSet> {
-        let d = &ctx.device;
+    ) -> Result<DescriptorSets> {
         let layout_bindings: Vec<_> = bindings
             .iter()
             .enumerate()
-            .map(|(i, &(ty, stages))| {
+            .map(|(i, &(ty, n, stages))| {
                 vk::DescriptorSetLayoutBinding::default()
                     .binding(i as u32)
                     .descriptor_type(ty)
-                    .descriptor_count(1)
+                    .descriptor_count(n)
                     .stage_flags(stages)
             })
             .collect();
         let mut sizes: Vec<vk::DescriptorPoolSize> = Vec::new();
-        for &(ty, _) in bindings {
+        for &(ty, n, _) in bindings {
+            let n = n * count as u32;
             match sizes.iter_mut().find(|s| s.ty == ty) {
-                Some(s) => s.descriptor_count += 1,
+                Some(s) => s.descriptor_count += n,
                 None => sizes.push(vk::DescriptorPoolSize {
                     ty,
-                    descriptor_count: 1,
+                    descriptor_count: n,
                 }),
             }
         }
-        // SAFETY: plain object creation on a live device; the objects are
-        // owned by the returned value and destroyed by `destroy` (the
-        // ones made before a failure are leaked with the error, which ends
-        // the tool).
-        unsafe {
-            let set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
-                    None,
-                )
-                .vk(&format!("creating the {what} set layout"))?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: push_stages,
-                offset: 0,
-                size: push,
-            }];
-            let layouts = [set_layout];
-            let layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk(&format!("creating the {what} pipeline layout"))?;
-            let pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(1)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk(&format!("creating the {what} descriptor pool"))?;
-            let set = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(pool)
-                        .set_layouts(&layouts),
-                )
-                .vk(&format!("allocating the {what} descriptor set"))?[0];
-            Ok(SingleSet {
-                set_layout,
-                layout,
-                pool,
-                set,
-            })
+        let mut made = DescriptorSets {
+            set_layout: vk::DescriptorSetLayout::null(),
+            layout: vk::PipelineLayout::null(),
+            pool: vk::DescriptorPool::null(),
+            sets: Vec::new(),
+        };
+        let d = &ctx.device;
+        // SAFETY: plain object creation on a live device; every handle is
+        // stored in `made` at once, so a failure destroys what exists.
+        let result = unsafe {
+            (|| -> Result<()> {
+                made.set_layout = d
+                    .create_descriptor_set_layout(
+                        &vk::DescriptorSetLayoutCreateInfo::default().bindings(&layout_bindings),
+                        None,
+                    )
+                    .vk(&format!("creating the {what} set layout"))?;
+                let ranges = [vk::PushConstantRange {
+                    stage_flags: push_stages,
+                    offset: 0,
+                    size: push,
+                }];
+                let one = [made.set_layout];
+                made.layout = d
+                    .create_pipeline_layout(
+                        &vk::PipelineLayoutCreateInfo::default()
+                            .set_layouts(&one)
+                            .push_constant_ranges(&ranges),
+                        None,
+                    )
+                    .vk(&format!("creating the {what} pipeline layout"))?;
+                made.pool = d
+                    .create_descriptor_pool(
+                        &vk::DescriptorPoolCreateInfo::default()
+                            .max_sets(count as u32)
+                            .pool_sizes(&sizes),
+                        None,
+                    )
+                    .vk(&format!("creating the {what} descriptor pool"))?;
+                let layouts = vec![made.set_layout; count];
+                made.sets = d
+                    .allocate_descriptor_sets(
+                        &vk::DescriptorSetAllocateInfo::default()
+                            .descriptor_pool(made.pool)
+                            .set_layouts(&layouts),
+                    )
+                    .vk(&format!("allocating the {what} descriptor sets"))?;
+                Ok(())
+            })()
+        };
+        match result {
+            Ok(()) => Ok(made),
+            Err(e) => {
+                made.destroy(ctx);
+                Err(e)
+            }
         }
     }
 
-    /// Destroys the pool (and the set), the layouts; the device must be
-    /// done with them.
+    /// Destroys the pool (and its sets) and the layouts; the device must be
+    /// done with them. Null handles are skipped by Vulkan.
     pub fn destroy(&self, ctx: &Context) {
         // SAFETY: the caller guarantees the GPU no longer uses them.
         unsafe {

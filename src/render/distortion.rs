@@ -23,7 +23,7 @@
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
-use crate::gpu::pipeline::{GraphicsPipelineDesc, SingleSet};
+use crate::gpu::pipeline::{DescriptorSets, GraphicsPipelineDesc};
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::view::distortion::{mesh, Lens, Radial};
@@ -133,7 +133,7 @@ pub struct DistortionPreview {
     owned: Option<Owned>,
     target_views: [vk::ImageView; 2],
     sampler: vk::Sampler,
-    binding: SingleSet,
+    binding: DescriptorSets,
     layout: vk::PipelineLayout,
     set: vk::DescriptorSet,
     pipeline: vk::Pipeline,
@@ -307,23 +307,26 @@ impl DistortionPreview {
         };
         // SAFETY: plain object creation on a live device; everything is
         // owned by the returned value and destroyed in Drop.
-        let binding = SingleSet::new(
+        let binding = DescriptorSets::new(
             ctx,
             &[
                 (
                     vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
+                    1,
                     vk::ShaderStageFlags::FRAGMENT | vk::ShaderStageFlags::COMPUTE,
                 ),
                 (
                     vk::DescriptorType::STORAGE_IMAGE,
+                    1,
                     vk::ShaderStageFlags::COMPUTE,
                 ),
             ],
             STAGES,
             std::mem::size_of::<LensParams>() as u32,
+            1,
             "distortion",
         )?;
-        let (layout, set) = (binding.layout, binding.set);
+        let (layout, set) = (binding.layout, binding.sets[0]);
         // SAFETY: plain object creation and a descriptor write on a live
         // device; the sampler is destroyed in Drop.
         let sampler = unsafe {

@@ -21,7 +21,7 @@
 use crate::error::{Error, Result};
 use crate::gpu::barrier;
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
-use crate::gpu::pipeline::{compute_pipeline, SingleSet};
+use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::view::reproject::{reprojection, rotation_only};
@@ -118,7 +118,7 @@ pub struct Timewarp {
     variant: Variant,
     extent: vk::Extent2D,
     buffers: Option<Buffers>,
-    binding: SingleSet,
+    binding: DescriptorSets,
     layout: vk::PipelineLayout,
     set: vk::DescriptorSet,
     scatter: vk::Pipeline,
@@ -172,16 +172,18 @@ impl Timewarp {
         };
         let storage = (
             vk::DescriptorType::STORAGE_BUFFER,
+            1,
             vk::ShaderStageFlags::COMPUTE,
         );
-        let binding = SingleSet::new(
+        let binding = DescriptorSets::new(
             ctx,
             &[storage; 7],
             vk::ShaderStageFlags::COMPUTE,
             std::mem::size_of::<Push>() as u32,
+            1,
             "timewarp",
         )?;
-        let (layout, set) = (binding.layout, binding.set);
+        let (layout, set) = (binding.layout, binding.sets[0]);
         let b = &buffers;
         let all = [
             &b.src_colour,

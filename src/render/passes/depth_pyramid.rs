@@ -9,7 +9,7 @@ use crate::cull::hiz::{self, Level};
 use crate::error::{Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image};
-use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -124,8 +124,8 @@ impl DepthPyramid {
             )?);
         }
         let d = &ctx.device;
-        // SAFETY: object creation on a live device; every handle is stored
-        // in `self` at once, so `destroy` frees it on a later failure.
+        // SAFETY: object creation on a live device; the handle is stored in
+        // `self` at once, so `destroy` frees it on a later failure.
         unsafe {
             self.sampler = d
                 .create_sampler(
@@ -138,66 +138,23 @@ impl DepthPyramid {
                     None,
                 )
                 .vk("creating the depth pyramid sampler")?;
-            let bindings = [
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(0)
-                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                    .descriptor_count(2)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE),
-                vk::DescriptorSetLayoutBinding::default()
-                    .binding(1)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .descriptor_count(1)
-                    .stage_flags(vk::ShaderStageFlags::COMPUTE),
-            ];
-            self.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("creating the depth pyramid set layout")?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::COMPUTE,
-                offset: 0,
-                size: 32,
-            }];
-            let set_layouts = [self.set_layout];
-            self.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk("creating the depth pyramid pipeline layout")?;
-            let n = slots as u32;
-            let sizes = [
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::COMBINED_IMAGE_SAMPLER,
-                    descriptor_count: 2 * n,
-                },
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::STORAGE_BUFFER,
-                    descriptor_count: n,
-                },
-            ];
-            self.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(n)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("creating the depth pyramid descriptor pool")?;
-            let layouts = vec![self.set_layout; slots];
-            self.sets = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(self.pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("allocating the depth pyramid descriptor sets")?;
         }
+        let compute = vk::ShaderStageFlags::COMPUTE;
+        let made = DescriptorSets::new(
+            ctx,
+            &[
+                (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, 2, compute),
+                (vk::DescriptorType::STORAGE_BUFFER, 1, compute),
+            ],
+            compute,
+            32,
+            slots,
+            "depth pyramid",
+        )?;
+        self.set_layout = made.set_layout;
+        self.layout = made.layout;
+        self.pool = made.pool;
+        self.sets = made.sets;
         let images: Vec<vk::DescriptorImageInfo> = self
             .views
             .iter()

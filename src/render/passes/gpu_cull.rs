@@ -23,9 +23,9 @@
 use super::depth_pyramid::DepthPyramid;
 use super::{PipelineSetup, Recorder};
 use crate::cull::gpu::{VolumeData, VOLUME_DATA_SIZE};
-use crate::error::{Error, Result, VkContext};
+use crate::error::{Error, Result};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
-use crate::gpu::pipeline::compute_pipeline;
+use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -500,81 +500,22 @@ impl GpuCull {
             }
         }
         let d = &ctx.device;
-        let binding = |i: u32, ty| {
-            vk::DescriptorSetLayoutBinding::default()
-                .binding(i)
-                .descriptor_type(ty)
-                .descriptor_count(1)
-                .stage_flags(vk::ShaderStageFlags::COMPUTE)
-        };
-        let storage = vk::DescriptorType::STORAGE_BUFFER;
-        let bindings = [
-            binding(0, vk::DescriptorType::UNIFORM_BUFFER),
-            binding(1, storage),
-            binding(2, storage),
-            binding(3, storage),
-            binding(4, storage),
-            binding(5, storage),
-            binding(6, vk::DescriptorType::UNIFORM_BUFFER),
-            binding(7, storage),
-            binding(8, storage),
-            binding(9, storage),
-            binding(10, storage),
-            binding(11, storage),
+        let (uniform, storage) = (
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_BUFFER,
+        );
+        let compute = vk::ShaderStageFlags::COMPUTE;
+        let types = [
+            uniform, storage, storage, storage, storage, storage, uniform, storage, storage,
+            storage, storage, storage,
         ];
-        // SAFETY: object creation on a live device; the handles are stored
-        // in `self` at once, so `destroy` frees them on any later failure.
-        unsafe {
-            self.set_layout = d
-                .create_descriptor_set_layout(
-                    &vk::DescriptorSetLayoutCreateInfo::default().bindings(&bindings),
-                    None,
-                )
-                .vk("creating the gpu-cull set layout")?;
-            let ranges = [vk::PushConstantRange {
-                stage_flags: vk::ShaderStageFlags::COMPUTE,
-                offset: 0,
-                size: PUSH_BYTES,
-            }];
-            let set_layouts = [self.set_layout];
-            self.layout = d
-                .create_pipeline_layout(
-                    &vk::PipelineLayoutCreateInfo::default()
-                        .set_layouts(&set_layouts)
-                        .push_constant_ranges(&ranges),
-                    None,
-                )
-                .vk("creating the gpu-cull pipeline layout")?;
-            let n = slots as u32;
-            let sizes = [
-                vk::DescriptorPoolSize {
-                    ty: vk::DescriptorType::UNIFORM_BUFFER,
-                    descriptor_count: 2 * n,
-                },
-                vk::DescriptorPoolSize {
-                    ty: storage,
-                    descriptor_count: 10 * n,
-                },
-            ];
-            self.pool = d
-                .create_descriptor_pool(
-                    &vk::DescriptorPoolCreateInfo::default()
-                        .max_sets(n)
-                        .pool_sizes(&sizes),
-                    None,
-                )
-                .vk("creating the gpu-cull descriptor pool")?;
-            let layouts = vec![self.set_layout; slots];
-            let sets = d
-                .allocate_descriptor_sets(
-                    &vk::DescriptorSetAllocateInfo::default()
-                        .descriptor_pool(self.pool)
-                        .set_layouts(&layouts),
-                )
-                .vk("allocating the gpu-cull descriptor sets")?;
-            for (slot, set) in self.slots.iter_mut().zip(sets) {
-                slot.set = set;
-            }
+        let bindings: Vec<_> = types.iter().map(|&ty| (ty, 1, compute)).collect();
+        let made = DescriptorSets::new(ctx, &bindings, compute, PUSH_BYTES, slots, "gpu-cull")?;
+        self.set_layout = made.set_layout;
+        self.layout = made.layout;
+        self.pool = made.pool;
+        for (slot, set) in self.slots.iter_mut().zip(made.sets) {
+            slot.set = set;
         }
         for (i, slot) in self.slots.iter().enumerate() {
             let info = |b: &Buffer| {
