@@ -95,28 +95,13 @@ pub fn parse_ppd(s: &str) -> Result<f32, String> {
 /// `--pose x,y,z,yaw,pitch,roll`: metres within ±[`MAX_DISTANCE_M`],
 /// degrees within ±36000.
 pub fn parse_pose(s: &str) -> Result<Pose, String> {
-    let parts: Vec<&str> = s.split(',').collect();
-    if parts.len() != 6 {
-        return Err(format!(
-            "expected 6 numbers x,y,z,yaw,pitch,roll, got {}",
-            parts.len()
-        ));
-    }
-    let mut v = [0.0f64; 6];
-    for (i, p) in parts.iter().enumerate() {
-        let x: f64 = p
-            .trim()
-            .parse()
-            .map_err(|_| format!("'{p}' is not a number"))?;
-        let max = if i < 3 { MAX_DISTANCE_M } else { 36_000.0 };
-        if !(x.is_finite() && x.abs() <= max) {
-            return Err(format!(
-                "'{p}' must be finite and within ±{max} ({})",
-                if i < 3 { "metres" } else { "degrees" }
-            ));
+    let v = six_numbers(s, "x,y,z,yaw,pitch,roll", |i| {
+        if i < 3 {
+            (MAX_DISTANCE_M, " (metres)")
+        } else {
+            (36_000.0, " (degrees)")
         }
-        v[i] = x;
-    }
+    })?;
     Ok(Pose::from_euler_deg(
         DVec3::new(v[0], v[1], v[2]),
         v[3],
@@ -125,16 +110,17 @@ pub fn parse_pose(s: &str) -> Result<Pose, String> {
     ))
 }
 
-/// `--section x,y,z,nx,ny,nz`: a plane through the point (metres within
-/// ±[`MAX_DISTANCE_M`]) with the normal pointing into the side cut away, as
-/// (n.x, n.y, n.z, d) with a unit normal and `n · x + d = 0` on the plane.
-pub fn parse_section(s: &str) -> Result<[f64; 4], String> {
+/// Six comma-separated numbers, the i-th finite and within ±`bound(i).0`
+/// (`bound(i).1` follows the limit in the error); `names` lists them in
+/// the error for a wrong count.
+fn six_numbers(
+    s: &str,
+    names: &str,
+    bound: impl Fn(usize) -> (f64, &'static str),
+) -> Result<[f64; 6], String> {
     let parts: Vec<&str> = s.split(',').collect();
     if parts.len() != 6 {
-        return Err(format!(
-            "expected 6 numbers x,y,z,nx,ny,nz (a point and the normal of the side cut away), got {}",
-            parts.len()
-        ));
+        return Err(format!("expected 6 numbers {names}, got {}", parts.len()));
     }
     let mut v = [0.0f64; 6];
     for (i, p) in parts.iter().enumerate() {
@@ -142,11 +128,24 @@ pub fn parse_section(s: &str) -> Result<[f64; 4], String> {
             .trim()
             .parse()
             .map_err(|_| format!("'{p}' is not a number"))?;
-        if !(x.is_finite() && x.abs() <= MAX_DISTANCE_M) {
-            return Err(format!("'{p}' must be finite and within ±{MAX_DISTANCE_M}"));
+        let (max, unit) = bound(i);
+        if !(x.is_finite() && x.abs() <= max) {
+            return Err(format!("'{p}' must be finite and within ±{max}{unit}"));
         }
         v[i] = x;
     }
+    Ok(v)
+}
+
+/// `--section x,y,z,nx,ny,nz`: a plane through the point (metres within
+/// ±[`MAX_DISTANCE_M`]) with the normal pointing into the side cut away, as
+/// (n.x, n.y, n.z, d) with a unit normal and `n · x + d = 0` on the plane.
+pub fn parse_section(s: &str) -> Result<[f64; 4], String> {
+    let v = six_numbers(
+        s,
+        "x,y,z,nx,ny,nz (a point and the normal of the side cut away)",
+        |_| (MAX_DISTANCE_M, ""),
+    )?;
     let point = DVec3::new(v[0], v[1], v[2]);
     let raw = DVec3::new(v[3], v[4], v[5]);
     if raw.length() <= 1e-9 {
