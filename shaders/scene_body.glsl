@@ -16,6 +16,7 @@ layout(location = 1) in vec3 v_normal;
 layout(location = 2) in vec4 v_tangent;
 layout(location = 3) in vec4 v_uv;
 layout(location = 4) in vec4 v_color;
+layout(location = 5) flat in uint v_material;
 layout(location = 0) out vec4 out_color;
 
 const float PI = 3.14159265358979;
@@ -43,7 +44,7 @@ vec3 brdf(vec3 n, vec3 v, vec3 l, vec3 base, float metallic, float alpha) {
 }
 
 void main() {
-    MaterialData m = materials[pc.material];
+    MaterialData m = materials[v_material];
     vec4 base = m.base_color * v_color;
     if (m.tex0.x >= 0) base *= sample_slot(m, 0, m.tex0.x);
     if (ALPHA_MODE == 1 && base.a < m.emissive_cutoff.a) discard;

@@ -146,7 +146,54 @@ pub struct RenderConfig {
     /// profile's lens ([`RenderConfig::resolve_lens`]); a renderer refuses
     /// a configuration where it is not.
     pub rdm_auto: bool,
+    /// Record the forward views' draws into this many secondary command
+    /// buffers, in parallel on as many threads, and execute them from the
+    /// frame's primary one (`--record-threads N`; None: draws go straight
+    /// into the primary command buffer on the calling thread).
+    pub record_threads: Option<u32>,
+    /// How each draw's own data (its material and where its instances start
+    /// in the visible list) reaches the shaders (`--per-draw`).
+    pub per_draw: PerDraw,
 }
+
+/// How per-draw data reaches the scene shaders (`--per-draw`).
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
+#[serde(rename_all = "kebab-case")]
+pub enum PerDraw {
+    /// Push constants written before each draw (`vkCmdPushConstants`).
+    #[default]
+    Push,
+    /// One record per draw in a uniform buffer, selected by a dynamic
+    /// offset (`vkCmdBindDescriptorSets` before each draw).
+    Ubo,
+    /// One record per draw in a storage buffer, indexed by the draw's
+    /// `firstInstance` (`gl_BaseInstance`); nothing is bound per draw.
+    Ssbo,
+}
+
+impl PerDraw {
+    /// The CLI name.
+    pub fn name(self) -> &'static str {
+        match self {
+            PerDraw::Push => "push",
+            PerDraw::Ubo => "ubo",
+            PerDraw::Ssbo => "ssbo",
+        }
+    }
+}
+
+/// Most threads `--record-threads` accepts.
+pub const MAX_RECORD_THREADS: u32 = 64;
 
 /// The timewarp simulation's settings.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
@@ -250,6 +297,8 @@ impl Default for RenderConfig {
             section: None,
             timewarp: None,
             rdm_auto: false,
+            record_threads: None,
+            per_draw: PerDraw::Push,
         }
     }
 }
@@ -300,6 +349,21 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "gpu-cull and mffr cannot be combined yet: the near/far instance split runs on the CPU only",
+            ));
+        }
+        if let Some(n) = self.record_threads {
+            if !(1..=MAX_RECORD_THREADS).contains(&n) {
+                return Err(Error::config(
+                    "--record-threads",
+                    format!("{n} (supported: 1 to {MAX_RECORD_THREADS})"),
+                ));
+            }
+        }
+        let submission = self.record_threads.is_some() || self.per_draw != PerDraw::Push;
+        if submission && (self.gpu_cull || self.mffr.is_some()) {
+            return Err(Error::config(
+                "--record-threads/--per-draw",
+                "parallel recording and per-draw ubo/ssbo data apply to CPU-culled forward draws: they cannot be combined with gpu-cull or mffr",
             ));
         }
         if let Some(p) = self.section {

@@ -5,7 +5,7 @@ use clap::{Parser, Subcommand};
 use glam::DVec3;
 use std::path::PathBuf;
 use std::process::ExitCode;
-use vergence::config::{RenderConfig, StereoMode};
+use vergence::config::{PerDraw, RenderConfig, StereoMode};
 use vergence::interact::{MoveDirection, Settings};
 use vergence::render::distortion::Method as DistortionMethod;
 use vergence::scene::Scene;
@@ -63,7 +63,7 @@ enum Command {
         /// Largest acceptable FLIP mean; then the fastest stack under it wins.
         #[arg(long, value_parser = vergence::cli::parse_non_negative)]
         max_flip: Option<f64>,
-        /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+        /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
         #[arg(long, default_value = "factory")]
         scene: String,
         /// HMD profile.
@@ -98,7 +98,7 @@ enum Command {
     },
     /// Print a scene's nodes, meshes, triangles, materials, textures, instances and bounds.
     Inspect {
-        /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+        /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
         scene: String,
     },
     /// Print an HMD profile's lens sampling density: eye-image pixels per
@@ -117,7 +117,7 @@ enum Command {
 
 #[derive(clap::Args)]
 struct RenderArgs {
-    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
     #[arg(long, default_value = "factory")]
     scene: String,
     /// HMD profile: a name in manifests/hmd/ (monado-sim, valve-index, quest-3, pimax-wide, vive, rift-dk1) or a path.
@@ -205,6 +205,16 @@ struct FrameOpts {
     /// applied before --opt.
     #[arg(long)]
     config: Option<PathBuf>,
+    /// Record the forward draws into N secondary command buffers on N
+    /// threads (1 to 64), executed in order by the frame's primary one
+    /// (default: straight into the primary on one thread).
+    #[arg(long, value_parser = clap::value_parser!(u32).range(1..=vergence::config::MAX_RECORD_THREADS as i64))]
+    record_threads: Option<u32>,
+    /// How each draw's material and instance start reach the shaders: push
+    /// constants, a uniform buffer at a dynamic offset, or a storage buffer
+    /// indexed by the draw's firstInstance.
+    #[arg(long, value_enum, default_value_t = PerDraw::Push)]
+    per_draw: PerDraw,
     /// A section plane x,y,z,nx,ny,nz: through the point (metres), cutting
     /// away the side the normal points to (clipped in the shaders; culling
     /// skips instances wholly beyond).
@@ -220,6 +230,8 @@ impl FrameOpts {
             msaa: self.msaa,
             frames_in_flight: self.frames_in_flight,
             section: self.section,
+            record_threads: self.record_threads,
+            per_draw: self.per_draw,
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {
@@ -238,7 +250,7 @@ impl FrameOpts {
 
 #[derive(clap::Args)]
 struct RunCli {
-    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
     #[arg(long, default_value = "factory")]
     scene: String,
     /// HMD profile used when running headless.
@@ -316,7 +328,7 @@ struct RunCli {
 
 #[derive(clap::Args)]
 struct ViewCli {
-    /// factory[:N], a .gltf/.glb file or a scene manifest (.toml).
+    /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
     #[arg(long, default_value = "factory")]
     scene: String,
     /// HMD profile whose stereo rig is rendered.

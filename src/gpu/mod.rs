@@ -82,6 +82,15 @@ pub struct Capabilities {
     /// used by `gpu-cull`; core in Vulkan 1.2 as the drawIndirectCount
     /// feature).
     pub draw_indirect_count: bool,
+    /// The shaderDrawParameters feature is enabled (`gl_BaseInstance`,
+    /// used by `--per-draw ssbo`).
+    pub shader_draw_parameters: bool,
+    /// The inheritedQueries feature is enabled: secondary command buffers
+    /// may run inside the frame's pipeline-statistics query
+    /// (`--record-threads`; without it those frames skip the query).
+    pub inherited_queries: bool,
+    /// minUniformBufferOffsetAlignment: the step of dynamic uniform offsets.
+    pub min_uniform_offset_alignment: u64,
 }
 
 /// Device-local memory as VK_EXT_memory_budget reports it, summed over the
@@ -633,14 +642,19 @@ impl PartialInstance {
             ));
         }
         let pipeline_statistics = base.pipeline_statistics_query != 0;
+        let inherited_queries = base.inherited_queries != 0;
+        let shader_draw_parameters = f11.shader_draw_parameters != 0;
         let features = vk::PhysicalDeviceFeatures::default()
             .pipeline_statistics_query(pipeline_statistics)
+            .inherited_queries(inherited_queries)
             .shader_clip_distance(true)
             .shader_sampled_image_array_dynamic_indexing(
                 base.shader_sampled_image_array_dynamic_indexing != 0,
             )
             .sampler_anisotropy(base.sampler_anisotropy != 0);
-        let mut e11 = vk::PhysicalDeviceVulkan11Features::default().multiview(true);
+        let mut e11 = vk::PhysicalDeviceVulkan11Features::default()
+            .multiview(true)
+            .shader_draw_parameters(shader_draw_parameters);
         // Enabled through VK_KHR_draw_indirect_count rather than the
         // Vulkan12Features bit: an OpenXR runtime creating the device
         // (XR_KHR_vulkan_enable2) may chain its own 1.2-era feature structs,
@@ -740,6 +754,9 @@ impl PartialInstance {
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
             memory_budget,
             draw_indirect_count,
+            shader_draw_parameters,
+            inherited_queries,
+            min_uniform_offset_alignment: lim.min_uniform_buffer_offset_alignment,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

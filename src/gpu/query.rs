@@ -42,8 +42,9 @@ impl Queries {
         self.names.last().copied().unwrap_or("none")
     }
 
-    /// Pools for up to `max_passes` timed passes.
-    pub fn new(ctx: &Context, max_passes: u32) -> Result<Queries> {
+    /// Pools for up to `max_passes` timed passes, and the frame's
+    /// pipeline-statistics query when the device has them and `stats`.
+    pub fn new(ctx: &Context, max_passes: u32, stats: bool) -> Result<Queries> {
         let capacity = max_passes * 2;
         let d = &ctx.device;
         let timestamps = if ctx.caps.timestamp_period_ns > 0.0 {
@@ -55,7 +56,7 @@ impl Queries {
         } else {
             None
         };
-        let stats = if ctx.caps.pipeline_statistics {
+        let stats = if stats && ctx.caps.pipeline_statistics {
             let info = vk::QueryPoolCreateInfo::default()
                 .query_type(vk::QueryType::PIPELINE_STATISTICS)
                 .query_count(1)
@@ -72,6 +73,13 @@ impl Queries {
             capacity,
             period_ns: ctx.caps.timestamp_period_ns as f64,
         })
+    }
+
+    /// The statistics the frame's pipeline-statistics query counts (None:
+    /// no such query), which secondary command buffers executed inside it
+    /// must declare.
+    pub fn stats_flags(&self) -> Option<vk::QueryPipelineStatisticFlags> {
+        self.stats.map(|_| STATS)
     }
 
     /// Resets the pools at the start of a frame (outside any rendering).

@@ -33,6 +33,12 @@ macro_rules! spirv {
 
 /// The scene's vertex shader (instanced, camera-relative positions).
 pub static SCENE_VERT: Module = spirv!("scene.vert");
+/// The scene's vertex shader taking per-draw data from a uniform buffer
+/// record at a dynamic offset (`--per-draw ubo`).
+pub static SCENE_UBO_VERT: Module = spirv!("scene_ubo.vert");
+/// The scene's vertex shader taking per-draw data from a storage buffer
+/// indexed by the draw's firstInstance (`--per-draw ssbo`).
+pub static SCENE_SSBO_VERT: Module = spirv!("scene_ssbo.vert");
 /// The scene's fragment shader with late fragment tests (alpha mask).
 pub static SCENE_FRAG: Module = spirv!("scene.frag");
 /// The scene's fragment shader with forced early fragment tests.
@@ -94,8 +100,10 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 28] = [
+pub static ALL: [&Module; 30] = [
     &SCENE_VERT,
+    &SCENE_UBO_VERT,
+    &SCENE_SSBO_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
     &HIDDEN_VERT,

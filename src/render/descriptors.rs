@@ -61,8 +61,14 @@ pub struct Descriptors {
 
 impl Descriptors {
     /// Creates the layouts and `slots` sets for a scene of `texture_count`
-    /// textures.
-    pub fn new(ctx: &Context, texture_count: u32, slots: usize) -> Result<Descriptors> {
+    /// textures; `extra` is set 1 of the pipeline layout when given (the
+    /// per-draw records of `--per-draw ubo|ssbo`).
+    pub fn new(
+        ctx: &Context,
+        texture_count: u32,
+        slots: usize,
+        extra: Option<vk::DescriptorSetLayout>,
+    ) -> Result<Descriptors> {
         let d = &ctx.device;
         let binding = |i: u32, ty, count: u32, stages| {
             vk::DescriptorSetLayoutBinding::default()
@@ -98,7 +104,7 @@ impl Descriptors {
                 offset: 0,
                 size: 16,
             }];
-            let set_layouts = [set_layout];
+            let set_layouts: Vec<_> = std::iter::once(set_layout).chain(extra).collect();
             let layout = d
                 .create_pipeline_layout(
                     &vk::PipelineLayoutCreateInfo::default()

@@ -26,6 +26,7 @@ pub mod driver;
 pub mod passes;
 pub mod scene_gpu;
 pub mod shading_rate;
+pub mod submission;
 pub mod timewarp;
 pub mod uniforms;
 
@@ -58,6 +59,7 @@ use shading_rate::ShadingRate;
 use std::collections::{BTreeMap, VecDeque};
 use std::sync::Arc;
 use std::time::Instant;
+use submission::{DrawBinding, DrawRecords, ParallelRecording, ScopeFormat};
 use uniforms::FrameUniforms;
 
 const UBO_SIZE: u64 = uniforms::SIZE;
@@ -160,6 +162,10 @@ pub struct Renderer {
     pub foveation_path: String,
     /// With `lod`: what building the chains made and cost.
     pub lod: Option<LodReport>,
+    /// `--per-draw ubo|ssbo`: the per-draw records and their set 1.
+    draw_records: Option<DrawRecords>,
+    /// `--record-threads N`: the recording threads and their secondaries.
+    parallel: Option<ParallelRecording>,
 }
 
 impl Renderer {
@@ -209,7 +215,25 @@ impl Renderer {
         });
         let scene_gpu = SceneGpu::new(&ctx, scene, chains.as_ref())?;
         drop(chains);
-        let descriptors = Descriptors::new(&ctx, scene_gpu.textures.len() as u32, slots)?;
+        let draw_records = match DrawRecords::new(&ctx, config.per_draw, slots) {
+            Ok(r) => r,
+            Err(e) => {
+                scene_gpu.destroy(&ctx);
+                return Err(e);
+            }
+        };
+        let extra_set = draw_records.as_ref().map(DrawRecords::set_layout);
+        let descriptors =
+            match Descriptors::new(&ctx, scene_gpu.textures.len() as u32, slots, extra_set) {
+                Ok(d) => d,
+                Err(e) => {
+                    if let Some(r) = draw_records {
+                        r.destroy(&ctx);
+                    }
+                    scene_gpu.destroy(&ctx);
+                    return Err(e);
+                }
+            };
         let mut ubos = Vec::new();
         for i in 0..slots {
             ubos.push(Buffer::new(
@@ -226,7 +250,10 @@ impl Renderer {
         let ring = FrameRing::new(&ctx, slots)?;
         let mut queries = Vec::new();
         for _ in 0..slots {
-            queries.push(Some(Queries::new(&ctx, 32)?));
+            // Secondary command buffers may run inside the frame's
+            // statistics query only with inheritedQueries.
+            let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
+            queries.push(Some(Queries::new(&ctx, 32, stats)?));
         }
         let mut r = Renderer {
             ctx: ctx.clone(),
@@ -265,7 +292,12 @@ impl Renderer {
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
             lod: lod_report,
+            draw_records,
+            parallel: None,
         };
+        if let Some(n) = config.record_threads {
+            r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
+        }
         // Pipelines depend on the shading-rate attachment: foveation first.
         let (rates, path) = ShadingRate::new(&ctx, &r.config, extent)?;
         if rates.is_none() {
@@ -345,6 +377,7 @@ impl Renderer {
             shading_rate: self.shading_rate.is_some(),
             scene: self.scene(),
             keys: &self.batcher.keys,
+            per_draw: self.config.per_draw,
         }
     }
 
@@ -673,11 +706,33 @@ impl Renderer {
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);
 
+        if let Some(records) = self.draw_records.as_mut() {
+            let ranges = &self
+                .scene
+                .as_ref()
+                .expect("scene present until drop")
+                .ranges;
+            let ring = self.ring.as_mut().expect("ring present until drop");
+            records.write(&self.ctx, ring, slot, &batches.draws, |d| {
+                ranges[d.primitive as usize].material
+            })?;
+        }
         let mut queries = self.queries[slot]
             .take()
             .expect("queries present until drop");
+        let secondary_calls = match &self.parallel {
+            Some(par) => match self.record_secondaries(par, &batches, queries.stats_flags()) {
+                Ok(n) => n,
+                Err(e) => {
+                    self.queries[slot] = Some(queries);
+                    self.batches = batches;
+                    return Err(e);
+                }
+            },
+            None => 0,
+        };
         queries.reset(&self.ctx, cmd);
-        stats.draw_calls = self.record(cmd, &batches, &mut queries, None);
+        stats.draw_calls = secondary_calls + self.record(cmd, &batches, &mut queries, None);
         stats.cpu_ms.record = ms(t1, Instant::now());
         self.pending = Some(Pending {
             stats,
@@ -781,15 +836,7 @@ impl Renderer {
     ) -> u64 {
         let ctx = &self.ctx;
         let targets = self.targets();
-        let rec = Recorder {
-            ctx,
-            cmd,
-            layout: self.descriptors.layout,
-            set: self.descriptors.sets[self.slot],
-            scene: self.scene(),
-            keys: &self.batcher.keys,
-            vertices: &self.vertices,
-        };
+        let rec = self.recorder(cmd);
         let passes = &self.passes;
         // The far field planned for this frame (floor frames draw none).
         let far = passes
@@ -835,6 +882,14 @@ impl Renderer {
             for (set, view_mask, eye) in view_sets.into_iter().flatten() {
                 let late = part == ScopePart::Second;
                 q.begin_pass(ctx, cmd, if late { "forward-late" } else { "forward" });
+                // The draws were recorded into secondaries by the threads.
+                let parallel = self.parallel.as_ref().filter(|_| floor.is_none());
+                if parallel.is_some() {
+                    // The primary's own state, for the passes after the
+                    // scope (the RDM fill): secondaries do not pass theirs
+                    // back.
+                    rec.set_state(self.extent);
+                }
                 rec.begin_scope(&Scope {
                     part,
                     views: set.views(),
@@ -842,7 +897,19 @@ impl Renderer {
                     view_mask,
                     depth_clear,
                     shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
+                    secondaries: parallel.is_some(),
                 });
+                if let Some(par) = parallel {
+                    // SAFETY: inside a scope begun for secondary contents;
+                    // the secondaries were recorded for it this frame.
+                    unsafe {
+                        ctx.device
+                            .cmd_execute_commands(cmd, par.commands(self.slot, eye as usize))
+                    };
+                    rec.end_scope();
+                    q.end_pass(ctx, cmd);
+                    continue;
+                }
                 if !late {
                     if let Some(mask) = &passes.stencil_mask {
                         draw_calls += mask.record(&rec, self.slot, eye);
@@ -881,6 +948,75 @@ impl Renderer {
         }
         q.end_stats(ctx, cmd);
         draw_calls
+    }
+
+    /// A recorder of this frame slot's draws into `cmd`.
+    fn recorder(&self, cmd: vk::CommandBuffer) -> Recorder<'_> {
+        Recorder {
+            ctx: &self.ctx,
+            cmd,
+            layout: self.descriptors.layout,
+            set: self.descriptors.sets[self.slot],
+            scene: self.scene(),
+            keys: &self.batcher.keys,
+            vertices: &self.vertices,
+            draw: self
+                .draw_records
+                .as_ref()
+                .map_or(DrawBinding::push(), |r| r.binding(self.slot)),
+        }
+    }
+
+    /// Records the forward scopes' contents of this frame slot on the
+    /// recording threads, each its run of `batches`' draws into its own
+    /// secondary per scope (thread 0 also the stencil mask and the RDM
+    /// checkerboard, the last thread the overlay), for the frame's
+    /// statistics query `stats`. Returns the draw calls.
+    fn record_secondaries(
+        &self,
+        par: &ParallelRecording,
+        batches: &Batches,
+        stats: Option<vk::QueryPipelineStatisticFlags>,
+    ) -> Result<u64> {
+        // (view mask, eye) per scope.
+        let scopes: &[(u32, u32)] = match self.config.stereo {
+            StereoMode::Multiview => &[(0b11, 0)],
+            StereoMode::TwoPass => &[(0, 0), (0, 1)],
+        };
+        let format = |&(view_mask, _): &(u32, u32)| ScopeFormat {
+            view_mask,
+            color: attachments::COLOR_FORMAT,
+            depth: self.ctx.caps.depth_format,
+            samples: self.config.msaa,
+            stats,
+        };
+        let formats: Vec<ScopeFormat> = scopes.iter().map(format).collect();
+        let draws = batches.near_draws();
+        let threads = par.threads();
+        let passes = &self.passes;
+        let boxes = self.extras.overlay.len();
+        let (extent, slot) = (self.extent, self.slot);
+        par.record(&self.ctx, slot, &formats, |t, scope, cmd| {
+            let rec = self.recorder(cmd);
+            rec.set_state(extent);
+            let eye = scopes[scope].1;
+            let mut calls = 0;
+            if t == 0 {
+                if let Some(mask) = &passes.stencil_mask {
+                    calls += mask.record(&rec, slot, eye);
+                }
+                if let Some(rdm) = &passes.rdm {
+                    calls += rdm.record(&rec, extent, eye);
+                }
+            }
+            let run = submission::run_of(draws.len(), threads, t);
+            let last = t + 1 == threads;
+            calls += passes.forward.record_run(&rec, draws, run, last, eye);
+            if last {
+                calls += passes.overlay.record(&rec, boxes, eye);
+            }
+            calls
+        })
     }
 
     fn record_readback(
@@ -998,6 +1134,12 @@ impl Drop for Renderer {
         }
         if let Some(s) = self.scene.take() {
             s.destroy(&ctx);
+        }
+        if let Some(r) = self.draw_records.take() {
+            r.destroy(&ctx);
+        }
+        if let Some(p) = self.parallel.take() {
+            p.destroy(&ctx);
         }
     }
 }

@@ -4,6 +4,7 @@
 
 pub mod basis;
 pub mod budget;
+pub mod cad;
 pub mod draco;
 pub mod factory;
 pub mod gltf_data;
@@ -307,11 +308,14 @@ pub struct SceneFeatures {
 }
 
 impl Scene {
-    /// Loads a scene from a `--scene` argument: `factory`, `factory:N`, a
-    /// `.gltf`/`.glb` file or a `.toml` scene manifest.
+    /// Loads a scene from a `--scene` argument: `factory`, `factory:N`,
+    /// `cad:N`, a `.gltf`/`.glb` file or a `.toml` scene manifest.
     pub fn load(spec: &str) -> Result<Scene> {
         if let Some(n) = factory_count(spec) {
             return factory::generate(n?, factory::DEFAULT_SEED);
+        }
+        if let Some(n) = cad::spec_count(spec) {
+            return cad::generate(n?, cad::DEFAULT_SEED);
         }
         let path = Path::new(spec);
         match path
@@ -325,7 +329,7 @@ impl Scene {
     }
 
     /// Checks, without loading it, that a `--scene` value can be loaded:
-    /// `factory[:N]` with N within the factory's limit, or a regular file
+    /// `factory[:N]` with N within the factory's limit, `cad:N`, or a regular file
     /// under the size limit (what a bench plan checks for every scene
     /// before measuring the first).
     pub fn check_spec(spec: &str) -> Result<()> {
@@ -341,6 +345,9 @@ impl Scene {
                 ));
             }
             return Ok(());
+        }
+        if let Some(n) = cad::spec_count(spec) {
+            return n.map(|_| ());
         }
         let path = Path::new(spec);
         let io = |source: std::io::Error| Error::Io {

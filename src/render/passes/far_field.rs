@@ -275,13 +275,12 @@ impl FarField {
                 view_mask: 0,
                 depth_clear: 0.0,
                 shading_rate: None,
+                secondaries: false,
             });
-            draws += rec.draw_batches(
-                batches.far_draws(),
-                &self.pipelines,
-                Some(self.sky),
-                2 + i as u32,
-            );
+            let far = batches.far_draws();
+            let base = batches.far_start.unwrap_or(0) as u32;
+            let sky = Some((self.sky, rec.sky_slot(far)));
+            draws += rec.draw_batches(far, base, &self.pipelines, sky, 2 + i as u32);
             rec.end_scope();
             rec.barriers(&[to_sampled(&set.resolve)]);
         }

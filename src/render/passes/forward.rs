@@ -8,6 +8,7 @@
 
 use super::gpu_cull::GpuCull;
 use super::{destroy_pipelines, PipelineSetup, Recorder};
+use crate::config::PerDraw;
 use crate::error::Result;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -25,7 +26,12 @@ pub struct Forward {
 impl Forward {
     /// Builds the scene pipelines and the sky.
     pub fn new(setup: &PipelineSetup) -> Result<Forward> {
-        let (vs, fs) = (shaders::SCENE_VERT.words(), shaders::SCENE_FRAG.words());
+        let vertex = match setup.per_draw {
+            PerDraw::Push => &shaders::SCENE_VERT,
+            PerDraw::Ubo => &shaders::SCENE_UBO_VERT,
+            PerDraw::Ssbo => &shaders::SCENE_SSBO_VERT,
+        };
+        let (vs, fs) = (vertex.words(), shaders::SCENE_FRAG.words());
         let (full, sky) = (shaders::FULLSCREEN_VERT.words(), shaders::SKY_FRAG.words());
         Ok(Forward {
             pipelines: setup.scene_pipelines(&setup.scene_desc(&vs, &fs))?,
@@ -33,10 +39,31 @@ impl Forward {
         })
     }
 
-    /// Draws `draws` for view `eye` inside the open scope, and the sky when
-    /// `with_sky`. Returns the draw calls.
+    /// Draws `draws` (the frame's list from its start) for view `eye`
+    /// inside the open scope, and the sky when `with_sky`. Returns the draw
+    /// calls.
     pub fn record(&self, rec: &Recorder, draws: &[Draw], eye: u32, with_sky: bool) -> u64 {
-        rec.draw_batches(draws, &self.pipelines, with_sky.then_some(self.sky), eye)
+        let sky = with_sky.then(|| (self.sky, rec.sky_slot(draws)));
+        rec.draw_batches(draws, 0, &self.pipelines, sky, eye)
+    }
+
+    /// Draws the run `run` of the frame's list `draws` for view `eye` into
+    /// a secondary command buffer continuing the scope, with the sky when
+    /// it falls into this run (before the list's first blended draw, else
+    /// at the end of the `last` run). Returns the draw calls.
+    pub fn record_run(
+        &self,
+        rec: &Recorder,
+        draws: &[Draw],
+        run: std::ops::Range<usize>,
+        last: bool,
+        eye: u32,
+    ) -> u64 {
+        let at = rec.sky_slot(draws);
+        let owns = run.contains(&at) || (at == draws.len() && last);
+        let sky = owns.then(|| (self.sky, at - run.start));
+        let base = run.start as u32;
+        rec.draw_batches(&draws[run], base, &self.pipelines, sky, eye)
     }
 
     /// Draws the primitives `gpu` culled into frame slot `slot` (its late

@@ -19,7 +19,8 @@ pub mod stencil_mask;
 use super::attachments::{TargetViews, COLOR_FORMAT};
 use super::batches::{Draw, PipelineKey};
 use super::scene_gpu::{self, SceneGpu, STREAMS};
-use crate::config::RenderConfig;
+use super::submission::DrawBinding;
+use crate::config::{PerDraw, RenderConfig};
 use crate::error::Result;
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Image};
@@ -136,6 +137,9 @@ pub struct PipelineSetup<'a> {
     pub scene: &'a SceneGpu,
     /// Pipeline key per primitive.
     pub keys: &'a [PipelineKey],
+    /// How the forward draws pass their per-draw data (picks the scene
+    /// vertex shader).
+    pub per_draw: PerDraw,
 }
 
 impl PipelineSetup<'_> {
@@ -364,6 +368,10 @@ pub struct Scope {
     pub depth_clear: f32,
     /// A fragment-shading-rate attachment and its texel size.
     pub shading_rate: Option<(vk::ImageView, (u32, u32))>,
+    /// The scope's draws come from secondary command buffers
+    /// (`--record-threads`): the primary only executes them, and each
+    /// secondary sets its own state ([`Recorder::set_state`]).
+    pub secondaries: bool,
 }
 
 /// Records a frame's commands: the command buffer, the device, this frame
@@ -383,6 +391,8 @@ pub struct Recorder<'a> {
     pub keys: &'a [PipelineKey],
     /// The scene's vertex buffers.
     pub vertices: &'a VertexBindings,
+    /// How scene draws pass their per-draw data.
+    pub draw: DrawBinding,
 }
 
 impl Recorder<'_> {
@@ -478,7 +488,13 @@ impl Recorder<'_> {
             offset: vk::Offset2D::default(),
             extent: scope.extent,
         };
+        let flags = if scope.secondaries {
+            vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS
+        } else {
+            vk::RenderingFlags::empty()
+        };
         let mut info = vk::RenderingInfo::default()
+            .flags(flags)
             .render_area(area)
             .layer_count(1)
             .view_mask(scope.view_mask)
@@ -488,20 +504,36 @@ impl Recorder<'_> {
         if let Some(r) = rate_info.as_mut() {
             info = info.push_next(r);
         }
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: scope.extent.width as f32,
-            height: scope.extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        let d = &self.ctx.device;
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; the attachments were made writable by the
         // frame's begin barriers and belong to the renderer.
+        unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
+        if !scope.secondaries {
+            self.set_state(scope.extent);
+        }
+    }
+
+    /// Sets what draws inside a rendering scope need and a command buffer
+    /// does not inherit: viewport and scissor over `extent`, the frame
+    /// slot's descriptor set, and for `--per-draw ssbo` the record set.
+    pub fn set_state(&self, extent: vk::Extent2D) {
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let area = vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        };
+        let d = &self.ctx.device;
+        // SAFETY: recording into an open command buffer inside (or
+        // continuing) a rendering scope; the sets belong to the renderer and
+        // match its pipeline layout.
         unsafe {
-            d.cmd_begin_rendering(self.cmd, &info);
             d.cmd_set_viewport(self.cmd, 0, &[viewport]);
             d.cmd_set_scissor(self.cmd, 0, &[area]);
             d.cmd_bind_descriptor_sets(
@@ -512,6 +544,16 @@ impl Recorder<'_> {
                 &[self.set],
                 &[],
             );
+            if self.draw.mode == PerDraw::Ssbo {
+                d.cmd_bind_descriptor_sets(
+                    self.cmd,
+                    vk::PipelineBindPoint::GRAPHICS,
+                    self.layout,
+                    1,
+                    &[self.draw.set],
+                    &[],
+                );
+            }
         }
     }
 
@@ -617,35 +659,74 @@ impl Recorder<'_> {
         self.bind_indices();
     }
 
-    /// Draws `draws` with `pipelines` for view `eye` (the push-constant
-    /// view offset), and the sky with `sky` (before the first blended
-    /// batch, or last) when given. Returns the draw calls.
+    /// Where the sky goes in `draws`: before the first blended draw, else
+    /// after the last (reverse-Z: the sky fills only what opaque and masked
+    /// draws left at depth 0, and blended draws must see it behind them).
+    pub fn sky_slot(&self, draws: &[Draw]) -> usize {
+        draws
+            .iter()
+            .position(|d| self.keys[d.primitive as usize].alpha == 2)
+            .unwrap_or(draws.len())
+    }
+
+    /// Draws `draws`, whose first is draw `base` of the frame's list (its
+    /// per-draw record), with `pipelines` for view `eye` (the push-constant
+    /// view offset), and with `sky` = (pipeline, i) the sky just before
+    /// `draws[i]` (i = len: after the last). Returns the draw calls.
     pub fn draw_batches(
         &self,
         draws: &[Draw],
+        base: u32,
         pipelines: &HashMap<PipelineKey, vk::Pipeline>,
-        sky: Option<vk::Pipeline>,
+        sky: Option<(vk::Pipeline, usize)>,
         eye: u32,
     ) -> u64 {
         let d = &self.ctx.device;
         self.bind_scene_geometry();
+        let mode = self.draw.mode;
+        if mode != PerDraw::Push {
+            // The material comes with the record; only the view offset is
+            // pushed, once.
+            self.push([0, eye, 0, 0]);
+        }
         let mut draw_calls = 0;
         let mut bound = None;
-        let mut sky_drawn = sky.is_none();
-        for draw in draws {
-            let key = self.keys[draw.primitive as usize];
-            if let (2, Some(sky), false) = (key.alpha, sky, sky_drawn) {
+        for (i, draw) in draws.iter().enumerate() {
+            if let Some((sky, _)) = sky.filter(|&(_, at)| at == i) {
                 self.draw_fullscreen(sky, eye);
                 draw_calls += 1;
-                sky_drawn = true;
                 bound = None;
             }
+            let key = self.keys[draw.primitive as usize];
             if bound != Some(key) {
                 self.bind(pipelines[&key]);
                 bound = Some(key);
             }
             let r = self.scene.ranges[draw.primitive as usize];
-            self.push([r.material, eye, 0, 0]);
+            let record = base + i as u32;
+            let first_instance = match mode {
+                PerDraw::Push => {
+                    self.push([r.material, eye, 0, 0]);
+                    draw.first
+                }
+                PerDraw::Ubo => {
+                    // SAFETY: recording inside a rendering scope; set 1 is
+                    // the slot's record set and the offset lies inside its
+                    // buffer (written for every draw of the frame).
+                    unsafe {
+                        d.cmd_bind_descriptor_sets(
+                            self.cmd,
+                            vk::PipelineBindPoint::GRAPHICS,
+                            self.layout,
+                            1,
+                            &[self.draw.set],
+                            &[record * self.draw.stride],
+                        )
+                    };
+                    0
+                }
+                PerDraw::Ssbo => record,
+            };
             // SAFETY: inside a rendering scope with a scene pipeline and the
             // scene's buffers bound; the range lies in the index buffer.
             unsafe {
@@ -655,12 +736,12 @@ impl Recorder<'_> {
                     draw.count,
                     r.first_index,
                     r.vertex_offset,
-                    draw.first,
+                    first_instance,
                 )
             };
             draw_calls += 1;
         }
-        if let (Some(sky), false) = (sky, sky_drawn) {
+        if let Some((sky, _)) = sky.filter(|&(_, at)| at >= draws.len()) {
             self.draw_fullscreen(sky, eye);
             draw_calls += 1;
         }

@@ -1,0 +1,411 @@
+//! How the CPU hands draws to the GPU, the two knobs the submission
+//! benchmark turns:
+//!
+//! - **Per-draw data** (`--per-draw`): each draw's material and the start of
+//!   its instances in the visible list reach the vertex shader either as
+//!   push constants written before the draw (`push`), as a uniform-buffer
+//!   record selected by a dynamic offset bound before the draw (`ubo`), or
+//!   as a storage-buffer record the shader indexes with the draw's
+//!   `firstInstance` (`ssbo`, through `gl_BaseInstance`; nothing is bound
+//!   per draw). [`DrawRecords`] holds the records and their descriptor set
+//!   (set 1); the three paths draw identical images.
+//! - **Parallel recording** (`--record-threads N`): the forward views'
+//!   draw list is cut into N contiguous runs, each recorded into its own
+//!   secondary command buffer by its own thread (a rayon pool of N threads,
+//!   one command pool per thread and frame slot, as Vulkan requires command
+//!   pools to be used by one thread at a time), and the frame's primary
+//!   command buffer executes them in order inside the rendering scope
+//!   ([`ParallelRecording`]). The order of draws, and so the image, is the
+//!   same as recording on one thread.
+
+use super::batches::Draw;
+use crate::config::PerDraw;
+use crate::error::{Result, VkContext};
+use crate::gpu::memory::{Buffer, BufferDesc};
+use crate::gpu::pipeline::DescriptorSets;
+use crate::gpu::ring::{FrameRing, Garbage};
+use crate::gpu::Context;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+/// Bytes of one record: material, first visible slot, two unused words
+/// (std140 `uvec4` for the uniform path; the storage path reads the first
+/// two words as a `uvec2` at an 8-byte stride).
+const UBO_RECORD: u64 = 16;
+/// Stride of the storage path's records (std430 `uvec2`).
+const SSBO_RECORD: u64 = 8;
+
+/// What a recorder needs to pass per-draw data: the mode, and for `ubo` and
+/// `ssbo` the slot's set 1 and the record stride.
+#[derive(Clone, Copy, Debug)]
+pub struct DrawBinding {
+    /// How per-draw data is passed.
+    pub mode: PerDraw,
+    /// The slot's set 1 (null for `push`).
+    pub set: vk::DescriptorSet,
+    /// Bytes between consecutive records (the dynamic-offset step for
+    /// `ubo`).
+    pub stride: u32,
+}
+
+impl DrawBinding {
+    /// Push constants only: nothing to bind.
+    pub fn push() -> DrawBinding {
+        DrawBinding {
+            mode: PerDraw::Push,
+            set: vk::DescriptorSet::null(),
+            stride: 0,
+        }
+    }
+}
+
+/// The per-draw records of `--per-draw ubo|ssbo`: one host-visible buffer
+/// per frame slot (grown as the draw count needs) and its set 1.
+pub struct DrawRecords {
+    mode: PerDraw,
+    sets: DescriptorSets,
+    buffers: Vec<Option<Buffer>>,
+    stride: u64,
+}
+
+impl DrawRecords {
+    /// The records for `mode` over `slots` frame slots (None for `push`,
+    /// which needs no buffer). `ssbo` needs the shaderDrawParameters
+    /// feature; without it this is one error naming it.
+    pub fn new(ctx: &Context, mode: PerDraw, slots: usize) -> Result<Option<DrawRecords>> {
+        let (ty, stride) = match mode {
+            PerDraw::Push => return Ok(None),
+            PerDraw::Ubo => {
+                let align = ctx.caps.min_uniform_offset_alignment.max(1);
+                (
+                    vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC,
+                    UBO_RECORD.div_ceil(align) * align,
+                )
+            }
+            PerDraw::Ssbo => {
+                if !ctx.caps.shader_draw_parameters {
+                    return Err(crate::error::Error::config(
+                        "--per-draw",
+                        format!(
+                            "ssbo indexes records with gl_BaseInstance, and {} lacks the shaderDrawParameters feature; use push or ubo",
+                            ctx.device_name
+                        ),
+                    ));
+                }
+                (vk::DescriptorType::STORAGE_BUFFER, SSBO_RECORD)
+            }
+        };
+        let sets = DescriptorSets::new(
+            ctx,
+            &[(ty, 1, vk::ShaderStageFlags::VERTEX)],
+            vk::ShaderStageFlags::VERTEX,
+            4,
+            slots,
+            "per-draw records",
+        )?;
+        Ok(Some(DrawRecords {
+            mode,
+            sets,
+            buffers: (0..slots).map(|_| None).collect(),
+            stride,
+        }))
+    }
+
+    /// The layout of set 1, for the renderer's pipeline layout.
+    pub fn set_layout(&self) -> vk::DescriptorSetLayout {
+        self.sets.set_layout
+    }
+
+    /// How slot `slot`'s draws pass their data.
+    pub fn binding(&self, slot: usize) -> DrawBinding {
+        DrawBinding {
+            mode: self.mode,
+            set: self.sets.sets[slot],
+            stride: self.stride as u32,
+        }
+    }
+
+    /// Writes the records of `draws` into slot `slot`'s buffer (grown, and
+    /// its set rewritten, when it is too small; the old buffer is destroyed
+    /// once the frames using it are done). `material_of` gives a draw's
+    /// material. The slot's previous frame must be done.
+    pub fn write(
+        &mut self,
+        ctx: &Context,
+        ring: &mut FrameRing,
+        slot: usize,
+        draws: &[Draw],
+        material_of: impl Fn(&Draw) -> u32,
+    ) -> Result<()> {
+        let need = (draws.len().max(1) as u64) * self.stride;
+        if !self.buffers[slot].as_ref().is_some_and(|b| b.size >= need) {
+            self.grow(ctx, ring, slot, need)?;
+        }
+        let stride = self.stride as usize;
+        let buffer = self.buffers[slot].as_mut().expect("allocated above");
+        let bytes = buffer.mapped().ok_or_else(|| {
+            crate::error::Error::Gpu("the per-draw record buffer is not host-visible".into())
+        })?;
+        for (i, d) in draws.iter().enumerate() {
+            let at = i * stride;
+            bytes[at..at + 4].copy_from_slice(&material_of(d).to_le_bytes());
+            bytes[at + 4..at + 8].copy_from_slice(&d.first.to_le_bytes());
+        }
+        Ok(())
+    }
+
+    fn grow(&mut self, ctx: &Context, ring: &mut FrameRing, slot: usize, need: u64) -> Result<()> {
+        let usage = match self.mode {
+            PerDraw::Ubo => vk::BufferUsageFlags::UNIFORM_BUFFER,
+            _ => vk::BufferUsageFlags::STORAGE_BUFFER,
+        };
+        let buffer = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: "per-draw records",
+                size: need.next_power_of_two().max(4096),
+                usage,
+                location: MemoryLocation::CpuToGpu,
+                category: "per-frame",
+            },
+        )?;
+        let (ty, range) = match self.mode {
+            PerDraw::Ubo => (vk::DescriptorType::UNIFORM_BUFFER_DYNAMIC, UBO_RECORD),
+            _ => (vk::DescriptorType::STORAGE_BUFFER, vk::WHOLE_SIZE),
+        };
+        let info = [vk::DescriptorBufferInfo {
+            buffer: buffer.buffer,
+            offset: 0,
+            range,
+        }];
+        let write = vk::WriteDescriptorSet::default()
+            .dst_set(self.sets.sets[slot])
+            .dst_binding(0)
+            .descriptor_type(ty)
+            .buffer_info(&info);
+        // SAFETY: the set belongs to this slot, whose previous frame is done
+        // (the caller's contract); the buffer is alive.
+        unsafe { ctx.device.update_descriptor_sets(&[write], &[]) };
+        if let Some(old) = self.buffers[slot].replace(buffer) {
+            ring.defer(Garbage::Buffer(old));
+        }
+        Ok(())
+    }
+
+    /// Destroys the buffers and the sets; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        for b in self.buffers.into_iter().flatten() {
+            b.destroy(ctx);
+        }
+        self.sets.destroy(ctx);
+    }
+}
+
+/// The formats and state a rendering scope has, which the secondary
+/// command buffers executed inside it must declare.
+#[derive(Clone, Copy, Debug)]
+pub struct ScopeFormat {
+    /// Multiview mask (0: one view).
+    pub view_mask: u32,
+    /// The colour attachment's format.
+    pub color: vk::Format,
+    /// The depth-stencil attachment's format.
+    pub depth: vk::Format,
+    /// Samples per pixel.
+    pub samples: u32,
+    /// The pipeline statistics of the query active around the scope.
+    pub stats: Option<vk::QueryPipelineStatisticFlags>,
+}
+
+/// One thread's command pool for one frame slot, and its secondary command
+/// buffers (one per rendering scope: two in two-pass).
+struct ThreadBuffers {
+    pool: vk::CommandPool,
+    cmds: [vk::CommandBuffer; 2],
+}
+
+/// Parallel recording of a frame's forward draws into secondary command
+/// buffers (see the module documentation).
+pub struct ParallelRecording {
+    threads: usize,
+    workers: rayon::ThreadPool,
+    /// Per frame slot, per thread.
+    slots: Vec<Vec<ThreadBuffers>>,
+    /// Per frame slot, per scope: the secondaries in execution order.
+    by_scope: Vec<[Vec<vk::CommandBuffer>; 2]>,
+}
+
+impl ParallelRecording {
+    /// `threads` recording threads with their command pools for `slots`
+    /// frame slots.
+    pub fn new(ctx: &Context, threads: usize, slots: usize) -> Result<ParallelRecording> {
+        let workers = rayon::ThreadPoolBuilder::new()
+            .num_threads(threads)
+            .thread_name(|i| format!("vergence-record-{i}"))
+            .build()
+            .map_err(|e| crate::error::Error::Gpu(format!("starting recording threads: {e}")))?;
+        let mut made = ParallelRecording {
+            threads,
+            workers,
+            slots: Vec::new(),
+            by_scope: Vec::new(),
+        };
+        for _ in 0..slots {
+            let mut per_thread = Vec::new();
+            for _ in 0..threads {
+                match Self::thread_buffers(ctx) {
+                    Ok(t) => per_thread.push(t),
+                    Err(e) => {
+                        made.slots.push(per_thread);
+                        made.destroy(ctx);
+                        return Err(e);
+                    }
+                }
+            }
+            made.by_scope
+                .push([0, 1].map(|scope| per_thread.iter().map(|t| t.cmds[scope]).collect()));
+            made.slots.push(per_thread);
+        }
+        Ok(made)
+    }
+
+    fn thread_buffers(ctx: &Context) -> Result<ThreadBuffers> {
+        let d = &ctx.device;
+        // SAFETY: plain object creation on a live device; the pool is
+        // destroyed if allocating from it fails.
+        unsafe {
+            let pool = d
+                .create_command_pool(
+                    &vk::CommandPoolCreateInfo::default().queue_family_index(ctx.queue_family),
+                    None,
+                )
+                .vk("creating a recording thread's command pool")?;
+            let cmds = d.allocate_command_buffers(
+                &vk::CommandBufferAllocateInfo::default()
+                    .command_pool(pool)
+                    .level(vk::CommandBufferLevel::SECONDARY)
+                    .command_buffer_count(2),
+            );
+            match cmds {
+                Ok(c) => Ok(ThreadBuffers {
+                    pool,
+                    cmds: [c[0], c[1]],
+                }),
+                Err(r) => {
+                    d.destroy_command_pool(pool, None);
+                    Err(crate::error::Error::Vulkan {
+                        context: "allocating secondary command buffers".into(),
+                        result: r,
+                    })
+                }
+            }
+        }
+    }
+
+    /// Recording threads (and runs of draws).
+    pub fn threads(&self) -> usize {
+        self.threads
+    }
+
+    /// The secondary command buffers of slot `slot`'s scope `scope`, in
+    /// execution order.
+    pub fn commands(&self, slot: usize, scope: usize) -> &[vk::CommandBuffer] {
+        &self.by_scope[slot][scope]
+    }
+
+    /// Records slot `slot`'s secondaries for `scopes` rendering scopes of
+    /// format `format[scope]`: on thread `t`, for each scope, `f(t, scope,
+    /// cmd)` records run `t` into `cmd` (begun to continue the scope, ended
+    /// after). The slot's previous frame must be done. Returns the draw
+    /// calls `f` reports, summed.
+    pub fn record<F>(&self, ctx: &Context, slot: usize, format: &[ScopeFormat], f: F) -> Result<u64>
+    where
+        F: Fn(usize, usize, vk::CommandBuffer) -> u64 + Sync,
+    {
+        use rayon::prelude::*;
+        let buffers = &self.slots[slot];
+        self.workers.install(|| {
+            buffers
+                .par_iter()
+                .enumerate()
+                .map(|(t, b)| -> Result<u64> {
+                    let d = &ctx.device;
+                    // SAFETY: the pool belongs to this thread for this slot,
+                    // whose previous frame is done (the caller's contract).
+                    unsafe { d.reset_command_pool(b.pool, vk::CommandPoolResetFlags::empty()) }
+                        .vk("resetting a recording thread's command pool")?;
+                    let mut calls = 0;
+                    for (scope, fmt) in format.iter().enumerate() {
+                        let colors = [fmt.color];
+                        let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
+                            .view_mask(fmt.view_mask)
+                            .color_attachment_formats(&colors)
+                            .depth_attachment_format(fmt.depth)
+                            .stencil_attachment_format(fmt.depth)
+                            .rasterization_samples(vk::SampleCountFlags::from_raw(fmt.samples));
+                        let inheritance = vk::CommandBufferInheritanceInfo::default()
+                            .pipeline_statistics(fmt.stats.unwrap_or_default())
+                            .push_next(&mut rendering);
+                        let begin = vk::CommandBufferBeginInfo::default()
+                            .flags(
+                                vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT
+                                    | vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE,
+                            )
+                            .inheritance_info(&inheritance);
+                        let cmd = b.cmds[scope];
+                        // SAFETY: the buffer was reset with its pool above
+                        // and is used by this thread only.
+                        unsafe { d.begin_command_buffer(cmd, &begin) }
+                            .vk("beginning a secondary command buffer")?;
+                        calls += f(t, scope, cmd);
+                        // SAFETY: begun above.
+                        unsafe { d.end_command_buffer(cmd) }
+                            .vk("ending a secondary command buffer")?;
+                    }
+                    Ok(calls)
+                })
+                .try_reduce(|| 0, |a, b| Ok(a + b))
+        })
+    }
+
+    /// Destroys the command pools (and their buffers); the device must be
+    /// idle.
+    pub fn destroy(self, ctx: &Context) {
+        for t in self.slots.into_iter().flatten() {
+            // SAFETY: the device is idle; the pool belongs to `self`.
+            unsafe { ctx.device.destroy_command_pool(t.pool, None) };
+        }
+    }
+}
+
+/// The run of `len` draws that thread `t` of `threads` records: contiguous
+/// and as even as the division allows, so the runs in thread order are the
+/// draw list in order.
+pub fn run_of(len: usize, threads: usize, t: usize) -> std::ops::Range<usize> {
+    let (q, r) = (len / threads, len % threads);
+    let start = t * q + t.min(r);
+    start..start + q + usize::from(t < r)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::run_of;
+    use proptest::prelude::*;
+
+    proptest! {
+        #[test]
+        fn runs_partition_the_list_in_order(len in 0usize..5000, threads in 1usize..65) {
+            let mut next = 0;
+            let mut sizes = Vec::new();
+            for t in 0..threads {
+                let r = run_of(len, threads, t);
+                prop_assert_eq!(r.start, next);
+                next = r.end;
+                sizes.push(r.len());
+            }
+            prop_assert_eq!(next, len);
+            let (lo, hi) = (sizes.iter().min().unwrap(), sizes.iter().max().unwrap());
+            prop_assert!(hi - lo <= 1);
+        }
+    }
+}
