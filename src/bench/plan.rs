@@ -19,6 +19,14 @@ pub struct PlanConfig {
     /// Frames in flight for this configuration (default: the plan's).
     #[serde(default)]
     pub frames_in_flight: Option<u32>,
+    /// Record the forward draws on this many threads into secondary
+    /// command buffers (`--record-threads`; default: straight into the
+    /// primary).
+    #[serde(default)]
+    pub record_threads: Option<u32>,
+    /// How per-draw data reaches the shaders (`--per-draw`; default push).
+    #[serde(default)]
+    pub per_draw: Option<crate::config::PerDraw>,
 }
 
 /// A benchmark plan.
@@ -104,6 +112,10 @@ pub const BUILTIN: &[(&str, &str)] = &[
         "in-flight",
         include_str!("../../manifests/bench/in-flight.toml"),
     ),
+    (
+        "submission",
+        include_str!("../../manifests/bench/submission.toml"),
+    ),
 ];
 
 /// The kind of head path a plan's frames follow.
@@ -119,7 +131,7 @@ pub enum PathKind {
 
 impl Plan {
     /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`,
-    /// `in-flight`).
+    /// `in-flight`, `submission`).
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
         let path = Path::new(name_or_path);
         if path.exists() {
@@ -290,7 +302,11 @@ impl Plan {
     /// The renderer configuration of `c`: its `--opt` list over the
     /// defaults, with its frames in flight (or the plan's).
     pub fn config_for(&self, c: &PlanConfig) -> Result<RenderConfig> {
-        self.with_frames_in_flight(&c.opt, c.frames_in_flight)
+        let mut config = self.with_frames_in_flight(&c.opt, c.frames_in_flight)?;
+        config.record_threads = c.record_threads;
+        config.per_draw = c.per_draw.unwrap_or_default();
+        config.validate()?;
+        Ok(config)
     }
 
     /// The image reference's renderer configuration (the plan's frames in
@@ -412,6 +428,21 @@ opt = "two-pass"
             ),
             (
                 "opt = \"two-pass\"",
+                "opt = \"two-pass\"\nrecord_threads = 0",
+                "--record-threads",
+            ),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"two-pass\"\nper_draw = \"uniform\"",
+                "per_draw",
+            ),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"two-pass,superfrustum,gpu-cull\"\nper_draw = \"ssbo\"",
+                "cannot be combined with gpu-cull",
+            ),
+            (
+                "opt = \"two-pass\"",
                 "opt = \"two-pass\"\n[[configs]]\nname = \"a b\"\n[[configs]]\nname = \"a_b\"",
                 "same image file name",
             ),
@@ -429,7 +460,7 @@ opt = "two-pass"
     #[test]
     fn shipped_plans_parse() {
         let dir = Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/bench");
-        for name in ["smoke", "default", "scale", "in-flight"] {
+        for name in ["smoke", "default", "scale", "in-flight", "submission"] {
             let p = Plan::load(&dir.join(format!("{name}.toml"))).unwrap();
             assert_eq!(p.name, name);
         }

@@ -66,6 +66,14 @@ pub struct PhaseMs {
     pub record: f64,
     /// Submitting.
     pub submit: f64,
+    /// With `record_threads`: the recording threads' own times summed
+    /// (part of `record`; against the one-thread `record`, how much each
+    /// thread slowed down in company).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub record_threads_sum: Option<f64>,
+    /// With `record_threads`: the slowest thread's recording time.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub record_threads_slowest: Option<f64>,
 }
 
 /// GPU memory while the configuration ran.
@@ -702,6 +710,14 @@ fn summarize(
             batch: median(&|f| f.stats.cpu_ms.batch),
             record: median(&|f| f.stats.cpu_ms.record),
             submit: median(&|f| f.stats.cpu_ms.submit),
+            record_threads_sum: renderer
+                .config
+                .record_threads
+                .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().sum)),
+            record_threads_slowest: renderer
+                .config
+                .record_threads
+                .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().slowest)),
         },
         cpu_frame_ms: Summary::of(&cpu),
         gpu_ms: passes,

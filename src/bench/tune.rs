@@ -83,6 +83,8 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
                 name: n.to_string(),
                 opt: o.to_string(),
                 frames_in_flight: None,
+                record_threads: None,
+                per_draw: None,
             })
             .collect(),
     }

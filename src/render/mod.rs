@@ -75,6 +75,10 @@ pub struct CpuTimes {
     pub submit: f64,
     /// Waiting for the GPU (fence).
     pub wait: f64,
+    /// With `--record-threads`: the recording threads' own times (part of
+    /// `record`).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub record_threads: Option<submission::ThreadTimes>,
 }
 
 /// Statistics of one rendered frame.
@@ -617,6 +621,9 @@ impl Renderer {
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
+        if let Some(par) = &self.parallel {
+            par.wake();
+        }
         let t0 = Instant::now();
         stats.cpu_ms.wait = ms(t_wait, t0) + std::mem::take(&mut self.slot_wait_ms);
         let mut batches = std::mem::take(&mut self.batches);
@@ -706,30 +713,50 @@ impl Renderer {
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);
 
-        if let Some(records) = self.draw_records.as_mut() {
-            let ranges = &self
-                .scene
-                .as_ref()
-                .expect("scene present until drop")
-                .ranges;
-            let ring = self.ring.as_mut().expect("ring present until drop");
-            records.write(&self.ctx, ring, slot, &batches.draws, |d| {
-                ranges[d.primitive as usize].material
-            })?;
-        }
         let mut queries = self.queries[slot]
             .take()
             .expect("queries present until drop");
-        let secondary_calls = match &self.parallel {
-            Some(par) => match self.record_secondaries(par, &batches, queries.stats_flags()) {
-                Ok(n) => n,
-                Err(e) => {
-                    self.queries[slot] = Some(queries);
-                    self.batches = batches;
-                    return Err(e);
+        // The per-draw records are written by whoever records the draws:
+        // the recording threads their runs' records, else this thread.
+        let mut records = self.draw_records.take();
+        let recorded = (|| -> Result<(u64, Option<submission::ThreadTimes>)> {
+            let binding = records
+                .as_ref()
+                .map_or(DrawBinding::push(), |r| r.binding(slot));
+            let space = match records.as_mut() {
+                Some(r) => {
+                    let ring = self.ring.as_mut().expect("ring present until drop");
+                    Some(r.space(&self.ctx, ring, slot, batches.draws.len())?)
                 }
-            },
-            None => 0,
+                None => None,
+            };
+            match &self.parallel {
+                Some(par) => {
+                    let stats_flags = queries.stats_flags();
+                    let (n, times) =
+                        self.record_secondaries(par, &batches, stats_flags, binding, space)?;
+                    Ok((n, Some(times)))
+                }
+                None => {
+                    if let Some(mut space) = space {
+                        let ranges = &self.scene().ranges;
+                        space.fill(&batches.draws, |d| ranges[d.primitive as usize].material);
+                    }
+                    Ok((0, None))
+                }
+            }
+        })();
+        self.draw_records = records;
+        let secondary_calls = match recorded {
+            Ok((n, times)) => {
+                stats.cpu_ms.record_threads = times;
+                n
+            }
+            Err(e) => {
+                self.queries[slot] = Some(queries);
+                self.batches = batches;
+                return Err(e);
+            }
         };
         queries.reset(&self.ctx, cmd);
         stats.draw_calls = secondary_calls + self.record(cmd, &batches, &mut queries, None);
@@ -952,6 +979,16 @@ impl Renderer {
 
     /// A recorder of this frame slot's draws into `cmd`.
     fn recorder(&self, cmd: vk::CommandBuffer) -> Recorder<'_> {
+        let draw = self
+            .draw_records
+            .as_ref()
+            .map_or(DrawBinding::push(), |r| r.binding(self.slot));
+        self.recorder_with(cmd, draw)
+    }
+
+    /// A recorder of this frame slot's draws into `cmd` passing per-draw
+    /// data as `draw` says.
+    fn recorder_with(&self, cmd: vk::CommandBuffer, draw: DrawBinding) -> Recorder<'_> {
         Recorder {
             ctx: &self.ctx,
             cmd,
@@ -960,24 +997,25 @@ impl Renderer {
             scene: self.scene(),
             keys: &self.batcher.keys,
             vertices: &self.vertices,
-            draw: self
-                .draw_records
-                .as_ref()
-                .map_or(DrawBinding::push(), |r| r.binding(self.slot)),
+            draw,
         }
     }
 
     /// Records the forward scopes' contents of this frame slot on the
-    /// recording threads, each its run of `batches`' draws into its own
-    /// secondary per scope (thread 0 also the stencil mask and the RDM
-    /// checkerboard, the last thread the overlay), for the frame's
-    /// statistics query `stats`. Returns the draw calls.
+    /// recording threads, each its run of the draws into its own secondary
+    /// per scope (a scope's first run also the stencil mask and the RDM
+    /// checkerboard, its last the overlay), for the frame's statistics
+    /// query `stats`, passing per-draw data as `draw` says; each thread
+    /// first writes its run's records into its part of `space`. Returns the
+    /// draw calls and the threads' timing.
     fn record_secondaries(
         &self,
         par: &ParallelRecording,
         batches: &Batches,
         stats: Option<vk::QueryPipelineStatisticFlags>,
-    ) -> Result<u64> {
+        draw: DrawBinding,
+        space: Option<submission::RecordSpace>,
+    ) -> Result<(u64, submission::ThreadTimes)> {
         // (view mask, eye) per scope.
         let scopes: &[(u32, u32)] = match self.config.stereo {
             StereoMode::Multiview => &[(0b11, 0)],
@@ -992,16 +1030,28 @@ impl Renderer {
         };
         let formats: Vec<ScopeFormat> = scopes.iter().map(format).collect();
         let draws = batches.near_draws();
-        let threads = par.threads();
         let passes = &self.passes;
         let boxes = self.extras.overlay.len();
         let (extent, slot) = (self.extent, self.slot);
-        par.record(&self.ctx, slot, &formats, |t, scope, cmd| {
-            let rec = self.recorder(cmd);
+        let spaces: Vec<std::sync::Mutex<submission::RecordSpace>> = space
+            .map(|s| s.split(par.threads()))
+            .unwrap_or_default()
+            .into_iter()
+            .map(std::sync::Mutex::new)
+            .collect();
+        let ranges = &self.scene().ranges;
+        par.record(&self.ctx, slot, &formats, draws.len(), |chunk, cmd| {
+            if let (0, Some(space)) = (chunk.scope, spaces.get(chunk.thread)) {
+                let mut space = space.lock().unwrap_or_else(|e| e.into_inner());
+                space.fill(&draws[chunk.run.clone()], |d| {
+                    ranges[d.primitive as usize].material
+                });
+            }
+            let rec = self.recorder_with(cmd, draw);
             rec.set_state(extent);
-            let eye = scopes[scope].1;
+            let eye = scopes[chunk.scope].1;
             let mut calls = 0;
-            if t == 0 {
+            if chunk.first {
                 if let Some(mask) = &passes.stencil_mask {
                     calls += mask.record(&rec, slot, eye);
                 }
@@ -1009,10 +1059,9 @@ impl Renderer {
                     calls += rdm.record(&rec, extent, eye);
                 }
             }
-            let run = submission::run_of(draws.len(), threads, t);
-            let last = t + 1 == threads;
-            calls += passes.forward.record_run(&rec, draws, run, last, eye);
-            if last {
+            let run = chunk.run.clone();
+            calls += passes.forward.record_run(&rec, draws, run, chunk.last, eye);
+            if chunk.last {
                 calls += passes.overlay.record(&rec, boxes, eye);
             }
             calls

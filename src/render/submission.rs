@@ -27,6 +27,9 @@ use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use std::sync::atomic::{AtomicBool, Ordering};
+use std::sync::Arc;
+use std::time::Instant;
 
 /// Bytes of one record: material, first visible slot, two unused words
 /// (std140 `uvec4` for the uniform path; the storage path reads the first
@@ -125,20 +128,19 @@ impl DrawRecords {
         }
     }
 
-    /// Writes the records of `draws` into slot `slot`'s buffer (grown, and
-    /// its set rewritten, when it is too small; the old buffer is destroyed
-    /// once the frames using it are done). `material_of` gives a draw's
-    /// material. The slot's previous frame must be done.
-    pub fn write(
+    /// Slot `slot`'s records for `draws` draws, to be filled: its buffer
+    /// grown (and its set rewritten) when it is too small, the old buffer
+    /// destroyed once the frames using it are done. The slot's previous
+    /// frame must be done.
+    pub fn space(
         &mut self,
         ctx: &Context,
         ring: &mut FrameRing,
         slot: usize,
-        draws: &[Draw],
-        material_of: impl Fn(&Draw) -> u32,
-    ) -> Result<()> {
-        let need = (draws.len().max(1) as u64) * self.stride;
-        if !self.buffers[slot].as_ref().is_some_and(|b| b.size >= need) {
+        draws: usize,
+    ) -> Result<RecordSpace<'_>> {
+        let need = (draws.max(1) as u64) * self.stride;
+        if self.buffers[slot].as_ref().is_none_or(|b| b.size < need) {
             self.grow(ctx, ring, slot, need)?;
         }
         let stride = self.stride as usize;
@@ -146,12 +148,10 @@ impl DrawRecords {
         let bytes = buffer.mapped().ok_or_else(|| {
             crate::error::Error::Gpu("the per-draw record buffer is not host-visible".into())
         })?;
-        for (i, d) in draws.iter().enumerate() {
-            let at = i * stride;
-            bytes[at..at + 4].copy_from_slice(&material_of(d).to_le_bytes());
-            bytes[at + 4..at + 8].copy_from_slice(&d.first.to_le_bytes());
-        }
-        Ok(())
+        Ok(RecordSpace {
+            bytes: &mut bytes[..draws * stride],
+            stride,
+        })
     }
 
     fn grow(&mut self, ctx: &Context, ring: &mut FrameRing, slot: usize, need: u64) -> Result<()> {
@@ -201,6 +201,41 @@ impl DrawRecords {
     }
 }
 
+/// Room for the records of a run of draws, to be filled by one thread.
+pub struct RecordSpace<'a> {
+    bytes: &'a mut [u8],
+    stride: usize,
+}
+
+impl<'a> RecordSpace<'a> {
+    /// Writes the records of `draws` (as many as this space holds):
+    /// `material_of` gives a draw's material, the instances start at its
+    /// `first`.
+    pub fn fill(&mut self, draws: &[Draw], material_of: impl Fn(&Draw) -> u32) {
+        for (record, d) in self.bytes.chunks_exact_mut(self.stride).zip(draws) {
+            record[..4].copy_from_slice(&material_of(d).to_le_bytes());
+            record[4..8].copy_from_slice(&d.first.to_le_bytes());
+        }
+    }
+
+    /// Cuts the space into the `runs` runs [`run_of`] makes of its draws,
+    /// one per recording thread.
+    pub fn split(self, runs: usize) -> Vec<RecordSpace<'a>> {
+        let len = self.bytes.len() / self.stride;
+        let mut rest = self.bytes;
+        let mut out = Vec::with_capacity(runs);
+        for t in 0..runs {
+            let (head, tail) = rest.split_at_mut(run_of(len, runs, t).len() * self.stride);
+            out.push(RecordSpace {
+                bytes: head,
+                stride: self.stride,
+            });
+            rest = tail;
+        }
+        out
+    }
+}
+
 /// The formats and state a rendering scope has, which the secondary
 /// command buffers executed inside it must declare.
 #[derive(Clone, Copy, Debug)]
@@ -217,22 +252,58 @@ pub struct ScopeFormat {
     pub stats: Option<vk::QueryPipelineStatisticFlags>,
 }
 
-/// One thread's command pool for one frame slot, and its secondary command
-/// buffers (one per rendering scope: two in two-pass).
+/// How long the recording threads of one frame worked, in milliseconds:
+/// their own times summed (what one thread would take if nothing slowed
+/// down in company) and the slowest one's (what the frame waits for).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct ThreadTimes {
+    /// The threads' recording times, summed.
+    pub sum: f64,
+    /// The slowest thread's recording time.
+    pub slowest: f64,
+}
+
+/// One recording thread's command pool for one frame slot, and its
+/// secondary command buffers (one per rendering scope: two in two-pass).
 struct ThreadBuffers {
     pool: vk::CommandPool,
     cmds: [vk::CommandBuffer; 2],
 }
 
+/// Longest time the recording threads spin after [`ParallelRecording::wake`]
+/// waiting for [`ParallelRecording::record`] before going back to sleep.
+const WAKE_SPIN: std::time::Duration = std::time::Duration::from_millis(4);
+
 /// Parallel recording of a frame's forward draws into secondary command
-/// buffers (see the module documentation).
+/// buffers (see the module documentation): N pool threads, thread t
+/// records run t of the draw list for every scope.
 pub struct ParallelRecording {
     threads: usize,
     workers: rayon::ThreadPool,
+    /// Set when the draws are ready: the threads woken early stop spinning.
+    ready: Arc<AtomicBool>,
     /// Per frame slot, per thread.
     slots: Vec<Vec<ThreadBuffers>>,
     /// Per frame slot, per scope: the secondaries in execution order.
     by_scope: Vec<[Vec<vk::CommandBuffer>; 2]>,
+}
+
+/// What a run's recording needs to know: which scope, which run of draws,
+/// whether it is the scope's first or last.
+#[derive(Clone, Debug, PartialEq, Eq)]
+pub struct Chunk {
+    /// The recording thread (and run).
+    pub thread: usize,
+    /// The rendering scope (0, or the eye in two-pass).
+    pub scope: usize,
+    /// The run of the frame's draw list.
+    pub run: std::ops::Range<usize>,
+    /// The scope's first run (it also draws the passes that precede the
+    /// scene: stencil mask, RDM checkerboard).
+    pub first: bool,
+    /// The scope's last run (the sky when it comes after every draw, and
+    /// the passes that follow the scene).
+    pub last: bool,
 }
 
 impl ParallelRecording {
@@ -247,6 +318,7 @@ impl ParallelRecording {
         let mut made = ParallelRecording {
             threads,
             workers,
+            ready: Arc::new(AtomicBool::new(true)),
             slots: Vec::new(),
             by_scope: Vec::new(),
         };
@@ -302,7 +374,7 @@ impl ParallelRecording {
         }
     }
 
-    /// Recording threads (and runs of draws).
+    /// Recording threads (and runs of draws per scope).
     pub fn threads(&self) -> usize {
         self.threads
     }
@@ -313,59 +385,99 @@ impl ParallelRecording {
         &self.by_scope[slot][scope]
     }
 
-    /// Records slot `slot`'s secondaries for `scopes` rendering scopes of
-    /// format `format[scope]`: on thread `t`, for each scope, `f(t, scope,
-    /// cmd)` records run `t` into `cmd` (begun to continue the scope, ended
-    /// after). The slot's previous frame must be done. Returns the draw
-    /// calls `f` reports, summed.
-    pub fn record<F>(&self, ctx: &Context, slot: usize, format: &[ScopeFormat], f: F) -> Result<u64>
+    /// Wakes the recording threads ahead of [`ParallelRecording::record`]
+    /// (call it when the frame begins, before batching): each spins until
+    /// the draws are ready, at most [`WAKE_SPIN`], so the recording does not
+    /// wait for threads the OS has to wake first. Their cores are busy
+    /// meanwhile.
+    pub fn wake(&self) {
+        self.ready.store(false, Ordering::Release);
+        let ready = self.ready.clone();
+        self.workers.spawn_broadcast(move |_| {
+            let t = Instant::now();
+            while !ready.load(Ordering::Acquire) && t.elapsed() < WAKE_SPIN {
+                std::hint::spin_loop();
+            }
+        });
+    }
+
+    /// Records slot `slot`'s secondaries: for each rendering scope of
+    /// format `format[scope]`, `draws` draws cut into one run per thread,
+    /// and on thread t `f(chunk, cmd)` records run t into `cmd` (begun to
+    /// continue the scope, ended after). The slot's previous frame must be
+    /// done. Returns the draw calls `f` reports, summed, and the threads'
+    /// timing.
+    pub fn record<F>(
+        &self,
+        ctx: &Context,
+        slot: usize,
+        format: &[ScopeFormat],
+        draws: usize,
+        f: F,
+    ) -> Result<(u64, ThreadTimes)>
     where
-        F: Fn(usize, usize, vk::CommandBuffer) -> u64 + Sync,
+        F: Fn(&Chunk, vk::CommandBuffer) -> u64 + Sync,
     {
-        use rayon::prelude::*;
+        self.ready.store(true, Ordering::Release);
         let buffers = &self.slots[slot];
-        self.workers.install(|| {
-            buffers
-                .par_iter()
-                .enumerate()
-                .map(|(t, b)| -> Result<u64> {
-                    let d = &ctx.device;
-                    // SAFETY: the pool belongs to this thread for this slot,
-                    // whose previous frame is done (the caller's contract).
-                    unsafe { d.reset_command_pool(b.pool, vk::CommandPoolResetFlags::empty()) }
-                        .vk("resetting a recording thread's command pool")?;
-                    let mut calls = 0;
-                    for (scope, fmt) in format.iter().enumerate() {
-                        let colors = [fmt.color];
-                        let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
-                            .view_mask(fmt.view_mask)
-                            .color_attachment_formats(&colors)
-                            .depth_attachment_format(fmt.depth)
-                            .stencil_attachment_format(fmt.depth)
-                            .rasterization_samples(vk::SampleCountFlags::from_raw(fmt.samples));
-                        let inheritance = vk::CommandBufferInheritanceInfo::default()
-                            .pipeline_statistics(fmt.stats.unwrap_or_default())
-                            .push_next(&mut rendering);
-                        let begin = vk::CommandBufferBeginInfo::default()
-                            .flags(
-                                vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT
-                                    | vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE,
-                            )
-                            .inheritance_info(&inheritance);
-                        let cmd = b.cmds[scope];
-                        // SAFETY: the buffer was reset with its pool above
-                        // and is used by this thread only.
-                        unsafe { d.begin_command_buffer(cmd, &begin) }
-                            .vk("beginning a secondary command buffer")?;
-                        calls += f(t, scope, cmd);
-                        // SAFETY: begun above.
-                        unsafe { d.end_command_buffer(cmd) }
-                            .vk("ending a secondary command buffer")?;
-                    }
-                    Ok(calls)
-                })
-                .try_reduce(|| 0, |a, b| Ok(a + b))
-        })
+        let threads = self.threads;
+        // One call per pool thread, all started at once (a broadcast),
+        // rather than a parallel iterator whose work splitting starts the
+        // threads one after another.
+        let per_thread = self.workers.broadcast(|b| -> Result<(u64, f64)> {
+            let t_start = Instant::now();
+            let t = b.index();
+            let tb = &buffers[t];
+            let d = &ctx.device;
+            // SAFETY: the pool belongs to this thread for this slot, whose
+            // previous frame is done (the caller's contract).
+            unsafe { d.reset_command_pool(tb.pool, vk::CommandPoolResetFlags::empty()) }
+                .vk("resetting a recording thread's command pool")?;
+            let mut calls = 0;
+            for (scope, fmt) in format.iter().enumerate() {
+                let colors = [fmt.color];
+                let mut rendering = vk::CommandBufferInheritanceRenderingInfo::default()
+                    .view_mask(fmt.view_mask)
+                    .color_attachment_formats(&colors)
+                    .depth_attachment_format(fmt.depth)
+                    .stencil_attachment_format(fmt.depth)
+                    .rasterization_samples(vk::SampleCountFlags::from_raw(fmt.samples));
+                let inheritance = vk::CommandBufferInheritanceInfo::default()
+                    .pipeline_statistics(fmt.stats.unwrap_or_default())
+                    .push_next(&mut rendering);
+                let begin = vk::CommandBufferBeginInfo::default()
+                    .flags(
+                        vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT
+                            | vk::CommandBufferUsageFlags::RENDER_PASS_CONTINUE,
+                    )
+                    .inheritance_info(&inheritance);
+                let cmd = tb.cmds[scope];
+                // SAFETY: the buffer was reset with its pool above and is
+                // used by this thread only.
+                unsafe { d.begin_command_buffer(cmd, &begin) }
+                    .vk("beginning a secondary command buffer")?;
+                let chunk = Chunk {
+                    thread: t,
+                    scope,
+                    run: run_of(draws, threads, t),
+                    first: t == 0,
+                    last: t + 1 == threads,
+                };
+                calls += f(&chunk, cmd);
+                // SAFETY: begun above.
+                unsafe { d.end_command_buffer(cmd) }.vk("ending a secondary command buffer")?;
+            }
+            Ok((calls, t_start.elapsed().as_secs_f64() * 1e3))
+        });
+        let mut calls = 0;
+        let mut times = ThreadTimes::default();
+        for r in per_thread {
+            let (c, ms) = r?;
+            calls += c;
+            times.sum += ms;
+            times.slowest = times.slowest.max(ms);
+        }
+        Ok((calls, times))
     }
 
     /// Destroys the command pools (and their buffers); the device must be
@@ -378,21 +490,78 @@ impl ParallelRecording {
     }
 }
 
-/// The run of `len` draws that thread `t` of `threads` records: contiguous
-/// and as even as the division allows, so the runs in thread order are the
-/// draw list in order.
+/// Run `t` of `len` draws cut into `threads` runs: contiguous and as even
+/// as the division allows, so the runs in order are the draw list in order.
 pub fn run_of(len: usize, threads: usize, t: usize) -> std::ops::Range<usize> {
     let (q, r) = (len / threads, len % threads);
     let start = t * q + t.min(r);
     start..start + q + usize::from(t < r)
 }
 
+/// Where the sky, due before draw `at` of a list of `len` draws (`at` =
+/// `len`: after the last), falls in the run `run` of that list: its index
+/// inside the run, or None when another run draws it. The `last` run draws
+/// it when it comes after every draw.
+pub fn sky_in_run(
+    at: usize,
+    len: usize,
+    run: &std::ops::Range<usize>,
+    last: bool,
+) -> Option<usize> {
+    let owns = run.contains(&at) || (at >= len && last);
+    owns.then(|| at.min(len) - run.start)
+}
+
 #[cfg(test)]
 mod tests {
-    use super::run_of;
+    use super::{run_of, sky_in_run, RecordSpace};
+    use crate::render::batches::Draw;
     use proptest::prelude::*;
 
     proptest! {
+        #[test]
+        fn records_written_per_run_equal_records_written_at_once(
+            len in 0usize..700,
+            runs in 1usize..20,
+            stride in prop::sample::select(vec![8usize, 16, 64, 256]),
+        ) {
+            let draws: Vec<Draw> = (0..len as u32)
+                .map(|i| Draw { primitive: i % 13, first: 3 * i, count: 1 })
+                .collect();
+            let material = |d: &Draw| d.primitive * 7 + 1;
+            let mut whole = vec![0u8; len * stride];
+            RecordSpace { bytes: &mut whole, stride }.fill(&draws, material);
+            let mut parts = vec![0u8; len * stride];
+            let spaces = RecordSpace { bytes: &mut parts, stride }.split(runs);
+            prop_assert_eq!(spaces.len(), runs);
+            for (t, mut space) in spaces.into_iter().enumerate() {
+                space.fill(&draws[run_of(len, runs, t)], material);
+            }
+            prop_assert!(whole == parts);
+            if len > 0 {
+                let last = (len - 1) * stride;
+                prop_assert_eq!(&whole[last..last + 4], &material(&draws[len - 1]).to_le_bytes());
+                prop_assert_eq!(&whole[last + 4..last + 8], &(3 * (len as u32 - 1)).to_le_bytes());
+            }
+        }
+
+        #[test]
+        fn exactly_one_run_draws_the_sky_where_it_belongs(
+            len in 0usize..3000,
+            chunks in 1usize..40,
+            pick in 0.0f64..=1.0,
+        ) {
+            let at = ((len as f64) * pick) as usize;
+            let owners: Vec<(usize, usize)> = (0..chunks)
+                .filter_map(|c| {
+                    let run = run_of(len, chunks, c);
+                    sky_in_run(at, len, &run, c + 1 == chunks).map(|i| (c, run.start + i))
+                })
+                .collect();
+            prop_assert_eq!(owners.len(), 1, "at {} of {}: {:?}", at, len, owners);
+            prop_assert_eq!(owners[0].1, at);
+        }
+
         #[test]
         fn runs_partition_the_list_in_order(len in 0usize..5000, threads in 1usize..65) {
             let mut next = 0;

@@ -3,11 +3,12 @@
 //! random dimensions), each its own mesh with one instance. It stands for
 //! what a CAD export looks like to a renderer: many unique meshes, so
 //! instancing cannot fold draws together and every part costs its own draw
-//! call. The parts stand in rows on a square floor plan, 1.6 m apart, and
+//! call. A few parts are glass (guards, covers): alpha-blended, drawn
+//! back to front after the rest. The parts stand in rows on a square floor plan, 1.6 m apart, and
 //! generation is deterministic for a seed, so images and benchmarks repeat.
 
 use super::factory::SplitMix64;
-use super::{shapes, Instance, Material, Mesh, Primitive, Scene};
+use super::{shapes, AlphaMode, Instance, Material, Mesh, Primitive, Scene};
 use crate::error::{Error, Result};
 use glam::{DAffine3, DVec3};
 
@@ -54,8 +55,19 @@ fn materials() -> Vec<Material> {
         m("machine-green", [0.12, 0.45, 0.28], 0.2, 0.5),
         m("rubber", [0.05, 0.05, 0.05], 0.0, 0.9),
         m("brass", [0.78, 0.60, 0.25], 1.0, 0.3),
+        Material {
+            base_color: [0.55, 0.75, 0.85, 0.35],
+            alpha_mode: AlphaMode::Blend,
+            ..m("glass", [0.55, 0.75, 0.85], 0.0, 0.05)
+        },
     ]
 }
+
+/// Index of the glass material: guards and covers, alpha-blended (drawn
+/// after the opaque parts, back to front, one draw each).
+const GLASS: u32 = 8;
+/// Share of parts made of glass.
+const GLASS_SHARE: f64 = 0.03;
 
 /// Appends `part`'s geometry to `into`, moved by `offset`.
 fn append(into: &mut Primitive, part: Primitive, offset: [f32; 3]) {
@@ -136,9 +148,13 @@ pub fn generate(n: usize, seed: u64) -> Result<Scene> {
     scene.instances.reserve(n);
     let mut rng = SplitMix64::new(seed);
     let width = (n as f64).sqrt().ceil() as usize;
-    let palette = scene.materials.len() as u64;
+    let opaque = GLASS as u64;
     for i in 0..n {
-        let material = (rng.next_u64() % palette) as u32;
+        let material = if rng.unit() < GLASS_SHARE {
+            GLASS
+        } else {
+            (rng.next_u64() % opaque) as u32
+        };
         scene.primitives.push(part(&mut rng, material));
         scene.meshes.push(Mesh {
             name: format!("part-{i}"),
@@ -192,7 +208,7 @@ mod tests {
     #[test]
     fn parts_are_closed_valid_meshes_on_the_floor() {
         let s = generate(2000, DEFAULT_SEED).unwrap();
-        let mut materials = [0usize; 8];
+        let mut materials = [0usize; 9];
         for p in &s.primitives {
             assert_eq!(p.indices.len() % 3, 0);
             assert!(p.indices.iter().all(|&i| (i as usize) < p.positions.len()));
@@ -202,7 +218,8 @@ mod tests {
             assert!(p.bounds.1.y > 0.04 && p.bounds.1.y < 2.0);
             materials[p.material as usize] += 1;
         }
-        assert!(materials.iter().all(|&m| m > 100), "{materials:?}");
+        assert!(materials[..8].iter().all(|&m| m > 150), "{materials:?}");
+        assert!((30..100).contains(&materials[8]), "glass: {materials:?}");
     }
 
     #[test]

@@ -383,6 +383,13 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     frame.cpu_ms.record = median_of(&|r| r.stats.cpu_ms.record);
     frame.cpu_ms.submit = median_of(&|r| r.stats.cpu_ms.submit);
     frame.cpu_ms.wait = median_of(&|r| r.stats.cpu_ms.wait);
+    if frame.cpu_ms.record_threads.is_some() {
+        let threads = |r: &FrameResult| r.stats.cpu_ms.record_threads.unwrap_or_default();
+        frame.cpu_ms.record_threads = Some(crate::render::submission::ThreadTimes {
+            sum: median_of(&|r| threads(r).sum),
+            slowest: median_of(&|r| threads(r).slowest),
+        });
+    }
     for (name, v) in frame.gpu_ms.iter_mut() {
         *v = median_of(&|r| r.stats.gpu_ms.get(name).copied().unwrap_or(0.0));
     }
@@ -439,6 +446,10 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     cpu_ms.insert("record".to_string(), frame.cpu_ms.record);
     cpu_ms.insert("submit".to_string(), frame.cpu_ms.submit);
     cpu_ms.insert("wait".to_string(), frame.cpu_ms.wait);
+    if let Some(t) = frame.cpu_ms.record_threads {
+        cpu_ms.insert("record_threads_sum".to_string(), t.sum);
+        cpu_ms.insert("record_threads_slowest".to_string(), t.slowest);
+    }
     let stats = RenderStats {
         scene: SceneCounts::of(&scene),
         hmd: profile.name.clone(),

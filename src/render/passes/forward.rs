@@ -13,6 +13,7 @@ use crate::error::Result;
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::render::batches::{Draw, PipelineKey};
+use crate::render::submission::sky_in_run;
 use ash::vk;
 use std::collections::HashMap;
 
@@ -60,8 +61,7 @@ impl Forward {
         eye: u32,
     ) -> u64 {
         let at = rec.sky_slot(draws);
-        let owns = run.contains(&at) || (at == draws.len() && last);
-        let sky = owns.then(|| (self.sky, at - run.start));
+        let sky = sky_in_run(at, draws.len(), &run, last).map(|i| (self.sky, i));
         let base = run.start as u32;
         rec.draw_batches(&draws[run], base, &self.pipelines, sky, eye)
     }
