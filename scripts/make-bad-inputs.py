@@ -589,6 +589,24 @@ cli("rdm-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve
 cli("foveation-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "foveation=auto", "--out", "{out}"], ["foveation=auto", "valve-index", "[views.lens]"])
 cli("lens-unknown-profile", ["lens", "--hmd", "valve-index"], ["valve-index", "[views.lens]"])
 
+# --- Submission costs (issue 17 item 5) --------------------------------------
+cli("cad-without-count", ["inspect", "cad"], ["'cad'", "cad:N", "1..=100000"])
+cli("cad-zero", ["inspect", "cad:0"], ["'cad:0'", "cad:N"])
+cli("cad-too-many", ["inspect", "cad:100001"], ["'cad:100001'", "1..=100000"])
+cli("cad-not-a-count", ["inspect", "cad:lots"], ["'cad:lots'", "cad:N"])
+cli("record-threads-zero", ["render", "--record-threads", "0", "--out", "{out}"], ["--record-threads", "1..=64"], exit=2)
+cli("record-threads-huge", ["render", "--record-threads", "100000", "--out", "{out}"], ["--record-threads", "1..=64"], exit=2)
+cli("per-draw-unknown", ["render", "--per-draw", "uniform", "--out", "{out}"], ["--per-draw", "uniform"], exit=2)
+cli("record-threads-with-gpu-cull", ["render", "--record-threads", "2", "--opt", "superfrustum,gpu-cull", "--out", "{out}"], ["--record-threads/--per-draw", "gpu-cull or mffr"])
+case("plans/record-threads-zero.toml", "plan", ["config 'a'", "--record-threads", "0 (supported: 1 to 64)"],
+     PLAN.format(frames=2, opt="two-pass") + "record_threads = 0\n")
+case("plans/per-draw-unknown.toml", "plan", ["per_draw", "uniform"],
+     PLAN.format(frames=2, opt="two-pass") + 'per_draw = "uniform"\n')
+case("plans/per-draw-with-mffr.toml", "plan", ["gpu-cull or mffr"],
+     PLAN.format(frames=2, opt="mffr") + 'per_draw = "ssbo"\n')
+case("plans/bad-cad.toml", "plan", ["cad:0", "cad:N"],
+     PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "cad:0"]'))
+
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"
             "# them). Written by scripts/make-bad-inputs.py.\n"

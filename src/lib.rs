@@ -18,6 +18,7 @@ pub mod config;
 pub mod count;
 pub mod cull;
 pub mod fsio;
+pub mod fuzz_checks;
 pub mod gpu;
 pub mod interact;
 pub mod quit;

@@ -192,6 +192,8 @@ fn cli_values() {
         "stencil-mask,mffr=1e-46",
         "cull=per-eye",
         "msaa=4",
+        "cad:1000",
+        "cad:100_000",
     ]
     .iter()
     .map(|s| s.as_bytes().to_vec())
@@ -209,38 +211,7 @@ fn cli_values() {
             seeds.push(a.as_str().unwrap_or_default().as_bytes().to_vec());
         }
     }
-    let cull = vergence::bench::plan::cull_names();
-    fuzz("cli_values", 1, seeds, |data| {
-        let Ok(s) = std::str::from_utf8(data) else {
-            return;
-        };
-        use vergence::cli;
-        if let Ok(v) = cli::parse_seconds(s) {
-            assert!(v > 0.0 && v <= cli::MAX_RUN_SECONDS);
-            let _ = Duration::from_secs_f64(v);
-        }
-        if let Ok(a) = cli::parse_lens_half_angle(s) {
-            assert!(a > 0.0 && a < std::f64::consts::FRAC_PI_2);
-        }
-        if let Ok(v) = cli::parse_near(s) {
-            assert!(v.is_finite() && v > 0.0);
-        }
-        if let Ok(v) = cli::parse_distance(s) {
-            assert!(v.is_finite() && v > 0.0);
-        }
-        let _ = cli::parse_positive(s);
-        let _ = cli::parse_non_negative(s);
-        let _ = cli::parse_ppd(s);
-        if let Ok(p) = cli::parse_pose(s) {
-            assert!(p.validate().is_ok());
-        }
-        let mut c = vergence::config::RenderConfig::default();
-        if c.apply_opts(s, &cull).is_ok() {
-            if let Some(m) = c.mffr.and_then(|m| m.split) {
-                assert!(m >= vergence::config::MIN_MFFR_SPLIT_M);
-            }
-        }
-    });
+    fuzz("cli_values", 1, seeds, vergence::fuzz_checks::cli_values);
 }
 
 #[test]
@@ -260,29 +231,12 @@ fn rig_json_and_plans() {
             )),
     );
     seeds.push(serde_json::to_vec_pretty(&rig).unwrap());
-    fuzz("rig_json_and_plans", 2, seeds, |data| {
-        let Ok(text) = std::str::from_utf8(data) else {
-            return;
-        };
-        if let Ok(rig) = vergence::view::RigFile::parse("fuzz", text) {
-            for v in &rig.views {
-                assert!(v.fov.tangents().iter().all(|t| t.is_finite()));
-            }
-            if let Some(areas) = &rig.hidden_area {
-                assert_eq!(areas.len(), rig.views.len());
-            }
-        }
-        if let Ok(plan) = vergence::bench::plan::Plan::parse("fuzz", text) {
-            if plan.scenes.iter().all(|s| s.starts_with("factory"))
-                && plan
-                    .hmds
-                    .iter()
-                    .all(|h| !h.contains('/') && !h.ends_with(".toml"))
-            {
-                let _ = plan.check_inputs();
-            }
-        }
-    });
+    fuzz(
+        "rig_json_and_plans",
+        2,
+        seeds,
+        vergence::fuzz_checks::rig_plan,
+    );
 }
 
 /// Exercises a profile's lenses: forward and inverse maps over the panel,

@@ -158,8 +158,21 @@ impl Plan {
 
     /// Parses and validates plan text; `origin` names it in errors.
     pub fn parse(origin: &str, text: &str) -> Result<Plan> {
-        let plan: Plan = toml::from_str(text)
-            .map_err(|e| Error::config("--plan", format!("{origin}: {}", e.message())))?;
+        let plan: Plan = toml::from_str(text).map_err(|e| {
+            // The line the parser stopped at, when it says where.
+            let at = e.span().map_or(String::new(), |span| {
+                let start = span.start.min(text.len());
+                let line = text[..start].matches('\n').count();
+                let shown = text.lines().nth(line).unwrap_or("").trim();
+                let shown: String = shown
+                    .chars()
+                    .take(80)
+                    .map(|c| if c.is_control() { '?' } else { c })
+                    .collect();
+                format!("line {} `{shown}`: ", line + 1)
+            });
+            Error::config("--plan", format!("{origin}: {at}{}", e.message()))
+        })?;
         plan.validate()
             .map_err(|m| Error::config("--plan", format!("{origin}: {m}")))?;
         Ok(plan)

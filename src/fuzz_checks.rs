@@ -1,0 +1,78 @@
+//! The invariants the fuzz targets assert, shared by the cargo-fuzz
+//! targets (`fuzz/fuzz_targets/`) and the stable mutation tests
+//! (`tests/fuzz_mutate.rs`): each takes arbitrary bytes, runs a parser on
+//! them and panics only when an accepted value breaks its documented bound.
+//! Any `Err` is fine.
+
+use crate::cli;
+
+/// Bytes → every command-line value parser (`crate::cli`), the `--opt`
+/// list parser and the built-in scene specs (`cad:N`).
+pub fn cli_values(data: &[u8]) {
+    let Ok(s) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(v) = cli::parse_seconds(s) {
+        assert!(v > 0.0 && v <= cli::MAX_RUN_SECONDS);
+        let _ = std::time::Duration::from_secs_f64(v);
+    }
+    if let Ok(a) = cli::parse_lens_half_angle(s) {
+        assert!(a > 0.0 && a < std::f64::consts::FRAC_PI_2);
+    }
+    if let Ok(v) = cli::parse_near(s) {
+        assert!(v.is_finite() && v > 0.0);
+    }
+    if let Ok(v) = cli::parse_distance(s) {
+        assert!(v.is_finite() && v > 0.0);
+    }
+    let _ = cli::parse_positive(s);
+    let _ = cli::parse_non_negative(s);
+    let _ = cli::parse_ppd(s);
+    if let Ok(p) = cli::parse_pose(s) {
+        assert!(p.validate().is_ok());
+    }
+    let mut c = crate::config::RenderConfig::default();
+    if c.apply_opts(s, &crate::config::cull_names()).is_ok() {
+        if let Some(m) = c.mffr.and_then(|m| m.split) {
+            assert!(m >= crate::config::MIN_MFFR_SPLIT_M);
+        }
+    }
+    if let Some(Ok(n)) = crate::scene::cad::spec_count(s) {
+        assert!((1..=crate::scene::cad::MAX_PARTS).contains(&n));
+    }
+}
+
+/// Text → rig JSON (`render --rig`) and bench plan (parse, validate, each
+/// configuration's renderer settings, and the up-front input checks when
+/// the plan names only built-in scenes and profiles, so a fuzzed path never
+/// makes it read files). An accepted rig must have finite tangents and one
+/// hidden area per view; an accepted configuration must validate.
+pub fn rig_plan(data: &[u8]) {
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    if let Ok(rig) = crate::view::RigFile::parse("fuzz", text) {
+        for v in &rig.views {
+            assert!(v.fov.tangents().iter().all(|t| t.is_finite()));
+        }
+        if let Some(areas) = &rig.hidden_area {
+            assert_eq!(areas.len(), rig.views.len());
+        }
+    }
+    if let Ok(plan) = crate::bench::plan::Plan::parse("fuzz", text) {
+        for c in &plan.configs {
+            if let Ok(config) = plan.config_for(c) {
+                assert!(config.validate().is_ok(), "{}", c.name);
+            }
+        }
+        let built_in = |s: &String| s.starts_with("factory") || s.starts_with("cad");
+        if plan.scenes.iter().all(built_in)
+            && plan
+                .hmds
+                .iter()
+                .all(|h| !h.contains('/') && !h.ends_with(".toml"))
+        {
+            let _ = plan.check_inputs();
+        }
+    }
+}
