@@ -164,9 +164,9 @@ fn the_headless_mirror_shows_the_submitted_eyes() {
         ("right", &[][..]),
         ("both", &["--stereo", "two-pass", "--msaa", "1"][..]),
     ] {
-        let (s, _) = headless_run(&x, &dir, mode, extra);
+        let (s, o) = headless_run(&x, &dir, mode, extra);
         let m = &s["mirror"];
-        assert_eq!(m["mode"], mode, "{s}");
+        assert_eq!(m["mode"], mode, "{}", text(&o));
         assert!(m["presented"].as_u64().unwrap() >= 1, "{m}");
         assert_eq!(m["copied"], 8, "every frame is copied: {m}");
         let shot = load(&dir.join(format!("{mode}.png")));
@@ -224,6 +224,122 @@ fn the_cropped_mirror_masks_the_hidden_area_only() {
     assert!(
         hidden > 1000 && shown > 10 * 1000,
         "{hidden} hidden, {shown} shown"
+    );
+}
+
+#[test]
+fn the_distorted_mirror_shows_the_panels_through_the_lenses() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("distorted_mirror") else {
+        return;
+    };
+    let dir = common::scratch("mirror", "distorted");
+    // The Vive's lenses on a small panel, so the window fits any screen.
+    let vive = std::fs::read_to_string(common::root().join("manifests/hmd/vive.toml")).unwrap();
+    let small = vive.replace("panel = [1080, 1200]", "panel = [135, 150]");
+    assert_ne!(small, vive, "the profile names its panel");
+    let profile_path = dir.join("vive-small.toml");
+    std::fs::write(&profile_path, small).unwrap();
+    let (ew, eh) = (189u32, 210u32);
+    let run = |profile: &Path, name: &str| {
+        let s_path = dir.join(format!("{name}.json"));
+        let o = vergence(Some(&x))
+            .args([
+                "run",
+                "--xr",
+                "headless",
+                "--frames",
+                "6",
+                "--scene",
+                "factory:2000",
+            ])
+            .arg("--hmd-fallback")
+            .arg(profile)
+            .args(["--width", &ew.to_string(), "--height", &eh.to_string()])
+            .args(["--mirror", "distorted", "--screenshot"])
+            .arg(dir.join(format!("{name}.png")))
+            .arg("--capture")
+            .arg(dir.join(name))
+            .arg("--stats-out")
+            .arg(&s_path)
+            .output()
+            .expect("vergence runs");
+        assert!(o.status.success(), "{}", text(&o));
+        (stats(&s_path), o)
+    };
+    let (s, _) = run(&profile_path, "vive");
+    let m = &s["mirror"];
+    assert_eq!(m["mode"], "distorted", "{s}");
+    assert_eq!(m["copied"], 6, "every frame is drawn: {m}");
+    assert_eq!(s["validation_messages"], 0, "{s}");
+    let shot = load(&dir.join("vive.png"));
+    assert_eq!(shot.dimensions(), (2 * 135, 150), "two panels side by side");
+    // What the panels should show: the captured eye images through the
+    // same lenses, drawn by the distortion preview.
+    let profile =
+        vergence::view::profile::HmdProfile::load(profile_path.to_str().unwrap()).unwrap();
+    let lenses = [
+        profile.views[0].lens.as_ref().unwrap(),
+        profile.views[1].lens.as_ref().unwrap(),
+    ];
+    let fovs = [&profile.views[0].fov, &profile.views[1].fov];
+    let ctx = common::context();
+    let extent = ash::vk::Extent2D {
+        width: ew,
+        height: eh,
+    };
+    let mut preview = vergence::render::distortion::DistortionPreview::new(
+        &ctx,
+        lenses,
+        fovs,
+        extent,
+        vergence::render::distortion::Method::Mesh,
+    )
+    .unwrap();
+    let cap = |eye: &str| load(&dir.join("vive").join(eye));
+    let want = preview
+        .run(&[cap("left.png"), cap("right.png")], 1)
+        .unwrap();
+    for (i, x0) in [0u32, 135].into_iter().enumerate() {
+        let e = flip_mean(&want.images[i], &half(&shot, x0, 135));
+        assert!(e <= 0.01, "panel {i}: FLIP mean {e}");
+    }
+    // The corners lie outside the lens: black.
+    assert_eq!(&shot.get_pixel(0, 0).0[..3], &[0, 0, 0]);
+    assert!(
+        flip_mean(&want.images[0], &want.images[1]) > 0.001,
+        "the eyes differ"
+    );
+    // A profile without lenses: the mirror is off with one line, the run
+    // goes on.
+    let o = vergence(Some(&x))
+        .args([
+            "run",
+            "--xr",
+            "headless",
+            "--frames",
+            "2",
+            "--scene",
+            "factory:200",
+        ])
+        .args([
+            "--hmd-fallback",
+            "valve-index",
+            "--width",
+            "64",
+            "--height",
+            "48",
+        ])
+        .args(["--mirror", "distorted"])
+        .output()
+        .expect("vergence runs");
+    assert!(o.status.success(), "{}", text(&o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("mirror")).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].contains("mirror off") && lines[0].contains("[views.lens]"),
+        "{stderr}"
     );
 }
 

@@ -25,6 +25,7 @@ use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
 use crate::gpu::pipeline::{DescriptorSets, GraphicsPipelineDesc};
 use crate::gpu::shaders;
+use crate::gpu::surface::Source;
 use crate::gpu::Context;
 use crate::view::distortion::{mesh, Lens, Radial};
 use crate::view::Fov;
@@ -558,7 +559,36 @@ impl DistortionPreview {
                     )]),
                 );
             }
-            d.cmd_reset_query_pool(cmd, self.queries, 0, 2);
+        }
+        self.record_draws(cmd, true);
+    }
+
+    /// Both eyes' panel images from the source image (in SOURCE_READ), the
+    /// panel image left in the layout its method writes; between two
+    /// timestamps when `timed`.
+    fn record_draws(&self, cmd: vk::CommandBuffer, timed: bool) {
+        let d = &self.ctx.device;
+        let o = self.owned();
+        let color = vk::ImageAspectFlags::COLOR;
+        let stamp = |i: u32| {
+            if timed {
+                // SAFETY: recording outside rendering; the pool was reset
+                // in this command buffer.
+                unsafe {
+                    d.cmd_write_timestamp2(
+                        cmd,
+                        vk::PipelineStageFlags2::ALL_COMMANDS,
+                        self.queries,
+                        i,
+                    )
+                };
+            }
+        };
+        // SAFETY: recording into an idle command buffer; all objects live.
+        unsafe {
+            if timed {
+                d.cmd_reset_query_pool(cmd, self.queries, 0, 2);
+            }
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
@@ -569,7 +599,7 @@ impl DistortionPreview {
                     self.target_use(),
                 )]),
             );
-            d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 0);
+            stamp(0);
             if self.method == Method::Compute {
                 d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
                 d.cmd_bind_descriptor_sets(
@@ -589,7 +619,7 @@ impl DistortionPreview {
                         1,
                     );
                 }
-                d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 1);
+                stamp(1);
                 return;
             }
             let area = vk::Rect2D {
@@ -649,8 +679,90 @@ impl DistortionPreview {
                 }
                 d.cmd_end_rendering(cmd);
             }
-            d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 1);
+            stamp(1);
         }
+    }
+
+    /// Records, into `cmd`, the panel images of the eye images `eyes`
+    /// (left, right: each an image layer in TRANSFER_SRC_OPTIMAL, made
+    /// readable by the caller): blitted into the source image (converting
+    /// the format, scaling when the sizes differ), then drawn. The panel
+    /// image ends in COLOR_ATTACHMENT_OPTIMAL, written as an attachment;
+    /// for a graphics method only (the mirror window's `distorted` mode).
+    pub fn record_from(&self, cmd: vk::CommandBuffer, eyes: [Source; 2]) -> Result<()> {
+        if self.method == Method::Compute {
+            return Err(Error::Gpu(
+                "the distortion preview draws from images with a graphics method only".into(),
+            ));
+        }
+        let d = &self.ctx.device;
+        let o = self.owned();
+        let color = vk::ImageAspectFlags::COLOR;
+        let layers = |layer: u32| vk::ImageSubresourceLayers {
+            aspect_mask: color,
+            mip_level: 0,
+            base_array_layer: layer,
+            layer_count: 1,
+        };
+        let corner = |e: vk::Extent2D| vk::Offset3D {
+            x: e.width as i32,
+            y: e.height as i32,
+            z: 1,
+        };
+        // SAFETY: recording into an open command buffer outside rendering;
+        // the eye images are in TRANSFER_SRC_OPTIMAL and readable (the
+        // caller's contract), the source image was last read by this
+        // preview's draws in an earlier submission on this queue.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                    o.source.image,
+                    color,
+                    2,
+                    SOURCE_READ.discarded(),
+                    Use::TRANSFER_DST,
+                )]),
+            );
+            for (i, eye) in eyes.iter().enumerate() {
+                let same = eye.extent == self.eye;
+                let region = vk::ImageBlit::default()
+                    .src_subresource(layers(eye.layer))
+                    .src_offsets([vk::Offset3D::default(), corner(eye.extent)])
+                    .dst_subresource(layers(i as u32))
+                    .dst_offsets([vk::Offset3D::default(), corner(self.eye)]);
+                d.cmd_blit_image(
+                    cmd,
+                    eye.image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    o.source.image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[region],
+                    if same {
+                        vk::Filter::NEAREST
+                    } else {
+                        vk::Filter::LINEAR
+                    },
+                );
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&[barrier::image(
+                    o.source.image,
+                    color,
+                    2,
+                    Use::TRANSFER_DST,
+                    SOURCE_READ,
+                )]),
+            );
+        }
+        self.record_draws(cmd, false);
+        Ok(())
+    }
+
+    /// The panel images (one layer per eye) and their size.
+    pub fn panels(&self) -> (vk::Image, vk::Extent2D) {
+        (self.owned().target.image, self.panel)
     }
 
     /// How the panel image is written: as a colour attachment, or as a

@@ -39,6 +39,9 @@ pub enum MirrorMode {
     Both,
     /// The left eye with the lens's hidden area masked black.
     Cropped,
+    /// Both panels as the HMD shows them: each eye through its profile's
+    /// lens (barrel distortion and chromatic aberration), side by side.
+    Distorted,
     /// No window.
     Off,
 }
@@ -49,7 +52,7 @@ impl MirrorMode {
         match self {
             MirrorMode::Left | MirrorMode::Cropped => &[0],
             MirrorMode::Right => &[1],
-            MirrorMode::Both => &[0, 1],
+            MirrorMode::Both | MirrorMode::Distorted => &[0, 1],
             MirrorMode::Off => &[],
         }
     }
@@ -61,6 +64,7 @@ impl MirrorMode {
             MirrorMode::Right => "right",
             MirrorMode::Both => "both",
             MirrorMode::Cropped => "cropped",
+            MirrorMode::Distorted => "distorted",
             MirrorMode::Off => "off",
         }
     }
@@ -83,6 +87,35 @@ pub fn resolve(asked: Option<MirrorMode>) -> Option<MirrorMode> {
     }
 }
 
+/// The lenses the `distorted` mirror draws the panels through: each
+/// view's lens and field of view (from the HMD profile).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct MirrorLenses {
+    /// Left and right lenses.
+    pub lenses: [crate::view::distortion::Lens; 2],
+    /// Left and right fields of view.
+    pub fovs: [Fov; 2],
+}
+
+impl MirrorLenses {
+    /// The lenses of `profile`'s two views (None when either has none).
+    pub fn of(profile: &crate::view::profile::HmdProfile) -> Option<MirrorLenses> {
+        let (l, r) = (profile.views.first()?, profile.views.get(1)?);
+        Some(MirrorLenses {
+            lenses: [l.lens?, r.lens?],
+            fovs: [l.fov, r.fov],
+        })
+    }
+
+    /// The panel size (the left lens's).
+    pub fn panel(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.lenses[0].panel[0],
+            height: self.lenses[0].panel[1],
+        }
+    }
+}
+
 /// An open mirror window whose Vulkan side is not made yet.
 pub struct MirrorWindow {
     window: Window,
@@ -91,14 +124,23 @@ pub struct MirrorWindow {
 }
 
 impl MirrorWindow {
-    /// Opens the window for `mode` (not `Off`) of `eye`-sized images,
-    /// titled `title`; a failure is one line on stderr and no mirror (the
-    /// run goes on without it).
-    pub fn open(mode: MirrorMode, title: &str, eye: vk::Extent2D) -> Option<MirrorWindow> {
+    /// Opens the window for `mode` (not `Off`) of `eye`-sized images
+    /// (`distorted`: of the `panel`-sized images), titled `title`; a
+    /// failure is one line on stderr and no mirror (the run goes on
+    /// without it).
+    pub fn open(
+        mode: MirrorMode,
+        title: &str,
+        eye: vk::Extent2D,
+        panel: Option<vk::Extent2D>,
+    ) -> Option<MirrorWindow> {
         let shown = mode.eyes().len().max(1) as u32;
+        let each = panel
+            .filter(|_| mode == MirrorMode::Distorted)
+            .unwrap_or(eye);
         let content = vk::Extent2D {
-            width: eye.width * shown,
-            height: eye.height,
+            width: each.width * shown,
+            height: each.height,
         };
         match Window::open(title, initial_window_size(content)) {
             Ok(window) => Some(MirrorWindow { window, mode, eye }),
@@ -114,6 +156,21 @@ impl MirrorWindow {
         self.window.extensions()
     }
 }
+
+/// What a shown image is in between (Presenter's `Source` contract):
+/// COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as an
+/// attachment, last read by the window's blit (a transfer).
+const MIRRORED: Use = Use {
+    layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+    stage: vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT.as_raw()
+            | vk::PipelineStageFlags2::ALL_TRANSFER.as_raw(),
+    ),
+    access: vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
+            | vk::AccessFlags2::TRANSFER_WRITE.as_raw(),
+    ),
+};
 
 /// What the mirror did, for `--stats-out`.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -162,6 +219,8 @@ pub struct Mirror {
     copied: bool,
     masks: [Option<MaskRects>; 2],
     mode: MirrorMode,
+    /// `distorted`: the panels drawn through the lenses from the eyes.
+    distortion: Option<crate::render::distortion::DistortionPreview>,
     /// What it did.
     pub stats: MirrorStats,
     /// The window (None only once handed back by [`Mirror::into_window`]).
@@ -172,9 +231,33 @@ pub struct Mirror {
 
 impl Mirror {
     /// Makes the Vulkan side of `window` on `ctx` (created with its
-    /// extensions) for eye images of `format`.
-    pub fn new(ctx: &Arc<Context>, window: MirrorWindow, format: vk::Format) -> Result<Mirror> {
+    /// extensions) for eye images of `format`; `distorted` draws through
+    /// `lenses` and is an error without them.
+    pub fn new(
+        ctx: &Arc<Context>,
+        window: MirrorWindow,
+        format: vk::Format,
+        lenses: Option<&MirrorLenses>,
+    ) -> Result<Mirror> {
         let (mode, eye) = (window.mode, window.eye);
+        let distortion = match (mode, lenses) {
+            (MirrorMode::Distorted, Some(l)) => {
+                Some(crate::render::distortion::DistortionPreview::new(
+                    ctx,
+                    [&l.lenses[0], &l.lenses[1]],
+                    [&l.fovs[0], &l.fovs[1]],
+                    eye,
+                    crate::render::distortion::Method::Mesh,
+                )?)
+            }
+            (MirrorMode::Distorted, None) => {
+                return Err(Error::config(
+                    "--mirror distorted",
+                    "it draws the panels through the HMD profile's [views.lens] tables: run headless with --hmd-fallback naming a profile with lenses (vive, rift-dk1); an OpenXR runtime gives no lens model",
+                ))
+            }
+            _ => None,
+        };
         let (display, handle) = window.window.handles()?;
         let mut presenter = Presenter::new(
             ctx,
@@ -220,6 +303,7 @@ impl Mirror {
             copied: false,
             masks: [None, None],
             mode,
+            distortion,
             window: Some(window),
             title: None,
         };
@@ -358,6 +442,14 @@ impl Mirror {
         // SAFETY: this slot's fence; waiting frees its command buffer (its
         // copy ran two frames ago, before the frames since).
         unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }.vk("waiting for a mirror copy")?;
+        if let Some(distortion) = &self.distortion {
+            Self::begin(&ctx, pool, cmd)?;
+            Self::record_distorted(&ctx, cmd, distortion, [eyes[0], eyes[1]])?;
+            Self::submit(&ctx, cmd, fence)?;
+            self.copied = true;
+            self.stats.copied += 1;
+            return Ok(());
+        }
         let c = vk::ImageAspectFlags::COLOR;
         let attached = Use::COLOR_ATTACHMENT;
         // The mask's rendering loads the copied pixels and clears some.
@@ -366,15 +458,7 @@ impl Mirror {
                 | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
             ..attached
         };
-        // What the mirror image is in between (Presenter's `Source` contract):
-        // COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as an
-        // attachment, last read by the window's blit (a transfer).
-        let mirrored = Use {
-            layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-            stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
-                | vk::PipelineStageFlags2::ALL_TRANSFER,
-            access: vk::AccessFlags2::COLOR_ATTACHMENT_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
-        };
+        let mirrored = MIRRORED;
         let layer_barrier = |image: vk::Image, layer: u32, from: Use, to: Use| {
             let mut b = barrier::image(image, c, 1, from, to);
             b.subresource_range.base_array_layer = layer;
@@ -417,19 +501,12 @@ impl Mirror {
             ));
         }
         let extent = self.image().extent;
+        Self::begin(&ctx, pool, cmd)?;
         // SAFETY: recording into this slot's command buffer, whose last
         // submission finished; the images are alive and in the layouts the
         // barriers name (the frame's commands, submitted earlier on this
         // queue, left the eye images in COLOR_ATTACHMENT_OPTIMAL).
         unsafe {
-            d.reset_command_pool(pool, vk::CommandPoolResetFlags::empty())
-                .vk("resetting the mirror command pool")?;
-            d.begin_command_buffer(
-                cmd,
-                &vk::CommandBufferBeginInfo::default()
-                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )
-            .vk("beginning the mirror copy")?;
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().image_memory_barriers(&before),
@@ -507,19 +584,106 @@ impl Mirror {
                     &vk::DependencyInfo::default().image_memory_barriers(&done),
                 );
             }
-            d.end_command_buffer(cmd).vk("ending the mirror copy")?;
-            let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
-            let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds);
-            d.reset_fences(&[fence]).vk("resetting a mirror fence")?;
-            d.queue_submit2(ctx.queue, &[submit], fence)
-                .vk("submitting the mirror copy")?;
         }
+        Self::submit(&ctx, cmd, fence)?;
         self.copied = true;
         self.stats.copied += 1;
         Ok(())
     }
 
+    /// Resets `pool` and begins `cmd` from it; the slot's last submission
+    /// must be done.
+    fn begin(ctx: &Context, pool: vk::CommandPool, cmd: vk::CommandBuffer) -> Result<()> {
+        // SAFETY: the slot's fence was waited for, so nothing from the pool
+        // is pending.
+        unsafe {
+            ctx.device
+                .reset_command_pool(pool, vk::CommandPoolResetFlags::empty())
+                .vk("resetting the mirror command pool")?;
+            ctx.device
+                .begin_command_buffer(
+                    cmd,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .vk("beginning the mirror copy")
+        }
+    }
+
+    /// Ends `cmd` and submits it on the context's queue, signalling `fence`.
+    fn submit(ctx: &Context, cmd: vk::CommandBuffer, fence: vk::Fence) -> Result<()> {
+        let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
+        let submit = vk::SubmitInfo2::default().command_buffer_infos(&cmds);
+        // SAFETY: `cmd` was begun by `begin` and recorded; the fence is
+        // this slot's, waited for before.
+        unsafe {
+            ctx.device
+                .end_command_buffer(cmd)
+                .vk("ending the mirror copy")?;
+            ctx.device
+                .reset_fences(&[fence])
+                .vk("resetting a mirror fence")?;
+            ctx.device
+                .queue_submit2(ctx.queue, &[submit], fence)
+                .vk("submitting the mirror copy")
+        }
+    }
+
+    /// `distorted`: the two eye images (in COLOR_ATTACHMENT_OPTIMAL after
+    /// the frame, and left so) made readable, drawn through the lenses into
+    /// the preview's panel images, and handed back to the frame's layout.
+    fn record_distorted(
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        distortion: &crate::render::distortion::DistortionPreview,
+        eyes: [Source; 2],
+    ) -> Result<()> {
+        let c = vk::ImageAspectFlags::COLOR;
+        let attached = Use::COLOR_ATTACHMENT;
+        let layer_barrier = |s: &Source, from: Use, to: Use| {
+            let mut b = barrier::image(s.image, c, 1, from, to);
+            b.subresource_range.base_array_layer = s.layer;
+            b
+        };
+        let before: Vec<_> = eyes
+            .iter()
+            .map(|s| layer_barrier(s, MIRRORED, Use::TRANSFER_SRC))
+            .collect();
+        let after: Vec<_> = eyes
+            .iter()
+            .map(|s| layer_barrier(s, Use::TRANSFER_SRC, attached))
+            .collect();
+        // SAFETY: recording into the slot's begun command buffer; the frame's
+        // commands, submitted earlier on this queue, left the eye images in
+        // COLOR_ATTACHMENT_OPTIMAL.
+        unsafe {
+            ctx.device.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            )
+        };
+        distortion.record_from(cmd, eyes)?;
+        // SAFETY: as above.
+        unsafe {
+            ctx.device.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&after),
+            )
+        };
+        Ok(())
+    }
+
     fn sources(&self) -> Vec<Source> {
+        if let Some(d) = &self.distortion {
+            let (image, extent) = d.panels();
+            return (0..2)
+                .map(|layer| Source {
+                    image,
+                    layer,
+                    extent,
+                })
+                .collect();
+        }
         self.mode
             .eyes()
             .iter()
@@ -644,6 +808,9 @@ impl Drop for Mirror {
 pub struct Desk {
     mode: Option<MirrorMode>,
     window: Option<MirrorWindow>,
+    /// The profile's lenses, for the `distorted` mirror (None under OpenXR
+    /// or with a profile without them).
+    lenses: Option<MirrorLenses>,
     tried: bool,
     /// The window was closed (or Escape pressed): the run ends in order.
     pub closed: bool,
@@ -670,6 +837,7 @@ impl Desk {
         Desk {
             mode: resolve(asked),
             window: None,
+            lenses: None,
             tried: false,
             closed: false,
             scenes: 1,
@@ -684,6 +852,12 @@ impl Desk {
         Desk::new(Some(MirrorMode::Off), config, None)
     }
 
+    /// The lenses a `distorted` mirror draws through (the run's HMD
+    /// profile's; set before [`Desk::prepare`]).
+    pub fn set_lenses(&mut self, lenses: Option<MirrorLenses>) {
+        self.lenses = lenses;
+    }
+
     /// Readies the mirror window for a session of `eye`-sized images (the
     /// run's window when one is open, else opened now, once per run) and
     /// returns the extensions the Vulkan context needs for it (none
@@ -693,7 +867,8 @@ impl Desk {
         if self.window.is_none() && !self.tried {
             if let Some(mode) = self.mode {
                 self.tried = true;
-                self.window = MirrorWindow::open(mode, title, eye);
+                let panel = self.lenses.map(|l| l.panel());
+                self.window = MirrorWindow::open(mode, title, eye, panel);
             }
         }
         let Some(w) = self.window.as_mut() else {
@@ -714,7 +889,7 @@ impl Desk {
     /// images of `format`, when a window is ready; a failure is one line on
     /// stderr and no mirror.
     pub fn mirror(&mut self, ctx: &Arc<Context>, format: vk::Format) -> Option<Mirror> {
-        match Mirror::new(ctx, self.window.take()?, format) {
+        match Mirror::new(ctx, self.window.take()?, format, self.lenses.as_ref()) {
             Ok(m) => Some(m),
             Err(e) => {
                 eprintln!("vergence: mirror off: {e}");

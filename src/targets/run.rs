@@ -143,6 +143,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     let profile = load_stereo_profile(&args.hmd_fallback)?;
     let (scene, _) = load_scene(&args.scene)?;
     let extent = eye_extent(&profile, args.size);
+    desk.set_lenses(super::mirror::MirrorLenses::of(&profile));
     let extra = desk.prepare(
         &format!("vergence run: {} ({})", scene.name, profile.name),
         extent,
