@@ -37,8 +37,10 @@ pub fn cli_values(data: &[u8]) {
             assert!(m >= crate::config::MIN_MFFR_SPLIT_M);
         }
     }
-    if let Some(Ok(n)) = crate::scene::cad::spec_count(s) {
-        assert!((1..=crate::scene::cad::MAX_PARTS).contains(&n));
+    // A cad spec the parser accepts is one the bench's up-front check
+    // accepts too (two entry points, one rule).
+    if let Some(Ok(_)) = crate::scene::cad::spec_count(s) {
+        assert!(crate::scene::Scene::check_spec(s).is_ok(), "{s:?}");
     }
 }
 
@@ -60,12 +62,20 @@ pub fn rig_plan(data: &[u8]) {
         }
     }
     if let Ok(plan) = crate::bench::plan::Plan::parse("fuzz", text) {
+        // A configuration's own keys reach its renderer settings.
         for c in &plan.configs {
             if let Ok(config) = plan.config_for(c) {
-                assert!(config.validate().is_ok(), "{}", c.name);
+                assert_eq!(config.record_threads, c.record_threads, "{}", c.name);
+                assert_eq!(
+                    config.per_draw,
+                    c.per_draw.unwrap_or_default(),
+                    "{}",
+                    c.name
+                );
             }
         }
-        let built_in = |s: &String| s.starts_with("factory") || s.starts_with("cad");
+        let built_in =
+            |s: &String| s == "factory" || s.starts_with("factory:") || s.starts_with("cad:");
         if plan.scenes.iter().all(built_in)
             && plan
                 .hmds

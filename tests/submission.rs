@@ -140,3 +140,60 @@ fn bad_submission_values_are_one_error() {
     }
     let _ = std::fs::remove_dir_all(out);
 }
+
+#[test]
+fn frames_with_changing_draw_lists_match_on_every_path() {
+    use vergence::render::Renderer;
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let scene = load("cad:1500");
+    let pose = framing_pose(&scene, &profile);
+    let rig = profile.rig(pose);
+    // Few draws, then all (the per-draw record buffers grow while the
+    // previous frame is in flight), then a middle run.
+    let lists: Vec<Vec<u32>> = [0..100u32, 0..1500, 200..900]
+        .into_iter()
+        .map(|r| r.collect())
+        .collect();
+    let extent = ash::vk::Extent2D {
+        width: 128,
+        height: 112,
+    };
+    let frames = |threads: Option<u32>, per_draw: PerDraw| {
+        let mut c = config(StereoMode::TwoPass, "rdm", threads, per_draw);
+        c.frames_in_flight = 2;
+        let before = ctx.validation_messages();
+        let mut r = Renderer::new(ctx.clone(), &scene, &c, extent).unwrap();
+        let mut out = Vec::new();
+        for list in &lists {
+            let stats = r.render(&rig, Some(list), true).unwrap();
+            out.push((stats.draw_calls, r.read_images().unwrap()));
+        }
+        drop(r);
+        assert_eq!(
+            ctx.validation_messages(),
+            before,
+            "{threads:?} {per_draw:?}: {:#?}",
+            ctx.validation_log()
+        );
+        out
+    };
+    let want = frames(None, PerDraw::Push);
+    assert!(want[0].0 < want[1].0, "the lists draw different counts");
+    for (threads, per_draw) in [
+        (Some(3), PerDraw::Push),
+        (Some(4), PerDraw::Ubo),
+        (Some(2), PerDraw::Ssbo),
+        (None, PerDraw::Ubo),
+        (None, PerDraw::Ssbo),
+    ] {
+        let got = frames(threads, per_draw);
+        for (i, (g, w)) in got.iter().zip(&want).enumerate() {
+            assert_eq!(g.0, w.0, "frame {i}, {threads:?} {per_draw:?}: draw calls");
+            assert!(
+                g.1 == w.1,
+                "frame {i}, {threads:?} {per_draw:?}: images differ"
+            );
+        }
+    }
+}

@@ -94,6 +94,18 @@ pub fn image(
     image_level(image, aspect, 0, layers, from, to)
 }
 
+/// Like [`image`], for colour layer `layer` alone.
+pub fn color_layer(
+    image: vk::Image,
+    layer: u32,
+    from: Use,
+    to: Use,
+) -> vk::ImageMemoryBarrier2<'static> {
+    let mut b = self::image(image, vk::ImageAspectFlags::COLOR, 1, from, to);
+    b.subresource_range.base_array_layer = layer;
+    b
+}
+
 /// Like [`image`], for mip level `level`.
 pub fn image_level(
     image: vk::Image,

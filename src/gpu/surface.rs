@@ -74,6 +74,22 @@ pub enum Pacing {
     NeverBlock,
 }
 
+/// What a [`Source`] image is in between presents (the contract of
+/// [`Presenter::present`]): COLOR_ATTACHMENT_OPTIMAL, last written by a
+/// transfer or as an attachment, last read by the window's blit (a
+/// transfer).
+pub const SHOWN: Use = Use {
+    layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+    stage: vk::PipelineStageFlags2::from_raw(
+        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT.as_raw()
+            | vk::PipelineStageFlags2::ALL_TRANSFER.as_raw(),
+    ),
+    access: vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
+            | vk::AccessFlags2::TRANSFER_WRITE.as_raw(),
+    ),
+};
+
 /// One image region shown in the window: a layer of an image in
 /// COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as a colour
 /// attachment; it is left in that layout.
@@ -543,12 +559,7 @@ impl Presenter {
     ) -> Result<()> {
         let d = &ctx.device;
         let c = vk::ImageAspectFlags::COLOR;
-        let written = Use {
-            layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-            stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
-                | vk::PipelineStageFlags2::ALL_TRANSFER,
-            access: vk::AccessFlags2::COLOR_ATTACHMENT_WRITE | vk::AccessFlags2::TRANSFER_WRITE,
-        };
+        let written = SHOWN;
         let acquired = Use {
             layout: vk::ImageLayout::UNDEFINED,
             stage: vk::PipelineStageFlags2::ALL_TRANSFER,
@@ -559,11 +570,8 @@ impl Presenter {
             stage: vk::PipelineStageFlags2::ALL_COMMANDS,
             access: vk::AccessFlags2::NONE,
         };
-        let layer_barrier = |s: &Source, from: Use, to: Use| {
-            let mut b = barrier::image(s.image, c, 1, from, to);
-            b.subresource_range.base_array_layer = s.layer;
-            b
-        };
+        let layer_barrier =
+            |s: &Source, from: Use, to: Use| barrier::color_layer(s.image, s.layer, from, to);
         let mut before: Vec<_> = sources
             .iter()
             .map(|s| layer_barrier(s, written, Use::TRANSFER_SRC))

@@ -621,9 +621,9 @@ impl Renderer {
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
-        if let Some(par) = &self.parallel {
-            par.wake();
-        }
+        // Released (the threads stop spinning) when this frame's recording
+        // ends, whether it gets to the threads or not.
+        let _woken = self.parallel.as_ref().map(ParallelRecording::wake);
         let t0 = Instant::now();
         stats.cpu_ms.wait = ms(t_wait, t0) + std::mem::take(&mut self.slot_wait_ms);
         let mut batches = std::mem::take(&mut self.batches);
@@ -911,12 +911,6 @@ impl Renderer {
                 q.begin_pass(ctx, cmd, if late { "forward-late" } else { "forward" });
                 // The draws were recorded into secondaries by the threads.
                 let parallel = self.parallel.as_ref().filter(|_| floor.is_none());
-                if parallel.is_some() {
-                    // The primary's own state, for the passes after the
-                    // scope (the RDM fill): secondaries do not pass theirs
-                    // back.
-                    rec.set_state(self.extent);
-                }
                 rec.begin_scope(&Scope {
                     part,
                     views: set.views(),
@@ -971,6 +965,11 @@ impl Renderer {
             }
         }
         if let Some(rdm) = &passes.rdm {
+            if self.parallel.is_some() && floor.is_none() {
+                // After executing secondaries the primary's state is
+                // undefined: set it again for the fill.
+                rec.set_state(self.extent);
+            }
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());
         }
         q.end_stats(ctx, cmd);
@@ -1029,7 +1028,10 @@ impl Renderer {
             stats,
         };
         let formats: Vec<ScopeFormat> = scopes.iter().map(format).collect();
+        debug_assert!(batches.far_start.is_none(), "refused with mffr");
         let draws = batches.near_draws();
+        // Where the sky goes, found once for every thread.
+        let sky = self.recorder(vk::CommandBuffer::null()).sky_slot(draws);
         let passes = &self.passes;
         let boxes = self.extras.overlay.len();
         let (extent, slot) = (self.extent, self.slot);
@@ -1060,7 +1062,9 @@ impl Renderer {
                 }
             }
             let run = chunk.run.clone();
-            calls += passes.forward.record_run(&rec, draws, run, chunk.last, eye);
+            calls += passes
+                .forward
+                .record_run(&rec, draws, run, sky, chunk.last, eye);
             if chunk.last {
                 calls += passes.overlay.record(&rec, boxes, eye);
             }

@@ -212,6 +212,11 @@ impl<'a> RecordSpace<'a> {
     /// `material_of` gives a draw's material, the instances start at its
     /// `first`.
     pub fn fill(&mut self, draws: &[Draw], material_of: impl Fn(&Draw) -> u32) {
+        debug_assert_eq!(
+            self.bytes.len() / self.stride,
+            draws.len(),
+            "one record per draw"
+        );
         for (record, d) in self.bytes.chunks_exact_mut(self.stride).zip(draws) {
             record[..4].copy_from_slice(&material_of(d).to_le_bytes());
             record[4..8].copy_from_slice(&d.first.to_le_bytes());
@@ -273,6 +278,16 @@ struct ThreadBuffers {
 /// Longest time the recording threads spin after [`ParallelRecording::wake`]
 /// waiting for [`ParallelRecording::record`] before going back to sleep.
 const WAKE_SPIN: std::time::Duration = std::time::Duration::from_millis(4);
+
+/// Recording threads woken by [`ParallelRecording::wake`]: dropping it
+/// lets them stop spinning.
+pub struct Woken(Arc<AtomicBool>);
+
+impl Drop for Woken {
+    fn drop(&mut self) {
+        self.0.store(true, Ordering::Release);
+    }
+}
 
 /// Parallel recording of a frame's forward draws into secondary command
 /// buffers (see the module documentation): N pool threads, thread t
@@ -390,7 +405,10 @@ impl ParallelRecording {
     /// the draws are ready, at most [`WAKE_SPIN`], so the recording does not
     /// wait for threads the OS has to wake first. Their cores are busy
     /// meanwhile.
-    pub fn wake(&self) {
+    /// The returned guard lets them go when dropped (as
+    /// [`ParallelRecording::record`] does), so a frame that fails before
+    /// recording does not keep them spinning.
+    pub fn wake(&self) -> Woken {
         self.ready.store(false, Ordering::Release);
         let ready = self.ready.clone();
         self.workers.spawn_broadcast(move |_| {
@@ -399,6 +417,7 @@ impl ParallelRecording {
                 std::hint::spin_loop();
             }
         });
+        Woken(self.ready.clone())
     }
 
     /// Records slot `slot`'s secondaries: for each rendering scope of

@@ -20,22 +20,10 @@ pub const MAX_PARTS: usize = 100_000;
 /// Distance between neighbouring parts on the floor plan, metres.
 pub const PITCH: f64 = 1.6;
 
-/// The part count of a `cad:N` spec (None: not a cad spec).
+/// The part count of a `cad:N` spec (None: not a cad spec; `cad` alone
+/// has no default and is an error).
 pub fn spec_count(spec: &str) -> Option<Result<usize>> {
-    let rest = spec.strip_prefix("cad")?;
-    let bad = || {
-        Error::config(
-            "--scene",
-            format!("'{spec}': expected cad:N with N a part count within 1..={MAX_PARTS}"),
-        )
-    };
-    Some(match rest.strip_prefix(':') {
-        Some(n) => match n.replace('_', "").parse::<usize>() {
-            Ok(n) if (1..=MAX_PARTS).contains(&n) => Ok(n),
-            _ => Err(bad()),
-        },
-        None => Err(bad()),
-    })
+    super::builtin_count(spec, "cad", None, MAX_PARTS)
 }
 
 fn materials() -> Vec<Material> {
@@ -227,16 +215,12 @@ mod tests {
         assert_eq!(spec_count("cad:1000").unwrap().unwrap(), 1000);
         assert_eq!(spec_count("cad:100_000").unwrap().unwrap(), 100_000);
         assert!(spec_count("factory:10").is_none());
-        for bad in [
-            "cad",
-            "cad:",
-            "cad:0",
-            "cad:100001",
-            "cad:x",
-            "cad:-3",
-            "cadx",
-        ] {
+        for bad in ["cad", "cad:", "cad:0", "cad:100001", "cad:x", "cad:-3"] {
             assert!(spec_count(bad).unwrap().is_err(), "{bad}");
+        }
+        // Files whose names start with "cad" are files.
+        for file in ["cadx", "cad_export.gltf", "cad/engine.glb"] {
+            assert!(spec_count(file).is_none(), "{file}");
         }
         assert!(generate(0, 1).is_err());
         assert!(generate(MAX_PARTS + 1, 1).is_err());

@@ -19,23 +19,45 @@ use crate::error::{Error, Result};
 use glam::{DAffine3, DVec3, Vec3};
 use std::path::Path;
 
-/// The instance count of a `factory` / `factory:N` spec (None: not a
-/// factory spec).
-fn factory_count(spec: &str) -> Option<Result<usize>> {
-    let rest = spec.strip_prefix("factory")?;
-    Some(match rest.strip_prefix(':') {
-        None if rest.is_empty() => Ok(factory::DEFAULT_INSTANCES),
-        Some(n) => n.replace('_', "").parse::<usize>().map_err(|_| {
-            Error::config(
-                "--scene",
-                format!("'{spec}': expected factory or factory:N with N a count"),
-            )
-        }),
-        None => Err(Error::config(
+/// The count N of a built-in scene spec `name:N` (or plain `name`, which
+/// is `default` when it has one), within 1..=`max`; None when `spec` is not
+/// this built-in (then it is a file path: `factory_hall.glb` or
+/// `cad/engine.glb` load as files).
+fn builtin_count(
+    spec: &str,
+    name: &str,
+    default: Option<usize>,
+    max: usize,
+) -> Option<Result<usize>> {
+    let rest = spec.strip_prefix(name)?;
+    let bad = || {
+        Error::config(
             "--scene",
-            format!("'{spec}': unknown built-in scene"),
-        )),
-    })
+            format!("'{spec}': expected {name}:N with N a count within 1..={max}"),
+        )
+    };
+    let n = match rest.strip_prefix(':') {
+        Some(n) => n.replace('_', "").parse::<usize>().map_err(|_| bad()),
+        None if rest.is_empty() => default.ok_or_else(bad),
+        None => return None,
+    };
+    Some(n.and_then(|n| {
+        if (1..=max).contains(&n) {
+            Ok(n)
+        } else {
+            Err(bad())
+        }
+    }))
+}
+
+/// The instance count of a `factory` / `factory:N` spec (None: not one).
+fn factory_count(spec: &str) -> Option<Result<usize>> {
+    builtin_count(
+        spec,
+        "factory",
+        Some(factory::DEFAULT_INSTANCES),
+        factory::MAX_INSTANCES,
+    )
 }
 
 /// How a material's alpha is interpreted (glTF `alphaMode`).
@@ -334,17 +356,7 @@ impl Scene {
     /// before measuring the first).
     pub fn check_spec(spec: &str) -> Result<()> {
         if let Some(n) = factory_count(spec) {
-            let n = n?;
-            if n == 0 || n > factory::MAX_INSTANCES {
-                return Err(Error::config(
-                    "--scene",
-                    format!(
-                        "factory:{n}: instance count must be within 1..={}",
-                        factory::MAX_INSTANCES
-                    ),
-                ));
-            }
-            return Ok(());
+            return n.map(|_| ());
         }
         if let Some(n) = cad::spec_count(spec) {
             return n.map(|_| ());

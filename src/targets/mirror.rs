@@ -20,7 +20,7 @@ use super::window::{display_available, Input, Window};
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{Image, ImageDesc};
-use crate::gpu::surface::{Pacing, Presented, Presenter, Source};
+use crate::gpu::surface::{Pacing, Presented, Presenter, Source, SHOWN};
 use crate::gpu::{Context, ExtraExtensions};
 use crate::view::{Fov, HiddenArea};
 use ash::vk;
@@ -156,21 +156,6 @@ impl MirrorWindow {
         self.window.extensions()
     }
 }
-
-/// What a shown image is in between (Presenter's `Source` contract):
-/// COLOR_ATTACHMENT_OPTIMAL, last written by a transfer or as an
-/// attachment, last read by the window's blit (a transfer).
-const MIRRORED: Use = Use {
-    layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-    stage: vk::PipelineStageFlags2::from_raw(
-        vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT.as_raw()
-            | vk::PipelineStageFlags2::ALL_TRANSFER.as_raw(),
-    ),
-    access: vk::AccessFlags2::from_raw(
-        vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw()
-            | vk::AccessFlags2::TRANSFER_WRITE.as_raw(),
-    ),
-};
 
 /// What the mirror did, for `--stats-out`.
 #[derive(Clone, Debug, Default, serde::Serialize)]
@@ -458,12 +443,8 @@ impl Mirror {
                 | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
             ..attached
         };
-        let mirrored = MIRRORED;
-        let layer_barrier = |image: vk::Image, layer: u32, from: Use, to: Use| {
-            let mut b = barrier::image(image, c, 1, from, to);
-            b.subresource_range.base_array_layer = layer;
-            b
-        };
+        let mirrored = SHOWN;
+        let layer_barrier = barrier::color_layer;
         let mut before = Vec::new();
         let mut after_src = Vec::new();
         let mut after_dst = Vec::new();
@@ -638,16 +619,12 @@ impl Mirror {
         distortion: &crate::render::distortion::DistortionPreview,
         eyes: [Source; 2],
     ) -> Result<()> {
-        let c = vk::ImageAspectFlags::COLOR;
         let attached = Use::COLOR_ATTACHMENT;
-        let layer_barrier = |s: &Source, from: Use, to: Use| {
-            let mut b = barrier::image(s.image, c, 1, from, to);
-            b.subresource_range.base_array_layer = s.layer;
-            b
-        };
+        let layer_barrier =
+            |s: &Source, from: Use, to: Use| barrier::color_layer(s.image, s.layer, from, to);
         let before: Vec<_> = eyes
             .iter()
-            .map(|s| layer_barrier(s, MIRRORED, Use::TRANSFER_SRC))
+            .map(|s| layer_barrier(s, SHOWN, Use::TRANSFER_SRC))
             .collect();
         let after: Vec<_> = eyes
             .iter()

@@ -50,17 +50,18 @@ impl Forward {
 
     /// Draws the run `run` of the frame's list `draws` for view `eye` into
     /// a secondary command buffer continuing the scope, with the sky when
-    /// it falls into this run (before the list's first blended draw, else
-    /// at the end of the `last` run). Returns the draw calls.
+    /// it falls into this run (before draw `at`, the list's first blended
+    /// one as [`Recorder::sky_slot`] finds it, else at the end of the
+    /// `last` run). Returns the draw calls.
     pub fn record_run(
         &self,
         rec: &Recorder,
         draws: &[Draw],
         run: std::ops::Range<usize>,
+        at: usize,
         last: bool,
         eye: u32,
     ) -> u64 {
-        let at = rec.sky_slot(draws);
         let sky = sky_in_run(at, draws.len(), &run, last).map(|i| (self.sky, i));
         let base = run.start as u32;
         rec.draw_batches(&draws[run], base, &self.pipelines, sky, eye)

@@ -423,9 +423,10 @@ impl Recorder<'_> {
     /// Begins the rendering scope `scope`: colour cleared to black and
     /// stored (resolved by averaging at more than one sample), depth and
     /// stencil cleared (stored or resolved from sample zero only when the
-    /// frame keeps its depth), the shading-rate attachment when given; then
-    /// sets the viewport and scissor to the whole extent and binds the
-    /// descriptor set.
+    /// frame keeps its depth), the shading-rate attachment when given; then,
+    /// unless the scope's contents come from secondaries (which set their
+    /// own), sets the viewport and scissor to the whole extent and binds the
+    /// descriptor sets ([`Recorder::set_state`]).
     pub fn begin_scope(&self, scope: &Scope) {
         let views = scope.views;
         let load = if scope.part == ScopePart::Second {
