@@ -276,8 +276,10 @@ struct ThreadBuffers {
 }
 
 /// Longest time the recording threads spin after [`ParallelRecording::wake`]
-/// waiting for [`ParallelRecording::record`] before going back to sleep.
-const WAKE_SPIN: std::time::Duration = std::time::Duration::from_millis(4);
+/// waiting for [`ParallelRecording::record`] before going back to sleep: a
+/// cap for frames whose preparation takes that long (they stop as soon as
+/// the recording starts, or the frame fails).
+const WAKE_SPIN: std::time::Duration = std::time::Duration::from_millis(20);
 
 /// Recording threads woken by [`ParallelRecording::wake`]: dropping it
 /// lets them stop spinning.
