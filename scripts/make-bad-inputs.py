@@ -604,6 +604,8 @@ case("plans/per-draw-unknown.toml", "plan", ["per_draw", "uniform"],
      PLAN.format(frames=2, opt="two-pass") + 'per_draw = "uniform"\n')
 case("plans/per-draw-with-mffr.toml", "plan", ["gpu-cull or mffr"],
      PLAN.format(frames=2, opt="mffr") + 'per_draw = "ssbo"\n')
+case("plans/timewarp-reference.toml", "plan", ["`reference` does not run it"],
+     PLAN.format(frames=2, opt="two-pass").replace('[[configs]]', 'reference = "two-pass,timewarp=2"\n[[configs]]'))
 case("plans/bad-cad.toml", "plan", ["cad:0", "cad:N"],
      PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "cad:0"]'))
 

@@ -138,7 +138,7 @@ pub struct RenderConfig {
     /// In a headset the section tool replaces it at run time.
     pub section: Option<[f64; 4]>,
     /// The timewarp simulation (`timewarp=K`, `timewarp-rotation`,
-    /// `timewarp-fill`; `render --frames` only): every K-th frame is the
+    /// `timewarp-fill`; `render --frames` and bench plans): every K-th frame is the
     /// source that the frames between are reprojected from, and each
     /// reprojection is compared with the frame truly rendered there.
     pub timewarp: Option<Timewarp>,
@@ -612,7 +612,7 @@ impl RenderConfig {
         match self.timewarp {
             Some(_) => Err(Error::config(
                 "--opt",
-                format!("timewarp is measured by `vergence render --frames N --opt timewarp=K`; `{command}` does not run it"),
+                format!("timewarp is measured by `vergence render --frames N --opt timewarp=K` and by bench plan configurations; `{command}` does not run it"),
             )),
             None => Ok(()),
         }

@@ -196,7 +196,7 @@ struct FrameOpts {
     /// rdm=auto (the radius from the profile's lens), rdm-nofill, mffr[=D],
     /// mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull,
     /// occlusion and lod[=PX] (both with gpu-cull), timewarp=K,
-    /// timewarp-rotation, timewarp-fill (render --frames only)
+    /// timewarp-rotation, timewarp-fill (render --frames and bench plans)
     /// and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
     /// round-robin, round-robin-conical, per-eye-brute; default none).
     #[arg(long, default_value = "")]

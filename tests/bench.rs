@@ -443,3 +443,67 @@ fn ctrl_c_keeps_the_finished_group_and_drops_the_unfinished_configuration() {
     );
     assert!(second.results.iter().all(|r| r.frames == 150));
 }
+
+#[test]
+fn a_plan_measures_timewarp_against_rendered_frames() {
+    let dir = common::scratch("bench", "timewarp");
+    let plan = dir.join("tw.toml");
+    let body = "name = \"tw\"\nscenes = [\"factory:2000\"]\nhmds = [\"monado-sim\"]\nscales = [0.5]\nwarmup = 3\nframes = 4\nerror_frames = 2\npath_seed = 7\nreference = \"two-pass\"\n\n[[configs]]\nname = \"plain\"\nopt = \"multiview\"\n\n[[configs]]\nname = \"tw3\"\nopt = \"multiview,timewarp=3\"\n\n[[configs]]\nname = \"tw2-rotation\"\nopt = \"multiview,timewarp=2,timewarp-rotation\"\n";
+    std::fs::write(&plan, body).unwrap();
+    let out = dir.join("out");
+    ok(&[
+        "bench",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let json = std::fs::read_to_string(out.join("results.json")).unwrap();
+    let results: BenchResults = serde_json::from_str(&json).unwrap();
+    assert_eq!(results.validation_messages, 0);
+    let plain = get(&results, "plain");
+    assert!(plain.timewarp.is_none());
+    let plain_flip = plain.error.as_ref().unwrap().flip_mean;
+    for (name, k, variant) in [("tw3", 3, "depth"), ("tw2-rotation", 2, "rotation")] {
+        let r = get(&results, name);
+        let tw = r
+            .timewarp
+            .as_ref()
+            .unwrap_or_else(|| panic!("{name}: no timewarp"));
+        assert_eq!((tw.k, tw.variant.as_str()), (k, variant), "{name}");
+        // Two compared frames, each warped from K - 1 earlier frames.
+        assert_eq!(tw.warps, 2 * (k - 1), "{name}");
+        // The head moves along the path: warps are close, not exact.
+        assert!(
+            tw.flip_vs_rendered > 1e-4 && tw.flip_vs_rendered < 0.5,
+            "{name}: {tw:?}"
+        );
+        assert!(tw.warp_gpu_ms > 0.0, "{name}: {tw:?}");
+        let per_frame = (r.gpu_frame_ms.p50 + (k - 1) as f64 * tw.warp_gpu_ms) / k as f64;
+        assert!(
+            (tw.gpu_ms_per_displayed_frame - per_frame).abs() < 1e-9,
+            "{name}"
+        );
+        let e = r.error.as_ref().unwrap();
+        assert_eq!(e.frames, 2 * (k - 1), "{name}: every warp compared");
+        assert!(
+            e.flip_mean > plain_flip,
+            "{name}: {} vs {plain_flip}",
+            e.flip_mean
+        );
+        assert!(out.join(r.image.as_ref().unwrap()).is_file());
+    }
+    // The reference is rendered, never warped.
+    std::fs::write(
+        &plan,
+        body.replace(
+            "reference = \"two-pass\"",
+            "reference = \"two-pass,timewarp=2\"",
+        ),
+    )
+    .unwrap();
+    fails(
+        &["bench", "--plan", plan.to_str().unwrap()],
+        "`reference` does not run it",
+    );
+}

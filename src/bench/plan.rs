@@ -325,13 +325,14 @@ impl Plan {
     /// The image reference's renderer configuration (the plan's frames in
     /// flight; they change timing, not pixels).
     pub fn reference_config(&self) -> Result<RenderConfig> {
-        self.with_frames_in_flight(&self.reference, None)
+        let c = self.with_frames_in_flight(&self.reference, None)?;
+        c.refuse_timewarp("reference")?;
+        Ok(c)
     }
 
     fn with_frames_in_flight(&self, opt: &str, own: Option<u32>) -> Result<RenderConfig> {
         let mut c = RenderConfig::default();
         c.apply_opts(opt, &cull_names())?;
-        c.refuse_timewarp("bench")?;
         c.frames_in_flight = own.unwrap_or(self.frames_in_flight);
         c.validate()?;
         Ok(c)

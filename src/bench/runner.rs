@@ -175,6 +175,31 @@ pub struct ConfigResult {
     pub image: Option<String>,
     /// FLIP heat map of that image against the reference.
     pub heatmap: Option<String>,
+    /// With `timewarp=K`: the warped frames (its `error` is theirs).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub timewarp: Option<TimewarpResult>,
+}
+
+/// A timewarp configuration's warped frames: at every compared frame i the
+/// frames i - 1 … i - (K - 1) are rendered and each is warped to frame i's
+/// pose (every age a warped frame can have); `error` compares those with
+/// the reference, this with the configuration's own rendering of frame i.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TimewarpResult {
+    /// Every K-th frame is rendered.
+    pub k: u32,
+    /// How the frames between are reprojected.
+    pub variant: String,
+    /// Warped frames compared.
+    pub warps: u32,
+    /// FLIP mean of the warped frames against the frames truly rendered at
+    /// their poses with the same configuration.
+    pub flip_vs_rendered: f64,
+    /// GPU ms of one warp (both eyes; median).
+    pub warp_gpu_ms: f64,
+    /// GPU ms per displayed frame when one in K is rendered and the others
+    /// warped: (render p50 + (K - 1) × warp) / K.
+    pub gpu_ms_per_displayed_frame: f64,
 }
 
 /// The raster floors at a group's resolution, with the baseline's stereo
@@ -520,7 +545,7 @@ fn measure(
     extent: vk::Extent2D,
     (name, opt, config): (&str, &str, &RenderConfig),
     refresh_hz: f64,
-    images: Option<&mut RefImages>,
+    mut images: Option<&mut RefImages>,
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
 ) -> Result<Option<ConfigResult>> {
@@ -576,7 +601,17 @@ fn measure(
         usage: device.map(|b| b.usage),
         budget: device.map(|b| b.budget),
     };
-    if let Some(images) = images {
+    if let (Some(images), Some(tw)) = (images.as_deref_mut(), config.timewarp) {
+        let (errors, result_tw) =
+            warped_errors(ctx, &mut driver, plan, rigs, extent, tw, images, compare)?;
+        let gpu = result.gpu_frame_ms.p50;
+        result.timewarp = Some(TimewarpResult {
+            gpu_ms_per_displayed_frame: (gpu + (tw.k - 1) as f64 * result_tw.warp_gpu_ms)
+                / tw.k as f64,
+            ..result_tw
+        });
+        result.error = average_errors(&errors);
+    } else if let Some(images) = images {
         let mut errors = Vec::new();
         for k in plan.error_frame_indices() {
             let i = (plan.warmup + k) as usize;
@@ -592,22 +627,96 @@ fn measure(
             }
             images.push(pair);
         }
-        if !errors.is_empty() {
-            let n = errors.len() as f64;
-            let avg = |get: fn(&ImageError) -> f64| errors.iter().map(get).sum::<f64>() / n;
-            result.error = Some(ImageError {
-                flip_mean: avg(|e| e.flip_mean),
-                flip_p99: avg(|e| e.flip_p99),
-                psnr_db: avg(|e| e.psnr_db),
-                ssim: avg(|e| e.ssim),
-                ppd: errors[0].ppd,
-                frames: errors.len() as u32,
-            });
-        }
+        result.error = average_errors(&errors);
     }
     drop(driver);
     result.rss_bytes = process_rss_bytes();
     Ok(Some(result))
+}
+
+/// The mean of `errors` (None when there are none).
+fn average_errors(errors: &[ImageError]) -> Option<ImageError> {
+    if errors.is_empty() {
+        return None;
+    }
+    let n = errors.len() as f64;
+    let avg = |get: fn(&ImageError) -> f64| errors.iter().map(get).sum::<f64>() / n;
+    Some(ImageError {
+        flip_mean: avg(|e| e.flip_mean),
+        flip_p99: avg(|e| e.flip_p99),
+        psnr_db: avg(|e| e.psnr_db),
+        ssim: avg(|e| e.ssim),
+        ppd: errors[0].ppd,
+        frames: errors.len() as u32,
+    })
+}
+
+/// The timewarp configuration's compared frames: at every error frame i,
+/// each earlier frame i - d (d = 1 … K - 1, as far as the path reaches
+/// back) is rendered with its depth and warped to frame i's pose; the
+/// warped pairs are compared with the reference (`compare`) and with the
+/// frame truly rendered at i. `images` gets, per error frame, the oldest
+/// warp (for the report's image and heat map). Returns the errors against
+/// the reference and the warp figures.
+#[allow(clippy::too_many_arguments)]
+fn warped_errors(
+    ctx: &Arc<Context>,
+    driver: &mut FrameDriver,
+    plan: &Plan,
+    rigs: &[StereoRig],
+    extent: vk::Extent2D,
+    tw: crate::config::Timewarp,
+    images: &mut RefImages,
+    compare: Option<&Comparison>,
+) -> Result<(Vec<ImageError>, TimewarpResult)> {
+    let near = driver.renderer().config.near;
+    let mut warp = crate::render::timewarp::Timewarp::new(ctx, extent, tw.variant)?;
+    let ppd = compare.map_or(MIN_FLIP_PPD, |c| c.ppd) as f32;
+    let (mut errors, mut own, mut warp_ms) = (Vec::new(), Vec::new(), Vec::new());
+    let render = |driver: &mut FrameDriver, i: usize| -> Result<_> {
+        driver.frame(&rigs[i], i as u64, true)?;
+        driver.finish()?;
+        while driver.take_completed().is_some() {}
+        let colour = driver.read_images()?;
+        let depth = driver.renderer_mut().read_depth()?;
+        Ok((colour, depth))
+    };
+    for (n, k) in plan.error_frame_indices().into_iter().enumerate() {
+        let i = (plan.warmup + k) as usize;
+        let (truth, _) = render(driver, i)?;
+        let mut oldest = None;
+        for d in (1..tw.k as usize).filter(|&d| d <= i) {
+            let (colour, depth) = render(driver, i - d)?;
+            let (old, new) = (&rigs[i - d], &rigs[i]);
+            let out = warp.warp(
+                &colour,
+                &depth,
+                [&old.views[0], &old.views[1]],
+                [&new.views[0], &new.views[1]],
+                near,
+            )?;
+            warp_ms.push(out.gpu_ms);
+            for (t, w) in truth.iter().zip(&out.images) {
+                own.push(metrics::flip(t, w, ppd)?.mean as f64);
+            }
+            if let Some(cmp) = compare {
+                if let Some(reference) = cmp.reference.get(n) {
+                    errors.push(image_error(reference, &out.images, cmp)?);
+                }
+            }
+            oldest = Some(out.images);
+        }
+        images.push(oldest.unwrap_or(truth));
+    }
+    let figures = TimewarpResult {
+        k: tw.k,
+        variant: format!("{:?}", tw.variant).to_lowercase(),
+        warps: warp_ms.len() as u32,
+        flip_vs_rendered: own.iter().sum::<f64>() / own.len().max(1) as f64,
+        warp_gpu_ms: Summary::of(&warp_ms).p50,
+        gpu_ms_per_displayed_frame: 0.0,
+    };
+    Ok((errors, figures))
 }
 
 /// Error of one stereo pair against the reference, over visible pixels:
@@ -748,6 +857,7 @@ fn summarize(
         gpu_cull_drawn_late: gpu_cull_median(&|c| c.drawn_late),
         gpu_cull_occluded: gpu_cull_median(&|c| c.occluded),
         gpu_cull_lod_dropped: gpu_cull_median(&|c| c.lod_dropped),
+        timewarp: None,
         ..ConfigResult::default()
     }
 }
