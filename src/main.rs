@@ -411,9 +411,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if job.config.timewarp.is_some() {
                 vergence::bench::timewarp::check(&job)?;
             }
-            let mut stats = headless::render_to_dir(&job)?;
+            let (mut stats, loaded) = headless::render_to_dir_keeping(&job)?;
             if job.config.timewarp.is_some() {
-                let t = vergence::bench::timewarp::measure(&job)?;
+                let t = vergence::bench::timewarp::measure(&job, &loaded)?;
                 println!(
                     "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
                     t.k,

@@ -100,6 +100,28 @@ fn flip_mean(reference: &image::RgbaImage, test: &image::RgbaImage) -> f64 {
     f.mean as f64
 }
 
+/// `vergence run --xr headless --frames 2 --scene factory:200` on display
+/// `x` (further arguments to add).
+fn small_headless_run(x: Option<&Xvfb>) -> Command {
+    let mut c = vergence(x);
+    c.args(["run", "--xr", "headless", "--frames", "2"])
+        .args(["--scene", "factory:200"]);
+    c
+}
+
+/// Asserts a run succeeded and said one line about the mirror: that it is
+/// off, naming `why`.
+fn mirror_off_with_one_line(o: &Output, why: &str) {
+    assert!(o.status.success(), "{}", text(o));
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("mirror")).collect();
+    assert_eq!(lines.len(), 1, "{stderr}");
+    assert!(
+        lines[0].contains("mirror off") && lines[0].contains(why),
+        "{stderr}"
+    );
+}
+
 fn half(img: &image::RgbaImage, x0: u32, w: u32) -> image::RgbaImage {
     image::imageops::crop_imm(img, x0, 0, w, img.height()).to_image()
 }
@@ -312,16 +334,7 @@ fn the_distorted_mirror_shows_the_panels_through_the_lenses() {
     );
     // A profile without lenses: the mirror is off with one line, the run
     // goes on.
-    let o = vergence(Some(&x))
-        .args([
-            "run",
-            "--xr",
-            "headless",
-            "--frames",
-            "2",
-            "--scene",
-            "factory:200",
-        ])
+    let o = small_headless_run(Some(&x))
         .args([
             "--hmd-fallback",
             "valve-index",
@@ -333,14 +346,7 @@ fn the_distorted_mirror_shows_the_panels_through_the_lenses() {
         .args(["--mirror", "distorted"])
         .output()
         .expect("vergence runs");
-    assert!(o.status.success(), "{}", text(&o));
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("mirror")).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    assert!(
-        lines[0].contains("mirror off") && lines[0].contains("[views.lens]"),
-        "{stderr}"
-    );
+    mirror_off_with_one_line(&o, "[views.lens]");
 }
 
 #[test]
@@ -511,16 +517,7 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
         "{text_saved}"
     );
     let again = dir.join("again.json");
-    let o = vergence(None)
-        .args([
-            "run",
-            "--xr",
-            "headless",
-            "--frames",
-            "2",
-            "--scene",
-            "factory:200",
-        ])
+    let o = small_headless_run(None)
         .args(["--width", "64", "--height", "48", "--config"])
         .arg(&saved)
         .arg("--stats-out")
@@ -609,16 +606,7 @@ fn without_a_display_the_mirror_is_off_with_one_line() {
     let _g = lock();
     let dir = common::scratch("mirror", "no-display");
     let s_path = dir.join("stats.json");
-    let o = vergence(None)
-        .args([
-            "run",
-            "--xr",
-            "headless",
-            "--frames",
-            "2",
-            "--scene",
-            "factory:200",
-        ])
+    let o = small_headless_run(None)
         .args([
             "--width",
             "64",
@@ -631,26 +619,10 @@ fn without_a_display_the_mirror_is_off_with_one_line() {
         .arg(&s_path)
         .output()
         .expect("vergence runs");
-    assert!(o.status.success(), "{}", text(&o));
-    let stderr = String::from_utf8_lossy(&o.stderr);
-    let lines: Vec<&str> = stderr.lines().filter(|l| l.contains("mirror")).collect();
-    assert_eq!(lines.len(), 1, "{stderr}");
-    assert!(
-        lines[0].contains("mirror off") && lines[0].contains("DISPLAY"),
-        "{stderr}"
-    );
+    mirror_off_with_one_line(&o, "DISPLAY");
     assert!(stats(&s_path)["mirror"].is_null());
     // The default (no --mirror) is off without a word.
-    let o = vergence(None)
-        .args([
-            "run",
-            "--xr",
-            "headless",
-            "--frames",
-            "2",
-            "--scene",
-            "factory:200",
-        ])
+    let o = small_headless_run(None)
         .args(["--width", "64", "--height", "48"])
         .output()
         .expect("vergence runs");

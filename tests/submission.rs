@@ -23,6 +23,18 @@ fn config(stereo: StereoMode, opt: &str, threads: Option<u32>, per_draw: PerDraw
     c
 }
 
+/// Asserts `got` drew what `want` did: the same draw calls, both eyes equal
+/// pixel for pixel.
+fn same(got: &common::Frame, want: &common::Frame, what: &str) {
+    assert_eq!(got.stats.draw_calls, want.stats.draw_calls, "{what}");
+    for eye in 0..2 {
+        assert!(
+            got.images[eye] == want.images[eye],
+            "{what}: eye {eye} differs"
+        );
+    }
+}
+
 #[test]
 fn parallel_recording_draws_the_images_of_one_thread() {
     let ctx = context();
@@ -43,14 +55,11 @@ fn parallel_recording_draws_the_images_of_one_thread() {
                 for threads in [1, 3, 8] {
                     let c = config(stereo, opt, Some(threads), PerDraw::Push);
                     let got = render_config(&ctx, &scene, &profile, pose, &c, 160, 144);
-                    let what = format!("{spec} {stereo:?} '{opt}' on {threads} threads");
-                    assert_eq!(got.stats.draw_calls, want.stats.draw_calls, "{what}");
-                    for eye in 0..2 {
-                        assert!(
-                            got.images[eye] == want.images[eye],
-                            "{what}: eye {eye} differs"
-                        );
-                    }
+                    same(
+                        &got,
+                        &want,
+                        &format!("{spec} {stereo:?} '{opt}' on {threads} threads"),
+                    );
                 }
             }
         }
@@ -74,14 +83,11 @@ fn the_three_per_draw_paths_draw_identical_images() {
                 for threads in [None, Some(4)] {
                     let c = config(stereo, "", threads, per_draw);
                     let got = render_config(&ctx, &scene, &profile, pose, &c, 160, 144);
-                    let what = format!("{spec} {stereo:?} {per_draw:?} threads {threads:?}");
-                    assert_eq!(got.stats.draw_calls, want.stats.draw_calls, "{what}");
-                    for eye in 0..2 {
-                        assert!(
-                            got.images[eye] == want.images[eye],
-                            "{what}: eye {eye} differs"
-                        );
-                    }
+                    same(
+                        &got,
+                        &want,
+                        &format!("{spec} {stereo:?} {per_draw:?} threads {threads:?}"),
+                    );
                 }
             }
         }

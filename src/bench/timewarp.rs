@@ -9,10 +9,9 @@ use super::metrics;
 use crate::error::{Error, Result};
 use crate::render::driver::FrameDriver;
 use crate::render::timewarp::{Timewarp, TimewarpStats};
-use crate::targets::headless::{self, Percentiles, RenderJob};
+use crate::targets::headless::{self, Loaded, Percentiles, RenderJob};
 use crate::view::{Pose, StereoRig};
 use glam::DQuat;
-use std::sync::Arc;
 
 /// Checks `job`'s timewarp settings before anything is rendered or
 /// written: K against the frame count, no fixed rig, a bounded turn rate.
@@ -51,27 +50,29 @@ pub fn check(job: &RenderJob) -> Result<crate::config::Timewarp> {
     Ok(settings)
 }
 
-/// Runs the measurement `job` describes (its `config.timewarp` is set) and
-/// writes the last warped pair and its truth into `job.out`
+/// Runs the measurement `job` describes (its `config.timewarp` is set) on
+/// the context, scene and profile `render` already `loaded`, and writes
+/// the last warped pair and its truth into `job.out`
 /// (`{left,right}_warped.png`, `{left,right}_truth.png`).
-pub fn measure(job: &RenderJob) -> Result<TimewarpStats> {
+pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
     let settings = check(job)?;
     let k = settings.k;
-    let profile = headless::load_stereo_profile(&job.hmd)?;
-    let (scene, _) = headless::load_scene(&job.scene)?;
-    let ctx = Arc::new(crate::gpu::Context::new_headless(
-        crate::gpu::Validation::from_env(),
-    )?);
-    let extent = headless::eye_extent(&profile, job.size);
+    let Loaded {
+        ctx,
+        scene,
+        profile,
+    } = loaded;
+    let before = ctx.validation_messages();
+    let extent = headless::eye_extent(profile, job.size);
     let mut config = job.config.clone();
-    config.resolve_lens(Some(&profile))?;
-    let renderer = headless::new_renderer(&ctx, &scene, &config, extent)?;
+    config.resolve_lens(Some(profile))?;
+    let renderer = headless::new_renderer(ctx, scene, &config, extent)?;
     let near = renderer.config.near;
-    let mut driver = FrameDriver::new(renderer, &scene)?;
+    let mut driver = FrameDriver::new(renderer, scene)?;
     let head = match (&job.camera, job.pose) {
-        (Some(name), _) => headless::scene_camera(&scene, name)?,
+        (Some(name), _) => headless::scene_camera(scene, name)?,
         (None, Some(pose)) => pose,
-        (None, None) => headless::framing_head(&scene, &profile),
+        (None, None) => headless::framing_head(scene, profile),
     };
     let step = job.head_turn_deg_s.to_radians() / profile.refresh_hz;
     let rig_at = |i: u32| -> StereoRig {
@@ -86,7 +87,7 @@ pub fn measure(job: &RenderJob) -> Result<TimewarpStats> {
         profile.views[0].fov.right,
     ) as f64)
         .max(metrics::MIN_FLIP_PPD) as f32;
-    let mut warp = Timewarp::new(&ctx, extent, settings.variant)?;
+    let mut warp = Timewarp::new(ctx, extent, settings.variant)?;
     let pixels = 2.0 * extent.width as f64 * extent.height as f64;
     let mut source: Option<([image::RgbaImage; 2], [Vec<f32>; 2], StereoRig)> = None;
     let (mut flips, mut warp_ms, mut render_ms) = (Vec::new(), Vec::new(), Vec::new());
@@ -144,6 +145,6 @@ pub fn measure(job: &RenderJob) -> Result<TimewarpStats> {
         cracks_fraction: cracks / n,
         warp_gpu_ms: Percentiles::of(&warp_ms),
         render_gpu_ms: Percentiles::of(&render_ms),
-        validation_messages: ctx.validation_messages(),
+        validation_messages: ctx.validation_messages() - before,
     })
 }

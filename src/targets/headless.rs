@@ -320,6 +320,23 @@ pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2
 /// Renders one frame as `job` says and writes `left.png`, `right.png` and
 /// `stats.json` into `job.out`.
 pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
+    render_to_dir_keeping(job).map(|(stats, _)| stats)
+}
+
+/// What [`render_to_dir_keeping`] loaded and made, for a measurement that
+/// follows on the same scene (the timewarp): no second load, no second
+/// Vulkan device.
+pub struct Loaded {
+    /// The device context.
+    pub ctx: Arc<Context>,
+    /// The scene.
+    pub scene: Scene,
+    /// The HMD profile.
+    pub profile: HmdProfile,
+}
+
+/// [`render_to_dir`], handing back the context, scene and profile it used.
+pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
     let mut config = job.config.clone();
@@ -486,7 +503,14 @@ pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
     };
     drop(driver);
     write_json(&job.out.join("stats.json"), &stats)?;
-    Ok(stats)
+    Ok((
+        stats,
+        Loaded {
+            ctx,
+            scene,
+            profile,
+        },
+    ))
 }
 
 /// The lenses of a profile's two views, for the distortion preview; one

@@ -57,14 +57,17 @@ pub const fn rate(w: u32, h: u32) -> u8 {
 }
 
 impl Level {
-    /// (outer radius, fragment size) rings from the centre out.
-    pub fn rings(self) -> Vec<(f32, u32)> {
+    /// (outer radius, fragment size) rings from the centre out, the last
+    /// reaching to infinity (repeated to fill the array when a level has
+    /// fewer rings); no allocation, as rate images ask it per texel.
+    pub fn rings(self) -> [(f32, u32); 3] {
+        const INF: f32 = f32::INFINITY;
         match self {
-            Level::Off => vec![(f32::INFINITY, 1)],
-            Level::Low => vec![(0.6, 1), (f32::INFINITY, 2)],
-            Level::Medium => vec![(0.45, 1), (0.8, 2), (f32::INFINITY, 4)],
-            Level::High => vec![(0.3, 1), (0.6, 2), (f32::INFINITY, 4)],
-            Level::Lens(r) => vec![(f32::from(r) / 1000.0, 1), (f32::INFINITY, 2)],
+            Level::Off => [(INF, 1); 3],
+            Level::Low => [(0.6, 1), (INF, 2), (INF, 2)],
+            Level::Medium => [(0.45, 1), (0.8, 2), (INF, 4)],
+            Level::High => [(0.3, 1), (0.6, 2), (INF, 4)],
+            Level::Lens(r) => [(f32::from(r) / 1000.0, 1), (INF, 2), (INF, 2)],
         }
     }
 
