@@ -1,0 +1,344 @@
+//! Adaptive quality: a controller that picks the render scale of the next
+//! frame from the GPU times of the last ones, so a frame stays inside the
+//! headset's display period. It follows the rules of Valve's The Lab
+//! renderer (`ValveSoftware/the_lab_renderer`,
+//! `Assets/TheLabRenderer/Scripts/ValveCamera.cs`,
+//! `InitializeAdaptiveQualityScale` and `UpdateAdaptiveQuality`), written
+//! afresh here:
+//!
+//! - **Levels** are render scales (per axis) from `min` to `max`, each level
+//!   drawing `step` % more pixels than the one below it:
+//!   s(k+1) = sqrt(1 + step/100) · s(k). The starting (default) level is
+//!   the first whose scale is at least 1. (The Lab adds a copy of the lowest
+//!   level as a hint for the compositor's interleaved reprojection; vergence
+//!   has no such hint, so the copy is left out.)
+//! - **Thresholds**, with B the frame budget: low = 0.70 B, extrapolation =
+//!   0.85 B, high = 0.90 B. The GPU times of the last 12 frames are kept.
+//! - With n frames since the last change (counting the current one):
+//!   - **critical** (n ≥ 3): the last frame over high → down two levels;
+//!   - **sustained** (n ≥ 5): the last three frames over high → down two;
+//!   - **predicted** (n ≥ 4): the last frame over the extrapolation
+//!     threshold and last + Δ over high, with Δ = last − previous, or, when
+//!     n ≥ 5, the larger of that and (last − the one before previous) / 2
+//!     → down two;
+//!   - **headroom** (n ≥ 5): the last three frames under low → up one.
+//! - "Down two" from level 2 goes to level 1 (as The Lab does), and levels
+//!   clamp to the range; a rule that would not change the level does not
+//!   count as a change.
+
+/// Frames of GPU time the controller keeps.
+pub const HISTORY: usize = 12;
+/// Share of the budget under which three frames in a row step up.
+pub const LOW: f64 = 0.70;
+/// Share of the budget over which the last frame is extrapolated.
+pub const EXTRAPOLATION: f64 = 0.85;
+/// Share of the budget over which frames step down.
+pub const HIGH: f64 = 0.90;
+
+/// Which rule changed the level.
+#[derive(Clone, Copy, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "kebab-case")]
+pub enum Reason {
+    /// The last frame was over the high threshold.
+    Critical,
+    /// The last three frames were over the high threshold.
+    Sustained,
+    /// The last frame was over the extrapolation threshold and its trend
+    /// crosses the high one.
+    Predicted,
+    /// The last three frames were under the low threshold.
+    Headroom,
+}
+
+/// A level change.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct Change {
+    /// The level before.
+    pub from: usize,
+    /// The level now.
+    pub to: usize,
+    /// Its render scale (per axis).
+    pub scale: f64,
+    /// The rule that fired.
+    pub reason: Reason,
+}
+
+/// The controller's state.
+#[derive(Clone, Debug)]
+pub struct AdaptiveQuality {
+    scales: Vec<f64>,
+    default: usize,
+    level: usize,
+    budget_ms: f64,
+    history: [f64; HISTORY],
+    pos: usize,
+    frame: u64,
+    last_change: u64,
+}
+
+/// The render scales from `min` to `max` (per axis), each drawing `step_pct`
+/// % more pixels than the previous; None when the range or step is not
+/// usable (non-finite, min ≤ 0, min > max, step ≤ 0).
+pub fn levels(min: f64, max: f64, step_pct: f64) -> Option<Vec<f64>> {
+    let usable = min.is_finite() && max.is_finite() && step_pct.is_finite();
+    if !usable || min <= 0.0 || min > max || step_pct <= 0.0 {
+        return None;
+    }
+    let grow = (1.0 + step_pct / 100.0).sqrt();
+    let mut out = vec![min];
+    let mut s = min * grow;
+    // A relative tolerance keeps a top level that lands on `max` up to
+    // rounding (0.65 · 1.15^(k/2) for the default range).
+    while s <= max * (1.0 + 1e-9) {
+        out.push(s);
+        s *= grow;
+    }
+    Some(out)
+}
+
+impl AdaptiveQuality {
+    /// A controller for frames of `budget_ms` over `scales` (increasing;
+    /// see [`levels`]), starting at the first scale of at least 1 (else the
+    /// highest).
+    pub fn new(budget_ms: f64, scales: Vec<f64>) -> AdaptiveQuality {
+        let default = scales
+            .iter()
+            .position(|&s| s >= 1.0)
+            .unwrap_or(scales.len().saturating_sub(1));
+        AdaptiveQuality {
+            scales,
+            default,
+            level: default,
+            budget_ms,
+            history: [0.0; HISTORY],
+            pos: 0,
+            frame: 0,
+            last_change: 0,
+        }
+    }
+
+    /// The render scales, lowest first.
+    pub fn scales(&self) -> &[f64] {
+        &self.scales
+    }
+
+    /// The starting level.
+    pub fn default_level(&self) -> usize {
+        self.default
+    }
+
+    /// The current level.
+    pub fn level(&self) -> usize {
+        self.level
+    }
+
+    /// The current render scale (per axis).
+    pub fn scale(&self) -> f64 {
+        self.scales[self.level]
+    }
+
+    /// The GPU time of frame `ago` frames back (0: the last one given).
+    fn past(&self, ago: usize) -> f64 {
+        self.history[(self.pos + HISTORY - ago) % HISTORY]
+    }
+
+    /// Takes the GPU milliseconds of the frame just finished and returns the
+    /// level change the rules make, if any.
+    pub fn update(&mut self, gpu_ms: f64) -> Option<Change> {
+        self.frame += 1;
+        self.pos = (self.pos + 1) % HISTORY;
+        self.history[self.pos] = gpu_ms;
+        let (f0, f1, f2) = (self.past(0), self.past(1), self.past(2));
+        let (low, extra, high) = (
+            LOW * self.budget_ms,
+            EXTRAPOLATION * self.budget_ms,
+            HIGH * self.budget_ms,
+        );
+        let since = |n: u64| self.frame >= self.last_change + n;
+        let down = if self.level == 2 {
+            1
+        } else {
+            self.level.saturating_sub(2)
+        };
+        let predicted = || {
+            let mut delta = f0 - f1;
+            if since(5) {
+                delta = delta.max((f0 - f2) * 0.5);
+            }
+            f0 > extra && f0 + delta > high
+        };
+        let rule = if since(3) && f0 > high {
+            Some((down, Reason::Critical))
+        } else if since(5) && f0 > high && f1 > high && f2 > high {
+            Some((down, Reason::Sustained))
+        } else if since(4) && predicted() {
+            Some((down, Reason::Predicted))
+        } else if since(5) && f0 < low && f1 < low && f2 < low {
+            Some((self.level + 1, Reason::Headroom))
+        } else {
+            None
+        };
+        let (to, reason) = rule?;
+        let to = to.min(self.scales.len() - 1);
+        if to == self.level {
+            return None;
+        }
+        let from = self.level;
+        self.level = to;
+        self.last_change = self.frame;
+        Some(Change {
+            from,
+            to,
+            scale: self.scales[to],
+            reason,
+        })
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    const B: f64 = 10.0;
+
+    fn controller() -> AdaptiveQuality {
+        AdaptiveQuality::new(B, levels(0.65, 1.4, 15.0).unwrap())
+    }
+
+    /// Feeds `times` and returns (frame number from 1, change) for each
+    /// change.
+    fn run(aq: &mut AdaptiveQuality, times: &[f64]) -> Vec<(usize, Change)> {
+        times
+            .iter()
+            .enumerate()
+            .filter_map(|(i, &t)| aq.update(t).map(|c| (i + 1, c)))
+            .collect()
+    }
+
+    #[test]
+    fn levels_grow_by_the_pixel_step_and_start_at_one() {
+        let s = levels(0.65, 1.4, 15.0).unwrap();
+        assert!((s[0] - 0.65).abs() < 1e-12);
+        for w in s.windows(2) {
+            assert!((w[1] * w[1] / (w[0] * w[0]) - 1.15).abs() < 1e-9, "{w:?}");
+        }
+        assert!(*s.last().unwrap() <= 1.4 + 1e-9);
+        assert!(s.last().unwrap() * 1.15f64.sqrt() > 1.4);
+        let aq = controller();
+        let d = aq.default_level();
+        assert!(aq.scales()[d] >= 1.0 && aq.scales()[d - 1] < 1.0);
+        for bad in [
+            (0.0, 1.4, 15.0),
+            (1.5, 1.4, 15.0),
+            (0.65, 1.4, 0.0),
+            (f64::NAN, 1.4, 15.0),
+        ] {
+            assert!(levels(bad.0, bad.1, bad.2).is_none(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn cheap_frames_step_up_one_level_every_five_frames() {
+        let mut aq = controller();
+        let start = aq.level();
+        let changes = run(&mut aq, &[5.0; 16]);
+        let frames: Vec<usize> = changes.iter().map(|c| c.0).collect();
+        assert_eq!(frames, vec![5, 10, 15]);
+        for (i, (_, c)) in changes.iter().enumerate() {
+            assert_eq!(
+                (c.from, c.to, c.reason),
+                (start + i, start + i + 1, Reason::Headroom)
+            );
+        }
+    }
+
+    #[test]
+    fn frames_between_the_thresholds_change_nothing() {
+        let mut aq = controller();
+        // 70 % to 85 %, flat: neither headroom nor a rising trend.
+        assert!(run(&mut aq, &[8.0; 40]).is_empty());
+        let mut aq = controller();
+        assert!(run(&mut aq, &[7.5, 8.4, 7.2, 8.0, 7.6, 8.3, 7.1, 8.4, 7.9, 7.3]).is_empty());
+    }
+
+    #[test]
+    fn one_critical_frame_drops_two_levels_but_not_right_after_a_change() {
+        let mut aq = controller();
+        let start = aq.level();
+        let mut times = vec![8.0; 9];
+        times.push(9.5);
+        let changes = run(&mut aq, &times);
+        assert_eq!(changes.len(), 1, "{changes:?}");
+        let (frame, c) = changes[0];
+        assert_eq!(
+            (frame, c.from, c.to, c.reason),
+            (10, start, start - 2, Reason::Critical)
+        );
+        // Two more critical frames right after: too soon (n < 3), then one
+        // counts again.
+        let later = run(&mut aq, &[9.5, 9.5, 9.5]);
+        assert_eq!(later.len(), 1, "{later:?}");
+        assert_eq!(later[0].0, 3, "the third frame after the change: {later:?}");
+        assert_eq!(later[0].1.reason, Reason::Critical);
+    }
+
+    #[test]
+    fn a_rising_trend_over_the_extrapolation_threshold_drops_two_levels() {
+        let mut aq = controller();
+        let start = aq.level();
+        // 80 %, 80 %, then 88 %: under high, over 85 %, and 88 + 8 > 90.
+        let changes = run(&mut aq, &[8.0, 8.0, 8.0, 8.0, 8.0, 8.8]);
+        assert_eq!(changes.len(), 1, "{changes:?}");
+        assert_eq!(changes[0].1.reason, Reason::Predicted);
+        assert_eq!(changes[0].1.to, start - 2);
+        // Flat at 86 %: over 85 % but the trend stays under 90 %.
+        let mut aq = controller();
+        assert!(run(&mut aq, &[8.6; 20]).is_empty());
+    }
+
+    #[test]
+    fn drops_clamp_at_the_lowest_level() {
+        // At level 1 "down two" clamps to 0; at level 0 nothing drops.
+        let mut aq = AdaptiveQuality::new(B, vec![0.5, 0.7]);
+        assert_eq!(aq.level(), 1, "no scale reaches 1: the highest");
+        let changes = run(&mut aq, &[9.5, 9.5, 9.5, 9.5, 9.5]);
+        assert_eq!(changes.len(), 1, "{changes:?}");
+        assert_eq!((changes[0].0, changes[0].1.to), (3, 0));
+        assert!(run(&mut aq, &[9.5; 10]).is_empty(), "nothing below 0");
+    }
+
+    #[test]
+    fn dropping_from_level_two_lands_on_one() {
+        let mut aq = AdaptiveQuality::new(B, vec![0.6, 0.8, 1.0, 1.2]);
+        assert_eq!(aq.level(), 2);
+        let changes = run(&mut aq, &[9.5, 9.5, 9.5]);
+        assert_eq!(changes.len(), 1);
+        assert_eq!((changes[0].1.from, changes[0].1.to), (2, 1));
+    }
+
+    proptest! {
+        #[test]
+        fn levels_stay_in_range_and_changes_keep_their_distance(
+            times in prop::collection::vec(0.0f64..20.0, 1..300),
+        ) {
+            let mut aq = controller();
+            let mut last: Option<usize> = None;
+            for (i, &t) in times.iter().enumerate() {
+                if let Some(c) = aq.update(t) {
+                    prop_assert!(c.to < aq.scales().len());
+                    prop_assert!(c.from != c.to);
+                    let gap = last.map_or(usize::MAX, |l| i - l);
+                    match c.reason {
+                        Reason::Headroom => prop_assert!(c.to == c.from + 1 && gap >= 5),
+                        Reason::Critical => prop_assert!(c.to < c.from && gap >= 3 && t > HIGH * B),
+                        Reason::Sustained => prop_assert!(c.to < c.from && gap >= 5),
+                        Reason::Predicted => prop_assert!(c.to < c.from && gap >= 4 && t > EXTRAPOLATION * B),
+                    }
+                    last = Some(i);
+                }
+                prop_assert!(aq.level() < aq.scales().len());
+            }
+        }
+    }
+}
