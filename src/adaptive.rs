@@ -16,15 +16,20 @@
 //!   0.85 B, high = 0.90 B. The GPU times of the last 12 frames are kept.
 //! - With n frames since the last change (counting the current one):
 //!   - **critical** (n ≥ 3): the last frame over high → down two levels;
-//!   - **sustained** (n ≥ 5): the last three frames over high → down two;
+//!   - **sustained** (n ≥ 5): the last three frames over high → down two
+//!     (kept as The Lab has it, though checked after the critical rule it
+//!     can only fire where that one does: it never changes the outcome);
 //!   - **predicted** (n ≥ 4): the last frame over the extrapolation
 //!     threshold and last + Δ over high, with Δ = last − previous, or, when
 //!     n ≥ 5, the larger of that and (last − the one before previous) / 2
 //!     → down two;
 //!   - **headroom** (n ≥ 5): the last three frames under low → up one.
-//! - "Down two" from level 2 goes to level 1 (as The Lab does), and levels
-//!   clamp to the range; a rule that would not change the level does not
-//!   count as a change.
+//! - Levels clamp to the range (The Lab's special case "from 2 to 1" keeps
+//!   its drops out of the reprojection-hint copy, which vergence does not
+//!   have: here that is plain clamping at 0); a rule that would not change
+//!   the level does not count as a change.
+//! - The count n starts at the first frame, as if a change had happened
+//!   just before it: the rules wait 3 to 5 frames of history.
 
 /// Frames of GPU time the controller keeps.
 pub const HISTORY: usize = 12;
@@ -99,13 +104,13 @@ pub fn levels(min: f64, max: f64, step_pct: f64) -> Option<Vec<f64>> {
 impl AdaptiveQuality {
     /// A controller for frames of `budget_ms` over `scales` (increasing;
     /// see [`levels`]), starting at the first scale of at least 1 (else the
-    /// highest).
-    pub fn new(budget_ms: f64, scales: Vec<f64>) -> AdaptiveQuality {
+    /// highest); None without scales.
+    pub fn new(budget_ms: f64, scales: Vec<f64>) -> Option<AdaptiveQuality> {
         let default = scales
             .iter()
             .position(|&s| s >= 1.0)
-            .unwrap_or(scales.len().saturating_sub(1));
-        AdaptiveQuality {
+            .unwrap_or(scales.len().checked_sub(1)?);
+        Some(AdaptiveQuality {
             scales,
             default,
             level: default,
@@ -114,7 +119,7 @@ impl AdaptiveQuality {
             pos: 0,
             frame: 0,
             last_change: 0,
-        }
+        })
     }
 
     /// The render scales, lowest first.
@@ -155,11 +160,7 @@ impl AdaptiveQuality {
             HIGH * self.budget_ms,
         );
         let since = |n: u64| self.frame >= self.last_change + n;
-        let down = if self.level == 2 {
-            1
-        } else {
-            self.level.saturating_sub(2)
-        };
+        let down = self.level.saturating_sub(2);
         let predicted = || {
             let mut delta = f0 - f1;
             if since(5) {
@@ -203,7 +204,7 @@ mod tests {
     const B: f64 = 10.0;
 
     fn controller() -> AdaptiveQuality {
-        AdaptiveQuality::new(B, levels(0.65, 1.4, 15.0).unwrap())
+        AdaptiveQuality::new(B, levels(0.65, 1.4, 15.0).unwrap()).unwrap()
     }
 
     /// Feeds `times` and returns (frame number from 1, change) for each
@@ -300,7 +301,7 @@ mod tests {
     #[test]
     fn drops_clamp_at_the_lowest_level() {
         // At level 1 "down two" clamps to 0; at level 0 nothing drops.
-        let mut aq = AdaptiveQuality::new(B, vec![0.5, 0.7]);
+        let mut aq = AdaptiveQuality::new(B, vec![0.5, 0.7]).unwrap();
         assert_eq!(aq.level(), 1, "no scale reaches 1: the highest");
         let changes = run(&mut aq, &[9.5, 9.5, 9.5, 9.5, 9.5]);
         assert_eq!(changes.len(), 1, "{changes:?}");
@@ -309,12 +310,24 @@ mod tests {
     }
 
     #[test]
-    fn dropping_from_level_two_lands_on_one() {
-        let mut aq = AdaptiveQuality::new(B, vec![0.6, 0.8, 1.0, 1.2]);
-        assert_eq!(aq.level(), 2);
-        let changes = run(&mut aq, &[9.5, 9.5, 9.5]);
-        assert_eq!(changes.len(), 1);
-        assert_eq!((changes[0].1.from, changes[0].1.to), (2, 1));
+    fn drops_are_two_levels_clamped_at_zero() {
+        for start in 1..6 {
+            // The first scale of at least 1 is level `start`: it starts there.
+            let scales: Vec<f64> = (0..8)
+                .map(|i| 1.0 + 0.1 * (i as f64 - start as f64))
+                .collect();
+            let mut aq = AdaptiveQuality::new(B, scales).unwrap();
+            assert_eq!(aq.level(), start);
+            let changes = run(&mut aq, &[8.0, 8.0, 9.5]);
+            assert_eq!(changes.len(), 1, "from {start}: {changes:?}");
+            let c = changes[0].1;
+            assert_eq!(
+                (c.from, c.to),
+                (start, start.saturating_sub(2)),
+                "from {start}"
+            );
+        }
+        assert!(AdaptiveQuality::new(B, Vec::new()).is_none());
     }
 
     proptest! {
@@ -328,12 +341,16 @@ mod tests {
                 if let Some(c) = aq.update(t) {
                     prop_assert!(c.to < aq.scales().len());
                     prop_assert!(c.from != c.to);
-                    let gap = last.map_or(usize::MAX, |l| i - l);
+                    // Frames since the last change, the start counting as one.
+                    let gap = last.map_or(i + 1, |l| i - l);
+                    if c.reason != Reason::Headroom {
+                        prop_assert_eq!(c.to, c.from.saturating_sub(2), "drops are two levels");
+                    }
                     match c.reason {
-                        Reason::Headroom => prop_assert!(c.to == c.from + 1 && gap >= 5),
-                        Reason::Critical => prop_assert!(c.to < c.from && gap >= 3 && t > HIGH * B),
-                        Reason::Sustained => prop_assert!(c.to < c.from && gap >= 5),
-                        Reason::Predicted => prop_assert!(c.to < c.from && gap >= 4 && t > EXTRAPOLATION * B),
+                        Reason::Headroom => prop_assert!(c.to == c.from + 1 && gap >= 5 && t < LOW * B),
+                        Reason::Critical => prop_assert!(gap >= 3 && t > HIGH * B),
+                        Reason::Sustained => prop_assert!(gap >= 5),
+                        Reason::Predicted => prop_assert!(gap >= 4 && t > EXTRAPOLATION * B && t <= HIGH * B),
                     }
                     last = Some(i);
                 }

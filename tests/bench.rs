@@ -448,7 +448,7 @@ fn ctrl_c_keeps_the_finished_group_and_drops_the_unfinished_configuration() {
 fn a_plan_measures_timewarp_against_rendered_frames() {
     let dir = common::scratch("bench", "timewarp");
     let plan = dir.join("tw.toml");
-    let body = "name = \"tw\"\nscenes = [\"factory:2000\"]\nhmds = [\"monado-sim\"]\nscales = [0.5]\nwarmup = 3\nframes = 4\nerror_frames = 2\npath_seed = 7\nreference = \"two-pass\"\n\n[[configs]]\nname = \"plain\"\nopt = \"multiview\"\n\n[[configs]]\nname = \"tw3\"\nopt = \"multiview,timewarp=3\"\n\n[[configs]]\nname = \"tw2-rotation\"\nopt = \"multiview,timewarp=2,timewarp-rotation\"\n";
+    let body = "name = \"tw\"\nscenes = [\"factory:2000\"]\nhmds = [\"monado-sim\"]\nscales = [0.5]\nwarmup = 3\nframes = 4\nerror_frames = 2\npath_seed = 7\nreference = \"two-pass\"\n\n[[configs]]\nname = \"plain\"\nopt = \"multiview\"\n\n[[configs]]\nname = \"tw3\"\nopt = \"multiview,timewarp=3\"\n\n[[configs]]\nname = \"tw2-rotation\"\nopt = \"multiview,timewarp=2,timewarp-rotation\"\n\n[[configs]]\nname = \"tw2\"\nopt = \"multiview,timewarp=2\"\n";
     std::fs::write(&plan, body).unwrap();
     let out = dir.join("out");
     ok(&[
@@ -464,7 +464,11 @@ fn a_plan_measures_timewarp_against_rendered_frames() {
     let plain = get(&results, "plain");
     assert!(plain.timewarp.is_none());
     let plain_flip = plain.error.as_ref().unwrap().flip_mean;
-    for (name, k, variant) in [("tw3", 3, "depth"), ("tw2-rotation", 2, "rotation")] {
+    for (name, k, variant) in [
+        ("tw3", 3, "depth"),
+        ("tw2-rotation", 2, "rotation"),
+        ("tw2", 2, "depth"),
+    ] {
         let r = get(&results, name);
         let tw = r
             .timewarp
@@ -493,6 +497,21 @@ fn a_plan_measures_timewarp_against_rendered_frames() {
         );
         assert!(out.join(r.image.as_ref().unwrap()).is_file());
     }
+    // Older frames warp worse: K = 3 averages ages 1 and 2, K = 2 age 1.
+    let (tw2, tw3) = (
+        get(&results, "tw2").timewarp.as_ref().unwrap(),
+        get(&results, "tw3").timewarp.as_ref().unwrap(),
+    );
+    assert!(
+        tw2.flip_vs_rendered < tw3.flip_vs_rendered,
+        "{tw2:?} vs {tw3:?}"
+    );
+    // Each compared frame needs K - 1 frames before it.
+    std::fs::write(&plan, body.replace("warmup = 3", "warmup = 0")).unwrap();
+    fails(
+        &["bench", "--plan", plan.to_str().unwrap()],
+        "raise warmup to at least 1",
+    );
     // The reference is rendered, never warped.
     std::fs::write(
         &plan,

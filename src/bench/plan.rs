@@ -239,8 +239,24 @@ impl Plan {
                     c.name
                 ));
             }
-            self.config_for(c)
+            let config = self
+                .config_for(c)
                 .map_err(|e| format!("config '{}': {e}", c.name))?;
+            // Every compared frame is warped from each of the K - 1 frames
+            // before it, so that many must precede the first.
+            if let (Some(tw), Some(&first)) = (config.timewarp, self.error_frame_indices().first())
+            {
+                if self.warmup + first < tw.k - 1 {
+                    return Err(format!(
+                        "config '{}': timewarp={} warps each compared frame from the {} frames before it, but the first compared frame has {} before it: raise warmup to at least {}",
+                        c.name,
+                        tw.k,
+                        tw.k - 1,
+                        self.warmup + first,
+                        tw.k - 1 - first
+                    ));
+                }
+            }
         }
         self.reference_config()
             .map_err(|e| format!("reference: {e}"))?;

@@ -652,12 +652,12 @@ fn average_errors(errors: &[ImageError]) -> Option<ImageError> {
 }
 
 /// The timewarp configuration's compared frames: at every error frame i,
-/// each earlier frame i - d (d = 1 … K - 1, as far as the path reaches
-/// back) is rendered with its depth and warped to frame i's pose; the
-/// warped pairs are compared with the reference (`compare`) and with the
-/// frame truly rendered at i. `images` gets, per error frame, the oldest
-/// warp (for the report's image and heat map). Returns the errors against
-/// the reference and the warp figures.
+/// frames i - (K - 1) … i are rendered in path order (with depth), and
+/// each earlier one is warped to frame i's pose; the warped pairs are
+/// compared, over the pixels the lens shows, with the reference
+/// (`compare`) and with the frame truly rendered at i. `images` gets, per
+/// error frame, the oldest warp (for the report's image and heat map).
+/// Returns the errors against the reference and the warp figures.
 #[allow(clippy::too_many_arguments)]
 fn warped_errors(
     ctx: &Arc<Context>,
@@ -671,7 +671,6 @@ fn warped_errors(
 ) -> Result<(Vec<ImageError>, TimewarpResult)> {
     let near = driver.renderer().config.near;
     let mut warp = crate::render::timewarp::Timewarp::new(ctx, extent, tw.variant)?;
-    let ppd = compare.map_or(MIN_FLIP_PPD, |c| c.ppd) as f32;
     let (mut errors, mut own, mut warp_ms) = (Vec::new(), Vec::new(), Vec::new());
     let render = |driver: &mut FrameDriver, i: usize| -> Result<_> {
         driver.frame(&rigs[i], i as u64, true)?;
@@ -681,30 +680,40 @@ fn warped_errors(
         let depth = driver.renderer_mut().read_depth()?;
         Ok((colour, depth))
     };
+    let ages = tw.k as usize - 1;
     for (n, k) in plan.error_frame_indices().into_iter().enumerate() {
         let i = (plan.warmup + k) as usize;
+        // Frames i - (K - 1) … i in path order (the plan checked that
+        // they exist), so history-dependent passes see the path as it runs.
+        let mut sources = Vec::with_capacity(ages);
+        for d in (1..=ages).rev() {
+            sources.push((i - d, render(driver, i - d)?));
+        }
         let (truth, _) = render(driver, i)?;
         let mut oldest = None;
-        for d in (1..tw.k as usize).filter(|&d| d <= i) {
-            let (colour, depth) = render(driver, i - d)?;
-            let (old, new) = (&rigs[i - d], &rigs[i]);
+        for (s, (colour, depth)) in &sources {
+            let (old, new) = (&rigs[*s], &rigs[i]);
             let out = warp.warp(
-                &colour,
-                &depth,
+                colour,
+                depth,
                 [&old.views[0], &old.views[1]],
                 [&new.views[0], &new.views[1]],
                 near,
             )?;
             warp_ms.push(out.gpu_ms);
-            for (t, w) in truth.iter().zip(&out.images) {
-                own.push(metrics::flip(t, w, ppd)?.mean as f64);
-            }
             if let Some(cmp) = compare {
+                // Against the same configuration's frame i, over the
+                // pixels the lens shows (as the error against the
+                // reference).
+                let own_error = image_error(&truth, &out.images, cmp)?;
+                own.push(own_error.flip_mean);
                 if let Some(reference) = cmp.reference.get(n) {
                     errors.push(image_error(reference, &out.images, cmp)?);
                 }
             }
-            oldest = Some(out.images);
+            if oldest.is_none() {
+                oldest = Some(out.images);
+            }
         }
         images.push(oldest.unwrap_or(truth));
     }

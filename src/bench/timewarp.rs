@@ -124,6 +124,9 @@ pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
         last = Some((out.images, truth));
     }
     driver.finish()?;
+    // Their teardown is counted with the rest.
+    drop(driver);
+    drop(warp);
     let warped = warp_ms.len();
     if let Some((images, truth)) = last {
         headless::save_png(&images[0], &job.out.join("left_warped.png"))?;

@@ -25,7 +25,7 @@ use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
 use crate::gpu::pipeline::{DescriptorSets, GraphicsPipelineDesc};
 use crate::gpu::shaders;
-use crate::gpu::surface::Source;
+use crate::gpu::surface::{Source, SHOWN};
 use crate::gpu::Context;
 use crate::view::distortion::{mesh, Lens, Radial};
 use crate::view::Fov;
@@ -560,13 +560,14 @@ impl DistortionPreview {
                 );
             }
         }
-        self.record_draws(cmd, true);
+        self.record_draws(cmd, true, Use::TRANSFER_SRC.discarded());
     }
 
     /// Both eyes' panel images from the source image (in SOURCE_READ), the
     /// panel image left in the layout its method writes; between two
-    /// timestamps when `timed`.
-    fn record_draws(&self, cmd: vk::CommandBuffer, timed: bool) {
+    /// timestamps when `timed`. `last` is how the panel image was last used
+    /// (its contents are discarded, its accesses waited for).
+    fn record_draws(&self, cmd: vk::CommandBuffer, timed: bool, last: Use) {
         let d = &self.ctx.device;
         let o = self.owned();
         let color = vk::ImageAspectFlags::COLOR;
@@ -595,7 +596,10 @@ impl DistortionPreview {
                     o.target.image,
                     color,
                     2,
-                    Use::TRANSFER_SRC.discarded(),
+                    Use {
+                        layout: vk::ImageLayout::UNDEFINED,
+                        ..last
+                    },
                     self.target_use(),
                 )]),
             );
@@ -688,7 +692,8 @@ impl DistortionPreview {
     /// readable by the caller): blitted into the source image (converting
     /// the format, scaling when the sizes differ), then drawn. The panel
     /// image ends in COLOR_ATTACHMENT_OPTIMAL, written as an attachment;
-    /// for a graphics method only (the mirror window's `distorted` mode).
+    /// for a graphics method only (the mirror window's `distorted` mode),
+    /// and the panel image is left as [`SHOWN`] describes.
     pub fn record_from(&self, cmd: vk::CommandBuffer, eyes: [Source; 2]) -> Result<()> {
         if self.method == Method::Compute {
             return Err(Error::Gpu(
@@ -756,7 +761,9 @@ impl DistortionPreview {
                 )]),
             );
         }
-        self.record_draws(cmd, false);
+        // The panels were last shown: written as attachments by the previous
+        // draw and perhaps read by the window's blit since (its contract).
+        self.record_draws(cmd, false, SHOWN);
         Ok(())
     }
 

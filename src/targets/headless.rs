@@ -467,7 +467,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         cpu_ms.insert("record_threads_sum".to_string(), t.sum);
         cpu_ms.insert("record_threads_slowest".to_string(), t.slowest);
     }
-    let stats = RenderStats {
+    let mut stats = RenderStats {
         scene: SceneCounts::of(&scene),
         hmd: profile.name.clone(),
         resolution: [extent.width, extent.height],
@@ -502,6 +502,8 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         timewarp: None,
     };
     drop(driver);
+    // Teardown may speak too.
+    stats.validation_messages = ctx.validation_messages();
     write_json(&job.out.join("stats.json"), &stats)?;
     Ok((
         stats,
