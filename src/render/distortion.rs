@@ -145,9 +145,16 @@ pub struct DistortionPreview {
 struct Owned {
     source: Image,
     target: Image,
+    /// The upload and read-back buffers of [`DistortionPreview::run`]
+    /// (None when built for GPU images only).
+    host: Option<HostIo>,
+    meshes: Option<[(Buffer, Buffer, u32); 2]>,
+}
+
+/// The buffers that carry eye images in and panel images out.
+struct HostIo {
     staging: Buffer,
     readback: Buffer,
-    meshes: Option<[(Buffer, Buffer, u32); 2]>,
 }
 
 /// What a preview run gives back.
@@ -191,6 +198,30 @@ impl DistortionPreview {
         fovs: [&Fov; 2],
         eye: vk::Extent2D,
         method: Method,
+    ) -> Result<DistortionPreview> {
+        Self::build(ctx, lenses, fovs, eye, method, true)
+    }
+
+    /// Like [`Self::new`], for drawing from GPU images only
+    /// ([`Self::record_from`]): no upload or read-back buffers, so
+    /// [`Self::run`] is an error.
+    pub fn for_images(
+        ctx: &Arc<Context>,
+        lenses: [&Lens; 2],
+        fovs: [&Fov; 2],
+        eye: vk::Extent2D,
+        method: Method,
+    ) -> Result<DistortionPreview> {
+        Self::build(ctx, lenses, fovs, eye, method, false)
+    }
+
+    fn build(
+        ctx: &Arc<Context>,
+        lenses: [&Lens; 2],
+        fovs: [&Fov; 2],
+        eye: vk::Extent2D,
+        method: Method,
+        host_io: bool,
     ) -> Result<DistortionPreview> {
         if lenses[0].panel != lenses[1].panel {
             return Err(Error::Config {
@@ -258,28 +289,33 @@ impl DistortionPreview {
             )
         };
         let target_views = [view(0)?, view(1)?];
-        let eye_bytes = eye.width as u64 * eye.height as u64 * 4 * 2;
-        let panel_bytes = panel.width as u64 * panel.height as u64 * 4 * 2;
-        let staging = Buffer::new(
-            ctx,
-            &BufferDesc {
-                name: "distortion upload",
-                size: eye_bytes,
-                usage: vk::BufferUsageFlags::TRANSFER_SRC,
-                location: MemoryLocation::CpuToGpu,
-                category: "preview",
-            },
-        )?;
-        let readback = Buffer::new(
-            ctx,
-            &BufferDesc {
-                name: "distortion readback",
-                size: panel_bytes,
-                usage: vk::BufferUsageFlags::TRANSFER_DST,
-                location: MemoryLocation::GpuToCpu,
-                category: "preview",
-            },
-        )?;
+        let host = if host_io {
+            let eye_bytes = eye.width as u64 * eye.height as u64 * 4 * 2;
+            let panel_bytes = panel.width as u64 * panel.height as u64 * 4 * 2;
+            let staging = Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "distortion upload",
+                    size: eye_bytes,
+                    usage: vk::BufferUsageFlags::TRANSFER_SRC,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "preview",
+                },
+            )?;
+            let readback = Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "distortion readback",
+                    size: panel_bytes,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "preview",
+                },
+            )?;
+            Some(HostIo { staging, readback })
+        } else {
+            None
+        };
         let meshes = if method == Method::Mesh {
             let one = |i: usize| -> Result<(Buffer, Buffer, u32)> {
                 let m = mesh::build(lenses[i], fovs[i], mesh::GRID_CELLS);
@@ -440,8 +476,7 @@ impl DistortionPreview {
             owned: Some(Owned {
                 source,
                 target,
-                staging,
-                readback,
+                host,
                 meshes,
             }),
             target_views,
@@ -474,11 +509,7 @@ impl DistortionPreview {
                     self.eye.height
                 )));
             }
-            self.owned
-                .as_mut()
-                .expect("resources live until drop")
-                .staging
-                .write(i * layer, img.as_raw())?;
+            self.host_mut()?.staging.write(i * layer, img.as_raw())?;
         }
         let mut gpu_ms = Vec::new();
         for run in 0..runs.max(1) {
@@ -505,6 +536,9 @@ impl DistortionPreview {
             .owned
             .as_mut()
             .expect("resources live until drop")
+            .host
+            .as_mut()
+            .ok_or_else(|| Error::Gpu("the distortion preview has no read-back buffer".into()))?
             .readback
             .mapped()
             .ok_or_else(|| Error::Gpu("distortion readback is not mapped".into()))?;
@@ -516,6 +550,17 @@ impl DistortionPreview {
             images: [image(0)?, image(1)?],
             gpu_ms,
         })
+    }
+
+    /// The upload and read-back buffers; an error for a preview built for
+    /// GPU images only.
+    fn host_mut(&mut self) -> Result<&mut HostIo> {
+        self.owned
+            .as_mut()
+            .expect("resources live until drop")
+            .host
+            .as_mut()
+            .ok_or_else(|| Error::Gpu("this distortion preview draws from GPU images only".into()))
     }
 
     fn owned(&self) -> &Owned {
@@ -541,9 +586,10 @@ impl DistortionPreview {
                         Use::TRANSFER_DST,
                     )]),
                 );
+                let host = o.host.as_ref().expect("run checked the buffers");
                 d.cmd_copy_buffer_to_image(
                     cmd,
-                    o.staging.buffer,
+                    host.staging.buffer,
                     o.source.image,
                     vk::ImageLayout::TRANSFER_DST_OPTIMAL,
                     &[barrier::color_copy(0, 2, self.eye.width, self.eye.height)],
@@ -800,11 +846,12 @@ impl DistortionPreview {
                     Use::TRANSFER_SRC,
                 )]),
             );
+            let host = o.host.as_ref().expect("run checked the buffers");
             d.cmd_copy_image_to_buffer(
                 cmd,
                 o.target.image,
                 vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                o.readback.buffer,
+                host.readback.buffer,
                 &[barrier::color_copy(
                     0,
                     2,
@@ -838,8 +885,10 @@ impl Drop for DistortionPreview {
         if let Some(o) = self.owned.take() {
             o.source.destroy(&ctx);
             o.target.destroy(&ctx);
-            o.staging.destroy(&ctx);
-            o.readback.destroy(&ctx);
+            if let Some(h) = o.host {
+                h.staging.destroy(&ctx);
+                h.readback.destroy(&ctx);
+            }
             for (v, ix, _) in o.meshes.into_iter().flatten() {
                 v.destroy(&ctx);
                 ix.destroy(&ctx);

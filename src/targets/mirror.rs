@@ -195,8 +195,8 @@ struct MaskRects {
 pub struct Mirror {
     ctx: Arc<Context>,
     presenter: Presenter,
-    /// Two layers, one per eye, in the submitted images' format (None
-    /// only while dropping).
+    /// Two layers, one per eye, in the submitted images' format (None with
+    /// `distorted`, which keeps no copy, and while dropping).
     image: Option<Image>,
     layer_views: Vec<vk::ImageView>,
     slots: Vec<CopySlot>,
@@ -227,7 +227,7 @@ impl Mirror {
         let (mode, eye) = (window.mode, window.eye);
         let distortion = match (mode, lenses) {
             (MirrorMode::Distorted, Some(l)) => {
-                Some(crate::render::distortion::DistortionPreview::new(
+                Some(crate::render::distortion::DistortionPreview::for_images(
                     ctx,
                     [&l.lenses[0], &l.lenses[1]],
                     [&l.fovs[0], &l.fovs[1]],
@@ -251,27 +251,34 @@ impl Mirror {
             window.window.size(),
             Pacing::NeverBlock,
         )?;
-        let image = match Image::new(
-            ctx,
-            &ImageDesc {
-                name: "mirror eyes",
-                format,
-                extent: eye,
-                layers: 2,
-                mips: 1,
-                samples: vk::SampleCountFlags::TYPE_1,
-                usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                    | vk::ImageUsageFlags::TRANSFER_DST
-                    | vk::ImageUsageFlags::TRANSFER_SRC,
-                aspect: vk::ImageAspectFlags::COLOR,
-                category: "mirror",
-            },
-        ) {
-            Ok(i) => i,
-            Err(e) => {
-                presenter.destroy(ctx);
-                return Err(e);
-            }
+        // `distorted` draws from the eye images into the preview's own
+        // images: no copy of the eyes is kept.
+        let image = match distortion.is_some() {
+            true => None,
+            false => Some(
+                match Image::new(
+                    ctx,
+                    &ImageDesc {
+                        name: "mirror eyes",
+                        format,
+                        extent: eye,
+                        layers: 2,
+                        mips: 1,
+                        samples: vk::SampleCountFlags::TYPE_1,
+                        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                            | vk::ImageUsageFlags::TRANSFER_DST
+                            | vk::ImageUsageFlags::TRANSFER_SRC,
+                        aspect: vk::ImageAspectFlags::COLOR,
+                        category: "mirror",
+                    },
+                ) {
+                    Ok(i) => i,
+                    Err(e) => {
+                        presenter.destroy(ctx);
+                        return Err(e);
+                    }
+                },
+            ),
         };
         let mut m = Mirror {
             ctx: ctx.clone(),
@@ -281,7 +288,7 @@ impl Mirror {
                 ..MirrorStats::default()
             },
             presenter,
-            image: Some(image),
+            image,
             layer_views: Vec::new(),
             slots: Vec::new(),
             next: 0,
@@ -299,8 +306,11 @@ impl Mirror {
 
     fn init(&mut self) -> Result<()> {
         let ctx = &self.ctx;
-        let (image, format) = (self.image().image, self.image().format);
-        for layer in 0..2 {
+        let (image, format) = match &self.image {
+            Some(i) => (i.image, i.format),
+            None => (vk::Image::null(), vk::Format::UNDEFINED),
+        };
+        for layer in (0..2).filter(|_| image != vk::Image::null()) {
             let info = vk::ImageViewCreateInfo::default()
                 .image(image)
                 .view_type(vk::ImageViewType::TYPE_2D)
