@@ -253,32 +253,29 @@ impl Mirror {
         )?;
         // `distorted` draws from the eye images into the preview's own
         // images: no copy of the eyes is kept.
-        let image = match distortion.is_some() {
-            true => None,
-            false => Some(
-                match Image::new(
-                    ctx,
-                    &ImageDesc {
-                        name: "mirror eyes",
-                        format,
-                        extent: eye,
-                        layers: 2,
-                        mips: 1,
-                        samples: vk::SampleCountFlags::TYPE_1,
-                        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                            | vk::ImageUsageFlags::TRANSFER_DST
-                            | vk::ImageUsageFlags::TRANSFER_SRC,
-                        aspect: vk::ImageAspectFlags::COLOR,
-                        category: "mirror",
-                    },
-                ) {
-                    Ok(i) => i,
-                    Err(e) => {
-                        presenter.destroy(ctx);
-                        return Err(e);
-                    }
-                },
-            ),
+        let desc = ImageDesc {
+            name: "mirror eyes",
+            format,
+            extent: eye,
+            layers: 2,
+            mips: 1,
+            samples: vk::SampleCountFlags::TYPE_1,
+            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_DST
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            aspect: vk::ImageAspectFlags::COLOR,
+            category: "mirror",
+        };
+        let image = if distortion.is_some() {
+            None
+        } else {
+            match Image::new(ctx, &desc) {
+                Ok(i) => Some(i),
+                Err(e) => {
+                    presenter.destroy(ctx);
+                    return Err(e);
+                }
+            }
         };
         let mut m = Mirror {
             ctx: ctx.clone(),
