@@ -3,7 +3,6 @@
 //! when dropped (also when a test fails while it starts), and the xdotool
 //! and X11 calls the tests script the windows with.
 
-use std::path::PathBuf;
 use std::process::{Child, Command, Output, Stdio};
 use std::time::{Duration, Instant};
 
@@ -28,7 +27,7 @@ impl Xvfb {
         let n = 3300 + (std::process::id() ^ salt) % 3000;
         let display = format!(":{n}");
         let mut cmd = Command::new("Xvfb");
-        cmd.args([&display, "-screen", "0", "1280x720x24", "-nolisten", "tcp"])
+        cmd.args([&display, "-screen", "0", "1280x720x24", "-nolisten", "tcp", "-noreset"])
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null());
@@ -51,9 +50,10 @@ impl Xvfb {
             child: cmd.spawn().expect("Xvfb starts"),
             display,
         };
-        let socket = PathBuf::from(format!("/tmp/.X11-unix/X{n}"));
+        // Ready when a client can connect: the socket file alone can exist
+        // before the server accepts (or be left over from an earlier one).
         let start = Instant::now();
-        while !socket.exists() {
+        while x11rb::connect(Some(&x.display)).is_err() {
             assert!(
                 start.elapsed() < Duration::from_secs(10),
                 "Xvfb {} did not come up",
