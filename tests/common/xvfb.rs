@@ -27,7 +27,8 @@ impl Xvfb {
         let n = 3300 + (std::process::id() ^ salt) % 3000;
         let display = format!(":{n}");
         let mut cmd = Command::new("Xvfb");
-        cmd.args([&display, "-screen", "0", "1280x720x24", "-nolisten", "tcp", "-noreset"])
+        cmd.args([&display, "-screen", "0", "1280x720x24"])
+            .args(["-nolisten", "tcp", "-noreset"])
             .stdin(Stdio::null())
             .stdout(Stdio::null())
             .stderr(Stdio::null());
