@@ -677,7 +677,8 @@ fn warped_errors(
         driver.finish()?;
         while driver.take_completed().is_some() {}
         let colour = driver.read_images()?;
-        let depth = driver.renderer_mut().read_depth()?;
+        let depth =
+            crate::render::timewarp::Timewarp::source_depth(driver.renderer_mut(), tw.variant)?;
         Ok((colour, depth))
     };
     let ages = tw.k as usize - 1;

@@ -101,7 +101,7 @@ pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
             render_ms.push(r.gpu_ms());
         }
         let truth = driver.read_images()?;
-        let depth = driver.renderer_mut().read_depth()?;
+        let depth = Timewarp::source_depth(driver.renderer_mut(), settings.variant)?;
         if i % k == 0 {
             source = Some((truth, depth, rig));
             continue;

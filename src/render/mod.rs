@@ -316,7 +316,12 @@ impl Renderer {
             samples,
             config.stereo == StereoMode::Multiview,
             SetOptions {
-                keep_depth: output.is_some_and(|o| o.depth) || config.timewarp.is_some(),
+                // The depth variants of the timewarp read the frame's depth;
+                // the rotation-only one does not.
+                keep_depth: output.is_some_and(|o| o.depth)
+                    || config
+                        .timewarp
+                        .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
                 rdm_fill: config.rdm.is_some() && config.rdm_fill,
                 sampled: false,
                 occlusion: config.occlusion,

@@ -254,6 +254,21 @@ impl Timewarp {
         self.buffers.as_ref().expect("buffers live until drop")
     }
 
+    /// The frame's depth, read back from `renderer` when `variant` uses it;
+    /// the rotation-only variant reads none (the renderer keeps none for
+    /// it) and gets zeros of the right size.
+    pub fn source_depth(
+        renderer: &mut crate::render::Renderer,
+        variant: crate::config::TimewarpVariant,
+    ) -> Result<[Vec<f32>; 2]> {
+        if variant == crate::config::TimewarpVariant::Rotation {
+            let e = renderer.extent();
+            let n = e.width as usize * e.height as usize;
+            return Ok([vec![0.0; n], vec![0.0; n]]);
+        }
+        renderer.read_depth()
+    }
+
     /// Warps the frame rendered at `old` (colour and reverse-Z depth per
     /// eye, left then right) to the eyes `new`.
     pub fn warp(
