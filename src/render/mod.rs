@@ -970,11 +970,6 @@ impl Renderer {
             }
         }
         if let Some(rdm) = &passes.rdm {
-            if self.parallel.is_some() && floor.is_none() {
-                // After executing secondaries the primary's state is
-                // undefined: set it again for the fill.
-                rec.set_state(self.extent);
-            }
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());
         }
         q.end_stats(ctx, cmd);
@@ -1036,7 +1031,7 @@ impl Renderer {
         debug_assert!(batches.far_start.is_none(), "refused with mffr");
         let draws = batches.near_draws();
         // Where the sky goes, found once for every thread.
-        let sky = self.recorder(vk::CommandBuffer::null()).sky_slot(draws);
+        let sky = passes::sky_slot(&self.batcher.keys, draws);
         let passes = &self.passes;
         let boxes = self.extras.overlay.len();
         let (extent, slot) = (self.extent, self.slot);

@@ -273,6 +273,15 @@ impl PipelineSetup<'_> {
     }
 }
 
+/// Where the sky goes in `draws` (primitives keyed by `keys`): before the
+/// first blended draw, else after the last.
+pub fn sky_slot(keys: &[PipelineKey], draws: &[Draw]) -> usize {
+    draws
+        .iter()
+        .position(|d| keys[d.primitive as usize].alpha == 2)
+        .unwrap_or(draws.len())
+}
+
 /// Destroys `pipelines`, skipping null handles; the device must be idle.
 pub fn destroy_pipelines<'p>(ctx: &Context, pipelines: impl IntoIterator<Item = &'p vk::Pipeline>) {
     for &p in pipelines {
@@ -664,10 +673,7 @@ impl Recorder<'_> {
     /// after the last (reverse-Z: the sky fills only what opaque and masked
     /// draws left at depth 0, and blended draws must see it behind them).
     pub fn sky_slot(&self, draws: &[Draw]) -> usize {
-        draws
-            .iter()
-            .position(|d| self.keys[d.primitive as usize].alpha == 2)
-            .unwrap_or(draws.len())
+        sky_slot(self.keys, draws)
     }
 
     /// Draws `draws`, whose first is draw `base` of the frame's list (its

@@ -134,6 +134,9 @@ impl Rdm {
                 continue;
             };
             rec.begin_color_only(filled.view, extent, view_mask);
+            // Its own viewport, scissor and sets: it follows other scopes
+            // (or executed secondaries) whose state it must not rely on.
+            rec.set_state(extent);
             rec.bind(fill.pipeline);
             rec.push([0, eye as u32, 0, self.radius.to_bits()]);
             rec.draw(3);
