@@ -200,6 +200,33 @@ pub struct ImageDesc<'a> {
     pub category: &'static str,
 }
 
+impl<'a> ImageDesc<'a> {
+    /// An eye image a finished frame is copied or blitted into and a window
+    /// blits from: one mip, one sample, colour attachment and transfer
+    /// source and destination, `layers` layers.
+    pub fn eye_copy(
+        name: &'a str,
+        format: vk::Format,
+        extent: vk::Extent2D,
+        layers: u32,
+        category: &'static str,
+    ) -> ImageDesc<'a> {
+        ImageDesc {
+            name,
+            format,
+            extent,
+            layers,
+            mips: 1,
+            samples: vk::SampleCountFlags::TYPE_1,
+            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
+                | vk::ImageUsageFlags::TRANSFER_DST
+                | vk::ImageUsageFlags::TRANSFER_SRC,
+            aspect: vk::ImageAspectFlags::COLOR,
+            category,
+        }
+    }
+}
+
 impl Image {
     /// Creates an image and a 2D-array view over all its layers and mips.
     pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image> {

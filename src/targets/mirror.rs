@@ -253,19 +253,7 @@ impl Mirror {
         )?;
         // `distorted` draws from the eye images into the preview's own
         // images: no copy of the eyes is kept.
-        let desc = ImageDesc {
-            name: "mirror eyes",
-            format,
-            extent: eye,
-            layers: 2,
-            mips: 1,
-            samples: vk::SampleCountFlags::TYPE_1,
-            usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                | vk::ImageUsageFlags::TRANSFER_DST
-                | vk::ImageUsageFlags::TRANSFER_SRC,
-            aspect: vk::ImageAspectFlags::COLOR,
-            category: "mirror",
-        };
+        let desc = ImageDesc::eye_copy("mirror eyes", format, eye, 2, "mirror");
         let image = if distortion.is_some() {
             None
         } else {

@@ -104,19 +104,13 @@ impl EyeImages {
             for i in 0..count {
                 set.push(Image::new(
                     ctx,
-                    &ImageDesc {
-                        name: &format!("window eye image {s}.{i}"),
-                        format: COLOR_FORMAT,
+                    &ImageDesc::eye_copy(
+                        &format!("window eye image {s}.{i}"),
+                        COLOR_FORMAT,
                         extent,
                         layers,
-                        mips: 1,
-                        samples: vk::SampleCountFlags::TYPE_1,
-                        usage: vk::ImageUsageFlags::COLOR_ATTACHMENT
-                            | vk::ImageUsageFlags::TRANSFER_DST
-                            | vk::ImageUsageFlags::TRANSFER_SRC,
-                        aspect: vk::ImageAspectFlags::COLOR,
-                        category: "window",
-                    },
+                        "window",
+                    ),
                 )?);
             }
             sets.push(set);
