@@ -9,7 +9,7 @@
 
 use super::factory::SplitMix64;
 use super::{shapes, AlphaMode, Instance, Material, Mesh, Primitive, Scene};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use glam::{DAffine3, DVec3};
 
 /// Seed of the built-in scene.
@@ -120,12 +120,7 @@ fn part(rng: &mut SplitMix64, material: u32) -> Primitive {
 
 /// Generates `cad:n` deterministically from `seed`.
 pub fn generate(n: usize, seed: u64) -> Result<Scene> {
-    if n == 0 || n > MAX_PARTS {
-        return Err(Error::config(
-            "--scene",
-            format!("cad:{n}: part count must be within 1..={MAX_PARTS}"),
-        ));
-    }
+    super::count_within("cad", n, MAX_PARTS, "part count")?;
     let mut scene = Scene {
         name: format!("cad:{n}"),
         materials: materials(),

@@ -5,7 +5,7 @@
 //! and is deterministic for a seed, so golden images and benchmarks repeat.
 
 use super::{shapes, Instance, Material, Mesh, Scene};
-use crate::error::{Error, Result};
+use crate::error::Result;
 use glam::{DAffine3, DQuat, DVec3};
 
 /// Instance count of plain `factory`.
@@ -184,12 +184,7 @@ fn machine_bay(p: &mut Placer, rng: &mut SplitMix64, o: DVec3) {
 
 /// Generates `factory:n` deterministically from `seed`.
 pub fn generate(n: usize, seed: u64) -> Result<Scene> {
-    if n == 0 || n > MAX_INSTANCES {
-        return Err(Error::config(
-            "--scene",
-            format!("factory:{n}: instance count must be within 1..={MAX_INSTANCES}"),
-        ));
-    }
+    super::count_within("factory", n, MAX_INSTANCES, "instance count")?;
     let mut scene = Scene {
         name: format!("factory:{n}"),
         ..Scene::default()

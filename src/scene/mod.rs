@@ -50,6 +50,18 @@ fn builtin_count(
     }))
 }
 
+/// Checks a built-in scene's count `n` (`what` it counts) against
+/// 1..=`max`, one error naming `name:n` otherwise.
+fn count_within(name: &str, n: usize, max: usize, what: &str) -> Result<()> {
+    if n == 0 || n > max {
+        return Err(Error::config(
+            "--scene",
+            format!("{name}:{n}: {what} must be within 1..={max}"),
+        ));
+    }
+    Ok(())
+}
+
 /// The instance count of a `factory` / `factory:N` spec (None: not one).
 fn factory_count(spec: &str) -> Option<Result<usize>> {
     builtin_count(
