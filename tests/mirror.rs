@@ -155,17 +155,25 @@ const W: u32 = 256;
 const H: u32 = 192;
 
 fn headless_run(x: &Xvfb, dir: &Path, mode: &str, extra: &[&str]) -> (Value, Output) {
-    let s_path = dir.join(format!("{mode}.json"));
     let size = [W.to_string(), H.to_string()];
+    let mut args = vec!["--frames", "8", "--scene", "factory:2000"];
+    args.extend(["--hmd-fallback", "valve-index", "--width", &size[0]]);
+    args.extend(["--height", &size[1], "--mirror", mode]);
+    args.extend(extra);
+    run_named(x, dir, mode, &args)
+}
+
+/// `vergence run --xr headless ARGS` writing `NAME.png` (the window's last
+/// image), a capture in `NAME/` and `NAME.json`; asserts it succeeded.
+fn run_named(x: &Xvfb, dir: &Path, name: &str, args: &[&str]) -> (Value, Output) {
+    let s_path = dir.join(format!("{name}.json"));
     let o = vergence(Some(x))
-        .args(["run", "--xr", "headless", "--frames", "8"])
-        .args(["--scene", "factory:2000", "--hmd-fallback", "valve-index"])
-        .args(["--width", &size[0], "--height", &size[1], "--mirror", mode])
-        .args(extra)
+        .args(["run", "--xr", "headless"])
+        .args(args)
         .arg("--screenshot")
-        .arg(dir.join(format!("{mode}.png")))
+        .arg(dir.join(format!("{name}.png")))
         .arg("--capture")
-        .arg(dir.join(mode))
+        .arg(dir.join(name))
         .arg("--stats-out")
         .arg(&s_path)
         .output()
@@ -263,33 +271,23 @@ fn the_distorted_mirror_shows_the_panels_through_the_lenses() {
     let profile_path = dir.join("vive-small.toml");
     std::fs::write(&profile_path, small).unwrap();
     let (ew, eh) = (189u32, 210u32);
-    let run = |profile: &Path, name: &str| {
-        let s_path = dir.join(format!("{name}.json"));
-        let o = vergence(Some(&x))
-            .args([
-                "run",
-                "--xr",
-                "headless",
-                "--frames",
-                "6",
-                "--scene",
-                "factory:2000",
-            ])
-            .arg("--hmd-fallback")
-            .arg(profile)
-            .args(["--width", &ew.to_string(), "--height", &eh.to_string()])
-            .args(["--mirror", "distorted", "--screenshot"])
-            .arg(dir.join(format!("{name}.png")))
-            .arg("--capture")
-            .arg(dir.join(name))
-            .arg("--stats-out")
-            .arg(&s_path)
-            .output()
-            .expect("vergence runs");
-        assert!(o.status.success(), "{}", text(&o));
-        (stats(&s_path), o)
-    };
-    let (s, _) = run(&profile_path, "vive");
+    let (w, h) = (ew.to_string(), eh.to_string());
+    let profile = profile_path.to_str().unwrap();
+    let args = [
+        "--frames",
+        "6",
+        "--scene",
+        "factory:2000",
+        "--hmd-fallback",
+        profile,
+        "--width",
+        &w,
+        "--height",
+        &h,
+        "--mirror",
+        "distorted",
+    ];
+    let (s, _) = run_named(&x, &dir, "vive", &args);
     let m = &s["mirror"];
     assert_eq!(m["mode"], "distorted", "{s}");
     assert_eq!(m["copied"], 6, "every frame is drawn: {m}");
