@@ -381,6 +381,15 @@ case("manifests/missing-gltf.toml", "scene", ["no-such-model.glb"],
      'name = "x"\n[[gltf]]\nfile = "no-such-model.glb"\n')
 case("manifests/typo.toml", "scene", ["malformed scene manifest", "translaton"],
      'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 10\ntranslaton = [0.0, 0.0, 0.0]\n')
+MOVING = 'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 10\nmotion = {motion}\n'
+case("manifests/motion-nan-spin.toml", "scene", ["procedural[0]", "spin_deg_s = NaN"],
+     MOVING.format(motion="{ spin_deg_s = nan }"))
+case("manifests/motion-zero-period.toml", "scene", ["procedural[0]", "bob_period_s = 0"],
+     MOVING.format(motion="{ bob_m = 1.0, bob_period_s = 0.0 }"))
+case("manifests/motion-huge-bob.toml", "scene", ["procedural[0]", "bob_m = 1e300"],
+     MOVING.format(motion="{ bob_m = 1e300 }"))
+case("manifests/motion-unknown-key.toml", "scene", ["malformed scene manifest", "spin_rpm"],
+     MOVING.format(motion="{ spin_rpm = 3.0 }"))
 # --- Bench plans and config files ---------------------------------------------
 PLAN = 'name = "p"\nscenes = ["factory:10"]\nhmds = ["monado-sim"]\nframes = {frames}\n[[configs]]\nname = "a"\nopt = "{opt}"\n'
 case("plans/bad-opt.toml", "plan", ["hyperdrive"], PLAN.format(frames=2, opt="hyperdrive"))

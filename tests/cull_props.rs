@@ -133,6 +133,37 @@ proptest! {
         prop_assert_eq!(with_cmp.stats.false_negatives, Some(fneg));
     }
 
+    /// Moving some instances through `update` answers like a hierarchy
+    /// built over the moved boxes.
+    #[test]
+    fn updating_moved_instances_matches_rebuild((rig, boxes, params, leaf) in rig_and_scene(), shift in (-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0), every in 1usize..5) {
+        let mut bvh = Bvh::build(&boxes, leaf).unwrap();
+        let d = DVec3::new(shift.0, shift.1, shift.2);
+        let moved: Vec<(u32, (DVec3, DVec3))> = boxes
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % every == 0)
+            .map(|(i, (a, b))| (i as u32, (*a + d, *b + d)))
+            .collect();
+        bvh.update(&moved).unwrap();
+        let mut all = boxes.clone();
+        for (i, b) in &moved {
+            all[*i as usize] = *b;
+        }
+        let fresh = Bvh::build(&all, leaf).unwrap();
+        for s in [Cs::PerEye, Cs::Superfrustum, Cs::ConicalSuperfrustum] {
+            let a = cull(s, &rig, 0, &bvh, &params).unwrap();
+            let b = cull(s, &rig, 0, &fresh, &params).unwrap();
+            prop_assert_eq!(&a.visible, &b.visible);
+            let f = cull_flat(s, &rig, 0, &bvh, &params).unwrap();
+            prop_assert_eq!(&a.visible, &f.visible);
+        }
+        let nan = [(0u32, (DVec3::splat(f64::NAN), DVec3::ONE))];
+        prop_assert!(bvh.update(&nan).is_err());
+        let outside = [(boxes.len() as u32, (DVec3::ZERO, DVec3::ONE))];
+        prop_assert!(bvh.update(&outside).is_err());
+    }
+
     #[test]
     fn refit_matches_rebuild((rig, boxes, params, leaf) in rig_and_scene(), shift in (-5.0f64..5.0, -5.0f64..5.0, -5.0f64..5.0)) {
         let mut bvh = Bvh::build(&boxes, leaf).unwrap();

@@ -1,5 +1,6 @@
 //! TOML text → HMD profile (and a rig at the origin, whose views must be
-//! finite, and its lenses' maps), scene manifest, bench plan and tuned config file. Any Err is
+//! finite, and its lenses' maps), scene manifest (its moving placements
+//! finite at any time), bench plan and tuned config file. Any Err is
 //! fine; a panic, abort or hang is a bug.
 #![no_main]
 
@@ -32,7 +33,14 @@ fuzz_target!(|data: &[u8]| {
     let _ = std::fs::create_dir_all(&dir);
     // Scenes are capped so one input cannot ask for millions of instances.
     if !text.contains("instances") && !text.contains("count") {
-        let _ = vergence::scene::manifest::from_text(&dir.join("fuzz.toml"), text);
+        if let Ok(scene) = vergence::scene::manifest::from_text(&dir.join("fuzz.toml"), text) {
+            // Moving placements stay finite at any time.
+            let mut moved = Vec::new();
+            for t in [0.0, 1.5, 3.6e6] {
+                vergence::scene::motion::transforms_at(&scene.moving, t, &mut moved);
+                assert!(moved.iter().all(|m| m.transform.is_finite()));
+            }
+        }
     }
     let _ = vergence::bench::plan::Plan::parse("fuzz", text);
     let _ = toml::from_str::<vergence::bench::tune::ConfigFile>(text);

@@ -132,6 +132,9 @@ pub struct Bvh {
     /// Per node, the range of `block_words` covering it, or `None` below
     /// block level.
     pub node_words: Vec<Option<(u32, u32)>>,
+    /// Hierarchy position of each instance (the inverse of `order`), built
+    /// by the first [`Bvh::update`].
+    rank: Vec<u32>,
 }
 
 /// One hierarchy node: bounds and topology packed into one 64-byte cache
@@ -341,6 +344,7 @@ impl Bvh {
             nodes,
             block_words,
             node_words,
+            rank: Vec::new(),
         };
         bvh.refit_nodes();
         Ok(bvh)
@@ -385,6 +389,46 @@ impl Bvh {
         self.instances = instances;
         self.ordered = ordered;
         self.refit_nodes();
+        Ok(())
+    }
+
+    /// Replaces the bounds of the instances in `moved` (instance index,
+    /// new box) and refits the node bounds; the others keep theirs and
+    /// the topology is kept. Answers as [`Bvh::refit`] with every box
+    /// given, touching only the moved instances' entries.
+    pub fn update(&mut self, moved: &[(u32, (DVec3, DVec3))]) -> Result<(), BvhError> {
+        if let Some(&(i, _)) = moved.iter().find(|m| m.0 as usize >= self.len()) {
+            return Err(BvhError::CountMismatch {
+                expected: self.len(),
+                got: i as usize + 1,
+            });
+        }
+        let boxes: Vec<(DVec3, DVec3)> = moved.iter().map(|m| m.1).collect();
+        if let Err(BvhError::InvalidBounds { index, min, max }) = validate(&boxes) {
+            return Err(BvhError::InvalidBounds {
+                index: moved[index].0 as usize,
+                min,
+                max,
+            });
+        }
+        if self.rank.len() != self.len() {
+            self.rank = vec![0; self.len()];
+            for (k, &i) in self.order.iter().enumerate() {
+                self.rank[i as usize] = k as u32;
+            }
+        }
+        for &(i, (lo, hi)) in moved {
+            let k = self.rank[i as usize] as usize;
+            for (set, at) in [(&mut self.instances, i as usize), (&mut self.ordered, k)] {
+                for a in 0..3 {
+                    set.min[a][at] = lo[a];
+                    set.max[a][at] = hi[a];
+                }
+            }
+        }
+        if !moved.is_empty() {
+            self.refit_nodes();
+        }
         Ok(())
     }
 

@@ -85,6 +85,18 @@ impl Batches {
 }
 
 impl Batcher {
+    /// Moves instance `index`'s bounding sphere (the blended sort and the
+    /// far field's depth split read it).
+    pub fn move_instance(&mut self, index: u32, center: DVec3, radius: f64) {
+        if let (Some(c), Some(r)) = (
+            self.centers.get_mut(index as usize),
+            self.radii.get_mut(index as usize),
+        ) {
+            *c = center;
+            *r = radius;
+        }
+    }
+
     /// Builds the tables for `scene`.
     pub fn new(scene: &Scene) -> Batcher {
         let mut mesh_slices = Vec::new();

@@ -60,6 +60,14 @@ impl CullState {
         self.section = plane;
     }
 
+    /// Moves the instances in `moved` (instance index, new world box): the
+    /// following culls test them where they now are.
+    pub fn move_instances(&mut self, moved: &[(u32, (glam::DVec3, glam::DVec3))]) -> Result<()> {
+        self.bvh
+            .update(moved)
+            .map_err(|e| Error::config("scene motion", e.to_string()))
+    }
+
     /// Culls for `rig` at frame number `frame`: the visible instance list
     /// and the counters.
     pub fn cull(

@@ -15,7 +15,8 @@ use crate::cull::CullStats;
 use crate::error::{Error, Result};
 use crate::interact::overlay::OverlayBox;
 use crate::interact::section::SectionPlane;
-use crate::scene::Scene;
+use crate::scene::motion::{transforms_at, Moved, MovingGroup};
+use crate::scene::{Scene, WorldBounds};
 use crate::view::{Fov, StereoRig};
 use std::collections::VecDeque;
 use std::time::Instant;
@@ -32,6 +33,9 @@ pub struct FrameResult {
     pub interval_ms: Option<f64>,
     /// CPU milliseconds spent culling.
     pub cull_ms: f64,
+    /// CPU milliseconds spent moving instances (their transforms and
+    /// bounds, the culling hierarchy's refit, staging their records).
+    pub motion_ms: f64,
     /// Culling counters (None without a culling strategy).
     pub cull: Option<CullStats>,
     /// The field of view of each eye it was rendered with.
@@ -44,7 +48,11 @@ impl FrameResult {
     /// CPU milliseconds of the frame's own work: cull, batch, record and
     /// submit (not the waits for the GPU).
     pub fn cpu_ms(&self) -> f64 {
-        self.cull_ms + self.stats.cpu_ms.batch + self.stats.cpu_ms.record + self.stats.cpu_ms.submit
+        self.cull_ms
+            + self.motion_ms
+            + self.stats.cpu_ms.batch
+            + self.stats.cpu_ms.record
+            + self.stats.cpu_ms.submit
     }
 
     /// GPU milliseconds of the frame (the sum of its passes' timestamps).
@@ -64,6 +72,45 @@ pub struct FrameDriver {
     /// Finished frames not yet taken, oldest first.
     done: VecDeque<FrameResult>,
     last_start: Option<Instant>,
+    /// The scene's moving instances (None: it has none).
+    motion: Option<MotionState>,
+    /// The scene time of the next frame, when the caller set it.
+    time: Option<f64>,
+}
+
+/// Scene time per frame number when the caller gives none: 90 frames a
+/// second (headless renders and the bench are then reproducible).
+pub const DEFAULT_FRAME_RATE: f64 = 90.0;
+
+/// What the driver keeps to move a scene's instances each frame.
+struct MotionState {
+    groups: Vec<MovingGroup>,
+    /// Object-space bounds per mesh.
+    mesh_bounds: Vec<(glam::Vec3, glam::Vec3)>,
+    moved: Vec<Moved>,
+    bounds: Vec<WorldBounds>,
+    boxes: Vec<(u32, (glam::DVec3, glam::DVec3))>,
+}
+
+impl MotionState {
+    /// The instances at time `t`: transforms and bounds into the buffers.
+    fn at(&mut self, t: f64) {
+        transforms_at(&self.groups, t, &mut self.moved);
+        let mesh_bounds = &self.mesh_bounds;
+        self.bounds.clear();
+        self.bounds.extend(
+            self.moved
+                .iter()
+                .map(|m| WorldBounds::of(mesh_bounds[m.mesh as usize], &m.transform)),
+        );
+        self.boxes.clear();
+        self.boxes.extend(
+            self.moved
+                .iter()
+                .zip(&self.bounds)
+                .map(|(m, b)| (m.index, (b.min, b.max))),
+        );
+    }
 }
 
 impl FrameDriver {
@@ -72,6 +119,15 @@ impl FrameDriver {
     pub fn new(renderer: Renderer, scene: &Scene) -> Result<FrameDriver> {
         let culling = CullState::new(&renderer.config, scene)?;
         let slots = renderer.frames_in_flight();
+        let motion = (!scene.moving.is_empty()).then(|| MotionState {
+            groups: scene.moving.clone(),
+            mesh_bounds: (0..scene.meshes.len() as u32)
+                .map(|m| scene.mesh_bounds(m))
+                .collect(),
+            moved: Vec::new(),
+            bounds: Vec::new(),
+            boxes: Vec::new(),
+        });
         Ok(FrameDriver {
             renderer,
             culling,
@@ -79,7 +135,16 @@ impl FrameDriver {
             in_flight: VecDeque::with_capacity(slots + 1),
             done: VecDeque::with_capacity(slots + 1),
             last_start: None,
+            motion,
+            time: None,
         })
+    }
+
+    /// Sets the scene time (seconds) of the next recorded frame: where
+    /// moving instances stand. Without it frame `n` is at
+    /// `n /` [`DEFAULT_FRAME_RATE`].
+    pub fn set_time(&mut self, seconds: f64) {
+        self.time = Some(seconds);
     }
 
     /// The renderer.
@@ -131,6 +196,19 @@ impl FrameDriver {
         // Frame n - N first: with 1 in flight nothing of this frame, not
         // even culling, overlaps the previous frame's GPU work.
         self.renderer.wait_for_slot()?;
+        let motion_start = Instant::now();
+        let time = self
+            .time
+            .take()
+            .unwrap_or(index as f64 / DEFAULT_FRAME_RATE);
+        if let Some(m) = self.motion.as_mut() {
+            m.at(time);
+            if let Some(c) = self.culling.as_mut() {
+                c.move_instances(&m.boxes)?;
+            }
+            self.renderer.move_instances(&m.moved, &m.bounds)?;
+        }
+        let motion_ms = ms_between(motion_start, Instant::now());
         let cull_start = Instant::now();
         let (visible, cull) = match self.culling.as_mut() {
             Some(c) => {
@@ -146,6 +224,7 @@ impl FrameDriver {
             started,
             interval_ms,
             cull_ms,
+            motion_ms,
             cull,
             // The renderer checked above that the rig has two views.
             fov: [rig.views[0].fov, rig.views[1].fov],

@@ -23,6 +23,7 @@ pub mod culling;
 pub mod descriptors;
 pub mod distortion;
 pub mod driver;
+pub mod instance_updates;
 pub mod passes;
 pub mod scene_gpu;
 pub mod shading_rate;
@@ -106,6 +107,9 @@ pub struct FrameStats {
     /// the GPU drew).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu_cull: Option<GpuCullStats>,
+    /// In a scene with moving instances: what the frame uploaded of them.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<instance_updates::UpdateStats>,
 }
 
 struct Pending {
@@ -170,6 +174,10 @@ pub struct Renderer {
     draw_records: Option<DrawRecords>,
     /// `--record-threads N`: the recording threads and their secondaries.
     parallel: Option<ParallelRecording>,
+    /// Moved instances staged for the next recorded frame.
+    updates: instance_updates::InstanceUpdates,
+    /// Instances in the scene.
+    instance_count: usize,
 }
 
 impl Renderer {
@@ -298,6 +306,8 @@ impl Renderer {
             lod: lod_report,
             draw_records,
             parallel: None,
+            updates: instance_updates::InstanceUpdates::new(slots),
+            instance_count: scene.instances.len(),
         };
         if let Some(n) = config.record_threads {
             r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
@@ -593,6 +603,38 @@ impl Renderer {
         Ok(())
     }
 
+    /// Moves instances for the next recorded frame: each of `moved` (its
+    /// transform, and its world bounds in `bounds`, one per entry) replaces
+    /// the instance's record on the GPU (and its box with `gpu-cull`) by a
+    /// copy at the start of that frame; the others are not touched.
+    pub fn move_instances(
+        &mut self,
+        moved: &[crate::scene::motion::Moved],
+        bounds: &[crate::scene::WorldBounds],
+    ) -> Result<()> {
+        if moved.len() != bounds.len() {
+            return Err(Error::config(
+                "scene motion",
+                format!(
+                    "{} moved instances with {} bounds",
+                    moved.len(),
+                    bounds.len()
+                ),
+            ));
+        }
+        for (m, b) in moved.iter().zip(bounds) {
+            instance_updates::check_index(m.index, self.instance_count)?;
+            self.batcher.move_instance(m.index, b.center, b.radius);
+            self.updates
+                .stage_instance(m.index, &scene_gpu::instance_record(&m.transform));
+            if let Some(gpu) = self.passes.gpu_cull.as_ref() {
+                self.updates
+                    .stage_box(m.index, &gpu.box_of(m.mesh, b, &m.transform));
+            }
+        }
+        Ok(())
+    }
+
     /// Batches and records one stereo frame of `rig` (the command buffer
     /// stays open); [`Renderer::submit_frame`] completes it. With
     /// `gpu-cull` the GPU culls and `visible` must be None.
@@ -626,6 +668,15 @@ impl Renderer {
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
+        if !self.updates.is_empty() {
+            let instances = self.scene().instances.buffer;
+            let boxes = self.passes.gpu_cull.as_ref().map(GpuCull::boxes);
+            let ring = self.ring.as_mut().expect("ring present until drop");
+            stats.motion = Some(
+                self.updates
+                    .record(&self.ctx, ring, slot, cmd, instances, boxes)?,
+            );
+        }
         // Released (the threads stop spinning) when this frame's recording
         // ends, whether it gets to the threads or not.
         let _woken = self.parallel.as_ref().map(ParallelRecording::wake);
@@ -1194,5 +1245,6 @@ impl Drop for Renderer {
         if let Some(p) = self.parallel.take() {
             p.destroy(&ctx);
         }
+        self.updates.destroy(&ctx);
     }
 }

@@ -9,7 +9,7 @@ use crate::gpu::Context;
 use crate::scene::lod::Chains;
 use crate::scene::{AlphaMode, Scene, SceneFeatures};
 use ash::vk;
-use glam::DVec3;
+use glam::{DAffine3, DVec3};
 use gpu_allocator::MemoryLocation;
 
 /// Per-primitive draw parameters.
@@ -79,6 +79,27 @@ pub fn split_f64(v: f64) -> (f32, f32) {
 pub fn split_dvec3(v: DVec3) -> ([f32; 3], [f32; 3]) {
     let (x, y, z) = (split_f64(v.x), split_f64(v.y), split_f64(v.z));
     ([x.0, y.0, z.0], [x.1, y.1, z.1])
+}
+
+/// The vertex shader's record of an instance at `transform`
+/// (`InstanceData` in shaders/common.glsl): the rows of the linear part
+/// with the translation's high f32 part in w, then its low part.
+pub fn instance_record(transform: &DAffine3) -> [f32; 16] {
+    let m = transform.matrix3;
+    let (hi, lo) = split_dvec3(transform.translation);
+    let row = |r: usize| {
+        [
+            m.x_axis[r] as f32,
+            m.y_axis[r] as f32,
+            m.z_axis[r] as f32,
+            hi[r],
+        ]
+    };
+    let [a, b, c] = [row(0), row(1), row(2)];
+    [
+        a[0], a[1], a[2], a[3], b[0], b[1], b[2], b[3], c[0], c[1], c[2], c[3], lo[0], lo[1],
+        lo[2], 0.0,
+    ]
 }
 
 /// Uploads `bytes` into a new device-local buffer of `usage` (through a
@@ -245,17 +266,7 @@ impl SceneGpu {
 
         let mut inst: Vec<f32> = Vec::with_capacity(scene.instances.len() * 16);
         for i in &scene.instances {
-            let m = i.transform.matrix3;
-            let (hi, lo) = split_dvec3(i.transform.translation);
-            for (r, h) in hi.iter().enumerate() {
-                inst.extend_from_slice(&[
-                    m.x_axis[r] as f32,
-                    m.y_axis[r] as f32,
-                    m.z_axis[r] as f32,
-                    *h,
-                ]);
-            }
-            inst.extend_from_slice(&[lo[0], lo[1], lo[2], 0.0]);
+            inst.extend_from_slice(&instance_record(&i.transform));
         }
         let instances = upload(
             ctx,

@@ -9,6 +9,7 @@
 //! yaw_deg = 0.0
 //! scale = 1.0
 //! grid = { count = [40, 1, 50], spacing = [6.0, 0.0, 6.0] }
+//! motion = { spin_deg_s = 30.0, bob_m = 0.2, bob_period_s = 2.0 }  # optional
 //! [[procedural]]
 //! kind = "factory"
 //! instances = 10000
@@ -20,6 +21,7 @@
 //! ```
 
 use super::budget::LoadBudget;
+use super::motion::{cell_phase, Motion, MovingGroup};
 use super::{factory, gltf_load, Scene, SceneCamera};
 use crate::error::{Error, Result};
 use glam::{DAffine3, DQuat, DVec3};
@@ -46,6 +48,8 @@ struct Placement {
     #[serde(default = "one")]
     scale: f64,
     grid: Option<Grid>,
+    /// How every placement moves (none: static).
+    motion: Option<Motion>,
 }
 
 fn one() -> f64 {
@@ -240,6 +244,52 @@ fn check_budget(
         .map_err(|m| Error::scene(path, m))
 }
 
+/// Appends `sub` at every placement of `place`; with a `motion` that
+/// moves, its instances join the scene's moving groups and stand where
+/// the motion has them at time 0.
+fn append_placed(
+    path: &Path,
+    what: &str,
+    scene: &mut Scene,
+    sub: &Scene,
+    place: &[DAffine3],
+    motion: Option<Motion>,
+) -> Result<()> {
+    let first = scene.instances.len();
+    let m0 = scene.meshes.len() as u32;
+    scene.append(sub, place);
+    let Some(motion) = motion else {
+        return Ok(());
+    };
+    motion
+        .validate()
+        .map_err(|m| Error::scene(path, format!("{what}: {m}")))?;
+    if !motion.moves() || sub.instances.is_empty() {
+        return Ok(());
+    }
+    let n = sub.instances.len();
+    let group = MovingGroup {
+        motion,
+        locals: sub
+            .instances
+            .iter()
+            .map(|i| (i.mesh + m0, i.transform))
+            .collect(),
+        placements: place
+            .iter()
+            .enumerate()
+            .map(|(k, p)| (*p, cell_phase(k), (first + k * n) as u32))
+            .collect(),
+    };
+    let mut at0 = Vec::new();
+    super::motion::transforms_at(std::slice::from_ref(&group), 0.0, &mut at0);
+    for m in at0 {
+        scene.instances[m.index as usize].transform = m.transform;
+    }
+    scene.moving.push(group);
+    Ok(())
+}
+
 /// Most instances a manifest may produce in all.
 pub const MAX_INSTANCES: u64 = 50_000_000;
 
@@ -289,7 +339,7 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
             budget,
         )?;
         let place = placements(path, &what, &g.place, budget)?;
-        scene.append(&sub, &place);
+        append_placed(path, &what, &mut scene, &sub, &place, g.place.motion)?;
     }
     for (i, p) in m.procedural.iter().enumerate() {
         let what = format!("procedural[{i}]");
@@ -315,7 +365,7 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
                 ))
             }
         };
-        scene.append(&sub, &place);
+        append_placed(path, &what, &mut scene, &sub, &place, p.place.motion)?;
     }
     viewpoint_cameras(path, &m.viewpoint, &mut scene)?;
     Ok(scene)

@@ -12,6 +12,7 @@ pub mod gltf_load;
 pub mod image_decode;
 pub mod lod;
 pub mod manifest;
+pub mod motion;
 pub mod shapes;
 pub mod uri;
 
@@ -242,6 +243,27 @@ pub struct WorldBounds {
     pub radius: f64,
 }
 
+impl WorldBounds {
+    /// The world box of a mesh with object-space bounds `(lo, hi)` under
+    /// `transform`: the box's centre transformed, its half-extents through
+    /// the absolute linear part (Arvo, "Transforming Axis-Aligned Bounding
+    /// Boxes", Graphics Gems, 1990).
+    pub fn of((lo, hi): (Vec3, Vec3), transform: &DAffine3) -> WorldBounds {
+        let c = (lo + hi).as_dvec3() * 0.5;
+        let h = (hi - lo).as_dvec3() * 0.5;
+        let m = transform.matrix3;
+        let wc = transform.transform_point3(c);
+        let abs = glam::DMat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
+        let wh = abs * h;
+        WorldBounds {
+            min: wc - wh,
+            max: wc + wh,
+            center: wc,
+            radius: wh.length(),
+        }
+    }
+}
+
 /// A loaded scene.
 #[derive(Clone, Debug, Default)]
 pub struct Scene {
@@ -277,6 +299,8 @@ pub struct Scene {
     /// Per instance, its node in [`Scene::node_info`] ([`NO_NODE`]: none);
     /// empty when the scene keeps no nodes.
     pub instance_node: Vec<u32>,
+    /// Instances that move (manifest `motion`), by placement group.
+    pub moving: Vec<motion::MovingGroup>,
 }
 
 /// A source node (glTF) as selection names it.
@@ -441,22 +465,13 @@ impl Scene {
             .collect();
         self.instances
             .iter()
-            .map(|inst| {
-                let (lo, hi) = mesh_bounds[inst.mesh as usize];
-                let c = (lo + hi).as_dvec3() * 0.5;
-                let h = (hi - lo).as_dvec3() * 0.5;
-                let m = inst.transform.matrix3;
-                let wc = inst.transform.transform_point3(c);
-                let abs = glam::DMat3::from_cols(m.x_axis.abs(), m.y_axis.abs(), m.z_axis.abs());
-                let wh = abs * h;
-                WorldBounds {
-                    min: wc - wh,
-                    max: wc + wh,
-                    center: wc,
-                    radius: wh.length(),
-                }
-            })
+            .map(|inst| WorldBounds::of(mesh_bounds[inst.mesh as usize], &inst.transform))
             .collect()
+    }
+
+    /// Instances that move (manifest `motion`).
+    pub fn moving_instances(&self) -> usize {
+        self.moving.iter().map(motion::MovingGroup::len).sum()
     }
 
     /// World AABBs as (min, max) pairs, the culling module's input.

@@ -171,6 +171,21 @@ pub struct RenderStats {
     /// `bench::timewarp::measure`).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<crate::render::timewarp::TimewarpStats>,
+    /// In a scene with moving instances: the instances that move, and what
+    /// the last frame uploaded of them (moved instances, bytes, copy
+    /// regions).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub motion: Option<MotionReport>,
+}
+
+/// `stats.json`'s `motion` block.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct MotionReport {
+    /// Instances of the scene that move.
+    pub moving_instances: usize,
+    /// What the last frame uploaded.
+    #[serde(flatten)]
+    pub last_frame: crate::render::instance_updates::UpdateStats,
 }
 
 pub use crate::stats::Percentiles;
@@ -392,6 +407,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         .collect();
     let intervals: Vec<f64> = all.iter().filter_map(|r| r.interval_ms).collect();
     let cull_ms: Vec<f64> = all.iter().map(|r| r.cull_ms).collect();
+    let motion_ms: Vec<f64> = all.iter().map(|r| r.motion_ms).collect();
     let median_of = |get: &dyn Fn(&FrameResult) -> f64| {
         Percentiles::of(&all.iter().map(get).collect::<Vec<_>>()).median
     };
@@ -459,6 +475,9 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         cpu_ms.insert("bvh_build".to_string(), build_ms);
         cpu_ms.insert("cull".to_string(), Percentiles::of(&cull_ms).median);
     }
+    if !scene.moving.is_empty() {
+        cpu_ms.insert("motion".to_string(), Percentiles::of(&motion_ms).median);
+    }
     cpu_ms.insert("batch".to_string(), frame.cpu_ms.batch);
     cpu_ms.insert("record".to_string(), frame.cpu_ms.record);
     cpu_ms.insert("submit".to_string(), frame.cpu_ms.submit);
@@ -500,6 +519,10 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
         timewarp: None,
+        motion: (!scene.moving.is_empty()).then(|| MotionReport {
+            moving_instances: scene.moving_instances(),
+            last_frame: frame.motion.unwrap_or_default(),
+        }),
     };
     drop(driver);
     // Teardown may speak too.

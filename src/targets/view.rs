@@ -255,6 +255,7 @@ fn view_loop(
     let mut presented = 0u64;
     let mut index = 0u64;
     let mut last = Instant::now();
+    let started = last;
     let mut last_slot = None;
     let run = (|| -> Result<()> {
         loop {
@@ -330,6 +331,7 @@ fn view_loop(
             last = now;
             let rig = profile.rig(camera.pose());
             let slot = (index % slots as u64) as usize;
+            driver.set_time((now - started).as_secs_f64());
             driver.record(&rig, index)?;
             driver.submit(Some(&images.output(slot)), false)?;
             index += 1;

@@ -334,6 +334,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         with_depth: depth_format.is_some(),
         last_valid: Vec::new(),
         first_fov_recorded: false,
+        motion_origin_ns: None,
         lens: None,
     };
     let mut result = frame_loop(stats, &mut live, &mut state);
@@ -466,6 +467,9 @@ struct LoopState<'a> {
     with_depth: bool,
     last_valid: Vec<Option<TrackedView>>,
     first_fov_recorded: bool,
+    /// The predicted display time of the first rendered frame: moving
+    /// instances run on display time from there.
+    motion_origin_ns: Option<i64>,
     lens: Option<(Vec<Fov>, Arc<Vec<HiddenArea>>)>,
 }
 
@@ -833,6 +837,9 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             let driver = live.driver.as_mut().expect("set");
             driver.set_section(st.interaction.section);
             driver.set_overlay(&st.overlay);
+            let shown_ns = fs.predicted_display_time.as_nanos();
+            let origin = *st.motion_origin_ns.get_or_insert(shown_ns);
+            driver.set_time(shown_ns.saturating_sub(origin) as f64 * 1e-9);
             driver.record(&rig, index)?;
             let mut out = FrameOutput::default();
             for (ci, chain) in live

@@ -32,9 +32,10 @@ use crate::gpu::Context;
 use crate::render::attachments::Attachments;
 use crate::render::batches::PipelineKey;
 use crate::render::scene_gpu::{split_dvec3, upload};
-use crate::scene::Scene;
+use crate::scene::{Scene, WorldBounds};
 use crate::view::lod::MAX_LEVELS;
 use ash::vk;
+use glam::DAffine3;
 use gpu_allocator::MemoryLocation;
 use std::collections::HashMap;
 
@@ -116,6 +117,46 @@ pub struct Drawn {
     pub cull: GpuCullStats,
 }
 
+/// The cull's record of an instance with world bounds `b` under
+/// `transform` whose mesh's primitives are `slice` (first, count) of the
+/// flat primitive list: the box centre as a two-float split (the vertex
+/// shader's scheme) with the slice in the w lanes, the half-extents
+/// rounded up so the f32 box contains the f64 one, and the largest axis
+/// scale of the transform (LOD errors are object-space).
+pub fn box_record(slice: (u32, u32), b: &WorldBounds, transform: &DAffine3) -> [f32; 12] {
+    let (hi, lo) = split_dvec3(b.center);
+    let e = (b.max - b.min) * 0.5;
+    let up = |v: f64| {
+        let f = v as f32;
+        if (f as f64) < v {
+            f.next_up()
+        } else {
+            f
+        }
+    };
+    let (first, count) = slice;
+    let m = transform.matrix3;
+    let scale = m
+        .x_axis
+        .length()
+        .max(m.y_axis.length())
+        .max(m.z_axis.length());
+    [
+        hi[0],
+        hi[1],
+        hi[2],
+        f32::from_bits(first),
+        lo[0],
+        lo[1],
+        lo[2],
+        f32::from_bits(count),
+        up(e.x),
+        up(e.y),
+        up(e.z),
+        up(scale),
+    ]
+}
+
 /// Bytes of the cull's push constants (`Push` in gpu_cull.comp).
 const PUSH_BYTES: u32 = 48;
 
@@ -166,6 +207,8 @@ pub struct GpuCull {
     instance_count: u32,
     /// Non-blended primitives in draw order (as the CPU batches them).
     order: Vec<u32>,
+    /// Per mesh: its slice (first, count) of the flat primitive list.
+    slices: Vec<(u32, u32)>,
 }
 
 impl GpuCull {
@@ -291,32 +334,9 @@ impl GpuCull {
                 c.first_instance,
             ]);
         }
-        // Per instance: box centre as a two-float split (the vertex shader's
-        // scheme), the mesh's primitive slice in the w lanes, half-extents
-        // rounded up so the f32 box contains the f64 one, and the largest
-        // axis scale of the transform (LOD errors are object-space).
         let mut boxes: Vec<f32> = Vec::with_capacity(scene.instances.len() * 12);
-        for ((a, b), inst) in scene.world_aabbs().iter().zip(&scene.instances) {
-            let (hi, lo) = split_dvec3((*a + *b) * 0.5);
-            let e = (*b - *a) * 0.5;
-            let up = |v: f64| {
-                let f = v as f32;
-                if (f as f64) < v {
-                    f.next_up()
-                } else {
-                    f
-                }
-            };
-            let (first, count) = slices[inst.mesh as usize];
-            boxes.extend_from_slice(&[hi[0], hi[1], hi[2], f32::from_bits(first)]);
-            boxes.extend_from_slice(&[lo[0], lo[1], lo[2], f32::from_bits(count)]);
-            let m = inst.transform.matrix3;
-            let scale = m
-                .x_axis
-                .length()
-                .max(m.y_axis.length())
-                .max(m.z_axis.length());
-            boxes.extend_from_slice(&[up(e.x), up(e.y), up(e.z), up(scale)]);
+        for (b, inst) in scene.world_bounds().iter().zip(&scene.instances) {
+            boxes.extend_from_slice(&box_record(slices[inst.mesh as usize], b, &inst.transform));
         }
         let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
         let instances = upload(
@@ -410,6 +430,7 @@ impl GpuCull {
             pipeline: vk::Pipeline::null(),
             instance_count: scene.instances.len() as u32,
             order: order.to_vec(),
+            slices,
         };
         if let Some((targets, _)) = occlusion {
             match DepthPyramid::new(ctx, targets, targets.extent, setup.samples, slots) {
@@ -816,6 +837,18 @@ impl GpuCull {
             lod_triangles: out.cull.lod_triangles,
         };
         Ok(out)
+    }
+
+    /// The resident buffer of instance boxes (moved instances are copied
+    /// into it).
+    pub fn boxes(&self) -> vk::Buffer {
+        self.instances.buffer
+    }
+
+    /// The box record of an instance of `mesh` with world bounds `b` under
+    /// `transform` ([`box_record`] with the mesh's primitive slice).
+    pub fn box_of(&self, mesh: u32, b: &WorldBounds, transform: &DAffine3) -> [f32; 12] {
+        box_record(self.slices[mesh as usize], b, transform)
     }
 
     /// Destroys the pass; the device must be idle.
