@@ -213,6 +213,9 @@ fn the_gpu_cull_bench_plans_parse_and_their_configs_validate() {
     for plan in [
         "gpu-cull.toml",
         "occlusion.toml",
+        "lod.toml",
+        "ufo-lod.toml",
+        "motion.toml",
         "scale.toml",
         "default.toml",
     ] {

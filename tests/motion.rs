@@ -177,3 +177,14 @@ fn a_static_scene_uploads_nothing() {
     let (results, _) = frames(&ctx, &scene, "multiview,superfrustum,gpu-cull", 2);
     assert!(results.iter().all(|r| r.stats.motion.is_none()));
 }
+
+#[test]
+fn the_shipped_moving_scenes_load_with_their_fleets_moving() {
+    let root = Path::new(env!("CARGO_MANIFEST_DIR"));
+    let scene = manifest::load(&root.join("manifests/scenes/moving-fleet.toml")).unwrap();
+    // 400 RetroUFOs of 77 instances each move; the factory stands still.
+    assert_eq!(scene.moving_instances(), 400 * 77);
+    assert_eq!(scene.instances.len(), 20_000 + 400 * 77);
+    let text = std::fs::read_to_string(root.join("manifests/scenes/moving-factory.toml")).unwrap();
+    assert!(text.contains("instances = 1000000") && text.contains("motion = "));
+}

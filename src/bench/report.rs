@@ -149,6 +149,26 @@ pub fn markdown(results: &BenchResults) -> String {
             .chain(passes)
             .collect();
         md_table(&mut s, &head, &rows);
+        let moving: Vec<Vec<String>> = g
+            .results
+            .iter()
+            .filter_map(|r| {
+                Some(vec![
+                    r.name.clone(),
+                    format!("{:.0}", r.moved_instances?),
+                    format!("{:.1}", r.motion_upload_bytes? / 1024.0),
+                    format!("{:.3}", r.cpu_ms.motion?),
+                ])
+            })
+            .collect();
+        if !moving.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nMoving instances per frame (p50; only these are uploaded):\n"
+            );
+            let head = ["config", "moved", "uploaded KiB", "CPU ms to move"].map(String::from);
+            md_table(&mut s, &head, &moving);
+        }
         let paths: Vec<&ConfigResult> = g
             .results
             .iter()

@@ -74,6 +74,10 @@ pub struct PhaseMs {
     /// With `record_threads`: the slowest thread's recording time.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub record_threads_slowest: Option<f64>,
+    /// In a scene with moving instances: moving them (transforms, bounds,
+    /// the CPU hierarchy's update, staging their records).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion: Option<f64>,
 }
 
 /// GPU memory while the configuration ran.
@@ -158,6 +162,14 @@ pub struct ConfigResult {
     /// the error bound (median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gpu_cull_lod_dropped: Option<f64>,
+    /// In a scene with moving instances: instances uploaded per frame
+    /// (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub moved_instances: Option<f64>,
+    /// In a scene with moving instances: bytes uploaded per frame
+    /// (median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub motion_upload_bytes: Option<f64>,
     /// GPU memory.
     pub gpu_memory: GpuMemory,
     /// Process resident set size after the configuration ran.
@@ -803,6 +815,7 @@ fn summarize(
     };
     let cpu = series(&FrameResult::cpu_ms);
     let gpu = series(&FrameResult::gpu_ms);
+    let moving = !frames.is_empty() && frames.iter().any(|f| f.stats.motion.is_some());
     let model: Vec<f64> = cpu.iter().zip(&gpu).map(|(c, g)| c.max(*g)).collect();
     let wall: Vec<f64> = frames.iter().filter_map(|r| r.interval_ms).collect();
     let budget_ms = 1000.0 / refresh_hz;
@@ -837,6 +850,7 @@ fn summarize(
                 .config
                 .record_threads
                 .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().slowest)),
+            motion: moving.then(|| median(&|f| f.motion_ms)),
         },
         cpu_frame_ms: Summary::of(&cpu),
         gpu_ms: passes,
@@ -867,6 +881,10 @@ fn summarize(
         gpu_cull_drawn_late: gpu_cull_median(&|c| c.drawn_late),
         gpu_cull_occluded: gpu_cull_median(&|c| c.occluded),
         gpu_cull_lod_dropped: gpu_cull_median(&|c| c.lod_dropped),
+        moved_instances: moving
+            .then(|| median(&|f| f.stats.motion.map_or(0.0, |m| m.moved as f64))),
+        motion_upload_bytes: moving
+            .then(|| median(&|f| f.stats.motion.map_or(0.0, |m| m.upload_bytes as f64))),
         timewarp: None,
         ..ConfigResult::default()
     }
