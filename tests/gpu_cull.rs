@@ -215,6 +215,7 @@ fn the_gpu_cull_bench_plans_parse_and_their_configs_validate() {
         "occlusion.toml",
         "lod.toml",
         "ufo-lod.toml",
+        "ufo-lod-1x.toml",
         "motion.toml",
         "scale.toml",
         "default.toml",

@@ -168,3 +168,80 @@ fn culling_skips_instances_wholly_beyond_the_plane_and_gpu_cull_still_clips() {
         "{differ} pixels differ between gpu-cull and CPU culling with the plane"
     );
 }
+
+/// The plane switched on and off between frames of one session: frames
+/// with it equal a renderer made with it, frames without equal one made
+/// without (the clipping pipelines are built when a plane first comes, and
+/// frames without one keep drawing with the pipelines that do not clip).
+#[test]
+fn a_plane_set_and_cleared_between_frames_cuts_exactly_those_frames() {
+    use glam::DVec3;
+    use vergence::bench::plan::cull_names;
+    use vergence::config::{PerDraw, RenderConfig};
+    use vergence::render::culling::plane_of;
+    use vergence::render::driver::FrameDriver;
+    use vergence::render::Renderer;
+    use vergence::view::profile::HmdProfile;
+    use vergence::view::Pose;
+    let ctx = common::context();
+    let scene = common::load("assets/Box/Box.gltf");
+    let rig = HmdProfile::load("valve-index")
+        .unwrap()
+        .rig(Pose::from_euler_deg(
+            DVec3::new(0.2, 0.1, 1.4),
+            0.0,
+            0.0,
+            0.0,
+        ));
+    // Cuts away x > 0 (the box's right half).
+    let plane = [1.0, 0.0, 0.0, 0.0];
+    let extent = ash::vk::Extent2D {
+        width: 96,
+        height: 96,
+    };
+    let before = ctx.validation_messages();
+    for (opts, per_draw) in [
+        ("multiview", PerDraw::Push),
+        ("two-pass,no-msaa", PerDraw::Ssbo),
+        ("multiview,mffr=0.5", PerDraw::Push),
+        ("multiview,superfrustum,gpu-cull", PerDraw::Push),
+    ] {
+        let config = |section: Option<[f64; 4]>| {
+            let mut c = RenderConfig {
+                per_draw,
+                section,
+                ..RenderConfig::default()
+            };
+            c.apply_opts(opts, &cull_names()).unwrap();
+            c
+        };
+        let one = |section| {
+            let r = Renderer::new(ctx.clone(), &scene, &config(section), extent).unwrap();
+            let mut d = FrameDriver::new(r, &scene).unwrap();
+            d.frame(&rig, 0, true).unwrap();
+            d.finish().unwrap();
+            d.read_images().unwrap()
+        };
+        let (whole, cut) = (one(None), one(Some(plane)));
+        assert_ne!(whole, cut, "{opts}: the plane cuts something");
+        let r = Renderer::new(ctx.clone(), &scene, &config(None), extent).unwrap();
+        let mut d = FrameDriver::new(r, &scene).unwrap();
+        for (i, on) in [false, true, false, true, true, false]
+            .into_iter()
+            .enumerate()
+        {
+            d.set_section(on.then(|| plane_of(plane)));
+            d.frame(&rig, i as u64, true).unwrap();
+            d.finish().unwrap();
+            let got = d.read_images().unwrap();
+            let want = if on { &cut } else { &whole };
+            assert!(&got == want, "{opts}: frame {i} (plane {on}) differs");
+        }
+    }
+    assert_eq!(
+        ctx.validation_messages(),
+        before,
+        "Vulkan validation messages: {:#?}",
+        ctx.validation_log()
+    );
+}

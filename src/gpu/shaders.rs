@@ -39,6 +39,12 @@ pub static SCENE_UBO_VERT: Module = spirv!("scene_ubo.vert");
 /// The scene's vertex shader taking per-draw data from a storage buffer
 /// indexed by the draw's firstInstance (`--per-draw ssbo`).
 pub static SCENE_SSBO_VERT: Module = spirv!("scene_ssbo.vert");
+/// [`SCENE_VERT`] writing the section plane's clip distance.
+pub static SCENE_CLIP_VERT: Module = spirv!("scene_clip.vert");
+/// [`SCENE_UBO_VERT`] writing the section plane's clip distance.
+pub static SCENE_UBO_CLIP_VERT: Module = spirv!("scene_ubo_clip.vert");
+/// [`SCENE_SSBO_VERT`] writing the section plane's clip distance.
+pub static SCENE_SSBO_CLIP_VERT: Module = spirv!("scene_ssbo_clip.vert");
 /// The scene's fragment shader with late fragment tests (alpha mask).
 pub static SCENE_FRAG: Module = spirv!("scene.frag");
 /// The scene's fragment shader with forced early fragment tests.
@@ -100,10 +106,13 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 30] = [
+pub static ALL: [&Module; 33] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
+    &SCENE_CLIP_VERT,
+    &SCENE_UBO_CLIP_VERT,
+    &SCENE_SSBO_CLIP_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
     &HIDDEN_VERT,

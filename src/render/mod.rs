@@ -635,6 +635,19 @@ impl Renderer {
         Ok(())
     }
 
+    /// Builds the scene pipelines that clip against the section plane (the
+    /// first frame with a plane; later ones find them).
+    fn ensure_section_pipelines(&mut self) -> Result<()> {
+        let mut passes = std::mem::take(&mut self.passes);
+        let setup = self.pipeline_setup();
+        let mut built = passes.forward.ensure_clipped(&setup);
+        if let (Ok(()), Some(far)) = (&built, passes.far.as_mut()) {
+            built = far.ensure_clipped(&setup);
+        }
+        self.passes = passes;
+        built
+    }
+
     /// Batches and records one stereo frame of `rig` (the command buffer
     /// stays open); [`Renderer::submit_frame`] completes it. With
     /// `gpu-cull` the GPU culls and `visible` must be None.
@@ -668,6 +681,9 @@ impl Renderer {
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
+        if self.extras.section.is_some() {
+            self.ensure_section_pipelines()?;
+        }
         if !self.updates.is_empty() {
             let instances = self.scene().instances.buffer;
             let boxes = self.passes.gpu_cull.as_ref().map(GpuCull::boxes);
@@ -1048,6 +1064,7 @@ impl Renderer {
             keys: &self.batcher.keys,
             vertices: &self.vertices,
             draw,
+            section: self.extras.section.is_some(),
         }
     }
 

@@ -21,7 +21,9 @@
 //! out of a pass would have been clipped or depth-rejected there, so the
 //! split changes no pixel.
 
-use super::{destroy_pipelines, to_sampled, PipelineSetup, Recorder, Scope, ScopePart};
+use super::{
+    destroy_pipelines, to_sampled, PipelineSetup, Recorder, ScenePipelines, Scope, ScopePart,
+};
 use crate::config::Mffr;
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
@@ -54,7 +56,7 @@ pub struct FarField {
     /// One far image, or one per eye (alternate eye).
     sets: Vec<AttachmentSet>,
     extent: vk::Extent2D,
-    pipelines: HashMap<PipelineKey, vk::Pipeline>,
+    pipelines: ScenePipelines,
     sky: vk::Pipeline,
     composite: vk::Pipeline,
     sampler: vk::Sampler,
@@ -90,7 +92,7 @@ impl FarField {
             settings,
             sets: Vec::new(),
             extent,
-            pipelines: HashMap::new(),
+            pipelines: ScenePipelines::default(),
             sky: vk::Pipeline::null(),
             composite: vk::Pipeline::null(),
             sampler,
@@ -119,17 +121,12 @@ impl FarField {
                 },
             )?);
         }
-        let (vs, fs) = (shaders::SCENE_VERT.words(), shaders::SCENE_FRAG.words());
         let full = shaders::FULLSCREEN_VERT.words();
         let (sky, composite) = (
             shaders::SKY_FRAG.words(),
             shaders::MFFR_COMPOSITE_FRAG.words(),
         );
-        self.pipelines = setup.scene_pipelines(&GraphicsPipelineDesc {
-            view_mask: 0,
-            shading_rate_attachment: false,
-            ..setup.scene_desc(&vs, &fs)
-        })?;
+        self.pipelines = ScenePipelines::new(Self::scene_pipelines(setup, false)?);
         self.sky = GraphicsPipelineDesc {
             view_mask: 0,
             shading_rate_attachment: false,
@@ -142,6 +139,33 @@ impl FarField {
             ..setup.fullscreen_desc("far-field composite", &full, &composite)
         }
         .build(ctx)?;
+        Ok(())
+    }
+
+    fn scene_pipelines(
+        setup: &PipelineSetup,
+        section: bool,
+    ) -> Result<HashMap<PipelineKey, vk::Pipeline>> {
+        let vertex = if section {
+            &shaders::SCENE_CLIP_VERT
+        } else {
+            &shaders::SCENE_VERT
+        };
+        let (vs, fs) = (vertex.words(), shaders::SCENE_FRAG.words());
+        setup.scene_pipelines(&GraphicsPipelineDesc {
+            view_mask: 0,
+            shading_rate_attachment: false,
+            ..setup.scene_desc(&vs, &fs)
+        })
+    }
+
+    /// Builds the pipelines that clip against the section plane, unless
+    /// they exist.
+    pub fn ensure_clipped(&mut self, setup: &PipelineSetup) -> Result<()> {
+        if !self.pipelines.has_clipped() {
+            self.pipelines
+                .set_clipped(Self::scene_pipelines(setup, true)?);
+        }
         Ok(())
     }
 
@@ -280,7 +304,13 @@ impl FarField {
             let far = batches.far_draws();
             let base = batches.far_start.unwrap_or(0) as u32;
             let sky = Some((self.sky, rec.sky_slot(far)));
-            draws += rec.draw_batches(far, base, &self.pipelines, sky, 2 + i as u32);
+            draws += rec.draw_batches(
+                far,
+                base,
+                self.pipelines.get(rec.section),
+                sky,
+                2 + i as u32,
+            );
             rec.end_scope();
             rec.barriers(&[to_sampled(&set.resolve)]);
         }
@@ -306,7 +336,7 @@ impl FarField {
     pub fn destroy(self, ctx: &Context) {
         destroy_pipelines(
             ctx,
-            self.pipelines.values().chain([&self.sky, &self.composite]),
+            self.pipelines.all().chain([&self.sky, &self.composite]),
         );
         // SAFETY: the device is idle; the sampler belongs to `self`.
         unsafe { ctx.device.destroy_sampler(self.sampler, None) };

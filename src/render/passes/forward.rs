@@ -7,7 +7,7 @@
 //! scope draws both eyes (view mask 0b11); in two-pass each eye has its own.
 
 use super::gpu_cull::GpuCull;
-use super::{destroy_pipelines, PipelineSetup, Recorder};
+use super::{destroy_pipelines, PipelineSetup, Recorder, ScenePipelines};
 use crate::config::PerDraw;
 use crate::error::Result;
 use crate::gpu::shaders;
@@ -20,24 +20,44 @@ use std::collections::HashMap;
 /// The scene and sky pipelines of the forward views.
 #[derive(Default)]
 pub struct Forward {
-    pipelines: HashMap<PipelineKey, vk::Pipeline>,
+    pipelines: ScenePipelines,
     sky: vk::Pipeline,
 }
 
 impl Forward {
     /// Builds the scene pipelines and the sky.
     pub fn new(setup: &PipelineSetup) -> Result<Forward> {
-        let vertex = match setup.per_draw {
-            PerDraw::Push => &shaders::SCENE_VERT,
-            PerDraw::Ubo => &shaders::SCENE_UBO_VERT,
-            PerDraw::Ssbo => &shaders::SCENE_SSBO_VERT,
-        };
-        let (vs, fs) = (vertex.words(), shaders::SCENE_FRAG.words());
         let (full, sky) = (shaders::FULLSCREEN_VERT.words(), shaders::SKY_FRAG.words());
         Ok(Forward {
-            pipelines: setup.scene_pipelines(&setup.scene_desc(&vs, &fs))?,
+            pipelines: ScenePipelines::new(Self::scene_pipelines(setup, false)?),
             sky: setup.fullscreen_desc("sky", &full, &sky).build(setup.ctx)?,
         })
+    }
+
+    fn scene_pipelines(
+        setup: &PipelineSetup,
+        section: bool,
+    ) -> Result<HashMap<PipelineKey, vk::Pipeline>> {
+        let vertex = match (setup.per_draw, section) {
+            (PerDraw::Push, false) => &shaders::SCENE_VERT,
+            (PerDraw::Ubo, false) => &shaders::SCENE_UBO_VERT,
+            (PerDraw::Ssbo, false) => &shaders::SCENE_SSBO_VERT,
+            (PerDraw::Push, true) => &shaders::SCENE_CLIP_VERT,
+            (PerDraw::Ubo, true) => &shaders::SCENE_UBO_CLIP_VERT,
+            (PerDraw::Ssbo, true) => &shaders::SCENE_SSBO_CLIP_VERT,
+        };
+        let (vs, fs) = (vertex.words(), shaders::SCENE_FRAG.words());
+        setup.scene_pipelines(&setup.scene_desc(&vs, &fs))
+    }
+
+    /// Builds the pipelines that clip against the section plane, unless
+    /// they exist.
+    pub fn ensure_clipped(&mut self, setup: &PipelineSetup) -> Result<()> {
+        if !self.pipelines.has_clipped() {
+            self.pipelines
+                .set_clipped(Self::scene_pipelines(setup, true)?);
+        }
+        Ok(())
     }
 
     /// Draws `draws` (the frame's list from its start) for view `eye`
@@ -45,7 +65,7 @@ impl Forward {
     /// calls.
     pub fn record(&self, rec: &Recorder, draws: &[Draw], eye: u32, with_sky: bool) -> u64 {
         let sky = with_sky.then(|| (self.sky, rec.sky_slot(draws)));
-        rec.draw_batches(draws, 0, &self.pipelines, sky, eye)
+        rec.draw_batches(draws, 0, self.pipelines.get(rec.section), sky, eye)
     }
 
     /// Draws the run `run` of the frame's list `draws` for view `eye` into
@@ -64,7 +84,7 @@ impl Forward {
     ) -> u64 {
         let sky = sky_in_run(at, draws.len(), &run, last).map(|i| (self.sky, i));
         let base = run.start as u32;
-        rec.draw_batches(&draws[run], base, &self.pipelines, sky, eye)
+        rec.draw_batches(&draws[run], base, self.pipelines.get(rec.section), sky, eye)
     }
 
     /// Draws the primitives `gpu` culled into frame slot `slot` (its late
@@ -82,7 +102,7 @@ impl Forward {
     ) -> u64 {
         gpu.record_draws(
             rec,
-            &self.pipelines,
+            self.pipelines.get(rec.section),
             with_sky.then_some(self.sky),
             eye,
             slot,
@@ -92,6 +112,6 @@ impl Forward {
 
     /// Destroys the pipelines; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
-        destroy_pipelines(ctx, self.pipelines.values().chain([&self.sky]));
+        destroy_pipelines(ctx, self.pipelines.all().chain([&self.sky]));
     }
 }

@@ -273,6 +273,52 @@ impl PipelineSetup<'_> {
     }
 }
 
+/// The scene pipelines of one pass: without the section plane's clip
+/// distance, and — built the first time a frame has a plane — with it.
+/// A clip-distance output costs even when it never cuts (see
+/// `shaders/scene_vert_body.glsl`), so frames without a plane draw with
+/// the plain ones.
+#[derive(Default)]
+pub struct ScenePipelines {
+    plain: HashMap<PipelineKey, vk::Pipeline>,
+    clipped: HashMap<PipelineKey, vk::Pipeline>,
+}
+
+impl ScenePipelines {
+    /// The plain pipelines (the clipped ones come with [`Self::set_clipped`]).
+    pub fn new(plain: HashMap<PipelineKey, vk::Pipeline>) -> ScenePipelines {
+        ScenePipelines {
+            plain,
+            clipped: HashMap::new(),
+        }
+    }
+
+    /// Whether the clipped pipelines exist.
+    pub fn has_clipped(&self) -> bool {
+        !self.clipped.is_empty() || self.plain.is_empty()
+    }
+
+    /// Adds the clipped pipelines.
+    pub fn set_clipped(&mut self, clipped: HashMap<PipelineKey, vk::Pipeline>) {
+        self.clipped = clipped;
+    }
+
+    /// The pipelines a frame with (`section`) or without a plane draws
+    /// with; the clipped ones must have been built for a frame with one.
+    pub fn get(&self, section: bool) -> &HashMap<PipelineKey, vk::Pipeline> {
+        if section {
+            &self.clipped
+        } else {
+            &self.plain
+        }
+    }
+
+    /// Every pipeline, for destruction.
+    pub fn all(&self) -> impl Iterator<Item = &vk::Pipeline> {
+        self.plain.values().chain(self.clipped.values())
+    }
+}
+
 /// Where the sky goes in `draws` (primitives keyed by `keys`): before the
 /// first blended draw, else after the last.
 pub fn sky_slot(keys: &[PipelineKey], draws: &[Draw]) -> usize {
@@ -402,6 +448,8 @@ pub struct Recorder<'a> {
     pub vertices: &'a VertexBindings,
     /// How scene draws pass their per-draw data.
     pub draw: DrawBinding,
+    /// Whether the frame has a section plane (its draws clip against it).
+    pub section: bool,
 }
 
 impl Recorder<'_> {

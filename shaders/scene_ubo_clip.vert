@@ -1,0 +1,7 @@
+#version 450
+#extension GL_EXT_multiview : require
+#extension GL_GOOGLE_include_directive : require
+// With the section plane's clip distance (pipelines built when a plane is first set).
+#define PER_DRAW 1
+#define SECTION 1
+#include "scene_vert_body.glsl"
