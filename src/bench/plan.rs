@@ -45,6 +45,13 @@ pub struct Plan {
     /// Warm-up frames per configuration (not measured).
     #[serde(default = "default_warmup")]
     pub warmup: u32,
+    /// Before its warm-up frames, each configuration renders its first
+    /// view for at least this many milliseconds, unmeasured: a GPU that
+    /// idled while the previous configuration's images were compared
+    /// takes a few hundred ms to reach its clocks again (on the H200,
+    /// 250–300 ms of frames at 3–5× their steady time).
+    #[serde(default = "default_spin_up_ms")]
+    pub spin_up_ms: u32,
     /// Measured frames per configuration.
     pub frames: u32,
     /// Frames (evenly spaced over the measured ones) whose images are
@@ -80,6 +87,9 @@ fn one_scale() -> Vec<f64> {
 }
 fn default_warmup() -> u32 {
     5
+}
+fn default_spin_up_ms() -> u32 {
+    500
 }
 fn default_error_frames() -> u32 {
     2
@@ -195,6 +205,12 @@ impl Plan {
         }
         if self.frames == 0 || self.frames > 100_000 {
             return Err(format!("frames = {} must be in 1..=100000", self.frames));
+        }
+        if self.spin_up_ms > 60_000 {
+            return Err(format!(
+                "spin_up_ms = {} must be at most 60000",
+                self.spin_up_ms
+            ));
         }
         if self.warmup > 10_000 {
             return Err(format!("warmup = {} must be at most 10000", self.warmup));

@@ -571,6 +571,20 @@ fn measure(
             frames.push(r);
         }
     };
+    // Spin-up: the first view, unmeasured, until the GPU is back at its
+    // clocks (see `Plan::spin_up_ms`).
+    if let Some(first) = rigs.first() {
+        let spin = std::time::Instant::now();
+        while spin.elapsed().as_secs_f64() * 1e3 < plan.spin_up_ms as f64 {
+            driver.frame(first, 0, false)?;
+            while driver.take_completed().is_some() {}
+            if crate::quit::requested() {
+                return Ok(None);
+            }
+        }
+        driver.finish()?;
+        while driver.take_completed().is_some() {}
+    }
     for (i, rig) in rigs.iter().enumerate() {
         driver.frame(rig, i as u64, false)?;
         while let Some(r) = driver.take_completed() {

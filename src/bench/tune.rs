@@ -70,6 +70,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
         // GPUs ramp their clocks and drivers finish pipelines over the first
         // frames: p95 needs a real warm-up.
         warmup: (frames / 2).clamp(10, 60),
+        spin_up_ms: 500,
         frames,
         error_frames: frames.min(2),
         path_seed: 1,
