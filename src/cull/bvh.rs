@@ -135,6 +135,10 @@ pub struct Bvh {
     /// Hierarchy position of each instance (the inverse of `order`), built
     /// by the first [`Bvh::update`].
     rank: Vec<u32>,
+    /// Per node its parent (the root its own), and per hierarchy position
+    /// its leaf; built by the first [`Bvh::update`].
+    parent: Vec<u32>,
+    leaf_of: Vec<u32>,
 }
 
 /// One hierarchy node: bounds and topology packed into one 64-byte cache
@@ -345,6 +349,8 @@ impl Bvh {
             block_words,
             node_words,
             rank: Vec::new(),
+            parent: Vec::new(),
+            leaf_of: Vec::new(),
         };
         bvh.refit_nodes();
         Ok(bvh)
@@ -412,10 +418,7 @@ impl Bvh {
             });
         }
         if self.rank.len() != self.len() {
-            self.rank = vec![0; self.len()];
-            for (k, &i) in self.order.iter().enumerate() {
-                self.rank[i as usize] = k as u32;
-            }
+            self.index_for_updates();
         }
         for &(i, (lo, hi)) in moved {
             let k = self.rank[i as usize] as usize;
@@ -426,10 +429,68 @@ impl Bvh {
                 }
             }
         }
-        if !moved.is_empty() {
+        // Few moved: refit their leaves and those leaves' ancestors only;
+        // many: every node, in parallel.
+        if moved.len() * 8 > self.node_count() {
             self.refit_nodes();
+            return Ok(());
+        }
+        let mut dirty: Vec<u32> = Vec::with_capacity(moved.len() * 4);
+        let mut marked = std::collections::HashSet::with_capacity(moved.len() * 4);
+        for &(i, _) in moved {
+            let mut n = self.leaf_of[self.rank[i as usize] as usize];
+            while marked.insert(n) {
+                dirty.push(n);
+                if n == 0 {
+                    break;
+                }
+                n = self.parent[n as usize];
+            }
+        }
+        // Children come after their parent in depth-first order.
+        dirty.sort_unstable_by(|a, b| b.cmp(a));
+        for n in dirty {
+            let i = n as usize;
+            let b = if self.is_leaf(i) {
+                let s = self.nodes[i].first as usize;
+                let e = s + self.nodes[i].count as usize;
+                (s..e).fold((DVec3::INFINITY, DVec3::NEG_INFINITY), |acc, k| {
+                    let (lo, hi) = self.ordered.get(k);
+                    (acc.0.min(lo), acc.1.max(hi))
+                })
+            } else {
+                let (l, r) = (
+                    &self.nodes[i + 1],
+                    &self.nodes[self.nodes[i].right as usize],
+                );
+                (l.lo.min(r.lo), l.hi.max(r.hi))
+            };
+            self.nodes[i].lo = b.0;
+            self.nodes[i].hi = b.1;
         }
         Ok(())
+    }
+
+    /// Builds `rank`, `parent` and `leaf_of` (what [`Bvh::update`] walks).
+    fn index_for_updates(&mut self) {
+        self.rank = vec![0; self.len()];
+        for (k, &i) in self.order.iter().enumerate() {
+            self.rank[i as usize] = k as u32;
+        }
+        self.parent = vec![0; self.node_count()];
+        self.leaf_of = vec![0; self.len()];
+        for i in 0..self.node_count() {
+            if self.is_leaf(i) {
+                let s = self.nodes[i].first as usize;
+                let e = s + self.nodes[i].count as usize;
+                for k in s..e {
+                    self.leaf_of[k] = i as u32;
+                }
+            } else {
+                self.parent[i + 1] = i as u32;
+                self.parent[self.nodes[i].right as usize] = i as u32;
+            }
+        }
     }
 
     fn refit_nodes(&mut self) {
@@ -464,6 +525,60 @@ impl Bvh {
             };
             self.nodes[i].lo = b.0;
             self.nodes[i].hi = b.1;
+        }
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn boxes(n: usize, seed: u64) -> Vec<(DVec3, DVec3)> {
+        let mut s = seed.wrapping_mul(6364136223846793005).wrapping_add(1);
+        let mut next = || {
+            s = s
+                .wrapping_mul(6364136223846793005)
+                .wrapping_add(1442695040888963407);
+            (s >> 11) as f64 / (1u64 << 53) as f64
+        };
+        (0..n)
+            .map(|_| {
+                let c = DVec3::new(next(), next(), next()) * 200.0 - 100.0;
+                let h = DVec3::new(next(), next(), next()) * 2.0 + 0.01;
+                (c - h, c + h)
+            })
+            .collect()
+    }
+
+    proptest! {
+        /// Moving a few instances refits only their leaves' paths to the
+        /// root, yet every node ends with the box a full refit gives.
+        #[test]
+        fn a_partial_update_gives_the_nodes_of_a_full_refit(
+            n in 1usize..3000,
+            leaf in 1usize..17,
+            seed in 0u64..1000,
+            moves in proptest::collection::vec((0usize..3000, -50.0f64..50.0), 1..12),
+        ) {
+            let start = boxes(n, seed);
+            let mut partial = Bvh::build(&start, leaf).unwrap();
+            let mut all = start.clone();
+            let mut moved = Vec::new();
+            for (i, d) in moves {
+                let i = i % n;
+                let b = (all[i].0 + DVec3::splat(d), all[i].1 + DVec3::splat(d));
+                all[i] = b;
+                moved.push((i as u32, b));
+            }
+            // Twice: the second update finds the index maps built.
+            partial.update(&moved).unwrap();
+            partial.update(&moved).unwrap();
+            let mut full = Bvh::build(&start, leaf).unwrap();
+            full.refit(&all).unwrap();
+            prop_assert_eq!(&partial.nodes, &full.nodes);
+            prop_assert_eq!(&partial.instances, &full.instances);
+            prop_assert_eq!(&partial.ordered, &full.ordered);
         }
     }
 }

@@ -18,6 +18,7 @@ use crate::interact::section::SectionPlane;
 use crate::scene::motion::{transforms_at, Moved, MovingGroup};
 use crate::scene::{Scene, WorldBounds};
 use crate::view::{Fov, StereoRig};
+use rayon::prelude::*;
 use std::collections::VecDeque;
 use std::time::Instant;
 
@@ -94,22 +95,26 @@ struct MotionState {
 
 impl MotionState {
     /// The instances at time `t`: transforms and bounds into the buffers.
-    fn at(&mut self, t: f64) {
+    /// The instances at time `t`: transforms and bounds into the buffers,
+    /// in parallel; with `boxes` also the (index, box) pairs CPU culling
+    /// takes.
+    fn at(&mut self, t: f64, boxes: bool) {
         transforms_at(&self.groups, t, &mut self.moved);
         let mesh_bounds = &self.mesh_bounds;
-        self.bounds.clear();
-        self.bounds.extend(
-            self.moved
-                .iter()
-                .map(|m| WorldBounds::of(mesh_bounds[m.mesh as usize], &m.transform)),
-        );
+        self.moved
+            .par_iter()
+            .with_min_len(256)
+            .map(|m| WorldBounds::of(mesh_bounds[m.mesh as usize], &m.transform))
+            .collect_into_vec(&mut self.bounds);
         self.boxes.clear();
-        self.boxes.extend(
+        if boxes {
             self.moved
-                .iter()
-                .zip(&self.bounds)
-                .map(|(m, b)| (m.index, (b.min, b.max))),
-        );
+                .par_iter()
+                .zip(self.bounds.par_iter())
+                .with_min_len(256)
+                .map(|(m, b)| (m.index, (b.min, b.max)))
+                .collect_into_vec(&mut self.boxes);
+        }
     }
 }
 
@@ -202,7 +207,7 @@ impl FrameDriver {
             .take()
             .unwrap_or(index as f64 / DEFAULT_FRAME_RATE);
         if let Some(m) = self.motion.as_mut() {
-            m.at(time);
+            m.at(time, self.culling.is_some());
             if let Some(c) = self.culling.as_mut() {
                 c.move_instances(&m.boxes)?;
             }

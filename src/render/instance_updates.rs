@@ -14,8 +14,12 @@ use crate::error::{Error, Result};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
 use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
+use crate::render::scene_gpu::instance_record;
+use crate::scene::motion::Moved;
+use crate::scene::WorldBounds;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
+use rayon::prelude::*;
 
 /// Floats of one vertex-shader instance record (`InstanceData`).
 pub const INSTANCE_FLOATS: usize = 16;
@@ -32,6 +36,25 @@ struct Stream {
 }
 
 impl Stream {
+    /// Appends `n` records `floats` wide for the instances `index(i)`,
+    /// record `i` filled by `fill(i, out)` in parallel.
+    fn push(
+        &mut self,
+        n: usize,
+        floats: usize,
+        index: impl Fn(usize) -> u32,
+        fill: impl Fn(usize, &mut [f32]) + Sync,
+    ) {
+        self.at.extend((0..n).map(index));
+        let start = self.data.len();
+        self.data.resize(start + n * floats, 0.0);
+        self.data[start..]
+            .par_chunks_mut(floats)
+            .enumerate()
+            .with_min_len(256)
+            .for_each(|(i, out)| fill(i, out));
+    }
+
     fn clear(&mut self) {
         self.at.clear();
         self.data.clear();
@@ -59,6 +82,10 @@ impl Stream {
         out
     }
 }
+
+/// Makes a moved instance's cull box record from its transform and world
+/// bounds.
+pub type BoxRecord = dyn Fn(&Moved, &WorldBounds) -> [f32; BOX_FLOATS] + Sync;
 
 /// The per-slot staging of moved instances.
 pub struct InstanceUpdates {
@@ -88,16 +115,31 @@ impl InstanceUpdates {
         }
     }
 
-    /// Stages instance `index`'s vertex-shader record.
-    pub fn stage_instance(&mut self, index: u32, record: &[f32; INSTANCE_FLOATS]) {
-        self.instances.at.push(index);
-        self.instances.data.extend_from_slice(record);
+    /// Stages the records of `moved` (world bounds in `bounds`, one per
+    /// entry): each one's vertex-shader record, and with `boxes` its cull
+    /// box as that function makes it. Built in parallel.
+    pub fn stage(
+        &mut self,
+        moved: &[Moved],
+        bounds: &[WorldBounds],
+        boxes: Option<&BoxRecord>,
+    ) {
+        let n = moved.len().min(bounds.len());
+        let index = |i: usize| moved[i].index;
+        self.instances.push(n, INSTANCE_FLOATS, index, |i, out| {
+            out.copy_from_slice(&instance_record(&moved[i].transform))
+        });
+        if let Some(f) = boxes {
+            self.boxes.push(n, BOX_FLOATS, index, |i, out| {
+                out.copy_from_slice(&f(&moved[i], &bounds[i]))
+            });
+        }
     }
 
-    /// Stages instance `index`'s cull box.
-    pub fn stage_box(&mut self, index: u32, record: &[f32; BOX_FLOATS]) {
-        self.boxes.at.push(index);
-        self.boxes.data.extend_from_slice(record);
+    /// Drops what is staged.
+    pub fn clear(&mut self) {
+        self.instances.clear();
+        self.boxes.clear();
     }
 
     /// Whether anything is staged.

@@ -625,13 +625,15 @@ impl Renderer {
         for (m, b) in moved.iter().zip(bounds) {
             instance_updates::check_index(m.index, self.instance_count)?;
             self.batcher.move_instance(m.index, b.center, b.radius);
-            self.updates
-                .stage_instance(m.index, &scene_gpu::instance_record(&m.transform));
-            if let Some(gpu) = self.passes.gpu_cull.as_ref() {
-                self.updates
-                    .stage_box(m.index, &gpu.box_of(m.mesh, b, &m.transform));
-            }
         }
+        let gpu = self.passes.gpu_cull.as_ref();
+        let boxes = |m: &crate::scene::motion::Moved, b: &crate::scene::WorldBounds| {
+            gpu.map_or([0.0; instance_updates::BOX_FLOATS], |g| {
+                g.box_of(m.mesh, b, &m.transform)
+            })
+        };
+        self.updates
+            .stage(moved, bounds, gpu.is_some().then_some(&boxes as _));
         Ok(())
     }
 
