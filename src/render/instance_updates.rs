@@ -85,7 +85,7 @@ impl Stream {
 
 /// Makes a moved instance's cull box record from its transform and world
 /// bounds.
-pub type BoxRecord = dyn Fn(&Moved, &WorldBounds) -> [f32; BOX_FLOATS] + Sync;
+pub type BoxRecord<'a> = dyn Fn(&Moved, &WorldBounds) -> [f32; BOX_FLOATS] + Sync + 'a;
 
 /// The per-slot staging of moved instances.
 pub struct InstanceUpdates {
@@ -122,7 +122,7 @@ impl InstanceUpdates {
         &mut self,
         moved: &[Moved],
         bounds: &[WorldBounds],
-        boxes: Option<&BoxRecord>,
+        boxes: Option<&BoxRecord<'_>>,
     ) {
         let n = moved.len().min(bounds.len());
         let index = |i: usize| moved[i].index;
