@@ -14,6 +14,11 @@
 // next frame, and draws those phase 1 did not. The late commands and
 // counts follow the early ones (index + primitives), and the late visible
 // ranges follow the early ones (firstInstance in the late template).
+//
+// With a monoscopic far field (`mffr`, no occlusion) the second set is the
+// far pass's: an instance whose bounding sphere reaches nearer than the
+// split goes to the near views' set, one reaching beyond it to the far
+// set (a straddling one to both), as the CPU batcher splits.
 
 // Included by gpu_cull.comp (SUBGROUP 1: appends and counters aggregated
 // per subgroup with ballots, one atomic per subgroup and command instead of
@@ -46,6 +51,8 @@ layout(std140, set = 0, binding = 0) uniform Volumes {
     vec4 origin_hi;
     vec4 origin_lo;
     uvec4 counts;        // instances, threads per dispatch row
+    vec4 split_axes[8];  // mffr: eye 0, eye 1, far 0, far 1: position (w 1: used), forward
+    vec4 split;          // mffr: near threshold, far threshold
 } vol;
 
 layout(std430, set = 0, binding = 1) readonly buffer Instances { CullInstance instances[]; };
@@ -78,8 +85,8 @@ layout(push_constant) uniform Push {
     uint lod;         // 1: select LOD levels and drop sub-bound instances
     float lod_k;      // pixel density over the error bound
     float eye_slack;  // the eyes' largest distance from the render origin
-    uint unused0;
-    uint unused1;
+    uint far_mode;    // mffr: 0 all near, 1 split (vol.split_axes), 2 all in both
+    uint unused;
 } pc;
 
 const float PIXEL_SLACK = 0.5;
@@ -295,6 +302,31 @@ void main() {
                 flags.y = true;
                 if (dropped) {
                     was_dropped = true;
+                } else if (pc.phase == 0u && pc.far_mode != 0u) {
+                    // src/cull/gpu.rs `FarSplitAxes`: near along an eye's
+                    // axis, far along a far camera's.
+                    float r = length(inst.extent.xyz);
+                    bool near = pc.far_mode == 2u;
+                    bool far = near;
+                    for (uint k = 0u; k < 4u; ++k) {
+                        vec4 p = vol.split_axes[2u * k];
+                        if (p.w == 0.0) {
+                            continue;
+                        }
+                        float along = dot(c - p.xyz, vol.split_axes[2u * k + 1u].xyz);
+                        if (k < 2u) {
+                            near = near || along - r < vol.split.x;
+                        } else {
+                            far = far || along + r > vol.split.y;
+                        }
+                    }
+                    flags.z = true;
+                    if (near) {
+                        append(i, inst, c, 0u);
+                    }
+                    if (far) {
+                        append(i, inst, c, pc.primitives);
+                    }
                 } else if (pc.phase == 0u || visibility[i] != 0u) {
                     flags.z = true;
                     append(i, inst, c, 0u);

@@ -345,10 +345,10 @@ impl RenderConfig {
                 "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
             ));
         }
-        if self.gpu_cull && self.mffr.is_some() {
+        if self.occlusion && self.mffr.is_some() {
             return Err(Error::config(
                 "--opt",
-                "gpu-cull and mffr cannot be combined yet: the near/far instance split runs on the CPU only",
+                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
             ));
         }
         if let Some(n) = self.record_threads {

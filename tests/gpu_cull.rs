@@ -166,6 +166,26 @@ fn gpu_cull_combines_with_msaa_masks_and_foveation() {
     }
 }
 
+/// With a monoscopic far field the GPU splits the visible instances into
+/// the near views' draws and the far pass's as the CPU batcher does: the
+/// same counts every frame and the same pixels, for a fixed and an
+/// automatic split, without the split, and with alternating far eyes.
+#[test]
+fn gpu_cull_splits_near_from_far_like_the_cpu() {
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let scene = load("factory:3000");
+    let rigs = path(&profile);
+    for opts in [
+        "multiview,superfrustum,mffr=12",
+        "two-pass,per-eye,mffr",
+        "multiview,superfrustum,no-msaa,mffr=8,mffr-no-split",
+        "multiview,conical-superfrustum,mffr=10,mffr-alternate-eye,stencil-mask",
+    ] {
+        same_as_cpu(&ctx, &scene, &rigs, opts);
+    }
+}
+
 #[test]
 fn impossible_gpu_cull_combinations_are_one_clear_error() {
     let mut c = RenderConfig::default();
@@ -177,9 +197,10 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
         stereo: StereoMode::Multiview,
         ..RenderConfig::default()
     };
-    c.apply_opts("gpu-cull,mffr", &cull_names()).unwrap();
+    c.apply_opts("gpu-cull,occlusion,mffr", &cull_names())
+        .unwrap();
     let e = c.validate().unwrap_err().to_string();
-    assert!(e.contains("gpu-cull and mffr cannot be combined"), "{e}");
+    assert!(e.contains("occlusion and mffr cannot be combined"), "{e}");
     let stderr = common::fails_with_one_error(
         std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
             .args([
@@ -187,12 +208,12 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
                 "--scene",
                 "factory:10",
                 "--opt",
-                "per-eye,gpu-cull,mffr",
+                "per-eye,gpu-cull,occlusion,mffr",
             ])
             .arg("--out")
             .arg(common::scratch("gpu-cull", "mffr")),
     );
-    assert!(stderr.contains("gpu-cull and mffr"), "{stderr}");
+    assert!(stderr.contains("occlusion and mffr"), "{stderr}");
     // A CPU visible list (the bench's empty-frame floor) is refused, not
     // silently replaced by the GPU's.
     let ctx = context();

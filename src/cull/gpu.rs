@@ -56,10 +56,76 @@ pub struct VolumeData {
     /// x: instance count; y: dispatch width in instances (threads per row
     /// of workgroups); z, w: unused.
     pub counts: [u32; 4],
+    /// A monoscopic far field's split (`mffr`; see [`FarSplitAxes`]):
+    /// each eye's and far camera's position relative to the render origin
+    /// (xyz; w = 1 when the axis is used) and unit forward direction,
+    /// in the order eye 0, eye 1, far 0, far 1.
+    pub split_axes: [[f32; 4]; 8],
+    /// x: the near test's threshold (split + margin); y: the far test's
+    /// (split − margin); z, w: unused.
+    pub split: [f32; 4],
 }
 
-/// Bytes of [`VolumeData`]: 2 uvec4 and 21 vec4, no padding.
-pub const VOLUME_DATA_SIZE: usize = 23 * 16;
+/// Bytes of [`VolumeData`]: 2 uvec4 and 30 vec4, no padding.
+pub const VOLUME_DATA_SIZE: usize = 32 * 16;
+
+/// The near/far split of a monoscopic far field (`mffr`), as both the CPU
+/// batcher and the GPU cull test it: an instance (bounding sphere centre
+/// `c`, radius `r`) is near when, along some eye's forward axis, it
+/// reaches nearer than `split + margin`, and far when, along some far
+/// camera's axis, it reaches beyond `split − margin` (both when it
+/// straddles).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct FarSplitAxes {
+    /// The eyes' positions and unit forward directions.
+    pub eyes: [(DVec3, DVec3); 2],
+    /// The far cameras rendered this frame (position, unit forward).
+    pub fars: [Option<(DVec3, DVec3)>; 2],
+    /// The split distance (metres).
+    pub split: f64,
+    /// The tolerance added on either side (metres).
+    pub margin: f64,
+}
+
+impl FarSplitAxes {
+    /// Whether the near views draw the sphere.
+    pub fn near(&self, c: DVec3, r: f64) -> bool {
+        self.eyes
+            .iter()
+            .any(|(p, f)| (c - *p).dot(*f) - r < self.split + self.margin)
+    }
+
+    /// Whether the far pass draws the sphere.
+    pub fn far(&self, c: DVec3, r: f64) -> bool {
+        self.fars
+            .iter()
+            .flatten()
+            .any(|(p, f)| (c - *p).dot(*f) + r > self.split - self.margin)
+    }
+
+    /// Writes the axes relative to the render origin `origin` into `data`.
+    pub fn write(&self, origin: DVec3, data: &mut VolumeData) {
+        let axes = [
+            Some(self.eyes[0]),
+            Some(self.eyes[1]),
+            self.fars[0],
+            self.fars[1],
+        ];
+        for (k, a) in axes.iter().enumerate() {
+            data.split_axes[2 * k] = match a {
+                Some((p, _)) => v4(*p - origin, 1.0),
+                None => [0.0; 4],
+            };
+            data.split_axes[2 * k + 1] = a.map_or([0.0; 4], |(_, f)| v4(f, 0.0));
+        }
+        data.split = [
+            (self.split + self.margin) as f32,
+            (self.split - self.margin) as f32,
+            0.0,
+            0.0,
+        ];
+    }
+}
 
 const _: () = assert!(std::mem::size_of::<VolumeData>() == VOLUME_DATA_SIZE);
 

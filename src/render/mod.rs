@@ -52,7 +52,7 @@ use descriptors::{Descriptors, SetContents};
 use gpu_allocator::MemoryLocation;
 use passes::far_field::FarField;
 pub use passes::gpu_cull::GpuCullStats;
-use passes::gpu_cull::{GpuCull, LodFrame};
+use passes::gpu_cull::{FarSplit, GpuCull, LodFrame};
 use passes::output::{OutputCopy, Readback};
 use passes::{Passes, PipelineSetup, Recorder, Scope, ScopePart, VertexBindings};
 use scene_gpu::SceneGpu;
@@ -110,6 +110,9 @@ pub struct FrameStats {
     /// In a scene with moving instances: what the frame uploaded of them.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motion: Option<instance_updates::UpdateStats>,
+    /// Far cameras the monoscopic far field rendered this frame (0 to 2).
+    #[serde(skip)]
+    pub far_passes: u64,
 }
 
 struct Pending {
@@ -347,6 +350,7 @@ impl Renderer {
                 &r.ubos,
                 occlusion,
                 config.lod.is_some(),
+                config.mffr.is_some(),
             )?;
             r.passes.gpu_cull = Some(gpu);
         }
@@ -594,7 +598,7 @@ impl Renderer {
                 StereoMode::Multiview => 1,
                 StereoMode::TwoPass => 2,
             };
-            stats.draw_calls += view_sets * drawn.draws;
+            stats.draw_calls += view_sets * drawn.draws + stats.far_passes * drawn.far_draws;
             stats.instances_drawn = drawn.instances;
             stats.triangles = drawn.triangles;
             stats.gpu_cull = Some(drawn.cull);
@@ -703,6 +707,21 @@ impl Renderer {
         let mut batches = std::mem::take(&mut self.batches);
         let gpu_cull = self.passes.gpu_cull.is_some();
         match self.passes.far.as_mut() {
+            // The GPU splits near from far: only the plan is made here.
+            Some(far) if gpu_cull => {
+                batches = Batches::default();
+                let split = if !far.plan(rig, self.extent.width, self.frame_index) {
+                    self.mffr_fallbacks += 1;
+                    FarSplit::AllNear
+                } else if !self.mffr_partition {
+                    FarSplit::Both
+                } else {
+                    far.split_axes(rig).map_or(FarSplit::AllNear, FarSplit::At)
+                };
+                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+                    gpu.set_far_split(split);
+                }
+            }
             _ if gpu_cull => batches = Batches::default(),
             Some(far) => {
                 if !far.plan(rig, self.extent.width, self.frame_index) {
@@ -733,6 +752,12 @@ impl Renderer {
         };
         stats.instances_drawn = passes * batches.instances_drawn;
         stats.triangles = passes * batches.triangles;
+        stats.far_passes = self
+            .passes
+            .far
+            .as_ref()
+            .and_then(|f| f.frame())
+            .map_or(0, |f| f.render.iter().filter(|&&r| r).count() as u64);
         if let Some(gpu) = self.passes.gpu_cull.as_mut() {
             let strategy = self
                 .config
@@ -769,7 +794,7 @@ impl Renderer {
                 }
                 None => LodFrame::default(),
             };
-            gpu.upload(slot, data, lod)?;
+            gpu.upload(slot, data, lod, rig.head.position)?;
         } else {
             self.ensure_visible_capacity(slot, batches.ids.len())?;
             let ids: &[u8] = as_bytes(&batches.ids);
@@ -952,7 +977,10 @@ impl Renderer {
         rec.barriers(&targets.begin_barriers());
         q.begin_stats(ctx, cmd);
         if let Some(far) = far {
-            draw_calls += far.record(&rec, q, batches);
+            draw_calls += match gpu_cull {
+                Some(gpu) => far.record_gpu(&rec, q, gpu, self.slot),
+                None => far.record(&rec, q, batches),
+            };
         }
         // With a monoscopic far field, the near field's depth starts at the
         // split plane (reverse-Z: near / D), so only geometry nearer than D
@@ -1020,7 +1048,12 @@ impl Renderer {
                     (None, Some(far)) => {
                         draw_calls += far.record_composite(&rec, eye);
                         // The sky lies beyond the split: the far field has it.
-                        draw_calls += passes.forward.record(&rec, near, eye, false);
+                        draw_calls += match gpu_cull {
+                            Some(gpu) => passes
+                                .forward
+                                .record_gpu(&rec, gpu, eye, self.slot, false, false),
+                            None => passes.forward.record(&rec, near, eye, false),
+                        };
                     }
                     (None, None) => match gpu_cull {
                         Some(gpu) => {

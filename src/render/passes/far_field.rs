@@ -21,10 +21,12 @@
 //! out of a pass would have been clipped or depth-rejected there, so the
 //! split changes no pixel.
 
+use super::gpu_cull::GpuCull;
 use super::{
     destroy_pipelines, to_sampled, PipelineSetup, Recorder, ScenePipelines, Scope, ScopePart,
 };
 use crate::config::Mffr;
+use crate::cull::gpu::FarSplitAxes;
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::Queries;
@@ -225,31 +227,38 @@ impl FarField {
         partition: bool,
         batches: &mut Batches,
     ) {
-        let Some(frame) = self.frame.filter(|_| partition) else {
+        let Some(axes) = self.split_axes(rig).filter(|_| partition) else {
             batcher.build(visible, rig.head.position, batches);
             return;
         };
+        batcher.build_split(
+            visible,
+            rig.head.position,
+            |c, r| axes.near(c, r),
+            |c, r| axes.far(c, r),
+            batches,
+        );
+    }
+
+    /// This frame's near/far test (None: no plan, the frame is stereo):
+    /// the eyes' axes, the far cameras rendered this frame, the split and
+    /// a margin of 1 mm + 0.1 % of it.
+    pub fn split_axes(&self, rig: &StereoRig) -> Option<FarSplitAxes> {
+        let frame = self.frame?;
         let d = frame.split;
-        let margin = 1e-3 * d + 1e-3;
         // Fixed-size: the frame allocates nothing (the renderer checked for
         // two views; at most two far cameras).
         let axis = |v: &View| (v.pose.position, v.pose.forward());
-        let eyes = [axis(&rig.views[0]), axis(&rig.views[1])];
         let mut fars = [None; 2];
         for i in (0..2).filter(|&i| frame.render[i]) {
             fars[i] = self.views[i].as_ref().map(axis);
         }
-        batcher.build_split(
-            visible,
-            rig.head.position,
-            |c, r| eyes.iter().any(|(p, f)| (c - *p).dot(*f) - r < d + margin),
-            |c, r| {
-                fars.iter()
-                    .flatten()
-                    .any(|(p, f)| (c - *p).dot(*f) + r > d - margin)
-            },
-            batches,
-        );
+        Some(FarSplitAxes {
+            eyes: [axis(&rig.views[0]), axis(&rig.views[1])],
+            fars,
+            split: d,
+            margin: 1e-3 * d + 1e-3,
+        })
     }
 
     /// This frame's plan (None: fell back to stereo).
@@ -310,6 +319,41 @@ impl FarField {
                 self.pipelines.get(rec.section),
                 sky,
                 2 + i as u32,
+            );
+            rec.end_scope();
+            rec.barriers(&[to_sampled(&set.resolve)]);
+        }
+        q.end_pass(rec.ctx, rec.cmd);
+        draws
+    }
+
+    /// [`FarField::record`] drawing what `gpu` culled into frame slot
+    /// `slot`'s far set (`mffr` with `gpu-cull`).
+    pub fn record_gpu(&self, rec: &Recorder, q: &mut Queries, gpu: &GpuCull, slot: usize) -> u64 {
+        let Some(frame) = self.frame else {
+            return 0;
+        };
+        let mut draws = 0;
+        q.begin_pass(rec.ctx, rec.cmd, "mffr-far");
+        for i in (0..2).filter(|&i| frame.render[i]) {
+            let set = &self.sets[i];
+            rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
+            rec.begin_scope(&Scope {
+                part: ScopePart::Whole,
+                views: set.views(),
+                extent: self.extent,
+                view_mask: 0,
+                depth_clear: 0.0,
+                shading_rate: None,
+                secondaries: false,
+            });
+            draws += gpu.record_draws(
+                rec,
+                self.pipelines.get(rec.section),
+                Some(self.sky),
+                2 + i as u32,
+                slot,
+                true,
             );
             rec.end_scope();
             rec.barriers(&[to_sampled(&set.resolve)]);

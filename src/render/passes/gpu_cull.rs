@@ -22,7 +22,7 @@
 
 use super::depth_pyramid::DepthPyramid;
 use super::{PipelineSetup, Recorder};
-use crate::cull::gpu::{VolumeData, VOLUME_DATA_SIZE};
+use crate::cull::gpu::{FarSplitAxes, VolumeData, VOLUME_DATA_SIZE};
 use crate::error::{Error, Result};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
 use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
@@ -109,6 +109,9 @@ pub struct LodFrame {
 pub struct Drawn {
     /// Indirect draws the GPU issued (non-empty primitives), per view set.
     pub draws: u64,
+    /// With a far field: the far pass's indirect draws, per far camera
+    /// rendered.
+    pub far_draws: u64,
     /// Instance-primitive pairs drawn.
     pub instances: u64,
     /// Triangles drawn.
@@ -209,6 +212,28 @@ pub struct GpuCull {
     order: Vec<u32>,
     /// Per mesh: its slice (first, count) of the flat primitive list.
     slices: Vec<(u32, u32)>,
+    /// With a monoscopic far field (`mffr`): the second command set holds
+    /// the far pass's draws.
+    far_field: bool,
+    /// This frame's split: 0 all near (the far field fell back to
+    /// stereo), 1 split by `split_axes`, 2 every instance in both.
+    far_mode: u32,
+    split_axes: Option<FarSplitAxes>,
+}
+
+/// How the coming frame's visible instances divide between the near views
+/// and the monoscopic far pass (`mffr` with `gpu-cull`).
+// Made once per frame on the stack: boxing the axes would allocate each
+// frame to save 200 bytes of stack.
+#[allow(clippy::large_enum_variant)]
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FarSplit {
+    /// No far pass this frame: every instance is near.
+    AllNear,
+    /// Split by these axes as the CPU path's batcher splits.
+    At(FarSplitAxes),
+    /// Every instance in both (`mffr-no-split`).
+    Both,
 }
 
 impl GpuCull {
@@ -226,6 +251,7 @@ impl GpuCull {
         frame_ubos: &[Buffer],
         occlusion: Option<(&Attachments, f32)>,
         lod: bool,
+        far_field: bool,
     ) -> Result<GpuCull> {
         let slots = frame_ubos.len();
         let ctx = setup.ctx;
@@ -281,7 +307,19 @@ impl GpuCull {
             ));
         }
         let ranges = &setup.scene.ranges;
-        let phases = if occlusion.is_some() { 2 } else { 1 };
+        if far_field && occlusion.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth",
+            ));
+        }
+        // A second command set: the late phase's (occlusion) or the far
+        // pass's (mffr).
+        let phases = if occlusion.is_some() || far_field {
+            2
+        } else {
+            1
+        };
         let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); phases * n_cmds];
         let mut cmd_tris = vec![0u64; n_cmds];
         let mut cmd_level = vec![0u8; n_cmds];
@@ -431,6 +469,9 @@ impl GpuCull {
             instance_count: scene.instances.len() as u32,
             order: order.to_vec(),
             slices,
+            far_field,
+            far_mode: 0,
+            split_axes: None,
         };
         if let Some((targets, _)) = occlusion {
             match DepthPyramid::new(ctx, targets, targets.extent, setup.samples, slots) {
@@ -602,7 +643,16 @@ impl GpuCull {
 
     /// Writes `slot`'s volumes for the coming frame (the slot's previous
     /// frame has finished: its fence was waited on).
-    pub fn upload(&mut self, slot: usize, mut data: VolumeData, lod: LodFrame) -> Result<()> {
+    pub fn upload(
+        &mut self,
+        slot: usize,
+        mut data: VolumeData,
+        lod: LodFrame,
+        origin: glam::DVec3,
+    ) -> Result<()> {
+        if let Some(axes) = &self.split_axes {
+            axes.write(origin, &mut data);
+        }
         self.lod_k = lod.k as f32;
         self.eye_slack = lod.eye_slack as f32;
         let groups = self.instance_count.div_ceil(GROUP).max(1);
@@ -615,6 +665,27 @@ impl GpuCull {
     /// Whether the two-phase occlusion scheme runs.
     pub fn occlusion(&self) -> bool {
         self.pyramid.is_some()
+    }
+
+    /// Command sets per frame: two with occlusion (early, late) or a far
+    /// field (near, far), else one.
+    fn sets(&self) -> usize {
+        if self.occlusion() || self.far_field {
+            2
+        } else {
+            1
+        }
+    }
+
+    /// Sets how the coming frame divides its instances between the near
+    /// views and the far pass (only with a far field).
+    pub fn set_far_split(&mut self, split: FarSplit) {
+        (self.far_mode, self.split_axes) = match split {
+            _ if !self.far_field => (0, None),
+            FarSplit::AllNear => (0, None),
+            FarSplit::At(axes) => (1, Some(axes)),
+            FarSplit::Both => (2, None),
+        };
     }
 
     fn dispatch(&self, ctx: &Context, cmd: vk::CommandBuffer, slot: usize, phase: u32) {
@@ -635,7 +706,7 @@ impl GpuCull {
             self.lod as u32,
             self.lod_k.to_bits(),
             self.eye_slack.to_bits(),
-            0,
+            self.far_mode,
             0,
         ];
         let to_draw = [vk::MemoryBarrier2::default()
@@ -689,7 +760,7 @@ impl GpuCull {
     pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
         let s = &self.slots[slot];
         let d = &ctx.device;
-        let phases = if self.occlusion() { 2 } else { 1 };
+        let phases = self.sets() as u64;
         let n_cmds = self.cmd_tris.len() as u64;
         q.begin_pass(ctx, cmd, "cull-early");
         let to_compute = [vk::MemoryBarrier2::default()
@@ -743,7 +814,8 @@ impl GpuCull {
 
     /// Draws every non-blended primitive for view `eye` inside the open
     /// scope with one indirect-count draw each (the count the cull wrote;
-    /// the late phase's with `late`), then the sky when given. Returns the
+    /// the second set's with `late`: the late phase's with occlusion, the
+    /// far pass's with a far field), then the sky when given. Returns the
     /// draw calls recorded outside the indirect ones (the sky);
     /// [`GpuCull::read`] counts the rest.
     pub fn record_draws(
@@ -816,12 +888,16 @@ impl GpuCull {
         let commands = words(&mut s.commands)?;
         let counts = words(&mut s.counts)?;
         let n = self.cmd_tris.len();
-        let phases = if self.pyramid.is_some() { 2 } else { 1 };
+        let phases = self.sets();
         let mut out = Drawn::default();
         for c in 0..phases * n {
             let instances = commands[5 * c + 1] as u64;
             let tris = instances * self.cmd_tris[c % n];
-            out.draws += counts[c] as u64;
+            if self.far_field && c >= n {
+                out.far_draws += counts[c] as u64;
+            } else {
+                out.draws += counts[c] as u64;
+            }
             out.instances += instances;
             out.triangles += tris;
             out.cull.lod_triangles[self.cmd_level[c % n] as usize] += tris;
