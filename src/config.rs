@@ -132,6 +132,11 @@ pub struct RenderConfig {
     /// whose error projects to at most this many pixels, and none when the
     /// whole instance does (None: off).
     pub lod: Option<f64>,
+    /// With `lod`: keep the chains in `FILE.lodcache` next to a scene
+    /// loaded from a file, and read them from there when the content
+    /// matches (`lod-cache`).
+    #[serde(default)]
+    pub lod_cache: bool,
     /// A section plane `n · x + d = 0` as (n.x, n.y, n.z, d) with a unit
     /// normal `n` (`--section`): geometry on its positive side is clipped
     /// by the scene shaders and culling skips instances wholly beyond it.
@@ -293,6 +298,7 @@ impl Default for RenderConfig {
             frames_in_flight: 2,
             gpu_cull: false,
             occlusion: false,
+            lod_cache: false,
             lod: None,
             section: None,
             timewarp: None,
@@ -331,6 +337,12 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
+            ));
+        }
+        if self.lod_cache && self.lod.is_none() {
+            return Err(Error::config(
+                "--opt",
+                "lod-cache keeps the chains lod builds: add lod (e.g. multiview,superfrustum,gpu-cull,lod,lod-cache)",
             ));
         }
         if self.lod.is_some() && !self.gpu_cull {
@@ -416,6 +428,7 @@ impl RenderConfig {
                 "stencil-mask" => self.stencil_mask = true,
                 "gpu-cull" => self.gpu_cull = true,
                 "occlusion" => self.occlusion = true,
+                "lod-cache" => self.lod_cache = true,
                 "lod" => {
                     self.lod = Some(self.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX));
                 }
@@ -533,7 +546,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -631,6 +644,15 @@ impl RenderConfig {
         ];
         if self.gpu_cull {
             v.push("gpu-cull".into());
+        }
+        if self.occlusion {
+            v.push("occlusion".into());
+        }
+        if let Some(px) = self.lod {
+            v.push(format!("lod={px}"));
+        }
+        if self.lod_cache {
+            v.push("lod-cache".into());
         }
         if self.stencil_mask {
             v.push("stencil-mask".into());

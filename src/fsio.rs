@@ -61,6 +61,17 @@ fn remember_input(path: &Path, meta: &std::fs::Metadata) {
     }
 }
 
+/// Stops treating `path` as an input: for a file vergence derives and
+/// owns (the LOD cache), read and then replaced when stale.
+pub fn forget_input(path: &Path) {
+    let Ok(meta) = std::fs::symlink_metadata(path) else {
+        return;
+    };
+    if let (Some(id), Ok(mut inputs)) = (file_id(path, &meta), INPUTS.lock()) {
+        inputs.retain(|i| *i != id);
+    }
+}
+
 /// Whether `path` (not following a final symbolic link, which an output
 /// replaces rather than writes through) is a file this process read as an
 /// input.

@@ -86,3 +86,41 @@ pub fn rig_plan(data: &[u8]) {
         }
     }
 }
+
+/// Bytes → the LOD cache decoder, against a small scene whose cache the
+/// seeds are (`scene::lod_cache`): an accepted file must give chains whose
+/// indices lie within their primitives, whole triangles, and finite,
+/// non-decreasing errors.
+pub fn lod_cache(data: &[u8]) {
+    let scene = lod_cache_scene();
+    let hash = crate::scene::lod_cache::content_hash(&scene);
+    if let Ok(c) = crate::scene::lod_cache::decode(data, hash, &scene) {
+        assert_eq!(c.levels.len(), scene.primitives.len());
+        for (p, levels) in scene.primitives.iter().zip(&c.levels) {
+            let mut last = 0.0f32;
+            for l in levels {
+                assert!(l.indices.len().is_multiple_of(3));
+                assert!(l.indices.iter().all(|&i| (i as usize) < p.positions.len()));
+                assert!(l.error.is_finite() && l.error >= last);
+                last = l.error;
+            }
+        }
+    }
+}
+
+/// The scene [`lod_cache`] decodes against (two simple shapes).
+pub fn lod_cache_scene() -> crate::scene::Scene {
+    use crate::scene::{shapes, Mesh, Scene};
+    Scene {
+        name: "fuzz".into(),
+        primitives: vec![
+            shapes::cylinder(1.0, 2.0, 48, 0),
+            shapes::cuboid([1.0, 1.0, 1.0], 0),
+        ],
+        meshes: vec![Mesh {
+            name: "m".into(),
+            primitives: vec![0, 1],
+        }],
+        ..Scene::default()
+    }
+}

@@ -1,6 +1,6 @@
 //! Stable-toolchain mutation fuzzing of the same entry points as the
 //! cargo-fuzz targets in fuzz/ (which need nightly and libFuzzer): CLI value
-//! parsers, rig JSON and bench plans, HMD profiles with lenses, the Draco decoder, the KTX2 / Basis
+//! parsers, rig JSON and bench plans, HMD profiles with lenses, the LOD cache, the Draco decoder, the KTX2 / Basis
 //! Universal transcoder and the whole glTF loader. Each target mutates its
 //! seeds (the bad-input corpus, the vendored assets, built-in plans) with a
 //! seeded RNG for a fixed time; any panic fails the test and the input is
@@ -212,6 +212,16 @@ fn cli_values() {
         }
     }
     fuzz("cli_values", 1, seeds, vergence::fuzz_checks::cli_values);
+}
+
+#[test]
+#[ignore]
+fn lod_cache() {
+    let scene = vergence::fuzz_checks::lod_cache_scene();
+    let chains = vergence::scene::lod::build(&scene);
+    let hash = vergence::scene::lod_cache::content_hash(&scene);
+    let seeds = vec![vergence::scene::lod_cache::encode(hash, &chains)];
+    fuzz("lod_cache", 3, seeds, vergence::fuzz_checks::lod_cache);
 }
 
 #[test]

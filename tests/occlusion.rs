@@ -341,3 +341,99 @@ fn occlusion_without_gpu_cull_is_one_clear_error() {
     let e = c.validate().unwrap_err().to_string();
     assert!(e.contains("occlusion") && e.contains("gpu-cull"), "{e}");
 }
+
+/// `lod-cache`: the first render builds the chains and writes them next to
+/// the scene, the second reads them (same chains, same pixels); a cache
+/// cut short or made for other content is rebuilt with a warning, and a
+/// folder that cannot be written only loses the cache.
+#[test]
+fn lod_chains_are_cached_next_to_the_scene_and_rebuilt_when_stale() {
+    let dir = common::scratch("lod-cache", "scene");
+    let glb = dir.join("retroufo.glb");
+    std::fs::copy(common::root().join("assets/retroufo/retroufo.glb"), &glb).unwrap();
+    let cache = dir.join("retroufo.glb.lodcache");
+    let args = |opt: &'static str| {
+        vec![
+            "--scene".to_string(),
+            glb.display().to_string(),
+            "--pose".into(),
+            "0,2,40,0,-3,0".into(),
+            "--width".into(),
+            "96".into(),
+            "--height".into(),
+            "96".into(),
+            "--opt".into(),
+            opt.into(),
+        ]
+    };
+    let run = |opt: &'static str, name: &str| {
+        let out = common::scratch("lod-cache", name);
+        let a = args(opt);
+        let a: Vec<&str> = a.iter().map(String::as_str).collect();
+        let stats = common::render_cli(&a, &out);
+        assert_eq!(stats["validation_messages"], 0, "{name}");
+        let img = image::open(out.join("left.png")).unwrap().to_rgba8();
+        (stats, img)
+    };
+    let opt = "superfrustum,gpu-cull,lod,lod-cache";
+    let (plain, plain_img) = run("superfrustum,gpu-cull,lod", "plain");
+    assert!(plain["lod"].get("cache").is_none(), "{}", plain["lod"]);
+    assert!(!cache.exists());
+    let (first, first_img) = run(opt, "first");
+    assert!(
+        first["lod"]["cache"]["written"].is_string(),
+        "{}",
+        first["lod"]
+    );
+    assert!(cache.exists());
+    let (second, second_img) = run(opt, "second");
+    assert!(
+        second["lod"]["cache"]["read"].is_string(),
+        "{}",
+        second["lod"]
+    );
+    for s in [&first, &second] {
+        assert_eq!(s["lod"]["levels"], plain["lod"]["levels"]);
+        assert_eq!(s["lod"]["index_bytes"], plain["lod"]["index_bytes"]);
+        assert_eq!(
+            s["gpu_cull"]["lod_triangles"],
+            plain["gpu_cull"]["lod_triangles"]
+        );
+    }
+    assert!(first_img == plain_img && second_img == plain_img);
+    // Cut short: rebuilt and written again, the same image.
+    let bytes = std::fs::read(&cache).unwrap();
+    std::fs::write(&cache, &bytes[..bytes.len() / 2]).unwrap();
+    let (again, again_img) = run(opt, "truncated");
+    assert!(
+        again["lod"]["cache"]["written"].is_string(),
+        "{}",
+        again["lod"]
+    );
+    assert_eq!(std::fs::read(&cache).unwrap(), bytes);
+    assert!(again_img == plain_img);
+    // Read-only folder (as a non-root user would find it; root ignores the
+    // mode, so only check when the write really fails): renders anyway.
+    use std::os::unix::fs::PermissionsExt;
+    std::fs::remove_file(&cache).unwrap();
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o555)).unwrap();
+    let (ro, ro_img) = run(opt, "read-only");
+    std::fs::set_permissions(&dir, std::fs::Permissions::from_mode(0o755)).unwrap();
+    if !cache.exists() {
+        assert!(
+            ro["lod"]["cache"]["not_written"].is_string(),
+            "{}",
+            ro["lod"]
+        );
+    }
+    assert!(ro_img == plain_img);
+}
+
+#[test]
+fn lod_cache_without_lod_is_one_clear_error() {
+    let mut c = RenderConfig::default();
+    c.apply_opts("superfrustum,gpu-cull,lod-cache", &cull_names())
+        .unwrap();
+    let e = c.validate().unwrap_err().to_string();
+    assert!(e.contains("lod-cache keeps the chains lod builds"), "{e}");
+}

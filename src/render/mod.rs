@@ -222,11 +222,19 @@ impl Renderer {
         }
         let samples = config.msaa.min(ctx.caps.max_samples);
         let slots = config.frames_in_flight as usize;
-        let chains = config.lod.map(|_| crate::scene::lod::build(scene));
+        let (chains, cache) = match (config.lod, &scene.source) {
+            (None, _) => (None, None),
+            (Some(_), Some(source)) if config.lod_cache => {
+                let (c, used) = crate::scene::lod_cache::load_or_build(scene, source);
+                (Some(c), Some(used))
+            }
+            (Some(_), _) => (Some(crate::scene::lod::build(scene)), None),
+        };
         let lod_report = chains.as_ref().map(|c| LodReport {
             levels: c.level_count(),
             index_bytes: c.index_bytes(),
             build_ms: c.build_ms,
+            cache,
         });
         let scene_gpu = SceneGpu::new(&ctx, scene, chains.as_ref())?;
         drop(chains);
@@ -1224,14 +1232,19 @@ impl Renderer {
 }
 
 /// What building the LOD chains made (`lod`), for stats.
-#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct LodReport {
     /// Simplified levels built over all primitives.
     pub levels: usize,
     /// Bytes of their index lists (GPU memory, in the index buffer).
     pub index_bytes: u64,
-    /// Wall-clock ms of the build.
+    /// Wall-clock ms of the build (or of reading the cache).
     pub build_ms: f64,
+    /// With `lod-cache`: whether the chains came from the cache file or
+    /// were built and written to it (None: no cache, or the scene was not
+    /// loaded from a file).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cache: Option<crate::scene::lod_cache::CacheUse>,
 }
 
 /// A device loss while `context` becomes [`Error::DeviceLost`] naming the

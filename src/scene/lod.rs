@@ -49,7 +49,7 @@ impl Chains {
 
 /// Fewest triangles a level is simplified towards (below this the chain
 /// stops: the drop step takes over).
-const MIN_TRIANGLES: usize = 8;
+pub const MIN_TRIANGLES: usize = 8;
 
 /// The chain of one primitive.
 pub fn chain(p: &Primitive) -> Vec<Level> {

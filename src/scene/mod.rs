@@ -11,6 +11,7 @@ pub mod gltf_data;
 pub mod gltf_load;
 pub mod image_decode;
 pub mod lod;
+pub mod lod_cache;
 pub mod manifest;
 pub mod motion;
 pub mod shapes;
@@ -301,6 +302,8 @@ pub struct Scene {
     pub instance_node: Vec<u32>,
     /// Instances that move (manifest `motion`), by placement group.
     pub moving: Vec<motion::MovingGroup>,
+    /// The file the scene was loaded from (None: generated).
+    pub source: Option<std::path::PathBuf>,
 }
 
 /// A source node (glTF) as selection names it.
@@ -376,14 +379,16 @@ impl Scene {
             return cad::generate(n?, cad::DEFAULT_SEED);
         }
         let path = Path::new(spec);
-        match path
+        let mut scene = match path
             .extension()
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
             _ => gltf_load::load(path),
-        }
+        }?;
+        scene.source = Some(path.to_path_buf());
+        Ok(scene)
     }
 
     /// Checks, without loading it, that a `--scene` value can be loaded:

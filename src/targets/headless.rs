@@ -514,7 +514,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         floor_gpu_ms,
         cull: cull_stats,
         gpu_cull: frame.gpu_cull,
-        lod: renderer.lod,
+        lod: renderer.lod.clone(),
         foveation: renderer.foveation_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
