@@ -318,6 +318,11 @@ struct RunCli {
     /// file for --config (default: vergence-live.toml).
     #[arg(long)]
     save_config: Option<PathBuf>,
+    /// The overlay in the mirror window (frame-time graph against the
+    /// budget, GPU ms per pass, what was drawn, the --opt list); F3 shows
+    /// and hides it. Only the window shows it, never the headset.
+    #[arg(long, value_enum, default_value_t = vergence::targets::hud::OverlayMode::On)]
+    overlay: vergence::targets::hud::OverlayMode,
     /// A kiosk file (see manifests/kiosk/demo.toml): the scenes on offer
     /// (N in the mirror window moves to the next), their spawns and
     /// viewpoints, the optimizations and allowed toggles, reconnecting,
@@ -351,6 +356,10 @@ struct ViewCli {
     /// --config (default: vergence-live.toml).
     #[arg(long)]
     save_config: Option<PathBuf>,
+    /// The overlay in the window (frame-time graph against the budget, GPU
+    /// ms per pass, what was drawn, the --opt list); F3 shows and hides it.
+    #[arg(long, value_enum, default_value_t = vergence::targets::hud::OverlayMode::On)]
+    overlay: vergence::targets::hud::OverlayMode,
     #[command(flatten)]
     frame: FrameOpts,
 }
@@ -522,6 +531,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 screenshot: a.screenshot,
                 save_config: a.save_config,
                 kiosk,
+                overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
             };
             let stats = vergence::targets::run::run(&args)?;
             tracing::info!(
@@ -562,6 +572,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 screenshot: a.screenshot,
                 eyes: a.eyes,
                 save_config: a.save_config,
+                overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
             };
             let s = vergence::targets::view::view(&args)?;
             println!(

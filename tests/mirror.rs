@@ -167,9 +167,17 @@ fn headless_run(x: &Xvfb, dir: &Path, mode: &str, extra: &[&str]) -> (Value, Out
 /// image), a capture in `NAME/` and `NAME.json`; asserts it succeeded.
 fn run_named(x: &Xvfb, dir: &Path, name: &str, args: &[&str]) -> (Value, Output) {
     let s_path = dir.join(format!("{name}.json"));
+    // The overlay stays off unless a test asks for it: the window then
+    // shows exactly the eye images.
+    let overlay: &[&str] = if args.contains(&"--overlay") {
+        &[]
+    } else {
+        &["--overlay", "off"]
+    };
     let o = vergence(Some(x))
         .args(["run", "--xr", "headless"])
         .args(args)
+        .args(overlay)
         .arg("--screenshot")
         .arg(dir.join(format!("{name}.png")))
         .arg("--capture")
@@ -220,6 +228,69 @@ fn the_headless_mirror_shows_the_submitted_eyes() {
     // The eyes differ, so left and right were not the same image twice.
     let (l, r) = (load(&dir.join("left.png")), load(&dir.join("right.png")));
     assert!(flip_mean(&l, &r) > 0.01, "left and right mirrors differ");
+}
+
+/// The overlay (frame-time graph, passes, counts, the --opt list) is drawn
+/// into the window's image only: where it lies the window differs from
+/// the submitted eye image, elsewhere it matches; with `--overlay off` the
+/// window is the eye image.
+#[test]
+fn the_overlay_is_in_the_window_and_not_in_the_eye_images() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("mirror_overlay") else {
+        return;
+    };
+    let dir = common::scratch("mirror", "overlay");
+    let args = |overlay| {
+        [
+            "--frames",
+            "12",
+            "--scene",
+            "factory:2000",
+            "--hmd-fallback",
+            "valve-index",
+            "--width",
+            "640",
+            "--height",
+            "360",
+            "--mirror",
+            "left",
+            "--overlay",
+            overlay,
+        ]
+    };
+    let region = |img: &image::RgbaImage, x0, y0, w, h| {
+        image::imageops::crop_imm(img, x0, y0, w, h).to_image()
+    };
+    for overlay in ["on", "off"] {
+        let (s, o) = run_named(&x, &dir, overlay, &args(overlay));
+        assert_eq!(s["validation_messages"], 0, "{}", text(&o));
+        let shot = load(&dir.join(format!("{overlay}.png")));
+        let eye = load(&dir.join(overlay).join("left.png"));
+        assert_eq!(shot.dimensions(), eye.dimensions());
+        // Right of the panel (it is at most 376 points wide from x = 8):
+        // the window is the eye image.
+        let (rs, re) = (
+            region(&shot, 400, 0, 240, 360),
+            region(&eye, 400, 0, 240, 360),
+        );
+        let outside = flip_mean(&re, &rs);
+        assert!(
+            outside <= 0.01,
+            "{overlay}: FLIP {outside} right of the panel"
+        );
+        // The panel's first lines: the window differs from the eye image
+        // with the overlay on, and not without it.
+        let (ps, pe) = (
+            region(&shot, 12, 12, 300, 40),
+            region(&eye, 12, 12, 300, 40),
+        );
+        let inside = flip_mean(&pe, &ps);
+        match overlay {
+            "on" => assert!(inside > 0.1, "the overlay is in the window: FLIP {inside}"),
+            _ => assert!(inside <= 0.01, "no overlay: FLIP {inside}"),
+        }
+    }
 }
 
 #[test]
@@ -354,6 +425,31 @@ fn under_monado_the_mirror_shows_the_swapchain_images_with_no_validation_message
         return;
     };
     let dir = common::scratch("mirror", "monado");
+    // With the overlay drawn into the window (Monado's small eyes leave
+    // little beside it): no validation message either.
+    let on = with_monado(&x)
+        .args(["run", "--xr", "openxr", "--frames", "12"])
+        .args([
+            "--scene",
+            "factory:2000",
+            "--mirror",
+            "both",
+            "--overlay",
+            "on",
+        ])
+        .arg("--stats-out")
+        .arg(dir.join("overlay.json"))
+        .output()
+        .expect("with-monado");
+    assert!(on.status.success(), "{}", text(&on));
+    let s = stats(&dir.join("overlay.json"));
+    assert_eq!(s["validation_messages"], 0, "{}", text(&on));
+    assert_eq!(s["xr_validation_messages"], 0, "{}", text(&on));
+    assert!(
+        s["mirror"]["presented"].as_u64().unwrap() >= 5,
+        "{}",
+        s["mirror"]
+    );
     let s_path = dir.join("stats.json");
     let o = with_monado(&x)
         .args([
@@ -365,6 +461,7 @@ fn under_monado_the_mirror_shows_the_swapchain_images_with_no_validation_message
             "--scene",
             "factory:2000",
         ])
+        .args(["--overlay", "off"])
         .args(["--mirror", "both", "--screenshot"])
         .arg(dir.join("shot.png"))
         .arg("--capture")

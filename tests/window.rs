@@ -65,6 +65,10 @@ fn view(x: &Xvfb, shot: &Path, extra: &[&str]) -> Command {
         .args(extra)
         .arg("--screenshot")
         .arg(shot);
+    // The overlay stays off unless a test asks for it.
+    if !extra.contains(&"--overlay") {
+        cmd.args(["--overlay", "off"]);
+    }
     cmd
 }
 
@@ -95,6 +99,37 @@ fn view_presents_what_a_headless_render_of_the_same_rig_shows() {
     assert_eq!(img.dimensions(), (W, H));
     let e = flip_mean(&right, &img);
     assert!(e <= 0.01, "FLIP mean right eye {e}");
+}
+
+/// With `--overlay on` (the default) the panel covers the window's top
+/// left and the rest is the rendered eye; the eye images never get it.
+#[test]
+fn view_draws_the_overlay_over_the_eyes_only_where_the_panel_is() {
+    let Some(x) = Xvfb::start("view_overlay") else {
+        return;
+    };
+    let dir = common::scratch("window", "overlay");
+    let [left, right] = headless_render(&dir, &[]);
+    let shot = dir.join("overlay.png");
+    succeeds(&mut view(
+        &x,
+        &shot,
+        &["--frames", "5", "--eyes", "both", "--overlay", "on"],
+    ));
+    let img = load(&shot);
+    let crop =
+        |i: &image::RgbaImage, x0, y0, w, h| image::imageops::crop_imm(i, x0, y0, w, h).to_image();
+    // Beyond the panel (at most 376 px wide from x = 8) the window is the
+    // right eye.
+    let beyond = 400 - W;
+    let r = flip_mean(
+        &crop(&right, beyond, 0, W - beyond, H),
+        &crop(&img, 400, 0, W - beyond, H),
+    );
+    assert!(r <= 0.01, "right of the panel: FLIP {r}");
+    // The panel's first lines differ from the left eye.
+    let p = flip_mean(&crop(&left, 12, 12, 200, 40), &crop(&img, 12, 12, 200, 40));
+    assert!(p > 0.1, "the overlay is drawn: FLIP {p}");
 }
 
 #[test]

@@ -12,6 +12,7 @@ pub mod query;
 pub mod ring;
 pub mod shaders;
 pub mod surface;
+pub mod ui_layer;
 pub mod validation;
 
 use crate::error::{Error, Result, VkContext};

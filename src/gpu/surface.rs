@@ -131,6 +131,11 @@ pub struct Presenter {
     surface: vk::SurfaceKHR,
     swapchain: vk::SwapchainKHR,
     images: Vec<vk::Image>,
+    /// A view of each image (empty when the surface cannot render into
+    /// its images: no overlay then).
+    views: Vec<vk::ImageView>,
+    /// The overlay's renderer (made on the first frame that has one).
+    ui: Option<super::ui_layer::UiLayer>,
     /// Signalled by the blit of image i, waited on by its present.
     ready: Vec<vk::Semaphore>,
     format: vk::SurfaceFormatKHR,
@@ -169,6 +174,8 @@ impl Presenter {
             surface,
             swapchain: vk::SwapchainKHR::null(),
             images: Vec::new(),
+            views: Vec::new(),
+            ui: None,
             ready: Vec::new(),
             format: vk::SurfaceFormatKHR::default(),
             extent: vk::Extent2D::default(),
@@ -303,12 +310,19 @@ impl Presenter {
             .copied()
             .find(|m| modes.contains(m))
             .unwrap_or(vk::PresentModeKHR::FIFO);
-        let needed = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
+        let mut needed = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
         if !caps.supported_usage_flags.contains(needed) {
             return Err(Error::Gpu(format!(
                 "the window surface's images cannot be blitted into and read back (usage {:?})",
                 caps.supported_usage_flags
             )));
+        }
+        // The overlay draws into the images where the surface allows it.
+        let drawable = caps
+            .supported_usage_flags
+            .contains(vk::ImageUsageFlags::COLOR_ATTACHMENT);
+        if drawable {
+            needed |= vk::ImageUsageFlags::COLOR_ATTACHMENT;
         }
         let mut count = caps.min_image_count + 1;
         if caps.max_image_count > 0 {
@@ -356,6 +370,24 @@ impl Presenter {
             }
             .vk("creating a present semaphore")?;
             self.ready.push(s);
+            if drawable {
+                let info = vk::ImageViewCreateInfo::default()
+                    .image(img)
+                    .view_type(vk::ImageViewType::TYPE_2D)
+                    .format(format.format)
+                    .subresource_range(vk::ImageSubresourceRange {
+                        aspect_mask: vk::ImageAspectFlags::COLOR,
+                        base_mip_level: 0,
+                        level_count: 1,
+                        base_array_layer: 0,
+                        layer_count: 1,
+                    });
+                // SAFETY: a view of a live swapchain image; destroyed with
+                // the swapchain.
+                let v = unsafe { ctx.device.create_image_view(&info, None) }
+                    .vk("creating a window image view")?;
+                self.views.push(v);
+            }
         }
         self.format = format;
         self.extent = extent;
@@ -380,6 +412,9 @@ impl Presenter {
         unsafe {
             for s in self.ready.drain(..) {
                 ctx.device.destroy_semaphore(s, None);
+            }
+            for v in self.views.drain(..) {
+                ctx.device.destroy_image_view(v, None);
             }
             if self.swapchain != vk::SwapchainKHR::null() {
                 self.swapchain_fn.destroy_swapchain(self.swapchain, None);
@@ -408,6 +443,32 @@ impl Presenter {
         sources: &[Source],
         size: vk::Extent2D,
         read_back: bool,
+    ) -> Result<Presented> {
+        self.present_with(ctx, sources, size, read_back, None)
+    }
+
+    /// Frees the textures `frame` retires (after its present).
+    pub fn retire_ui(&mut self, ctx: &Context, frame: &super::ui_layer::UiFrame) -> Result<()> {
+        match self.ui.as_mut() {
+            Some(layer) => layer.retire(ctx, frame),
+            None => Ok(()),
+        }
+    }
+
+    /// Whether the overlay can be drawn into this window's images.
+    pub fn draws_overlays(&self) -> bool {
+        !self.views.is_empty()
+    }
+
+    /// [`Presenter::present`] with `ui` drawn over the blitted images
+    /// (where the surface lets the images be rendered into).
+    pub fn present_with(
+        &mut self,
+        ctx: &Context,
+        sources: &[Source],
+        size: vk::Extent2D,
+        read_back: bool,
+        ui: Option<&super::ui_layer::UiFrame>,
     ) -> Result<Presented> {
         if self.stale || self.swapchain == vk::SwapchainKHR::null() {
             self.recreate(ctx, size)?;
@@ -488,7 +549,39 @@ impl Presenter {
             )?);
         }
         let readback = read_back.then(|| self.readback.as_ref().map(|b| b.buffer));
-        self.record_blit(ctx, (pool, cmd), target, sources, readback.flatten())?;
+        let ui = ui.filter(|_| self.draws_overlays());
+        if let Some(frame) = ui {
+            if self
+                .ui
+                .as_ref()
+                .is_some_and(|l| l.format() != self.format.format)
+            {
+                // SAFETY: waiting before the old renderer goes.
+                unsafe { d.device_wait_idle() }.vk("waiting before remaking the overlay")?;
+                if let Some(old) = self.ui.take() {
+                    old.destroy(ctx);
+                }
+            }
+            if self.ui.is_none() {
+                self.ui = Some(super::ui_layer::UiLayer::new(
+                    ctx,
+                    self.format.format,
+                    self.slots.len(),
+                )?);
+            }
+            if let Some(layer) = self.ui.as_mut() {
+                layer.upload(ctx, frame)?;
+            }
+        }
+        let view = self.views.get(index as usize).copied();
+        let ui_target = ui.zip(view);
+        self.record_blit(
+            ctx,
+            (pool, cmd),
+            (target, ui_target),
+            sources,
+            readback.flatten(),
+        )?;
         let waits = [vk::SemaphoreSubmitInfo::default()
             .semaphore(acquired)
             .stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)];
@@ -550,10 +643,13 @@ impl Presenter {
     }
 
     fn record_blit(
-        &self,
+        &mut self,
         ctx: &Context,
         (pool, cmd): (vk::CommandPool, vk::CommandBuffer),
-        target: vk::Image,
+        (target, ui): (
+            vk::Image,
+            Option<(&super::ui_layer::UiFrame, vk::ImageView)>,
+        ),
         sources: &[Source],
         readback: Option<vk::Buffer>,
     ) -> Result<()> {
@@ -679,16 +775,16 @@ impl Presenter {
                 );
                 x0 = x1;
             }
+            // The overlay over the blitted images, when there is one.
+            let mut written_by = Use::TRANSFER_DST;
+            if let (Some((frame, view)), Some(layer)) = (ui, self.ui.as_mut()) {
+                layer.record(ctx, cmd, (target, view), self.extent, written_by, frame)?;
+                written_by = super::ui_layer::LOADED;
+            }
             let mut after = after_src;
             match readback {
                 Some(buf) => {
-                    let to_read = [barrier::image(
-                        target,
-                        c,
-                        1,
-                        Use::TRANSFER_DST,
-                        Use::TRANSFER_SRC,
-                    )];
+                    let to_read = [barrier::image(target, c, 1, written_by, Use::TRANSFER_SRC)];
                     d.cmd_pipeline_barrier2(
                         cmd,
                         &vk::DependencyInfo::default().image_memory_barriers(&to_read),
@@ -711,7 +807,7 @@ impl Presenter {
                     );
                 }
                 None => {
-                    after.push(barrier::image(target, c, 1, Use::TRANSFER_DST, presented));
+                    after.push(barrier::image(target, c, 1, written_by, presented));
                     d.cmd_pipeline_barrier2(
                         cmd,
                         &vk::DependencyInfo::default().image_memory_barriers(&after),
@@ -734,6 +830,9 @@ impl Presenter {
         self.destroy_swapchain(ctx);
         if let Some(b) = self.readback.take() {
             b.destroy(ctx);
+        }
+        if let Some(layer) = self.ui.take() {
+            layer.destroy(ctx);
         }
         for s in self.slots.drain(..) {
             // SAFETY: the device is idle; each object belongs to it.

@@ -212,6 +212,10 @@ pub struct Mirror {
     window: Option<MirrorWindow>,
     /// A title waiting for the first frame shown.
     title: Option<String>,
+    /// The overlay drawn over the window's image (F3 shows and hides it).
+    pub hud: crate::targets::hud::Hud,
+    /// The `--opt` list and frame budget the overlay shows.
+    hud_text: (String, f64),
 }
 
 impl Mirror {
@@ -283,6 +287,8 @@ impl Mirror {
             distortion,
             window: Some(window),
             title: None,
+            hud: crate::targets::hud::Hud::new(true),
+            hud_text: (String::new(), 1000.0 / 90.0),
         };
         // On failure `m` drops, destroying what was made.
         m.init()?;
@@ -667,6 +673,46 @@ impl Mirror {
             .collect()
     }
 
+    /// Adds a finished frame to the overlay's graph.
+    pub fn push_frame(&mut self, r: &crate::render::driver::FrameResult) {
+        self.hud.push(r);
+    }
+
+    /// Sets the `--opt` list and the frame budget (ms) the overlay shows.
+    pub fn set_overlay_text(&mut self, opt: &str, budget_ms: f64) {
+        if self.hud_text.0 != opt {
+            self.hud_text.0 = opt.to_string();
+        }
+        self.hud_text.1 = budget_ms;
+    }
+
+    /// The overlay of a window of `size` (None when hidden).
+    fn overlay(&mut self, size: vk::Extent2D) -> Option<crate::gpu::ui_layer::UiFrame> {
+        let info = crate::targets::hud::HudInfo {
+            opt: &self.hud_text.0,
+            budget_ms: self.hud_text.1,
+            keys: crate::targets::hud::KEYS,
+        };
+        self.hud.frame([size.width, size.height], &info)
+    }
+
+    /// Presents with the overlay, then frees the textures it retires.
+    fn present_overlaid(
+        &mut self,
+        sources: &[Source],
+        size: vk::Extent2D,
+        read_back: bool,
+    ) -> Result<Presented> {
+        let ui = self.overlay(size);
+        let shown = self
+            .presenter
+            .present_with(&self.ctx, sources, size, read_back, ui.as_ref());
+        if let Some(f) = &ui {
+            self.presenter.retire_ui(&self.ctx, f)?;
+        }
+        shown
+    }
+
     /// Shows the last copied frame in the window, without waiting: when no
     /// window image is free this frame is skipped.
     pub fn present(&mut self) -> Result<()> {
@@ -675,7 +721,7 @@ impl Mirror {
         }
         let sources = self.sources();
         let size = self.win().size();
-        match self.presenter.present(&self.ctx, &sources, size, false)? {
+        match self.present_overlaid(&sources, size, false)? {
             Presented::Shown(_) => {
                 self.stats.presented += 1;
                 if let Some(t) = self.title.take() {
@@ -711,9 +757,7 @@ impl Mirror {
         // A resize may need one recreation before an image is shown.
         for _ in 0..3 {
             let size = self.win().size();
-            if let Presented::Shown(Some(img)) =
-                self.presenter.present(&self.ctx, &sources, size, true)?
-            {
+            if let Presented::Shown(Some(img)) = self.present_overlaid(&sources, size, true)? {
                 save_png(&img, path)?;
                 return Ok(true);
             }
@@ -796,6 +840,8 @@ pub struct Desk {
     pub live: crate::targets::toggles::LiveConfig,
     /// The mirror's statistics so far (None: no mirror yet).
     pub stats: Option<MirrorStats>,
+    /// Whether the mirror shows the overlay (`--overlay`; F3 switches it).
+    pub overlay: bool,
 }
 
 impl Desk {
@@ -816,6 +862,7 @@ impl Desk {
             next_scene: false,
             live: crate::targets::toggles::LiveConfig::new(config, save_to),
             stats: None,
+            overlay: true,
         }
     }
 
@@ -862,7 +909,10 @@ impl Desk {
     /// stderr and no mirror.
     pub fn mirror(&mut self, ctx: &Arc<Context>, format: vk::Format) -> Option<Mirror> {
         match Mirror::new(ctx, self.window.take()?, format, self.lenses.as_ref()) {
-            Ok(m) => Some(m),
+            Ok(mut m) => {
+                m.hud.visible = self.overlay;
+                Some(m)
+            }
             Err(e) => {
                 eprintln!("vergence: mirror off: {e}");
                 None
@@ -898,6 +948,10 @@ impl Desk {
             self.closed = true;
         }
         let pressed = std::mem::take(&mut input.pressed);
+        if pressed.contains(&crate::targets::hud::KEY) {
+            mirror.hud.visible = !mirror.hud.visible;
+            self.overlay = mirror.hud.visible;
+        }
         if self.scenes > 1 && pressed.contains(&winit::keyboard::KeyCode::KeyN) {
             self.next_scene = true;
         }

@@ -3,6 +3,7 @@
 //! desktop window (`view`: the preview with a fly camera).
 
 pub mod headless;
+pub mod hud;
 pub mod kiosk;
 pub mod mirror;
 pub mod run;

@@ -26,6 +26,7 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     crate::quit::install();
     let mut stats = RunStats::new(args.stats_out.as_deref())?;
     let mut desk = Desk::new(args.mirror, args.config.clone(), args.save_config.clone());
+    desk.overlay = args.overlay;
     if let Some(k) = &args.kiosk {
         desk.live.allowed = k.toggles.clone();
         desk.scenes = k.scenes.len();
@@ -263,6 +264,9 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             ));
             let rig = profile.rig(head);
             heads.push_back((index, head, opt.clone()));
+            if let Some(m) = mirror.as_mut() {
+                m.set_overlay_text(&opt, 1000.0 / profile.refresh_hz.max(1.0));
+            }
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
             frames.driver.record(&rig, index)?;
             let output = frames.eyes.as_ref().map(|e| e.output(0));
@@ -284,6 +288,9 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             stats.frames_rendered += 1;
             index += 1;
             while let Some(r) = frames.driver.take_completed() {
+                if let Some(m) = mirror.as_mut() {
+                    m.push_frame(&r);
+                }
                 record(r, stats, &mut heads)?;
             }
             if index == WARMUP_FRAMES {

@@ -75,6 +75,8 @@ pub struct RunArgs {
     /// idle return); `scene`, `spawn` and `viewpoints` are its first
     /// scene's.
     pub kiosk: Option<crate::targets::kiosk::Kiosk>,
+    /// `--overlay`: whether the mirror starts with the overlay shown.
+    pub overlay: bool,
 }
 
 impl RunArgs {

@@ -6,6 +6,7 @@
 //! letterboxed to keep their aspect.
 
 use super::headless::{eye_extent, load_scene, load_stereo_profile, save_png};
+use super::hud::{Hud, HudInfo};
 use super::toggles::LiveConfig;
 use super::window::{display_available, Eyes, FlyCamera, Window};
 use crate::config::{RenderConfig, StereoMode};
@@ -45,6 +46,8 @@ pub struct ViewArgs {
     pub eyes: Eyes,
     /// Where F2 writes the live configuration (default `vergence-live.toml`).
     pub save_config: Option<PathBuf>,
+    /// Whether the overlay starts shown (F3 switches it).
+    pub overlay: bool,
 }
 
 /// What a `view` session did.
@@ -257,6 +260,8 @@ fn view_loop(
     let mut last = Instant::now();
     let started = last;
     let mut last_slot = None;
+    let mut hud = Hud::new(args.overlay);
+    let budget_ms = 1000.0 / profile.refresh_hz.max(1.0);
     let run = (|| -> Result<()> {
         loop {
             if args.frames.is_some_and(|n| presented >= n) {
@@ -265,6 +270,9 @@ fn view_loop(
             let input = window.pump();
             let pressed = std::mem::take(&mut input.pressed);
             let close = input.close;
+            if pressed.contains(&super::hud::KEY) {
+                hud.visible = !hud.visible;
+            }
             if let Some(new) = live.handle(&pressed, index) {
                 // The frames in flight finish and the presenter's blits
                 // are done (they read the eye images) before the renderer,
@@ -303,6 +311,16 @@ fn view_loop(
             }
             let images = images.as_ref().expect("made with the driver");
             let slots = driver.renderer().frames_in_flight().min(images.sets.len());
+            let size = window.size();
+            let opt = live.config.opt_string();
+            let ui = hud.frame(
+                [size.width, size.height],
+                &HudInfo {
+                    opt: &opt,
+                    budget_ms,
+                    keys: super::hud::KEYS,
+                },
+            );
             let input = window.input();
             if close {
                 // The window is still there: present the last frame's eye
@@ -316,7 +334,7 @@ fn view_loop(
                         .map(|&e| images.source(slot, e))
                         .collect();
                     if let Presented::Shown(Some(img)) =
-                        presenter.present(ctx, &sources, window.size(), true)?
+                        presenter.present_with(ctx, &sources, window.size(), true, ui.as_ref())?
                     {
                         save_png(&img, path)?;
                     }
@@ -335,7 +353,9 @@ fn view_loop(
             driver.record(&rig, index)?;
             driver.submit(Some(&images.output(slot)), false)?;
             index += 1;
-            while driver.take_completed().is_some() {}
+            while let Some(r) = driver.take_completed() {
+                hud.push(&r);
+            }
             let sources: Vec<Source> = args
                 .eyes
                 .indices()
@@ -344,7 +364,12 @@ fn view_loop(
                 .collect();
             let final_frame = args.frames.is_some_and(|n| presented + 1 >= n);
             let want_shot = final_frame && args.screenshot.is_some();
-            match presenter.present(ctx, &sources, window.size(), want_shot)? {
+            let shown =
+                presenter.present_with(ctx, &sources, window.size(), want_shot, ui.as_ref());
+            if let Some(f) = &ui {
+                presenter.retire_ui(ctx, f)?;
+            }
+            match shown? {
                 Presented::Shown(shot) => {
                     presented += 1;
                     last_slot = Some(slot);

@@ -930,9 +930,23 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
     st.records.push(rec, rendered);
     let driver = live.driver.as_mut().expect("set");
     while let Some(r) = driver.take_completed() {
+        if let Some(m) = live.mirror.as_mut() {
+            m.push_frame(&r);
+        }
         st.records.complete(&r, stats);
     }
     st.records.flush(stats)?;
+    if let Some(m) = live.mirror.as_mut() {
+        let period_ms = fs.predicted_display_period.as_nanos() as f64 * 1e-6;
+        m.set_overlay_text(
+            &st.opt,
+            if period_ms > 0.0 {
+                period_ms
+            } else {
+                1000.0 / 90.0
+            },
+        );
+    }
     if index + 1 == super::session::WARMUP_FRAMES {
         if let Some(d) = &live.driver {
             stats.sample_memory(d.renderer().context(), false);

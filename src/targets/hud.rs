@@ -1,0 +1,255 @@
+//! The desk overlay (`--overlay on`, F3 toggles it): what the current
+//! configuration costs, drawn over the window's image only — the frame-time
+//! graph (CPU, GPU, wait) against the headset's budget, GPU ms per pass,
+//! what was drawn, the active `--opt` list and the keys. Laid out with egui
+//! on the CPU; `gpu::ui_layer` draws it.
+
+use crate::gpu::ui_layer::UiFrame;
+use crate::render::driver::FrameResult;
+use std::collections::VecDeque;
+
+/// `--overlay`: whether the window starts with the overlay shown.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, clap::ValueEnum)]
+pub enum OverlayMode {
+    /// Shown (F3 hides it).
+    #[default]
+    On,
+    /// Hidden (F3 shows it).
+    Off,
+}
+
+/// The key that shows and hides the overlay.
+pub const KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F3;
+
+/// The short key listing the overlay shows.
+pub const KEYS: &str = "1-8 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · Esc quit";
+
+/// Frames the graph shows.
+pub const HISTORY: usize = 240;
+
+/// One frame's times for the graph.
+#[derive(Clone, Copy, Debug, Default, PartialEq)]
+pub struct Times {
+    /// CPU ms of the frame's own work (cull, batch, record, submit).
+    pub cpu: f64,
+    /// GPU ms (the passes' timestamps).
+    pub gpu: f64,
+    /// CPU ms spent waiting for a frame slot.
+    pub wait: f64,
+}
+
+/// The overlay's state across frames.
+pub struct Hud {
+    ctx: egui::Context,
+    history: VecDeque<Times>,
+    last: Option<FrameResult>,
+    /// Whether it is drawn.
+    pub visible: bool,
+    started: std::time::Instant,
+}
+
+/// What the overlay shows besides the measured frames.
+pub struct HudInfo<'a> {
+    /// The current `--opt` list.
+    pub opt: &'a str,
+    /// The frame budget (ms) of the profile's refresh rate.
+    pub budget_ms: f64,
+    /// The key listing.
+    pub keys: &'a str,
+}
+
+/// The colours of the three series and the budget line.
+const CPU: egui::Color32 = egui::Color32::from_rgb(90, 170, 255);
+const GPU: egui::Color32 = egui::Color32::from_rgb(255, 160, 40);
+const WAIT: egui::Color32 = egui::Color32::from_rgb(170, 170, 170);
+const BUDGET: egui::Color32 = egui::Color32::from_rgb(230, 60, 60);
+
+impl Hud {
+    /// A hidden or shown overlay.
+    pub fn new(visible: bool) -> Hud {
+        Hud {
+            ctx: egui::Context::default(),
+            history: VecDeque::with_capacity(HISTORY),
+            last: None,
+            visible,
+            started: std::time::Instant::now(),
+        }
+    }
+
+    /// Adds a finished frame.
+    pub fn push(&mut self, r: &FrameResult) {
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back(Times {
+            cpu: r.cpu_ms(),
+            gpu: r.gpu_ms(),
+            wait: r.stats.cpu_ms.wait,
+        });
+        self.last = Some(r.clone());
+    }
+
+    /// The frame times kept for the graph, oldest first.
+    pub fn history(&self) -> impl Iterator<Item = &Times> {
+        self.history.iter()
+    }
+
+    /// Lays out the overlay for a window of `size` pixels (None when it
+    /// is hidden).
+    pub fn frame(&mut self, size: [u32; 2], info: &HudInfo) -> Option<UiFrame> {
+        if !self.visible {
+            return None;
+        }
+        let input = egui::RawInput {
+            screen_rect: Some(egui::Rect::from_min_size(
+                egui::Pos2::ZERO,
+                egui::vec2(size[0] as f32, size[1] as f32),
+            )),
+            time: Some(self.started.elapsed().as_secs_f64()),
+            ..egui::RawInput::default()
+        };
+        let history: Vec<Times> = self.history.iter().copied().collect();
+        let last = self.last.clone();
+        let output = self.ctx.run(input, |ctx| {
+            egui::Area::new(egui::Id::new("vergence-hud"))
+                .fixed_pos(egui::pos2(8.0, 8.0))
+                .show(ctx, |ui| {
+                    egui::Frame::NONE
+                        .fill(egui::Color32::from_black_alpha(220))
+                        .inner_margin(8.0)
+                        .corner_radius(4.0)
+                        .show(ui, |ui| panel(ui, &history, last.as_ref(), info));
+                });
+        });
+        let pixels_per_point = output.pixels_per_point;
+        let primitives = self.ctx.tessellate(output.shapes, pixels_per_point);
+        Some(UiFrame {
+            primitives,
+            textures: output.textures_delta,
+            pixels_per_point,
+        })
+    }
+}
+
+fn panel(ui: &mut egui::Ui, history: &[Times], last: Option<&FrameResult>, info: &HudInfo) {
+    ui.set_max_width(360.0);
+    ui.visuals_mut().override_text_color = Some(egui::Color32::from_gray(235));
+    ui.label(
+        egui::RichText::new(format!("vergence  {}", info.opt))
+            .strong()
+            .color(egui::Color32::WHITE),
+    );
+    let mean = |f: fn(&Times) -> f64| {
+        let n = history.len().max(1) as f64;
+        history.iter().map(f).sum::<f64>() / n
+    };
+    ui.label(format!(
+        "CPU {:.2}  GPU {:.2}  wait {:.2} ms   budget {:.2} ms",
+        mean(|t| t.cpu),
+        mean(|t| t.gpu),
+        mean(|t| t.wait),
+        info.budget_ms
+    ));
+    graph(ui, history, info.budget_ms);
+    if let Some(r) = last {
+        let s = &r.stats;
+        ui.label(format!(
+            "drawn: {} instances, {} triangles, {} draws",
+            s.instances_drawn, s.triangles, s.draw_calls
+        ));
+        for (pass, ms) in &s.gpu_ms {
+            ui.label(format!("  {pass:<14} {ms:7.3} ms"));
+        }
+    }
+    ui.label(egui::RichText::new(info.keys).small());
+}
+
+/// The last [`HISTORY`] frames' CPU, GPU and wait times as lines over the
+/// budget (a red line), scaled to twice the budget or the largest time.
+fn graph(ui: &mut egui::Ui, history: &[Times], budget: f64) {
+    let (rect, _) = ui.allocate_exact_size(egui::vec2(340.0, 90.0), egui::Sense::hover());
+    let painter = ui.painter_at(rect);
+    painter.rect_filled(rect, 2.0, egui::Color32::from_black_alpha(120));
+    let top = history
+        .iter()
+        .map(|t| t.cpu.max(t.gpu).max(t.wait))
+        .fold(2.0 * budget, f64::max)
+        .max(1e-3);
+    let y = |ms: f64| rect.bottom() - (ms / top) as f32 * rect.height();
+    let x = |i: usize| rect.left() + i as f32 / (HISTORY - 1) as f32 * rect.width();
+    let line = |points: Vec<egui::Pos2>, colour| {
+        painter.add(egui::Shape::line(points, egui::Stroke::new(1.5, colour)));
+    };
+    line(
+        vec![
+            egui::pos2(rect.left(), y(budget)),
+            egui::pos2(rect.right(), y(budget)),
+        ],
+        BUDGET,
+    );
+    let start = HISTORY - history.len();
+    for (f, colour) in [
+        ((|t: &Times| t.wait) as fn(&Times) -> f64, WAIT),
+        (|t: &Times| t.cpu, CPU),
+        (|t: &Times| t.gpu, GPU),
+    ] {
+        let points = history
+            .iter()
+            .enumerate()
+            .map(|(i, t)| egui::pos2(x(start + i), y(f(t))))
+            .collect();
+        line(points, colour);
+    }
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    #[test]
+    fn a_hidden_overlay_draws_nothing_and_a_shown_one_draws_its_panel() {
+        let info = HudInfo {
+            opt: "multiview,msaa4",
+            budget_ms: 11.1,
+            keys: "F3 overlay",
+        };
+        let mut hud = Hud::new(false);
+        assert!(hud.frame([640, 480], &info).is_none());
+        hud.visible = true;
+        // The first frame brings the font atlas (egui sizes a new area
+        // before it draws it); the next draws the panel.
+        let first = hud.frame([640, 480], &info).expect("shown");
+        assert!(!first.textures.set.is_empty());
+        let f = hud.frame([640, 480], &info).expect("shown");
+        assert!(!f.primitives.is_empty());
+        // Everything lies inside the window, in its top-left part.
+        for p in &f.primitives {
+            assert!(p.clip_rect.min.x >= 0.0 && p.clip_rect.min.y >= 0.0);
+        }
+    }
+
+    #[test]
+    fn the_graph_keeps_the_last_frames_only() {
+        let mut hud = Hud::new(true);
+        let r = FrameResult {
+            index: 0,
+            started: std::time::Instant::now(),
+            interval_ms: None,
+            cull_ms: 0.5,
+            motion_ms: 0.0,
+            cull: None,
+            fov: [crate::view::Fov {
+                left: -1.0,
+                right: 1.0,
+                up: 1.0,
+                down: -1.0,
+            }; 2],
+            stats: crate::render::FrameStats::default(),
+        };
+        for _ in 0..HISTORY + 17 {
+            hud.push(&r);
+        }
+        assert_eq!(hud.history().count(), HISTORY);
+        assert!(hud.history().all(|t| (t.cpu - 0.5).abs() < 1e-12));
+    }
+}
