@@ -526,3 +526,30 @@ fn a_plan_measures_timewarp_against_rendered_frames() {
         "`reference` does not run it",
     );
 }
+
+/// The desk overlay's on-demand error (F4 in `view`): the reference
+/// configuration against itself is exact (FLIP 0, a black heat map), 1×
+/// MSAA against it is not; the heat map has the eye's size.
+#[test]
+fn the_on_demand_error_is_zero_for_the_reference_and_not_for_1x() {
+    use vergence::targets::error_probe::{measure, reference_of};
+    let ctx = common::context();
+    let scene = common::load("factory:1500");
+    let profile = vergence::view::profile::HmdProfile::load("valve-index").unwrap();
+    let rig = profile.rig(common::framing_pose(&scene, &profile));
+    let extent = ash::vk::Extent2D {
+        width: 96,
+        height: 96,
+    };
+    let base = vergence::config::RenderConfig::default();
+    let same = measure(&ctx, &scene, &reference_of(&base), &rig, extent).unwrap();
+    assert_eq!(same.flip_mean, 0.0);
+    assert_eq!(same.heatmap.dimensions(), (96, 96));
+    let mut one = base.clone();
+    one.apply_opts("multiview,no-msaa", &vergence::config::cull_names())
+        .unwrap();
+    let r = measure(&ctx, &scene, &one, &rig, extent).unwrap();
+    assert!(r.flip_mean > 0.0 && r.flip_mean < 0.2, "{}", r.flip_mean);
+    assert_eq!(r.opt, one.opt_string());
+    assert_eq!(ctx.validation_messages(), 0, "{:#?}", ctx.validation_log());
+}

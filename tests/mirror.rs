@@ -930,6 +930,9 @@ fn keys_switch_optimizations_in_view_too() {
         );
     };
     std::thread::sleep(Duration::from_millis(500));
+    // F4: the image error of what the window shows, against the reference.
+    x.key(id, "F4");
+    std::thread::sleep(Duration::from_millis(1500));
     x.key(id, "Escape");
     let o = run.wait(Duration::from_secs(60));
     assert!(o.status.success(), "{}", text(&o));
@@ -940,9 +943,18 @@ fn keys_switch_optimizations_in_view_too() {
         "keys:",
         "F2 ",
         "; opt two-pass,no-msaa,none",
+        "against two-pass 4x for two-pass,no-msaa,none",
     ] {
         assert!(stdout.contains(want), "'{want}' missing: {stdout}");
     }
+    // 1x against the 4x reference: edges differ.
+    let flip: f64 = stdout
+        .lines()
+        .find_map(|l| l.strip_prefix("image error: FLIP mean "))
+        .and_then(|l| l.split_whitespace().next())
+        .and_then(|v| v.parse().ok())
+        .expect("an image error line");
+    assert!(flip > 0.0 && flip < 0.2, "FLIP mean {flip}");
     // The last image shown (after the switch) is a real frame.
     let img = load(&shot);
     assert_eq!(img.dimensions(), (320, 120));

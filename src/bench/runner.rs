@@ -526,6 +526,46 @@ struct Comparison<'a> {
     ppd: f64,
 }
 
+/// The error of `test` against `reference` (both rendered for `rig`) as
+/// the bench measures it: hidden pixels blacked out in both and left out,
+/// FLIP at the left view's pixels per degree (at least
+/// [`MIN_FLIP_PPD`]). Returns the FLIP mean of both eyes and the left
+/// eye's heat map (what the desk overlay shows on demand).
+pub fn stereo_error(
+    reference: &[image::RgbaImage; 2],
+    test: &[image::RgbaImage; 2],
+    rig: &StereoRig,
+) -> Result<(f64, image::RgbaImage)> {
+    let extent = vk::Extent2D {
+        width: reference[0].width(),
+        height: reference[0].height(),
+    };
+    let masks = visible_masks(rig, extent).ok_or_else(|| {
+        crate::error::Error::config("image error", "interrupted by a quit request")
+    })?;
+    let fov = rig
+        .views
+        .first()
+        .map(|v| v.fov)
+        .ok_or_else(|| crate::error::Error::config("image error", "the rig has no views"))?;
+    let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
+    let mut means = [0.0; 2];
+    let mut heat = None;
+    for eye in 0..2 {
+        let (a, b) = (
+            blackout(&reference[eye], &masks[eye]),
+            blackout(&test[eye], &masks[eye]),
+        );
+        let f = metrics::flip(&a, &b, ppd as f32)?;
+        means[eye] = masked_stats(&f.errors, &masks[eye]).0;
+        if eye == 0 {
+            heat = Some(f.heatmap());
+        }
+    }
+    let heat = heat.ok_or_else(|| crate::error::Error::config("image error", "no left eye"))?;
+    Ok(((means[0] + means[1]) / 2.0, heat))
+}
+
 /// Per eye, which pixels the lens hides (the profile's hidden area, or its
 /// lens-circle default). None when a quit was requested meanwhile.
 fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> Option<[Vec<bool>; 2]> {

@@ -20,9 +20,13 @@ pub enum OverlayMode {
 
 /// The key that shows and hides the overlay.
 pub const KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F3;
+/// The key that measures the current frame's image error (`view`).
+pub const MEASURE_KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F4;
+/// The key that shows and hides the error's heat map.
+pub const HEATMAP_KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F5;
 
 /// The short key listing the overlay shows.
-pub const KEYS: &str = "1-8 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · Esc quit";
+pub const KEYS: &str = "1-8 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · F4 image error · F5 heat map · Esc quit";
 
 /// Frames the graph shows.
 pub const HISTORY: usize = 240;
@@ -46,6 +50,13 @@ pub struct Hud {
     /// Whether it is drawn.
     pub visible: bool,
     started: std::time::Instant,
+    /// The last image error measured, and its heat map as a texture.
+    error: Option<(
+        crate::targets::error_probe::ErrorReport,
+        egui::TextureHandle,
+    )>,
+    /// Whether the heat map is shown under the error.
+    pub show_heatmap: bool,
 }
 
 /// What the overlay shows besides the measured frames.
@@ -73,7 +84,28 @@ impl Hud {
             last: None,
             visible,
             started: std::time::Instant::now(),
+            error: None,
+            show_heatmap: true,
         }
+    }
+
+    /// Shows `report` (its FLIP mean, and its heat map while
+    /// [`Hud::show_heatmap`]); the previous one's texture is retired.
+    pub fn set_error(&mut self, report: crate::targets::error_probe::ErrorReport) {
+        let h = &report.heatmap;
+        let image = egui::ColorImage::from_rgba_unmultiplied(
+            [h.width() as usize, h.height() as usize],
+            h.as_raw(),
+        );
+        let texture = self
+            .ctx
+            .load_texture("flip-heatmap", image, egui::TextureOptions::LINEAR);
+        self.error = Some((report, texture));
+    }
+
+    /// The last measured error's FLIP mean.
+    pub fn error_mean(&self) -> Option<f64> {
+        self.error.as_ref().map(|(r, _)| r.flip_mean)
     }
 
     /// Adds a finished frame.
@@ -110,6 +142,11 @@ impl Hud {
         };
         let history: Vec<Times> = self.history.iter().copied().collect();
         let last = self.last.clone();
+        let error = self
+            .error
+            .as_ref()
+            .map(|(r, t)| (r.flip_mean, r.opt.clone(), t.id(), t.size_vec2()));
+        let heat = self.show_heatmap;
         let output = self.ctx.run(input, |ctx| {
             egui::Area::new(egui::Id::new("vergence-hud"))
                 .fixed_pos(egui::pos2(8.0, 8.0))
@@ -118,7 +155,19 @@ impl Hud {
                         .fill(egui::Color32::from_black_alpha(220))
                         .inner_margin(8.0)
                         .corner_radius(4.0)
-                        .show(ui, |ui| panel(ui, &history, last.as_ref(), info));
+                        .show(ui, |ui| {
+                            panel(ui, &history, last.as_ref(), info);
+                            if let Some((mean, opt, id, size)) = &error {
+                                ui.label(format!(
+                                    "image error (F4): FLIP mean {mean:.4} vs two-pass 4x, for {opt}"
+                                ));
+                                if heat {
+                                    let w = 300.0f32.min(size.x);
+                                    let scaled = egui::vec2(w, w * size.y / size.x.max(1.0));
+                                    ui.image((*id, scaled));
+                                }
+                            }
+                        });
                 });
         });
         let pixels_per_point = output.pixels_per_point;

@@ -273,6 +273,21 @@ fn view_loop(
             if pressed.contains(&super::hud::KEY) {
                 hud.visible = !hud.visible;
             }
+            if pressed.contains(&super::hud::HEATMAP_KEY) {
+                hud.show_heatmap = !hud.show_heatmap;
+            }
+            if pressed.contains(&super::hud::MEASURE_KEY) {
+                // The frame the window shows, rendered again with the
+                // current configuration and with the reference.
+                let rig = profile.rig(camera.pose());
+                let report = super::error_probe::measure(ctx, scene, &live.config, &rig, extent)?;
+                println!(
+                    "image error: FLIP mean {:.4} against two-pass 4x for {}",
+                    report.flip_mean, report.opt
+                );
+                hud.set_error(report);
+                hud.visible = true;
+            }
             if let Some(new) = live.handle(&pressed, index) {
                 // The frames in flight finish and the presenter's blits
                 // are done (they read the eye images) before the renderer,

@@ -1,0 +1,73 @@
+//! The desk overlay's image error on demand (F4 in `view`): the frame the
+//! window shows, rendered again with the current configuration and with
+//! the full-quality reference the bench uses (`two-pass`, 4× MSAA, no
+//! culling or effort reduction), compared as the bench compares them
+//! (`bench::runner::stereo_error`: FLIP mean over the visible pixels of
+//! both eyes, the left eye's heat map).
+
+use crate::config::RenderConfig;
+use crate::error::Result;
+use crate::gpu::Context;
+use crate::render::driver::FrameDriver;
+use crate::render::Renderer;
+use crate::scene::Scene;
+use crate::view::StereoRig;
+use ash::vk;
+use std::sync::Arc;
+
+/// What one measurement found.
+#[derive(Clone, Debug)]
+pub struct ErrorReport {
+    /// FLIP mean of both eyes against the reference.
+    pub flip_mean: f64,
+    /// The left eye's FLIP heat map.
+    pub heatmap: image::RgbaImage,
+    /// The `--opt` list measured.
+    pub opt: String,
+}
+
+/// The reference configuration: the bench's default (`two-pass` at 4×,
+/// nothing else on), with `config`'s near plane.
+pub fn reference_of(config: &RenderConfig) -> RenderConfig {
+    let mut r = RenderConfig {
+        near: config.near,
+        frames_in_flight: 1,
+        ..RenderConfig::default()
+    };
+    r.apply_opts("two-pass,msaa4", &crate::config::cull_names())
+        .expect("the reference's options parse");
+    r
+}
+
+/// One frame of `rig` with `config`, read back.
+fn render(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    rig: &StereoRig,
+    extent: vk::Extent2D,
+) -> Result<[image::RgbaImage; 2]> {
+    let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
+    let mut driver = FrameDriver::new(renderer, scene)?;
+    driver.frame(rig, 0, true)?;
+    driver.finish()?;
+    driver.read_images()
+}
+
+/// Measures `config`'s error for `rig` at `extent` per eye.
+pub fn measure(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    rig: &StereoRig,
+    extent: vk::Extent2D,
+) -> Result<ErrorReport> {
+    let reference = render(ctx, scene, &reference_of(config), rig, extent)?;
+    let test = render(ctx, scene, config, rig, extent)?;
+    let (flip_mean, heatmap) = crate::bench::runner::stereo_error(&reference, &test, rig)?;
+    Ok(ErrorReport {
+        flip_mean,
+        heatmap,
+        opt: config.opt_string(),
+    })
+}
