@@ -691,7 +691,7 @@ impl Mirror {
         let info = crate::targets::hud::HudInfo {
             opt: &self.hud_text.0,
             budget_ms: self.hud_text.1,
-            keys: crate::targets::hud::KEYS,
+            keys: crate::targets::hud::KEYS_MIRROR,
         };
         self.hud.frame([size.width, size.height], &info)
     }
