@@ -2,6 +2,7 @@
 //! plots, and the tuner.
 
 pub mod cull;
+pub mod flicker;
 pub mod html;
 pub mod lens;
 pub mod metrics;
