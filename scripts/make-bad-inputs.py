@@ -394,6 +394,8 @@ case("manifests/motion-unknown-key.toml", "scene", ["malformed scene manifest", 
 PLAN = 'name = "p"\nscenes = ["factory:10"]\nhmds = ["monado-sim"]\nframes = {frames}\n[[configs]]\nname = "a"\nopt = "{opt}"\n'
 case("plans/bad-opt.toml", "plan", ["hyperdrive"], PLAN.format(frames=2, opt="hyperdrive"))
 case("plans/zero-frames.toml", "plan", ["frames = 0"], PLAN.format(frames=0, opt="two-pass"))
+case("plans/one-flicker-frame.toml", "plan", ["flicker_frames = 1", "0 (off) or 2 to 120"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nflicker_frames = 1\n", 1))
 case("plans/duplicate-names.toml", "plan", ["appears twice"],
      PLAN.format(frames=2, opt="two-pass") + '[[configs]]\nname = "a"\nopt = "multiview"\n')
 case("configs/unknown-key.toml", "config", ["colour"], 'opt = "multiview"\ncolour = 3\n')

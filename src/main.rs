@@ -63,6 +63,11 @@ enum Command {
         /// Largest acceptable FLIP mean; then the fastest stack under it wins.
         #[arg(long, value_parser = vergence::cli::parse_non_negative)]
         max_flip: Option<f64>,
+        /// Largest acceptable temporal error (flicker: per-pixel
+        /// frame-to-frame change beyond the reference's along a slowly
+        /// turning view); candidates above it, or unmeasured, are left out.
+        #[arg(long, value_parser = vergence::cli::parse_non_negative)]
+        max_flicker: Option<f64>,
         /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
         #[arg(long, default_value = "factory")]
         scene: String,
@@ -602,6 +607,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::Tune {
             budget_ms,
             max_flip,
+            max_flicker,
             scene,
             hmd,
             scale,
@@ -611,6 +617,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             vergence::bench::tune::TuneGoal {
                 budget_ms,
                 max_flip,
+                max_flicker,
             },
             &scene,
             &hmd,

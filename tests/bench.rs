@@ -260,6 +260,7 @@ fn tune_writes_a_config_run_accepts() {
     let goal = TuneGoal {
         budget_ms: 10000.0,
         max_flip: Some(0.2),
+        max_flicker: None,
     };
     let chosen = tune::choose(&results, &goal).unwrap().chosen;
     assert_eq!(results.groups[0].results.len(), 1 + tune::CANDIDATES.len());
@@ -552,4 +553,52 @@ fn the_on_demand_error_is_zero_for_the_reference_and_not_for_1x() {
     assert!(r.flip_mean > 0.0 && r.flip_mean < 0.2, "{}", r.flip_mean);
     assert_eq!(r.opt, one.opt_string());
     assert_eq!(ctx.validation_messages(), 0, "{:#?}", ctx.validation_log());
+}
+
+/// The temporal error (`flicker`) is reported per configuration: 0 for a
+/// configuration rendering exactly as the reference, more at 1× MSAA than
+/// at 4× (edges shimmer as the view turns by sub-pixel steps), and off with
+/// `flicker_frames = 0`.
+#[test]
+fn flicker_is_zero_for_the_reference_and_larger_without_msaa() {
+    let dir = common::scratch("bench", "flicker");
+    let plan = dir.join("flicker.toml");
+    let body = "name = \"flicker\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.12]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 6\nspin_up_ms = 0\n\n[[configs]]\nname = \"same\"\nopt = \"two-pass,msaa4\"\n\n[[configs]]\nname = \"mv4\"\nopt = \"multiview,msaa4\"\n\n[[configs]]\nname = \"mv1\"\nopt = \"multiview,no-msaa\"\n";
+    std::fs::write(&plan, body).unwrap();
+    let out = dir.join("out");
+    ok(&[
+        "bench",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    let results: BenchResults =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let f = |name: &str| get(&results, name).flicker.expect("flicker measured");
+    assert!(get(&results, "reference").flicker.is_none());
+    assert_eq!(f("same"), 0.0);
+    assert!(f("mv1") > f("mv4"), "1x {} vs 4x {}", f("mv1"), f("mv4"));
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("Temporal error (flicker"), "{md}");
+    // Off: no sequence rendered, no field.
+    std::fs::write(
+        &plan,
+        body.replace("flicker_frames = 6", "flicker_frames = 0"),
+    )
+    .unwrap();
+    let off = dir.join("off");
+    ok(&[
+        "bench",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        off.to_str().unwrap(),
+    ]);
+    let results: BenchResults =
+        serde_json::from_str(&std::fs::read_to_string(off.join("results.json")).unwrap()).unwrap();
+    assert!(results.groups[0]
+        .results
+        .iter()
+        .all(|r| r.flicker.is_none()));
 }

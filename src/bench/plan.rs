@@ -58,6 +58,12 @@ pub struct Plan {
     /// compared with the reference.
     #[serde(default = "default_error_frames")]
     pub error_frames: u32,
+    /// Frames of the temporal-error sequence (the first measured view
+    /// turning by a third of a pixel a frame), rendered by the reference
+    /// and by each configuration after its timing; 0 turns the measure
+    /// off (see `bench::flicker`).
+    #[serde(default = "default_flicker_frames")]
+    pub flicker_frames: u32,
     /// Seed of the head path.
     #[serde(default)]
     pub path_seed: u64,
@@ -87,6 +93,9 @@ fn one_scale() -> Vec<f64> {
 }
 fn default_warmup() -> u32 {
     5
+}
+fn default_flicker_frames() -> u32 {
+    6
 }
 fn default_spin_up_ms() -> u32 {
     500
@@ -205,6 +214,12 @@ impl Plan {
         }
         if self.frames == 0 || self.frames > 100_000 {
             return Err(format!("frames = {} must be in 1..=100000", self.frames));
+        }
+        if self.flicker_frames == 1 || self.flicker_frames > 120 {
+            return Err(format!(
+                "flicker_frames = {} must be 0 (off) or 2 to 120",
+                self.flicker_frames
+            ));
         }
         if self.spin_up_ms > 60_000 {
             return Err(format!(

@@ -149,6 +149,27 @@ pub fn markdown(results: &BenchResults) -> String {
             .chain(passes)
             .collect();
         md_table(&mut s, &head, &rows);
+        let flicker: Vec<Vec<String>> = g
+            .results
+            .iter()
+            .filter_map(|r| {
+                Some(vec![
+                    r.name.clone(),
+                    format!("{:.5}", r.flicker?),
+                    r.error
+                        .as_ref()
+                        .map_or(String::new(), |e| format!("{:.4}", e.flip_mean)),
+                ])
+            })
+            .collect();
+        if !flicker.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nTemporal error (flicker: mean per-pixel frame-to-frame luma change beyond the reference's, along the first view turning a third of a pixel a frame; 0 = as stable as the reference):\n"
+            );
+            let head = ["config", "flicker", "FLIP mean"].map(String::from);
+            md_table(&mut s, &head, &flicker);
+        }
         let moving: Vec<Vec<String>> = g
             .results
             .iter()

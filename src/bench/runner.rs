@@ -187,6 +187,11 @@ pub struct ConfigResult {
     pub image: Option<String>,
     /// FLIP heat map of that image against the reference.
     pub heatmap: Option<String>,
+    /// Temporal error against the reference along the plan's flicker
+    /// sequence, both eyes averaged (`bench::flicker`; None when off, for
+    /// the reference itself and for timewarp configurations).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker: Option<f64>,
     /// With `timewarp=K`: the warped frames (its `error` is theirs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<TimewarpResult>,
@@ -459,6 +464,13 @@ fn run_group(
     reference.image = Some(save_left(out, &group_dir, "reference", &reference_images)?);
     group.results.push(reference);
     tick("reference");
+    // The temporal-error sequence: the first measured view turning by a
+    // third of a pixel a frame.
+    let flicker_rigs = flicker_rigs(plan, &rigs, profile, ppd);
+    let reference_sequence = match flicker_rigs.is_empty() {
+        true => Vec::new(),
+        false => render_sequence(ctx, scene, &reference_config, &flicker_rigs, extent)?,
+    };
     for c in &plan.configs {
         if crate::quit::requested() {
             fill_speedups(group);
@@ -489,6 +501,10 @@ fn run_group(
             return Ok(false);
         };
         r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
+        if !reference_sequence.is_empty() && config.timewarp.is_none() {
+            let test = render_sequence(ctx, scene, &config, &flicker_rigs, extent)?;
+            r.flicker = Some(sequence_flicker(&test, &reference_sequence, &masks)?);
+        }
         if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
             let flip = metrics::flip(&reference[0], &last[0], ppd as f32)?;
             let rel = format!("{group_dir}/{}.flip.png", sanitize(&c.name));
@@ -500,6 +516,69 @@ fn run_group(
     }
     fill_speedups(group);
     Ok(true)
+}
+
+/// The temporal-error sequence of a group: `plan.flicker_frames` views
+/// from the first measured one, turning right by a third of a pixel
+/// (at `ppd` pixels per degree) a frame — sub-pixel motion, where aliasing
+/// shows as shimmer.
+fn flicker_rigs(
+    plan: &Plan,
+    rigs: &[StereoRig],
+    profile: &crate::view::profile::HmdProfile,
+    ppd: f64,
+) -> Vec<StereoRig> {
+    let Some(first) = rigs.get((plan.warmup as usize).min(rigs.len().saturating_sub(1))) else {
+        return Vec::new();
+    };
+    let step_deg = 1.0 / (3.0 * ppd.max(1.0));
+    (0..plan.flicker_frames)
+        .map(|j| {
+            let turn = crate::view::Pose::from_euler_deg(
+                glam::DVec3::ZERO,
+                -step_deg * j as f64,
+                0.0,
+                0.0,
+            );
+            profile.rig(first.head.compose(&turn))
+        })
+        .collect()
+}
+
+/// `rigs` rendered in order by a fresh renderer of `config`, each frame
+/// read back.
+fn render_sequence(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &crate::config::RenderConfig,
+    rigs: &[StereoRig],
+    extent: vk::Extent2D,
+) -> Result<Vec<[image::RgbaImage; 2]>> {
+    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
+    let mut driver = FrameDriver::new(renderer, scene)?;
+    let mut out = Vec::with_capacity(rigs.len());
+    for (j, rig) in rigs.iter().enumerate() {
+        driver.frame(rig, j as u64, true)?;
+        out.push(driver.read_images()?);
+    }
+    driver.finish()?;
+    Ok(out)
+}
+
+/// The flicker of `test` against `reference`, both eyes averaged, over the
+/// pixels the lens shows.
+fn sequence_flicker(
+    test: &[[image::RgbaImage; 2]],
+    reference: &[[image::RgbaImage; 2]],
+    masks: &[Vec<bool>; 2],
+) -> Result<f64> {
+    let mut sum = 0.0;
+    for eye in 0..2 {
+        let t: Vec<image::RgbaImage> = test.iter().map(|p| p[eye].clone()).collect();
+        let r: Vec<image::RgbaImage> = reference.iter().map(|p| p[eye].clone()).collect();
+        sum += super::flicker::flicker(&t, &r, &masks[eye])?;
+    }
+    Ok(sum / 2.0)
 }
 
 /// Speed-ups against the group's baseline, when it was measured (also for

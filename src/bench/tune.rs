@@ -58,6 +58,9 @@ pub struct TuneGoal {
     pub budget_ms: f64,
     /// Error cap: FLIP mean must not exceed it; then the fastest wins.
     pub max_flip: Option<f64>,
+    /// Temporal error cap (`--max-flicker`): a candidate whose flicker
+    /// (`bench::flicker`) exceeds it, or was not measured, is left out.
+    pub max_flicker: Option<f64>,
 }
 
 /// The bench plan `tune` measures.
@@ -71,6 +74,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
         // frames: p95 needs a real warm-up.
         warmup: (frames / 2).clamp(10, 60),
         spin_up_ms: 500,
+        flicker_frames: 6,
         frames,
         error_frames: frames.min(2),
         path_seed: 1,
@@ -140,6 +144,11 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                 (None, _) => ", so it is left out".to_string(),
                 (Some(f), Some(m)) if f > m => format!(" over the cap {m}"),
                 _ => String::new(),
+            } + &match (r.flicker, goal.max_flicker) {
+                (_, None) => String::new(),
+                (None, Some(_)) => "; flicker not measured, so it is left out".to_string(),
+                (Some(f), Some(m)) if f > m => format!("; flicker {f:.5} over the cap {m}"),
+                (Some(f), Some(_)) => format!("; flicker {f:.5}"),
             }
         ));
     }
@@ -150,6 +159,10 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
         .filter(|r| fits(r))
         .filter_map(|r| Some((r, flip(r)?)))
         .filter(|&(_, f)| goal.max_flip.is_none_or(|m| f <= m))
+        .filter(|&(r, _)| {
+            goal.max_flicker
+                .is_none_or(|m| r.flicker.is_some_and(|f| f <= m))
+        })
         .collect();
     let faster =
         |a: &ConfigResult, b: &ConfigResult| a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95);
@@ -184,7 +197,11 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                     goal.budget_ms,
                     goal.max_flip
                         .map(|m| format!(" with FLIP mean ≤ {m}"))
-                        .unwrap_or_default(),
+                        .unwrap_or_default()
+                        + &goal
+                            .max_flicker
+                            .map(|m| format!(" and flicker ≤ {m}"))
+                            .unwrap_or_default(),
                     why.join("\n")
                 ),
             ))
@@ -260,6 +277,7 @@ mod tests {
         let goal = TuneGoal {
             budget_ms: 10.0,
             max_flip: None,
+            max_flicker: None,
         };
         assert_eq!(choose(&results(), &goal).unwrap().chosen.name, "mid");
     }
@@ -269,6 +287,7 @@ mod tests {
         let goal = TuneGoal {
             budget_ms: 10.0,
             max_flip: Some(0.05),
+            max_flicker: None,
         };
         let c = choose(&results(), &goal).unwrap();
         assert_eq!(c.chosen.name, "fast");
@@ -285,6 +304,7 @@ mod tests {
         TuneGoal {
             budget_ms,
             max_flip,
+            max_flicker: None,
         }
     }
 
@@ -345,10 +365,40 @@ mod tests {
     }
 
     #[test]
+    fn a_flicker_cap_leaves_out_what_shimmers_and_what_was_not_measured() {
+        // Under the FLIP cap "fast" wins; capping flicker leaves it out
+        // (too much) and "fastest" too (not measured), so "mid" wins.
+        let mut r = results();
+        for c in &mut r.groups[0].results {
+            c.flicker = match c.name.as_str() {
+                "fast" => Some(0.02),
+                "mid" => Some(0.004),
+                _ => None,
+            };
+        }
+        let goal = TuneGoal {
+            budget_ms: 10.0,
+            max_flip: Some(0.05),
+            max_flicker: Some(0.01),
+        };
+        let c = choose(&r, &goal).unwrap();
+        assert_eq!(c.chosen.name, "mid");
+        let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
+        assert!(line.contains("flicker 0.02000 over the cap 0.01"), "{line}");
+        let capped = TuneGoal {
+            max_flicker: Some(0.001),
+            ..goal
+        };
+        let e = choose(&r, &capped).unwrap_err().to_string();
+        assert!(e.contains("and flicker ≤ 0.001"), "{e}");
+    }
+
+    #[test]
     fn impossible_budget_is_an_error_naming_the_fastest() {
         let goal = TuneGoal {
             budget_ms: 1.0,
             max_flip: None,
+            max_flicker: None,
         };
         let e = choose(&results(), &goal).unwrap_err().to_string();
         assert!(
