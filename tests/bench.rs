@@ -543,13 +543,13 @@ fn the_on_demand_error_is_zero_for_the_reference_and_not_for_1x() {
         height: 96,
     };
     let base = vergence::config::RenderConfig::default();
-    let same = measure(&ctx, &scene, &reference_of(&base), &rig, extent).unwrap();
+    let same = measure(&ctx, &scene, &reference_of(&base), (&rig, 0.0), extent).unwrap();
     assert_eq!(same.flip_mean, 0.0);
     assert_eq!(same.heatmap.dimensions(), (96, 96));
     let mut one = base.clone();
     one.apply_opts("multiview,no-msaa", &vergence::config::cull_names())
         .unwrap();
-    let r = measure(&ctx, &scene, &one, &rig, extent).unwrap();
+    let r = measure(&ctx, &scene, &one, (&rig, 0.0), extent).unwrap();
     assert!(r.flip_mean > 0.0 && r.flip_mean < 0.2, "{}", r.flip_mean);
     assert_eq!(r.opt, one.opt_string());
     assert_eq!(ctx.validation_messages(), 0, "{:#?}", ctx.validation_log());

@@ -694,8 +694,13 @@ fn measure(
     // clocks (see `Plan::spin_up_ms`).
     if let Some(first) = rigs.first() {
         let spin = std::time::Instant::now();
-        while spin.elapsed().as_secs_f64() * 1e3 < plan.spin_up_ms as f64 {
+        let mut spun = 0u64;
+        // An even number of frames: the renderer's frame count picks the
+        // round-robin eye and MFFR's alternate eye, so the measured frames
+        // keep the parity they have without a spin-up.
+        while spin.elapsed().as_secs_f64() * 1e3 < plan.spin_up_ms as f64 || spun % 2 == 1 {
             driver.frame(first, 0, false)?;
+            spun += 1;
             while driver.take_completed().is_some() {}
             if crate::quit::requested() {
                 return Ok(None);

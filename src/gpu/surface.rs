@@ -477,6 +477,26 @@ impl Presenter {
             }
         }
         let d = &ctx.device;
+        // The overlay's texture changes go up before anything can skip this
+        // present (egui sends each change once): on the first overlay the
+        // renderer is made, and an upload waits for the device so no frame
+        // still samples what it replaces.
+        if let Some(frame) = ui.filter(|_| self.draws_overlays()) {
+            if self.ui.is_none() {
+                self.ui = Some(super::ui_layer::UiLayer::new(
+                    ctx,
+                    self.format.format,
+                    self.slots.len(),
+                )?);
+            }
+            if !frame.textures.set.is_empty() {
+                // SAFETY: waiting for the device on this thread.
+                unsafe { d.device_wait_idle() }.vk("waiting before an overlay upload")?;
+                if let Some(layer) = self.ui.as_mut() {
+                    layer.upload(ctx, frame)?;
+                }
+            }
+        }
         let never_block = self.pacing == Pacing::NeverBlock && !read_back;
         let slot_index = self.next;
         let (pool, cmd, fence, acquired) = {
@@ -549,30 +569,16 @@ impl Presenter {
             )?);
         }
         let readback = read_back.then(|| self.readback.as_ref().map(|b| b.buffer));
-        let ui = ui.filter(|_| self.draws_overlays());
-        if let Some(frame) = ui {
-            if self
-                .ui
-                .as_ref()
-                .is_some_and(|l| l.format() != self.format.format)
-            {
-                // SAFETY: waiting before the old renderer goes.
-                unsafe { d.device_wait_idle() }.vk("waiting before remaking the overlay")?;
-                if let Some(old) = self.ui.take() {
-                    old.destroy(ctx);
-                }
-            }
-            if self.ui.is_none() {
-                self.ui = Some(super::ui_layer::UiLayer::new(
-                    ctx,
-                    self.format.format,
-                    self.slots.len(),
-                )?);
-            }
-            if let Some(layer) = self.ui.as_mut() {
-                layer.upload(ctx, frame)?;
-            }
-        }
+        // The overlay draws only with the renderer made for this format
+        // (its textures live there; a swapchain that changed format would
+        // need egui to send them again, so the overlay stops instead).
+        let ui = ui.filter(|_| {
+            self.draws_overlays()
+                && self
+                    .ui
+                    .as_ref()
+                    .is_some_and(|l| l.format() == self.format.format)
+        });
         let view = self.views.get(index as usize).copied();
         let ui_target = ui.zip(view);
         self.record_blit(

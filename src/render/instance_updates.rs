@@ -124,6 +124,9 @@ impl InstanceUpdates {
         bounds: &[WorldBounds],
         boxes: Option<&BoxRecord<'_>>,
     ) {
+        // One frame's motion replaces what an earlier, failed frame left
+        // staged (the same instances twice would overlap copy regions).
+        self.clear();
         let n = moved.len().min(bounds.len());
         let index = |i: usize| moved[i].index;
         self.instances.push(n, INSTANCE_FLOATS, index, |i, out| {

@@ -1,10 +1,13 @@
 //! LOD chain cache (`--opt lod,lod-cache`): the chains [`super::lod`]
 //! builds for a scene loaded from a file are kept next to it, in
 //! `FILE.lodcache`, keyed by a content hash of every primitive's positions
-//! and indices and of the simplifier's settings. A later load with the same
-//! content reads them instead of simplifying again; anything else — another
-//! hash, a truncated or altered file, indices out of range — is a warning,
-//! the chains are built again and the file replaced. Writing is atomic (a
+//! and indices and of the simplifier's settings and algorithm version
+//! ([`ALGORITHM`]). A later load with the same content reads them instead
+//! of simplifying again; anything else — another hash, a truncated file,
+//! counts beyond the file, indices out of range, empty or non-shrinking
+//! levels, non-finite or decreasing errors — is a warning, the chains are
+//! built again and the file replaced. (A value altered within those
+//! bounds is not detected: the file is a cache, not a signed artefact.) Writing is atomic (a
 //! temporary file renamed over the old one); a folder that cannot be
 //! written is a warning, never an error.
 //!
@@ -18,6 +21,12 @@ use crate::view::lod::MAX_LEVELS;
 use std::path::{Path, PathBuf};
 
 const MAGIC: &[u8; 8] = b"VLODC001";
+
+/// What the chains depend on besides the content: bump it whenever
+/// `scene::lod::chain` changes how it simplifies (options, targets, stop
+/// rule), so caches built by the old code are rebuilt.
+pub const ALGORITHM: &[u8] =
+    b"lod chain 1: meshopt 0.7 simplify_decoder, ErrorAbsolute|Permissive, halving, stop above 90 %";
 
 /// What happened to the cache on one load (for `stats.json`).
 #[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
@@ -52,6 +61,7 @@ fn fnv1a(mut h: u64, bytes: &[u8]) -> u64 {
 pub fn content_hash(scene: &Scene) -> u64 {
     let mut h = 0xcbf2_9ce4_8422_2325;
     h = fnv1a(h, MAGIC);
+    h = fnv1a(h, ALGORITHM);
     for v in [MAX_LEVELS as u64, MIN_TRIANGLES as u64] {
         h = fnv1a(h, &v.to_le_bytes());
     }
@@ -151,6 +161,12 @@ pub fn decode(bytes: &[u8], hash: u64, scene: &Scene) -> Result<Chains, String> 
                 ));
             }
             let len = r.u32("an index count")? as usize;
+            let above = chain.last().map_or(p.indices.len(), |l| l.indices.len());
+            if len == 0 || len >= above {
+                return Err(format!(
+                    "primitive {k} level {j}: {len} indices (a level has fewer than the one above, {above}, and at least one triangle)"
+                ));
+            }
             if !len.is_multiple_of(3) || len > r.0.len() / 4 {
                 return Err(format!(
                     "primitive {k} level {j}: {len} indices (whole triangles, within the file)"

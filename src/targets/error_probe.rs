@@ -27,10 +27,11 @@ pub struct ErrorReport {
 }
 
 /// The reference configuration: the bench's default (`two-pass` at 4×,
-/// nothing else on), with `config`'s near plane.
+/// nothing else on), with `config`'s near plane and section plane.
 pub fn reference_of(config: &RenderConfig) -> RenderConfig {
     let mut r = RenderConfig {
         near: config.near,
+        section: config.section,
         frames_in_flight: 1,
         ..RenderConfig::default()
     };
@@ -39,31 +40,34 @@ pub fn reference_of(config: &RenderConfig) -> RenderConfig {
     r
 }
 
-/// One frame of `rig` with `config`, read back.
+/// One frame of `rig` at scene time `time` (seconds) with `config`, read
+/// back.
 fn render(
     ctx: &Arc<Context>,
     scene: &Scene,
     config: &RenderConfig,
-    rig: &StereoRig,
+    (rig, time): (&StereoRig, f64),
     extent: vk::Extent2D,
 ) -> Result<[image::RgbaImage; 2]> {
     let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
     let mut driver = FrameDriver::new(renderer, scene)?;
+    driver.set_time(time);
     driver.frame(rig, 0, true)?;
     driver.finish()?;
     driver.read_images()
 }
 
-/// Measures `config`'s error for `rig` at `extent` per eye.
+/// Measures `config`'s error for `rig` at scene time `time` (where moving
+/// instances stand), at `extent` per eye.
 pub fn measure(
     ctx: &Arc<Context>,
     scene: &Scene,
     config: &RenderConfig,
-    rig: &StereoRig,
+    (rig, time): (&StereoRig, f64),
     extent: vk::Extent2D,
 ) -> Result<ErrorReport> {
-    let reference = render(ctx, scene, &reference_of(config), rig, extent)?;
-    let test = render(ctx, scene, config, rig, extent)?;
+    let reference = render(ctx, scene, &reference_of(config), (rig, time), extent)?;
+    let test = render(ctx, scene, config, (rig, time), extent)?;
     let (flip_mean, heatmap) = crate::bench::runner::stereo_error(&reference, &test, rig)?;
     Ok(ErrorReport {
         flip_mean,

@@ -31,6 +31,9 @@ pub const KEYS: &str = "1-8 switch an optimization (H lists them) · P print --o
 /// The key listing of `run`'s mirror (no on-demand error there).
 pub const KEYS_MIRROR: &str = "1-8 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · Esc quit";
 
+/// Longest side of the heat map texture, pixels.
+pub const HEATMAP_SIDE: u32 = 512;
+
 /// Frames the graph shows.
 pub const HISTORY: usize = 240;
 
@@ -95,7 +98,21 @@ impl Hud {
     /// Shows `report` (its FLIP mean, and its heat map while
     /// [`Hud::show_heatmap`]); the previous one's texture is retired.
     pub fn set_error(&mut self, report: crate::targets::error_probe::ErrorReport) {
-        let h = &report.heatmap;
+        // Shown at most 300 points wide: a 512-pixel copy is plenty, and
+        // stays within every texture size limit.
+        let h = if report.heatmap.width() > HEATMAP_SIDE || report.heatmap.height() > HEATMAP_SIDE {
+            let scale =
+                HEATMAP_SIDE as f64 / report.heatmap.width().max(report.heatmap.height()) as f64;
+            image::imageops::resize(
+                &report.heatmap,
+                ((report.heatmap.width() as f64 * scale) as u32).max(1),
+                ((report.heatmap.height() as f64 * scale) as u32).max(1),
+                image::imageops::FilterType::Triangle,
+            )
+        } else {
+            report.heatmap.clone()
+        };
+        let h = &h;
         let image = egui::ColorImage::from_rgba_unmultiplied(
             [h.width() as usize, h.height() as usize],
             h.as_raw(),
@@ -274,6 +291,22 @@ mod tests {
         assert!(!first.textures.set.is_empty());
         let f = hud.frame([640, 480], &info).expect("shown");
         assert!(!f.primitives.is_empty());
+        // A full-size heat map (valve-index: 2016×2240, beyond egui's
+        // 2048-pixel texture limit) is shown from a 512-pixel copy.
+        hud.set_error(crate::targets::error_probe::ErrorReport {
+            flip_mean: 0.01,
+            heatmap: image::RgbaImage::new(2016, 2240),
+            opt: "multiview".into(),
+        });
+        let f = hud.frame([640, 480], &info).expect("shown");
+        let side = f
+            .textures
+            .set
+            .iter()
+            .map(|(_, d)| d.image.width().max(d.image.height()))
+            .max()
+            .unwrap_or(0);
+        assert!(side > 0 && side <= HEATMAP_SIDE as usize, "{side}");
         // Everything lies inside the window, in its top-left part.
         for p in &f.primitives {
             assert!(p.clip_rect.min.x >= 0.0 && p.clip_rect.min.y >= 0.0);

@@ -280,13 +280,19 @@ fn view_loop(
                 // The frame the window shows, rendered again with the
                 // current configuration and with the reference.
                 let rig = profile.rig(camera.pose());
-                let report = super::error_probe::measure(ctx, scene, &live.config, &rig, extent)?;
-                println!(
-                    "image error: FLIP mean {:.4} against two-pass 4x for {}",
-                    report.flip_mean, report.opt
-                );
-                hud.set_error(report);
-                hud.visible = true;
+                let time = last.duration_since(started).as_secs_f64();
+                match super::error_probe::measure(ctx, scene, &live.config, (&rig, time), extent) {
+                    Ok(report) => {
+                        println!(
+                            "image error: FLIP mean {:.4} against two-pass 4x for {}",
+                            report.flip_mean, report.opt
+                        );
+                        hud.set_error(report);
+                        hud.visible = true;
+                    }
+                    // The session goes on without the measurement.
+                    Err(e) => eprintln!("vergence: image error not measured: {e}"),
+                }
             }
             if let Some(new) = live.handle(&pressed, index) {
                 // The frames in flight finish and the presenter's blits
