@@ -469,7 +469,14 @@ fn run_group(
     let flicker_rigs = flicker_rigs(plan, &rigs, profile, ppd);
     let reference_sequence = match flicker_rigs.is_empty() {
         true => Vec::new(),
-        false => render_sequence(ctx, scene, &reference_config, &flicker_rigs, extent)?,
+        false => crate::targets::headless::render_sequence(
+            ctx,
+            scene,
+            &reference_config,
+            &flicker_rigs,
+            extent,
+            0.0,
+        )?,
     };
     for c in &plan.configs {
         if crate::quit::requested() {
@@ -502,7 +509,14 @@ fn run_group(
         };
         r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
         if !reference_sequence.is_empty() && config.timewarp.is_none() {
-            let test = render_sequence(ctx, scene, &config, &flicker_rigs, extent)?;
+            let test = crate::targets::headless::render_sequence(
+                ctx,
+                scene,
+                &config,
+                &flicker_rigs,
+                extent,
+                0.0,
+            )?;
             r.flicker = Some(sequence_flicker(&test, &reference_sequence, &masks)?);
         }
         if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
@@ -543,26 +557,6 @@ fn flicker_rigs(
             profile.rig(first.head.compose(&turn))
         })
         .collect()
-}
-
-/// `rigs` rendered in order by a fresh renderer of `config`, each frame
-/// read back.
-fn render_sequence(
-    ctx: &Arc<Context>,
-    scene: &Scene,
-    config: &crate::config::RenderConfig,
-    rigs: &[StereoRig],
-    extent: vk::Extent2D,
-) -> Result<Vec<[image::RgbaImage; 2]>> {
-    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
-    let mut driver = FrameDriver::new(renderer, scene)?;
-    let mut out = Vec::with_capacity(rigs.len());
-    for (j, rig) in rigs.iter().enumerate() {
-        driver.frame(rig, j as u64, true)?;
-        out.push(driver.read_images()?);
-    }
-    driver.finish()?;
-    Ok(out)
 }
 
 /// The flicker of `test` against `reference`, both eyes averaged, over the
@@ -628,21 +622,9 @@ pub fn stereo_error(
         .map(|v| v.fov)
         .ok_or_else(|| crate::error::Error::config("image error", "the rig has no views"))?;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
-    let mut means = [0.0; 2];
-    let mut heat = None;
-    for eye in 0..2 {
-        let (a, b) = (
-            blackout(&reference[eye], &masks[eye]),
-            blackout(&test[eye], &masks[eye]),
-        );
-        let f = metrics::flip(&a, &b, ppd as f32)?;
-        means[eye] = masked_stats(&f.errors, &masks[eye]).0;
-        if eye == 0 {
-            heat = Some(f.heatmap());
-        }
-    }
-    let heat = heat.ok_or_else(|| crate::error::Error::config("image error", "no left eye"))?;
-    Ok(((means[0] + means[1]) / 2.0, heat))
+    let (left, flip) = eye_error(&reference[0], &test[0], &masks[0], ppd)?;
+    let (right, _) = eye_error(&reference[1], &test[1], &masks[1], ppd)?;
+    Ok(((left.flip_mean + right.flip_mean) / 2.0, flip.heatmap()))
 }
 
 /// Per eye, which pixels the lens hides (the profile's hidden area, or its
@@ -887,22 +869,9 @@ fn image_error(
     test: &[image::RgbaImage; 2],
     cmp: &Comparison,
 ) -> Result<ImageError> {
-    let eyes = [0usize, 1].map(|eye| -> Result<ImageError> {
-        let mask = &cmp.masks[eye];
-        let (a, b) = (blackout(&reference[eye], mask), blackout(&test[eye], mask));
-        let f = metrics::flip(&a, &b, cmp.ppd as f32)?;
-        let (mean, p99) = masked_stats(&f.errors, mask);
-        Ok(ImageError {
-            flip_mean: mean,
-            flip_p99: p99,
-            psnr_db: metrics::psnr(&a, &b).min(100.0),
-            ssim: metrics::ssim(&a, &b),
-            ppd: cmp.ppd,
-            frames: 1,
-        })
-    });
-    let [l, r] = eyes;
-    let (l, r) = (l?, r?);
+    let [l, r] =
+        [0usize, 1].map(|eye| eye_error(&reference[eye], &test[eye], &cmp.masks[eye], cmp.ppd));
+    let ((l, _), (r, _)) = (l?, r?);
     Ok(ImageError {
         flip_mean: (l.flip_mean + r.flip_mean) / 2.0,
         flip_p99: (l.flip_p99 + r.flip_p99) / 2.0,
@@ -911,6 +880,31 @@ fn image_error(
         ppd: l.ppd,
         frames: 1,
     })
+}
+
+/// One eye's error against its reference over the pixels `mask` does not
+/// hide (blacked out in both images first and left out of the FLIP
+/// statistics), with the FLIP result itself (for its heat map).
+fn eye_error(
+    reference: &image::RgbaImage,
+    test: &image::RgbaImage,
+    mask: &[bool],
+    ppd: f64,
+) -> Result<(ImageError, metrics::FlipResult)> {
+    let (a, b) = (blackout(reference, mask), blackout(test, mask));
+    let f = metrics::flip(&a, &b, ppd as f32)?;
+    let (mean, p99) = masked_stats(&f.errors, mask);
+    Ok((
+        ImageError {
+            flip_mean: mean,
+            flip_p99: p99,
+            psnr_db: metrics::psnr(&a, &b).min(100.0),
+            ssim: metrics::ssim(&a, &b),
+            ppd,
+            frames: 1,
+        },
+        f,
+    ))
 }
 
 /// `img` with the pixels `hidden` marks set to opaque black.

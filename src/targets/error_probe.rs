@@ -8,8 +8,6 @@
 use crate::config::RenderConfig;
 use crate::error::Result;
 use crate::gpu::Context;
-use crate::render::driver::FrameDriver;
-use crate::render::Renderer;
 use crate::scene::Scene;
 use crate::view::StereoRig;
 use ash::vk;
@@ -40,8 +38,7 @@ pub fn reference_of(config: &RenderConfig) -> RenderConfig {
     r
 }
 
-/// One frame of `rig` at scene time `time` (seconds) with `config`, read
-/// back.
+/// One frame of `rig` at scene time `time` with `config`, read back.
 fn render(
     ctx: &Arc<Context>,
     scene: &Scene,
@@ -49,12 +46,18 @@ fn render(
     (rig, time): (&StereoRig, f64),
     extent: vk::Extent2D,
 ) -> Result<[image::RgbaImage; 2]> {
-    let renderer = Renderer::new(ctx.clone(), scene, config, extent)?;
-    let mut driver = FrameDriver::new(renderer, scene)?;
-    driver.set_time(time);
-    driver.frame(rig, 0, true)?;
-    driver.finish()?;
-    driver.read_images()
+    let frames = super::headless::render_sequence(
+        ctx,
+        scene,
+        config,
+        std::slice::from_ref(rig),
+        extent,
+        time,
+    )?;
+    frames
+        .into_iter()
+        .next()
+        .ok_or_else(|| crate::error::Error::Gpu("no frame rendered".into()))
 }
 
 /// Measures `config`'s error for `rig` at scene time `time` (where moving

@@ -232,6 +232,31 @@ pub fn load_stereo_profile(name: &str) -> Result<HmdProfile> {
     Ok(profile)
 }
 
+/// `rigs` rendered in order by a fresh renderer of `config`, frame `j` at
+/// scene time `start_time + j / DEFAULT_FRAME_RATE` (where moving
+/// instances stand), each frame read back: what an image comparison
+/// outside the timed loops renders (the bench's temporal-error sequence,
+/// `view`'s on-demand error).
+pub fn render_sequence(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    rigs: &[crate::view::StereoRig],
+    extent: vk::Extent2D,
+    start_time: f64,
+) -> Result<Vec<[image::RgbaImage; 2]>> {
+    let renderer = new_renderer(ctx, scene, config, extent)?;
+    let mut driver = FrameDriver::new(renderer, scene)?;
+    let mut out = Vec::with_capacity(rigs.len());
+    for (j, rig) in rigs.iter().enumerate() {
+        driver.set_time(start_time + j as f64 / crate::render::driver::DEFAULT_FRAME_RATE);
+        driver.frame(rig, j as u64, true)?;
+        out.push(driver.read_images()?);
+    }
+    driver.finish()?;
+    Ok(out)
+}
+
 /// Creates the renderer; an allocation failure names what was being
 /// allocated for: the per-eye size, the MSAA samples and an estimate of
 /// the render targets' need (colour and depth per sample plus a resolved

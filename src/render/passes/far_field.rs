@@ -293,43 +293,27 @@ impl FarField {
     /// its target, which is then made readable for the composite. Returns
     /// the draw calls (none without a plan).
     pub fn record(&self, rec: &Recorder, q: &mut Queries, batches: &Batches) -> u64 {
-        let Some(frame) = self.frame else {
-            return 0;
-        };
-        let mut draws = 0;
-        q.begin_pass(rec.ctx, rec.cmd, "mffr-far");
-        for i in (0..2).filter(|&i| frame.render[i]) {
-            let set = &self.sets[i];
-            rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
-            rec.begin_scope(&Scope {
-                part: ScopePart::Whole,
-                views: set.views(),
-                extent: self.extent,
-                view_mask: 0,
-                depth_clear: 0.0,
-                shading_rate: None,
-                secondaries: false,
-            });
+        self.record_with(rec, q, |view| {
             let far = batches.far_draws();
             let base = batches.far_start.unwrap_or(0) as u32;
             let sky = Some((self.sky, rec.sky_slot(far)));
-            draws += rec.draw_batches(
-                far,
-                base,
-                self.pipelines.get(rec.section),
-                sky,
-                2 + i as u32,
-            );
-            rec.end_scope();
-            rec.barriers(&[to_sampled(&set.resolve)]);
-        }
-        q.end_pass(rec.ctx, rec.cmd);
-        draws
+            rec.draw_batches(far, base, self.pipelines.get(rec.section), sky, view)
+        })
     }
 
     /// [`FarField::record`] drawing what `gpu` culled into frame slot
     /// `slot`'s far set (`mffr` with `gpu-cull`).
     pub fn record_gpu(&self, rec: &Recorder, q: &mut Queries, gpu: &GpuCull, slot: usize) -> u64 {
+        self.record_with(rec, q, |view| {
+            let pipelines = self.pipelines.get(rec.section);
+            gpu.record_draws(rec, pipelines, Some(self.sky), view, slot, true)
+        })
+    }
+
+    /// The far pass's scopes: one per far camera due this frame, into its
+    /// target, with `draw(view)` recording the draws for uniform view
+    /// `view`; each target is made readable for the composite after.
+    fn record_with(&self, rec: &Recorder, q: &mut Queries, draw: impl Fn(u32) -> u64) -> u64 {
         let Some(frame) = self.frame else {
             return 0;
         };
@@ -347,14 +331,7 @@ impl FarField {
                 shading_rate: None,
                 secondaries: false,
             });
-            draws += gpu.record_draws(
-                rec,
-                self.pipelines.get(rec.section),
-                Some(self.sky),
-                2 + i as u32,
-                slot,
-                true,
-            );
+            draws += draw(2 + i as u32);
             rec.end_scope();
             rec.barriers(&[to_sampled(&set.resolve)]);
         }
