@@ -28,6 +28,19 @@ fn ok(args: &[&str]) -> String {
     String::from_utf8_lossy(&out.stdout).into_owned()
 }
 
+/// Runs `vergence bench --plan PLAN --out OUT` (asserting success) and
+/// reads the results it wrote.
+fn run_plan(plan: &Path, out: &Path) -> BenchResults {
+    ok(&[
+        "bench",
+        "--plan",
+        plan.to_str().unwrap(),
+        "--out",
+        out.to_str().unwrap(),
+    ]);
+    serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap()
+}
+
 /// Splits a CSV line, honouring double quotes.
 fn csv_fields(line: &str) -> Vec<String> {
     let (mut out, mut cur, mut quoted) = (Vec::new(), String::new(), false);
@@ -452,13 +465,7 @@ fn a_plan_measures_timewarp_against_rendered_frames() {
     let body = "name = \"tw\"\nscenes = [\"factory:2000\"]\nhmds = [\"monado-sim\"]\nscales = [0.5]\nwarmup = 3\nframes = 4\nerror_frames = 2\npath_seed = 7\nreference = \"two-pass\"\n\n[[configs]]\nname = \"plain\"\nopt = \"multiview\"\n\n[[configs]]\nname = \"tw3\"\nopt = \"multiview,timewarp=3\"\n\n[[configs]]\nname = \"tw2-rotation\"\nopt = \"multiview,timewarp=2,timewarp-rotation\"\n\n[[configs]]\nname = \"tw2\"\nopt = \"multiview,timewarp=2\"\n";
     std::fs::write(&plan, body).unwrap();
     let out = dir.join("out");
-    ok(&[
-        "bench",
-        "--plan",
-        plan.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
+    run_plan(&plan, &out);
     let json = std::fs::read_to_string(out.join("results.json")).unwrap();
     let results: BenchResults = serde_json::from_str(&json).unwrap();
     assert_eq!(results.validation_messages, 0);
@@ -565,21 +572,12 @@ fn flicker_is_zero_for_the_reference_and_larger_without_msaa() {
     let plan = dir.join("flicker.toml");
     let body = "name = \"flicker\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.12]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 6\nspin_up_ms = 0\n\n[[configs]]\nname = \"same\"\nopt = \"two-pass,msaa4\"\n\n[[configs]]\nname = \"mv4\"\nopt = \"multiview,msaa4\"\n\n[[configs]]\nname = \"mv1\"\nopt = \"multiview,no-msaa\"\n";
     std::fs::write(&plan, body).unwrap();
-    let out = dir.join("out");
-    ok(&[
-        "bench",
-        "--plan",
-        plan.to_str().unwrap(),
-        "--out",
-        out.to_str().unwrap(),
-    ]);
-    let results: BenchResults =
-        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let results = run_plan(&plan, &dir.join("out"));
     let f = |name: &str| get(&results, name).flicker.expect("flicker measured");
     assert!(get(&results, "reference").flicker.is_none());
     assert_eq!(f("same"), 0.0);
     assert!(f("mv1") > f("mv4"), "1x {} vs 4x {}", f("mv1"), f("mv4"));
-    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    let md = std::fs::read_to_string(dir.join("out").join("report.md")).unwrap();
     assert!(md.contains("Temporal error (flicker"), "{md}");
     // Off: no sequence rendered, no field.
     std::fs::write(
@@ -587,16 +585,7 @@ fn flicker_is_zero_for_the_reference_and_larger_without_msaa() {
         body.replace("flicker_frames = 6", "flicker_frames = 0"),
     )
     .unwrap();
-    let off = dir.join("off");
-    ok(&[
-        "bench",
-        "--plan",
-        plan.to_str().unwrap(),
-        "--out",
-        off.to_str().unwrap(),
-    ]);
-    let results: BenchResults =
-        serde_json::from_str(&std::fs::read_to_string(off.join("results.json")).unwrap()).unwrap();
+    let results = run_plan(&plan, &dir.join("off"));
     assert!(results.groups[0]
         .results
         .iter()

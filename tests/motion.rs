@@ -15,8 +15,7 @@ use std::sync::Arc;
 use vergence::bench::plan::cull_names;
 use vergence::config::RenderConfig;
 use vergence::gpu::Context;
-use vergence::render::driver::{FrameDriver, FrameResult, DEFAULT_FRAME_RATE};
-use vergence::render::Renderer;
+use vergence::render::driver::{FrameResult, DEFAULT_FRAME_RATE};
 use vergence::scene::motion::transforms_at;
 use vergence::scene::{manifest, Scene};
 use vergence::view::profile::HmdProfile;
@@ -74,33 +73,8 @@ fn frames(
     opts: &str,
     n: u64,
 ) -> (Vec<FrameResult>, Vec<[image::RgbaImage; 2]>) {
-    let before = ctx.validation_messages();
-    let extent = ash::vk::Extent2D {
-        width: SIZE,
-        height: SIZE,
-    };
-    let renderer = Renderer::new(ctx.clone(), scene, &config(opts), extent)
-        .unwrap_or_else(|e| panic!("{opts}: {e}"));
-    let mut driver = FrameDriver::new(renderer, scene).unwrap();
-    let mut results = Vec::new();
-    let mut images = Vec::new();
-    let rig = rig();
-    for i in 0..n {
-        driver
-            .frame(&rig, i, true)
-            .unwrap_or_else(|e| panic!("{e}"));
-        driver.finish().unwrap();
-        results.extend(std::iter::from_fn(|| driver.take_completed()));
-        images.push(driver.read_images().unwrap());
-    }
-    drop(driver);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{opts}: Vulkan validation messages: {:#?}",
-        ctx.validation_log()
-    );
-    (results, images)
+    let rigs: Vec<StereoRig> = (0..n).map(|_| rig()).collect();
+    common::frame_by_frame(ctx, scene, &config(opts), &rigs, SIZE)
 }
 
 /// `scene` frozen where its moving instances stand at frame `i`.

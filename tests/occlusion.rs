@@ -15,8 +15,7 @@ use std::sync::Arc;
 use vergence::bench::plan::cull_names;
 use vergence::config::RenderConfig;
 use vergence::gpu::Context;
-use vergence::render::driver::{FrameDriver, FrameResult};
-use vergence::render::Renderer;
+use vergence::render::driver::FrameResult;
 use vergence::scene::{shapes, Instance, Material, Mesh, Scene};
 use vergence::view::profile::HmdProfile;
 use vergence::view::{Pose, StereoRig};
@@ -86,31 +85,7 @@ fn frames(
     opts: &str,
     rigs: &[StereoRig],
 ) -> (Vec<FrameResult>, Vec<[image::RgbaImage; 2]>) {
-    let before = ctx.validation_messages();
-    let extent = ash::vk::Extent2D {
-        width: SIZE,
-        height: SIZE,
-    };
-    let renderer = Renderer::new(ctx.clone(), scene, &config(opts), extent)
-        .unwrap_or_else(|e| panic!("{opts}: {e}"));
-    let mut driver = FrameDriver::new(renderer, scene).unwrap();
-    let mut results = Vec::new();
-    let mut images = Vec::new();
-    for (i, rig) in rigs.iter().enumerate() {
-        driver
-            .frame(rig, i as u64, true)
-            .unwrap_or_else(|e| panic!("{e}"));
-        driver.finish().unwrap();
-        results.extend(std::iter::from_fn(|| driver.take_completed()));
-        images.push(driver.read_images().unwrap());
-    }
-    drop(driver);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{opts}: Vulkan validation messages: {:#?}",
-        ctx.validation_log()
-    );
+    let (results, images) = common::frame_by_frame(ctx, scene, &config(opts), rigs, SIZE);
     assert_eq!(results.len(), rigs.len());
     (results, images)
 }

@@ -153,3 +153,45 @@ pub fn render_config(
     );
     Frame { images, stats }
 }
+
+/// Drives `config` over `rigs` at `size`×`size` per eye, one frame each
+/// (frame `i` numbered `i`), waiting for and reading back every frame;
+/// asserts no validation message. Returns the frames' results and images.
+pub fn frame_by_frame(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    rigs: &[vergence::view::StereoRig],
+    size: u32,
+) -> (
+    Vec<vergence::render::driver::FrameResult>,
+    Vec<[image::RgbaImage; 2]>,
+) {
+    let before = ctx.validation_messages();
+    let extent = ash::vk::Extent2D {
+        width: size,
+        height: size,
+    };
+    let renderer = Renderer::new(ctx.clone(), scene, config, extent)
+        .unwrap_or_else(|e| panic!("{}: {e}", config.opt_string()));
+    let mut driver = vergence::render::driver::FrameDriver::new(renderer, scene).unwrap();
+    let mut results = Vec::new();
+    let mut images = Vec::new();
+    for (i, rig) in rigs.iter().enumerate() {
+        driver
+            .frame(rig, i as u64, true)
+            .unwrap_or_else(|e| panic!("{e}"));
+        driver.finish().unwrap();
+        results.extend(std::iter::from_fn(|| driver.take_completed()));
+        images.push(driver.read_images().unwrap());
+    }
+    drop(driver);
+    assert_eq!(
+        ctx.validation_messages(),
+        before,
+        "{}: Vulkan validation messages: {:#?}",
+        config.opt_string(),
+        ctx.validation_log()
+    );
+    (results, images)
+}
