@@ -328,6 +328,12 @@ struct RunCli {
     /// and hides it. Only the window shows it, never the headset.
     #[arg(long, value_enum, default_value_t = vergence::targets::hud::OverlayMode::On)]
     overlay: vergence::targets::hud::OverlayMode,
+    /// The in-headset panel (OpenXR): the menu button opens it in front of
+    /// you; point at a button and pull the trigger to pick a tool, switch
+    /// an optimization or close it. `off`: the menu button cycles the
+    /// tools instead.
+    #[arg(long, value_enum, default_value_t = vergence::targets::panel::PanelMode::On)]
+    panel: vergence::targets::panel::PanelMode,
     /// A kiosk file (see manifests/kiosk/demo.toml): the scenes on offer
     /// (N in the mirror window moves to the next), their spawns and
     /// viewpoints, the optimizations and allowed toggles, reconnecting,
@@ -530,6 +536,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     snap_turn_deg: a.snap_turn,
                     smooth_turn_deg_s: a.smooth_turn,
                     move_direction: a.move_direction,
+                    panel: a.panel == vergence::targets::panel::PanelMode::On,
                     ..Settings::default()
                 },
                 mirror,

@@ -18,6 +18,11 @@ use std::process::{Command, Stdio};
 use std::sync::atomic::{AtomicBool, Ordering};
 use std::sync::{Arc, Mutex};
 use std::time::{Duration, Instant};
+use vergence::interact::panel::Panel;
+use vergence::interact::Tool as ToolKind;
+use vergence::targets::panel::centre_of;
+use vergence::targets::panel::Button::{self, Close, Toggle as ToggleButton, Tool};
+use vergence::targets::toggles::Toggle;
 
 const SPEED: f64 = 1.5;
 const SNAP_DEG: f64 = 45.0;
@@ -87,6 +92,53 @@ struct Step {
     controllers: [RemoteController; 2],
 }
 
+/// Steps that open the panel with B (right hand), aim the right hand at
+/// each of `buttons` in turn and pull the trigger, then close it with B
+/// (unless the last button closes it); the controllers end as `c`.
+fn on_panel(
+    c: [RemoteController; 2],
+    buttons: &[Button],
+    closed_by_button: bool,
+) -> Vec<(&'static str, Duration, [RemoteController; 2])> {
+    let ms = Duration::from_millis;
+    let mut out = Vec::new();
+    let mut k = c;
+    k[1].b_click = true;
+    out.push(("panel-open", ms(300), k));
+    k[1].b_click = false;
+    out.push(("panel-opened", ms(300), k));
+    // The panel opens in front of the head (the remote head is fixed).
+    let h = head().center;
+    let head_pose = vergence::view::Pose {
+        position: glam::DVec3::new(
+            h.position[0] as f64,
+            h.position[1] as f64,
+            h.position[2] as f64,
+        ),
+        orientation: glam::DQuat::IDENTITY,
+    };
+    let panel = Panel::facing(&head_pose);
+    for b in buttons {
+        let target = panel.point(centre_of(*b).expect("a laid-out button"));
+        let from = glam::DVec3::from(k[1].pose.position.map(f64::from));
+        let q = glam::DQuat::from_rotation_arc(glam::DVec3::NEG_Z, (target - from).normalize());
+        k[1].pose.orientation = [q.x as f32, q.y as f32, q.z as f32, q.w as f32];
+        out.push(("panel-aim", ms(300), k));
+        k[1].trigger = 1.0;
+        out.push(("panel-press", ms(300), k));
+        k[1].trigger = 0.0;
+        out.push(("panel-release", ms(300), k));
+    }
+    k[1].pose = c[1].pose;
+    if !closed_by_button {
+        k[1].b_click = true;
+        out.push(("panel-close", ms(300), k));
+        k[1].b_click = false;
+    }
+    out.push(("panel-closed", ms(300), k));
+    out
+}
+
 fn script() -> Vec<Step> {
     let ms = Duration::from_millis;
     let mut steps = Vec::new();
@@ -106,10 +158,15 @@ fn script() -> Vec<Step> {
     push("select", ms(400), c);
     c[1].trigger = 0.0;
     push("release", ms(600), c);
-    // Menu (B): the measuring tool; two presses 0.35 m apart on the floor.
-    c[1].b_click = true;
-    push("menu-measure", ms(300), c);
-    c[1].b_click = false;
+    // Menu (B) opens the panel: the measuring tool, the stencil mask on,
+    // menu closes it; then two presses 0.35 m apart on the floor.
+    for (name, hold, cs) in on_panel(
+        c,
+        &[Tool(ToolKind::Measure), ToggleButton(Toggle::StencilMask)],
+        false,
+    ) {
+        push(name, hold, cs);
+    }
     push("measure-ready", ms(300), c);
     for x in [0.2, 0.2 + MEASURED as f32] {
         c[1].pose.position[0] = x;
@@ -122,9 +179,9 @@ fn script() -> Vec<Step> {
     // Menu: the section plane, placed by a trigger press, then menu back
     // to selecting.
     c[1].pose.position[0] = 0.2;
-    c[1].b_click = true;
-    push("menu-section", ms(300), c);
-    c[1].b_click = false;
+    for (name, hold, cs) in on_panel(c, &[Tool(ToolKind::Section)], false) {
+        push(name, hold, cs);
+    }
     c[1].pose.orientation = identity();
     push("section-aim", ms(300), c);
     c[1].trigger = 1.0;
@@ -136,9 +193,10 @@ fn script() -> Vec<Step> {
     push("section-off-press", ms(300), c);
     c[1].trigger = 0.0;
     push("section-off", ms(600), c);
-    c[1].b_click = true;
-    push("menu-select", ms(300), c);
-    c[1].b_click = false;
+    // The panel once more: back to selecting, closed by its close button.
+    for (name, hold, cs) in on_panel(c, &[Tool(ToolKind::Select), Close], true) {
+        push(name, hold, cs);
+    }
     push("menu-release", ms(300), c);
     // Left stick forward for 1 s.
     let mut c = idle();
@@ -298,6 +356,68 @@ fn controllers_move_turn_teleport_and_select_through_the_runtime() {
     check(&s, &log, &s_path, &began);
 }
 
+/// The panel: opened three times by the menu button, its buttons pressed
+/// in the script's order, two composition layers exactly while it is open,
+/// and the stencil mask switched on from the frame after its button.
+fn check_panel(s: &Value, frames: &[Value], log: &str) {
+    assert!(
+        events(frames, "menu").is_empty(),
+        "the menu opens the panel now"
+    );
+    let panel: Vec<bool> = events(frames, "panel")
+        .iter()
+        .map(|(_, e)| e["open"].as_bool().unwrap())
+        .collect();
+    assert_eq!(panel, [true, false, true, false, true, false], "{log}");
+    let pressed: Vec<&str> = events(frames, "panel_button")
+        .iter()
+        .map(|(_, e)| e["button"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        pressed,
+        [
+            "tool:measure",
+            "toggle:stencil-mask",
+            "tool:section",
+            "tool:select",
+            "close"
+        ]
+    );
+    let p = &s["panel"];
+    assert_eq!(p["opened"], 3, "{p}");
+    assert_eq!(p["buttons_pressed"], 5, "{p}");
+    assert_eq!(p["size_px"], serde_json::json!([1024, 640]));
+    assert!(p["error"].is_null(), "{p}");
+    // Layers: 2 from the frame the panel opened until it closed, else 1.
+    let mut open = false;
+    let mut shown = 0;
+    for f in frames.iter().filter(|f| f["head_world"].is_object()) {
+        for e in f["events"].as_array().into_iter().flatten() {
+            if e["kind"] == "panel" {
+                open = e["open"].as_bool().unwrap();
+            }
+        }
+        assert_eq!(
+            f["layers"],
+            if open { 2 } else { 1 },
+            "frame {}",
+            f["index"]
+        );
+        shown += usize::from(open);
+    }
+    assert!(shown > 20, "{shown} frames with the panel");
+    assert_eq!(p["frames_shown"], shown as u64);
+    // The toggle: from the frame the stats name on, the opt string has it.
+    let t = &s["toggles"][0];
+    assert_eq!(t["toggle"], "stencil-mask", "{}", s["toggles"]);
+    let from = t["frame"].as_u64().unwrap();
+    for f in frames {
+        let i = f["index"].as_u64().unwrap();
+        let has = f["opt"].as_str().unwrap().contains("stencil-mask");
+        assert_eq!(has, i >= from, "frame {i}: {}", f["opt"]);
+    }
+}
+
 fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
     assert_eq!(s["validation_messages"], 0, "Vulkan validation: {log}");
     assert_eq!(s["xr_validation_messages"], 0, "OpenXR validation: {log}");
@@ -335,11 +455,12 @@ fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
     );
 
     // Measure: two presses on the floor, MEASURED apart, within 1 mm.
-    let tools: Vec<&str> = events(&frames, "menu")
+    let tools: Vec<&str> = events(&frames, "tool")
         .iter()
         .map(|(_, e)| e["tool"].as_str().unwrap())
         .collect();
     assert_eq!(tools, ["measure", "section", "select"]);
+    check_panel(s, &frames, log);
     let measures = events(&frames, "measure");
     assert_eq!(measures.len(), 1, "one measurement: {measures:?}");
     let m = measures[0].1;

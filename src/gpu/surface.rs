@@ -784,7 +784,15 @@ impl Presenter {
             // The overlay over the blitted images, when there is one.
             let mut written_by = Use::TRANSFER_DST;
             if let (Some((frame, view)), Some(layer)) = (ui, self.ui.as_mut()) {
-                layer.record(ctx, cmd, (target, view), self.extent, written_by, frame)?;
+                layer.record(
+                    ctx,
+                    cmd,
+                    (target, view),
+                    self.extent,
+                    written_by,
+                    None,
+                    frame,
+                )?;
                 written_by = super::ui_layer::LOADED;
             }
             let mut after = after_src;

@@ -101,7 +101,9 @@ impl UiLayer {
     }
 
     /// Records `frame` over `image` (through `view`, `extent` pixels), which
-    /// is in `from` use; leaves it in [`LOADED`] use.
+    /// is in `from` use, first cleared to `clear` (linear RGBA) when given,
+    /// else drawn over what it holds; leaves it in [`LOADED`] use.
+    #[allow(clippy::too_many_arguments)]
     pub fn record(
         &mut self,
         ctx: &Context,
@@ -109,6 +111,7 @@ impl UiLayer {
         (image, view): (vk::Image, vk::ImageView),
         extent: vk::Extent2D,
         from: Use,
+        clear: Option<[f32; 4]>,
         frame: &UiFrame,
     ) -> Result<()> {
         let d = &ctx.device;
@@ -119,10 +122,19 @@ impl UiLayer {
             from,
             LOADED,
         )];
+        let load = match clear {
+            Some(_) => vk::AttachmentLoadOp::CLEAR,
+            None => vk::AttachmentLoadOp::LOAD,
+        };
         let attachments = [vk::RenderingAttachmentInfo::default()
             .image_view(view)
             .image_layout(LOADED.layout)
-            .load_op(vk::AttachmentLoadOp::LOAD)
+            .load_op(load)
+            .clear_value(vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: clear.unwrap_or_default(),
+                },
+            })
             .store_op(vk::AttachmentStoreOp::STORE)];
         let info = vk::RenderingInfo::default()
             .render_area(vk::Rect2D {

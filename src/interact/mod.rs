@@ -15,11 +15,13 @@
 //! | right stick click | recentre (back to the spawn), or the next viewpoint when there are several |
 //! | trigger (either hand) | the current tool: select, measure or section plane |
 //! | squeeze (one / both hands) | grab and drag the world / scale and turn it |
-//! | menu | next tool (select → measure → section → select) |
+//! | menu | opens or closes the panel ([`panel`]); with the panel off (`run --panel off`), the next tool (select → measure → section → select) |
+//! | trigger on the open panel | presses the panel button the ray points at |
 
 pub mod locomotion;
 pub mod measure;
 pub mod overlay;
+pub mod panel;
 pub mod raycast;
 pub mod section;
 
@@ -28,6 +30,7 @@ use crate::view::Pose;
 use glam::DVec3;
 use locomotion::{cast_teleport, one_hand_drag, smooth_move, ArcResult, Origin, TwoHandGrab};
 use measure::Measure;
+use panel::{Panel, PanelHit};
 use raycast::{Hit, Ray, SceneQuery};
 use section::SectionPlane;
 
@@ -91,6 +94,9 @@ pub struct Settings {
     pub move_direction: MoveDirection,
     /// Teleport arc launch speed, m/s.
     pub arc_speed: f64,
+    /// The menu button opens the in-headset panel (false: it cycles the
+    /// tools, as without a panel).
+    pub panel: bool,
 }
 
 impl Default for Settings {
@@ -101,6 +107,7 @@ impl Default for Settings {
             smooth_turn_deg_s: None,
             move_direction: MoveDirection::Head,
             arc_speed: locomotion::ARC_SPEED,
+            panel: false,
         }
     }
 }
@@ -152,6 +159,18 @@ pub enum Tool {
 }
 
 impl Tool {
+    /// Every tool, in the menu button's order.
+    pub const ALL: [Tool; 3] = [Tool::Select, Tool::Measure, Tool::Section];
+
+    /// Its name in the frame records and on the panel.
+    pub fn name(self) -> &'static str {
+        match self {
+            Tool::Select => "select",
+            Tool::Measure => "measure",
+            Tool::Section => "section",
+        }
+    }
+
     fn next(self) -> Tool {
         match self {
             Tool::Select => Tool::Measure,
@@ -268,8 +287,24 @@ pub enum Event {
         /// Index of the viewpoint now in use (0: the spawn).
         viewpoint: usize,
     },
-    /// The menu button: the next tool.
+    /// The menu button: the next tool (without the panel).
     Menu {
+        /// The tool now on the trigger.
+        tool: Tool,
+    },
+    /// The menu button opened or closed the panel.
+    Panel {
+        /// Open now.
+        open: bool,
+    },
+    /// A panel button was pressed.
+    PanelButton {
+        /// The button's name (e.g. `tool:measure`, `toggle:stencil-mask`,
+        /// `close`).
+        button: String,
+    },
+    /// A panel button chose the trigger's tool.
+    Tool {
         /// The tool now on the trigger.
         tool: Tool,
     },
@@ -313,6 +348,11 @@ pub struct Update {
     pub arc: Option<ArcResult>,
     /// Per hand: what its ray points at (world).
     pub hover: [Option<Hit>; 2],
+    /// Per hand: where its ray meets the open panel (then it points at
+    /// nothing in the scene).
+    pub panel_pointer: [Option<PanelHit>; 2],
+    /// A trigger press on the open panel: the hand and where it pointed.
+    pub panel_press: Option<(usize, [f64; 2])>,
 }
 
 /// The interaction state carried from frame to frame.
@@ -335,6 +375,8 @@ pub struct Interaction {
     pub measure: Measure,
     /// The section plane, when placed.
     pub section: Option<SectionPlane>,
+    /// The in-headset panel, while open.
+    pub panel: Option<Panel>,
     triggers: [Latch; 2],
     squeezes: [bool; 2],
     clicks: [bool; 2],
@@ -357,6 +399,7 @@ impl Interaction {
             tool: Tool::Select,
             measure: Measure::default(),
             section: None,
+            panel: None,
             triggers: [Latch::default(); 2],
             squeezes: [false; 2],
             clicks: [false; 2],
@@ -502,11 +545,18 @@ impl Interaction {
             self.aiming = false;
         }
 
-        // Menu (either hand): next tool.
+        // Menu (either hand): the panel, or the next tool without one.
         let menu = left.menu || right.menu;
         if menu && !self.menu {
-            self.tool = self.tool.next();
-            out.events.push(Event::Menu { tool: self.tool });
+            if !self.settings.panel {
+                self.tool = self.tool.next();
+                out.events.push(Event::Menu { tool: self.tool });
+            } else if self.panel.take().is_some() {
+                out.events.push(Event::Panel { open: false });
+            } else if head_ok {
+                self.panel = Some(Panel::facing(&input.head));
+                out.events.push(Event::Panel { open: true });
+            }
         }
         self.menu = menu;
 
@@ -517,6 +567,16 @@ impl Interaction {
                 self.hovered[i] = None;
                 continue;
             };
+            // The open panel is in front of the scene: a ray on it points
+            // at the panel only, and its trigger presses the panel.
+            if let Some(on) = self.panel.as_ref().and_then(|p| p.hit(&aim)) {
+                self.hovered[i] = None;
+                out.panel_pointer[i] = Some(on);
+                if pressed {
+                    out.panel_press = Some((i, on.uv));
+                }
+                continue;
+            }
             let ray = self.ray(&aim);
             let hit = q.cast(&ray);
             let now = hit.map(|h| h.instance);
@@ -562,6 +622,17 @@ impl Interaction {
             }
         }
         out
+    }
+
+    /// Puts `tool` on the trigger (a panel button), as an event.
+    pub fn set_tool(&mut self, tool: Tool) -> Event {
+        self.tool = tool;
+        Event::Tool { tool }
+    }
+
+    /// Closes the panel (its close button), as an event when it was open.
+    pub fn close_panel(&mut self) -> Option<Event> {
+        self.panel.take().map(|_| Event::Panel { open: false })
     }
 
     fn update_grab(&mut self, hands: &[HandInput; 2], out: &mut Update) {
@@ -796,5 +867,61 @@ mod tests {
         let before = it.origin;
         it.update(&frame(bad, bad), &q);
         assert_eq!(it.origin, before);
+    }
+    #[test]
+    fn the_menu_opens_the_panel_and_its_trigger_presses_it() {
+        let s = floor_scene();
+        let q = SceneQuery::new(&s);
+        let settings = Settings {
+            panel: true,
+            ..Settings::default()
+        };
+        let mut it = Interaction::new(Origin::default(), settings);
+        let idle = hand([0.0, 0.0], 0.0);
+        let menu = HandInput { menu: true, ..idle };
+        let u = it.update(&frame(idle, menu), &q);
+        assert_eq!(u.events, [Event::Panel { open: true }]);
+        assert_eq!(it.tool, Tool::Select, "the menu no longer cycles tools");
+        let p = it.panel.expect("open");
+        assert!(p.pose.position.distance(DVec3::new(0.0, 1.45, -0.6)) < 1e-12);
+        // Aim the right hand at a point of the panel: its ray stops there
+        // and the trigger presses the panel, not the floor behind it.
+        let target = p.point([0.25, 0.75]);
+        let from = DVec3::new(0.2, 1.2, -0.3);
+        let mut on = hand([0.0, 0.0], 0.0);
+        on.aim = Some(Pose {
+            position: from,
+            orientation: DQuat::from_rotation_arc(DVec3::NEG_Z, (target - from).normalize()),
+        });
+        it.update(&frame(idle, menu), &q);
+        let u = it.update(&frame(idle, on), &q);
+        let pointer = u.panel_pointer[1].expect("on the panel");
+        assert!((pointer.uv[0] - 0.25).abs() < 1e-9 && (pointer.uv[1] - 0.75).abs() < 1e-9);
+        assert!(u.hover[1].is_none() && u.panel_press.is_none());
+        let u = it.update(&frame(idle, HandInput { select: 1.0, ..on }), &q);
+        let (hand_i, uv) = u.panel_press.expect("pressed");
+        assert_eq!(hand_i, 1);
+        assert!((uv[0] - 0.25).abs() < 1e-9);
+        assert!(u.events.is_empty(), "{:?}", u.events);
+        assert_eq!(
+            it.set_tool(Tool::Measure),
+            Event::Tool {
+                tool: Tool::Measure
+            }
+        );
+        // A ray beside the panel still reaches the scene: the floor.
+        it.update(&frame(idle, idle), &q);
+        let u = it.update(&frame(idle, hand([0.0, 0.0], 1.0)), &q);
+        assert!(u.panel_pointer[1].is_none() && u.hover[1].is_some());
+        assert!(
+            matches!(u.events[..], [Event::MeasurePoint { .. }]),
+            "{:?}",
+            u.events
+        );
+        // Menu again closes it.
+        it.update(&frame(idle, idle), &q);
+        let u = it.update(&frame(menu, idle), &q);
+        assert_eq!(u.events, [Event::Panel { open: false }]);
+        assert!(it.panel.is_none() && it.close_panel().is_none());
     }
 }

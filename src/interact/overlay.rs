@@ -215,9 +215,11 @@ pub fn build(
         let aiming_arc = i == 1 && update.arc.is_some();
         if let Some(aim) = hand.aim.filter(|a| a.validate().is_ok() && !aiming_arc) {
             let a = it.origin.pose(&aim);
-            let end = match &update.hover[i] {
-                Some(hit) => hit.point,
-                None => a.position + a.forward() * RAY_MISS_LENGTH_M * s,
+            let end = match (&update.panel_pointer[i], &update.hover[i]) {
+                // The panel's distance is in tracking space.
+                (Some(on), _) => a.position + a.forward() * on.distance * s,
+                (None, Some(hit)) => hit.point,
+                (None, None) => a.position + a.forward() * RAY_MISS_LENGTH_M * s,
             };
             out.extend(OverlayBox::segment(
                 a.position,

@@ -216,6 +216,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             head_world: this.map(|(_, h, _)| PoseFile::from(h)),
             events: Vec::new(),
             opt: this.map(|(.., o)| o.clone()).unwrap_or_default(),
+            layers: 0,
         })
     };
     let mut opt = config.opt_string();

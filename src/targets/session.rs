@@ -177,6 +177,10 @@ pub struct FrameRecord {
     /// The `--opt` string the frame was rendered with (changes when a live
     /// toggle switched an optimization).
     pub opt: String,
+    /// Composition layers submitted with the frame (OpenXR: the projection,
+    /// plus the panel's quad while it is open; 0 when nothing was rendered,
+    /// and headless, where nothing is composited).
+    pub layers: u32,
 }
 
 /// The interaction profile the runtime bound per hand (top-level
@@ -409,6 +413,8 @@ pub struct RunStats {
     pub summary: RunSummary,
     /// The mirror window (None: no mirror).
     pub mirror: Option<crate::targets::mirror::MirrorStats>,
+    /// The in-headset panel (None: `--panel off`, or not an OpenXR run).
+    pub panel: Option<crate::targets::xr_panel::PanelStats>,
     /// Optimizations switched by the live toggles, in order.
     pub toggles: Vec<crate::targets::toggles::ToggleEvent>,
     /// Sessions re-established after the runtime was lost (`--reconnect`).

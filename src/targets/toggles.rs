@@ -89,6 +89,36 @@ impl Toggle {
         }
     }
 
+    /// What this toggle shows for `config`: a short label of its current
+    /// setting and whether the optimization is on (the panel's buttons).
+    pub fn state(self, c: &RenderConfig) -> (String, bool) {
+        match self {
+            Toggle::Stereo => (
+                c.stereo.name().to_string(),
+                c.stereo == StereoMode::Multiview,
+            ),
+            Toggle::Cull => (format!("cull: {}", c.cull.name()), c.cull != Culling::None),
+            Toggle::StencilMask => ("stencil mask".into(), c.stencil_mask),
+            Toggle::Foveation => (
+                format!(
+                    "foveation: {}",
+                    match c.foveation {
+                        Level::Off => "off",
+                        Level::Low => "low",
+                        Level::Medium => "medium",
+                        Level::High => "high",
+                        Level::Lens(_) => "lens",
+                    }
+                ),
+                c.foveation != Level::Off,
+            ),
+            Toggle::Rdm => ("RDM".into(), c.rdm.is_some()),
+            Toggle::Mffr => ("MFFR".into(), c.mffr.is_some()),
+            Toggle::Msaa => (format!("MSAA {}x", c.msaa), c.msaa > 1),
+            Toggle::GpuCull => ("GPU cull".into(), c.gpu_cull),
+        }
+    }
+
     /// `config` with this optimization switched (not yet validated).
     pub fn apply(self, config: &RenderConfig) -> RenderConfig {
         let mut c = config.clone();
@@ -272,30 +302,40 @@ impl LiveConfig {
                     ),
                     Err(e) => eprintln!("vergence: cannot write the config file: {e}"),
                 },
-                Some(KeyAction::Toggle(t)) if !self.allowed.contains(&t) => {
-                    eprintln!("vergence: the {} toggle is not allowed here", t.name());
-                }
-                Some(KeyAction::Toggle(t)) => {
-                    let next = t.apply(&self.config);
-                    match next.validate() {
-                        Ok(()) => {
-                            self.config = next;
-                            changed = true;
-                            let opt = self.config.opt_string();
-                            println!("opt: {opt} ({} switched)", t.name());
-                            tracing::info!("live toggle {} at frame {next_frame}: {opt}", t.name());
-                            self.events.push(ToggleEvent {
-                                frame: next_frame,
-                                toggle: t.name().into(),
-                                opt,
-                            });
-                        }
-                        Err(e) => eprintln!("vergence: {} not switched: {e}", t.name()),
-                    }
-                }
+                Some(KeyAction::Toggle(t)) => changed |= self.switch(t, next_frame).is_some(),
             }
         }
         changed.then(|| self.config.clone())
+    }
+
+    /// Switches `t` (a key or a panel button) from frame `next_frame` on:
+    /// the new configuration, or None when `t` is not allowed here or would
+    /// give an invalid combination (refused with one line on stderr; a
+    /// switch prints one line on stdout).
+    pub fn switch(&mut self, t: Toggle, next_frame: u64) -> Option<RenderConfig> {
+        if !self.allowed.contains(&t) {
+            eprintln!("vergence: the {} toggle is not allowed here", t.name());
+            return None;
+        }
+        let next = t.apply(&self.config);
+        match next.validate() {
+            Ok(()) => {
+                self.config = next;
+                let opt = self.config.opt_string();
+                println!("opt: {opt} ({} switched)", t.name());
+                tracing::info!("live toggle {} at frame {next_frame}: {opt}", t.name());
+                self.events.push(ToggleEvent {
+                    frame: next_frame,
+                    toggle: t.name().into(),
+                    opt,
+                });
+                Some(self.config.clone())
+            }
+            Err(e) => {
+                eprintln!("vergence: {} not switched: {e}", t.name());
+                None
+            }
+        }
     }
 
     /// Goes back to `old` after the loop could not render with the last

@@ -48,6 +48,9 @@ struct Live {
     /// The mirror window's Vulkan side goes first: dropping it waits for
     /// the device, so its copies are done before the swapchains go.
     mirror: Option<Mirror>,
+    /// The in-headset panel (made when the menu first opens it); its
+    /// swapchain goes before the session.
+    panel: Option<super::xr_panel::XrPanel>,
     controls: Option<Controls>,
     color: Vec<Chain>,
     depth: Vec<Chain>,
@@ -207,6 +210,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     .call("xrCreateSession")?;
     let mut live = Live {
         mirror: None,
+        panel: None,
         controls: None,
         color: Vec::new(),
         depth: Vec::new(),
@@ -280,6 +284,13 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, config.stereo)?;
     live.space = Some(space);
+    if args.interact.panel && stats.panel.is_none() {
+        stats.panel = Some(super::xr_panel::PanelStats {
+            size_px: super::panel::SIZE_PX,
+            size_m: crate::interact::panel::SIZE_M,
+            ..Default::default()
+        });
+    }
     live.mirror = desk.mirror(&ctx, color_format);
     if let Some(m) = &mut live.mirror {
         m.set_title(&format!(
@@ -336,6 +347,9 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         first_fov_recorded: false,
         motion_origin_ns: None,
         lens: None,
+        pending_toggle: None,
+        last_times: None,
+        panel_drawn: false,
     };
     let mut result = frame_loop(stats, &mut live, &mut state);
     stats.origin = Some(OriginFile::from(&state.interaction.origin));
@@ -471,6 +485,13 @@ struct LoopState<'a> {
     /// instances run on display time from there.
     motion_origin_ns: Option<i64>,
     lens: Option<(Vec<Fov>, Arc<Vec<HiddenArea>>)>,
+    /// A panel button's toggle, switched at the top of the next frame.
+    pending_toggle: Option<super::toggles::Toggle>,
+    /// The last finished frame's GPU and CPU ms and the budget (the
+    /// panel's status line).
+    last_times: Option<(f64, f64, f64)>,
+    /// The panel was drawn this frame: its quad goes into xrEndFrame.
+    panel_drawn: bool,
 }
 
 impl LoopState<'_> {
@@ -508,6 +529,13 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     let result: Result<String> = 'main: loop {
         if let Some(m) = live.mirror.as_mut() {
             if let Some(new) = st.desk.handle(m, index) {
+                if let Err(e) = switch_config(live, stats, st, &session, new) {
+                    break 'main Err(e);
+                }
+            }
+        }
+        if let Some(t) = st.pending_toggle.take() {
+            if let Some(new) = st.desk.live.switch(t, index) {
                 if let Err(e) = switch_config(live, stats, st, &session, new) {
                     break 'main Err(e);
                 }
@@ -703,6 +731,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
     let args = st.args;
     let session = live.session.clone().expect("set");
     let instance = live.instance.clone().expect("set");
+    st.panel_drawn = false;
     let t_wait = Instant::now();
     let fs = {
         let _w = live.watchdog.watch("xrWaitFrame");
@@ -771,7 +800,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 head: tracking_head(&tracking),
                 hands,
             };
-            let update = st.interaction.update(&input, &st.query);
+            let mut update = st.interaction.update(&input, &st.query);
+            panel_input(st, stats, &mut update);
             crate::interact::overlay::build(
                 &st.interaction,
                 &input,
@@ -803,6 +833,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             }) {
                 stats.selected = Some(picked.clone());
             }
+            let pointers = update.panel_pointer;
             rec.events = update.events;
             if st.idle.as_mut().is_some_and(|w| w.observe(&input.head, dt)) {
                 // Kiosk: nobody has moved for the idle time; the next
@@ -905,6 +936,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 write_capture(args.capture.as_deref().expect("checked"), &imgs, &rig)?;
             }
             layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
+            draw_panel(live, stats, st, &pointers)?;
         }
     }
     end_frame(
@@ -915,6 +947,15 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         layer_views.as_deref(),
         st,
     )?;
+    rec.layers = match layer_views {
+        Some(_) => 1 + u32::from(st.panel_drawn),
+        None => 0,
+    };
+    if layer_views.is_some() && st.panel_drawn {
+        if let Some(p) = stats.panel.as_mut() {
+            p.frames_shown += 1;
+        }
+    }
     if layer_views.is_some() {
         stats.frames_submitted += 1;
         stats.frames_rendered += 1;
@@ -930,6 +971,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
     st.records.push(rec, rendered);
     let driver = live.driver.as_mut().expect("set");
     while let Some(r) = driver.take_completed() {
+        let period_ms = fs.predicted_display_period.as_nanos() as f64 * 1e-6;
+        st.last_times = Some((r.gpu_ms(), r.cpu_ms(), period_ms));
         if let Some(m) = live.mirror.as_mut() {
             m.push_frame(&r);
         }
@@ -956,7 +999,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
 }
 
 /// xrEndFrame with one projection layer (and its depth info when the
-/// runtime takes depth), or with no layer when nothing was rendered.
+/// runtime takes depth) and the panel's quad layer when it was drawn this
+/// frame, or with no layer when nothing was rendered.
 fn end_frame(
     live: &Live,
     instance: &xr::Instance,
@@ -1023,10 +1067,19 @@ fn end_frame(
             views: proj.as_ptr(),
         });
     }
-    let layers: Vec<*const sys::CompositionLayerBaseHeader> = layer
+    let quad = match (&layer, st.panel_drawn, &live.panel, &st.interaction.panel) {
+        (Some(_), true, Some(xp), Some(p)) => Some(xp.layer(p, live.space.as_ref().expect("set"))),
+        _ => None,
+    };
+    let mut layers: Vec<*const sys::CompositionLayerBaseHeader> = layer
         .iter()
         .map(|l| l as *const sys::CompositionLayerProjection as *const _)
         .collect();
+    // The panel over the scene.
+    layers.extend(
+        quad.iter()
+            .map(|q| q as *const sys::CompositionLayerQuad as *const _),
+    );
     let info = sys::FrameEndInfo {
         ty: sys::FrameEndInfo::TYPE,
         next: std::ptr::null(),
@@ -1041,6 +1094,95 @@ fn end_frame(
     let r = unsafe { (instance.fp().end_frame)(session.as_raw(), &info) };
     if r.into_raw() < 0 {
         return Err(xr_err("xrEndFrame", r));
+    }
+    Ok(())
+}
+
+/// A trigger press on the open panel: the button under the ray does its
+/// job (a tool now, a toggle from the next frame, close), logged as events.
+fn panel_input(st: &mut LoopState, stats: &mut RunStats, update: &mut crate::interact::Update) {
+    use crate::interact::Event;
+    let opened = update
+        .events
+        .iter()
+        .filter(|e| matches!(e, Event::Panel { open: true }))
+        .count() as u64;
+    if let Some(p) = stats.panel.as_mut() {
+        p.opened += opened;
+    }
+    let Some((_, uv)) = update.panel_press else {
+        return;
+    };
+    let Some(button) = super::panel::button_at(uv) else {
+        return;
+    };
+    if let Some(p) = stats.panel.as_mut() {
+        p.buttons_pressed += 1;
+    }
+    update.events.push(Event::PanelButton {
+        button: button.name(),
+    });
+    match button {
+        super::panel::Button::Tool(t) => {
+            let e = st.interaction.set_tool(t);
+            update.events.push(e);
+        }
+        super::panel::Button::Toggle(t) => st.pending_toggle = Some(t),
+        super::panel::Button::Close => update.events.extend(st.interaction.close_panel()),
+    }
+}
+
+/// Draws the open panel into its swapchain (made the first time). A panel
+/// that cannot be made or drawn is closed for the session with one warning
+/// (and `panel.error` in the stats); the menu button then cycles the tools.
+fn draw_panel(
+    live: &mut Live,
+    stats: &mut RunStats,
+    st: &mut LoopState,
+    pointers: &[Option<crate::interact::panel::PanelHit>; 2],
+) -> Result<()> {
+    st.panel_drawn = false;
+    if st.interaction.panel.is_none() {
+        return Ok(());
+    }
+    let drawn = (|| -> Result<()> {
+        if live.panel.is_none() {
+            let ctx = live
+                .driver
+                .as_ref()
+                .expect("set")
+                .renderer()
+                .context()
+                .clone();
+            let session = live.session.as_ref().expect("set");
+            live.panel = Some(super::xr_panel::XrPanel::new(
+                &ctx,
+                session,
+                st.chains.color_format,
+            )?);
+        }
+        let panel = live.panel.as_mut().expect("made above");
+        let state = super::panel::PanelState {
+            tool: st.interaction.tool,
+            config: &st.desk.live.config,
+            allowed: &st.desk.live.allowed,
+            pointers: pointers.map(|p| p.map(|h| h.uv)),
+            times_ms: st.last_times,
+        };
+        let frame = panel.ui.frame(&state);
+        panel.draw(&frame, &live.watchdog)
+    })();
+    match drawn {
+        Ok(()) => st.panel_drawn = true,
+        Err(e) => {
+            tracing::warn!("the in-headset panel is off for this session: {e}");
+            if let Some(p) = stats.panel.as_mut() {
+                p.error = Some(e.to_string());
+            }
+            st.interaction.panel = None;
+            st.interaction.settings.panel = false;
+            live.panel = None;
+        }
     }
     Ok(())
 }
