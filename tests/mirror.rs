@@ -502,6 +502,25 @@ fn under_monado_the_mirror_shows_the_swapchain_images_with_no_validation_message
 /// The frame records' `--opt` strings around `toggle` (first frame with the
 /// new configuration): every earlier record without `needle`, every later
 /// one with it.
+/// F4's line: a FLIP mean for the configuration `opt` rendered again
+/// against the reference, small for these near-lossless configurations.
+fn check_error_line(stdout: &str, opt: &str) {
+    let line = stdout
+        .lines()
+        .find(|l| l.starts_with("image error: FLIP mean "))
+        .unwrap_or_else(|| panic!("no image error line: {stdout}"));
+    assert!(
+        line.ends_with(&format!("against two-pass 4x for {opt}")),
+        "{line}"
+    );
+    let mean: f64 = line["image error: FLIP mean ".len()..]
+        .split_whitespace()
+        .next()
+        .and_then(|v| v.parse().ok())
+        .unwrap_or_else(|| panic!("no number: {line}"));
+    assert!((0.0..0.05).contains(&mean), "{line}");
+}
+
 fn check_switch(s: &Value, toggle: &Value, needle: &str, absent_before: bool) {
     let frame = toggle["frame"].as_u64().expect("toggle frame");
     let frames = s["frames"].as_array().unwrap();
@@ -576,6 +595,8 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
     // and F2 (write the configuration).
     std::thread::sleep(Duration::from_secs(2));
     x.key(id, "3");
+    // F4: the last frame's image error against the reference.
+    x.key(id, "F4");
     let start = Instant::now();
     while !saved.exists() {
         assert!(
@@ -595,8 +616,10 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
         stdout.contains("opt: multiview,msaa4,none,stencil-mask (stencil-mask switched)"),
         "{stdout}"
     );
+    check_error_line(&stdout, "multiview,msaa4,none,stencil-mask");
     let s = stats(&s_path);
     assert_eq!(s["exit"], "the mirror window was closed");
+    assert_eq!(s["validation_messages"], 0, "{}", text(&o));
     let toggles = s["toggles"].as_array().unwrap();
     assert_eq!(toggles.len(), 1, "one switch: {toggles:?}");
     assert_eq!(toggles[0]["toggle"], "stencil-mask");
@@ -656,6 +679,9 @@ fn under_monado_a_stereo_switch_and_closing_the_window_end_in_order() {
     // Key 1: multiview → two-pass (new swapchains, one per eye).
     x.key(id, "1");
     std::thread::sleep(Duration::from_secs(3));
+    // F4 measures the last submitted frame (the loop waits for it).
+    x.key(id, "F4");
+    std::thread::sleep(Duration::from_secs(1));
     x.close(id);
     // Known bug (open): on a loaded two-core machine the window manager's
     // close (WM_DELETE_WINDOW) is at times never delivered as a close
@@ -691,6 +717,7 @@ fn under_monado_a_stereo_switch_and_closing_the_window_end_in_order() {
     assert_eq!(toggles.len(), 1, "{toggles:?}");
     assert_eq!(toggles[0]["toggle"], "stereo");
     check_switch(&s, &toggles[0], "two-pass", true);
+    check_error_line(&String::from_utf8_lossy(&o.stdout), "two-pass,msaa4,none");
     assert_eq!(s["validation_messages"], 0, "{}", text(&o));
     assert_eq!(s["xr_validation_messages"], 0, "{}", text(&o));
     assert!(s["mirror"]["presented"].as_u64().unwrap() > 0);

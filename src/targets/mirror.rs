@@ -842,6 +842,8 @@ pub struct Desk {
     pub stats: Option<MirrorStats>,
     /// Whether the mirror shows the overlay (`--overlay`; F3 switches it).
     pub overlay: bool,
+    /// F4 was pressed: the loop measures the last frame's image error.
+    pub measure: bool,
 }
 
 impl Desk {
@@ -857,6 +859,7 @@ impl Desk {
             window: None,
             lenses: None,
             tried: false,
+            measure: false,
             closed: false,
             scenes: 1,
             next_scene: false,
@@ -952,10 +955,55 @@ impl Desk {
             mirror.hud.visible = !mirror.hud.visible;
             self.overlay = mirror.hud.visible;
         }
+        if pressed.contains(&crate::targets::hud::HEATMAP_KEY) {
+            mirror.hud.show_heatmap = !mirror.hud.show_heatmap;
+        }
+        if pressed.contains(&crate::targets::hud::MEASURE_KEY) {
+            self.measure = true;
+        }
         if self.scenes > 1 && pressed.contains(&winit::keyboard::KeyCode::KeyN) {
             self.next_scene = true;
         }
         self.live.handle(&pressed, next_frame)
+    }
+
+    /// After F4: the last frame (`rig` at scene time `time`, `extent` per
+    /// eye, the section plane `section` it was cut by) rendered again with
+    /// the current configuration and with the reference, its FLIP mean
+    /// printed and shown in the overlay with the heat map (F5). The loop
+    /// stops for two renders meanwhile; a failed measurement only says so.
+    pub fn measure_error(
+        &mut self,
+        mirror: &mut Mirror,
+        ctx: &std::sync::Arc<crate::gpu::Context>,
+        scene: &crate::scene::Scene,
+        last: Option<(&crate::view::StereoRig, f64)>,
+        extent: vk::Extent2D,
+        section: Option<[f64; 4]>,
+    ) {
+        if !std::mem::take(&mut self.measure) {
+            return;
+        }
+        let Some(shown) = last else {
+            eprintln!("vergence: image error not measured: no frame shown yet");
+            return;
+        };
+        let config = crate::config::RenderConfig {
+            section,
+            ..self.live.config.clone()
+        };
+        match crate::targets::error_probe::measure(ctx, scene, &config, shown, extent) {
+            Ok(report) => {
+                println!(
+                    "image error: FLIP mean {:.4} against two-pass 4x for {}",
+                    report.flip_mean, report.opt
+                );
+                mirror.hud.set_error(report);
+                mirror.hud.visible = true;
+                self.overlay = true;
+            }
+            Err(e) => eprintln!("vergence: image error not measured: {e}"),
+        }
     }
 
     /// Whether the session should end (the window closed, or the next

@@ -220,6 +220,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
         })
     };
     let mut opt = config.opt_string();
+    // The last recorded frame's rig and scene time (F4 measures it).
+    let mut last_shown: Option<(crate::view::StereoRig, f64)> = None;
     let looped = (|| -> Result<String> {
         loop {
             if crate::quit::requested() {
@@ -243,6 +245,14 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                     opt = desk.live.config.opt_string();
                     m.set_title(&format!("vergence run: {} [{opt}]", scene.name));
                 }
+                desk.measure_error(
+                    m,
+                    &ctx,
+                    &scene,
+                    last_shown.as_ref().map(|(r, t)| (r, *t)),
+                    extent,
+                    frames.driver.renderer().config.section,
+                );
                 if desk.closed {
                     return Ok("the mirror window was closed".into());
                 }
@@ -270,6 +280,10 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             }
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
             frames.driver.record(&rig, index)?;
+            last_shown = Some((
+                rig.clone(),
+                index as f64 / crate::render::driver::DEFAULT_FRAME_RATE,
+            ));
             let output = frames.eyes.as_ref().map(|e| e.output(0));
             frames.driver.submit(output.as_ref(), capture)?;
             if let (Some(m), Some(eyes)) = (mirror.as_mut(), frames.eyes.as_ref()) {

@@ -350,6 +350,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         pending_toggle: None,
         last_times: None,
         panel_drawn: false,
+        last_shown: None,
     };
     let mut result = frame_loop(stats, &mut live, &mut state);
     stats.origin = Some(OriginFile::from(&state.interaction.origin));
@@ -492,6 +493,8 @@ struct LoopState<'a> {
     last_times: Option<(f64, f64, f64)>,
     /// The panel was drawn this frame: its quad goes into xrEndFrame.
     panel_drawn: bool,
+    /// The last recorded frame's world rig and scene time (F4 measures it).
+    last_shown: Option<(StereoRig, f64)>,
 }
 
 impl LoopState<'_> {
@@ -528,7 +531,22 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     let mut index = 0u64;
     let result: Result<String> = 'main: loop {
         if let Some(m) = live.mirror.as_mut() {
-            if let Some(new) = st.desk.handle(m, index) {
+            let switched = st.desk.handle(m, index);
+            if let Some(d) = live.driver.as_ref() {
+                let section = st
+                    .interaction
+                    .section
+                    .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]);
+                st.desk.measure_error(
+                    m,
+                    d.renderer().context(),
+                    st.scene,
+                    st.last_shown.as_ref().map(|(r, t)| (r, *t)),
+                    st.chains.extent,
+                    section,
+                );
+            }
+            if let Some(new) = switched {
                 if let Err(e) = switch_config(live, stats, st, &session, new) {
                     break 'main Err(e);
                 }
@@ -870,8 +888,12 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             driver.set_overlay(&st.overlay);
             let shown_ns = fs.predicted_display_time.as_nanos();
             let origin = *st.motion_origin_ns.get_or_insert(shown_ns);
-            driver.set_time(shown_ns.saturating_sub(origin) as f64 * 1e-9);
+            let time = shown_ns.saturating_sub(origin) as f64 * 1e-9;
+            driver.set_time(time);
             driver.record(&rig, index)?;
+            if live.mirror.is_some() {
+                st.last_shown = Some((rig.clone(), time));
+            }
             let mut out = FrameOutput::default();
             for (ci, chain) in live
                 .color
