@@ -30,7 +30,7 @@ enum Command {
     Run(RunCli),
     /// Look at a scene in a desktop window through an HMD profile's stereo
     /// rig: WASD (Q/E down/up) to move, drag with the left mouse button to
-    /// look, Shift for speed, Escape to quit; keys 1-8 switch
+    /// look, Shift for speed, Escape to quit; keys 1-9 and 0 switch
     /// optimizations, P prints the --opt list, F2 saves it, H lists the keys.
     View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.

@@ -298,12 +298,21 @@ fn controllers_move_turn_teleport_and_select_through_the_runtime() {
             Ok(())
         })
     };
-    let mut child = Command::new(common::root().join("scripts/with-monado"))
+    // With a display the mirror window is open beside the panel: both
+    // together without a validation message.
+    let x = common::xvfb::Xvfb::start("xr_input_panel");
+    let mut cmd = Command::new(common::root().join("scripts/with-monado"));
+    match &x {
+        Some(x) => cmd.env("DISPLAY", &x.display),
+        None => cmd.env_remove("DISPLAY"),
+    };
+    let mut child = cmd
+        .env_remove("WAYLAND_DISPLAY")
         .arg("--remote")
         .arg(env!("CARGO_BIN_EXE_vergence"))
         .args(["run", "--xr", "openxr", "--scene", "factory:2000"])
         .args(["--seconds", "60", "--width", "160", "--height", "120"])
-        .args(["--opt", "superfrustum"])
+        .args(["--opt", "superfrustum", "--mirror", "left"])
         .args(["--spawn", SPAWN, "--move-speed", "1.5", "--snap-turn", "45"])
         .arg("--stats-out")
         .arg(&s_path)
@@ -353,6 +362,13 @@ fn controllers_move_turn_teleport_and_select_through_the_runtime() {
     assert!(status.success(), "{log}");
     let s: Value = serde_json::from_str(&std::fs::read_to_string(&s_path).expect("stats"))
         .expect("stats JSON");
+    if x.is_some() {
+        let presented = s["mirror"]["presented"].as_u64().unwrap_or(0);
+        assert!(
+            presented > 50,
+            "the mirror presented {presented} frames: {log}"
+        );
+    }
     check(&s, &log, &s_path, &began);
 }
 

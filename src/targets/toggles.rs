@@ -32,11 +32,16 @@ pub enum Toggle {
     Msaa,
     /// GPU-driven culling on/off (needs a culling strategy).
     GpuCull,
+    /// Hierarchical-Z occlusion culling on/off (needs GPU culling).
+    Occlusion,
+    /// Level of detail on/off at the default error bound (needs GPU
+    /// culling).
+    Lod,
 }
 
 impl Toggle {
-    /// Every toggle, in key order (keys 1 to 8).
-    pub const ALL: [Toggle; 8] = [
+    /// Every toggle, in key order (keys 1 to 9, then 0).
+    pub const ALL: [Toggle; 10] = [
         Toggle::Stereo,
         Toggle::Cull,
         Toggle::StencilMask,
@@ -45,6 +50,8 @@ impl Toggle {
         Toggle::Mffr,
         Toggle::Msaa,
         Toggle::GpuCull,
+        Toggle::Occlusion,
+        Toggle::Lod,
     ];
 
     /// The name used in kiosk files and messages.
@@ -58,12 +65,14 @@ impl Toggle {
             Toggle::Mffr => "mffr",
             Toggle::Msaa => "msaa",
             Toggle::GpuCull => "gpu-cull",
+            Toggle::Occlusion => "occlusion",
+            Toggle::Lod => "lod",
         }
     }
 
     /// Its key: the digit of its place in [`Toggle::ALL`].
     pub fn key(self) -> KeyCode {
-        const KEYS: [KeyCode; 8] = [
+        const KEYS: [KeyCode; 10] = [
             KeyCode::Digit1,
             KeyCode::Digit2,
             KeyCode::Digit3,
@@ -72,6 +81,8 @@ impl Toggle {
             KeyCode::Digit6,
             KeyCode::Digit7,
             KeyCode::Digit8,
+            KeyCode::Digit9,
+            KeyCode::Digit0,
         ];
         KEYS[Toggle::ALL.iter().position(|t| *t == self).unwrap_or(0)]
     }
@@ -86,6 +97,8 @@ impl Toggle {
             Toggle::Mffr => "monoscopic far-field rendering on / off",
             Toggle::Msaa => "MSAA: 4x / 1x",
             Toggle::GpuCull => "GPU-driven culling on / off (needs a strategy)",
+            Toggle::Occlusion => "occlusion culling on / off (needs GPU culling)",
+            Toggle::Lod => "level of detail on / off (needs GPU culling)",
         }
     }
 
@@ -116,6 +129,8 @@ impl Toggle {
             Toggle::Mffr => ("MFFR".into(), c.mffr.is_some()),
             Toggle::Msaa => (format!("MSAA {}x", c.msaa), c.msaa > 1),
             Toggle::GpuCull => ("GPU cull".into(), c.gpu_cull),
+            Toggle::Occlusion => ("occlusion".into(), c.occlusion),
+            Toggle::Lod => ("LOD".into(), c.lod.is_some()),
         }
     }
 
@@ -136,8 +151,12 @@ impl Toggle {
                 let at = order.iter().position(|x| *x == c.cull).unwrap_or(0);
                 c.cull = order[(at + 1) % order.len()];
                 if c.cull == Culling::None {
-                    // GPU culling runs a strategy: it goes off with culling.
+                    // GPU culling runs a strategy: it goes off with culling,
+                    // and what runs inside it too.
                     c.gpu_cull = false;
+                    c.occlusion = false;
+                    c.lod = None;
+                    c.lod_cache = false;
                 }
             }
             Toggle::StencilMask => c.stencil_mask = !c.stencil_mask,
@@ -162,7 +181,23 @@ impl Toggle {
                 }
             }
             Toggle::Msaa => c.msaa = if c.msaa == 1 { 4 } else { 1 },
-            Toggle::GpuCull => c.gpu_cull = !c.gpu_cull,
+            Toggle::GpuCull => {
+                c.gpu_cull = !c.gpu_cull;
+                if !c.gpu_cull {
+                    // Both run inside GPU culling: they go off with it.
+                    c.occlusion = false;
+                    c.lod = None;
+                    c.lod_cache = false;
+                }
+            }
+            Toggle::Occlusion => c.occlusion = !c.occlusion,
+            Toggle::Lod => {
+                c.lod = match c.lod {
+                    Some(_) => None,
+                    None => Some(crate::view::lod::DEFAULT_BOUND_PX),
+                };
+                c.lod_cache = c.lod.is_some() && c.lod_cache;
+            }
         }
         c
     }
@@ -214,7 +249,7 @@ pub fn help(allowed: &[Toggle], save_to: &Path) -> String {
     let mut s = String::from("keys:\n");
     for (i, t) in Toggle::ALL.iter().enumerate() {
         if allowed.contains(t) {
-            s.push_str(&format!("  {}        {}\n", i + 1, t.describe()));
+            s.push_str(&format!("  {}        {}\n", (i + 1) % 10, t.describe()));
         }
     }
     s.push_str("  P        print the current --opt string\n");
@@ -427,6 +462,24 @@ mod tests {
             .contains("opt = \"multiview,msaa4,none,stencil-mask\""));
         assert!(help(&live.allowed, &live.save_to).contains("MSAA"));
         assert!(!help(&live.allowed, &live.save_to).contains("stencil"));
+    }
+
+    #[test]
+    fn occlusion_and_lod_need_gpu_culling_and_go_off_with_it() {
+        let mut live = LiveConfig::new(RenderConfig::default(), None);
+        assert_eq!(live.handle(&[KeyCode::Digit9], 1), None, "no GPU culling");
+        assert_eq!(live.handle(&[KeyCode::Digit0], 1), None, "no GPU culling");
+        live.handle(&[KeyCode::Digit2], 1).expect("a strategy");
+        live.handle(&[KeyCode::Digit8], 2).expect("GPU culling");
+        let c = live.handle(&[KeyCode::Digit9], 3).expect("occlusion");
+        assert!(c.occlusion);
+        let c = live.handle(&[KeyCode::Digit0], 4).expect("LOD");
+        assert_eq!(c.lod, Some(crate::view::lod::DEFAULT_BOUND_PX));
+        assert!(c.opt_string().contains("occlusion") && c.opt_string().contains("lod"));
+        assert_eq!(Toggle::Lod.apply(&c).lod, None, "LOD flips back");
+        let off = live.handle(&[KeyCode::Digit8], 5).expect("GPU culling off");
+        assert!(!off.gpu_cull && !off.occlusion && off.lod.is_none());
+        assert!(help(&Toggle::ALL, &live.save_to).contains("  0        level of detail"));
     }
 
     #[test]
