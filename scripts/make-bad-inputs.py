@@ -598,6 +598,10 @@ cli("timewarp-in-run", ["run", "--xr", "headless", "--frames", "1", "--opt", "ti
 cli("timewarp-with-occlusion", ["render", "--opt", "timewarp=2,gpu-cull,occlusion,superfrustum", "--out", "{out}"], ["timewarp", "occlusion"])
 cli("rdm-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "rdm=auto", "--out", "{out}"], ["rdm=auto", "valve-index", "[views.lens]"])
 cli("foveation-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "foveation=auto", "--out", "{out}"], ["foveation=auto", "valve-index", "[views.lens]"])
+cli("aq-with-foveation", ["render", "--opt", "aq,foveation=high", "--out", "{out}"], ["aq", "foveation"])
+cli("aq-in-view", ["view", "--opt", "aq", "--frames", "1"], ["aq", "view"])
+cli("budget-ms-negative", ["render", "--opt", "aq", "--budget-ms=-3", "--out", "{out}"], ["--budget-ms", "-3"])
+cli("budget-ms-nan", ["render", "--opt", "aq", "--budget-ms", "NaN", "--out", "{out}"], ["--budget-ms", "NaN"])
 cli("lens-unknown-profile", ["lens", "--hmd", "valve-index"], ["valve-index", "[views.lens]"])
 
 # --- Submission costs (issue 17 item 5) --------------------------------------

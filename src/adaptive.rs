@@ -31,6 +31,13 @@
 //! - The count n starts at the first frame, as if a change had happened
 //!   just before it: the rules wait 3 to 5 frames of history.
 
+/// The smallest render scale (per axis) of `--opt aq`.
+pub const MIN_SCALE: f64 = 0.65;
+/// The largest render scale (per axis): the targets are made at this size.
+pub const MAX_SCALE: f64 = 1.4;
+/// Each level draws this many per cent more pixels than the one below.
+pub const STEP_PCT: f64 = 15.0;
+
 /// Frames of GPU time the controller keeps.
 pub const HISTORY: usize = 12;
 /// Share of the budget under which three frames in a row step up.
@@ -135,6 +142,16 @@ impl AdaptiveQuality {
     /// The current level.
     pub fn level(&self) -> usize {
         self.level
+    }
+
+    /// Changes the frame budget (the runtime's display period changed).
+    pub fn set_budget_ms(&mut self, budget_ms: f64) {
+        self.budget_ms = budget_ms;
+    }
+
+    /// The frame budget, milliseconds.
+    pub fn budget_ms(&self) -> f64 {
+        self.budget_ms
     }
 
     /// The current render scale (per axis).

@@ -137,6 +137,16 @@ pub struct RenderConfig {
     /// matches (`lod-cache`).
     #[serde(default)]
     pub lod_cache: bool,
+    /// Adaptive quality (`aq`): each frame's render scale follows the GPU
+    /// times of the last ones against the frame budget (The Lab's rules,
+    /// `crate::adaptive`); the targets are made once at the largest scale
+    /// and only the rendered area changes.
+    #[serde(default)]
+    pub aq: bool,
+    /// The frame budget of `aq` in milliseconds (`--budget-ms`; None: the
+    /// runtime's display period, or the HMD profile's refresh rate).
+    #[serde(default)]
+    pub budget_ms: Option<f64>,
     /// A section plane `n · x + d = 0` as (n.x, n.y, n.z, d) with a unit
     /// normal `n` (`--section`): geometry on its positive side is clipped
     /// by the scene shaders and culling skips instances wholly beyond it.
@@ -300,6 +310,8 @@ impl Default for RenderConfig {
             occlusion: false,
             lod_cache: false,
             lod: None,
+            aq: false,
+            budget_ms: None,
             section: None,
             timewarp: None,
             rdm_auto: false,
@@ -356,6 +368,39 @@ impl RenderConfig {
                 "--opt",
                 "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
             ));
+        }
+        if self.aq {
+            let fixed: Vec<&str> = [
+                (
+                    self.foveation != crate::view::foveation::Level::Off,
+                    "foveation",
+                ),
+                (self.rdm.is_some() || self.rdm_auto, "rdm"),
+                (self.mffr.is_some(), "mffr"),
+                (self.occlusion, "occlusion"),
+                (self.lod.is_some(), "lod"),
+                (self.timewarp.is_some(), "timewarp"),
+            ]
+            .into_iter()
+            .filter_map(|(on, name)| on.then_some(name))
+            .collect();
+            if !fixed.is_empty() {
+                return Err(Error::config(
+                    "--opt",
+                    format!(
+                        "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
+                        fixed.join(", ")
+                    ),
+                ));
+            }
+        }
+        if let Some(b) = self.budget_ms {
+            if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
+                return Err(Error::config(
+                    "--budget-ms",
+                    format!("{b} (supported: more than 0, at most 1000)"),
+                ));
+            }
         }
         if self.occlusion && self.mffr.is_some() {
             return Err(Error::config(
@@ -428,6 +473,7 @@ impl RenderConfig {
                 "stencil-mask" => self.stencil_mask = true,
                 "gpu-cull" => self.gpu_cull = true,
                 "occlusion" => self.occlusion = true,
+                "aq" => self.aq = true,
                 "lod-cache" => self.lod_cache = true,
                 "lod" => {
                     self.lod = Some(self.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX));
@@ -546,7 +592,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -653,6 +699,9 @@ impl RenderConfig {
         }
         if self.lod_cache {
             v.push("lod-cache".into());
+        }
+        if self.aq {
+            v.push("aq".into());
         }
         if self.stencil_mask {
             v.push("stencil-mask".into());

@@ -200,7 +200,8 @@ struct FrameOpts {
     /// stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R],
     /// rdm=auto (the radius from the profile's lens), rdm-nofill, mffr[=D],
     /// mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull,
-    /// occlusion and lod[=PX] (both with gpu-cull), timewarp=K,
+    /// occlusion and lod[=PX] (both with gpu-cull), aq (adaptive quality:
+    /// the render scale follows the GPU time against the budget), timewarp=K,
     /// timewarp-rotation, timewarp-fill (render --frames and bench plans)
     /// and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
     /// round-robin, round-robin-conical, per-eye-brute; default none).
@@ -225,6 +226,10 @@ struct FrameOpts {
     /// skips instances wholly beyond).
     #[arg(long, value_parser = vergence::cli::parse_section, allow_hyphen_values = true)]
     section: Option<[f64; 4]>,
+    /// The frame budget of `--opt aq` in milliseconds (default: the
+    /// runtime's display period, else the HMD profile's refresh period).
+    #[arg(long)]
+    budget_ms: Option<f64>,
 }
 
 impl FrameOpts {
@@ -237,6 +242,7 @@ impl FrameOpts {
             section: self.section,
             record_threads: self.record_threads,
             per_draw: self.per_draw,
+            budget_ms: self.budget_ms,
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {

@@ -64,6 +64,11 @@ pub struct Plan {
     /// off (see `bench::flicker`).
     #[serde(default = "default_flicker_frames")]
     pub flicker_frames: u32,
+    /// The frame budget in milliseconds that frames over budget are
+    /// counted against and `aq` holds frames to (default: the HMD
+    /// profile's refresh period).
+    #[serde(default)]
+    pub budget_ms: Option<f64>,
     /// Seed of the head path.
     #[serde(default)]
     pub path_seed: u64,
@@ -149,6 +154,15 @@ pub enum PathKind {
 }
 
 impl Plan {
+    /// The refresh rate frames are budgeted at: `budget_ms`'s, else the
+    /// profile's.
+    pub fn refresh_hz(&self, profile: &crate::view::profile::HmdProfile) -> f64 {
+        match self.budget_ms {
+            Some(b) => 1000.0 / b,
+            None => profile.refresh_hz,
+        }
+    }
+
     /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`,
     /// `in-flight`, `submission`).
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
@@ -220,6 +234,11 @@ impl Plan {
                 "flicker_frames = {} must be 0 (off) or 2 to 120",
                 self.flicker_frames
             ));
+        }
+        if let Some(b) = self.budget_ms {
+            if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
+                return Err(format!("budget_ms = {b} must be in (0, 1000]"));
+            }
         }
         if self.spin_up_ms > 60_000 {
             return Err(format!(

@@ -170,6 +170,37 @@ pub fn markdown(results: &BenchResults) -> String {
             let head = ["config", "flicker", "FLIP mean"].map(String::from);
             md_table(&mut s, &head, &flicker);
         }
+        let aq: Vec<Vec<String>> = g
+            .results
+            .iter()
+            .filter_map(|r| {
+                let a = r.aq.as_ref()?;
+                Some(vec![
+                    r.name.clone(),
+                    format!("{:.3}", a.mean_scale),
+                    format!("{:.3}–{:.3}", a.min_scale, a.max_scale),
+                    a.level_changes.to_string(),
+                    format!("{:.2}", a.budget_ms),
+                    format!("{} / {}", r.gpu_frames_over_budget, r.frames),
+                ])
+            })
+            .collect();
+        if !aq.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nAdaptive quality (render scale per axis the controller chose over the measured frames; GPU frames over the budget; the other configurations' GPU frames over budget are in results.json):\n"
+            );
+            let head = [
+                "config",
+                "mean scale",
+                "range",
+                "level changes",
+                "budget ms",
+                "GPU over budget",
+            ]
+            .map(String::from);
+            md_table(&mut s, &head, &aq);
+        }
         let moving: Vec<Vec<String>> = g
             .results
             .iter()

@@ -195,6 +195,29 @@ pub struct ConfigResult {
     /// With `timewarp=K`: the warped frames (its `error` is theirs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<TimewarpResult>,
+    /// Measured frames whose GPU time exceeded the budget (the bench's
+    /// loop is not paced to the display, so this is the share a headset
+    /// would miss on the GPU side).
+    #[serde(default)]
+    pub gpu_frames_over_budget: u32,
+    /// With `aq`: the render scales the controller chose.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub aq: Option<AqSummary>,
+}
+
+/// What adaptive quality did over a configuration's measured frames.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct AqSummary {
+    /// Mean render scale per axis.
+    pub mean_scale: f64,
+    /// Smallest render scale.
+    pub min_scale: f64,
+    /// Largest render scale.
+    pub max_scale: f64,
+    /// Frames whose level differs from the previous frame's.
+    pub level_changes: u32,
+    /// The budget the controller held frames to, milliseconds.
+    pub budget_ms: f64,
 }
 
 /// A timewarp configuration's warped frames: at every compared frame i the
@@ -377,7 +400,7 @@ fn run_groups(
                         let e = scaled_extent(profile, scale);
                         [e.width, e.height]
                     },
-                    refresh_hz: profile.refresh_hz,
+                    refresh_hz: plan.refresh_hz(profile),
                     baseline: plan.baseline_name().to_string(),
                     ..Group::default()
                 };
@@ -453,7 +476,7 @@ fn run_group(
         &rigs,
         extent,
         ("reference", &plan.reference, &reference_config),
-        profile.refresh_hz,
+        plan.refresh_hz(profile),
         Some(&mut reference_images),
         None,
         None,
@@ -498,7 +521,7 @@ fn run_group(
             &rigs,
             extent,
             (&c.name, &c.opt, &config),
-            profile.refresh_hz,
+            plan.refresh_hz(profile),
             Some(&mut images),
             Some(&compare),
             (c.name == group.baseline).then_some(&mut group.floors),
@@ -664,6 +687,7 @@ fn measure(
 ) -> Result<Option<ConfigResult>> {
     let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
     let mut driver = FrameDriver::new(renderer, scene)?;
+    driver.set_display_budget(1000.0 / refresh_hz);
     let mut frames: Vec<FrameResult> = Vec::new();
     let n_accuracy = plan.frames.min(30) as usize;
     let warmup = plan.warmup as usize;
@@ -690,6 +714,8 @@ fn measure(
         }
         driver.finish()?;
         while driver.take_completed().is_some() {}
+        // aq's measured run starts at its default level like a session.
+        driver.reset_aq();
     }
     for (i, rig) in rigs.iter().enumerate() {
         driver.frame(rig, i as u64, false)?;
@@ -751,7 +777,11 @@ fn measure(
             for (j, readback) in [(prev, false), (i, true)] {
                 driver.frame(&rigs[j], j as u64, readback)?;
             }
-            let pair = driver.read_images()?;
+            // With aq, what the compositor would show: the rendered size
+            // scaled to the eye image.
+            let pair = driver
+                .read_images()?
+                .map(|img| crate::targets::headless::to_size(img, extent));
             if let Some(cmp) = compare {
                 if let Some(reference) = cmp.reference.get(images.len()) {
                     errors.push(image_error(reference, &pair, cmp)?);
@@ -1018,8 +1048,26 @@ fn summarize(
         motion_upload_bytes: moving
             .then(|| median(&|f| f.stats.motion.map_or(0.0, |m| m.upload_bytes as f64))),
         timewarp: None,
+        gpu_frames_over_budget: gpu.iter().filter(|&&t| t > budget_ms).count() as u32,
+        aq: aq_summary(frames),
         ..ConfigResult::default()
     }
+}
+
+/// The render scales of `frames` rendered with `aq` (None without).
+fn aq_summary(frames: &[FrameResult]) -> Option<AqSummary> {
+    let a: Vec<crate::render::driver::AqFrame> = frames.iter().filter_map(|f| f.aq).collect();
+    if a.is_empty() || a.len() != frames.len() {
+        return None;
+    }
+    let scales: Vec<f64> = a.iter().map(|x| x.scale).collect();
+    Some(AqSummary {
+        mean_scale: scales.iter().sum::<f64>() / scales.len() as f64,
+        min_scale: scales.iter().copied().fold(f64::INFINITY, f64::min),
+        max_scale: scales.iter().copied().fold(0.0, f64::max),
+        level_changes: a.windows(2).filter(|w| w[0].level != w[1].level).count() as u32,
+        budget_ms: a[0].budget_ms,
+    })
 }
 
 /// The floors on `renderer` (the baseline's: same resolution, stereo mode

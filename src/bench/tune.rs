@@ -75,6 +75,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
         warmup: (frames / 2).clamp(10, 60),
         spin_up_ms: 500,
         flicker_frames: 6,
+        budget_ms: None,
         frames,
         error_frames: frames.min(2),
         path_seed: 1,

@@ -43,6 +43,22 @@ pub struct FrameResult {
     pub fov: [Fov; 2],
     /// The renderer's statistics (CPU phases, GPU passes, counts).
     pub stats: FrameStats,
+    /// With `aq`: the level and render scale (per axis) the frame was
+    /// rendered at, and the rendered size per eye.
+    pub aq: Option<AqFrame>,
+}
+
+/// Adaptive quality's part of a frame's record.
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
+pub struct AqFrame {
+    /// The controller's level (0: the smallest scale).
+    pub level: usize,
+    /// Render scale per axis.
+    pub scale: f64,
+    /// The rendered size per eye, pixels.
+    pub size: [u32; 2],
+    /// The budget the controller held the frame to, milliseconds.
+    pub budget_ms: f64,
 }
 
 impl FrameResult {
@@ -77,7 +93,14 @@ pub struct FrameDriver {
     motion: Option<MotionState>,
     /// The scene time of the next frame, when the caller set it.
     time: Option<f64>,
+    /// Adaptive quality's controller (`aq`), fed each finished frame's
+    /// GPU time.
+    aq: Option<crate::adaptive::AdaptiveQuality>,
 }
+
+/// The frame budget of `aq` when neither `--budget-ms` nor the runtime
+/// gives one: 90 Hz.
+pub const DEFAULT_BUDGET_MS: f64 = 1000.0 / DEFAULT_FRAME_RATE;
 
 /// Scene time per frame number when the caller gives none: 90 frames a
 /// second (headless renders and the bench are then reproducible).
@@ -124,6 +147,7 @@ impl FrameDriver {
     pub fn new(renderer: Renderer, scene: &Scene) -> Result<FrameDriver> {
         let culling = CullState::new(&renderer.config, scene)?;
         let slots = renderer.frames_in_flight();
+        let aq = aq_controller(&renderer.config);
         let motion = (!scene.moving.is_empty()).then(|| MotionState {
             groups: scene.moving.clone(),
             mesh_bounds: (0..scene.meshes.len() as u32)
@@ -137,6 +161,7 @@ impl FrameDriver {
             renderer,
             culling,
             recorded: None,
+            aq,
             in_flight: VecDeque::with_capacity(slots + 1),
             done: VecDeque::with_capacity(slots + 1),
             last_start: None,
@@ -201,6 +226,16 @@ impl FrameDriver {
         // Frame n - N first: with 1 in flight nothing of this frame, not
         // even culling, overlaps the previous frame's GPU work.
         self.renderer.wait_for_slot()?;
+        let aq = self.aq.as_ref().map(|a| {
+            self.renderer.set_render_scale(a.scale());
+            let e = self.renderer.extent();
+            AqFrame {
+                level: a.level(),
+                scale: a.scale(),
+                size: [e.width, e.height],
+                budget_ms: a.budget_ms(),
+            }
+        });
         let motion_start = Instant::now();
         let time = self
             .time
@@ -234,6 +269,7 @@ impl FrameDriver {
             // The renderer checked above that the rig has two views.
             fov: [rig.views[0].fov, rig.views[1].fov],
             stats: FrameStats::default(),
+            aq,
         });
         Ok(())
     }
@@ -293,12 +329,55 @@ impl FrameDriver {
                 let (frame, mut result) = self.in_flight.pop_front().expect("front exists");
                 if frame == stats.frame {
                     result.stats = stats;
+                    if let Some(a) = self.aq.as_mut() {
+                        if let Some(c) = a.update(result.gpu_ms()) {
+                            tracing::debug!("aq: level {} → {} ({:?})", c.from, c.to, c.reason);
+                        }
+                    }
                     self.done.push_back(result);
                     break;
                 }
             }
         }
     }
+}
+
+impl FrameDriver {
+    /// The frame budget of `aq` from the runtime's display period (or the
+    /// profile's refresh rate), unless `--budget-ms` set one.
+    pub fn set_display_budget(&mut self, ms: f64) {
+        if self.renderer.config.budget_ms.is_none() && ms.is_finite() && ms > 0.0 {
+            if let Some(a) = self.aq.as_mut() {
+                a.set_budget_ms(ms);
+            }
+        }
+    }
+}
+
+impl FrameDriver {
+    /// Starts adaptive quality again from its default level with no
+    /// history (the bench, after its unmeasured spin-up frames), keeping
+    /// the budget.
+    pub fn reset_aq(&mut self) {
+        if let Some(old) = self.aq.take() {
+            let mut fresh = aq_controller(&self.renderer.config);
+            if let Some(a) = fresh.as_mut() {
+                a.set_budget_ms(old.budget_ms());
+            }
+            self.aq = fresh;
+        }
+    }
+}
+
+/// The controller of `config`'s `aq`: The Lab's levels from
+/// [`crate::adaptive::MIN_SCALE`] to [`crate::adaptive::MAX_SCALE`].
+fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive::AdaptiveQuality> {
+    use crate::adaptive::{levels, AdaptiveQuality, MAX_SCALE, MIN_SCALE, STEP_PCT};
+    if !config.aq {
+        return None;
+    }
+    let budget = config.budget_ms.unwrap_or(DEFAULT_BUDGET_MS);
+    AdaptiveQuality::new(budget, levels(MIN_SCALE, MAX_SCALE, STEP_PCT)?)
 }
 
 fn ms_between(a: Instant, b: Instant) -> f64 {

@@ -128,6 +128,10 @@ pub struct Renderer {
     /// The configuration it was built for.
     pub config: RenderConfig,
     extent: vk::Extent2D,
+    /// The size asked for (`aq`'s scale 1), and the size the targets were
+    /// made at (the largest scale with `aq`, else the same).
+    nominal: vk::Extent2D,
+    allocated: vk::Extent2D,
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
@@ -222,6 +226,14 @@ impl Renderer {
         }
         let samples = config.msaa.min(ctx.caps.max_samples);
         let slots = config.frames_in_flight as usize;
+        // With aq every target is made once for the largest scale.
+        let nominal = extent;
+        let allocated = if config.aq {
+            scaled(extent, crate::adaptive::MAX_SCALE)
+        } else {
+            extent
+        };
+        let extent = allocated;
         let (chains, cache) = match (config.lod, &scene.source) {
             (None, _) => (None, None),
             (Some(_), Some(source)) if config.lod_cache => {
@@ -284,7 +296,9 @@ impl Renderer {
                 msaa: samples,
                 ..config.clone()
             },
-            extent,
+            extent: nominal,
+            nominal,
+            allocated,
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -377,9 +391,27 @@ impl Renderer {
         &self.ctx
     }
 
-    /// Per-eye image size.
+    /// Per-eye image size of the next frame (with `aq`, the nominal size
+    /// times the current render scale).
     pub fn extent(&self) -> vk::Extent2D {
         self.extent
+    }
+
+    /// The size the targets were made at (with `aq` the nominal size at
+    /// the largest scale): what an output image must hold.
+    pub fn allocated_extent(&self) -> vk::Extent2D {
+        self.allocated
+    }
+
+    /// Renders the following frames at `scale` times the nominal size per
+    /// axis (within the targets; `aq`). Nothing is reallocated: only the
+    /// viewport, scissor and render area change.
+    pub fn set_render_scale(&mut self, scale: f64) {
+        let e = scaled(self.nominal, scale);
+        self.extent = vk::Extent2D {
+            width: e.width.min(self.allocated.width),
+            height: e.height.min(self.allocated.height),
+        };
     }
 
     fn view_mask(&self) -> u32 {
@@ -1190,8 +1222,14 @@ impl Renderer {
     ) -> Result<()> {
         let ring = self.ring.as_mut().expect("ring present until drop");
         let targets = self.targets.as_ref().expect("targets present until drop");
-        self.readback
-            .record(&self.ctx, ring, cmd, targets, self.extent, output)
+        self.readback.record(
+            &self.ctx,
+            ring,
+            cmd,
+            targets,
+            (self.extent, self.allocated),
+            output,
+        )
     }
 
     /// Copies the resolved colour (and depth) of every set into `out`'s
@@ -1208,14 +1246,15 @@ impl Renderer {
     /// (waits for the frames in flight first).
     pub fn read_images(&mut self) -> Result<[image::RgbaImage; 2]> {
         self.finish()?;
-        self.readback.images(self.extent)
+        self.readback.images(self.readback.extent())
     }
 
     /// The last read-back frame's depth per eye (reverse-Z), when the
     /// renderer keeps its depth (`timewarp`) and renders headless.
     pub fn read_depth(&mut self) -> Result<[Vec<f32>; 2]> {
         self.finish()?;
-        self.readback.depth(self.extent, self.ctx.caps.depth_format)
+        self.readback
+            .depth(self.readback.extent(), self.ctx.caps.depth_format)
     }
 
     /// Whether this device offers per-view render areas
@@ -1311,5 +1350,14 @@ impl Drop for Renderer {
             p.destroy(&ctx);
         }
         self.updates.destroy(&ctx);
+    }
+}
+
+/// `extent` times `scale` per axis, rounded, at least one pixel.
+pub fn scaled(extent: vk::Extent2D, scale: f64) -> vk::Extent2D {
+    let f = |v: u32| ((v as f64 * scale).round() as u32).max(1);
+    vk::Extent2D {
+        width: f(extent.width),
+        height: f(extent.height),
     }
 }

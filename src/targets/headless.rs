@@ -251,10 +251,25 @@ pub fn render_sequence(
     for (j, rig) in rigs.iter().enumerate() {
         driver.set_time(start_time + j as f64 / crate::render::driver::DEFAULT_FRAME_RATE);
         driver.frame(rig, j as u64, true)?;
-        out.push(driver.read_images()?);
+        out.push(driver.read_images()?.map(|img| to_size(img, extent)));
     }
     driver.finish()?;
     Ok(out)
+}
+
+/// `img` at `extent`: unchanged when it already is, else resampled
+/// bilinearly (a frame `aq` rendered smaller or larger, as a compositor
+/// scales the sub-image to the eye).
+pub fn to_size(img: image::RgbaImage, extent: vk::Extent2D) -> image::RgbaImage {
+    if img.dimensions() == (extent.width, extent.height) {
+        return img;
+    }
+    image::imageops::resize(
+        &img,
+        extent.width,
+        extent.height,
+        image::imageops::FilterType::Triangle,
+    )
 }
 
 /// Creates the renderer; an allocation failure names what was being

@@ -330,6 +330,7 @@ mod tests {
                 down: -1.0,
             }; 2],
             stats: crate::render::FrameStats::default(),
+            aq: None,
         };
         for _ in 0..HISTORY + 17 {
             hud.push(&r);

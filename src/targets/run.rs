@@ -217,6 +217,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             events: Vec::new(),
             opt: this.map(|(.., o)| o.clone()).unwrap_or_default(),
             layers: 0,
+            aq: r.aq,
         })
     };
     let mut opt = config.opt_string();
@@ -279,6 +280,10 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                 m.set_overlay_text(&opt, 1000.0 / profile.refresh_hz.max(1.0));
             }
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+            // aq's budget: the profile's refresh period (unless --budget-ms).
+            frames
+                .driver
+                .set_display_budget(1000.0 / profile.refresh_hz.max(1.0));
             frames.driver.record(&rig, index)?;
             last_shown = Some((
                 rig.clone(),
@@ -288,8 +293,14 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             frames.driver.submit(output.as_ref(), capture)?;
             if let (Some(m), Some(eyes)) = (mirror.as_mut(), frames.eyes.as_ref()) {
                 let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
+                // The frame's rendered part (smaller than the images with aq).
+                let shown = frames.driver.renderer().extent();
+                let sources = [0, 1].map(|eye| crate::gpu::surface::Source {
+                    extent: shown,
+                    ..eyes.source(0, eye)
+                });
                 m.copy(
-                    &[eyes.source(0, 0), eyes.source(0, 1)],
+                    &sources,
                     rig.hidden_area.as_deref().map(Vec::as_slice),
                     &fovs,
                 )?;
@@ -360,8 +371,10 @@ impl HeadlessFrames {
             super::headless::new_renderer(ctx, scene, config, extent)?
         };
         let driver = FrameDriver::new(renderer, scene)?;
+        // With aq the eye images hold the largest scale's frames.
+        let held = driver.renderer().allocated_extent();
         let eyes = if with_eyes {
-            Some(EyeImages::new(ctx, config.stereo, extent, 1)?)
+            Some(EyeImages::new(ctx, config.stereo, held, 1)?)
         } else {
             None
         };
@@ -403,7 +416,8 @@ impl HeadlessFrames {
         };
         self.driver = FrameDriver::new(renderer, scene)?;
         if with_eyes {
-            self.eyes = Some(EyeImages::new(ctx, config.stereo, extent, 1)?);
+            let held = self.driver.renderer().allocated_extent();
+            self.eyes = Some(EyeImages::new(ctx, config.stereo, held, 1)?);
         }
         Ok(())
     }

@@ -181,6 +181,10 @@ pub struct FrameRecord {
     /// plus the panel's quad while it is open; 0 when nothing was rendered,
     /// and headless, where nothing is composited).
     pub layers: u32,
+    /// With `--opt aq`: the level, render scale, rendered size and budget
+    /// of the frame.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub aq: Option<crate::render::driver::AqFrame>,
 }
 
 /// The interaction profile the runtime bound per hand (top-level
@@ -530,6 +534,7 @@ impl RecordQueue {
             rec.gpu_ms = r.gpu_ms();
             rec.cull_ms = r.cull_ms;
             rec.instances_drawn = r.stats.instances_drawn;
+            rec.aq = r.aq;
             rec.cpu_ms = (rec.cpu_ms - r.stats.cpu_ms.wait).max(0.0);
             *waits = false;
             stats.cull = r.cull;

@@ -156,6 +156,12 @@ impl EyeImages {
 /// Runs the desktop preview until the window closes (or `args.frames`
 /// frames were presented).
 pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
+    if args.config.aq {
+        return Err(crate::error::Error::config(
+            "--opt",
+            "aq adapts a headset's frames to its display period (run, render --frames, bench); view shows the window at its own size: leave aq out",
+        ));
+    }
     display_available()?;
     let profile = load_stereo_profile(&args.hmd)?;
     args.config.validate()?;

@@ -276,10 +276,34 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.color_format = Some(format!("{color_format:?}"));
     stats.depth_format = depth_format.map(|f| format!("{f:?}"));
     stats.image_size = [extent.width, extent.height];
+    // With aq the swapchain images hold the largest render scale; each
+    // frame's sub-image is the part it rendered.
+    let held = if desk.live.config.aq {
+        let h = crate::render::scaled(extent, crate::adaptive::MAX_SCALE);
+        let max = config_views.iter().fold((u32::MAX, u32::MAX), |m, v| {
+            (
+                m.0.min(v.max_image_rect_width),
+                m.1.min(v.max_image_rect_height),
+            )
+        });
+        if h.width > max.0 || h.height > max.1 {
+            return Err(Error::config(
+                "--opt aq",
+                format!(
+                    "aq renders up to {}x{} per eye ({}x the eye size {}x{}) and the runtime allows at most {}x{}: give a smaller --width/--height",
+                    h.width, h.height, crate::adaptive::MAX_SCALE, extent.width, extent.height, max.0, max.1
+                ),
+            ));
+        }
+        h
+    } else {
+        extent
+    };
     let chains = ChainSpec {
         color_format,
         depth_format,
-        extent,
+        extent: held,
+        nominal: extent,
     };
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, config.stereo)?;
@@ -406,7 +430,10 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
 struct ChainSpec {
     color_format: vk::Format,
     depth_format: Option<vk::Format>,
+    /// The swapchain images' size (with aq, the largest render scale's).
     extent: vk::Extent2D,
+    /// The eye size the renderer is made for (aq's scale 1).
+    nominal: vk::Extent2D,
 }
 
 impl ChainSpec {
@@ -542,7 +569,7 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                     d.renderer().context(),
                     st.scene,
                     st.last_shown.as_ref().map(|(r, t)| (r, *t)),
-                    st.chains.extent,
+                    st.chains.nominal,
                     section,
                 );
             }
@@ -726,7 +753,8 @@ fn switch_config(
         if c.stereo != old.stereo || live.color.is_empty() {
             chains.create(session, live, c.stereo)?;
         }
-        let r = Renderer::with_output(ctx.clone(), scene, c, chains.extent, Some(chains.output()))?;
+        let r =
+            Renderer::with_output(ctx.clone(), scene, c, chains.nominal, Some(chains.output()))?;
         FrameDriver::new(r, scene)
     };
     let driver = match make(live, &config) {
@@ -890,6 +918,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             let origin = *st.motion_origin_ns.get_or_insert(shown_ns);
             let time = shown_ns.saturating_sub(origin) as f64 * 1e-9;
             driver.set_time(time);
+            driver.set_display_budget(fs.predicted_display_period.as_nanos() as f64 * 1e-6);
             driver.record(&rig, index)?;
             if live.mirror.is_some() {
                 st.last_shown = Some((rig.clone(), time));
@@ -936,7 +965,8 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                         Source {
                             image,
                             layer,
-                            extent: st.chains.extent,
+                            // The part rendered (smaller with aq).
+                            extent: driver.renderer().extent(),
                         }
                     })
                     .collect();

@@ -189,6 +189,8 @@ pub struct Readback {
     buffer: Option<Buffer>,
     /// Whether the last read-back frame's depth follows its colours.
     depth: bool,
+    /// The last read-back frame's size per eye.
+    extent: vk::Extent2D,
 }
 
 impl Readback {
@@ -197,24 +199,35 @@ impl Readback {
         Readback::default()
     }
 
-    /// Copies the frame (both eyes, RGBA8, left then right) into the
-    /// buffer, from `output`'s colour images when given, else from
-    /// `targets`' own; an old buffer too small for `extent` is handed to
-    /// `ring` for deferred destruction.
+    /// The last read-back frame's size per eye.
+    pub fn extent(&self) -> vk::Extent2D {
+        self.extent
+    }
+
+    /// Copies the frame (both eyes, RGBA8, left then right, `extent` per
+    /// eye) into the buffer, from `output`'s colour images when given, else
+    /// from `targets`' own. The buffer is sized for `capacity` per eye (the
+    /// targets' size), so a frame rendered smaller (`aq`) reuses it; an old
+    /// buffer too small is handed to `ring` for deferred destruction.
     pub fn record(
         &mut self,
         ctx: &Context,
         ring: &mut FrameRing,
         cmd: vk::CommandBuffer,
         targets: &Attachments,
-        extent: vk::Extent2D,
+        (extent, capacity): (vk::Extent2D, vk::Extent2D),
         output: Option<&FrameOutput>,
     ) -> Result<()> {
         let (w, h) = (extent.width as u64, extent.height as u64);
+        self.extent = extent;
         // Headless frames whose depth is kept also read it back, after the
         // colours (4 bytes a texel for both depth formats).
         let depth = output.is_none() && targets.sets.iter().all(|s| s.depth_output().is_some());
-        let size = w * h * 4 * 2 * if depth { 2 } else { 1 };
+        let (cw, ch) = (
+            capacity.width.max(extent.width) as u64,
+            capacity.height.max(extent.height) as u64,
+        );
+        let size = cw * ch * 4 * 2 * if depth { 2 } else { 1 };
         if self.buffer.as_ref().is_none_or(|b| b.size < size) {
             if let Some(old) = self.buffer.take() {
                 ring.defer(Garbage::Buffer(old));

@@ -1,0 +1,121 @@
+//! Adaptive quality (`--opt aq`) on lavapipe: along a path whose cost rises
+//! (from open sky into the factory) and falls again, the controller drops
+//! the render scale and brings it back; nothing is allocated after the
+//! first frame (the targets and the readback were made for the largest
+//! scale); each frame is read back at its own size; zero validation
+//! messages. The controller's rules themselves are unit-tested on scripted
+//! GPU times in `src/adaptive.rs`.
+
+mod common;
+
+use common::{context, framing_pose, load};
+use vergence::config::RenderConfig;
+use vergence::render::driver::FrameDriver;
+use vergence::render::Renderer;
+use vergence::view::profile::HmdProfile;
+use vergence::view::{Pose, StereoRig};
+
+const SIZE: u32 = 160;
+
+fn median(mut v: Vec<f64>) -> f64 {
+    v.sort_by(f64::total_cmp);
+    v[v.len() / 2]
+}
+
+#[test]
+fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating() {
+    let ctx = context();
+    let scene = load("factory:20000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let dense = framing_pose(&scene, &profile);
+    // The same place looking straight up: sky only.
+    let sky = Pose::from_euler_deg(dense.position, 0.0, 85.0, 0.0);
+    let cheap: StereoRig = profile.rig(sky);
+    let costly: StereoRig = profile.rig(dense);
+    let extent = ash::vk::Extent2D {
+        width: SIZE,
+        height: SIZE,
+    };
+    let base = RenderConfig {
+        msaa: 4,
+        frames_in_flight: 1,
+        ..RenderConfig::default()
+    };
+    // The two views' GPU cost at scale 1, without aq.
+    let cost = |rig: &StereoRig| {
+        let r = Renderer::new(ctx.clone(), &scene, &base, extent).unwrap();
+        let mut d = FrameDriver::new(r, &scene).unwrap();
+        let mut t = Vec::new();
+        for i in 0..7 {
+            d.frame(rig, i, false).unwrap();
+            d.finish().unwrap();
+            t.extend(std::iter::from_fn(|| d.take_completed()).map(|r| r.gpu_ms()));
+        }
+        median(t)
+    };
+    let (t_sky, t_dense) = (cost(&cheap), cost(&costly));
+    eprintln!("GPU ms at scale 1: sky {t_sky:.2}, factory {t_dense:.2}");
+    // A budget the factory view misses by 30 % and the sky view meets with
+    // room at twice the pixels.
+    let budget = t_dense / 1.3;
+    assert!(
+        2.0 * t_sky < 0.7 * budget,
+        "the views' costs ({t_sky:.2} and {t_dense:.2} ms) are too close for this test"
+    );
+    let config = RenderConfig {
+        aq: true,
+        budget_ms: Some(budget),
+        ..base.clone()
+    };
+    let before = ctx.validation_messages();
+    let r = Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
+    let mut d = FrameDriver::new(r, &scene).unwrap();
+    let path: Vec<&StereoRig> = std::iter::repeat_n(&cheap, 12)
+        .chain(std::iter::repeat_n(&costly, 24))
+        .chain(std::iter::repeat_n(&cheap, 45))
+        .collect();
+    let mut frames = Vec::new();
+    let mut allocated = Vec::new();
+    for (i, rig) in path.iter().enumerate() {
+        d.frame(rig, i as u64, true).unwrap();
+        d.finish().unwrap();
+        let images = d.read_images().unwrap();
+        let r = d.take_completed().expect("the frame finished");
+        let aq = r.aq.expect("aq on the frame");
+        assert_eq!(
+            images[0].dimensions(),
+            (aq.size[0], aq.size[1]),
+            "frame {i} read back at its rendered size"
+        );
+        let want = (SIZE as f64 * aq.scale).round() as u32;
+        assert_eq!(aq.size, [want, want], "frame {i}");
+        allocated.push(ctx.allocated_bytes());
+        frames.push(aq);
+    }
+    drop(d);
+    assert_eq!(
+        ctx.validation_messages(),
+        before,
+        "{:#?}",
+        ctx.validation_log()
+    );
+    let levels: Vec<usize> = frames.iter().map(|f| f.level).collect();
+    eprintln!("levels along the path: {levels:?}");
+    let start = levels[0];
+    let lowest_dense = *levels[12..36].iter().min().unwrap();
+    assert!(
+        lowest_dense + 2 <= start,
+        "the factory view dropped the level: {levels:?}"
+    );
+    assert!(
+        *levels.last().unwrap() >= start,
+        "back in the sky the level recovered: {levels:?}"
+    );
+    assert!(frames.iter().all(|f| (f.budget_ms - budget).abs() < 1e-9));
+    // Nothing allocated after the first frame: the targets and the
+    // readback were made for the largest scale.
+    assert!(
+        allocated.windows(2).all(|w| w[0] == w[1]),
+        "allocations changed: {allocated:?}"
+    );
+}
