@@ -271,6 +271,41 @@ fn one_and_three_frames_in_flight_run_clean_under_the_runtime() {
     }
 }
 
+#[test]
+fn adaptive_quality_submits_each_frames_sub_image_clean_under_the_runtime() {
+    let _g = lock();
+    let dir = out_dir("aq");
+    let s_path = dir.join("stats.json");
+    // A budget every frame misses on lavapipe: the level falls to the
+    // lowest and the sub-image shrinks, in swapchains made for 1.4x.
+    let o = with_monado(false)
+        .args(["run", "--xr", "openxr", "--frames", "40"])
+        .args(["--scene", "factory:2000", "--opt", "superfrustum,aq"])
+        .args(["--budget-ms", "1", "--width", "160", "--height", "120"])
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(s["config"]["aq"], true);
+    let aq: Vec<&Value> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|f| f.get("aq"))
+        .collect();
+    assert!(aq.len() >= 30, "{} frames with aq", aq.len());
+    let size = |a: &Value| [a["size"][0].as_u64().unwrap(), a["size"][1].as_u64().unwrap()];
+    let first = size(aq[0]);
+    let last = size(aq.last().unwrap());
+    assert_eq!(aq.last().unwrap()["level"], 0, "at the lowest level: {aq:?}");
+    assert_eq!(last, [104, 78], "0.65 x 160x120");
+    assert!(first[0] > last[0], "{first:?} → {last:?}");
+    assert!(aq.iter().all(|a| a["budget_ms"] == 1.0));
+    assert_no_validation(&o, &s);
+}
+
 fn yaw_quat(deg: f32) -> [f32; 4] {
     let h = deg.to_radians() * 0.5;
     [0.0, h.sin(), 0.0, h.cos()]
