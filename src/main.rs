@@ -825,7 +825,7 @@ fn tune(
     out: &std::path::Path,
 ) -> anyhow::Result<()> {
     use vergence::bench::tune;
-    let plan = tune::plan(scene, hmd, scale, frames);
+    let plan = tune::plan(scene, hmd, scale, frames, Some(goal.budget_ms));
     plan.validate()
         .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
     plan.check_inputs()

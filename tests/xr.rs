@@ -296,10 +296,19 @@ fn adaptive_quality_submits_each_frames_sub_image_clean_under_the_runtime() {
         .filter_map(|f| f.get("aq"))
         .collect();
     assert!(aq.len() >= 30, "{} frames with aq", aq.len());
-    let size = |a: &Value| [a["size"][0].as_u64().unwrap(), a["size"][1].as_u64().unwrap()];
+    let size = |a: &Value| {
+        [
+            a["size"][0].as_u64().unwrap(),
+            a["size"][1].as_u64().unwrap(),
+        ]
+    };
     let first = size(aq[0]);
     let last = size(aq.last().unwrap());
-    assert_eq!(aq.last().unwrap()["level"], 0, "at the lowest level: {aq:?}");
+    assert_eq!(
+        aq.last().unwrap()["level"],
+        0,
+        "at the lowest level: {aq:?}"
+    );
     assert_eq!(last, [104, 78], "0.65 x 160x120");
     assert!(first[0] > last[0], "{first:?} → {last:?}");
     assert!(aq.iter().all(|a| a["budget_ms"] == 1.0));

@@ -236,8 +236,8 @@ impl Plan {
             ));
         }
         if let Some(b) = self.budget_ms {
-            if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
-                return Err(format!("budget_ms = {b} must be in (0, 1000]"));
+            if !(b.is_finite() && b > 0.0 && b <= 60_000.0) {
+                return Err(format!("budget_ms = {b} must be in (0, 60000]"));
             }
         }
         if self.spin_up_ms > 60_000 {

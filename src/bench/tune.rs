@@ -46,6 +46,12 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "full-stack-1x",
         "multiview,no-msaa,superfrustum,stencil-mask,foveation=high,mffr",
     ),
+    ("gpu-cull", "multiview,msaa4,superfrustum,gpu-cull"),
+    (
+        "gpu-cull-occlusion-lod",
+        "multiview,msaa4,superfrustum,gpu-cull,occlusion,lod",
+    ),
+    ("stencil-aq", "multiview,msaa4,superfrustum,stencil-mask,aq"),
 ];
 
 /// What to tune for. A candidate whose image error was not measured
@@ -63,8 +69,9 @@ pub struct TuneGoal {
     pub max_flicker: Option<f64>,
 }
 
-/// The bench plan `tune` measures.
-pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
+/// The bench plan `tune` measures; `budget_ms` is the budget `aq`
+/// candidates hold their frames to (None: the profile's refresh period).
+pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32, budget_ms: Option<f64>) -> Plan {
     Plan {
         name: "tune".into(),
         scenes: vec![scene.to_string()],
@@ -75,7 +82,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32) -> Plan {
         warmup: (frames / 2).clamp(10, 60),
         spin_up_ms: 500,
         flicker_frames: 6,
-        budget_ms: None,
+        budget_ms,
         frames,
         error_frames: frames.min(2),
         path_seed: 1,
