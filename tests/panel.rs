@@ -53,6 +53,7 @@ fn the_panel_shows_each_button_state_the_hover_and_the_pointer() {
         allowed: &allowed,
         pointers: [None, centre_of(Button::Close)],
         times_ms: Some((4.2, 1.3, 11.1)),
+        selected: Some("selected: pump-7 (pump, steel), 2.35 m away".into()),
     });
     let img = vergence::targets::xr_panel::snapshot(&ctx, &frame).expect("drawn");
     let out = common::scratch("panel", "image").join("panel.png");

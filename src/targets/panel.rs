@@ -21,6 +21,26 @@ pub enum PanelMode {
 
 /// The panel image's size in pixels (the quad's aspect, 0.64 × 0.40 m).
 pub const SIZE_PX: [u32; 2] = [1024, 640];
+/// Longest selection line, characters (it stays left of the close button).
+const SELECTION_CHARS: usize = 56;
+
+/// The panel's line for what the select tool named: the node (or mesh)
+/// name, its material, the distance; cut to [`SELECTION_CHARS`] with an
+/// ellipsis.
+pub fn selection_line(p: &crate::interact::Picked) -> String {
+    let name = p.node.as_deref().unwrap_or(&p.mesh);
+    let line = format!(
+        "selected: {name} ({}, {}), {:.2} m away",
+        p.mesh, p.material, p.distance_m
+    );
+    if line.chars().count() <= SELECTION_CHARS {
+        return line;
+    }
+    let mut cut: String = line.chars().take(SELECTION_CHARS - 1).collect();
+    cut.push('…');
+    cut
+}
+
 /// Pixels per egui point: the layout is in points of half a pixel's
 /// density, so text stays legible at arm's length.
 const PIXELS_PER_POINT: f32 = 2.0;
@@ -106,6 +126,8 @@ pub struct PanelState<'a> {
     pub pointers: [Option<[f64; 2]>; 2],
     /// Last finished frame's GPU and CPU milliseconds, and the budget.
     pub times_ms: Option<(f64, f64, f64)>,
+    /// What the select tool last named (one line), if anything.
+    pub selected: Option<String>,
 }
 
 /// Background (linear RGBA, premultiplied): the image is cleared to it
@@ -227,8 +249,17 @@ impl PanelUi {
                     text,
                 );
             }
+            if let Some(sel) = &state.selected {
+                painter.text(
+                    at([0.03, 0.855]),
+                    egui::Align2::LEFT_CENTER,
+                    sel,
+                    font(11.0),
+                    text,
+                );
+            }
             painter.text(
-                at([0.03, 0.90]),
+                at([0.03, 0.93]),
                 egui::Align2::LEFT_CENTER,
                 "menu: close   trigger: press",
                 font(11.0),
@@ -269,6 +300,28 @@ mod tests {
     }
 
     #[test]
+    fn a_long_selection_is_cut_to_stay_left_of_close() {
+        let p = crate::interact::Picked {
+            instance: 3,
+            node: Some("a very long node name from a plant's CAD export, level 7".into()),
+            path: None,
+            mesh: "m".into(),
+            material: "steel".into(),
+            extras: None,
+            point: [0.0; 3],
+            distance_m: 2.0,
+        };
+        let line = selection_line(&p);
+        assert_eq!(line.chars().count(), SELECTION_CHARS);
+        assert!(line.ends_with('…') && line.starts_with("selected: a very long"));
+        let short = crate::interact::Picked { node: None, ..p };
+        assert_eq!(
+            selection_line(&short),
+            "selected: m (m, steel), 2.00 m away"
+        );
+    }
+
+    #[test]
     fn every_button_is_drawn_and_the_frame_has_text() {
         let config = RenderConfig::default();
         let mut ui = PanelUi::new();
@@ -278,6 +331,7 @@ mod tests {
             allowed: &Toggle::ALL,
             pointers: [None, centre_of(Button::Close)],
             times_ms: Some((3.0, 1.0, 11.1)),
+            selected: None,
         });
         assert_eq!(f.pixels_per_point, PIXELS_PER_POINT);
         assert!(!f.textures.set.is_empty(), "the font atlas comes first");

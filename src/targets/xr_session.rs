@@ -1220,6 +1220,7 @@ fn draw_panel(
             allowed: &st.desk.live.allowed,
             pointers: pointers.map(|p| p.map(|h| h.uv)),
             times_ms: st.last_times,
+            selected: stats.selected.as_ref().map(super::panel::selection_line),
         };
         let frame = panel.ui.frame(&state);
         panel.draw(&frame, &live.watchdog)
