@@ -9,6 +9,7 @@ pub mod fault;
 pub mod memory;
 pub mod pipeline;
 pub mod query;
+pub mod rendering;
 pub mod ring;
 pub mod shaders;
 pub mod surface;

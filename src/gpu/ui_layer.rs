@@ -123,26 +123,9 @@ impl UiLayer {
             LOADED,
         )];
         let load = match clear {
-            Some(_) => vk::AttachmentLoadOp::CLEAR,
-            None => vk::AttachmentLoadOp::LOAD,
+            Some(c) => super::rendering::Load::Clear(c),
+            None => super::rendering::Load::Keep,
         };
-        let attachments = [vk::RenderingAttachmentInfo::default()
-            .image_view(view)
-            .image_layout(LOADED.layout)
-            .load_op(load)
-            .clear_value(vk::ClearValue {
-                color: vk::ClearColorValue {
-                    float32: clear.unwrap_or_default(),
-                },
-            })
-            .store_op(vk::AttachmentStoreOp::STORE)];
-        let info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D::default(),
-                extent,
-            })
-            .layer_count(1)
-            .color_attachments(&attachments);
         // SAFETY: recording into the window's open command buffer outside
         // any rendering scope; the image and view belong to the swapchain.
         unsafe {
@@ -150,7 +133,7 @@ impl UiLayer {
                 cmd,
                 &vk::DependencyInfo::default().image_memory_barriers(&to_draw),
             );
-            d.cmd_begin_rendering(cmd, &info);
+            super::rendering::begin_color(d, cmd, view, extent, load, 0);
         }
         let drawn = self
             .renderer

@@ -677,22 +677,13 @@ impl DistortionPreview {
                 extent: self.panel,
             };
             for (eye, &view) in self.target_views.iter().enumerate() {
-                let attachments = [vk::RenderingAttachmentInfo::default()
-                    .image_view(view)
-                    .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-                    .load_op(vk::AttachmentLoadOp::CLEAR)
-                    .store_op(vk::AttachmentStoreOp::STORE)
-                    .clear_value(vk::ClearValue {
-                        color: vk::ClearColorValue {
-                            float32: [0.0, 0.0, 0.0, 1.0],
-                        },
-                    })];
-                d.cmd_begin_rendering(
+                crate::gpu::rendering::begin_color(
+                    d,
                     cmd,
-                    &vk::RenderingInfo::default()
-                        .render_area(area)
-                        .layer_count(1)
-                        .color_attachments(&attachments),
+                    view,
+                    area.extent,
+                    crate::gpu::rendering::Load::Clear([0.0, 0.0, 0.0, 1.0]),
+                    0,
                 );
                 d.cmd_set_viewport(
                     cmd,

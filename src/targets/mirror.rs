@@ -531,19 +531,14 @@ impl Mirror {
             );
             for &e in &masked {
                 let rects = &self.masks[e].as_ref().expect("filtered above").rects;
-                let attachment = [vk::RenderingAttachmentInfo::default()
-                    .image_view(self.layer_views[e])
-                    .image_layout(attached.layout)
-                    .load_op(vk::AttachmentLoadOp::LOAD)
-                    .store_op(vk::AttachmentStoreOp::STORE)];
-                let info = vk::RenderingInfo::default()
-                    .render_area(vk::Rect2D {
-                        offset: vk::Offset2D::default(),
-                        extent,
-                    })
-                    .layer_count(1)
-                    .color_attachments(&attachment);
-                d.cmd_begin_rendering(cmd, &info);
+                crate::gpu::rendering::begin_color(
+                    d,
+                    cmd,
+                    self.layer_views[e],
+                    extent,
+                    crate::gpu::rendering::Load::Keep,
+                    0,
+                );
                 let black = [vk::ClearAttachment {
                     aspect_mask: c,
                     color_attachment: 0,

@@ -618,22 +618,18 @@ impl Recorder<'_> {
     /// Begins a rendering scope of one colour attachment (loaded as don't
     /// care, stored) over `extent`, with no depth.
     pub fn begin_color_only(&self, view: vk::ImageView, extent: vk::Extent2D, view_mask: u32) {
-        let color = [vk::RenderingAttachmentInfo::default()
-            .image_view(view)
-            .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(vk::AttachmentLoadOp::DONT_CARE)
-            .store_op(vk::AttachmentStoreOp::STORE)];
-        let info = vk::RenderingInfo::default()
-            .render_area(vk::Rect2D {
-                offset: vk::Offset2D::default(),
-                extent,
-            })
-            .layer_count(1)
-            .view_mask(view_mask)
-            .color_attachments(&color);
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; the attachment is in the colour attachment layout.
-        unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
+        unsafe {
+            crate::gpu::rendering::begin_color(
+                &self.ctx.device,
+                self.cmd,
+                view,
+                extent,
+                crate::gpu::rendering::Load::Discard,
+                view_mask,
+            )
+        };
     }
 
     /// Ends the rendering scope begun last.
