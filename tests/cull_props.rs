@@ -10,6 +10,7 @@
 
 use glam::{DQuat, DVec3};
 use proptest::prelude::*;
+use proptest::test_runner::TestCaseError;
 use vergence::cull::{compare, cull, cull_flat, exact_per_eye, Bvh, CullParams, Strategy as Cs};
 use vergence::view::{Fov, Pose, StereoRig};
 
@@ -105,6 +106,25 @@ fn rig_and_scene(
     })
 }
 
+/// A hierarchy changed in place (`changed`) culls like one built afresh
+/// over the same boxes (`fresh`) and like the brute-force walk over its
+/// own leaves, for the strategies that do not depend on the frame.
+fn culls_like(
+    rig: &StereoRig,
+    params: &CullParams,
+    changed: &Bvh,
+    fresh: &Bvh,
+) -> Result<(), TestCaseError> {
+    for s in [Cs::PerEye, Cs::Superfrustum, Cs::ConicalSuperfrustum] {
+        let a = cull(s, rig, 0, changed, params).unwrap();
+        let b = cull(s, rig, 0, fresh, params).unwrap();
+        prop_assert_eq!(&a.visible, &b.visible, "{} after the change", s);
+        let f = cull_flat(s, rig, 0, changed, params).unwrap();
+        prop_assert_eq!(&a.visible, &f.visible, "{} hierarchy != brute force", s);
+    }
+    Ok(())
+}
+
 proptest! {
     #![proptest_config(ProptestConfig { cases: 3000, ..ProptestConfig::default() })]
 
@@ -151,13 +171,7 @@ proptest! {
             all[*i as usize] = *b;
         }
         let fresh = Bvh::build(&all, leaf).unwrap();
-        for s in [Cs::PerEye, Cs::Superfrustum, Cs::ConicalSuperfrustum] {
-            let a = cull(s, &rig, 0, &bvh, &params).unwrap();
-            let b = cull(s, &rig, 0, &fresh, &params).unwrap();
-            prop_assert_eq!(&a.visible, &b.visible);
-            let f = cull_flat(s, &rig, 0, &bvh, &params).unwrap();
-            prop_assert_eq!(&a.visible, &f.visible);
-        }
+        culls_like(&rig, &params, &bvh, &fresh)?;
         let nan = [(0u32, (DVec3::splat(f64::NAN), DVec3::ONE))];
         prop_assert!(bvh.update(&nan).is_err());
         let outside = [(boxes.len() as u32, (DVec3::ZERO, DVec3::ONE))];
@@ -177,12 +191,6 @@ proptest! {
             .collect();
         bvh.refit(&moved).unwrap();
         let fresh = Bvh::build(&moved, leaf).unwrap();
-        for s in [Cs::PerEye, Cs::Superfrustum, Cs::ConicalSuperfrustum] {
-            let a = cull(s, &rig, 0, &bvh, &params).unwrap();
-            let b = cull(s, &rig, 0, &fresh, &params).unwrap();
-            prop_assert_eq!(&a.visible, &b.visible);
-            let f = cull_flat(s, &rig, 0, &bvh, &params).unwrap();
-            prop_assert_eq!(&a.visible, &f.visible);
-        }
+        culls_like(&rig, &params, &bvh, &fresh)?;
     }
 }
