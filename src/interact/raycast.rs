@@ -5,7 +5,7 @@
 //! lands and where a measuring point sits all come from here.
 
 use crate::cull::bvh::Bvh;
-use crate::scene::Scene;
+use crate::scene::{Scene, WorldBounds};
 use glam::{DAffine3, DMat3, DVec3};
 
 /// Leaf size of the query's hierarchy: small leaves, because every instance
@@ -64,6 +64,11 @@ pub struct SceneQuery<'a> {
     bvh: Option<Bvh>,
     placed: Vec<Option<Placed>>,
 }
+
+/// A moved instance for the query: its index, what casts need (None when
+/// its transform cannot be inverted), its world box (None for an unknown
+/// mesh).
+type MovedPlace = (u32, Option<Placed>, Option<(DVec3, DVec3)>);
 
 /// Slab test (Kay and Kajiya, "Ray Tracing Complex Scenes", SIGGRAPH 1986):
 /// the parameter interval where the ray is inside all three slabs of the box,
@@ -149,6 +154,52 @@ impl<'a> SceneQuery<'a> {
             })
             .collect();
         SceneQuery { scene, bvh, placed }
+    }
+
+    /// Moves instances to where the scene's motion put them (the frame
+    /// driver's last `moved`): their inverse transforms are replaced and
+    /// their boxes updated in the hierarchy, so rays hit them where they are
+    /// drawn. A moved instance whose transform cannot be inverted is no
+    /// longer hit; an update the hierarchy refuses (non-finite bounds) is
+    /// skipped with a warning and casts keep the last good boxes.
+    pub fn move_instances(&mut self, moved: &[crate::scene::motion::Moved]) {
+        if moved.is_empty() {
+            return;
+        }
+        use rayon::prelude::*;
+        let scene = self.scene;
+        let len = self.placed.len();
+        // Per instance in parallel: its inverse and its world box.
+        let placed: Vec<MovedPlace> = moved
+            .par_iter()
+            .with_min_len(256)
+            .filter(|m| (m.index as usize) < len)
+            .map(|m| {
+                let det = m.transform.matrix3.determinant();
+                let p = (det.is_finite() && det.abs() > 1e-300).then(|| Placed {
+                    inverse: m.transform.inverse(),
+                    normal_matrix: m.transform.matrix3.inverse().transpose(),
+                    mesh: m.mesh,
+                });
+                let b = ((m.mesh as usize) < scene.meshes.len()).then(|| {
+                    let b = WorldBounds::of(scene.mesh_bounds(m.mesh), &m.transform);
+                    (b.min, b.max)
+                });
+                (m.index, p, b)
+            })
+            .collect();
+        let mut boxes = Vec::with_capacity(placed.len());
+        for (i, p, b) in placed {
+            self.placed[i as usize] = p;
+            if let Some(b) = b {
+                boxes.push((i, b));
+            }
+        }
+        if let Some(bvh) = self.bvh.as_mut() {
+            if let Err(e) = bvh.update(&boxes) {
+                tracing::warn!("ray casts keep the last instance boxes: {e:?}");
+            }
+        }
     }
 
     /// The scene queried.
@@ -304,6 +355,50 @@ mod tests {
     }
 
     #[test]
+    fn moved_instances_are_hit_where_they_moved_to() {
+        let s = boxes(1, 3);
+        let mut q = SceneQuery::new(&s);
+        let down = |x: f64| Ray {
+            origin: DVec3::new(x, 50.0, 0.0),
+            direction: DVec3::NEG_Y,
+            max_t: 100.0,
+        };
+        // The box stands at x = 100 now (it was within ±10).
+        let moved = [crate::scene::motion::Moved {
+            index: 0,
+            mesh: 0,
+            transform: DAffine3::from_translation(DVec3::new(100.0, 0.0, 0.0)),
+        }];
+        q.move_instances(&moved);
+        let h = q.cast(&down(100.0)).expect("hit where it moved to");
+        assert_eq!(h.instance, 0);
+        // The cuboid's half height is 0.3 above its centre at y = 0.
+        assert!((h.point.y - 0.3).abs() < 1e-6, "{h:?}");
+        assert_eq!(
+            q.cast_brute_force(&down(100.0)).map(|h| h.instance),
+            Some(0)
+        );
+        let was = s.instances[0].transform.translation;
+        assert!(q
+            .cast(&down(was.x))
+            .is_none_or(|h| (h.point.x - 100.0).abs() < 1.0));
+        let (lo, hi) = q.instance_bounds(0).unwrap();
+        assert!(lo.x > 99.0 && hi.x < 101.0, "{lo} {hi}");
+        // A singular transform is never hit; NaN bounds are refused and the
+        // last good boxes stay.
+        q.move_instances(&[crate::scene::motion::Moved {
+            transform: DAffine3::from_scale(DVec3::ZERO),
+            ..moved[0]
+        }]);
+        assert!(q.cast(&down(100.0)).is_none());
+        q.move_instances(&[crate::scene::motion::Moved {
+            transform: DAffine3::from_translation(DVec3::splat(f64::NAN)),
+            ..moved[0]
+        }]);
+        assert!(q.instance_bounds(0).unwrap().0.is_finite());
+    }
+
+    #[test]
     fn hits_the_top_of_a_floor_from_above_with_an_upward_normal() {
         let mut s = boxes(0, 1);
         s.instances.push(Instance {
@@ -332,6 +427,37 @@ mod tests {
 
     proptest! {
         #![proptest_config(ProptestConfig::with_cases(64))]
+
+    /// After random instances moved, the hierarchy's cast agrees with
+    /// testing every triangle.
+    #[test]
+    fn casts_after_moves_match_brute_force(
+        seed in 0u64..1000, dx in -8.0..8.0f64, dz in -8.0..8.0f64,
+        ox in -12.0..12.0f64, oz in -12.0..12.0f64, yaw in 0.0..6.3f64, pitch in -1.2..-0.05f64,
+    ) {
+        let s = boxes(40, seed);
+        let mut q = SceneQuery::new(&s);
+        let moved: Vec<crate::scene::motion::Moved> = s
+            .instances
+            .iter()
+            .enumerate()
+            .filter(|(i, _)| i % 3 == 0)
+            .map(|(i, inst)| crate::scene::motion::Moved {
+                index: i as u32,
+                mesh: inst.mesh,
+                transform: DAffine3::from_translation(DVec3::new(dx, 0.0, dz)) * inst.transform,
+            })
+            .collect();
+        q.move_instances(&moved);
+        let d = DQuat::from_euler(glam::EulerRot::YXZ, yaw, pitch, 0.0) * DVec3::NEG_Z;
+        let ray = Ray { origin: DVec3::new(ox, 8.0, oz), direction: d, max_t: 100.0 };
+        let (a, b) = (q.cast(&ray), q.cast_brute_force(&ray));
+        prop_assert_eq!(a.map(|h| h.instance), b.map(|h| h.instance));
+        if let (Some(a), Some(b)) = (a, b) {
+            prop_assert!((a.t - b.t).abs() < 1e-9);
+        }
+    }
+
         #[test]
         fn the_hierarchy_finds_the_brute_force_hit(
             seed in 0u64..1000,

@@ -177,6 +177,12 @@ impl FrameDriver {
         self.time = Some(seconds);
     }
 
+    /// The moving instances where the last recorded frame placed them
+    /// (empty in a scene without motion): what ray casts follow.
+    pub fn moved(&self) -> &[Moved] {
+        self.motion.as_ref().map_or(&[], |m| &m.moved)
+    }
+
     /// The renderer.
     pub fn renderer(&self) -> &Renderer {
         &self.renderer

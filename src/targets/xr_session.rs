@@ -920,6 +920,11 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             driver.set_time(time);
             driver.set_display_budget(fs.predicted_display_period.as_nanos() as f64 * 1e-6);
             driver.record(&rig, index)?;
+            // Rays follow moving instances (from the next frame's input on);
+            // only controllers cast them.
+            if live.controls.is_some() {
+                st.query.move_instances(driver.moved());
+            }
             if live.mirror.is_some() {
                 st.last_shown = Some((rig.clone(), time));
             }
