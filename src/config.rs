@@ -115,6 +115,11 @@ pub struct RenderConfig {
     pub rdm_fill: bool,
     /// Monoscopic far-field rendering (`mffr`, `mffr=D`, `mffr-depth-shift`).
     pub mffr: Option<Mffr>,
+    /// Multi-resolution foveated rendering (`inset`, `inset=F`,
+    /// `inset-fov=DEG`): each eye as a wide view over its FOV at scale F
+    /// per axis and a full-density inset around the gaze, composited.
+    #[serde(default)]
+    pub inset: Option<Inset>,
     /// Frames the CPU may prepare while the GPU still renders earlier ones
     /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
     pub frames_in_flight: u32,
@@ -203,6 +208,25 @@ impl PerDraw {
             PerDraw::Push => "push",
             PerDraw::Ubo => "ubo",
             PerDraw::Ssbo => "ssbo",
+        }
+    }
+}
+
+/// Multi-resolution foveated rendering's settings (`inset[=F]`,
+/// `inset-fov=DEG`; geometry in [`crate::view::inset`]).
+#[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Inset {
+    /// The wide view's scale per axis (0.1 to 1).
+    pub wide_scale: f64,
+    /// The inset's half-angle around the gaze, degrees (1 to 80).
+    pub half_angle_deg: f64,
+}
+
+impl Default for Inset {
+    fn default() -> Self {
+        Inset {
+            wide_scale: crate::view::inset::DEFAULT_WIDE_SCALE,
+            half_angle_deg: crate::view::inset::DEFAULT_HALF_ANGLE_DEG,
         }
     }
 }
@@ -305,6 +329,7 @@ impl Default for RenderConfig {
             rdm: None,
             rdm_fill: true,
             mffr: None,
+            inset: None,
             frames_in_flight: 2,
             gpu_cull: false,
             occlusion: false,
@@ -394,6 +419,35 @@ impl RenderConfig {
                 ));
             }
         }
+        if self.inset.is_some() {
+            let fixed: Vec<&str> = [
+                (
+                    self.foveation != crate::view::foveation::Level::Off,
+                    "foveation",
+                ),
+                (self.rdm.is_some() || self.rdm_auto, "rdm"),
+                (self.mffr.is_some(), "mffr"),
+                (self.occlusion, "occlusion"),
+                (self.aq, "aq"),
+                (self.timewarp.is_some(), "timewarp"),
+                (
+                    self.record_threads.is_some() || self.per_draw != PerDraw::Push,
+                    "--record-threads/--per-draw",
+                ),
+            ]
+            .into_iter()
+            .filter_map(|(on, name)| on.then_some(name))
+            .collect();
+            if !fixed.is_empty() {
+                return Err(Error::config(
+                    "--opt",
+                    format!(
+                        "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
+                        fixed.join(", ")
+                    ),
+                ));
+            }
+        }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
@@ -474,6 +528,35 @@ impl RenderConfig {
                 "gpu-cull" => self.gpu_cull = true,
                 "occlusion" => self.occlusion = true,
                 "aq" => self.aq = true,
+                "inset" => self.inset = Some(self.inset.unwrap_or_default()),
+                l if l.starts_with("inset=") => match l["inset=".len()..].parse::<f64>() {
+                    Ok(v) if v.is_finite() && (0.1..=1.0).contains(&v) => {
+                        self.inset = Some(Inset {
+                            wide_scale: v,
+                            ..self.inset.unwrap_or_default()
+                        })
+                    }
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{l}': expected inset=F with 0.1 <= F <= 1 (the wide view's scale per axis)"),
+                        ))
+                    }
+                },
+                l if l.starts_with("inset-fov=") => match l["inset-fov=".len()..].parse::<f64>() {
+                    Ok(v) if v.is_finite() && (1.0..=80.0).contains(&v) => {
+                        self.inset = Some(Inset {
+                            half_angle_deg: v,
+                            ..self.inset.unwrap_or_default()
+                        })
+                    }
+                    _ => {
+                        return Err(Error::config(
+                            "--opt",
+                            format!("'{l}': expected inset-fov=DEG with 1 <= DEG <= 80 (the inset's half-angle)"),
+                        ))
+                    }
+                },
                 "lod-cache" => self.lod_cache = true,
                 "lod" => {
                     self.lod = Some(self.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX));
@@ -592,7 +675,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -702,6 +785,16 @@ impl RenderConfig {
         }
         if self.aq {
             v.push("aq".into());
+        }
+        if let Some(i) = self.inset {
+            v.push(if i.wide_scale == crate::view::inset::DEFAULT_WIDE_SCALE {
+                "inset".into()
+            } else {
+                format!("inset={}", i.wide_scale)
+            });
+            if i.half_angle_deg != crate::view::inset::DEFAULT_HALF_ANGLE_DEG {
+                v.push(format!("inset-fov={}", i.half_angle_deg));
+            }
         }
         if self.stencil_mask {
             v.push("stencil-mask".into());

@@ -55,6 +55,8 @@ pub static HIDDEN_VERT: Module = spirv!("hidden.vert");
 pub static RDM_FRAG: Module = spirv!("rdm.frag");
 /// Radial density masking's reconstruction.
 pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
+/// The inset composite (multi-resolution foveated rendering).
+pub static INSET_COMPOSITE_FRAG: Module = spirv!("inset_composite.frag");
 /// The monoscopic far field's composite.
 pub static MFFR_COMPOSITE_FRAG: Module = spirv!("mffr_composite.frag");
 /// A full-screen triangle passing NDC and the view index on.
@@ -106,7 +108,7 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 33] = [
+pub static ALL: [&Module; 34] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -118,6 +120,7 @@ pub static ALL: [&Module; 33] = [
     &HIDDEN_VERT,
     &RDM_FRAG,
     &RDM_FILL_FRAG,
+    &INSET_COMPOSITE_FRAG,
     &MFFR_COMPOSITE_FRAG,
     &FULLSCREEN_VERT,
     &SKY_FRAG,

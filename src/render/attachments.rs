@@ -51,8 +51,10 @@ pub struct AttachmentSet {
 pub struct SetOptions {
     /// Keep a single-sample copy of the frame's depth (for output).
     pub keep_depth: bool,
-    /// Add radial density masking's reconstruction target.
-    pub rdm_fill: bool,
+    /// Add a composed output image (`filled`), written by a pass after the
+    /// scene from the sampled resolve image: radial density masking's
+    /// reconstruction, or the inset composite.
+    pub composed: bool,
     /// Make the resolve image sampleable.
     pub sampled: bool,
     /// Occlusion culling: the frame is drawn in two rendering scopes, so
@@ -72,7 +74,7 @@ impl AttachmentSet {
     ) -> Result<AttachmentSet> {
         let SetOptions {
             keep_depth,
-            rdm_fill,
+            composed,
             sampled,
             occlusion,
         } = opts;
@@ -142,7 +144,7 @@ impl AttachmentSet {
             None
         };
         let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-        let sampled = if rdm_fill || sampled {
+        let sampled = if composed || sampled {
             vk::ImageUsageFlags::SAMPLED
         } else {
             vk::ImageUsageFlags::empty()
@@ -157,11 +159,11 @@ impl AttachmentSet {
                 vk::ImageAspectFlags::COLOR,
             ),
         )?;
-        let filled = if rdm_fill {
+        let filled = if composed {
             let img = Image::new(
                 ctx,
                 &desc(
-                    "rdm filled",
+                    "composed output",
                     COLOR_FORMAT,
                     vk::SampleCountFlags::TYPE_1,
                     usage,

@@ -132,6 +132,8 @@ pub struct Renderer {
     /// made at (the largest scale with `aq`, else the same).
     nominal: vk::Extent2D,
     allocated: vk::Extent2D,
+    /// With `inset`: this frame's inset rectangle (both eyes').
+    inset_rect: crate::view::inset::PixelRect,
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
@@ -299,6 +301,12 @@ impl Renderer {
             extent: nominal,
             nominal,
             allocated,
+            inset_rect: crate::view::inset::PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: nominal.width,
+                y1: nominal.height,
+            },
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -357,7 +365,7 @@ impl Renderer {
                     || config
                         .timewarp
                         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
-                rdm_fill: config.rdm.is_some() && config.rdm_fill,
+                composed: (config.rdm.is_some() && config.rdm_fill) || config.inset.is_some(),
                 sampled: false,
                 occlusion: config.occlusion,
             },
@@ -476,6 +484,14 @@ impl Renderer {
             (None, Some(v)) => v,
             (None, None) => return,
         };
+        // With inset, the composite's frames take the bindings RDM's fill
+        // and MFFR's far field use (neither combines with inset).
+        let inset = self
+            .passes
+            .inset
+            .as_ref()
+            .zip(self.targets.as_ref())
+            .and_then(|(p, targets)| p.images(targets));
         let contents = SetContents {
             frame: &self.ubos[slot],
             scene: self.scene(),
@@ -486,8 +502,14 @@ impl Renderer {
                 .rdm
                 .as_ref()
                 .zip(self.targets.as_ref())
-                .and_then(|(rdm, targets)| rdm.filled_images(targets)),
-            far_field: self.passes.far.as_ref().map(FarField::images),
+                .and_then(|(rdm, targets)| rdm.filled_images(targets))
+                .or(inset.map(|i| i.0)),
+            far_field: self
+                .passes
+                .far
+                .as_ref()
+                .map(FarField::images)
+                .or(inset.map(|i| i.1)),
         };
         self.descriptors.write(&self.ctx, slot, &contents);
     }
@@ -720,6 +742,16 @@ impl Renderer {
                 "--opt",
                 "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
             ));
+        }
+        if let Some(i) = self.config.inset {
+            let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
+            self.inset_rect = crate::view::inset::inset_rect(
+                &fovs,
+                self.config.gaze,
+                i.half_angle_deg,
+                self.extent.width,
+                self.extent.height,
+            );
         }
         // The slot's previous frame must be done before its buffers are
         // written: with N frames in flight, this waits for frame n - N.
@@ -1015,6 +1047,9 @@ impl Renderer {
             gpu.record(ctx, cmd, q, self.slot);
         }
         rec.barriers(&targets.begin_barriers());
+        if let Some(inset) = &passes.inset {
+            rec.barriers(&attachments::begin_barriers(&inset.wide));
+        }
         q.begin_stats(ctx, cmd);
         if let Some(far) = far {
             draw_calls += match gpu_cull {
@@ -1048,15 +1083,60 @@ impl Renderer {
                 gpu.record_late(ctx, cmd, q, self.slot);
                 rec.memory_barriers(&[attachments::between_scopes()]);
             }
-            for (set, view_mask, eye) in view_sets.into_iter().flatten() {
+            // With inset each view set is drawn twice: the wide view into
+            // its own smaller targets, then the eye at full size inside the
+            // inset only.
+            let inset = passes.inset.as_ref().filter(|_| floor.is_none());
+            let rect = self.inset_rect;
+            let inset_area = vk::Rect2D {
+                offset: vk::Offset2D {
+                    x: rect.x0 as i32,
+                    y: rect.y0 as i32,
+                },
+                extent: vk::Extent2D {
+                    width: rect.width(),
+                    height: rect.height(),
+                },
+            };
+            let scopes = view_sets
+                .into_iter()
+                .flatten()
+                .flat_map(|(set, view_mask, eye)| {
+                    let wide = inset.map(|i| {
+                        let w = &i.wide[eye as usize % i.wide.len()];
+                        (
+                            w.views(),
+                            i.wide_extent,
+                            None,
+                            view_mask,
+                            eye,
+                            "forward-wide",
+                        )
+                    });
+                    let main = (
+                        set.views(),
+                        self.extent,
+                        inset.map(|_| inset_area),
+                        view_mask,
+                        eye,
+                        if inset.is_some() {
+                            "forward-inset"
+                        } else {
+                            "forward"
+                        },
+                    );
+                    wide.into_iter().chain(std::iter::once(main))
+                });
+            for (views, extent, area, view_mask, eye, name) in scopes {
                 let late = part == ScopePart::Second;
-                q.begin_pass(ctx, cmd, if late { "forward-late" } else { "forward" });
+                q.begin_pass(ctx, cmd, if late { "forward-late" } else { name });
                 // The draws were recorded into secondaries by the threads.
                 let parallel = self.parallel.as_ref().filter(|_| floor.is_none());
                 rec.begin_scope(&Scope {
                     part,
-                    views: set.views(),
-                    extent: self.extent,
+                    views,
+                    area,
+                    extent,
                     view_mask,
                     depth_clear,
                     shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
@@ -1113,6 +1193,16 @@ impl Renderer {
         }
         if let Some(rdm) = &passes.rdm {
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());
+        }
+        if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
+            draw_calls += inset.record_composite(
+                &rec,
+                q,
+                targets,
+                self.extent,
+                self.view_mask(),
+                self.inset_rect,
+            );
         }
         q.end_stats(ctx, cmd);
         draw_calls

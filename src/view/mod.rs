@@ -7,6 +7,7 @@ pub mod cone;
 pub mod distortion;
 pub mod foveation;
 pub mod frustum;
+pub mod inset;
 pub mod lens;
 pub mod lod;
 pub mod mffr;

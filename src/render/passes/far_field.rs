@@ -325,6 +325,7 @@ impl FarField {
             rec.begin_scope(&Scope {
                 part: ScopePart::Whole,
                 views: set.views(),
+                area: None,
                 extent: self.extent,
                 view_mask: 0,
                 depth_clear: 0.0,

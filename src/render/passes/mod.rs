@@ -11,6 +11,7 @@ pub mod far_field;
 pub mod floor;
 pub mod forward;
 pub mod gpu_cull;
+pub mod inset;
 pub mod output;
 pub mod overlay;
 pub mod rdm;
@@ -56,6 +57,9 @@ pub struct Passes {
     /// GPU-driven culling (`gpu-cull`; built by the renderer, which has the
     /// scene).
     pub gpu_cull: Option<GpuCull>,
+    /// Multi-resolution foveated rendering (`inset`): the wide view's
+    /// targets and the composite.
+    pub inset: Option<inset::InsetPass>,
 }
 
 impl Passes {
@@ -96,6 +100,15 @@ impl Passes {
         if let Some(m) = config.mffr {
             self.far = Some(FarField::new(setup, m, extent)?);
         }
+        if let Some(i) = config.inset {
+            self.inset = Some(inset::InsetPass::new(
+                setup,
+                extent,
+                i.wide_scale,
+                setup.samples,
+                config.stereo == crate::config::StereoMode::Multiview,
+            )?);
+        }
         Ok(())
     }
 
@@ -114,6 +127,9 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.gpu_cull {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.inset {
             p.destroy(ctx);
         }
     }
@@ -415,8 +431,12 @@ pub struct Scope {
     pub part: ScopePart,
     /// The attachments.
     pub views: TargetViews,
-    /// Render area, viewport and scissor (from the origin).
+    /// Viewport (from the origin), and render area and scissor unless
+    /// `area` narrows them.
     pub extent: vk::Extent2D,
+    /// A render area and scissor inside the extent (the inset); None: the
+    /// whole extent.
+    pub area: Option<vk::Rect2D>,
     /// Multiview mask (0: one view).
     pub view_mask: u32,
     /// Depth clear value (reverse-Z: 0 is infinitely far).
@@ -542,10 +562,10 @@ impl Recorder<'_> {
                     height: texel.1,
                 })
         });
-        let area = vk::Rect2D {
+        let area = scope.area.unwrap_or(vk::Rect2D {
             offset: vk::Offset2D::default(),
             extent: scope.extent,
-        };
+        });
         let flags = if scope.secondaries {
             vk::RenderingFlags::CONTENTS_SECONDARY_COMMAND_BUFFERS
         } else {
@@ -568,6 +588,11 @@ impl Recorder<'_> {
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
         if !scope.secondaries {
             self.set_state(scope.extent);
+            if let Some(a) = scope.area {
+                // SAFETY: inside the scope just begun; the rectangle lies in
+                // its render area.
+                unsafe { self.ctx.device.cmd_set_scissor(self.cmd, 0, &[a]) };
+            }
         }
     }
 

@@ -1,0 +1,185 @@
+//! Multi-resolution foveated rendering's inset: the pixel rectangle of an
+//! eye image that is rendered at full density, the rest coming from a wide
+//! view over the whole FOV at a reduced scale.
+//!
+//! The inset covers ±θ of view angle around the gaze point, as tangents.
+//! An eye image maps the tangent range [tan_l, tan_r] linearly onto NDC
+//! [−1, 1] (the projection is linear in the tangents), so a tangent
+//! half-width tan θ is an NDC half-width of 2 tan θ / (tan_r − tan_l) (and
+//! likewise vertically). With the gaze point g in NDC (x right, y down, as
+//! `gaze=X:Y` and the foveation rings take it), the inset is the NDC
+//! rectangle g ± h, snapped outward to whole pixels and clipped to the
+//! image. Both eyes share one rectangle (the larger of their half-sizes):
+//! under multiview the render area is one rectangle for both views.
+//! This follows the two-view foveated layout of Varjo's bionic display and
+//! OpenXR's `XR_VARJO_quad_views` (a context view over the FOV and a focus
+//! view at full density), composited here instead of submitted.
+
+use super::Fov;
+
+/// The default half-angle of the inset, degrees: 20° covers the fovea and
+/// the parafovea (about ±9°) with room for the eye to rotate while the
+/// gaze point stays fixed (Guenter et al., "Foveated 3D Graphics",
+/// SIGGRAPH Asia 2012, use an inner layer of about this size).
+pub const DEFAULT_HALF_ANGLE_DEG: f64 = 20.0;
+/// The default scale per axis of the wide view.
+pub const DEFAULT_WIDE_SCALE: f64 = 0.5;
+/// The seam's feather width, pixels of the eye image: the inset fades into
+/// the wide view over this band inside its edge.
+pub const FEATHER_PX: f32 = 8.0;
+
+/// A pixel rectangle: columns x0..x1, rows y0..y1 (ends exclusive).
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub struct PixelRect {
+    /// First column.
+    pub x0: u32,
+    /// First row.
+    pub y0: u32,
+    /// One past the last column.
+    pub x1: u32,
+    /// One past the last row.
+    pub y1: u32,
+}
+
+impl PixelRect {
+    /// Width in pixels.
+    pub fn width(&self) -> u32 {
+        self.x1 - self.x0
+    }
+
+    /// Height in pixels.
+    pub fn height(&self) -> u32 {
+        self.y1 - self.y0
+    }
+
+    /// Whether pixel (x, y) lies inside.
+    pub fn contains(&self, x: u32, y: u32) -> bool {
+        (self.x0..self.x1).contains(&x) && (self.y0..self.y1).contains(&y)
+    }
+}
+
+/// The inset of eyes with `fovs` in images of `width`×`height` pixels
+/// around `gaze` (NDC, clamped to the image) at half-angle
+/// `half_angle_deg`. At least one pixel; the whole image when the angle
+/// covers it.
+pub fn inset_rect(
+    fovs: &[Fov],
+    gaze: [f32; 2],
+    half_angle_deg: f64,
+    width: u32,
+    height: u32,
+) -> PixelRect {
+    let t = half_angle_deg.to_radians().tan().max(0.0);
+    let (mut hx, mut hy) = (0.0f64, 0.0f64);
+    for f in fovs {
+        let (w, h) = (f.right - f.left, f.up - f.down);
+        if w > 0.0 && h > 0.0 {
+            hx = hx.max(2.0 * t / w);
+            hy = hy.max(2.0 * t / h);
+        }
+    }
+    let g = [
+        (gaze[0] as f64).clamp(-1.0, 1.0),
+        (gaze[1] as f64).clamp(-1.0, 1.0),
+    ];
+    // NDC −1..1 over 0..size pixels; outward to whole pixels.
+    let span = |c: f64, h: f64, size: u32| {
+        let s = size as f64;
+        let lo = (((c - h + 1.0) * 0.5 * s).floor()).clamp(0.0, s - 1.0) as u32;
+        let hi = (((c + h + 1.0) * 0.5 * s).ceil()).clamp(lo as f64 + 1.0, s) as u32;
+        (lo, hi)
+    };
+    let (x0, x1) = span(g[0], hx, width.max(1));
+    let (y0, y1) = span(g[1], hy, height.max(1));
+    PixelRect { x0, y0, x1, y1 }
+}
+
+/// The inset's weight at the centre of pixel (x, y): 1 deeper than
+/// `feather` pixels inside the rectangle, falling linearly to 0 at its
+/// edge, 0 outside (what `shaders/inset_composite.frag` computes).
+pub fn weight(r: &PixelRect, x: u32, y: u32, feather: f32) -> f32 {
+    let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
+    let d = (px - r.x0 as f32)
+        .min(r.x1 as f32 - px)
+        .min(py - r.y0 as f32)
+        .min(r.y1 as f32 - py);
+    (d / feather.max(1e-6)).clamp(0.0, 1.0)
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    fn sym(t: f64) -> Fov {
+        Fov {
+            left: -t,
+            right: t,
+            up: t,
+            down: -t,
+        }
+    }
+
+    #[test]
+    fn a_centred_inset_of_a_symmetric_eye_is_centred_and_sized_by_the_angle() {
+        // ±45° eye (tan 1) at 1000 px: ±20° is tan 0.364 → 364 px wide.
+        let r = inset_rect(&[sym(1.0)], [0.0, 0.0], 20.0, 1000, 1000);
+        let w = (20f64.to_radians().tan() * 1000.0) as u32;
+        assert!(r.width().abs_diff(w) <= 2, "{r:?} vs {w}");
+        assert_eq!(r.x0 + r.x1, 1000, "{r:?}");
+        assert_eq!(r.y0 + r.y1, 1000);
+        assert_eq!(weight(&r, 500, 500, FEATHER_PX), 1.0);
+        assert_eq!(weight(&r, r.x0.saturating_sub(1), 500, FEATHER_PX), 0.0);
+        assert!(weight(&r, r.x0 + 2, 500, FEATHER_PX) < 1.0);
+    }
+
+    #[test]
+    fn a_wide_angle_covers_the_image_and_the_gaze_moves_it() {
+        let full = inset_rect(&[sym(1.0)], [0.0, 0.0], 80.0, 640, 480);
+        assert_eq!(
+            full,
+            PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: 640,
+                y1: 480
+            }
+        );
+        let right = inset_rect(&[sym(1.0)], [0.5, 0.0], 10.0, 640, 480);
+        let centre = inset_rect(&[sym(1.0)], [0.0, 0.0], 10.0, 640, 480);
+        assert!(right.x0 > centre.x0 + 100 && right.width().abs_diff(centre.width()) <= 1);
+        // Off the image: clamped, never empty.
+        let off = inset_rect(&[sym(1.0)], [9.0, -9.0], 1.0, 640, 480);
+        assert!(off.width() >= 1 && off.height() >= 1 && off.x1 == 640 && off.y0 == 0);
+    }
+
+    proptest! {
+        /// The rectangle stays in the image, holds the gaze pixel, grows
+        /// with the angle, and covers every pixel whose centre is within
+        /// the angle's tangent range of the gaze (brute force).
+        #[test]
+        fn inside_the_image_around_the_gaze_and_covering_the_angle(
+            l in 0.3..1.5f64, r in 0.3..1.5f64, u in 0.3..1.5f64, d in 0.3..1.5f64,
+            gx in -0.9..0.9f32, gy in -0.9..0.9f32, a in 1.0..40.0f64,
+            w in 8u32..400, h in 8u32..400,
+        ) {
+            let fov = Fov { left: -l, right: r, up: u, down: -d };
+            let rect = inset_rect(&[fov], [gx, gy], a, w, h);
+            prop_assert!(rect.x0 < rect.x1 && rect.x1 <= w && rect.y0 < rect.y1 && rect.y1 <= h);
+            let gpx = (((gx as f64 + 1.0) * 0.5 * w as f64) as u32).min(w - 1);
+            let gpy = (((gy as f64 + 1.0) * 0.5 * h as f64) as u32).min(h - 1);
+            prop_assert!(rect.contains(gpx, gpy), "{rect:?} misses the gaze pixel {gpx},{gpy}");
+            let bigger = inset_rect(&[fov], [gx, gy], a + 5.0, w, h);
+            prop_assert!(bigger.x0 <= rect.x0 && bigger.x1 >= rect.x1);
+            let t = a.to_radians().tan();
+            // Tangent of pixel centre x: linear from left to right.
+            let tan_x = |x: u32| -l + (x as f64 + 0.5) / w as f64 * (l + r);
+            let gaze_tan = -l + (gx as f64 + 1.0) * 0.5 * (l + r);
+            for x in 0..w {
+                if (tan_x(x) - gaze_tan).abs() <= t * 0.999 {
+                    prop_assert!(rect.x0 <= x && x < rect.x1, "column {x} within the angle");
+                }
+            }
+        }
+    }
+}

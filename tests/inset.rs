@@ -1,0 +1,195 @@
+//! Multi-resolution foveated rendering (`--opt inset`) on lavapipe: inside
+//! the inset (away from the feathered seam) the eye image is the
+//! full-resolution render's own pixels; outside it, the wide view rendered
+//! at half size and upsampled bilinearly; multiview equals two-pass; the
+//! gaze moves the inset; zero validation messages (`render_config` checks).
+
+mod common;
+
+use common::{context, framing_pose, load, render_config};
+use vergence::config::{Inset, RenderConfig, StereoMode};
+use vergence::view::inset::{inset_rect, weight, PixelRect, FEATHER_PX};
+use vergence::view::profile::HmdProfile;
+
+const W: u32 = 192;
+const H: u32 = 160;
+
+fn srgb_to_linear(v: u8) -> f32 {
+    let c = v as f32 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(l: f32) -> f32 {
+    let c = if l <= 0.0031308 {
+        l * 12.92
+    } else {
+        1.055 * l.powf(1.0 / 2.4) - 0.055
+    };
+    c * 255.0
+}
+
+/// `img` sampled at the centre of pixel (x, y) of a `w`×`h` image the way
+/// a linear clamp-to-edge sampler does (in linear light: the images are
+/// sRGB), for one channel.
+fn bilinear(img: &image::RgbaImage, x: u32, y: u32, w: u32, h: u32, ch: usize) -> f32 {
+    let (sw, sh) = img.dimensions();
+    let u = (x as f32 + 0.5) / w as f32 * sw as f32 - 0.5;
+    let v = (y as f32 + 0.5) / h as f32 * sh as f32 - 0.5;
+    let (x0, y0) = (u.floor(), v.floor());
+    let (fx, fy) = (u - x0, v - y0);
+    let at = |xi: f32, yi: f32| {
+        let xi = xi.clamp(0.0, sw as f32 - 1.0) as u32;
+        let yi = yi.clamp(0.0, sh as f32 - 1.0) as u32;
+        srgb_to_linear(img.get_pixel(xi, yi)[ch])
+    };
+    let top = at(x0, y0) * (1.0 - fx) + at(x0 + 1.0, y0) * fx;
+    let bottom = at(x0, y0 + 1.0) * (1.0 - fx) + at(x0 + 1.0, y0 + 1.0) * fx;
+    linear_to_srgb(top * (1.0 - fy) + bottom * fy)
+}
+
+fn config(stereo: StereoMode, inset: Option<Inset>, gaze: [f32; 2]) -> RenderConfig {
+    RenderConfig {
+        stereo,
+        msaa: 4,
+        inset,
+        gaze,
+        ..RenderConfig::default()
+    }
+}
+
+fn core(r: &PixelRect, x: u32, y: u32) -> bool {
+    weight(r, x, y, FEATHER_PX) >= 1.0
+}
+
+#[test]
+fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = framing_pose(&scene, &profile);
+    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let settings = Inset {
+        wide_scale: 0.5,
+        half_angle_deg: 15.0,
+    };
+    let full = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::Multiview, None, [0.0; 2]),
+        W,
+        H,
+    );
+    let wide = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::Multiview, None, [0.0; 2]),
+        W / 2,
+        H / 2,
+    );
+    let mv = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::Multiview, Some(settings), [0.0; 2]),
+        W,
+        H,
+    );
+    let rect = inset_rect(&fovs, [0.0, 0.0], 15.0, W, H);
+    assert!(rect.width() > 20 && rect.width() < W - 20, "{rect:?}");
+    for eye in 0..2 {
+        let (got, sharp, soft) = (&mv.images[eye], &full.images[eye], &wide.images[eye]);
+        let (mut inside, mut same) = (0, 0);
+        let (mut outside, mut close) = (0, 0);
+        for y in 0..H {
+            for x in 0..W {
+                let p = got.get_pixel(x, y);
+                if core(&rect, x, y) {
+                    inside += 1;
+                    same += usize::from(p == sharp.get_pixel(x, y));
+                } else if weight(&rect, x, y, FEATHER_PX) == 0.0 {
+                    outside += 1;
+                    let ok =
+                        (0..3).all(|c| (p[c] as f32 - bilinear(soft, x, y, W, H, c)).abs() <= 2.5);
+                    close += usize::from(ok);
+                }
+            }
+        }
+        assert_eq!(
+            same, inside,
+            "eye {eye}: the inset's core is the full render's pixels"
+        );
+        assert!(
+            close * 1000 >= outside * 995,
+            "eye {eye}: {close} of {outside} periphery pixels match the wide view upsampled"
+        );
+        // The periphery really is the lower resolution: it differs from
+        // the full render somewhere.
+        let differs = (0..H)
+            .flat_map(|y| (0..W).map(move |x| (x, y)))
+            .filter(|&(x, y)| !rect.contains(x, y))
+            .any(|(x, y)| got.get_pixel(x, y) != sharp.get_pixel(x, y));
+        assert!(differs, "eye {eye}: the periphery is not the full render");
+    }
+    // Two-pass draws the same eye images.
+    let tp = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::TwoPass, Some(settings), [0.0; 2]),
+        W,
+        H,
+    );
+    for eye in 0..2 {
+        let diff = mv.images[eye]
+            .pixels()
+            .zip(tp.images[eye].pixels())
+            .filter(|(a, b)| a != b)
+            .count();
+        assert!(
+            diff * 1000 <= (W * H) as usize,
+            "eye {eye}: {diff} pixels differ"
+        );
+    }
+    assert!(mv.stats.gpu_ms.contains_key("forward-wide"));
+    assert!(mv.stats.gpu_ms.contains_key("forward-inset"));
+    assert!(mv.stats.gpu_ms.contains_key("inset-composite"));
+    // The gaze moves it: to the right, the sharp core follows.
+    let gaze = [0.6, 0.0];
+    let moved = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::Multiview, Some(settings), gaze),
+        W,
+        H,
+    );
+    let right = inset_rect(&fovs, gaze, 15.0, W, H);
+    assert!(right.x0 > rect.x1 - 10, "{right:?} vs {rect:?}");
+    let (mut inside, mut same) = (0, 0);
+    for y in 0..H {
+        for x in 0..W {
+            if core(&right, x, y) {
+                inside += 1;
+                same +=
+                    usize::from(moved.images[0].get_pixel(x, y) == full.images[0].get_pixel(x, y));
+            }
+        }
+    }
+    assert_eq!(same, inside, "the moved inset is the full render's pixels");
+    let centre_sharp = (0..H)
+        .flat_map(|y| (0..W).map(move |x| (x, y)))
+        .filter(|&(x, y)| core(&rect, x, y) && !right.contains(x, y))
+        .all(|(x, y)| moved.images[0].get_pixel(x, y) == full.images[0].get_pixel(x, y));
+    assert!(!centre_sharp, "the old centre is no longer the full render");
+}
