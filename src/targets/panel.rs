@@ -72,7 +72,7 @@ impl Button {
 pub type Rect = [f64; 4];
 
 /// Every button and its rectangle: the tools in one row, the toggles in
-/// two rows of five, close at the bottom right.
+/// two rows of six, close at the bottom right.
 pub fn layout() -> Vec<(Button, Rect)> {
     let (m, gap) = (0.03, 0.015);
     let row = |top: f64, bottom: f64, n: usize| {
@@ -87,7 +87,7 @@ pub fn layout() -> Vec<(Button, Rect)> {
         .zip(row(0.22, 0.38, 3))
         .map(|(t, r)| (Button::Tool(*t), r))
         .collect();
-    let toggles: Vec<Rect> = row(0.44, 0.60, 5).chain(row(0.63, 0.79, 5)).collect();
+    let toggles: Vec<Rect> = row(0.44, 0.60, 6).chain(row(0.63, 0.79, 6)).collect();
     out.extend(
         Toggle::ALL
             .iter()

@@ -37,11 +37,15 @@ pub enum Toggle {
     /// Level of detail on/off at the default error bound (needs GPU
     /// culling).
     Lod,
+    /// Multi-resolution foveated rendering (`inset`) on/off.
+    Inset,
+    /// Adaptive quality (`aq`) on/off (`run` only: `view` refuses it).
+    Aq,
 }
 
 impl Toggle {
-    /// Every toggle, in key order (keys 1 to 9, then 0).
-    pub const ALL: [Toggle; 10] = [
+    /// Every toggle, in key order (keys 1 to 9, then 0, F6, F7).
+    pub const ALL: [Toggle; 12] = [
         Toggle::Stereo,
         Toggle::Cull,
         Toggle::StencilMask,
@@ -52,6 +56,8 @@ impl Toggle {
         Toggle::GpuCull,
         Toggle::Occlusion,
         Toggle::Lod,
+        Toggle::Inset,
+        Toggle::Aq,
     ];
 
     /// The name used in kiosk files and messages.
@@ -67,12 +73,22 @@ impl Toggle {
             Toggle::GpuCull => "gpu-cull",
             Toggle::Occlusion => "occlusion",
             Toggle::Lod => "lod",
+            Toggle::Inset => "inset",
+            Toggle::Aq => "aq",
         }
     }
 
-    /// Its key: the digit of its place in [`Toggle::ALL`].
+    /// Its key's name in the listing: the digit, or the function key.
+    pub fn key_label(self) -> String {
+        match Toggle::ALL.iter().position(|t| *t == self).unwrap_or(0) {
+            i @ 0..=9 => ((i + 1) % 10).to_string(),
+            i => format!("F{}", i - 4),
+        }
+    }
+
+    /// Its key: the digit of its place in [`Toggle::ALL`] (F6, F7 after 0).
     pub fn key(self) -> KeyCode {
-        const KEYS: [KeyCode; 10] = [
+        const KEYS: [KeyCode; 12] = [
             KeyCode::Digit1,
             KeyCode::Digit2,
             KeyCode::Digit3,
@@ -83,6 +99,8 @@ impl Toggle {
             KeyCode::Digit8,
             KeyCode::Digit9,
             KeyCode::Digit0,
+            KeyCode::F6,
+            KeyCode::F7,
         ];
         KEYS[Toggle::ALL.iter().position(|t| *t == self).unwrap_or(0)]
     }
@@ -99,6 +117,8 @@ impl Toggle {
             Toggle::GpuCull => "GPU-driven culling on / off (needs a strategy)",
             Toggle::Occlusion => "occlusion culling on / off (needs GPU culling)",
             Toggle::Lod => "level of detail on / off (needs GPU culling)",
+            Toggle::Inset => "multi-resolution foveated rendering (inset) on / off",
+            Toggle::Aq => "adaptive quality on / off (run only)",
         }
     }
 
@@ -113,16 +133,13 @@ impl Toggle {
             Toggle::Cull => (format!("cull: {}", c.cull.name()), c.cull != Culling::None),
             Toggle::StencilMask => ("stencil mask".into(), c.stencil_mask),
             Toggle::Foveation => (
-                format!(
-                    "foveation: {}",
-                    match c.foveation {
-                        Level::Off => "off",
-                        Level::Low => "low",
-                        Level::Medium => "medium",
-                        Level::High => "high",
-                        Level::Lens(_) => "lens",
-                    }
-                ),
+                match c.foveation {
+                    Level::Off => "foveation".to_string(),
+                    Level::Low => "fov: low".into(),
+                    Level::Medium => "fov: medium".into(),
+                    Level::High => "fov: high".into(),
+                    Level::Lens(_) => "fov: lens".into(),
+                },
                 c.foveation != Level::Off,
             ),
             Toggle::Rdm => ("RDM".into(), c.rdm.is_some()),
@@ -131,6 +148,8 @@ impl Toggle {
             Toggle::GpuCull => ("GPU cull".into(), c.gpu_cull),
             Toggle::Occlusion => ("occlusion".into(), c.occlusion),
             Toggle::Lod => ("LOD".into(), c.lod.is_some()),
+            Toggle::Inset => ("inset".into(), c.inset.is_some()),
+            Toggle::Aq => ("AQ".into(), c.aq),
         }
     }
 
@@ -198,6 +217,13 @@ impl Toggle {
                 };
                 c.lod_cache = c.lod.is_some() && c.lod_cache;
             }
+            Toggle::Inset => {
+                c.inset = match c.inset {
+                    Some(_) => None,
+                    None => Some(crate::config::Inset::default()),
+                }
+            }
+            Toggle::Aq => c.aq = !c.aq,
         }
         c
     }
@@ -247,9 +273,9 @@ pub fn action(key: KeyCode) -> Option<KeyAction> {
 /// The key listing (printed on F1/H, and in the README).
 pub fn help(allowed: &[Toggle], save_to: &Path) -> String {
     let mut s = String::from("keys:\n");
-    for (i, t) in Toggle::ALL.iter().enumerate() {
+    for t in Toggle::ALL.iter() {
         if allowed.contains(t) {
-            s.push_str(&format!("  {}        {}\n", (i + 1) % 10, t.describe()));
+            s.push_str(&format!("  {:<8} {}\n", t.key_label(), t.describe()));
         }
     }
     s.push_str("  P        print the current --opt string\n");
@@ -480,6 +506,8 @@ mod tests {
         let off = live.handle(&[KeyCode::Digit8], 5).expect("GPU culling off");
         assert!(!off.gpu_cull && !off.occlusion && off.lod.is_none());
         assert!(help(&Toggle::ALL, &live.save_to).contains("  0        level of detail"));
+        assert!(help(&Toggle::ALL, &live.save_to).contains("  F7       adaptive quality"));
+        assert_eq!(Toggle::Inset.key(), KeyCode::F6);
     }
 
     #[test]

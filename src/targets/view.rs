@@ -187,6 +187,8 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
     let mut presenter = Presenter::new(&ctx, display, handle, window.size(), Pacing::Vsync)?;
     let slots = config.frames_in_flight.max(1) as usize;
     let mut live = LiveConfig::new(config.clone(), args.save_config.clone());
+    // aq adapts a headset's frames; the window's images have the eye size.
+    live.allowed.retain(|t| *t != super::toggles::Toggle::Aq);
     window.set_title(&format!(
         "vergence view: {} ({}) [{}]",
         scene.name,

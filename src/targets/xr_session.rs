@@ -278,33 +278,20 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.image_size = [extent.width, extent.height];
     // With aq the swapchain images hold the largest render scale; each
     // frame's sub-image is the part it rendered.
-    let held = if desk.live.config.aq {
-        let h = crate::render::scaled(extent, crate::adaptive::MAX_SCALE);
-        let max = config_views.iter().fold((u32::MAX, u32::MAX), |m, v| {
-            (
-                m.0.min(v.max_image_rect_width),
-                m.1.min(v.max_image_rect_height),
-            )
-        });
-        if h.width > max.0 || h.height > max.1 {
-            return Err(Error::config(
-                "--opt aq",
-                format!(
-                    "aq renders up to {}x{} per eye ({}x the eye size {}x{}) and the runtime allows at most {}x{}: give a smaller --width/--height",
-                    h.width, h.height, crate::adaptive::MAX_SCALE, extent.width, extent.height, max.0, max.1
-                ),
-            ));
-        }
-        h
-    } else {
-        extent
-    };
-    let chains = ChainSpec {
+    let max = config_views.iter().fold((u32::MAX, u32::MAX), |m, v| {
+        (
+            m.0.min(v.max_image_rect_width),
+            m.1.min(v.max_image_rect_height),
+        )
+    });
+    let mut chains = ChainSpec {
         color_format,
         depth_format,
-        extent: held,
+        extent,
         nominal: extent,
+        max,
     };
+    chains.extent = chains.images_for(desk.live.config.aq)?;
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, config.stereo)?;
     live.space = Some(space);
@@ -434,9 +421,37 @@ struct ChainSpec {
     extent: vk::Extent2D,
     /// The eye size the renderer is made for (aq's scale 1).
     nominal: vk::Extent2D,
+    /// The runtime's largest image per view.
+    max: (u32, u32),
 }
 
 impl ChainSpec {
+    /// The swapchain image size a configuration needs: the eye size, or
+    /// with aq the largest render scale's (an error where the runtime
+    /// allows less).
+    fn images_for(&self, aq: bool) -> Result<vk::Extent2D> {
+        if !aq {
+            return Ok(self.nominal);
+        }
+        let h = crate::render::scaled(self.nominal, crate::adaptive::MAX_SCALE);
+        if h.width > self.max.0 || h.height > self.max.1 {
+            return Err(Error::config(
+                "--opt aq",
+                format!(
+                    "aq renders up to {}x{} per eye ({}x the eye size {}x{}) and the runtime allows at most {}x{}: give a smaller --width/--height",
+                    h.width,
+                    h.height,
+                    crate::adaptive::MAX_SCALE,
+                    self.nominal.width,
+                    self.nominal.height,
+                    self.max.0,
+                    self.max.1
+                ),
+            ));
+        }
+        Ok(h)
+    }
+
     /// What the renderer copies each frame into.
     fn output(&self) -> OutputSpec {
         OutputSpec {
@@ -748,20 +763,30 @@ fn switch_config(
     let ctx = driver.renderer().context().clone();
     // The old renderer goes first (it waits for the device).
     drop(driver);
-    let (chains, scene) = (st.chains, st.scene);
-    let make = |live: &mut Live, c: &crate::config::RenderConfig| -> Result<FrameDriver> {
-        if c.stereo != old.stereo || live.color.is_empty() {
+    let scene = st.scene;
+    // New swapchains when the stereo mode changed or aq needs larger (or
+    // no longer larger) images.
+    let make = |live: &mut Live,
+                chains: &mut ChainSpec,
+                c: &crate::config::RenderConfig|
+     -> Result<FrameDriver> {
+        let images = chains.images_for(c.aq)?;
+        if c.stereo != old.stereo || images != chains.extent || live.color.is_empty() {
+            chains.extent = images;
             chains.create(session, live, c.stereo)?;
         }
         let r =
             Renderer::with_output(ctx.clone(), scene, c, chains.nominal, Some(chains.output()))?;
         FrameDriver::new(r, scene)
     };
-    let driver = match make(live, &config) {
+    let driver = match make(live, &mut st.chains, &config) {
         Ok(d) => d,
         Err(e) => {
             st.desk.live.revert(old.clone(), &e);
-            make(live, &old)?
+            // The old configuration's swapchains, made again if they went.
+            live.color.clear();
+            live.depth.clear();
+            make(live, &mut st.chains, &old)?
         }
     };
     stats.foveation = driver.renderer().foveation_path.clone();
