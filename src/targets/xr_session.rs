@@ -1113,7 +1113,13 @@ fn end_frame(
     let mut proj: Vec<sys::CompositionLayerProjectionView> = Vec::new();
     let mut layer = None;
     if let Some(views) = views {
-        if st.with_depth {
+        // With inset the eye's depth exists only inside the inset (the
+        // wide view has its own): no depth goes to the runtime then.
+        let inset = live
+            .driver
+            .as_ref()
+            .is_some_and(|d| d.renderer().config.inset.is_some());
+        if st.with_depth && !inset {
             for eye in 0..views.len() {
                 depth_infos.push(sys::CompositionLayerDepthInfoKHR {
                     ty: sys::CompositionLayerDepthInfoKHR::TYPE,
