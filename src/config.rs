@@ -212,6 +212,19 @@ impl PerDraw {
     }
 }
 
+/// The number after `prefix` in the option `l`, within `lo..=hi`; else
+/// one error naming the option, the expected form `prefix` + `name` and
+/// what the value is (`what`).
+fn opt_value(l: &str, prefix: &str, (lo, hi): (f64, f64), name: &str, what: &str) -> Result<f64> {
+    match l[prefix.len()..].parse::<f64>() {
+        Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+        _ => Err(Error::config(
+            "--opt",
+            format!("'{l}': expected {prefix}{name} with {lo} <= {name} <= {hi} ({what})"),
+        )),
+    }
+}
+
 /// Multi-resolution foveated rendering's settings (`inset[=F]`,
 /// `inset-fov=DEG`; geometry in [`crate::view::inset`]).
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize, serde::Deserialize)]
@@ -529,34 +542,20 @@ impl RenderConfig {
                 "occlusion" => self.occlusion = true,
                 "aq" => self.aq = true,
                 "inset" => self.inset = Some(self.inset.unwrap_or_default()),
-                l if l.starts_with("inset=") => match l["inset=".len()..].parse::<f64>() {
-                    Ok(v) if v.is_finite() && (0.1..=1.0).contains(&v) => {
-                        self.inset = Some(Inset {
-                            wide_scale: v,
-                            ..self.inset.unwrap_or_default()
-                        })
-                    }
-                    _ => {
-                        return Err(Error::config(
-                            "--opt",
-                            format!("'{l}': expected inset=F with 0.1 <= F <= 1 (the wide view's scale per axis)"),
-                        ))
-                    }
-                },
-                l if l.starts_with("inset-fov=") => match l["inset-fov=".len()..].parse::<f64>() {
-                    Ok(v) if v.is_finite() && (1.0..=80.0).contains(&v) => {
-                        self.inset = Some(Inset {
-                            half_angle_deg: v,
-                            ..self.inset.unwrap_or_default()
-                        })
-                    }
-                    _ => {
-                        return Err(Error::config(
-                            "--opt",
-                            format!("'{l}': expected inset-fov=DEG with 1 <= DEG <= 80 (the inset's half-angle)"),
-                        ))
-                    }
-                },
+                l if l.starts_with("inset=") => {
+                    let v = opt_value(l, "inset=", (0.1, 1.0), "F", "the wide view's scale per axis")?;
+                    self.inset = Some(Inset {
+                        wide_scale: v,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
+                l if l.starts_with("inset-fov=") => {
+                    let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
+                    self.inset = Some(Inset {
+                        half_angle_deg: v,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 "lod-cache" => self.lod_cache = true,
                 "lod" => {
                     self.lod = Some(self.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX));

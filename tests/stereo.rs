@@ -9,14 +9,7 @@ use vergence::config::StereoMode;
 use vergence::view::profile::HmdProfile;
 use vergence::view::Pose;
 
-fn srgb_to_linear(c: u8) -> f64 {
-    let c = c as f64 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
+use common::srgb_to_linear;
 
 /// Sub-pixel horizontal centroid of the red box along one row above the
 /// horizon: each pixel's coverage is recovered from its linear red-minus-green

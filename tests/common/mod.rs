@@ -195,3 +195,13 @@ pub fn frame_by_frame(
     );
     (results, images)
 }
+
+/// An 8-bit sRGB value as linear light (IEC 61966-2-1's decoding).
+pub fn srgb_to_linear(c: u8) -> f64 {
+    let c = c as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}

@@ -14,7 +14,7 @@
 //! projection with a smaller viewport, so it is the same image at a lower
 //! resolution.
 
-use super::{destroy_pipelines, to_sampled, PipelineSetup, Recorder};
+use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::Queries;
@@ -173,32 +173,19 @@ impl InsetPass {
         view_mask: u32,
         rect: PixelRect,
     ) -> u64 {
-        let to_read: Vec<vk::ImageMemoryBarrier2> = targets
-            .sets
-            .iter()
-            .chain(&self.wide)
-            .map(|set| to_sampled(&set.resolve))
-            .collect();
-        rec.barriers(&to_read);
-        q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
         let lo = rect.x0 | rect.y0 << 16;
         let hi = rect.x1 | rect.y1 << 16;
         let feather = crate::view::inset::FEATHER_PX.to_bits();
-        let mut calls = 0;
-        for (eye, set) in targets.sets.iter().enumerate() {
-            let Some((composed, _)) = &set.filled else {
-                continue;
-            };
-            rec.begin_color_only(composed.view, extent, view_mask);
-            rec.set_state(extent);
-            rec.bind(self.composite);
-            rec.push([lo, eye as u32, hi, feather]);
-            rec.draw(3);
-            rec.end_scope();
-            calls += 1;
-        }
-        q.end_pass(rec.ctx, rec.cmd);
-        calls
+        super::record_composed(
+            rec,
+            q,
+            "inset-composite",
+            targets,
+            targets.sets.iter().chain(&self.wide),
+            (extent, view_mask),
+            self.composite,
+            |eye| [lo, eye, hi, feather],
+        )
     }
 
     /// Destroys the targets, pipeline and sampler; the device must be idle.

@@ -17,7 +17,7 @@ pub mod overlay;
 pub mod rdm;
 pub mod stencil_mask;
 
-use super::attachments::{TargetViews, COLOR_FORMAT};
+use super::attachments::{AttachmentSet, Attachments, TargetViews, COLOR_FORMAT};
 use super::batches::{Draw, PipelineKey};
 use super::scene_gpu::{self, SceneGpu, STREAMS};
 use super::submission::DrawBinding;
@@ -26,6 +26,7 @@ use crate::error::Result;
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Image};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use ash::vk;
@@ -377,6 +378,46 @@ pub fn to_sampled(image: &Image) -> vk::ImageMemoryBarrier2<'static> {
         Use::COLOR_ATTACHMENT,
         Use::SAMPLED,
     )
+}
+
+/// A pass that writes each attachment set's composed output image from
+/// sampled frames (RDM's fill, the inset composite), timed as `name`:
+/// `sources` are made readable first (all of them: the shaders index
+/// arrays of every set's frames), then per set one full-screen triangle of
+/// `pipeline` with the push constants `push(eye)` over `extent`. Returns
+/// the draw calls.
+#[allow(clippy::too_many_arguments)]
+pub fn record_composed<'a>(
+    rec: &Recorder,
+    q: &mut Queries,
+    name: &'static str,
+    targets: &Attachments,
+    sources: impl Iterator<Item = &'a AttachmentSet>,
+    (extent, view_mask): (vk::Extent2D, u32),
+    pipeline: vk::Pipeline,
+    push: impl Fn(u32) -> [u32; 4],
+) -> u64 {
+    let to_read: Vec<vk::ImageMemoryBarrier2> =
+        sources.map(|set| to_sampled(&set.resolve)).collect();
+    rec.barriers(&to_read);
+    q.begin_pass(rec.ctx, rec.cmd, name);
+    let mut calls = 0;
+    for (eye, set) in targets.sets.iter().enumerate() {
+        let Some((composed, _)) = &set.filled else {
+            continue;
+        };
+        rec.begin_color_only(composed.view, extent, view_mask);
+        // Its own viewport, scissor and sets: it follows other scopes (or
+        // executed secondaries) whose state it must not rely on.
+        rec.set_state(extent);
+        rec.bind(pipeline);
+        rec.push(push(eye as u32));
+        rec.draw(3);
+        rec.end_scope();
+        calls += 1;
+    }
+    q.end_pass(rec.ctx, rec.cmd);
+    calls
 }
 
 /// The scene's vertex buffer per stream (the defaults buffer, read at

@@ -12,7 +12,7 @@
 //! the rendered pixels into a separate image that becomes the frame's
 //! output.
 
-use super::{destroy_pipelines, stencil_write, to_sampled, PipelineSetup, Recorder};
+use super::{destroy_pipelines, stencil_write, PipelineSetup, Recorder};
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::Queries;
@@ -122,28 +122,17 @@ impl Rdm {
         let Some(fill) = &self.fill else {
             return 0;
         };
-        let to_read: Vec<vk::ImageMemoryBarrier2> = targets
-            .sets
-            .iter()
-            .map(|set| to_sampled(&set.resolve))
-            .collect();
-        rec.barriers(&to_read);
-        q.begin_pass(rec.ctx, rec.cmd, "rdm-fill");
-        for (eye, set) in targets.sets.iter().enumerate() {
-            let Some((filled, _)) = &set.filled else {
-                continue;
-            };
-            rec.begin_color_only(filled.view, extent, view_mask);
-            // Its own viewport, scissor and sets: it follows other scopes
-            // (or executed secondaries) whose state it must not rely on.
-            rec.set_state(extent);
-            rec.bind(fill.pipeline);
-            rec.push([0, eye as u32, 0, self.radius.to_bits()]);
-            rec.draw(3);
-            rec.end_scope();
-        }
-        q.end_pass(rec.ctx, rec.cmd);
-        targets.sets.len() as u64
+        let radius = self.radius.to_bits();
+        super::record_composed(
+            rec,
+            q,
+            "rdm-fill",
+            targets,
+            targets.sets.iter(),
+            (extent, view_mask),
+            fill.pipeline,
+            |eye| [0, eye, 0, radius],
+        )
     }
 
     /// Destroys the pipelines and the sampler; the device must be idle.
