@@ -52,6 +52,11 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,gpu-cull,occlusion,lod",
     ),
     ("stencil-aq", "multiview,msaa4,superfrustum,stencil-mask,aq"),
+    ("inset", "multiview,msaa4,superfrustum,inset"),
+    (
+        "stencil-inset",
+        "multiview,msaa4,superfrustum,stencil-mask,inset",
+    ),
 ];
 
 /// What to tune for. A candidate whose image error was not measured
