@@ -212,6 +212,22 @@ impl PerDraw {
     }
 }
 
+/// One `--opt` error when any of `others` is on: `message` with `{}`
+/// replaced by the names of those that are, joined by commas.
+fn refuse_with(message: &str, others: &[(bool, &str)]) -> Result<()> {
+    let on: Vec<&str> = others
+        .iter()
+        .filter_map(|(on, name)| on.then_some(*name))
+        .collect();
+    if on.is_empty() {
+        return Ok(());
+    }
+    Err(Error::config(
+        "--opt",
+        message.replace("{}", &on.join(", ")),
+    ))
+}
+
 /// The number after `prefix` in the option `l`, within `lo..=hi`; else
 /// one error naming the option, the expected form `prefix` + `name` and
 /// what the value is (`what`).
@@ -407,59 +423,37 @@ impl RenderConfig {
                 "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
             ));
         }
+        let foveation = self.foveation != crate::view::foveation::Level::Off;
+        let rdm = self.rdm.is_some() || self.rdm_auto;
         if self.aq {
-            let fixed: Vec<&str> = [
-                (
-                    self.foveation != crate::view::foveation::Level::Off,
-                    "foveation",
-                ),
-                (self.rdm.is_some() || self.rdm_auto, "rdm"),
-                (self.mffr.is_some(), "mffr"),
-                (self.occlusion, "occlusion"),
-                (self.lod.is_some(), "lod"),
-                (self.timewarp.is_some(), "timewarp"),
-            ]
-            .into_iter()
-            .filter_map(|(on, name)| on.then_some(name))
-            .collect();
-            if !fixed.is_empty() {
-                return Err(Error::config(
-                    "--opt",
-                    format!(
-                        "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
-                        fixed.join(", ")
-                    ),
-                ));
-            }
+            refuse_with(
+                "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
+                &[
+                    (foveation, "foveation"),
+                    (rdm, "rdm"),
+                    (self.mffr.is_some(), "mffr"),
+                    (self.occlusion, "occlusion"),
+                    (self.lod.is_some(), "lod"),
+                    (self.timewarp.is_some(), "timewarp"),
+                ],
+            )?;
         }
         if self.inset.is_some() {
-            let fixed: Vec<&str> = [
-                (
-                    self.foveation != crate::view::foveation::Level::Off,
-                    "foveation",
-                ),
-                (self.rdm.is_some() || self.rdm_auto, "rdm"),
-                (self.mffr.is_some(), "mffr"),
-                (self.occlusion, "occlusion"),
-                (self.aq, "aq"),
-                (self.timewarp.is_some(), "timewarp"),
-                (
-                    self.record_threads.is_some() || self.per_draw != PerDraw::Push,
-                    "--record-threads/--per-draw",
-                ),
-            ]
-            .into_iter()
-            .filter_map(|(on, name)| on.then_some(name))
-            .collect();
-            if !fixed.is_empty() {
-                return Err(Error::config(
-                    "--opt",
-                    format!(
-                        "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
-                        fixed.join(", ")
+            refuse_with(
+                "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
+                &[
+                    (foveation, "foveation"),
+                    (rdm, "rdm"),
+                    (self.mffr.is_some(), "mffr"),
+                    (self.occlusion, "occlusion"),
+                    (self.aq, "aq"),
+                    (self.timewarp.is_some(), "timewarp"),
+                    (
+                        self.record_threads.is_some() || self.per_draw != PerDraw::Push,
+                        "--record-threads/--per-draw",
                     ),
-                ));
-            }
+                ],
+            )?;
         }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {

@@ -744,7 +744,8 @@ impl Renderer {
             ));
         }
         if let Some(i) = self.config.inset {
-            let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
+            // Two views (checked above): no allocation in the frame.
+            let fovs = [rig.views[0].fov, rig.views[1].fov];
             self.inset_rect = crate::view::inset::inset_rect(
                 &fovs,
                 self.config.gaze,

@@ -16,7 +16,6 @@
 
 use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::{Result, VkContext};
-use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -110,15 +109,7 @@ impl InsetPass {
             shaders::FLOOR_VERT.words(),
             shaders::INSET_COMPOSITE_FRAG.words(),
         );
-        let desc = GraphicsPipelineDesc {
-            depth_test: false,
-            depth_write: false,
-            stencil: None,
-            samples: vk::SampleCountFlags::TYPE_1,
-            depth_format: vk::Format::UNDEFINED,
-            shading_rate_attachment: false,
-            ..setup.fullscreen_desc("inset composite", &vs, &fs)
-        };
+        let desc = setup.composed_desc("inset composite", &vs, &fs);
         let composite = match desc.build(ctx) {
             Ok(p) => p,
             Err(e) => {

@@ -224,6 +224,27 @@ impl PipelineSetup<'_> {
         }
     }
 
+    /// A pass writing a composed output image (RDM's fill, the inset
+    /// composite): a full-screen triangle (`vertex`: `floor.vert`'s) and
+    /// `fragment`, one sample, no depth, stencil or shading-rate
+    /// attachment.
+    pub fn composed_desc<'s>(
+        &self,
+        name: &'s str,
+        vertex: &'s [u32],
+        fragment: &'s [u32],
+    ) -> GraphicsPipelineDesc<'s> {
+        GraphicsPipelineDesc {
+            depth_test: false,
+            depth_write: false,
+            stencil: None,
+            samples: vk::SampleCountFlags::TYPE_1,
+            depth_format: vk::Format::UNDEFINED,
+            shading_rate_attachment: false,
+            ..self.fullscreen_desc(name, vertex, fragment)
+        }
+    }
+
     /// A full-screen pipeline named `name` (no vertex buffers, no culling,
     /// depth tested at GREATER_OR_EQUAL and not written) drawn into the
     /// forward views.

@@ -62,15 +62,7 @@ impl Rdm {
             // SAFETY: plain object creation; destroyed by `destroy`.
             let sampler = unsafe { ctx.device.create_sampler(&info, None) }
                 .vk("creating the RDM fill sampler")?;
-            let pipeline = GraphicsPipelineDesc {
-                depth_test: false,
-                depth_write: false,
-                stencil: None,
-                samples: vk::SampleCountFlags::TYPE_1,
-                depth_format: vk::Format::UNDEFINED,
-                shading_rate_attachment: false,
-                ..setup.fullscreen_desc("rdm fill", &vs, &fill_fs)
-            };
+            let pipeline = setup.composed_desc("rdm fill", &vs, &fill_fs);
             rdm.fill = Some(Fill {
                 pipeline: pipeline.build(ctx)?,
                 sampler,
