@@ -55,11 +55,13 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
     };
     let (t_sky, t_dense) = (cost(&cheap), cost(&costly));
     eprintln!("GPU ms at scale 1: sky {t_sky:.2}, factory {t_dense:.2}");
-    // A budget the factory view misses by 30 % and the sky view meets with
-    // room at twice the pixels.
+    // A budget the factory view misses by 30 %, and that the sky view
+    // meets under the 70 % rule at the default level (1.06x per axis, 1.12x
+    // the pixels) with room for timing noise on a loaded machine: the level
+    // must climb back to the default there.
     let budget = t_dense / 1.3;
     assert!(
-        2.0 * t_sky < 0.7 * budget,
+        1.3 * t_sky < 0.7 * budget,
         "the views' costs ({t_sky:.2} and {t_dense:.2} ms) are too close for this test"
     );
     let config = RenderConfig {
