@@ -34,9 +34,19 @@ layout(set = 0, binding = 0) uniform FrameData {
 layout(push_constant) uniform Push {
     uint material;
     uint view_offset;  // added to gl_ViewIndex: 0 under multiview, the eye in two-pass
-    uint unused0;
-    uint unused1;
+    uint unused0;      // geometry draws: lms's w-scaling cx (float bits), else 0
+    uint unused1;      // geometry draws: lms's w-scaling cy (float bits), else 0
 } pc;
+
+// Lens-matched shading without VK_NV_clip_space_w_scaling (src/view/lms.rs):
+// the draw's quadrant coefficients, pushed by the scene, overlay and sky
+// draws (zero otherwise, which leaves w unchanged), make
+// w' = w + cx·x + cy·y in clip space — the map the extension applies in the
+// rasterizer, applied before clipping instead of after.
+vec4 lms_scaled(vec4 p) {
+    p.w += uintBitsToFloat(pc.unused0) * p.x + uintBitsToFloat(pc.unused1) * p.y;
+    return p;
+}
 
 // Radial density masking's checkerboard (rdm.frag writes it to stencil,
 // rdm_fill.frag fills it): the pixel at `frag` (gl_FragCoord.xy) of an image

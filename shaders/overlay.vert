@@ -34,5 +34,5 @@ void main() {
     float len = length(n);
     float lit = len > 0.0 ? max(dot(n / len, frame.sun_dir.xyz), 0.0) : 0.0;
     v_color = vec3(c.w, ax.w, ay.w) * (0.7 + 0.3 * lit);
-    gl_Position = frame.view_proj[gl_ViewIndex + pc.view_offset] * vec4(p, 1.0);
+    gl_Position = lms_scaled(frame.view_proj[gl_ViewIndex + pc.view_offset] * vec4(p, 1.0));
 }

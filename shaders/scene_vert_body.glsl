@@ -74,7 +74,7 @@ void main() {
     v_tangent = vec4(m * in_tangent.xyz, in_tangent.w);
     v_uv = vec4(in_uv0, in_uv1);
     v_color = in_color;
-    gl_Position = frame.view_proj[view] * vec4(p, 1.0);
+    gl_Position = lms_scaled(frame.view_proj[view] * vec4(p, 1.0));
 #if SECTION
     // The section plane: negative beyond it, so the rasterizer cuts there.
     gl_ClipDistance[0] = dot(frame.section.xyz, p) + frame.section.w;

@@ -120,6 +120,11 @@ pub struct RenderConfig {
     /// per axis and a full-density inset around the gaze, composited.
     #[serde(default)]
     pub inset: Option<Inset>,
+    /// Lens-matched shading (`lms`, `lms=K`, `lms-emulated`): each eye
+    /// drawn per quadrant with clip-space w scaling into a smaller image,
+    /// resampled to the eye image.
+    #[serde(default)]
+    pub lms: Option<Lms>,
     /// Frames the CPU may prepare while the GPU still renders earlier ones
     /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
     pub frames_in_flight: u32,
@@ -260,6 +265,35 @@ impl Default for Inset {
     }
 }
 
+/// Lens-matched shading's settings (`lms`, `lms=K`, `lms-emulated`;
+/// geometry in [`crate::view::lms`]).
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct Lms {
+    /// `lms=K`: one coefficient on every side; None: fitted to the HMD
+    /// profile's lens, else [`crate::view::lms::DEFAULT_COEFFICIENT`].
+    pub coefficient: Option<f64>,
+    /// `lms-emulated`: scale w in the vertex shaders even where
+    /// VK_NV_clip_space_w_scaling is offered.
+    pub emulated: bool,
+    /// The coefficients in use, once resolved for the profile
+    /// ([`RenderConfig::resolve_lens`]); None until then.
+    #[serde(skip)]
+    pub resolved: Option<crate::view::lms::Coefficients>,
+}
+
+impl Lms {
+    /// The coefficients frames draw with: the resolved ones, else `lms=K`'s,
+    /// else the default.
+    pub fn coefficients(&self) -> crate::view::lms::Coefficients {
+        self.resolved.unwrap_or_else(|| {
+            crate::view::lms::Coefficients::uniform(
+                self.coefficient
+                    .unwrap_or(crate::view::lms::DEFAULT_COEFFICIENT),
+            )
+        })
+    }
+}
+
 /// Most threads `--record-threads` accepts.
 pub const MAX_RECORD_THREADS: u32 = 64;
 
@@ -359,6 +393,7 @@ impl Default for RenderConfig {
             rdm_fill: true,
             mffr: None,
             inset: None,
+            lms: None,
             frames_in_flight: 2,
             gpu_cull: false,
             occlusion: false,
@@ -455,6 +490,22 @@ impl RenderConfig {
                 ],
             )?;
         }
+        if self.lms.is_some() {
+            refuse_with(
+                "lms draws each eye per quadrant into a smaller, non-rectilinear image and resamples it; {} works on the rectilinear eye image: leave it out with lms",
+                &[
+                    (foveation, "foveation"),
+                    (rdm, "rdm"),
+                    (self.stencil_mask, "stencil-mask"),
+                    (self.mffr.is_some(), "mffr"),
+                    (self.occlusion, "occlusion"),
+                    (self.aq, "aq"),
+                    (self.inset.is_some(), "inset"),
+                    (self.timewarp.is_some(), "timewarp"),
+                    (self.record_threads.is_some(), "--record-threads"),
+                ],
+            )?;
+        }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
@@ -541,6 +592,26 @@ impl RenderConfig {
                     self.inset = Some(Inset {
                         wide_scale: v,
                         ..self.inset.unwrap_or_default()
+                    })
+                }
+                "lms" => self.lms = Some(self.lms.unwrap_or_default()),
+                "lms-emulated" => {
+                    self.lms = Some(Lms {
+                        emulated: true,
+                        ..self.lms.unwrap_or_default()
+                    })
+                }
+                l if l.starts_with("lms=") => {
+                    let v = opt_value(
+                        l,
+                        "lms=",
+                        (0.0, crate::view::lms::MAX_COEFFICIENT),
+                        "K",
+                        "the clip-space w scaling coefficient of every side",
+                    )?;
+                    self.lms = Some(Lms {
+                        coefficient: Some(v),
+                        ..self.lms.unwrap_or_default()
                     })
                 }
                 l if l.starts_with("inset-fov=") => {
@@ -668,7 +739,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -693,6 +764,7 @@ impl RenderConfig {
     ) -> Result<()> {
         use crate::view::foveation::Level;
         let foveation_auto = self.foveation == Level::Lens(0);
+        self.resolve_lms(profile);
         if !self.rdm_auto && !foveation_auto {
             return Ok(());
         }
@@ -741,6 +813,31 @@ impl RenderConfig {
         Ok(())
     }
 
+    /// Resolves `lms`'s coefficients: `lms=K`'s on every side, else fitted
+    /// to `profile`'s lenses ([`crate::view::lms::fit`]) when every view
+    /// has one, else the default.
+    fn resolve_lms(&mut self, profile: Option<&crate::view::profile::HmdProfile>) {
+        use crate::view::lms;
+        let Some(l) = self.lms.as_mut() else {
+            return;
+        };
+        let lenses: Option<Vec<_>> = profile.map(|p| {
+            p.views
+                .iter()
+                .filter_map(|v| v.lens.as_ref().map(|lens| (lens, &v.fov, v.resolution)))
+                .collect()
+        });
+        let fitted = match (l.coefficient, lenses) {
+            (None, Some(views))
+                if !views.is_empty() && Some(views.len()) == profile.map(|p| p.views.len()) =>
+            {
+                Some(lms::fit(&views, 4))
+            }
+            _ => None,
+        };
+        l.resolved = Some(fitted.unwrap_or_else(|| l.coefficients()));
+    }
+
     /// One error when `timewarp` is set for `command`, which does not
     /// measure it (only `render --frames` does).
     pub fn refuse_timewarp(&self, command: &str) -> Result<()> {
@@ -787,6 +884,15 @@ impl RenderConfig {
             });
             if i.half_angle_deg != crate::view::inset::DEFAULT_HALF_ANGLE_DEG {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
+            }
+        }
+        if let Some(l) = self.lms {
+            v.push(match l.coefficient {
+                Some(k) => format!("lms={k}"),
+                None => "lms".into(),
+            });
+            if l.emulated {
+                v.push("lms-emulated".into());
             }
         }
         if self.stencil_mask {

@@ -107,6 +107,9 @@ pub struct ConfigResult {
     pub cull: String,
     /// Which foveation path ran.
     pub foveation_path: String,
+    /// With `lms`: its path, coefficients and image size.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub lms: Option<crate::render::passes::lms::LmsReport>,
     /// Measured frames.
     pub frames: u32,
     /// CPU ms per phase.
@@ -998,6 +1001,7 @@ fn summarize(
         msaa: config.msaa,
         cull: config.cull.name().to_string(),
         foveation_path: renderer.foveation_path.clone(),
+        lms: renderer.lms_report(),
         frames: frames.len() as u32,
         cpu_ms: PhaseMs {
             cull: median(&|f| f.cull_ms),

@@ -93,6 +93,9 @@ pub struct Capabilities {
     pub inherited_queries: bool,
     /// minUniformBufferOffsetAlignment: the step of dynamic uniform offsets.
     pub min_uniform_offset_alignment: u64,
+    /// VK_NV_clip_space_w_scaling is enabled (`lms` scales w in the
+    /// rasterizer; without it, in the vertex shaders).
+    pub clip_space_w_scaling: bool,
 }
 
 /// Device-local memory as VK_EXT_memory_budget reports it, summed over the
@@ -699,6 +702,10 @@ impl PartialInstance {
         if draw_indirect_count {
             dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
         }
+        let clip_space_w_scaling = has_ext(ash::nv::clip_space_w_scaling::NAME);
+        if clip_space_w_scaling {
+            dev_ext_names.push(ash::nv::clip_space_w_scaling::NAME.as_ptr());
+        }
         let prio = [1.0f32];
         let qinfo = [vk::DeviceQueueCreateInfo::default()
             .queue_family_index(queue_family)
@@ -759,6 +766,7 @@ impl PartialInstance {
             shader_draw_parameters,
             inherited_queries,
             min_uniform_offset_alignment: lim.min_uniform_buffer_offset_alignment,
+            clip_space_w_scaling,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

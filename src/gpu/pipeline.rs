@@ -48,6 +48,9 @@ pub struct GraphicsPipelineDesc<'a> {
     /// Used with a fragment-shading-rate attachment (the attachment's rate
     /// replaces the pipeline's 1×1).
     pub shading_rate_attachment: bool,
+    /// Clip-space w scaling (VK_NV_clip_space_w_scaling) on viewport 0,
+    /// its coefficients dynamic state (`lms` on the native path).
+    pub w_scaling: bool,
 }
 
 fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
@@ -109,9 +112,15 @@ impl GraphicsPipelineDesc<'_> {
             .vertex_attribute_descriptions(&self.attributes);
         let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
             .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
-        let viewport = vk::PipelineViewportStateCreateInfo::default()
+        let mut w_scaling = vk::PipelineViewportWScalingStateCreateInfoNV::default()
+            .viewport_w_scaling_enable(true);
+        w_scaling.viewport_count = 1;
+        let mut viewport = vk::PipelineViewportStateCreateInfo::default()
             .viewport_count(1)
             .scissor_count(1);
+        if self.w_scaling {
+            viewport = viewport.push_next(&mut w_scaling);
+        }
         let raster = vk::PipelineRasterizationStateCreateInfo::default()
             .polygon_mode(vk::PolygonMode::FILL)
             .cull_mode(self.cull_mode)
@@ -142,8 +151,13 @@ impl GraphicsPipelineDesc<'_> {
             .alpha_blend_op(vk::BlendOp::ADD)
             .color_write_mask(mask)];
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachment);
-        let dynamic = [vk::DynamicState::VIEWPORT, vk::DynamicState::SCISSOR];
-        let dynamic = vk::PipelineDynamicStateCreateInfo::default().dynamic_states(&dynamic);
+        let dynamic = [
+            vk::DynamicState::VIEWPORT,
+            vk::DynamicState::SCISSOR,
+            vk::DynamicState::VIEWPORT_W_SCALING_NV,
+        ];
+        let dynamic = vk::PipelineDynamicStateCreateInfo::default()
+            .dynamic_states(&dynamic[..if self.w_scaling { 3 } else { 2 }]);
         let formats = [self.color_format];
         let mut rendering = vk::PipelineRenderingCreateInfo::default()
             .view_mask(self.view_mask)

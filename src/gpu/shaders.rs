@@ -57,6 +57,10 @@ pub static RDM_FRAG: Module = spirv!("rdm.frag");
 pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
 /// The inset composite (multi-resolution foveated rendering).
 pub static INSET_COMPOSITE_FRAG: Module = spirv!("inset_composite.frag");
+/// Lens-matched shading's resample to the rectilinear eye image.
+pub static LMS_RESAMPLE_FRAG: Module = spirv!("lms_resample.frag");
+/// The sky's geometry under lens-matched shading (one quadrant per draw).
+pub static SKY_LMS_VERT: Module = spirv!("sky_lms.vert");
 /// The monoscopic far field's composite.
 pub static MFFR_COMPOSITE_FRAG: Module = spirv!("mffr_composite.frag");
 /// A full-screen triangle passing NDC and the view index on.
@@ -108,7 +112,7 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 34] = [
+pub static ALL: [&Module; 36] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -121,6 +125,8 @@ pub static ALL: [&Module; 34] = [
     &RDM_FRAG,
     &RDM_FILL_FRAG,
     &INSET_COMPOSITE_FRAG,
+    &LMS_RESAMPLE_FRAG,
+    &SKY_LMS_VERT,
     &MFFR_COMPOSITE_FRAG,
     &FULLSCREEN_VERT,
     &SKY_FRAG,

@@ -463,6 +463,7 @@ impl DistortionPreview {
                 view_mask: 0,
                 layout,
                 shading_rate_attachment: false,
+                w_scaling: false,
             }
             .build(ctx)?
         };

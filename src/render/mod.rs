@@ -365,7 +365,9 @@ impl Renderer {
                     || config
                         .timewarp
                         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
-                composed: (config.rdm.is_some() && config.rdm_fill) || config.inset.is_some(),
+                composed: (config.rdm.is_some() && config.rdm_fill)
+                    || config.inset.is_some()
+                    || config.lms.is_some(),
                 sampled: false,
                 occlusion: config.occlusion,
             },
@@ -449,6 +451,11 @@ impl Renderer {
             scene: self.scene(),
             keys: &self.batcher.keys,
             per_draw: self.config.per_draw,
+            w_scaling: self
+                .config
+                .lms
+                .is_some_and(|l| !l.emulated && self.ctx.caps.clip_space_w_scaling),
+            lms: self.config.lms.is_some(),
         }
     }
 
@@ -509,7 +516,8 @@ impl Renderer {
                 .far
                 .as_ref()
                 .map(FarField::images)
-                .or(inset.map(|i| i.1)),
+                .or(inset.map(|i| i.1))
+                .or(self.passes.lms.as_ref().and_then(|l| l.images())),
         };
         self.descriptors.write(&self.ctx, slot, &contents);
     }
@@ -1049,7 +1057,10 @@ impl Renderer {
         }
         rec.barriers(&targets.begin_barriers());
         if let Some(inset) = &passes.inset {
-            rec.barriers(&attachments::begin_barriers(&inset.wide));
+            rec.barriers(&attachments::begin_barriers(&inset.wide.sets));
+        }
+        if let Some(lms) = &passes.lms {
+            rec.barriers(&attachments::begin_barriers(&lms.targets.sets));
         }
         q.begin_stats(ctx, cmd);
         if let Some(far) = far {
@@ -1104,26 +1115,32 @@ impl Renderer {
                 .flatten()
                 .flat_map(|(set, view_mask, eye)| {
                     let wide = inset.map(|i| {
-                        let w = &i.wide[eye as usize % i.wide.len()];
+                        let w = &i.wide.sets[eye as usize % i.wide.sets.len()];
                         (
                             w.views(),
-                            i.wide_extent,
+                            i.wide.extent,
                             None,
                             view_mask,
                             eye,
                             "forward-wide",
                         )
                     });
+                    // With lms the eye is drawn into the LMS targets instead.
+                    let lms = passes.lms.as_ref().map(|l| {
+                        let t = &l.targets;
+                        (t.sets[eye as usize % t.sets.len()].views(), t.extent)
+                    });
+                    let (views, extent) = lms.unwrap_or((set.views(), self.extent));
                     let main = (
-                        set.views(),
-                        self.extent,
+                        views,
+                        extent,
                         inset.map(|_| inset_area),
                         view_mask,
                         eye,
-                        if inset.is_some() {
-                            "forward-inset"
-                        } else {
-                            "forward"
+                        match (inset, lms) {
+                            (Some(_), _) => "forward-inset",
+                            (None, Some(_)) => "forward-lms",
+                            (None, None) => "forward",
                         },
                     );
                     wide.into_iter().chain(std::iter::once(main))
@@ -1164,29 +1181,40 @@ impl Renderer {
                 }
                 let near = batches.near_draws();
                 let sky = part != ScopePart::First;
-                match (floor, far) {
-                    (Some(kind), _) => draw_calls += passes.floor.record(&rec, kind, eye),
-                    (None, Some(far)) => {
-                        draw_calls += far.record_composite(&rec, eye);
-                        // The sky lies beyond the split: the far field has it.
-                        draw_calls += match gpu_cull {
-                            Some(gpu) => passes
-                                .forward
-                                .record_gpu(&rec, gpu, eye, self.slot, false, false),
-                            None => passes.forward.record(&rec, near, eye, false),
-                        };
+                // With lms the scope's contents are drawn once per quadrant
+                // (floor frames once, unscaled).
+                let quadrants: &[Option<u32>] = match (&passes.lms, floor) {
+                    (Some(_), None) => &[Some(0), Some(1), Some(2), Some(3)],
+                    _ => &[None],
+                };
+                for &quadrant in quadrants {
+                    if let Some(l) = &passes.lms {
+                        l.set_quadrant(&rec, quadrant);
                     }
-                    (None, None) => match gpu_cull {
-                        Some(gpu) => {
-                            draw_calls += passes
-                                .forward
-                                .record_gpu(&rec, gpu, eye, self.slot, sky, late)
+                    match (floor, far) {
+                        (Some(kind), _) => draw_calls += passes.floor.record(&rec, kind, eye),
+                        (None, Some(far)) => {
+                            draw_calls += far.record_composite(&rec, eye);
+                            // The sky lies beyond the split: the far field has it.
+                            draw_calls += match gpu_cull {
+                                Some(gpu) => passes
+                                    .forward
+                                    .record_gpu(&rec, gpu, eye, self.slot, false, false),
+                                None => passes.forward.record(&rec, near, eye, false),
+                            };
                         }
-                        None => draw_calls += passes.forward.record(&rec, near, eye, true),
-                    },
-                }
-                if floor.is_none() && part != ScopePart::First {
-                    draw_calls += passes.overlay.record(&rec, self.extras.overlay.len(), eye);
+                        (None, None) => match gpu_cull {
+                            Some(gpu) => {
+                                draw_calls += passes
+                                    .forward
+                                    .record_gpu(&rec, gpu, eye, self.slot, sky, late)
+                            }
+                            None => draw_calls += passes.forward.record(&rec, near, eye, true),
+                        },
+                    }
+                    if floor.is_none() && part != ScopePart::First {
+                        draw_calls += passes.overlay.record(&rec, self.extras.overlay.len(), eye);
+                    }
                 }
                 rec.end_scope();
                 q.end_pass(ctx, cmd);
@@ -1194,6 +1222,9 @@ impl Renderer {
         }
         if let Some(rdm) = &passes.rdm {
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());
+        }
+        if let Some(lms) = &passes.lms {
+            draw_calls += lms.record_resample(&rec, q, targets, self.extent, self.view_mask());
         }
         if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
             draw_calls += inset.record_composite(
@@ -1231,6 +1262,7 @@ impl Renderer {
             vertices: &self.vertices,
             draw,
             section: self.extras.section.is_some(),
+            lms: std::cell::Cell::new(None),
         }
     }
 
@@ -1349,6 +1381,13 @@ impl Renderer {
     }
 
     /// Whether this device offers per-view render areas
+    /// With `lms`: which path scaled w, the coefficients and the LMS
+    /// image's size.
+    pub fn lms_report(&self) -> Option<passes::lms::LmsReport> {
+        self.passes.lms.as_ref().map(|l| l.report())
+    }
+
+    /// Whether the device offers per-view render areas
     /// (VK_QCOM_multiview_per_view_render_areas), and that vergence does not
     /// use them, for stats: see [`per_view_render_areas`].
     pub fn per_view_render_areas(&self) -> String {

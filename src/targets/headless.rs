@@ -163,6 +163,10 @@ pub struct RenderStats {
     pub foveation: String,
     /// Per-view render areas: used, or why not ("not offered").
     pub per_view_render_areas: String,
+    /// With `lms`: the path that scaled w ("nv-clip-space-w-scaling" or
+    /// "vertex-shader (why)"), the coefficients and the LMS image's size.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lms: Option<crate::render::passes::lms::LmsReport>,
     /// With `--preview distorted`: the distortion preview's figures.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub preview: Option<PreviewStats>,
@@ -556,6 +560,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         gpu_cull: frame.gpu_cull,
         lod: renderer.lod.clone(),
         foveation: renderer.foveation_path.clone(),
+        lms: renderer.lms_report(),
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
         timewarp: None,

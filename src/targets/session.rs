@@ -413,6 +413,9 @@ pub struct RunStats {
     pub cull: Option<CullStats>,
     /// Which foveation path ran.
     pub foveation: String,
+    /// With `lms`: its path, coefficients and image size.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub lms: Option<crate::render::passes::lms::LmsReport>,
     /// Series summary.
     pub summary: RunSummary,
     /// The mirror window (None: no mirror).

@@ -314,6 +314,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         Renderer::with_output(ctx.clone(), &scene, &config, extent, Some(chains.output()))?;
     stats.config = renderer.config.clone();
     stats.foveation = renderer.foveation_path.clone();
+    stats.lms = renderer.lms_report();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
     let masks = if exts.khr_visibility_mask {
         Some(Arc::new(fetch_masks(&session, 2)?))
@@ -790,6 +791,7 @@ fn switch_config(
         }
     };
     stats.foveation = driver.renderer().foveation_path.clone();
+    stats.lms = driver.renderer().lms_report();
     live.driver = Some(driver);
     st.opt = st.desk.live.config.opt_string();
     if let Some(m) = &mut live.mirror {
@@ -1114,11 +1116,12 @@ fn end_frame(
     let mut layer = None;
     if let Some(views) = views {
         // With inset the eye's depth exists only inside the inset (the
-        // wide view has its own): no depth goes to the runtime then.
-        let inset = live
-            .driver
-            .as_ref()
-            .is_some_and(|d| d.renderer().config.inset.is_some());
+        // wide view has its own), with lms only in the LMS image's layout:
+        // no depth goes to the runtime then.
+        let inset = live.driver.as_ref().is_some_and(|d| {
+            let c = &d.renderer().config;
+            c.inset.is_some() || c.lms.is_some()
+        });
         if st.with_depth && !inset {
             for eye in 0..views.len() {
                 depth_infos.push(sys::CompositionLayerDepthInfoKHR {

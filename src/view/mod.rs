@@ -9,6 +9,7 @@ pub mod foveation;
 pub mod frustum;
 pub mod inset;
 pub mod lens;
+pub mod lms;
 pub mod lod;
 pub mod mffr;
 pub mod profile;

@@ -27,7 +27,12 @@ pub struct Forward {
 impl Forward {
     /// Builds the scene pipelines and the sky.
     pub fn new(setup: &PipelineSetup) -> Result<Forward> {
-        let (full, sky) = (shaders::FULLSCREEN_VERT.words(), shaders::SKY_FRAG.words());
+        let sky_vertex = if setup.lms {
+            &shaders::SKY_LMS_VERT
+        } else {
+            &shaders::FULLSCREEN_VERT
+        };
+        let (full, sky) = (sky_vertex.words(), shaders::SKY_FRAG.words());
         Ok(Forward {
             pipelines: ScenePipelines::new(Self::scene_pipelines(setup, false)?),
             sky: setup.fullscreen_desc("sky", &full, &sky).build(setup.ctx)?,

@@ -838,7 +838,7 @@ impl GpuCull {
                 rec.bind(pipelines[&key]);
                 bound = Some(key);
             }
-            rec.push([rec.scene.ranges[p as usize].material, eye, 0, 0]);
+            rec.push_draw(rec.scene.ranges[p as usize].material, eye);
             let first = self.cmd_first[p as usize] as usize;
             let end = self
                 .cmd_first

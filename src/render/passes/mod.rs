@@ -12,9 +12,11 @@ pub mod floor;
 pub mod forward;
 pub mod gpu_cull;
 pub mod inset;
+pub mod lms;
 pub mod output;
 pub mod overlay;
 pub mod rdm;
+pub mod sampled;
 pub mod stencil_mask;
 
 use super::attachments::{AttachmentSet, Attachments, TargetViews, COLOR_FORMAT};
@@ -61,6 +63,8 @@ pub struct Passes {
     /// Multi-resolution foveated rendering (`inset`): the wide view's
     /// targets and the composite.
     pub inset: Option<inset::InsetPass>,
+    /// Lens-matched shading (`lms`): the LMS targets and the resample.
+    pub lms: Option<lms::LmsPass>,
 }
 
 impl Passes {
@@ -110,6 +114,25 @@ impl Passes {
                 config.stereo == crate::config::StereoMode::Multiview,
             )?);
         }
+        if let Some(l) = config.lms {
+            let path = if setup.w_scaling {
+                "nv-clip-space-w-scaling".to_string()
+            } else if l.emulated {
+                "vertex-shader (lms-emulated)".to_string()
+            } else {
+                let p = "vertex-shader (VK_NV_clip_space_w_scaling not offered)".to_string();
+                eprintln!("warning: lms falls back to {p}");
+                p
+            };
+            self.lms = Some(lms::LmsPass::new(
+                setup,
+                extent,
+                setup.samples,
+                config.stereo == crate::config::StereoMode::Multiview,
+                l.coefficients(),
+                path,
+            )?);
+        }
         Ok(())
     }
 
@@ -131,6 +154,9 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.inset {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.lms {
             p.destroy(ctx);
         }
     }
@@ -157,6 +183,13 @@ pub struct PipelineSetup<'a> {
     /// How the forward draws pass their per-draw data (picks the scene
     /// vertex shader).
     pub per_draw: PerDraw,
+    /// Whether the forward views scale clip-space w in the rasterizer
+    /// (`lms` on VK_NV_clip_space_w_scaling): their pipelines take the
+    /// coefficients as dynamic state.
+    pub w_scaling: bool,
+    /// Whether the forward views are LMS quadrants (`lms`, either path):
+    /// the sky is drawn per quadrant (`sky_lms.vert`).
+    pub lms: bool,
 }
 
 impl PipelineSetup<'_> {
@@ -221,6 +254,7 @@ impl PipelineSetup<'_> {
             view_mask: self.view_mask,
             layout: self.layout,
             shading_rate_attachment: self.shading_rate,
+            w_scaling: self.w_scaling,
         }
     }
 
@@ -241,6 +275,7 @@ impl PipelineSetup<'_> {
             samples: vk::SampleCountFlags::TYPE_1,
             depth_format: vk::Format::UNDEFINED,
             shading_rate_attachment: false,
+            w_scaling: false,
             ..self.fullscreen_desc(name, vertex, fragment)
         }
     }
@@ -532,6 +567,10 @@ pub struct Recorder<'a> {
     pub draw: DrawBinding,
     /// Whether the frame has a section plane (its draws clip against it).
     pub section: bool,
+    /// Inside an LMS scope: the quadrant the draws go to and the w-scaling
+    /// pair the vertex shaders apply (zero on the native path, which
+    /// scales in the rasterizer); None outside.
+    pub lms: std::cell::Cell<Option<(u32, [f32; 2])>>,
 }
 
 impl Recorder<'_> {
@@ -752,6 +791,14 @@ impl Recorder<'_> {
         };
     }
 
+    /// Pushes a geometry draw's words: its material, the view offset `eye`
+    /// and the vertex shaders' w-scaling pair (zero outside an emulated
+    /// LMS quadrant).
+    pub fn push_draw(&self, material: u32, eye: u32) {
+        let s = self.lms.get().map_or([0.0, 0.0], |q| q.1);
+        self.push([material, eye, s[0].to_bits(), s[1].to_bits()]);
+    }
+
     /// Draws `vertices` vertices of one instance without buffers (the
     /// shaders make their own positions).
     pub fn draw(&self, vertices: u32) {
@@ -774,9 +821,15 @@ impl Recorder<'_> {
     }
 
     /// Draws the full-screen triangle (indices 0, 1, 2 in the scene's index
-    /// buffer, which must be bound) with `pipeline` for view `eye`.
+    /// buffer, which must be bound) with `pipeline` for view `eye`; inside
+    /// an LMS quadrant, the quadrant's two triangles (`sky_lms.vert`).
     pub fn draw_fullscreen(&self, pipeline: vk::Pipeline, eye: u32) {
         self.bind(pipeline);
+        if let Some((q, _)) = self.lms.get() {
+            self.push_draw(q, eye);
+            self.draw(6);
+            return;
+        }
         self.push([0, eye, 0, 0]);
         let first = self.scene.fullscreen_first_index;
         // SAFETY: inside a rendering scope with the index buffer bound.
@@ -825,7 +878,7 @@ impl Recorder<'_> {
         if mode != PerDraw::Push {
             // The material comes with the record; only the view offset is
             // pushed, once.
-            self.push([0, eye, 0, 0]);
+            self.push_draw(0, eye);
         }
         let mut draw_calls = 0;
         let mut bound = None;
@@ -844,7 +897,7 @@ impl Recorder<'_> {
             let record = base + i as u32;
             let first_instance = match mode {
                 PerDraw::Push => {
-                    self.push([r.material, eye, 0, 0]);
+                    self.push_draw(r.material, eye);
                     draw.first
                 }
                 PerDraw::Ubo => {

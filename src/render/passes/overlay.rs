@@ -48,7 +48,7 @@ impl Overlay {
             return 0;
         }
         rec.bind(self.pipeline);
-        rec.push([0, eye, 0, 0]);
+        rec.push_draw(0, eye);
         // SAFETY: inside a rendering scope with the pipeline bound; the
         // shader reads only the frame uniforms.
         unsafe { rec.ctx.device.cmd_draw(rec.cmd, BOX_VERTICES, n, 0, 0) };

@@ -80,11 +80,55 @@ pub fn linear_density(lens: &Lens, fov: &Fov, eye: [u32; 2], uv: [f64; 2]) -> Op
     Some((dx[0] * dy[1] - dx[1] * dy[0]).abs().sqrt())
 }
 
+/// One visible panel sample: a panel pixel whose ray lands inside the eye
+/// image.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Sample {
+    /// The panel pixel's centre, panel uv.
+    pub panel_uv: [f64; 2],
+    /// Where it reads the eye image, NDC (x right, y down, −1..1).
+    pub eye_ndc: [f64; 2],
+    /// The linear density there ([`linear_density`]).
+    pub density: f64,
+}
+
+/// Calls `f` with every `stride`-th panel pixel (per axis) of `lens` that
+/// reads inside an eye image of `eye` pixels over `fov` (green channel).
+pub fn for_each_visible(
+    lens: &Lens,
+    fov: &Fov,
+    eye: [u32; 2],
+    stride: u32,
+    mut f: impl FnMut(Sample),
+) {
+    let stride = stride.max(1) as usize;
+    let [pw, ph] = lens.panel;
+    for y in (0..ph).step_by(stride) {
+        for x in (0..pw).step_by(stride) {
+            let uv = [(x as f64 + 0.5) / pw as f64, (y as f64 + 0.5) / ph as f64];
+            let Some(t) = lens.tangent_of_panel(uv, 1) else {
+                continue;
+            };
+            let e = eye_uv(fov, t);
+            if !(0.0..=1.0).contains(&e[0]) || !(0.0..=1.0).contains(&e[1]) {
+                continue;
+            }
+            let Some(density) = linear_density(lens, fov, eye, uv) else {
+                continue;
+            };
+            f(Sample {
+                panel_uv: uv,
+                eye_ndc: [e[0] * 2.0 - 1.0, e[1] * 2.0 - 1.0],
+                density,
+            });
+        }
+    }
+}
+
 /// The density figures of `lens` for an eye image of `eye` pixels over
 /// `fov`, sampling every `stride`-th panel and eye pixel.
 pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
     let stride = stride.max(1);
-    let [pw, ph] = lens.panel;
     let mut rings: Vec<Ring> = (0..RINGS)
         .map(|i| {
             let (a, b) = (
@@ -110,33 +154,20 @@ pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
     // Per visible panel sample: its eye NDC radius and density.
     let mut samples: Vec<(f64, f64)> = Vec::new();
     let (mut area_sum, mut visible) = (0.0, 0u64);
-    for y in (0..ph).step_by(stride as usize) {
-        for x in (0..pw).step_by(stride as usize) {
-            let uv = [(x as f64 + 0.5) / pw as f64, (y as f64 + 0.5) / ph as f64];
-            let Some(t) = lens.tangent_of_panel(uv, 1) else {
-                continue;
-            };
-            let e = eye_uv(fov, t);
-            if !(0.0..=1.0).contains(&e[0]) || !(0.0..=1.0).contains(&e[1]) {
-                continue;
-            }
-            let Some(d) = linear_density(lens, fov, eye, uv) else {
-                continue;
-            };
-            let q = lens.lens_of_panel(uv);
-            let r = q[0].hypot(q[1]);
-            let k = ((r / lens.r_max * RINGS as f64) as usize).min(RINGS - 1);
-            let ring = &mut rings[k];
-            ring.panel_pixels += 1;
-            ring.density_mean += d;
-            ring.density_min = ring.density_min.min(d);
-            ring.density_max = ring.density_max.max(d);
-            area_sum += d * d;
-            visible += 1;
-            let ndc = (e[0] * 2.0 - 1.0).hypot(e[1] * 2.0 - 1.0);
-            samples.push((ndc, d));
-        }
-    }
+    for_each_visible(lens, fov, eye, stride, |s| {
+        let q = lens.lens_of_panel(s.panel_uv);
+        let r = q[0].hypot(q[1]);
+        let k = ((r / lens.r_max * RINGS as f64) as usize).min(RINGS - 1);
+        let d = s.density;
+        let ring = &mut rings[k];
+        ring.panel_pixels += 1;
+        ring.density_mean += d;
+        ring.density_min = ring.density_min.min(d);
+        ring.density_max = ring.density_max.max(d);
+        area_sum += d * d;
+        visible += 1;
+        samples.push((s.eye_ndc[0].hypot(s.eye_ndc[1]), d));
+    });
     for ring in &mut rings {
         if ring.panel_pixels > 0 {
             ring.density_mean /= ring.panel_pixels as f64;

@@ -1,0 +1,109 @@
+//! Attachment sets drawn by one pass and sampled by a later one: the inset's
+//! wide view and lens-matched shading's image. Each set's resolved colour
+//! gets a 2D-array view (whatever its layer count) and one linear,
+//! clamp-to-edge sampler serves them all.
+
+use crate::error::{Result, VkContext};
+use crate::gpu::Context;
+use crate::render::attachments::{AttachmentSet, Attachments, SetOptions, COLOR_FORMAT};
+use ash::vk;
+
+/// Sampled attachment sets, their array views and sampler.
+pub struct SampledSets {
+    /// The sets (as the eye's: one 2-layer set under multiview, one per eye
+    /// in two-pass), resolved images sampled.
+    pub sets: Vec<AttachmentSet>,
+    /// Their size.
+    pub extent: vk::Extent2D,
+    views: Vec<vk::ImageView>,
+    sampler: vk::Sampler,
+}
+
+impl SampledSets {
+    /// Sets of `extent` with `samples` per pixel, their views and the
+    /// sampler (`what` names it in errors); on failure, destroys what it
+    /// made.
+    pub fn new(
+        ctx: &Context,
+        extent: vk::Extent2D,
+        samples: u32,
+        multiview: bool,
+        what: &str,
+    ) -> Result<SampledSets> {
+        let opts = SetOptions {
+            sampled: true,
+            ..SetOptions::default()
+        };
+        let mut made = SampledSets {
+            sets: Attachments::new(ctx, extent, samples, multiview, opts)?.sets,
+            extent,
+            views: Vec::new(),
+            sampler: vk::Sampler::null(),
+        };
+        match made.finish(ctx, what) {
+            Ok(()) => Ok(made),
+            Err(e) => {
+                made.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    fn finish(&mut self, ctx: &Context, what: &str) -> Result<()> {
+        for set in &self.sets {
+            self.views.push(crate::gpu::memory::Image::make_view(
+                ctx,
+                set.resolve.image,
+                COLOR_FORMAT,
+                vk::ImageAspectFlags::COLOR,
+                vk::ImageViewType::TYPE_2D_ARRAY,
+                0,
+                set.resolve.layers,
+                1,
+            )?);
+        }
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(vk::Filter::LINEAR)
+            .min_filter(vk::Filter::LINEAR)
+            .address_mode_u(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_v(vk::SamplerAddressMode::CLAMP_TO_EDGE)
+            .address_mode_w(vk::SamplerAddressMode::CLAMP_TO_EDGE);
+        // SAFETY: plain object creation; destroyed by `destroy`.
+        self.sampler = unsafe { ctx.device.create_sampler(&info, None) }
+            .vk(&format!("creating the {what}'s sampler"))?;
+        Ok(())
+    }
+
+    /// The sampler and view of `view` as a descriptor (shader-read layout).
+    pub fn info(&self, view: vk::ImageView) -> vk::DescriptorImageInfo {
+        vk::DescriptorImageInfo {
+            sampler: self.sampler,
+            image_view: view,
+            image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        }
+    }
+
+    /// The two array elements a composing shader indexes by attachment
+    /// set: the sets' views, the second repeating the first under
+    /// multiview (None before any view exists).
+    pub fn infos(&self) -> Option<[vk::DescriptorImageInfo; 2]> {
+        let v0 = *self.views.first()?;
+        let v1 = self.views.get(1).copied().unwrap_or(v0);
+        Some([self.info(v0), self.info(v1)])
+    }
+
+    /// Destroys the sampler, views and sets; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        if self.sampler != vk::Sampler::null() {
+            // SAFETY: the device is idle; the sampler belongs to `self`.
+            unsafe { ctx.device.destroy_sampler(self.sampler, None) };
+        }
+        for v in self.views {
+            // SAFETY: the device is idle; the view belongs to `self`.
+            unsafe { ctx.device.destroy_image_view(v, None) };
+        }
+        for s in self.sets {
+            s.destroy(ctx);
+        }
+    }
+}
