@@ -254,6 +254,10 @@ pub struct Inset {
     pub wide_scale: f64,
     /// The inset's half-angle around the gaze, degrees (1 to 80).
     pub half_angle_deg: f64,
+    /// Whether `inset-fov=DEG` set the half-angle; otherwise a profile with
+    /// lenses derives it ([`RenderConfig::resolve_lens`]).
+    #[serde(default)]
+    pub fov_given: bool,
 }
 
 impl Default for Inset {
@@ -261,6 +265,7 @@ impl Default for Inset {
         Inset {
             wide_scale: crate::view::inset::DEFAULT_WIDE_SCALE,
             half_angle_deg: crate::view::inset::DEFAULT_HALF_ANGLE_DEG,
+            fov_given: false,
         }
     }
 }
@@ -618,6 +623,7 @@ impl RenderConfig {
                     let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
                     self.inset = Some(Inset {
                         half_angle_deg: v,
+                        fov_given: true,
                         ..self.inset.unwrap_or_default()
                     })
                 }
@@ -765,6 +771,7 @@ impl RenderConfig {
         use crate::view::foveation::Level;
         let foveation_auto = self.foveation == Level::Lens(0);
         self.resolve_lms(profile);
+        self.resolve_inset(profile);
         if !self.rdm_auto && !foveation_auto {
             return Ok(());
         }
@@ -811,6 +818,35 @@ impl RenderConfig {
             self.foveation = Level::Lens(((coarse * 1000.0).round() as u16).max(1));
         }
         Ok(())
+    }
+
+    /// Derives the inset's half-angle from `profile`'s lenses when every
+    /// view has one and `inset-fov=DEG` gave none: the largest over the
+    /// views of [`crate::view::distortion::density::inset_half_angle_deg`]
+    /// at the wide view's scale, within 1–80°. Otherwise the constant
+    /// default ([`crate::view::inset::DEFAULT_HALF_ANGLE_DEG`]) stays.
+    fn resolve_inset(&mut self, profile: Option<&crate::view::profile::HmdProfile>) {
+        let (Some(inset), Some(profile)) = (self.inset.as_mut(), profile) else {
+            return;
+        };
+        if inset.fov_given || profile.views.iter().any(|v| v.lens.is_none()) {
+            return;
+        }
+        let deg = profile
+            .views
+            .iter()
+            .filter_map(|v| {
+                let lens = v.lens.as_ref()?;
+                Some(crate::view::distortion::density::inset_half_angle_deg(
+                    lens,
+                    &v.fov,
+                    v.resolution,
+                    inset.wide_scale,
+                    4,
+                ))
+            })
+            .fold(0.0f64, f64::max);
+        inset.half_angle_deg = deg.clamp(1.0, 80.0);
     }
 
     /// Resolves `lms`'s coefficients: `lms=K`'s on every side, else fitted
@@ -882,7 +918,7 @@ impl RenderConfig {
             } else {
                 format!("inset={}", i.wide_scale)
             });
-            if i.half_angle_deg != crate::view::inset::DEFAULT_HALF_ANGLE_DEG {
+            if i.fov_given {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
             }
         }
@@ -998,6 +1034,9 @@ mod tests {
             "conical,rdm=0.4,rdm-nofill",
             "mffr=12.5,mffr-depth-shift,mffr-alternate-eye,mffr-no-split",
             "round-robin,mffr,rdm,foveation=low",
+            "superfrustum,lms",
+            "two-pass,lms=0.25,lms-emulated",
+            "superfrustum,inset=0.6,inset-fov=15",
         ] {
             let mut c = RenderConfig::default();
             c.apply_opts(list, &names).unwrap();
@@ -1007,6 +1046,44 @@ mod tests {
             assert_eq!(back, c, "{list} -> {opt}");
         }
         assert_eq!(RenderConfig::default().opt_string(), "multiview,msaa4,none");
+    }
+
+    /// A profile with lenses sets the inset's half-angle and lms's
+    /// coefficients; `inset-fov=` and `lms=` keep theirs; a profile
+    /// without lenses keeps the defaults.
+    #[test]
+    fn lenses_derive_the_inset_angle_and_the_lms_coefficients() {
+        use crate::view::profile::HmdProfile;
+        let vive = HmdProfile::load("vive").unwrap();
+        let index = HmdProfile::load("valve-index").unwrap();
+        let resolved = |opt: &str, p: &HmdProfile| {
+            let mut c = RenderConfig::default();
+            c.apply_opts(opt, &cull_names()).unwrap();
+            c.resolve_lens(Some(p)).unwrap();
+            c
+        };
+        let c = resolved("inset,lms", &vive);
+        let deg = c.inset.unwrap().half_angle_deg;
+        assert!(deg > 1.0 && deg <= 80.0 && deg != crate::view::inset::DEFAULT_HALF_ANGLE_DEG);
+        let k = c.lms.unwrap().coefficients();
+        assert!(k.left > 0.0 && k.left < crate::view::lms::DEFAULT_COEFFICIENT);
+        // The opt string does not freeze derived values.
+        assert_eq!(c.opt_string(), "multiview,msaa4,none,inset,lms");
+        let c = resolved("inset,inset-fov=15,lms=0.2", &vive);
+        assert_eq!(c.inset.unwrap().half_angle_deg, 15.0);
+        assert_eq!(
+            c.lms.unwrap().coefficients(),
+            crate::view::lms::Coefficients::uniform(0.2)
+        );
+        let c = resolved("inset,lms", &index);
+        assert_eq!(
+            c.inset.unwrap().half_angle_deg,
+            crate::view::inset::DEFAULT_HALF_ANGLE_DEG
+        );
+        assert_eq!(
+            c.lms.unwrap().coefficients(),
+            crate::view::lms::Coefficients::uniform(crate::view::lms::DEFAULT_COEFFICIENT)
+        );
     }
 
     #[test]

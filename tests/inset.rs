@@ -70,6 +70,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let settings = Inset {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
+        fov_given: true,
     };
     let full = render_config(
         &ctx,

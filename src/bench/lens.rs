@@ -17,6 +17,24 @@ pub struct LensReport {
     pub model: Vec<String>,
     /// Per view, left first.
     pub views: Vec<Density>,
+    /// What `--opt inset` and `--opt lms` derive from these lenses.
+    pub derived: Derived,
+}
+
+/// The values the renderer derives from a profile's lenses (besides
+/// `rdm=auto` and `foveation=auto`, which each view's figures give).
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct Derived {
+    /// `inset`'s half-angle at the default wide-view scale, degrees
+    /// ([`crate::view::distortion::density::inset_half_angle_deg`], largest
+    /// over the views, within 1–80°).
+    pub inset_half_angle_deg: f64,
+    /// The wide-view scale it was derived for.
+    pub inset_wide_scale: f64,
+    /// `lms`'s fitted coefficients ([`crate::view::lms::fit`]).
+    pub lms: crate::view::lms::Coefficients,
+    /// The LMS image's share of the eye image's pixels (first view).
+    pub lms_pixel_fraction: f64,
 }
 
 /// Panel and eye pixels sampled per axis step (every pixel is 1).
@@ -34,10 +52,29 @@ pub fn report(profile: &HmdProfile) -> Result<LensReport> {
         model.push(lens.radial.name().to_string());
         views.push(density(lens, &v.fov, v.resolution, STRIDE));
     }
+    let wide = crate::view::inset::DEFAULT_WIDE_SCALE;
+    let lenses: Vec<_> = profile
+        .views
+        .iter()
+        .filter_map(|v| v.lens.as_ref().map(|l| (l, &v.fov, v.resolution)))
+        .collect();
+    let inset = lenses
+        .iter()
+        .map(|&(l, f, e)| crate::view::distortion::density::inset_half_angle_deg(l, f, e, wide, 4))
+        .fold(0.0f64, f64::max)
+        .clamp(1.0, 80.0);
+    let lms = crate::view::lms::fit(&lenses, 4);
+    let first = profile.views.first().map_or([1, 1], |v| v.resolution);
     Ok(LensReport {
         profile: profile.name.clone(),
         model,
         views,
+        derived: Derived {
+            inset_half_angle_deg: inset,
+            inset_wide_scale: wide,
+            lms,
+            lms_pixel_fraction: crate::view::lms::Layout::new(&lms, first).pixel_fraction(),
+        },
     })
 }
 
@@ -82,6 +119,20 @@ impl LensReport {
                     .map_or("— (nowhere dense enough)".to_string(), |r| format!("{r:.2}"))
             );
         }
+        let d = &self.derived;
+        let _ = writeln!(
+            s,
+            "derived: `inset` half-angle ±{:.1}° (the wide view at {} per axis reads under one \
+             pixel per panel pixel inside it); `lms` coefficients left {:.3}, right {:.3}, up \
+             {:.3}, down {:.3} (the LMS image has {:.1} % of the eye image's pixels)",
+            d.inset_half_angle_deg,
+            d.inset_wide_scale,
+            d.lms.left,
+            d.lms.right,
+            d.lms.up,
+            d.lms.down,
+            100.0 * d.lms_pixel_fraction
+        );
         s
     }
 }
@@ -105,6 +156,8 @@ mod tests {
             assert!(md.contains(&format!("{:.2}", d.centre_density)));
         }
         assert_eq!(md.matches("| lens radius |").count(), 2);
+        assert!(md.contains("derived: `inset` half-angle"));
+        assert!(r.derived.lms.left > 0.0 && r.derived.lms_pixel_fraction < 1.0);
         let e = report(&HmdProfile::load("valve-index").unwrap())
             .unwrap_err()
             .to_string();

@@ -125,6 +125,37 @@ pub fn for_each_visible(
     }
 }
 
+/// The half-angle, degrees, of the inset (`--opt inset`) this lens needs
+/// around the eye image's centre: outside the inset the wide view, at
+/// `wide_scale` of the eye's resolution per axis, reads
+/// `wide_scale` × the density — at least one wide-view pixel per panel
+/// pixel wherever that product is at least 1, so the panel shows nothing
+/// the full render would have added. The inset must therefore cover every
+/// visible panel pixel where `wide_scale × density < 1`: the answer is the
+/// largest tangent offset (per axis, as `view::inset` sizes its square of
+/// tangents) from the image centre of such a pixel, as an angle; 0 when
+/// the wide view suffices everywhere.
+pub fn inset_half_angle_deg(
+    lens: &Lens,
+    fov: &Fov,
+    eye: [u32; 2],
+    wide_scale: f64,
+    stride: u32,
+) -> f64 {
+    let centre = super::tangent_of_eye(fov, [0.5, 0.5]);
+    let mut widest = 0.0f64;
+    for_each_visible(lens, fov, eye, stride, |s| {
+        if s.density * wide_scale < 1.0 {
+            let uv = [(s.eye_ndc[0] + 1.0) * 0.5, (s.eye_ndc[1] + 1.0) * 0.5];
+            let t = super::tangent_of_eye(fov, uv);
+            widest = widest
+                .max((t[0] - centre[0]).abs())
+                .max((t[1] - centre[1]).abs());
+        }
+    });
+    widest.atan().to_degrees()
+}
+
 /// The density figures of `lens` for an eye image of `eye` pixels over
 /// `fov`, sampling every `stride`-th panel and eye pixel.
 pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
@@ -225,6 +256,35 @@ pub fn density(lens: &Lens, fov: &Fov, eye: [u32; 2], stride: u32) -> Density {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// The inset's half-angle against brute force over the Vive's lens:
+    /// every panel pixel the wide view under-samples lies inside the
+    /// angle's square of tangents, and one lies on its edge; a wide view at
+    /// full scale needs a smaller inset than one at half scale.
+    #[test]
+    fn the_inset_covers_what_the_wide_view_under_samples_and_no_more() {
+        let vive = crate::view::profile::HmdProfile::load("vive").unwrap();
+        for v in &vive.views {
+            let lens = v.lens.as_ref().unwrap();
+            let deg = inset_half_angle_deg(lens, &v.fov, v.resolution, 0.5, 4);
+            assert!(deg > 1.0 && deg < 80.0, "{deg}");
+            let t = deg.to_radians().tan();
+            let c = super::super::tangent_of_eye(&v.fov, [0.5, 0.5]);
+            let mut widest = 0.0f64;
+            for_each_visible(lens, &v.fov, v.resolution, 4, |s| {
+                if s.density * 0.5 < 1.0 {
+                    let uv = [(s.eye_ndc[0] + 1.0) * 0.5, (s.eye_ndc[1] + 1.0) * 0.5];
+                    let p = super::super::tangent_of_eye(&v.fov, uv);
+                    let off = (p[0] - c[0]).abs().max((p[1] - c[1]).abs());
+                    assert!(off <= t + 1e-12, "{off} outside {t}");
+                    widest = widest.max(off);
+                }
+            });
+            assert!((widest - t).abs() < 1e-9);
+            let sharper = inset_half_angle_deg(lens, &v.fov, v.resolution, 0.8, 4);
+            assert!(sharper < deg, "{sharper} vs {deg}");
+        }
+    }
     use crate::view::distortion::{panotools::Panotools, Radial};
 
     fn identity_lens(panel: [u32; 2]) -> Lens {
