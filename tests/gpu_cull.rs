@@ -122,11 +122,7 @@ fn same_as_cpu(ctx: &Arc<Context>, scene: &Scene, rigs: &[StereoRig], opts: &str
         assert!(g.stats.gpu_ms.contains_key("cull-early") || g.stats.gpu_ms.is_empty());
     }
     for eye in 0..2 {
-        let differing = cpu_img[eye]
-            .pixels()
-            .zip(gpu_img[eye].pixels())
-            .filter(|(a, b)| a != b)
-            .count();
+        let differing = common::pixels_differing(&cpu_img[eye], &gpu_img[eye]);
         assert_eq!(
             differing, 0,
             "{opts} eye {eye}: pixels differ from CPU culling"

@@ -146,11 +146,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         H,
     );
     for eye in 0..2 {
-        let diff = mv.images[eye]
-            .pixels()
-            .zip(tp.images[eye].pixels())
-            .filter(|(a, b)| a != b)
-            .count();
+        let diff = common::pixels_differing(&mv.images[eye], &tp.images[eye]);
         assert!(
             diff * 1000 <= (W * H) as usize,
             "eye {eye}: {diff} pixels differ"

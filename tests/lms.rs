@@ -241,11 +241,7 @@ fn every_pixel_is_the_lms_image_read_through_the_map() {
         H,
     );
     for eye in 0..2 {
-        let diff = mv.images[eye]
-            .pixels()
-            .zip(tp.images[eye].pixels())
-            .filter(|(a, b)| a != b)
-            .count();
+        let diff = common::pixels_differing(&mv.images[eye], &tp.images[eye]);
         assert!(
             diff * 1000 <= (W * H) as usize,
             "eye {eye}: {diff} pixels differ"

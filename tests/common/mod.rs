@@ -196,6 +196,11 @@ pub fn frame_by_frame(
     (results, images)
 }
 
+/// How many pixels of `a` and `b` (same size) differ.
+pub fn pixels_differing(a: &image::RgbaImage, b: &image::RgbaImage) -> usize {
+    a.pixels().zip(b.pixels()).filter(|(p, q)| p != q).count()
+}
+
 /// An 8-bit sRGB value as linear light (IEC 61966-2-1's decoding).
 pub fn srgb_to_linear(c: u8) -> f64 {
     let c = c as f64 / 255.0;

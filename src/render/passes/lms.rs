@@ -146,22 +146,8 @@ impl LmsPass {
                 )
             }
             None => {
-                let e = self.targets.extent;
-                (
-                    vk::Viewport {
-                        x: 0.0,
-                        y: 0.0,
-                        width: e.width as f32,
-                        height: e.height as f32,
-                        min_depth: 0.0,
-                        max_depth: 1.0,
-                    },
-                    vk::Rect2D {
-                        offset: vk::Offset2D::default(),
-                        extent: e,
-                    },
-                    [0.0, 0.0],
-                )
+                let (viewport, scissor) = super::whole(self.targets.extent);
+                (viewport, scissor, [0.0, 0.0])
             }
         };
         // SAFETY: recording inside a rendering scope of the LMS targets;

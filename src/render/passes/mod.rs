@@ -392,6 +392,24 @@ impl ScenePipelines {
     }
 }
 
+/// The viewport and scissor covering all of `extent` (depth 0 to 1).
+pub fn whole(extent: vk::Extent2D) -> (vk::Viewport, vk::Rect2D) {
+    (
+        vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: extent.width as f32,
+            height: extent.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        },
+        vk::Rect2D {
+            offset: vk::Offset2D::default(),
+            extent,
+        },
+    )
+}
+
 /// Where the sky goes in `draws` (primitives keyed by `keys`): before the
 /// first blended draw, else after the last.
 pub fn sky_slot(keys: &[PipelineKey], draws: &[Draw]) -> usize {
@@ -701,18 +719,7 @@ impl Recorder<'_> {
     /// does not inherit: viewport and scissor over `extent`, the frame
     /// slot's descriptor set, and for `--per-draw ssbo` the record set.
     pub fn set_state(&self, extent: vk::Extent2D) {
-        let viewport = vk::Viewport {
-            x: 0.0,
-            y: 0.0,
-            width: extent.width as f32,
-            height: extent.height as f32,
-            min_depth: 0.0,
-            max_depth: 1.0,
-        };
-        let area = vk::Rect2D {
-            offset: vk::Offset2D::default(),
-            extent,
-        };
+        let (viewport, area) = whole(extent);
         let d = &self.ctx.device;
         // SAFETY: recording into an open command buffer inside (or
         // continuing) a rendering scope; the sets belong to the renderer and
