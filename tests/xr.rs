@@ -315,6 +315,40 @@ fn adaptive_quality_submits_each_frames_sub_image_clean_under_the_runtime() {
     assert_no_validation(&o, &s);
 }
 
+#[test]
+fn lens_matched_shading_runs_clean_under_the_runtime() {
+    let _g = lock();
+    let dir = out_dir("lms");
+    let s_path = dir.join("stats.json");
+    let o = with_monado(false)
+        .args(["run", "--xr", "openxr", "--frames", "20"])
+        .args(["--scene", "factory:2000", "--opt", "superfrustum,lms"])
+        .args(["--width", "160", "--height", "128"])
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    // The runtime's views carry no lens: the default coefficient, and on
+    // lavapipe the vertex-shader path.
+    let lms = &s["lms"];
+    assert!(
+        lms["path"].as_str().unwrap().starts_with("vertex-shader"),
+        "{lms}"
+    );
+    assert_eq!(lms["coefficients"]["left"], 409.0 / 1024.0);
+    assert!(lms["size"][0].as_u64().unwrap() < 160, "{lms}");
+    let rendered = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["should_render"] == true && f["gpu_ms"].as_f64().unwrap_or(0.0) > 0.0)
+        .count();
+    assert!(rendered >= 15, "{rendered} frames rendered");
+    assert_no_validation(&o, &s);
+}
+
 fn yaw_quat(deg: f32) -> [f32; 4] {
     let h = deg.to_radians() * 0.5;
     [0.0, h.sin(), 0.0, h.cos()]
