@@ -874,6 +874,23 @@ impl RenderConfig {
         l.resolved = Some(fitted.unwrap_or_else(|| l.coefficients()));
     }
 
+    /// One error when this configuration has a technique a scene with a
+    /// point cloud cannot draw with yet (the points are rasterized into the
+    /// eye images at full size, once per frame).
+    pub fn refuse_for_points(&self) -> Result<()> {
+        refuse_with(
+            "a scene with a point cloud rasterizes its points into the full-size eye images; {} is not built for points yet: leave it out",
+            &[
+                (self.lms.is_some(), "lms"),
+                (self.inset.is_some(), "inset"),
+                (self.mffr.is_some(), "mffr"),
+                (self.aq, "aq"),
+                (self.timewarp.is_some(), "timewarp"),
+                (self.record_threads.is_some(), "--record-threads"),
+            ],
+        )
+    }
+
     /// One error when `timewarp` is set for `command`, which does not
     /// measure it (only `render --frames` does).
     pub fn refuse_timewarp(&self, command: &str) -> Result<()> {

@@ -96,6 +96,9 @@ pub struct Capabilities {
     /// VK_NV_clip_space_w_scaling is enabled (`lms` scales w in the
     /// rasterizer; without it, in the vertex shaders).
     pub clip_space_w_scaling: bool,
+    /// shaderInt64 and shaderBufferInt64Atomics are enabled
+    /// (VK_KHR_shader_atomic_int64): point clouds rasterize in compute.
+    pub atomic_int64: bool,
 }
 
 /// Device-local memory as VK_EXT_memory_budget reports it, summed over the
@@ -626,9 +629,14 @@ impl PartialInstance {
         let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
         let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
         let mut ffsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default();
+        let atomic_int64_offered = has_ext(ash::khr::shader_atomic_int64::NAME);
+        let mut fi64 = vk::PhysicalDeviceShaderAtomicInt64Features::default();
         let mut f2 = vk::PhysicalDeviceFeatures2::default()
             .push_next(&mut f11)
             .push_next(&mut f13);
+        if atomic_int64_offered {
+            f2 = f2.push_next(&mut fi64);
+        }
         if fsr_offered {
             f2 = f2.push_next(&mut ffsr);
         }
@@ -647,12 +655,15 @@ impl PartialInstance {
             ));
         }
         let pipeline_statistics = base.pipeline_statistics_query != 0;
+        let atomic_int64 =
+            atomic_int64_offered && base.shader_int64 != 0 && fi64.shader_buffer_int64_atomics != 0;
         let inherited_queries = base.inherited_queries != 0;
         let shader_draw_parameters = f11.shader_draw_parameters != 0;
         let features = vk::PhysicalDeviceFeatures::default()
             .pipeline_statistics_query(pipeline_statistics)
             .inherited_queries(inherited_queries)
             .shader_clip_distance(true)
+            .shader_int64(atomic_int64)
             .shader_sampled_image_array_dynamic_indexing(
                 base.shader_sampled_image_array_dynamic_indexing != 0,
             )
@@ -702,6 +713,11 @@ impl PartialInstance {
         if draw_indirect_count {
             dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
         }
+        let mut e_i64 =
+            vk::PhysicalDeviceShaderAtomicInt64Features::default().shader_buffer_int64_atomics(true);
+        if atomic_int64 {
+            dev_ext_names.push(ash::khr::shader_atomic_int64::NAME.as_ptr());
+        }
         let clip_space_w_scaling = has_ext(ash::nv::clip_space_w_scaling::NAME);
         if clip_space_w_scaling {
             dev_ext_names.push(ash::nv::clip_space_w_scaling::NAME.as_ptr());
@@ -718,6 +734,9 @@ impl PartialInstance {
             .push_next(&mut e13);
         if use_fsr {
             dinfo = dinfo.push_next(&mut e_fsr);
+        }
+        if atomic_int64 {
+            dinfo = dinfo.push_next(&mut e_i64);
         }
         let device = factory.create_device(&self.entry, inst, pd, &dinfo)?;
         // SAFETY: the family/index pair was requested at device creation.
@@ -767,6 +786,7 @@ impl PartialInstance {
             inherited_queries,
             min_uniform_offset_alignment: lim.min_uniform_buffer_offset_alignment,
             clip_space_w_scaling,
+            atomic_int64,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

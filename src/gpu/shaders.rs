@@ -57,6 +57,10 @@ pub static RDM_FRAG: Module = spirv!("rdm.frag");
 pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
 /// The inset composite (multi-resolution foveated rendering).
 pub static INSET_COMPOSITE_FRAG: Module = spirv!("inset_composite.frag");
+/// Point clouds: the compute rasterizer (64-bit atomic max per pixel).
+pub static POINTS_RASTER_COMP: Module = spirv!("points_raster.comp");
+/// Point clouds: the keys into the forward scope, with depth.
+pub static POINTS_COMPOSITE_FRAG: Module = spirv!("points_composite.frag");
 /// Lens-matched shading's resample to the rectilinear eye image.
 pub static LMS_RESAMPLE_FRAG: Module = spirv!("lms_resample.frag");
 /// The sky's geometry under lens-matched shading (one quadrant per draw).
@@ -112,7 +116,7 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 36] = [
+pub static ALL: [&Module; 38] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -126,6 +130,8 @@ pub static ALL: [&Module; 36] = [
     &RDM_FILL_FRAG,
     &INSET_COMPOSITE_FRAG,
     &LMS_RESAMPLE_FRAG,
+    &POINTS_RASTER_COMP,
+    &POINTS_COMPOSITE_FRAG,
     &SKY_LMS_VERT,
     &MFFR_COMPOSITE_FRAG,
     &FULLSCREEN_VERT,

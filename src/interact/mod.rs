@@ -23,6 +23,7 @@ pub mod measure;
 pub mod overlay;
 pub mod panel;
 pub mod raycast;
+pub mod scan;
 pub mod section;
 
 use crate::scene::Scene;

@@ -27,6 +27,8 @@ pub const HIDDEN: u32 = 5;
 pub const FILLED: u32 = 6;
 /// Binding of the far-field images the MFFR composite samples.
 pub const FAR_FIELD: u32 = 7;
+/// Binding of the point cloud's per-pixel keys (the points composite).
+pub const POINTS: u32 = 8;
 
 /// Stages that see the descriptors and push constants.
 const STAGES: vk::ShaderStageFlags = vk::ShaderStageFlags::from_raw(
@@ -47,6 +49,8 @@ pub struct SetContents<'a> {
     pub filled: Option<[vk::DescriptorImageInfo; 2]>,
     /// The far-field images (None: no monoscopic far field).
     pub far_field: Option<[vk::DescriptorImageInfo; 2]>,
+    /// The slot's point keys (None: no point cloud).
+    pub points: Option<vk::Buffer>,
 }
 
 /// Set layout, pipeline layout, pool and one set per frame slot.
@@ -89,6 +93,7 @@ impl Descriptors {
             binding(HIDDEN, storage, 1, vk::ShaderStageFlags::VERTEX),
             binding(FILLED, sampler, 2, fragment),
             binding(FAR_FIELD, sampler, 2, fragment),
+            binding(POINTS, storage, 1, fragment),
         ];
         // SAFETY: plain object creation on a live device; the objects are
         // owned by the returned value and destroyed by `destroy`.
@@ -121,7 +126,7 @@ impl Descriptors {
                 },
                 vk::DescriptorPoolSize {
                     ty: storage,
-                    descriptor_count: 4 * n,
+                    descriptor_count: 5 * n,
                 },
                 vk::DescriptorPoolSize {
                     ty: sampler,
@@ -172,6 +177,7 @@ impl Descriptors {
         let visible = whole(c.visible.buffer);
         let materials = whole(c.scene.materials.buffer);
         let hidden = c.hidden.map(whole);
+        let points = c.points.map(whole);
         let textures: Vec<vk::DescriptorImageInfo> = c
             .scene
             .textures
@@ -207,6 +213,9 @@ impl Descriptors {
         }
         if let Some(far) = &c.far_field {
             writes.push(w(FAR_FIELD, sampler).image_info(far));
+        }
+        if let Some(points) = &points {
+            writes.push(w(POINTS, storage).buffer_info(points));
         }
         // SAFETY: every handle written is alive; the caller guarantees the
         // set is not in use by a pending frame.

@@ -113,6 +113,10 @@ pub struct FrameStats {
     /// Far cameras the monoscopic far field rendered this frame (0 to 2).
     #[serde(skip)]
     pub far_passes: u64,
+    /// With a point cloud: the points the compute rasterizer placed in a
+    /// view this frame, both eyes together (read back from the GPU).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_drawn: Option<u64>,
 }
 
 struct Pending {
@@ -134,6 +138,10 @@ pub struct Renderer {
     allocated: vk::Extent2D,
     /// With `inset`: this frame's inset rectangle (both eyes').
     inset_rect: crate::view::inset::PixelRect,
+    /// With a point cloud: its origin (world), and this frame's offset of
+    /// it from the render origin.
+    points_origin: Option<glam::DVec3>,
+    points_offset: [f32; 3],
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
@@ -307,6 +315,8 @@ impl Renderer {
                 x1: nominal.width,
                 y1: nominal.height,
             },
+            points_origin: scene.points.as_ref().map(|c| c.origin),
+            points_offset: [0.0; 3],
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -353,6 +363,15 @@ impl Renderer {
         r.shading_rate = rates;
         r.foveation_path = path;
         r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
+        if let Some(cloud) = scene.points.as_ref() {
+            config.refuse_for_points()?;
+            r.passes.points = Some(passes::points::PointsPass::new(
+                &r.pipeline_setup(),
+                cloud,
+                extent,
+                &r.ubos,
+            )?);
+        }
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
@@ -518,6 +537,7 @@ impl Renderer {
                 .map(FarField::images)
                 .or(inset.map(|i| i.1))
                 .or(self.passes.lms.as_ref().and_then(|l| l.images())),
+            points: self.passes.points.as_ref().map(|p| p.keys(slot)),
         };
         self.descriptors.write(&self.ctx, slot, &contents);
     }
@@ -673,6 +693,9 @@ impl Renderer {
             stats.triangles = drawn.triangles;
             stats.gpu_cull = Some(drawn.cull);
         }
+        if let Some(p) = self.passes.points.as_mut() {
+            stats.points_drawn = Some(p.read(slot)?);
+        }
         self.completed.push_back(stats);
         Ok(())
     }
@@ -750,6 +773,10 @@ impl Renderer {
                 "--opt",
                 "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
             ));
+        }
+        if let Some(o) = self.points_origin {
+            let d = o - rig.head.position;
+            self.points_offset = [d.x as f32, d.y as f32, d.z as f32];
         }
         if let Some(i) = self.config.inset {
             // Two views (checked above): no allocation in the frame.
@@ -1055,6 +1082,10 @@ impl Renderer {
         if let Some(gpu) = gpu_cull {
             gpu.record(ctx, cmd, q, self.slot);
         }
+        let points = passes.points.as_ref().filter(|_| floor.is_none());
+        if let Some(p) = points {
+            p.record_raster(ctx, cmd, q, (self.slot, 2), self.points_offset);
+        }
         rec.barriers(&targets.begin_barriers());
         if let Some(inset) = &passes.inset {
             rec.barriers(&attachments::begin_barriers(&inset.wide.sets));
@@ -1177,6 +1208,9 @@ impl Renderer {
                     }
                     if let Some(rdm) = &passes.rdm {
                         draw_calls += rdm.record(&rec, self.extent, eye);
+                    }
+                    if let Some(p) = points {
+                        draw_calls += p.record_composite(&rec, eye);
                     }
                 }
                 let near = batches.near_draws();
@@ -1381,6 +1415,11 @@ impl Renderer {
     }
 
     /// Whether this device offers per-view render areas
+    /// Points in the scene's cloud (None: no cloud).
+    pub fn points_total(&self) -> Option<u64> {
+        self.passes.points.as_ref().map(|p| p.total())
+    }
+
     /// With `lms`: which path scaled w, the coefficients and the LMS
     /// image's size.
     pub fn lms_report(&self) -> Option<passes::lms::LmsReport> {

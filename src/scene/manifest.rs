@@ -64,6 +64,16 @@ struct GltfEntry {
     place: Placement,
 }
 
+/// A point cloud placed in the scene (`[[points]]`): a LAS/LAZ file with
+/// the same placement keys as `[[gltf]]` (a grid or motion is refused).
+#[derive(Deserialize)]
+#[serde(deny_unknown_fields)]
+struct PointsEntry {
+    file: String,
+    #[serde(flatten)]
+    place: Placement,
+}
+
 #[derive(Deserialize)]
 #[serde(deny_unknown_fields)]
 struct ProceduralEntry {
@@ -101,6 +111,8 @@ struct Manifest {
     gltf: Vec<GltfEntry>,
     #[serde(default)]
     procedural: Vec<ProceduralEntry>,
+    #[serde(default)]
+    points: Vec<PointsEntry>,
     #[serde(default)]
     viewpoint: Vec<ViewpointEntry>,
 }
@@ -315,10 +327,10 @@ pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
 pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scene> {
     let m: Manifest = toml::from_str(text)
         .map_err(|e| Error::scene(path, format!("malformed scene manifest: {}", e.message())))?;
-    if m.gltf.is_empty() && m.procedural.is_empty() {
+    if m.gltf.is_empty() && m.procedural.is_empty() && m.points.is_empty() {
         return Err(Error::scene(
             path,
-            "manifest lists no [[gltf]] or [[procedural]] entries",
+            "manifest lists no [[gltf]], [[procedural]] or [[points]] entries",
         ));
     }
     let dir = path.parent().unwrap_or(Path::new(""));
@@ -366,6 +378,31 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
             }
         };
         append_placed(path, &what, &mut scene, &sub, &place, p.place.motion)?;
+    }
+    for (i, p) in m.points.iter().enumerate() {
+        let what = format!("points[{i}]");
+        if p.place.grid.is_some() || p.place.motion.is_some() {
+            return Err(Error::scene(
+                path,
+                format!("{what}: a point cloud takes translation, yaw_deg and scale, not a grid or motion"),
+            ));
+        }
+        let place = placements(path, &what, &p.place, budget)?[0];
+        let cloud = super::points::read_las(&dir.join(&p.file))?.placed(&place);
+        let merged = match scene.points.take() {
+            Some(mut all) => {
+                std::sync::Arc::make_mut(&mut all).append(&cloud);
+                all
+            }
+            None => std::sync::Arc::new(cloud),
+        };
+        if merged.len() as u64 > super::points::MAX_POINTS {
+            return Err(Error::scene(
+                path,
+                format!("{what}: the clouds hold over {} points together", super::points::MAX_POINTS),
+            ));
+        }
+        scene.points = Some(merged);
     }
     viewpoint_cameras(path, &m.viewpoint, &mut scene)?;
     Ok(scene)

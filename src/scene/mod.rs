@@ -14,6 +14,7 @@ pub mod lod;
 pub mod lod_cache;
 pub mod manifest;
 pub mod motion;
+pub mod points;
 pub mod shapes;
 pub mod uri;
 
@@ -304,6 +305,9 @@ pub struct Scene {
     pub moving: Vec<motion::MovingGroup>,
     /// The file the scene was loaded from (None: generated).
     pub source: Option<std::path::PathBuf>,
+    /// A point cloud drawn with the meshes (`--scene scan.laz`, manifest
+    /// `[[points]]`); None: meshes only.
+    pub points: Option<std::sync::Arc<points::PointCloud>>,
 }
 
 /// A source node (glTF) as selection names it.
@@ -385,6 +389,7 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
+            Some(e) if e == "las" || e == "laz" => Ok(Scene::of_points(points::read_las(path)?)),
             _ => gltf_load::load(path),
         }?;
         scene.source = Some(path.to_path_buf());
@@ -425,6 +430,19 @@ impl Scene {
             )));
         }
         Ok(())
+    }
+
+    /// A scene holding only `cloud` (no meshes), named after its file.
+    pub fn of_points(cloud: points::PointCloud) -> Scene {
+        Scene {
+            name: cloud
+                .source
+                .as_ref()
+                .and_then(|p| p.file_name())
+                .map_or("points".into(), |n| n.to_string_lossy().into_owned()),
+            points: Some(std::sync::Arc::new(cloud)),
+            ..Scene::default()
+        }
     }
 
     /// Total triangles over all instances.
@@ -519,6 +537,11 @@ impl Scene {
         for b in self.world_bounds() {
             lo = lo.min(b.min);
             hi = hi.max(b.max);
+        }
+        if let Some(c) = self.points.as_ref().filter(|c| !c.is_empty()) {
+            let (a, b) = c.bounds();
+            lo = lo.min(a);
+            hi = hi.max(b);
         }
         if lo.x > hi.x {
             return (DVec3::ZERO, DVec3::ZERO);

@@ -122,6 +122,13 @@ pub struct RenderStats {
     pub instances_drawn: u64,
     /// Triangles submitted.
     pub triangles: u64,
+    /// Points in the scene's point cloud (absent without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_total: Option<u64>,
+    /// Points rasterized in the frame, both eyes together (a point counts
+    /// once per eye it lands in; absent without a cloud).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_drawn: Option<u64>,
     /// CPU ms per phase (load, cull, batch, record, submit, wait).
     pub cpu_ms: BTreeMap<String, f64>,
     /// GPU ms per pass.
@@ -540,6 +547,8 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         draw_calls: frame.draw_calls,
         instances_drawn: frame.instances_drawn,
         triangles: frame.triangles,
+        points_total: renderer.points_total(),
+        points_drawn: frame.points_drawn,
         cpu_ms,
         gpu_ms: frame.gpu_ms.clone(),
         fragment_invocations: frame.pipeline.map(|p| p.fragment_invocations),

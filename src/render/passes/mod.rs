@@ -15,6 +15,7 @@ pub mod inset;
 pub mod lms;
 pub mod output;
 pub mod overlay;
+pub mod points;
 pub mod rdm;
 pub mod sampled;
 pub mod stencil_mask;
@@ -65,6 +66,9 @@ pub struct Passes {
     pub inset: Option<inset::InsetPass>,
     /// Lens-matched shading (`lms`): the LMS targets and the resample.
     pub lms: Option<lms::LmsPass>,
+    /// The scene's point cloud (built by the renderer, which has the
+    /// scene and the frame uniform buffers).
+    pub points: Option<points::PointsPass>,
 }
 
 impl Passes {
@@ -157,6 +161,9 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.lms {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.points {
             p.destroy(ctx);
         }
     }

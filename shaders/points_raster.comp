@@ -1,0 +1,56 @@
+#version 450
+#extension GL_EXT_shader_atomic_int64 : require
+#extension GL_EXT_shader_explicit_arithmetic_types_int64 : require
+// Point clouds rasterized in compute (src/render/passes/points.rs), after
+// Schütz, Kerbl and Wimmer, "Rendering Point Clouds with Compute Shaders
+// and Vertex Order Optimization" (EGSR 2021): each point is projected into
+// every view and its pixel keeps, by a 64-bit atomic max, the key
+// (reverse-Z depth bits << 32 | sRGB colour): the largest depth is the
+// nearest point, and positive float bits order like their values. A key of
+// 0 is an empty pixel. One thread per point; each workgroup adds its count
+// of points that landed in a view to `drawn` once.
+layout(local_size_x = 256) in;
+
+// The prefix of the frame uniforms (shaders/common.glsl's FrameData).
+layout(std140, set = 0, binding = 0) uniform FrameData { mat4 view_proj[4]; } frame;
+layout(std430, set = 0, binding = 1) readonly buffer Points { vec4 points[]; };
+layout(std430, set = 0, binding = 2) buffer Keys { uint64_t keys[]; };
+layout(std430, set = 0, binding = 3) buffer Drawn { uint drawn; };
+
+// offset: the cloud's origin relative to the render origin; info: point
+// count, image width, height, views.
+layout(push_constant) uniform Push { vec4 offset; uvec4 info; } pc;
+
+shared uint group_drawn;
+
+void main() {
+    if (gl_LocalInvocationIndex == 0u) {
+        group_drawn = 0u;
+    }
+    barrier();
+    uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 256u + gl_LocalInvocationIndex;
+    if (i < pc.info.x) {
+        vec4 p = points[i];
+        vec4 rel = vec4(pc.offset.xyz + p.xyz, 1.0);
+        uint64_t colour = uint64_t(floatBitsToUint(p.w));
+        uvec2 size = pc.info.yz;
+        for (uint v = 0u; v < pc.info.w; v++) {
+            vec4 c = frame.view_proj[v] * rel;
+            if (c.w <= 0.0) {
+                continue;
+            }
+            vec3 n = c.xyz / c.w;
+            if (abs(n.x) >= 1.0 || abs(n.y) >= 1.0 || n.z <= 0.0 || n.z > 1.0) {
+                continue;
+            }
+            uvec2 px = min(uvec2((n.xy * 0.5 + 0.5) * vec2(size)), size - 1u);
+            uint64_t key = (uint64_t(floatBitsToUint(n.z)) << 32) | colour;
+            atomicMax(keys[(v * size.y + px.y) * size.x + px.x], key);
+            atomicAdd(group_drawn, 1u);
+        }
+    }
+    barrier();
+    if (gl_LocalInvocationIndex == 0u && group_drawn > 0u) {
+        atomicAdd(drawn, group_drawn);
+    }
+}

@@ -1,0 +1,305 @@
+//! Point clouds rasterized in compute (`shaders/points_raster.comp`, after
+//! Schütz et al. 2021): before the forward scopes, `points-raster` clears
+//! the frame slot's key buffer (one 64-bit key per pixel per view), then one
+//! thread per point projects it into every view and keeps, per pixel, the
+//! nearest point's depth and colour with a 64-bit atomic max. Inside each
+//! forward scope, before the meshes, a full-screen draw
+//! (`shaders/points_composite.frag`) writes every keyed pixel's colour and
+//! depth, so the depth test composites points and meshes. The points live
+//! on the GPU as one vec4 each: the offset from the cloud's origin and the
+//! sRGB colour's bits; the origin's offset from the render origin (f64 on
+//! the CPU, then f32) comes as a push constant, so a survey-coordinate
+//! cloud renders without jitter.
+
+use super::{destroy_pipelines, PipelineSetup, Recorder};
+use crate::error::{Error, Result};
+use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
+use crate::gpu::pipeline::{compute_pipeline, DescriptorSets, GraphicsPipelineDesc};
+use crate::gpu::query::Queries;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::scene::points::PointCloud;
+use ash::vk;
+use gpu_allocator::MemoryLocation;
+
+/// Threads per workgroup of the rasterizer.
+const GROUP: u64 = 256;
+/// Workgroups per dispatch row (the rest go to further rows).
+const ROW: u64 = 65_535;
+
+/// One frame slot's buffers.
+struct Slot {
+    keys: Buffer,
+    drawn: Buffer,
+}
+
+/// The point buffer, the per-slot keys and counters, the rasterizer and
+/// the composite.
+pub struct PointsPass {
+    points: Buffer,
+    count: u64,
+    extent: vk::Extent2D,
+    slots: Vec<Slot>,
+    sets: DescriptorSets,
+    raster: vk::Pipeline,
+    composite: vk::Pipeline,
+}
+
+impl PointsPass {
+    /// Uploads `cloud` and builds the pass for eyes of `extent` with one
+    /// set per frame uniform buffer in `frames`; one error when the device
+    /// lacks 64-bit buffer atomics. On failure, destroys what it made.
+    pub fn new(
+        setup: &PipelineSetup,
+        cloud: &PointCloud,
+        extent: vk::Extent2D,
+        frames: &[Buffer],
+    ) -> Result<PointsPass> {
+        let ctx = setup.ctx;
+        if !ctx.caps.atomic_int64 {
+            return Err(Error::Gpu(format!(
+                "{} offers no 64-bit buffer atomics (shaderInt64 and shaderBufferInt64Atomics, VK_KHR_shader_atomic_int64), which vergence's point rasterizer needs; a scene with a point cloud cannot render on it",
+                ctx.device_name
+            )));
+        }
+        let data: Vec<[f32; 4]> = cloud
+            .positions
+            .iter()
+            .zip(&cloud.colors)
+            .map(|(p, c)| [p[0], p[1], p[2], f32::from_bits(u32::from_le_bytes(*c))])
+            .collect();
+        let points = crate::render::scene_gpu::upload(
+            ctx,
+            "point cloud",
+            vk::BufferUsageFlags::STORAGE_BUFFER,
+            "points",
+            as_bytes(&data),
+        )?;
+        drop(data);
+        let mut made = PointsPass {
+            points,
+            count: cloud.len() as u64,
+            extent,
+            slots: Vec::new(),
+            sets: DescriptorSets {
+                set_layout: vk::DescriptorSetLayout::null(),
+                layout: vk::PipelineLayout::null(),
+                pool: vk::DescriptorPool::null(),
+                sets: Vec::new(),
+            },
+            raster: vk::Pipeline::null(),
+            composite: vk::Pipeline::null(),
+        };
+        match made.build(setup, frames) {
+            Ok(()) => Ok(made),
+            Err(e) => {
+                made.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    fn build(&mut self, setup: &PipelineSetup, frames: &[Buffer]) -> Result<()> {
+        let ctx = setup.ctx;
+        let pixels = 2 * self.extent.width as u64 * self.extent.height as u64;
+        for i in 0..frames.len() {
+            let keys = Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: &format!("point keys {i}"),
+                    size: 8 * pixels.max(1),
+                    usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                        | vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuOnly,
+                    category: "per-frame",
+                },
+            )?;
+            let drawn = match Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: &format!("points drawn {i}"),
+                    size: 4,
+                    usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                        | vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "per-frame",
+                },
+            ) {
+                Ok(b) => b,
+                Err(e) => {
+                    keys.destroy(ctx);
+                    return Err(e);
+                }
+            };
+            self.slots.push(Slot { keys, drawn });
+        }
+        let (uniform, storage) = (
+            vk::DescriptorType::UNIFORM_BUFFER,
+            vk::DescriptorType::STORAGE_BUFFER,
+        );
+        let compute = vk::ShaderStageFlags::COMPUTE;
+        let bindings = [
+            (uniform, 1, compute),
+            (storage, 1, compute),
+            (storage, 1, compute),
+            (storage, 1, compute),
+        ];
+        self.sets = DescriptorSets::new(ctx, &bindings, compute, 32, frames.len(), "points")?;
+        for ((slot, &set), frame) in self.slots.iter().zip(&self.sets.sets).zip(frames) {
+            let info = |b: &Buffer| {
+                [vk::DescriptorBufferInfo::default()
+                    .buffer(b.buffer)
+                    .range(vk::WHOLE_SIZE)]
+            };
+            let infos = [
+                info(frame),
+                info(&self.points),
+                info(&slot.keys),
+                info(&slot.drawn),
+            ];
+            let writes: Vec<vk::WriteDescriptorSet> = infos
+                .iter()
+                .enumerate()
+                .map(|(b, i)| {
+                    vk::WriteDescriptorSet::default()
+                        .dst_set(set)
+                        .dst_binding(b as u32)
+                        .descriptor_type(if b == 0 { uniform } else { storage })
+                        .buffer_info(i)
+                })
+                .collect();
+            // SAFETY: the set is new and every buffer is live.
+            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        }
+        self.raster = compute_pipeline(
+            ctx,
+            self.sets.layout,
+            &shaders::POINTS_RASTER_COMP.words(),
+            "points raster",
+        )?;
+        let (vs, fs) = (
+            shaders::FLOOR_VERT.words(),
+            shaders::POINTS_COMPOSITE_FRAG.words(),
+        );
+        self.composite = GraphicsPipelineDesc {
+            depth_write: true,
+            depth_compare: vk::CompareOp::GREATER,
+            ..setup.fullscreen_desc("points composite", &vs, &fs)
+        }
+        .build(ctx)?;
+        Ok(())
+    }
+
+    /// Points in the cloud.
+    pub fn total(&self) -> u64 {
+        self.count
+    }
+
+    /// `slot`'s key buffer (the composite's binding).
+    pub fn keys(&self, slot: usize) -> vk::Buffer {
+        self.slots[slot].keys.buffer
+    }
+
+    /// Records `points-raster` for `slot` with `views` views, the cloud's
+    /// origin at `offset` from the render origin: clear, rasterize, and
+    /// make the keys readable to the composite.
+    pub fn record_raster(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        q: &mut Queries,
+        (slot, views): (usize, u32),
+        offset: [f32; 3],
+    ) {
+        let s = &self.slots[slot];
+        let d = &ctx.device;
+        q.begin_pass(ctx, cmd, "points-raster");
+        let to_compute = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            )];
+        let to_fragment = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
+            .dst_stage_mask(
+                vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::HOST,
+            )
+            .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::HOST_READ)];
+        let groups = self.count.div_ceil(GROUP).max(1);
+        let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
+        let mut push = [0u32; 8];
+        for k in 0..3 {
+            push[k] = offset[k].to_bits();
+        }
+        push[4] = self.count as u32;
+        push[5] = self.extent.width;
+        push[6] = self.extent.height;
+        push[7] = views;
+        // SAFETY: recording into the frame's open command buffer outside any
+        // rendering scope; this slot's buffers were last used by the slot's
+        // previous frame, whose fence the renderer has waited on.
+        unsafe {
+            d.cmd_fill_buffer(cmd, s.keys.buffer, 0, vk::WHOLE_SIZE, 0);
+            d.cmd_fill_buffer(cmd, s.drawn.buffer, 0, vk::WHOLE_SIZE, 0);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_compute),
+            );
+            d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.raster);
+            d.cmd_bind_descriptor_sets(
+                cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.sets.layout,
+                0,
+                &[self.sets.sets[slot]],
+                &[],
+            );
+            d.cmd_push_constants(
+                cmd,
+                self.sets.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(&push),
+            );
+            d.cmd_dispatch(cmd, x, y, 1);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_fragment),
+            );
+        }
+        q.end_pass(ctx, cmd);
+    }
+
+    /// Inside a forward scope, before the meshes: the keyed pixels of view
+    /// `eye` with their depth. Returns the draw calls.
+    pub fn record_composite(&self, rec: &Recorder, eye: u32) -> u64 {
+        rec.bind(self.composite);
+        rec.push([0, eye, self.extent.width, self.extent.height]);
+        rec.draw(3);
+        1
+    }
+
+    /// The points `slot`'s last frame rasterized (counted once per view
+    /// they landed in); its fence must have signalled.
+    pub fn read(&mut self, slot: usize) -> Result<u64> {
+        let m = self.slots[slot]
+            .drawn
+            .mapped()
+            .ok_or_else(|| Error::Gpu("the points counter is not mapped".into()))?;
+        Ok(u32::from_le_bytes([m[0], m[1], m[2], m[3]]) as u64)
+    }
+
+    /// Destroys everything; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        destroy_pipelines(ctx, [&self.raster, &self.composite]);
+        self.sets.destroy(ctx);
+        for s in self.slots {
+            s.keys.destroy(ctx);
+            s.drawn.destroy(ctx);
+        }
+        self.points.destroy(ctx);
+    }
+}

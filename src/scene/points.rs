@@ -1,0 +1,305 @@
+//! Point clouds (laser scans of existing plants): the points in memory, and
+//! reading and writing them as ASPRS LAS 1.2–1.4 and LAZ (the `las` crate,
+//! with `laz` for the compressed form).
+//!
+//! Coordinates arrive as f64 (survey coordinates reach 10^5–10^7 m); the
+//! cloud keeps an f64 origin (the centre of the header's bounds) and every
+//! point as an f32 offset from it, so rendering stays camera-relative:
+//! within a cloud's extent (at most [`MAX_EXTENT_M`]) an f32 offset keeps
+//! about a millimetre per kilometre.
+
+use crate::error::{Error, Result};
+use glam::DVec3;
+use std::path::{Path, PathBuf};
+
+/// The most points one cloud may hold (16 bytes each in memory, on the CPU
+/// and again on the GPU).
+pub const MAX_POINTS: u64 = 1_200_000_000;
+/// The largest extent of a cloud along any axis, metres.
+pub const MAX_EXTENT_M: f64 = 1e9;
+/// The largest LAS/LAZ file read.
+pub const MAX_FILE_BYTES: u64 = 64 << 30;
+/// Points read per chunk (the reader streams; memory holds one chunk of
+/// decoded records besides the cloud).
+const CHUNK: u64 = 1 << 20;
+
+/// A point cloud: an f64 origin and per point an f32 offset, a colour and
+/// a classification.
+#[derive(Clone, Debug, Default, PartialEq)]
+pub struct PointCloud {
+    /// World position of the offsets' zero.
+    pub origin: DVec3,
+    /// Per point, its position relative to `origin`.
+    pub positions: Vec<[f32; 3]>,
+    /// Per point, sRGB red, green, blue and the intensity's high byte.
+    pub colors: Vec<[u8; 4]>,
+    /// Per point, the ASPRS classification code.
+    pub classification: Vec<u8>,
+    /// The file it came from (None: generated).
+    pub source: Option<PathBuf>,
+}
+
+impl PointCloud {
+    /// Number of points.
+    pub fn len(&self) -> usize {
+        self.positions.len()
+    }
+
+    /// Whether it has no points.
+    pub fn is_empty(&self) -> bool {
+        self.positions.is_empty()
+    }
+
+    /// World bounds of the points (zero when empty).
+    pub fn bounds(&self) -> (DVec3, DVec3) {
+        if self.positions.is_empty() {
+            return (DVec3::ZERO, DVec3::ZERO);
+        }
+        let mut lo = DVec3::splat(f64::INFINITY);
+        let mut hi = DVec3::splat(f64::NEG_INFINITY);
+        for p in &self.positions {
+            let v = DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            lo = lo.min(v);
+            hi = hi.max(v);
+        }
+        (self.origin + lo, self.origin + hi)
+    }
+
+    /// World position of point `i`.
+    pub fn world(&self, i: usize) -> DVec3 {
+        let p = self.positions[i];
+        self.origin + DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64)
+    }
+}
+
+impl PointCloud {
+    /// The cloud moved by `place` (a similarity: translation, rotation,
+    /// uniform scale): the origin in f64, the offsets through the linear
+    /// part.
+    pub fn placed(mut self, place: &glam::DAffine3) -> PointCloud {
+        self.origin = place.transform_point3(self.origin);
+        let m = place.matrix3;
+        for p in &mut self.positions {
+            let v = m * DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            *p = [v.x as f32, v.y as f32, v.z as f32];
+        }
+        self
+    }
+
+    /// Appends `other`'s points, re-offset from this cloud's origin.
+    pub fn append(&mut self, other: &PointCloud) {
+        let shift = other.origin - self.origin;
+        self.positions.extend(other.positions.iter().map(|p| {
+            let v = shift + DVec3::new(p[0] as f64, p[1] as f64, p[2] as f64);
+            [v.x as f32, v.y as f32, v.z as f32]
+        }));
+        self.colors.extend_from_slice(&other.colors);
+        self.classification.extend_from_slice(&other.classification);
+    }
+}
+
+/// Whether `path` names a LAS or LAZ file (by extension).
+pub fn is_las(path: &Path) -> bool {
+    path.extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("las") || e.eq_ignore_ascii_case("laz"))
+}
+
+fn bad(path: &Path, message: impl Into<String>) -> Error {
+    Error::Scene {
+        path: path.to_path_buf(),
+        message: message.into(),
+    }
+}
+
+/// Reads a LAS or LAZ file: header checked first (point count against the
+/// file's size and [`MAX_POINTS`], finite scales and offsets, extents within
+/// [`MAX_EXTENT_M`]), then the points in chunks. LAS's y is up in vergence:
+/// a file's (x, y, z) with z up becomes (x, z, −y). Colours are 16-bit in
+/// LAS; their high bytes are kept (files whose colours are all 8-bit are
+/// detected on the first chunk and kept as they are).
+pub fn read_las(path: &Path) -> Result<PointCloud> {
+    let io = |source: std::io::Error| Error::Io {
+        path: path.to_path_buf(),
+        source,
+    };
+    let size = std::fs::metadata(path).map_err(io)?.len();
+    if size > MAX_FILE_BYTES {
+        return Err(bad(
+            path,
+            format!("{size} bytes, over the {MAX_FILE_BYTES}-byte limit for point files"),
+        ));
+    }
+    let mut reader = las::Reader::from_path(path).map_err(|e| bad(path, e.to_string()))?;
+    let header = reader.header().clone();
+    let count = header.number_of_points();
+    let format = *header.point_format();
+    let record = u64::from(format.len()).max(1);
+    if count > MAX_POINTS {
+        return Err(bad(
+            path,
+            format!("the header says {count} points, over the {MAX_POINTS}-point limit"),
+        ));
+    }
+    // A compressed file holds fewer bytes than its records; an
+    // uncompressed one must hold them all.
+    if !format.is_compressed && count.saturating_mul(record) > size {
+        return Err(bad(
+            path,
+            format!("the header says {count} points of {record} bytes, more than the file's {size} bytes hold"),
+        ));
+    }
+    let t = header.transforms();
+    for (axis, tr) in [("x", t.x), ("y", t.y), ("z", t.z)] {
+        if !(tr.scale.is_finite() && tr.scale > 0.0 && tr.offset.is_finite()) {
+            return Err(bad(
+                path,
+                format!(
+                    "the {axis} scale {} / offset {} is not a positive finite scale and a finite offset",
+                    tr.scale, tr.offset
+                ),
+            ));
+        }
+    }
+    let b = header.bounds();
+    let (lo, hi) = (
+        DVec3::new(b.min.x, b.min.y, b.min.z),
+        DVec3::new(b.max.x, b.max.y, b.max.z),
+    );
+    if !(lo.is_finite() && hi.is_finite()) || (hi - lo).max_element() > MAX_EXTENT_M {
+        return Err(bad(
+            path,
+            format!("the header's bounds {lo:?} – {hi:?} are not finite or span more than {MAX_EXTENT_M} m"),
+        ));
+    }
+    let centre = (lo + hi) * 0.5;
+    let origin = DVec3::new(centre.x, centre.z, -centre.y);
+    let n = count as usize;
+    let mut cloud = PointCloud {
+        origin,
+        positions: Vec::with_capacity(n),
+        colors: Vec::with_capacity(n),
+        classification: Vec::with_capacity(n),
+        source: Some(path.to_path_buf()),
+    };
+    let mut data = las::PointDataBuilder::new().for_header(&header).build();
+    let slack = (hi - lo).max_element() * 1e-6 + 1e-3;
+    // Whether the file's colours are 8-bit values in LAS's 16-bit fields
+    // (older writers), decided on the first chunk.
+    let mut eight_bit = None;
+    let mut chunk: Vec<[u16; 3]> = Vec::new();
+    loop {
+        let got = reader
+            .fill_points(CHUNK, &mut data)
+            .map_err(|e| bad(path, format!("point {}: {e}", cloud.len())))?;
+        if got == 0 {
+            break;
+        }
+        chunk.clear();
+        for p in data.points() {
+            let p = p.map_err(|e| bad(path, format!("point {}: {e}", cloud.len())))?;
+            let w = DVec3::new(p.x, p.y, p.z);
+            if !w.is_finite() || w.cmplt(lo - slack).any() || w.cmpgt(hi + slack).any() {
+                return Err(bad(
+                    path,
+                    format!("point {} at {w:?} lies outside the header's bounds", cloud.len()),
+                ));
+            }
+            let d = DVec3::new(p.x, p.z, -p.y) - origin;
+            cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
+            chunk.push(p.color.map_or([p.intensity; 3], |c| [c.red, c.green, c.blue]));
+            cloud.colors.push([0, 0, 0, (p.intensity >> 8) as u8]);
+            cloud.classification.push(u8::from(p.classification));
+            if cloud.len() as u64 > count {
+                return Err(bad(
+                    path,
+                    format!("the header says {count} points, the file holds more"),
+                ));
+            }
+        }
+        let small = *eight_bit.get_or_insert_with(|| chunk.iter().flatten().all(|&v| v <= 255));
+        let first = cloud.len() - chunk.len();
+        for (dst, src) in cloud.colors[first..].iter_mut().zip(&chunk) {
+            for k in 0..3 {
+                dst[k] = if small { src[k] as u8 } else { (src[k] >> 8) as u8 };
+            }
+        }
+    }
+    if cloud.len() as u64 != count {
+        return Err(bad(
+            path,
+            format!("the header says {count} points, the file holds {}", cloud.len()),
+        ));
+    }
+    Ok(cloud)
+}
+
+/// Writes `cloud` as LAS 1.4 point format 7 (x, y, z, intensity, RGB,
+/// classification), compressed as LAZ when `path` ends in `.laz`; `scale`
+/// is the coordinate quantum in metres (e.g. 0.001). vergence's (x, y, z)
+/// with y up goes out as LAS's (x, −z, y) with z up.
+pub fn write_las(path: &Path, cloud: &PointCloud, scale: f64) -> Result<()> {
+    let err = |e: las::Error| bad(path, e.to_string());
+    let mut builder = las::Builder::from((1, 4));
+    builder.point_format = las::point::Format::new(7).map_err(err)?;
+    builder.generating_software = "vergence scan".into();
+    let o = cloud.origin;
+    let t = |offset: f64| las::Transform { scale, offset };
+    builder.transforms = las::Vector {
+        x: t(o.x),
+        y: t(-o.z),
+        z: t(o.y),
+    };
+    builder.point_format.is_compressed = path
+        .extension()
+        .and_then(|e| e.to_str())
+        .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
+    let header = builder.into_header().map_err(err)?;
+    // Written beside the target, renamed over it when complete.
+    crate::fsio::prepare_output(path)?;
+    let mut tmp = path.as_os_str().to_owned();
+    tmp.push(".partial");
+    let tmp = PathBuf::from(tmp);
+    let out = |e: std::io::Error| Error::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    };
+    let file = std::fs::File::create(&tmp).map_err(out)?;
+    let result = write_points(las::Writer::new(std::io::BufWriter::new(file), header), cloud)
+        .map_err(err)
+        .and_then(|()| std::fs::rename(&tmp, path).map_err(out));
+    if result.is_err() {
+        let _ = std::fs::remove_file(&tmp);
+    }
+    result
+}
+
+fn write_points(
+    w: las::Result<las::Writer<std::io::BufWriter<std::fs::File>>>,
+    cloud: &PointCloud,
+) -> las::Result<()> {
+    let mut w = w?;
+    for i in 0..cloud.len() {
+        let p = cloud.world(i);
+        let c = cloud.colors[i];
+        let point = las::Point {
+            x: p.x,
+            y: -p.z,
+            z: p.y,
+            intensity: u16::from(c[3]) << 8,
+            color: Some(las::Color {
+                red: u16::from(c[0]) << 8,
+                green: u16::from(c[1]) << 8,
+                blue: u16::from(c[2]) << 8,
+            }),
+            classification: las::point::Classification::new(cloud.classification[i])
+                .unwrap_or(las::point::Classification::Unclassified),
+            gps_time: Some(0.0),
+            return_number: 1,
+            number_of_returns: 1,
+            ..Default::default()
+        };
+        w.write_point(point)?;
+    }
+    w.close()
+}
