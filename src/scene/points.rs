@@ -3,8 +3,9 @@
 //! with `laz` for the compressed form).
 //!
 //! Coordinates arrive as f64 (survey coordinates reach 10^5–10^7 m); the
-//! cloud keeps an f64 origin (the centre of the header's bounds) and every
-//! point as an f32 offset from it, so rendering stays camera-relative:
+//! cloud keeps an f64 origin (for a file, its coordinate offset when that
+//! lies near the points, else its bounds' centre) and every point as an
+//! f32 offset from it, so rendering stays camera-relative:
 //! within a cloud's extent (at most [`MAX_EXTENT_M`]) an f32 offset keeps
 //! about a millimetre per kilometre.
 
@@ -172,8 +173,18 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
             format!("the header's bounds {lo:?} – {hi:?} are not finite or span more than {MAX_EXTENT_M} m"),
         ));
     }
+    // The file's own coordinate offset when it lies near the points (then
+    // every offset from it is the file's integer times its scale, exactly,
+    // and writing the cloud back with the same offset gives the same
+    // integers); else the bounds' centre to the metre.
     let centre = (lo + hi) * 0.5;
-    let origin = DVec3::new(centre.x, centre.z, -centre.y);
+    let file_offset = DVec3::new(t.x.offset, t.y.offset, t.z.offset);
+    let o = if (file_offset - centre).abs().max_element() <= (hi - lo).max_element() + 1000.0 {
+        file_offset
+    } else {
+        centre.round()
+    };
+    let origin = DVec3::new(o.x, o.z, -o.y);
     let n = count as usize;
     let mut cloud = PointCloud {
         origin,

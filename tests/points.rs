@@ -1,0 +1,294 @@
+//! Point clouds on lavapipe (64-bit buffer atomics: yes): the compute
+//! rasterizer puts every point in its pixel (against a CPU rasterizer with
+//! the renderer's own matrices); points and meshes composite by depth;
+//! multiview equals two-pass; LAS and LAZ round trips; stats; bad files are
+//! one error each. Zero validation messages (`render_config` checks).
+
+mod common;
+
+use common::{context, fails_with_one_error, load, render_config, scratch};
+use glam::DVec3;
+use std::sync::Arc;
+use vergence::config::{RenderConfig, StereoMode};
+use vergence::interact::scan::{scan, ScanSettings};
+use vergence::scene::points::{read_las, write_las, PointCloud};
+use vergence::view::profile::HmdProfile;
+use vergence::view::Pose;
+
+const W: u32 = 160;
+const H: u32 = 144;
+
+/// A cloud of `n` points scattered over a box in front of a head at the
+/// origin looking down −z, with distinct colours.
+fn scattered(n: usize, centre: DVec3) -> PointCloud {
+    let mut rng = vergence::scene::factory::SplitMix64::new(9);
+    let mut c = PointCloud {
+        origin: centre,
+        ..PointCloud::default()
+    };
+    for i in 0..n {
+        let p = [
+            (rng.unit() * 8.0 - 4.0) as f32,
+            (rng.unit() * 6.0 - 3.0) as f32,
+            (rng.unit() * 6.0 - 3.0) as f32,
+        ];
+        c.positions.push(p);
+        c.colors.push([(i % 251) as u8, (i / 251 % 251) as u8, 200, 255]);
+        c.classification.push(1);
+    }
+    c
+}
+
+fn head() -> Pose {
+    Pose::default()
+}
+
+fn points_scene(cloud: PointCloud) -> vergence::scene::Scene {
+    vergence::scene::Scene::of_points(cloud)
+}
+
+fn config(stereo: StereoMode) -> RenderConfig {
+    RenderConfig {
+        stereo,
+        msaa: 4,
+        ..RenderConfig::default()
+    }
+}
+
+/// The CPU rasterizer: every point projected with the frame's f32
+/// matrices, each pixel keeping the nearest (largest reverse-Z depth), as
+/// sRGB colour per pixel (None: empty).
+fn cpu_raster(cloud: &PointCloud, rig: &vergence::view::StereoRig, eye: usize) -> Vec<Option<[u8; 3]>> {
+    let u = vergence::render::uniforms::FrameUniforms::new(rig, RenderConfig::default().near, [None, None], RenderConfig::default().near);
+    let d = cloud.origin - rig.head.position;
+    let offset = glam::Vec3::new(d.x as f32, d.y as f32, d.z as f32);
+    let mut best: Vec<Option<(f32, [u8; 3])>> = vec![None; (W * H) as usize];
+    for (p, c) in cloud.positions.iter().zip(&cloud.colors) {
+        let rel = offset + glam::Vec3::from_array(*p);
+        let clip = u.view_proj[eye] * rel.extend(1.0);
+        if clip.w <= 0.0 {
+            continue;
+        }
+        let n = clip.truncate() / clip.w;
+        if n.x.abs() >= 1.0 || n.y.abs() >= 1.0 || n.z <= 0.0 || n.z > 1.0 {
+            continue;
+        }
+        let x = (((n.x * 0.5 + 0.5) * W as f32) as u32).min(W - 1);
+        let y = (((n.y * 0.5 + 0.5) * H as f32) as u32).min(H - 1);
+        let slot = &mut best[(y * W + x) as usize];
+        if slot.is_none_or(|(z, _)| n.z > z) {
+            *slot = Some((n.z, [c[0], c[1], c[2]]));
+        }
+    }
+    best.into_iter().map(|b| b.map(|(_, c)| c)).collect()
+}
+
+#[test]
+fn every_point_lands_in_its_pixel_and_the_stereo_modes_agree() {
+    let ctx = context();
+    let cloud = scattered(3000, DVec3::new(1e6, 20.0, -1e6 - 9.0));
+    let profile = HmdProfile::load("valve-index").unwrap();
+    // A head near survey coordinates, 9 m from the cloud's centre.
+    let pose = Pose {
+        position: DVec3::new(1e6, 20.0, -1e6),
+        ..head()
+    };
+    let scene = points_scene(cloud.clone());
+    let mv = render_config(&ctx, &scene, &profile, pose, &config(StereoMode::Multiview), W, H);
+    let rig = profile.rig(pose);
+    for eye in 0..2 {
+        let want = cpu_raster(&cloud, &rig, eye);
+        let (mut keyed, mut same) = (0, 0);
+        for (i, w) in want.iter().enumerate() {
+            let Some(c) = w else { continue };
+            keyed += 1;
+            let p = mv.images[eye].get_pixel(i as u32 % W, i as u32 / W);
+            same += usize::from((0..3).all(|k| p[k] == c[k]));
+        }
+        assert!(keyed > 1000, "eye {eye}: {keyed} pixels with points");
+        // Pixel-exact but for points on a pixel edge, where the GPU's and
+        // the CPU's last float bits may disagree.
+        assert!(
+            same * 1000 >= keyed * 995,
+            "eye {eye}: {same} of {keyed} point pixels as the CPU rasterizer has them"
+        );
+    }
+    let points_total = 3000;
+    assert_eq!(mv.stats.points_drawn.map(|d| d <= 2 * points_total), Some(true));
+    assert!(mv.stats.gpu_ms.contains_key("points-raster"));
+    let tp = render_config(&ctx, &scene, &profile, pose, &config(StereoMode::TwoPass), W, H);
+    for eye in 0..2 {
+        assert_eq!(
+            common::pixels_differing(&mv.images[eye], &tp.images[eye]),
+            0,
+            "eye {eye}: two-pass draws the multiview image"
+        );
+    }
+    assert_eq!(mv.stats.points_drawn, tp.stats.points_drawn);
+}
+
+#[test]
+fn points_and_meshes_composite_by_depth() {
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let mut scene = load("factory:300");
+    let (lo, hi) = scene.bounds();
+    let pose = common::framing_pose(&scene, &profile);
+    // One sample per pixel: a mesh edge's pixel is the mesh's or the
+    // wall's, not a blend of both.
+    let one = RenderConfig {
+        msaa: 1,
+        ..config(StereoMode::Multiview)
+    };
+    let plain = render_config(&ctx, &scene, &profile, pose, &one, W, H);
+    // A dense wall of pure red points across the view: first between the
+    // head and the factory, then far behind it.
+    let forward = pose.orientation * DVec3::NEG_Z;
+    let wall = |distance: f64| {
+        let mut c = PointCloud {
+            origin: pose.position + forward * distance,
+            ..PointCloud::default()
+        };
+        let right = pose.orientation * DVec3::X;
+        let up = pose.orientation * DVec3::Y;
+        let half = distance * 2.0;
+        for i in 0..400 {
+            for j in 0..400 {
+                let v = right * (i as f64 / 200.0 - 1.0) * half + up * (j as f64 / 200.0 - 1.0) * half;
+                c.positions.push([v.x as f32, v.y as f32, v.z as f32]);
+                c.colors.push([255, 0, 0, 255]);
+                c.classification.push(1);
+            }
+        }
+        c
+    };
+    let near_d = 1.0;
+    scene.points = Some(Arc::new(wall(near_d)));
+    let front = render_config(&ctx, &scene, &profile, pose, &one, W, H);
+    let far_d = 4.0 * (hi - lo).length();
+    scene.points = Some(Arc::new(wall(far_d)));
+    let behind = render_config(&ctx, &scene, &profile, pose, &one, W, H);
+    let red = |p: &image::Rgba<u8>| p[0] == 255 && p[1] == 0 && p[2] == 0;
+    let n = (W * H) as usize;
+    let front_red = front.images[0].pixels().filter(|p| red(p)).count();
+    assert!(front_red * 10 >= n * 9, "the near wall covers the view: {front_red} of {n}");
+    // Behind the factory: the factory's pixels are the plain render's; the
+    // wall shows only where the plain render had sky.
+    let mut mesh_kept = (0, 0);
+    for (p, q) in behind.images[0].pixels().zip(plain.images[0].pixels()) {
+        if red(p) {
+            continue;
+        }
+        mesh_kept.0 += 1;
+        mesh_kept.1 += usize::from(p == q);
+    }
+    assert!(mesh_kept.0 > n / 50, "the factory shows in front of the far wall: {} of {n}", mesh_kept.0);
+    assert_eq!(mesh_kept.0, mesh_kept.1, "pixels the far wall does not take are the plain render's");
+    let behind_red = behind.images[0].pixels().filter(|p| red(p)).count();
+    assert!(behind_red > 0 && behind_red < front_red, "{behind_red} vs {front_red}");
+}
+
+#[test]
+fn las_and_laz_round_trip_the_same_points() {
+    let scene = load("factory:200");
+    let cloud = scan(
+        &scene,
+        &ScanSettings {
+            stations: 2,
+            rays_per_station: 20_000,
+            ..ScanSettings::default()
+        },
+    );
+    assert!(cloud.len() > 10_000);
+    let dir = scratch("points", "roundtrip");
+    let (las, laz) = (dir.join("scan.las"), dir.join("scan.laz"));
+    write_las(&las, &cloud, 0.0005).unwrap();
+    write_las(&laz, &cloud, 0.0005).unwrap();
+    assert!(std::fs::metadata(&laz).unwrap().len() < std::fs::metadata(&las).unwrap().len());
+    let a = read_las(&las).unwrap();
+    let b = read_las(&laz).unwrap();
+    assert_eq!(a.len(), cloud.len());
+    // LAZ is lossless over LAS's integer records: the same cloud.
+    assert_eq!(a.origin, b.origin);
+    let differ = |x: &[[f32; 3]], y: &[[f32; 3]]| x.iter().zip(y).filter(|(p, q)| p != q).count();
+    assert_eq!(differ(&a.positions, &b.positions), 0, "positions");
+    assert!(a.colors == b.colors, "colours");
+    assert!(a.classification == b.classification, "classification");
+    // Within the file's quantum (0.5 mm, rounding: 0.25 mm) of the scan.
+    for i in (0..cloud.len()).step_by(37) {
+        let e = (a.world(i) - cloud.world(i)).abs().max_element();
+        assert!(e <= 0.00026, "point {i} moved {e} m");
+        assert_eq!(a.colors[i][..3], cloud.colors[i][..3]);
+    }
+    // Written again and read back: bit for bit.
+    let again = dir.join("again.las");
+    write_las(&again, &a, 0.0005).unwrap();
+    let c = read_las(&again).unwrap();
+    assert_eq!(a.origin, c.origin);
+    assert_eq!(differ(&a.positions, &c.positions), 0, "positions written again");
+    assert!(a.colors == c.colors, "colours written again");
+}
+
+#[test]
+fn scan_writes_a_cloud_that_render_draws_and_counts() {
+    let dir = scratch("points", "cli");
+    let out = dir.join("scan.laz");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(["scan", "--scene", "factory:300", "--stations", "2", "--rays", "30000", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let total = read_las(&out).unwrap().len() as u64;
+    let stats = common::render_cli(
+        &["--scene", out.to_str().unwrap(), "--width", "160", "--height", "144"],
+        &dir.join("render"),
+    );
+    assert_eq!(stats["points_total"], total);
+    let drawn = stats["points_drawn"].as_u64().unwrap();
+    assert!(drawn > 0 && drawn <= 2 * total, "{drawn} of 2 × {total}");
+    assert_eq!(stats["validation_messages"], 0);
+}
+
+/// Bytes of a valid LAS 1.4 file of a few points, for the bad-file cases.
+fn valid_las(dir: &std::path::Path) -> Vec<u8> {
+    let path = dir.join("valid.las");
+    write_las(&path, &scattered(50, DVec3::new(10.0, 0.0, 0.0)), 0.001).unwrap();
+    std::fs::read(path).unwrap()
+}
+
+#[test]
+fn bad_point_files_are_one_error_each() {
+    let dir = scratch("points", "bad");
+    let good = valid_las(&dir);
+    let put = |bytes: &[u8], at: usize, value: &[u8]| {
+        let mut b = bytes.to_vec();
+        b[at..at + value.len()].copy_from_slice(value);
+        b
+    };
+    let cases: Vec<(&str, Vec<u8>, &str)> = vec![
+        ("truncated", good[..good.len() - 40].to_vec(), "points"),
+        // LAS 1.4: the legacy count (u32 at 107) and the count (u64 at 247).
+        (
+            "count-lies",
+            put(&put(&good, 107, &5000u32.to_le_bytes()), 247, &5000u64.to_le_bytes()),
+            "5000",
+        ),
+        ("unknown-format", put(&good, 104, &[42]), ""),
+        ("nan-scale", put(&good, 131, &f64::NAN.to_le_bytes()), "scale"),
+        ("huge-extent", put(&good, 179, &1e12f64.to_le_bytes()), "1000000000"),
+        ("not-las", b"PLY nonsense".to_vec(), ""),
+    ];
+    for (name, bytes, says) in cases {
+        let path = dir.join(format!("{name}.las"));
+        std::fs::write(&path, &bytes).unwrap();
+        let err = fails_with_one_error(std::process::Command::new(env!("CARGO_BIN_EXE_vergence")).args([
+            "render",
+            "--scene",
+            path.to_str().unwrap(),
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ]));
+        assert!(err.contains(&format!("{name}.las")) && err.contains(says), "{name}: {err}");
+    }
+}
