@@ -370,7 +370,7 @@ case("hmd/lens-short-k.toml", "hmd", ["expected an array of 4 numbers"], lens_hm
 case("hmd/lens-zero-unit.toml", "hmd", ["must be positive"], lens_hmd().replace("unit = [0.5, 0.5]", "unit = [0.0, 0.5]"))
 case("hmd/lens-huge-rmax.toml", "hmd", ["r_max", "must be in (0, 1000]"], lens_hmd(extra="r_max = 1e300\n"))
 # --- Scene manifests -----------------------------------------------------------
-case("manifests/empty.toml", "scene", ["no [[gltf]] or [[procedural]]"], 'name = "x"\n')
+case("manifests/empty.toml", "scene", ["no [[gltf]], [[procedural]] or [[points]]"], 'name = "x"\n')
 case("manifests/zero-scale.toml", "scene", ["scale 0 must be a number in [1e-6, 1e6]"],
      'name = "x"\n[[procedural]]\nkind = "factory"\ninstances = 10\nscale = 0.0\n')
 case("manifests/grid-bomb.toml", "scene", ["instance limit"],
@@ -626,6 +626,65 @@ case("plans/timewarp-reference.toml", "plan", ["`reference` does not run it"],
      PLAN.format(frames=2, opt="two-pass").replace('[[configs]]', 'reference = "two-pass,timewarp=2"\n[[configs]]'))
 case("plans/bad-cad.toml", "plan", ["cad:0", "cad:N"],
      PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "cad:0"]'))
+
+# --- Point clouds (LAS 1.2 / LAZ) ----------------------------------------------
+def las(n_points=3, claim=None, fmt=0, scale=(0.001, 0.001, 0.001), offset=(0.0, 0.0, 0.0),
+        bounds=(10.0, -10.0, 10.0, -10.0, 10.0, -10.0), points=None, cut=None):
+    """A LAS 1.2 file of point format 0 (20-byte records): `claim` is the
+    header's point count, `points` the (x, y, z) integers written."""
+    pts = points if points is not None else [(i * 100, i * 50, i * 10) for i in range(n_points)]
+    h = bytearray(227)
+    h[0:4] = b"LASF"
+    h[24], h[25] = 1, 2
+    h[26:26 + 8] = b"vergence"
+    struct.pack_into("<HIIBHI", h, 94, 227, 227, 0, fmt, 20, len(pts) if claim is None else claim)
+    struct.pack_into("<3d", h, 131, *scale)
+    struct.pack_into("<3d", h, 155, *offset)
+    struct.pack_into("<6d", h, 179, *bounds)
+    body = b"".join(struct.pack("<3iHBBbBH", x, y, z, 100, 0x09, 1, 0, 0, 0) for x, y, z in pts)
+    data = bytes(h) + body
+    return data[:cut] if cut is not None else data
+
+
+def bin_case(name, kind, expect, data):
+    path = os.path.join(OUT, name)
+    os.makedirs(os.path.dirname(path), exist_ok=True)
+    with open(path, "wb") as f:
+        f.write(data)
+    cases.append((name, kind, expect, None))
+
+
+bin_case("points/header-cut.las", "scene", ["header-cut.las", "ends early"], las(cut=100))
+bin_case("points/count-lies.las", "scene", ["the header says 5000 points of 20 bytes"], las(claim=5000))
+bin_case("points/records-cut.las", "scene", ["records-cut.las", "ends early"], las(n_points=20, cut=227 + 20 * 12 + 7))
+bin_case("points/unknown-format.las", "scene", ["unknown-format.las", "format number: 42"], las(fmt=42))
+bin_case("points/nan-scale.las", "scene", ["the x scale NaN"], las(scale=(float("nan"), 0.001, 0.001)))
+bin_case("points/zero-scale.las", "scene", ["the y scale 0"], las(scale=(0.001, 0.0, 0.001)))
+bin_case("points/nan-offset.las", "scene", ["offset NaN"], las(offset=(0.0, 0.0, float("nan"))))
+bin_case("points/huge-extent.las", "scene", ["span more than 1000000000 m"],
+         las(bounds=(1e12, -10.0, 10.0, -10.0, 10.0, -10.0)))
+bin_case("points/nan-bounds.las", "scene", ["are not finite"],
+         las(bounds=(float("nan"), -10.0, 10.0, -10.0, 10.0, -10.0)))
+bin_case("points/outside-bounds.las", "scene", ["point 1", "outside the header's bounds"],
+         las(points=[(0, 0, 0), (2_000_000_000, 0, 0)]))
+bin_case("points/not-las.las", "scene", ["not-las.las", "LASF"], b"ply\nformat ascii 1.0\nend_header\n")
+# A LAZ file vergence wrote (220 points), its chunk table offset (the 8
+# bytes where the point data starts) pointing far outside the file.
+TINY_LAZ = base64.b64decode("TEFTRgAAEAAAAAAAAAAAAAAAAAAAAAAAAQQAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAHZlcmdlbmNlIHNjYW4AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAHcB2wEAAAEAAACHJADcAAAA3AAAAAAAAAAAAAAAAAAAAAAAAAD8qfHSTWJAP/yp8dJNYkA//Knx0k1iQD8AAABmZmYTQAAAAGZmZhNAZmbGzMzME0D+1HgcWsQiQKAcWiQIrMQ/16NwcD2qI0AAAACAmZm5PzMzY2Zm5iFAALweBVK4fr8AAAAAAAAAAAAAAAAAAAAAAAAAANwAAAAAAAAA3AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAABsYXN6aXAgZW5jb2RlZAAAvFYuAGh0dHBzOi8vbGFzemlwLm9yZwAAAAAAAAAAAAAAAAAAAwAAAAICAAAAAAAAUMMAAP////////////////////8CAAoAHgADAAsABgADAK0JAAAAAAAAIAQAAAAAAABAHwAAAAURAAEAAAAAAAAAAAAAAAAAAP8A/wD53AAAALMDAAAWAQAAAAAAAAAAAABeAQAAAAAAAAAAAAAAAAAAAAAAAFMBAAAAoYTJ98ue2ZE4qC3QMwcrUUK3RTyymZb72Rd0LK6v0cWpcjUwffDi2yLCnQ0yk29zVHfpBvThHWM5ffC6WXy1jjUP7cIrvUXqE2iofOadAc6dYqxJ1PvaQhmYKph9sA8YeBs3ExzyOAh3hdoKKiZRZJVG2miR1a/Bw0hlbLcHjhXkPCiMIVEoUDDuEZr/xOZ5lYun4cZQJskr/h6aCmvWAZKsjZWrlb9wUuUHjnGIP/2nYdB+fEFaqBThlnvFEzNz9FaIbksMxIdQhIV7FMkJtkqNfytryCzWGWf7WnPZre5+dXVa1bfcryO5QrfSdYVWa+8Rjt4CBo21lok93zo2UyYrGgCzmdYx5AJo5ON+kknEyF1HqXr7aMAnf4lsOsqO0XrAUsdYqpE1G8NYNq0v4I1zEnr5N7QA7ytDsd/j4wZhdWS6esdt6GNU02m6kRfQJt6OpLqKHFxW2SDpCZEpB3CXnQcIr3Xha5/8z31yv3uJxS/5jp5BL0MY2bGk2tPZRs58Jq6zO7e6TTIDKdxK1u6TZ0G5+LuRVGqKuwiUlG/M+f5GmGXF6M1pLHJ0YXgfQH40RwERRpiQtnoDGmPhyZEU0S395blDPf4CaW6c1lQgX03zr79/30fD90eKpdc7hiKOkKfLCOBvxqZzNI6an2fOFA1/gUx5wyXpjTuz1rXasTSWX8Fz3c9AuWboKPJQH/UEOzyOPN3dnOyJepnufNi+iVJzkZgrMgUe9+J6AtxeUHU8ZvWD7R5GeW0tCgJGg53wrFQgGY61cHdnszqpSfEXpkbCbIIiXFzAoMRhE2eQgeuAv8rey24SxbZ07NEjyUFInJ8buGG3l66P/xjjoBhIVQEM/1yT58KTlSWNzY6wTfAaSPHLcSQCd0ZwMCRWOijzs9vO3+nekrpv+tfUDN2DZw05OyF+5+DUInYyxdw/h0qXgvkIqLSjj+zseBaAuJtp4ybhrnpDtSymiylIvygNiF+ij65nTbwMioMZOn2zBdZr27aXpJh3aT4svw9J2qvcLG9DEXUb6/90dvyA956LPlYUai8JYG0a0QDwAAanT+sXVgMXsB6EnqXrGkw7ab+vjJaTRvd7jfrK47hF+E/PPyUWHTIJodOI4FpzFJArzLSGBH61EDKbyHS4NmwGhoaXATUtsdg5XK6kVGvIJ4dtVcr7YzI+yn6UD9ezsP/hetyfDYTjTDBgFp28AUbI5oRxuZOUY2wwBRT9dToaZF3uzMDKdUtGXUFXMA6/NwAAAG9J5olI9//9lS+0BtBJA5P/ClfBvpHDjqt3iRp8R3NvFbNyNQgoE5rLhPE/LlK6ZmYRWQO9aGSfR6UoKau3sjFMriNacnXaWEGYRXqg8s+dudCj6k08Q/RsOb/t6PhhT1eAd2Xd6dGLhDY65L4kw1VpV2l31lkY5GhuKn87IX+kZOliSW4H82gN4lFLyAohpy2iIzLCVJw+K5cW1Cme9z+vYCLYC+2GXbS0d0NF46lsf4FGly30lYL0+rWuo56OZpfhXQ+drymvXz+FKk/5TAizuhpIzclxuGQ5QwM9HQRpdlTANnEifArXLK1s2CsRjqIzViEmY9u0AMw51etZ7wPk7hCVS5a78vETdwp1DYSTwUuLAAAAy8G2rolcwktDv7XTiBfUCYeIqt4lUp2DzICdbord/yZDyJj/w/CHWaD+ArZk7VMdJ6VSLB8fqiIOnk1uzzlHyDVjde0FK8MT5zychM0xA2kLb3zVIojyROU5bJ7yyEaBsVrwVbv16o7EcoFb8HmueG9tKrgjm71Op3a1p3Cs/oeSVxaN449H0Zxf1eRIngIfuJTEdTKoAWifWOvbVMs4M2QY+aSK4KXkJbT3mj+vVO0VGfNigK6SeiDC5kQzY4fIj4Rd7tc9P0lEIV0SPpm/YwfRFjxcgEP58YfNuUODMAlOqtlCYgqSgj9uY3B2bdNFN1TIy8y95CtRppty5Dw+TIegnZkD4rOg1I5DOTTx7gSBOZupgJ3F42lpPicQyMEK73vGVJeN1VNocSIRRGWvTA6Kb71oyoF6OX8kOemYeE2bjfrvP/ZzNm0TBTJo6sh3UXAKEkZVLHL+KgQAAADV6HagREOHDhw4cOHGIx46ckM+gwYxGPHTkhn0GIRjx05IZ9Bgw4xGPHTkhn0GIRjx05IZ9BiEY8dOSGfQYhW0KDP5U7upaIx46ckM+gwYxGPHTZ/DjFM+gxCMeOnI9YcLUIQqd3UtFbQoMV8OMQe4jPc3wi8j1hwt6ILLLbRYcLUITBZZbaLDhahCYLLLGcpn0GDDjEY8dOSGfQYhGPHTZ/Dhxe0H+uHGwYGQVS3B0CL1oU6iXPW8knHlShLoX2BsjStpZ/GUcFwqn1wMI6XM71cHLhq1bEVrt+pkNmABamJoqTdUAytsGw8jkNIVtXDiaZ4KBXja3Pt0zNk6Yq+ICcveRXnPOMtFTDoTVGR0s4sm8uGtvYQ6Y7ZqxgOjwrPOJ3UT/Q9Y8cKVF7cta26LEH8cNmj/9isIDVsRbOg8gDBr3par+bGiHir7470EjBIAAAAAAAAAAQAAAFzgBAAAAA==")
+lying_table = bytearray(TINY_LAZ)
+start = struct.unpack_from("<I", lying_table, 96)[0]
+struct.pack_into("<q", lying_table, start, 1 << 40)
+bin_case("points/chunk-table-outside.laz", "scene", ["chunk-table-outside.laz", "points outside the file"], bytes(lying_table))
+# The same LAZ header claiming a billion points in 2.5 KB.
+many = bytearray(TINY_LAZ)
+struct.pack_into("<I", many, 107, 1_000_000_000)
+struct.pack_into("<Q", many, 247, 1_000_000_000)
+bin_case("points/laz-count-lies.laz", "scene", ["more than a LAZ file of"], bytes(many))
+case("manifests/points-grid.toml", "scene", ["points[0]", "not a grid or motion"],
+     'name = "x"\n[[points]]\nfile = "../points/count-lies.las"\ngrid = { count = [2, 1, 1], spacing = [1.0, 0.0, 0.0] }\n')
+case("manifests/points-missing.toml", "scene", ["no-such-scan.laz"],
+     'name = "x"\n[[points]]\nfile = "no-such-scan.laz"\n')
+cli("scan-out-not-las", ["scan", "--scene", "factory:10", "--out", "{out}/scan.ply"], ["a point file ends in .las or .laz"])
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"

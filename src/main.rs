@@ -682,10 +682,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             out,
         } => {
             if !vergence::scene::points::is_las(&out) {
-                anyhow::bail!(
-                    "--out {}: a point file ends in .las or .laz",
-                    out.display()
-                );
+                anyhow::bail!("--out {}: a point file ends in .las or .laz", out.display());
             }
             let (s, _) = headless::load_scene(&scene)?;
             let settings = vergence::interact::scan::ScanSettings {

@@ -216,6 +216,28 @@ fn cli_values() {
 
 #[test]
 #[ignore]
+fn point_files() {
+    let mut seeds = files("tests/bad_inputs/points", &["las", "laz"]);
+    let dir = common::scratch("fuzz", "points");
+    let scene = vergence::scene::Scene::load("factory:30").unwrap();
+    let cloud = vergence::interact::scan::scan(
+        &scene,
+        &vergence::interact::scan::ScanSettings {
+            stations: 1,
+            rays_per_station: 300,
+            ..Default::default()
+        },
+    );
+    for ext in ["las", "laz"] {
+        let path = dir.join(format!("seed.{ext}"));
+        vergence::scene::points::write_las(&path, &cloud, 0.001).unwrap();
+        seeds.push(std::fs::read(path).unwrap());
+    }
+    fuzz("point_files", 7, seeds, vergence::fuzz_checks::point_file);
+}
+
+#[test]
+#[ignore]
 fn lod_cache() {
     let scene = vergence::fuzz_checks::lod_cache_scene();
     let chains = vergence::scene::lod::build(&scene);

@@ -33,7 +33,8 @@ fn scattered(n: usize, centre: DVec3) -> PointCloud {
             (rng.unit() * 6.0 - 3.0) as f32,
         ];
         c.positions.push(p);
-        c.colors.push([(i % 251) as u8, (i / 251 % 251) as u8, 200, 255]);
+        c.colors
+            .push([(i % 251) as u8, (i / 251 % 251) as u8, 200, 255]);
         c.classification.push(1);
     }
     c
@@ -58,8 +59,17 @@ fn config(stereo: StereoMode) -> RenderConfig {
 /// The CPU rasterizer: every point projected with the frame's f32
 /// matrices, each pixel keeping the nearest (largest reverse-Z depth), as
 /// sRGB colour per pixel (None: empty).
-fn cpu_raster(cloud: &PointCloud, rig: &vergence::view::StereoRig, eye: usize) -> Vec<Option<[u8; 3]>> {
-    let u = vergence::render::uniforms::FrameUniforms::new(rig, RenderConfig::default().near, [None, None], RenderConfig::default().near);
+fn cpu_raster(
+    cloud: &PointCloud,
+    rig: &vergence::view::StereoRig,
+    eye: usize,
+) -> Vec<Option<[u8; 3]>> {
+    let u = vergence::render::uniforms::FrameUniforms::new(
+        rig,
+        RenderConfig::default().near,
+        [None, None],
+        RenderConfig::default().near,
+    );
     let d = cloud.origin - rig.head.position;
     let offset = glam::Vec3::new(d.x as f32, d.y as f32, d.z as f32);
     let mut best: Vec<Option<(f32, [u8; 3])>> = vec![None; (W * H) as usize];
@@ -94,7 +104,15 @@ fn every_point_lands_in_its_pixel_and_the_stereo_modes_agree() {
         ..head()
     };
     let scene = points_scene(cloud.clone());
-    let mv = render_config(&ctx, &scene, &profile, pose, &config(StereoMode::Multiview), W, H);
+    let mv = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::Multiview),
+        W,
+        H,
+    );
     let rig = profile.rig(pose);
     for eye in 0..2 {
         let want = cpu_raster(&cloud, &rig, eye);
@@ -114,9 +132,20 @@ fn every_point_lands_in_its_pixel_and_the_stereo_modes_agree() {
         );
     }
     let points_total = 3000;
-    assert_eq!(mv.stats.points_drawn.map(|d| d <= 2 * points_total), Some(true));
+    assert_eq!(
+        mv.stats.points_drawn.map(|d| d <= 2 * points_total),
+        Some(true)
+    );
     assert!(mv.stats.gpu_ms.contains_key("points-raster"));
-    let tp = render_config(&ctx, &scene, &profile, pose, &config(StereoMode::TwoPass), W, H);
+    let tp = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(StereoMode::TwoPass),
+        W,
+        H,
+    );
     for eye in 0..2 {
         assert_eq!(
             common::pixels_differing(&mv.images[eye], &tp.images[eye]),
@@ -154,7 +183,8 @@ fn points_and_meshes_composite_by_depth() {
         let half = distance * 2.0;
         for i in 0..400 {
             for j in 0..400 {
-                let v = right * (i as f64 / 200.0 - 1.0) * half + up * (j as f64 / 200.0 - 1.0) * half;
+                let v =
+                    right * (i as f64 / 200.0 - 1.0) * half + up * (j as f64 / 200.0 - 1.0) * half;
                 c.positions.push([v.x as f32, v.y as f32, v.z as f32]);
                 c.colors.push([255, 0, 0, 255]);
                 c.classification.push(1);
@@ -171,7 +201,10 @@ fn points_and_meshes_composite_by_depth() {
     let red = |p: &image::Rgba<u8>| p[0] == 255 && p[1] == 0 && p[2] == 0;
     let n = (W * H) as usize;
     let front_red = front.images[0].pixels().filter(|p| red(p)).count();
-    assert!(front_red * 10 >= n * 9, "the near wall covers the view: {front_red} of {n}");
+    assert!(
+        front_red * 10 >= n * 9,
+        "the near wall covers the view: {front_red} of {n}"
+    );
     // Behind the factory: the factory's pixels are the plain render's; the
     // wall shows only where the plain render had sky.
     let mut mesh_kept = (0, 0);
@@ -182,10 +215,20 @@ fn points_and_meshes_composite_by_depth() {
         mesh_kept.0 += 1;
         mesh_kept.1 += usize::from(p == q);
     }
-    assert!(mesh_kept.0 > n / 50, "the factory shows in front of the far wall: {} of {n}", mesh_kept.0);
-    assert_eq!(mesh_kept.0, mesh_kept.1, "pixels the far wall does not take are the plain render's");
+    assert!(
+        mesh_kept.0 > n / 50,
+        "the factory shows in front of the far wall: {} of {n}",
+        mesh_kept.0
+    );
+    assert_eq!(
+        mesh_kept.0, mesh_kept.1,
+        "pixels the far wall does not take are the plain render's"
+    );
     let behind_red = behind.images[0].pixels().filter(|p| red(p)).count();
-    assert!(behind_red > 0 && behind_red < front_red, "{behind_red} vs {front_red}");
+    assert!(
+        behind_red > 0 && behind_red < front_red,
+        "{behind_red} vs {front_red}"
+    );
 }
 
 #[test]
@@ -225,7 +268,11 @@ fn las_and_laz_round_trip_the_same_points() {
     write_las(&again, &a, 0.0005).unwrap();
     let c = read_las(&again).unwrap();
     assert_eq!(a.origin, c.origin);
-    assert_eq!(differ(&a.positions, &c.positions), 0, "positions written again");
+    assert_eq!(
+        differ(&a.positions, &c.positions),
+        0,
+        "positions written again"
+    );
     assert!(a.colors == c.colors, "colours written again");
 }
 
@@ -234,14 +281,30 @@ fn scan_writes_a_cloud_that_render_draws_and_counts() {
     let dir = scratch("points", "cli");
     let out = dir.join("scan.laz");
     let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
-        .args(["scan", "--scene", "factory:300", "--stations", "2", "--rays", "30000", "--out"])
+        .args([
+            "scan",
+            "--scene",
+            "factory:300",
+            "--stations",
+            "2",
+            "--rays",
+            "30000",
+            "--out",
+        ])
         .arg(&out)
         .status()
         .unwrap();
     assert!(status.success());
     let total = read_las(&out).unwrap().len() as u64;
     let stats = common::render_cli(
-        &["--scene", out.to_str().unwrap(), "--width", "160", "--height", "144"],
+        &[
+            "--scene",
+            out.to_str().unwrap(),
+            "--width",
+            "160",
+            "--height",
+            "144",
+        ],
         &dir.join("render"),
     );
     assert_eq!(stats["points_total"], total);
@@ -271,24 +334,41 @@ fn bad_point_files_are_one_error_each() {
         // LAS 1.4: the legacy count (u32 at 107) and the count (u64 at 247).
         (
             "count-lies",
-            put(&put(&good, 107, &5000u32.to_le_bytes()), 247, &5000u64.to_le_bytes()),
+            put(
+                &put(&good, 107, &5000u32.to_le_bytes()),
+                247,
+                &5000u64.to_le_bytes(),
+            ),
             "5000",
         ),
         ("unknown-format", put(&good, 104, &[42]), ""),
-        ("nan-scale", put(&good, 131, &f64::NAN.to_le_bytes()), "scale"),
-        ("huge-extent", put(&good, 179, &1e12f64.to_le_bytes()), "1000000000"),
+        (
+            "nan-scale",
+            put(&good, 131, &f64::NAN.to_le_bytes()),
+            "scale",
+        ),
+        (
+            "huge-extent",
+            put(&good, 179, &1e12f64.to_le_bytes()),
+            "1000000000",
+        ),
         ("not-las", b"PLY nonsense".to_vec(), ""),
     ];
     for (name, bytes, says) in cases {
         let path = dir.join(format!("{name}.las"));
         std::fs::write(&path, &bytes).unwrap();
-        let err = fails_with_one_error(std::process::Command::new(env!("CARGO_BIN_EXE_vergence")).args([
-            "render",
-            "--scene",
-            path.to_str().unwrap(),
-            "--out",
-            dir.join("out").to_str().unwrap(),
-        ]));
-        assert!(err.contains(&format!("{name}.las")) && err.contains(says), "{name}: {err}");
+        let err = fails_with_one_error(
+            std::process::Command::new(env!("CARGO_BIN_EXE_vergence")).args([
+                "render",
+                "--scene",
+                path.to_str().unwrap(),
+                "--out",
+                dir.join("out").to_str().unwrap(),
+            ]),
+        );
+        assert!(
+            err.contains(&format!("{name}.las")) && err.contains(says),
+            "{name}: {err}"
+        );
     }
 }

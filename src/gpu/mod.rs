@@ -713,8 +713,8 @@ impl PartialInstance {
         if draw_indirect_count {
             dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
         }
-        let mut e_i64 =
-            vk::PhysicalDeviceShaderAtomicInt64Features::default().shader_buffer_int64_atomics(true);
+        let mut e_i64 = vk::PhysicalDeviceShaderAtomicInt64Features::default()
+            .shader_buffer_int64_atomics(true);
         if atomic_int64 {
             dev_ext_names.push(ash::khr::shader_atomic_int64::NAME.as_ptr());
         }

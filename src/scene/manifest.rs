@@ -399,7 +399,10 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
         if merged.len() as u64 > super::points::MAX_POINTS {
             return Err(Error::scene(
                 path,
-                format!("{what}: the clouds hold over {} points together", super::points::MAX_POINTS),
+                format!(
+                    "{what}: the clouds hold over {} points together",
+                    super::points::MAX_POINTS
+                ),
             ));
         }
         scene.points = Some(merged);

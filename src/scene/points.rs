@@ -113,6 +113,106 @@ fn bad(path: &Path, message: impl Into<String>) -> Error {
     }
 }
 
+/// A `las` error as a message: an early end of the file says so.
+fn las_message(e: &las::Error) -> String {
+    let eof = |io: &std::io::Error| io.kind() == std::io::ErrorKind::UnexpectedEof;
+    match e {
+        las::Error::Io(io) | las::Error::LasZipError(laz::LasZipError::IoError(io)) if eof(io) => {
+            "the file ends early (truncated, or a header or chunk table points past its end)"
+                .to_string()
+        }
+        other => other.to_string(),
+    }
+}
+
+/// Checks what the `las` and `laz` crates would trust: the header's point
+/// count (within [`MAX_POINTS`]; `las` multiplies it by the record length
+/// unchecked), and a LAZ file's chunk table before the `laz` crate reads it (that
+/// reader reserves memory for as many chunks as the table's 32-bit count
+/// says): the table's offset (the first 8 bytes of the point data, or the
+/// file's last 8 when a streaming writer left −1) must lie inside the file,
+/// and its chunk count may not exceed the header's point count (every
+/// chunk holds a point) or what the rest of the file could list. Files
+/// whose point format is not compressed pass untouched. Leaves `r` at the
+/// start.
+fn header_guard<R: std::io::Read + std::io::Seek>(
+    r: &mut R,
+    size: u64,
+) -> std::result::Result<(), String> {
+    use std::io::SeekFrom;
+    let eof = |e: std::io::Error| format!("the file ends early ({e})");
+    let mut head = [0u8; 255];
+    r.seek(SeekFrom::Start(0)).map_err(eof)?;
+    let got = read_up_to(r, &mut head).map_err(eof)?;
+    if got < 227 || &head[..4] != b"LASF" {
+        r.seek(SeekFrom::Start(0)).map_err(eof)?;
+        return Ok(());
+    }
+    let u32_at = |o: usize| u32::from_le_bytes([head[o], head[o + 1], head[o + 2], head[o + 3]]);
+    let legacy = u32_at(107) as u64;
+    // The count as the `las` crate takes it: the legacy field, or LAS
+    // 1.4's 64-bit one when that is 0.
+    let count = if legacy == 0 && head[25] >= 4 && got >= 255 {
+        u64::from_le_bytes(head[247..255].try_into().expect("8 bytes"))
+    } else {
+        legacy
+    };
+    let record = u16::from_le_bytes([head[105], head[106]]) as u64;
+    let data = u32_at(96) as u64;
+    // The `las` crate multiplies these without a check.
+    if count > MAX_POINTS
+        || count
+            .checked_mul(record)
+            .and_then(|b| b.checked_add(data))
+            .is_none()
+    {
+        return Err(format!(
+            "the header says {count} points, over the {MAX_POINTS}-point limit"
+        ));
+    }
+    if head[104] & 0x80 == 0 {
+        r.seek(SeekFrom::Start(0)).map_err(eof)?;
+        return Ok(());
+    }
+    let mut word = [0u8; 8];
+    r.seek(SeekFrom::Start(data)).map_err(eof)?;
+    r.read_exact(&mut word).map_err(eof)?;
+    let mut table = i64::from_le_bytes(word);
+    if table == -1 {
+        r.seek(SeekFrom::End(-8)).map_err(eof)?;
+        r.read_exact(&mut word).map_err(eof)?;
+        table = i64::from_le_bytes(word);
+    }
+    if table < 0 || (table as u64).saturating_add(8) > size {
+        return Err(format!(
+            "the LAZ chunk table offset {table} points outside the file's {size} bytes"
+        ));
+    }
+    r.seek(SeekFrom::Start(table as u64)).map_err(eof)?;
+    r.read_exact(&mut word).map_err(eof)?;
+    let chunks = u32::from_le_bytes(word[4..8].try_into().expect("4 bytes")) as u64;
+    let room = (size - table as u64 - 8).saturating_mul(8);
+    if chunks > count.max(1) || chunks > room.max(1) {
+        return Err(format!(
+            "the LAZ chunk table lists {chunks} chunks for {count} points in {size} bytes"
+        ));
+    }
+    r.seek(SeekFrom::Start(0)).map_err(eof)?;
+    Ok(())
+}
+
+/// Reads into `buf` until it is full or the source ends; the bytes read.
+fn read_up_to<R: std::io::Read>(r: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
+    let mut n = 0;
+    while n < buf.len() {
+        match r.read(&mut buf[n..])? {
+            0 => break,
+            k => n += k,
+        }
+    }
+    Ok(n)
+}
+
 /// Reads a LAS or LAZ file: header checked first (point count against the
 /// file's size and [`MAX_POINTS`], finite scales and offsets, extents within
 /// [`MAX_EXTENT_M`]), then the points in chunks. LAS's y is up in vergence:
@@ -131,7 +231,25 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
             format!("{size} bytes, over the {MAX_FILE_BYTES}-byte limit for point files"),
         ));
     }
-    let mut reader = las::Reader::from_path(path).map_err(|e| bad(path, e.to_string()))?;
+    let file = std::fs::File::open(path).map_err(io)?;
+    read_las_from(path, std::io::BufReader::new(file), size)
+}
+
+/// [`read_las`] of a file's bytes already in memory (`name` names it in
+/// errors; what the fuzz target reads).
+pub fn read_las_bytes(name: &Path, bytes: Vec<u8>) -> Result<PointCloud> {
+    let size = bytes.len() as u64;
+    read_las_from(name, std::io::Cursor::new(bytes), size)
+}
+
+fn read_las_from<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
+    path: &Path,
+    read: R,
+    size: u64,
+) -> Result<PointCloud> {
+    let mut read = read;
+    header_guard(&mut read, size).map_err(|m| bad(path, m))?;
+    let mut reader = las::Reader::new(read).map_err(|e| bad(path, las_message(&e)))?;
     let header = reader.header().clone();
     let count = header.number_of_points();
     let format = *header.point_format();
@@ -142,8 +260,16 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
             format!("the header says {count} points, over the {MAX_POINTS}-point limit"),
         ));
     }
-    // A compressed file holds fewer bytes than its records; an
-    // uncompressed one must hold them all.
+    // An uncompressed file must hold every record; LAZ packs a point into
+    // a few bytes, never into less than 1/64 of one.
+    if format.is_compressed && count > size.saturating_mul(64) {
+        return Err(bad(
+            path,
+            format!(
+                "the header says {count} points, more than a LAZ file of {size} bytes can hold"
+            ),
+        ));
+    }
     if !format.is_compressed && count.saturating_mul(record) > size {
         return Err(bad(
             path,
@@ -185,7 +311,9 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
         centre.round()
     };
     let origin = DVec3::new(o.x, o.z, -o.y);
-    let n = count as usize;
+    // Reserved up front only as far as a chunk's worth (a header's count
+    // is not trusted with memory); the rest grows as points arrive.
+    let n = count.min(CHUNK * 16) as usize;
     let mut cloud = PointCloud {
         origin,
         positions: Vec::with_capacity(n),
@@ -202,23 +330,30 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
     loop {
         let got = reader
             .fill_points(CHUNK, &mut data)
-            .map_err(|e| bad(path, format!("point {}: {e}", cloud.len())))?;
+            .map_err(|e| bad(path, format!("point {}: {}", cloud.len(), las_message(&e))))?;
         if got == 0 {
             break;
         }
         chunk.clear();
         for p in data.points() {
-            let p = p.map_err(|e| bad(path, format!("point {}: {e}", cloud.len())))?;
+            let p =
+                p.map_err(|e| bad(path, format!("point {}: {}", cloud.len(), las_message(&e))))?;
             let w = DVec3::new(p.x, p.y, p.z);
             if !w.is_finite() || w.cmplt(lo - slack).any() || w.cmpgt(hi + slack).any() {
                 return Err(bad(
                     path,
-                    format!("point {} at {w:?} lies outside the header's bounds", cloud.len()),
+                    format!(
+                        "point {} at {w:?} lies outside the header's bounds",
+                        cloud.len()
+                    ),
                 ));
             }
             let d = DVec3::new(p.x, p.z, -p.y) - origin;
             cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
-            chunk.push(p.color.map_or([p.intensity; 3], |c| [c.red, c.green, c.blue]));
+            chunk.push(
+                p.color
+                    .map_or([p.intensity; 3], |c| [c.red, c.green, c.blue]),
+            );
             cloud.colors.push([0, 0, 0, (p.intensity >> 8) as u8]);
             cloud.classification.push(u8::from(p.classification));
             if cloud.len() as u64 > count {
@@ -232,14 +367,21 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
         let first = cloud.len() - chunk.len();
         for (dst, src) in cloud.colors[first..].iter_mut().zip(&chunk) {
             for k in 0..3 {
-                dst[k] = if small { src[k] as u8 } else { (src[k] >> 8) as u8 };
+                dst[k] = if small {
+                    src[k] as u8
+                } else {
+                    (src[k] >> 8) as u8
+                };
             }
         }
     }
     if cloud.len() as u64 != count {
         return Err(bad(
             path,
-            format!("the header says {count} points, the file holds {}", cloud.len()),
+            format!(
+                "the header says {count} points, the file holds {}",
+                cloud.len()
+            ),
         ));
     }
     Ok(cloud)
@@ -276,9 +418,12 @@ pub fn write_las(path: &Path, cloud: &PointCloud, scale: f64) -> Result<()> {
         message: e.to_string(),
     };
     let file = std::fs::File::create(&tmp).map_err(out)?;
-    let result = write_points(las::Writer::new(std::io::BufWriter::new(file), header), cloud)
-        .map_err(err)
-        .and_then(|()| std::fs::rename(&tmp, path).map_err(out));
+    let result = write_points(
+        las::Writer::new(std::io::BufWriter::new(file), header),
+        cloud,
+    )
+    .map_err(err)
+    .and_then(|()| std::fs::rename(&tmp, path).map_err(out));
     if result.is_err() {
         let _ = std::fs::remove_file(&tmp);
     }

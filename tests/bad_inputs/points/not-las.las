@@ -1,0 +1,3 @@
+ply
+format ascii 1.0
+end_header
