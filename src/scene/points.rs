@@ -249,6 +249,30 @@ fn read_las_from<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
 ) -> Result<PointCloud> {
     let mut read = read;
     header_guard(&mut read, size).map_err(|m| bad(path, m))?;
+    // The LAZ decoder asserts on some corrupt streams instead of returning
+    // an error (found by tests/fuzz_mutate.rs): its panics become this
+    // file's error, with the default panic report silenced meanwhile.
+    let hook = std::panic::take_hook();
+    std::panic::set_hook(Box::new(|_| {}));
+    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
+        decode(path, read, size)
+    }));
+    std::panic::set_hook(hook);
+    decoded.unwrap_or_else(|_| {
+        Err(bad(
+            path,
+            "corrupt point data: the LAS/LAZ decoder failed on it",
+        ))
+    })
+}
+
+/// [`read_las_from`] after the guard: header checks, then the points in
+/// chunks.
+fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
+    path: &Path,
+    read: R,
+    size: u64,
+) -> Result<PointCloud> {
     let mut reader = las::Reader::new(read).map_err(|e| bad(path, las_message(&e)))?;
     let header = reader.header().clone();
     let count = header.number_of_points();
