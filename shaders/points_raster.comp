@@ -7,8 +7,10 @@
 // every view and its pixel keeps, by a 64-bit atomic max, the key
 // (reverse-Z depth bits << 32 | sRGB colour): the largest depth is the
 // nearest point, and positive float bits order like their values. A key of
-// 0 is an empty pixel. One thread per point; each workgroup adds its count
-// of points that landed in a view to `drawn` once.
+// 0 is an empty pixel. One thread per point drawn this frame: the frame's
+// octree nodes are point ranges, listed as (first thread, first point)
+// pairs; a thread finds its range by binary search. Each workgroup adds
+// its count of points that landed in a view to `drawn` once.
 layout(local_size_x = 256) in;
 
 // The prefix of the frame uniforms (shaders/common.glsl's FrameData).
@@ -16,9 +18,10 @@ layout(std140, set = 0, binding = 0) uniform FrameData { mat4 view_proj[4]; } fr
 layout(std430, set = 0, binding = 1) readonly buffer Points { vec4 points[]; };
 layout(std430, set = 0, binding = 2) buffer Keys { uint64_t keys[]; };
 layout(std430, set = 0, binding = 3) buffer Drawn { uint drawn; };
+layout(std430, set = 0, binding = 4) readonly buffer Ranges { uvec2 ranges[]; };
 
-// offset: the cloud's origin relative to the render origin; info: point
-// count, image width, height, views.
+// offset: the cloud's origin relative to the render origin (w: the range
+// count's bits); info: points drawn, image width, height, views.
 layout(push_constant) uniform Push { vec4 offset; uvec4 info; } pc;
 
 shared uint group_drawn;
@@ -30,7 +33,17 @@ void main() {
     barrier();
     uint i = (gl_WorkGroupID.y * gl_NumWorkGroups.x + gl_WorkGroupID.x) * 256u + gl_LocalInvocationIndex;
     if (i < pc.info.x) {
-        vec4 p = points[i];
+        uint lo = 0u;
+        uint hi = floatBitsToUint(pc.offset.w);
+        while (hi - lo > 1u) {
+            uint mid = (lo + hi) >> 1;
+            if (ranges[mid].x <= i) {
+                lo = mid;
+            } else {
+                hi = mid;
+            }
+        }
+        vec4 p = points[ranges[lo].y + (i - ranges[lo].x)];
         vec4 rel = vec4(pc.offset.xyz + p.xyz, 1.0);
         uint64_t colour = uint64_t(floatBitsToUint(p.w));
         uvec2 size = pc.info.yz;

@@ -147,6 +147,9 @@ pub struct RenderConfig {
     /// matches (`lod-cache`).
     #[serde(default)]
     pub lod_cache: bool,
+    /// The most points of a point cloud drawn per frame
+    /// (`points-budget=N`): its octree's nodes fill it nearest-first.
+    pub points_budget: u64,
     /// Adaptive quality (`aq`): each frame's render scale follows the GPU
     /// times of the last ones against the frame budget (The Lab's rules,
     /// `crate::adaptive`); the targets are made once at the largest scale
@@ -299,6 +302,11 @@ impl Lms {
     }
 }
 
+/// The default point budget per frame (Potree's VR examples draw a few
+/// million per eye; the H200 rasterizes 88 M points for both eyes in
+/// 0.55 ms, see README "Point clouds").
+pub const DEFAULT_POINTS_BUDGET: u64 = 20_000_000;
+
 /// Most threads `--record-threads` accepts.
 pub const MAX_RECORD_THREADS: u32 = 64;
 
@@ -403,6 +411,7 @@ impl Default for RenderConfig {
             gpu_cull: false,
             occlusion: false,
             lod_cache: false,
+            points_budget: DEFAULT_POINTS_BUDGET,
             lod: None,
             aq: false,
             budget_ms: None,
@@ -599,6 +608,11 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                l if l.starts_with("points-budget=") => {
+                    let max = crate::scene::points::MAX_POINTS as f64;
+                    let v = opt_value(l, "points-budget=", (1.0, max), "N", "points drawn per frame")?;
+                    self.points_budget = v as u64;
+                }
                 "lms" => self.lms = Some(self.lms.unwrap_or_default()),
                 "lms-emulated" => {
                     self.lms = Some(Lms {
@@ -745,7 +759,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -938,6 +952,9 @@ impl RenderConfig {
             if i.fov_given {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
             }
+        }
+        if self.points_budget != DEFAULT_POINTS_BUDGET {
+            v.push(format!("points-budget={}", self.points_budget));
         }
         if let Some(l) = self.lms {
             v.push(match l.coefficient {

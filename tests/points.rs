@@ -372,3 +372,66 @@ fn bad_point_files_are_one_error_each() {
         );
     }
 }
+
+/// With a budget over every point the octree's nodes draw the cloud's own
+/// image (the atomic max does not depend on the order); with a budget, no
+/// more than it is chosen and drawn, and the image keeps the nearest
+/// detail first.
+#[test]
+fn the_octree_draws_the_whole_cloud_or_keeps_the_budget() {
+    let ctx = context();
+    let scene = load("factory:300");
+    let cloud = scan(
+        &scene,
+        &ScanSettings {
+            stations: 2,
+            rays_per_station: 60_000,
+            ..ScanSettings::default()
+        },
+    )
+    .with_octree();
+    assert!(cloud.octree.as_ref().unwrap().nodes.len() > 1);
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = common::framing_pose(&scene, &profile);
+    let mut whole = cloud.clone();
+    whole.octree = None;
+    let plain = render_config(
+        &ctx,
+        &points_scene(whole),
+        &profile,
+        pose,
+        &config(StereoMode::Multiview),
+        W,
+        H,
+    );
+    let lod_scene = points_scene(cloud.clone());
+    let unlimited = RenderConfig {
+        points_budget: vergence::scene::points::MAX_POINTS,
+        ..config(StereoMode::Multiview)
+    };
+    let all = render_config(&ctx, &lod_scene, &profile, pose, &unlimited, W, H);
+    for eye in 0..2 {
+        assert_eq!(
+            common::pixels_differing(&plain.images[eye], &all.images[eye]),
+            0,
+            "eye {eye}"
+        );
+    }
+    assert_eq!(all.stats.points_drawn, plain.stats.points_drawn);
+    let budget = cloud.len() as u64 / 5;
+    let limited = RenderConfig {
+        points_budget: budget,
+        ..config(StereoMode::Multiview)
+    };
+    let some = render_config(&ctx, &lod_scene, &profile, pose, &limited, W, H);
+    let chosen = some.stats.points_selected.unwrap();
+    assert!(
+        chosen <= budget && chosen > budget / 4,
+        "{chosen} of {budget}"
+    );
+    assert!(some.stats.points_drawn.unwrap() <= 2 * chosen);
+    assert!(
+        common::pixels_differing(&some.images[0], &all.images[0]) > 0,
+        "a fifth of the points draws less"
+    );
+}

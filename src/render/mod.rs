@@ -117,6 +117,10 @@ pub struct FrameStats {
     /// view this frame, both eyes together (read back from the GPU).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_drawn: Option<u64>,
+    /// With a point cloud: the points its octree's nodes chose for the
+    /// frame within the budget (all points without an octree).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_selected: Option<u64>,
 }
 
 struct Pending {
@@ -916,6 +920,10 @@ impl Renderer {
         self.ubos[slot].write(0, as_bytes(std::slice::from_ref(&data)))?;
         if let Some(mask) = self.passes.stencil_mask.as_mut() {
             mask.upload(slot, rig)?;
+        }
+        if let Some(p) = self.passes.points.as_mut() {
+            let budget = self.config.points_budget;
+            stats.points_selected = Some(p.select(slot, rig, self.config.near, budget)?);
         }
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);

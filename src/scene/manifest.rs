@@ -407,6 +407,10 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
         }
         scene.points = Some(merged);
     }
+    if let Some(all) = scene.points.take() {
+        let cloud = std::sync::Arc::try_unwrap(all).unwrap_or_else(|shared| (*shared).clone());
+        scene.points = Some(std::sync::Arc::new(cloud.with_octree()));
+    }
     viewpoint_cameras(path, &m.viewpoint, &mut scene)?;
     Ok(scene)
 }

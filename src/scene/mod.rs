@@ -14,6 +14,7 @@ pub mod lod;
 pub mod lod_cache;
 pub mod manifest;
 pub mod motion;
+pub mod octree;
 pub mod points;
 pub mod shapes;
 pub mod uri;
@@ -389,7 +390,9 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
-            Some(e) if e == "las" || e == "laz" => Ok(Scene::of_points(points::read_las(path)?)),
+            Some(e) if e == "las" || e == "laz" => {
+                Ok(Scene::of_points(points::read_las(path)?.with_octree()))
+            }
             _ => gltf_load::load(path),
         }?;
         scene.source = Some(path.to_path_buf());

@@ -38,6 +38,9 @@ pub struct PointCloud {
     pub classification: Vec<u8>,
     /// The file it came from (None: generated).
     pub source: Option<PathBuf>,
+    /// The level-of-detail octree over the points (None: drawn whole every
+    /// frame); its nodes index the points as they are ordered now.
+    pub octree: Option<super::octree::Octree>,
 }
 
 impl PointCloud {
@@ -96,6 +99,14 @@ impl PointCloud {
         }));
         self.colors.extend_from_slice(&other.colors);
         self.classification.extend_from_slice(&other.classification);
+        self.octree = None;
+    }
+
+    /// The cloud with its octree built (its points reordered).
+    pub fn with_octree(mut self) -> PointCloud {
+        let tree = super::octree::build(&mut self);
+        self.octree = Some(tree);
+        self
     }
 }
 
@@ -254,9 +265,8 @@ fn read_las_from<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
     // file's error, with the default panic report silenced meanwhile.
     let hook = std::panic::take_hook();
     std::panic::set_hook(Box::new(|_| {}));
-    let decoded = std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| {
-        decode(path, read, size)
-    }));
+    let decoded =
+        std::panic::catch_unwind(std::panic::AssertUnwindSafe(|| decode(path, read, size)));
     std::panic::set_hook(hook);
     decoded.unwrap_or_else(|_| {
         Err(bad(
@@ -344,6 +354,7 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
         colors: Vec::with_capacity(n),
         classification: Vec::with_capacity(n),
         source: Some(path.to_path_buf()),
+        octree: None,
     };
     let mut data = las::PointDataBuilder::new().for_header(&header).build();
     let slack = (hi - lo).max_element() * 1e-6 + 1e-3;

@@ -129,6 +129,13 @@ pub struct RenderStats {
     /// once per eye it lands in; absent without a cloud).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_drawn: Option<u64>,
+    /// Points the octree chose within `config.points_budget` (absent
+    /// without a cloud).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_selected: Option<u64>,
+    /// The cloud's octree: nodes and build time (absent without one).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_octree: Option<OctreeReport>,
     /// CPU ms per phase (load, cull, batch, record, submit, wait).
     pub cpu_ms: BTreeMap<String, f64>,
     /// GPU ms per pass.
@@ -187,6 +194,28 @@ pub struct RenderStats {
     /// regions).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub motion: Option<MotionReport>,
+}
+
+/// `stats.json`'s `points_octree` block.
+#[derive(Clone, Debug, serde::Serialize)]
+pub struct OctreeReport {
+    /// Nodes.
+    pub nodes: usize,
+    /// Build time, milliseconds (this process, at load).
+    pub build_ms: f64,
+    /// Points built per second, millions.
+    pub build_mpoints_per_s: f64,
+}
+
+impl OctreeReport {
+    /// The report of `tree` over `points` points.
+    pub fn of(tree: &crate::scene::octree::Octree, points: usize) -> OctreeReport {
+        OctreeReport {
+            nodes: tree.nodes.len(),
+            build_ms: tree.build_ms,
+            build_mpoints_per_s: points as f64 / (tree.build_ms.max(1e-6) * 1e3),
+        }
+    }
 }
 
 /// `stats.json`'s `motion` block.
@@ -549,6 +578,11 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         triangles: frame.triangles,
         points_total: renderer.points_total(),
         points_drawn: frame.points_drawn,
+        points_selected: frame.points_selected,
+        points_octree: scene
+            .points
+            .as_ref()
+            .and_then(|c| c.octree.as_ref().map(|t| OctreeReport::of(t, c.len()))),
         cpu_ms,
         gpu_ms: frame.gpu_ms.clone(),
         fragment_invocations: frame.pipeline.map(|p| p.fragment_invocations),

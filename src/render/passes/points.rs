@@ -31,6 +31,8 @@ const ROW: u64 = 65_535;
 struct Slot {
     keys: Buffer,
     drawn: Buffer,
+    /// The frame's point ranges: (first thread, first point) per node.
+    ranges: Buffer,
 }
 
 /// The point buffer, the per-slot keys and counters, the rasterizer and
@@ -38,6 +40,12 @@ struct Slot {
 pub struct PointsPass {
     points: Buffer,
     count: u64,
+    /// The cloud's octree (None: every point every frame).
+    octree: Option<crate::scene::octree::Octree>,
+    origin: glam::DVec3,
+    /// This frame's selection: ranges written and points to draw.
+    ranges: u32,
+    selected: u64,
     extent: vk::Extent2D,
     slots: Vec<Slot>,
     sets: DescriptorSets,
@@ -79,6 +87,10 @@ impl PointsPass {
         let mut made = PointsPass {
             points,
             count: cloud.len() as u64,
+            octree: cloud.octree.clone(),
+            origin: cloud.origin,
+            ranges: 1,
+            selected: cloud.len() as u64,
             extent,
             slots: Vec::new(),
             sets: DescriptorSets {
@@ -114,24 +126,53 @@ impl PointsPass {
                     category: "per-frame",
                 },
             )?;
-            let drawn = match Buffer::new(
-                ctx,
-                &BufferDesc {
-                    name: &format!("points drawn {i}"),
-                    size: 4,
-                    usage: vk::BufferUsageFlags::STORAGE_BUFFER
-                        | vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuToCpu,
-                    category: "per-frame",
-                },
-            ) {
+            let small = |name: String, size: u64, location| {
+                Buffer::new(
+                    ctx,
+                    &BufferDesc {
+                        name: &name,
+                        size,
+                        usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                            | vk::BufferUsageFlags::TRANSFER_DST,
+                        location,
+                        category: "per-frame",
+                    },
+                )
+            };
+            let nodes = self.octree.as_ref().map_or(1, |t| t.nodes.len().max(1)) as u64;
+            let made =
+                small(format!("points drawn {i}"), 4, MemoryLocation::GpuToCpu).and_then(|drawn| {
+                    match small(
+                        format!("point ranges {i}"),
+                        8 * nodes,
+                        MemoryLocation::CpuToGpu,
+                    ) {
+                        Ok(ranges) => Ok((drawn, ranges)),
+                        Err(e) => {
+                            drawn.destroy(ctx);
+                            Err(e)
+                        }
+                    }
+                });
+            let (drawn, mut ranges) = match made {
                 Ok(b) => b,
                 Err(e) => {
                     keys.destroy(ctx);
                     return Err(e);
                 }
             };
-            self.slots.push(Slot { keys, drawn });
+            // Without an octree the one range is every point.
+            if let Err(e) = ranges.write(0, as_bytes(&[0u32, 0u32])) {
+                for b in [keys, drawn, ranges] {
+                    b.destroy(ctx);
+                }
+                return Err(e);
+            }
+            self.slots.push(Slot {
+                keys,
+                drawn,
+                ranges,
+            });
         }
         let (uniform, storage) = (
             vk::DescriptorType::UNIFORM_BUFFER,
@@ -140,6 +181,7 @@ impl PointsPass {
         let compute = vk::ShaderStageFlags::COMPUTE;
         let bindings = [
             (uniform, 1, compute),
+            (storage, 1, compute),
             (storage, 1, compute),
             (storage, 1, compute),
             (storage, 1, compute),
@@ -156,6 +198,7 @@ impl PointsPass {
                 info(&self.points),
                 info(&slot.keys),
                 info(&slot.drawn),
+                info(&slot.ranges),
             ];
             let writes: Vec<vk::WriteDescriptorSet> = infos
                 .iter()
@@ -195,6 +238,37 @@ impl PointsPass {
         self.count
     }
 
+    /// Chooses what frame slot `slot` draws of the cloud for `rig` within
+    /// `budget` points (the octree's nodes nearest-first; without an octree
+    /// every point) and writes the slot's ranges; the slot must be free.
+    /// Returns the points chosen.
+    pub fn select(
+        &mut self,
+        slot: usize,
+        rig: &crate::view::StereoRig,
+        near: f64,
+        budget: u64,
+    ) -> Result<u64> {
+        let Some(tree) = &self.octree else {
+            return Ok(self.count);
+        };
+        let s = tree.select(self.origin, rig, near, budget);
+        let mut words = Vec::with_capacity(2 * s.nodes.len().max(1));
+        let mut at = 0u32;
+        for &i in &s.nodes {
+            let n = &tree.nodes[i as usize];
+            words.extend([at, n.first]);
+            at += n.count;
+        }
+        if words.is_empty() {
+            words.extend([0, 0]);
+        }
+        self.slots[slot].ranges.write(0, as_bytes(&words))?;
+        self.ranges = (words.len() / 2) as u32;
+        self.selected = s.points;
+        Ok(s.points)
+    }
+
     /// `slot`'s key buffer (the composite's binding).
     pub fn keys(&self, slot: usize) -> vk::Buffer {
         self.slots[slot].keys.buffer
@@ -228,13 +302,14 @@ impl PointsPass {
                 vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::HOST,
             )
             .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::HOST_READ)];
-        let groups = self.count.div_ceil(GROUP).max(1);
+        let groups = self.selected.div_ceil(GROUP).max(1);
         let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
         let mut push = [0u32; 8];
         for k in 0..3 {
             push[k] = offset[k].to_bits();
         }
-        push[4] = self.count as u32;
+        push[3] = self.ranges;
+        push[4] = self.selected as u32;
         push[5] = self.extent.width;
         push[6] = self.extent.height;
         push[7] = views;
@@ -299,6 +374,7 @@ impl PointsPass {
         for s in self.slots {
             s.keys.destroy(ctx);
             s.drawn.destroy(ctx);
+            s.ranges.destroy(ctx);
         }
         self.points.destroy(ctx);
     }
