@@ -15,14 +15,37 @@ layout(local_size_x = 256) in;
 
 // The prefix of the frame uniforms (shaders/common.glsl's FrameData).
 layout(std140, set = 0, binding = 0) uniform FrameData { mat4 view_proj[4]; } frame;
-layout(std430, set = 0, binding = 1) readonly buffer Points { vec4 points[]; };
+// The points, spread over up to five buffers of pc.extra.x points each
+// (one storage-buffer descriptor reaches at most maxStorageBufferRange
+// bytes: 4 GiB, 268 M points, on the H200); unused bindings repeat the first.
+layout(std430, set = 0, binding = 1) readonly buffer Points0 { vec4 points0[]; };
+layout(std430, set = 0, binding = 5) readonly buffer Points1 { vec4 points1[]; };
+layout(std430, set = 0, binding = 6) readonly buffer Points2 { vec4 points2[]; };
+layout(std430, set = 0, binding = 7) readonly buffer Points3 { vec4 points3[]; };
+layout(std430, set = 0, binding = 8) readonly buffer Points4 { vec4 points4[]; };
 layout(std430, set = 0, binding = 2) buffer Keys { uint64_t keys[]; };
 layout(std430, set = 0, binding = 3) buffer Drawn { uint drawn; };
 layout(std430, set = 0, binding = 4) readonly buffer Ranges { uvec2 ranges[]; };
 
 // offset: the cloud's origin relative to the render origin (w: the range
-// count's bits); info: points drawn, image width, height, views.
-layout(push_constant) uniform Push { vec4 offset; uvec4 info; } pc;
+// count's bits); info: points drawn, image width, height, views; extra.x:
+// points per buffer.
+layout(push_constant) uniform Push { vec4 offset; uvec4 info; uvec4 extra; } pc;
+
+vec4 fetch(uint i) {
+    uint b = i / pc.extra.x;
+    uint o = i - b * pc.extra.x;
+    if (b == 0u) {
+        return points0[o];
+    } else if (b == 1u) {
+        return points1[o];
+    } else if (b == 2u) {
+        return points2[o];
+    } else if (b == 3u) {
+        return points3[o];
+    }
+    return points4[o];
+}
 
 shared uint group_drawn;
 
@@ -43,7 +66,7 @@ void main() {
                 hi = mid;
             }
         }
-        vec4 p = points[ranges[lo].y + (i - ranges[lo].x)];
+        vec4 p = fetch(ranges[lo].y + (i - ranges[lo].x));
         vec4 rel = vec4(pc.offset.xyz + p.xyz, 1.0);
         uint64_t colour = uint64_t(floatBitsToUint(p.w));
         uvec2 size = pc.info.yz;

@@ -435,3 +435,49 @@ fn the_octree_draws_the_whole_cloud_or_keeps_the_budget() {
         "a fifth of the points draws less"
     );
 }
+
+/// A cloud spread over several point buffers (as past maxStorageBufferRange:
+/// 268 M points on the H200; here forced small) draws the same image.
+#[test]
+fn a_cloud_over_several_buffers_draws_the_same_image() {
+    let dir = scratch("points", "buffers");
+    let scan_out = dir.join("scan.las");
+    let scene = load("factory:200");
+    let cloud = scan(
+        &scene,
+        &ScanSettings {
+            stations: 1,
+            rays_per_station: 30_000,
+            ..ScanSettings::default()
+        },
+    );
+    write_las(&scan_out, &cloud, 0.001).unwrap();
+    let render = |per: Option<&str>, out: &str| {
+        let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"));
+        cmd.args([
+            "render",
+            "--scene",
+            scan_out.to_str().unwrap(),
+            "--width",
+            "160",
+            "--height",
+            "144",
+            "--out",
+        ])
+        .arg(dir.join(out));
+        if let Some(p) = per {
+            cmd.env("VERGENCE_POINTS_PER_BUFFER", p);
+        }
+        assert!(cmd.status().unwrap().success());
+        image::open(dir.join(out).join("left.png"))
+            .unwrap()
+            .to_rgba8()
+    };
+    let one = render(None, "one");
+    // Five buffers: four full, the last partly.
+    let per = (cloud.len().div_ceil(5) + 1).to_string();
+    let five = render(Some(&per), "five");
+    assert_eq!(common::pixels_differing(&one, &five), 0);
+    let edge = std::fs::read_to_string(dir.join("five/stats.json")).unwrap();
+    assert!(edge.contains("\"validation_messages\": 0"));
+}

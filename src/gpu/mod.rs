@@ -96,6 +96,9 @@ pub struct Capabilities {
     /// VK_NV_clip_space_w_scaling is enabled (`lms` scales w in the
     /// rasterizer; without it, in the vertex shaders).
     pub clip_space_w_scaling: bool,
+    /// maxStorageBufferRange: the most bytes one storage-buffer descriptor
+    /// reaches (a point cloud is spread over several buffers past it).
+    pub max_storage_buffer_range: u32,
     /// shaderInt64 and shaderBufferInt64Atomics are enabled
     /// (VK_KHR_shader_atomic_int64): point clouds rasterize in compute.
     pub atomic_int64: bool,
@@ -787,6 +790,7 @@ impl PartialInstance {
             min_uniform_offset_alignment: lim.min_uniform_buffer_offset_alignment,
             clip_space_w_scaling,
             atomic_int64,
+            max_storage_buffer_range: lim.max_storage_buffer_range,
         };
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),

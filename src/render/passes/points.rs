@@ -38,7 +38,9 @@ struct Slot {
 /// The point buffer, the per-slot keys and counters, the rasterizer and
 /// the composite.
 pub struct PointsPass {
-    points: Buffer,
+    /// The points, [`PointsPass::per_buffer`] per buffer.
+    points: Vec<Buffer>,
+    per_buffer: u64,
     count: u64,
     /// The cloud's octree (None: every point every frame).
     octree: Option<crate::scene::octree::Octree>,
@@ -70,22 +72,19 @@ impl PointsPass {
                 ctx.device_name
             )));
         }
-        let data: Vec<[f32; 4]> = cloud
-            .positions
-            .iter()
-            .zip(&cloud.colors)
-            .map(|(p, c)| [p[0], p[1], p[2], f32::from_bits(u32::from_le_bytes(*c))])
-            .collect();
-        let points = crate::render::scene_gpu::upload(
-            ctx,
-            "point cloud",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            "points",
-            as_bytes(&data),
-        )?;
-        drop(data);
+        let per_buffer = points_per_buffer(ctx);
+        let need = (cloud.len() as u64).div_ceil(per_buffer);
+        if need > MAX_BUFFERS as u64 {
+            return Err(Error::Gpu(format!(
+                "{} points need {need} buffers of {per_buffer} (maxStorageBufferRange {} bytes); vergence binds at most {MAX_BUFFERS}",
+                cloud.len(),
+                ctx.caps.max_storage_buffer_range
+            )));
+        }
+        let points = upload_points(ctx, cloud, per_buffer)?;
         let mut made = PointsPass {
             points,
+            per_buffer,
             count: cloud.len() as u64,
             octree: cloud.octree.clone(),
             origin: cloud.origin,
@@ -185,20 +184,30 @@ impl PointsPass {
             (storage, 1, compute),
             (storage, 1, compute),
             (storage, 1, compute),
+            (storage, 1, compute),
+            (storage, 1, compute),
+            (storage, 1, compute),
+            (storage, 1, compute),
         ];
-        self.sets = DescriptorSets::new(ctx, &bindings, compute, 32, frames.len(), "points")?;
+        self.sets = DescriptorSets::new(ctx, &bindings, compute, 48, frames.len(), "points")?;
         for ((slot, &set), frame) in self.slots.iter().zip(&self.sets.sets).zip(frames) {
             let info = |b: &Buffer| {
                 [vk::DescriptorBufferInfo::default()
                     .buffer(b.buffer)
                     .range(vk::WHOLE_SIZE)]
             };
+            // Unused point bindings repeat the first buffer.
+            let part = |k: usize| info(self.points.get(k).unwrap_or(&self.points[0]));
             let infos = [
                 info(frame),
-                info(&self.points),
+                part(0),
                 info(&slot.keys),
                 info(&slot.drawn),
                 info(&slot.ranges),
+                part(1),
+                part(2),
+                part(3),
+                part(4),
             ];
             let writes: Vec<vk::WriteDescriptorSet> = infos
                 .iter()
@@ -304,7 +313,7 @@ impl PointsPass {
             .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::HOST_READ)];
         let groups = self.selected.div_ceil(GROUP).max(1);
         let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
-        let mut push = [0u32; 8];
+        let mut push = [0u32; 12];
         for k in 0..3 {
             push[k] = offset[k].to_bits();
         }
@@ -313,6 +322,7 @@ impl PointsPass {
         push[5] = self.extent.width;
         push[6] = self.extent.height;
         push[7] = views;
+        push[8] = self.per_buffer as u32;
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; this slot's buffers were last used by the slot's
         // previous frame, whose fence the renderer has waited on.
@@ -376,6 +386,120 @@ impl PointsPass {
             s.drawn.destroy(ctx);
             s.ranges.destroy(ctx);
         }
-        self.points.destroy(ctx);
+        for b in self.points {
+            b.destroy(ctx);
+        }
+    }
+}
+
+/// Points staged per copy (16 bytes each: 256 MiB).
+const STAGE_POINTS: usize = 16 << 20;
+
+/// The most point buffers one cloud binds.
+const MAX_BUFFERS: usize = 5;
+
+/// Points per buffer: what one storage-buffer descriptor reaches
+/// (maxStorageBufferRange / 16, at most 2^28), or `VERGENCE_POINTS_PER_BUFFER`
+/// (a test knob: small values spread a small cloud over several buffers).
+fn points_per_buffer(ctx: &Context) -> u64 {
+    let limit = (ctx.caps.max_storage_buffer_range as u64 / 16).clamp(1, 1 << 28);
+    std::env::var("VERGENCE_POINTS_PER_BUFFER")
+        .ok()
+        .and_then(|v| v.parse::<u64>().ok())
+        .map_or(limit, |v| v.clamp(1, limit))
+}
+
+/// Uploads `cloud` as one vec4 per point (offset, colour bits) into new
+/// device-local buffers of `per_buffer` points, through a staging buffer
+/// of at most [`STAGE_POINTS`] points reused per chunk (a billion points
+/// never sit twice in host memory).
+fn upload_points(ctx: &Context, cloud: &PointCloud, per_buffer: u64) -> Result<Vec<Buffer>> {
+    let n = cloud.len();
+    let mut out: Vec<Buffer> = Vec::new();
+    let parts = (n as u64).div_ceil(per_buffer).max(1);
+    for k in 0..parts {
+        let len = (n as u64 - (k * per_buffer).min(n as u64)).min(per_buffer);
+        match upload_part(ctx, cloud, (k * per_buffer) as usize, len as usize) {
+            Ok(b) => out.push(b),
+            Err(e) => {
+                for b in out {
+                    b.destroy(ctx);
+                }
+                return Err(e);
+            }
+        }
+    }
+    Ok(out)
+}
+
+/// One buffer of `len` points of `cloud` from point `from`.
+fn upload_part(ctx: &Context, cloud: &PointCloud, from: usize, len: usize) -> Result<Buffer> {
+    let dst = Buffer::new(
+        ctx,
+        &BufferDesc {
+            name: "point cloud",
+            size: 16 * len.max(1) as u64,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            location: MemoryLocation::GpuOnly,
+            category: "points",
+        },
+    )?;
+    let n = len;
+    let chunk = n.clamp(1, STAGE_POINTS);
+    let mut staging = match Buffer::new(
+        ctx,
+        &BufferDesc {
+            name: "point staging",
+            size: 16 * chunk as u64,
+            usage: vk::BufferUsageFlags::TRANSFER_SRC,
+            location: MemoryLocation::CpuToGpu,
+            category: "staging",
+        },
+    ) {
+        Ok(b) => b,
+        Err(e) => {
+            dst.destroy(ctx);
+            return Err(e);
+        }
+    };
+    let mut result = Ok(());
+    let mut data: Vec<[f32; 4]> = Vec::with_capacity(chunk);
+    for start in (0..n).step_by(chunk) {
+        let end = (start + chunk).min(n);
+        data.clear();
+        data.extend(
+            cloud.positions[from + start..from + end]
+                .iter()
+                .zip(&cloud.colors[from + start..from + end])
+                .map(|(p, c)| [p[0], p[1], p[2], f32::from_bits(u32::from_le_bytes(*c))]),
+        );
+        result = staging.write(0, as_bytes(&data)).and_then(|()| {
+            ctx.one_shot(|cb| {
+                // SAFETY: both buffers are live; the region lies inside each.
+                unsafe {
+                    ctx.device.cmd_copy_buffer(
+                        cb,
+                        staging.buffer,
+                        dst.buffer,
+                        &[vk::BufferCopy {
+                            src_offset: 0,
+                            dst_offset: 16 * start as u64,
+                            size: 16 * (end - start) as u64,
+                        }],
+                    )
+                };
+            })
+        });
+        if result.is_err() {
+            break;
+        }
+    }
+    staging.destroy(ctx);
+    match result {
+        Ok(()) => Ok(dst),
+        Err(e) => {
+            dst.destroy(ctx);
+            Err(e)
+        }
     }
 }
