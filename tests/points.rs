@@ -481,3 +481,39 @@ fn a_cloud_over_several_buffers_draws_the_same_image() {
     let edge = std::fs::read_to_string(dir.join("five/stats.json")).unwrap();
     assert!(edge.contains("\"validation_messages\": 0"));
 }
+
+/// Inside the cloud, along the bench's walk path, the octree with an
+/// unlimited budget draws what every point draws.
+#[test]
+fn inside_the_cloud_the_octree_draws_every_visible_point() {
+    let ctx = context();
+    let scene = load("factory:300");
+    let cloud = scan(
+        &scene,
+        &ScanSettings {
+            stations: 2,
+            rays_per_station: 60_000,
+            ..ScanSettings::default()
+        },
+    )
+    .with_octree();
+    let (lo, hi) = cloud.bounds();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let mut whole = cloud.clone();
+    whole.octree = None;
+    let (whole, lod) = (points_scene(whole), points_scene(cloud));
+    let unlimited = RenderConfig {
+        points_budget: vergence::scene::points::MAX_POINTS,
+        ..config(StereoMode::Multiview)
+    };
+    for f in [0u64, 200, 400] {
+        let pose = vergence::bench::cull::head_path(f, 1, lo, hi);
+        let a = render_config(&ctx, &whole, &profile, pose, &config(StereoMode::Multiview), W, H);
+        let b = render_config(&ctx, &lod, &profile, pose, &unlimited, W, H);
+        assert!(a.stats.points_drawn.unwrap() > 0, "frame {f}: nothing in view");
+        assert_eq!(a.stats.points_drawn, b.stats.points_drawn, "frame {f}");
+        for eye in 0..2 {
+            assert_eq!(common::pixels_differing(&a.images[eye], &b.images[eye]), 0, "frame {f} eye {eye}");
+        }
+    }
+}

@@ -142,6 +142,13 @@ pub struct ConfigResult {
     pub draw_calls: f64,
     /// Instances drawn (median).
     pub instances_drawn: f64,
+    /// With a point cloud: median points chosen by the octree per frame,
+    /// and median points rasterized (both eyes together).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub points_selected: Option<f64>,
+    /// See `points_selected`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub points_drawn: Option<f64>,
     /// Triangles submitted (median).
     pub triangles: f64,
     /// Fragment-shader invocations (median; None without pipeline
@@ -1030,6 +1037,12 @@ fn summarize(
         budget_ms,
         draw_calls: median(&|f| f.stats.draw_calls as f64),
         instances_drawn: median(&|f| f.stats.instances_drawn as f64),
+        points_selected: renderer
+            .points_total()
+            .map(|_| median(&|f| f.stats.points_selected.unwrap_or(0) as f64)),
+        points_drawn: renderer
+            .points_total()
+            .map(|_| median(&|f| f.stats.points_drawn.unwrap_or(0) as f64)),
         triangles: median(&|f| f.stats.triangles as f64),
         fragment_invocations: frames
             .iter()
