@@ -508,12 +508,27 @@ fn inside_the_cloud_the_octree_draws_every_visible_point() {
     };
     for f in [0u64, 200, 400] {
         let pose = vergence::bench::cull::head_path(f, 1, lo, hi);
-        let a = render_config(&ctx, &whole, &profile, pose, &config(StereoMode::Multiview), W, H);
+        let a = render_config(
+            &ctx,
+            &whole,
+            &profile,
+            pose,
+            &config(StereoMode::Multiview),
+            W,
+            H,
+        );
         let b = render_config(&ctx, &lod, &profile, pose, &unlimited, W, H);
-        assert!(a.stats.points_drawn.unwrap() > 0, "frame {f}: nothing in view");
+        assert!(
+            a.stats.points_drawn.unwrap() > 0,
+            "frame {f}: nothing in view"
+        );
         assert_eq!(a.stats.points_drawn, b.stats.points_drawn, "frame {f}");
         for eye in 0..2 {
-            assert_eq!(common::pixels_differing(&a.images[eye], &b.images[eye]), 0, "frame {f} eye {eye}");
+            assert_eq!(
+                common::pixels_differing(&a.images[eye], &b.images[eye]),
+                0,
+                "frame {f} eye {eye}"
+            );
         }
     }
 }
