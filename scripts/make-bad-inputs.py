@@ -684,6 +684,30 @@ bin_case("points/laz-count-lies.laz", "scene", ["more than a LAZ file of"], byte
 # decoder asserts instead of returning an error.
 bin_case("points/corrupt-stream.laz", "scene", ["corrupt-stream.laz", "decoder failed"],
          base64.b64decode("TEFTRgAAZQAAAAAAAAAAAAAAAAAAAAAAAQQAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAHZlcmdlbmNlIHNjYW4AAAAAAAAAAAAAAAAAAAAAAAAAAAAAAHcB2wEAAAEAAACHJACVAAAAlQAAAAAAAAAAAAAAAAAAAAAAAAD8qfHSTWJQP/yp8dJNYlA//Knx0k1iUD8AAABmZmYTQAAAAGZmZhNAZmbGzMzME0CF61HrUbgjQIDrUbhRuK4/aJHtr3JoI0CAj8J1j8K1v+Oly/dT4yJAABjZDiuHhr8AAAAAAAAAAAAAAAAAAAAAAAAAAJUAAAAAAAAAlQAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAAABsYXN6aXAgZW5jb2RlZAAAvFYuAGh0dHBzOi8vbGFzemlwLm9yZwAAAAAAAAAAAAAAAAAAAwAAAAICAAAAAAAAUMMAAP////////////////////8CAAoAHgADAAsABgADACoHAAAAAAAAYgIAAAAAAACgDwAAAAURAAEAAAAAAAAAAAAAAAAAAP8A/wD5lQAAAHcCAACqAAAAAAAAAAAAAADuAAAAAAAAAAAAAAAAAAAAAAAAAOgAAAAAoCvJEtZuYHnzgboJ/F2Ke3ZW0d+1E05G36ExCqmNo5nYu990dDijDxd3nTB4MTCelX3LEuue7f0UUnQB+LPuiwOfz+PmpfCfDW6v5flEG6DK6DpjJtaGnCFbjjQg9jriPpGTjCO7Wp2qMdFz0OV0ucqybq949ZZhSxqNq4fGRPcc0QWC1nejVKT7hNASThaZTYMQE/rwaQl0LSIuWjbh3XXXZhtc9ZGlJO62hTSGuuFJThIjwkPNeJZ59g1AW9eebgZrmtmPXTS+d4uhlSfgoAQufOIT4EsPR7ygPw/H6qJ9dZdvAHutVJPkGfo8fzybXK2USVQZ+eLez/9Hd792umEkVCPQXF6QToI6ZNlLrFyGElhLg9lWXftDjqW4iZkgiuhmLBiiEWvQLf7rVfdt8tuhllBt0pwX8iM+DQXU5YOt2YG5nEsfkyw7YViIGh60PZD9PkVdHbpVTqCDNG1iOJw0nZTl3TtN0o5dAZ4fAHuLDb6F9il/x50+f+fCpCe7WuYggiaOGoUwLTRXFA0v1SCXPgclI8eAc68RsPcnlSj/LLNX2Obb9KKw2CkmRyEEi67BlSxM5HiTXnENR/4ohpb+Wrk2EKSObIhaNuHddddmG5KCFlw4zn/gqKrh7wl6H/oOBj6DIDibLJgGSB/h/X+KyALLeO+37i8X6dSTI6FjgZymBon1a5Zxx4Ffe1UgP/VgQOupuSoadvvS73BLPOq8MdUuTgqYYEvHhMkHjcXA2W3DXMmw6KlRxw52jAOYQD7ciA5ZkgMEeWs++tqMCNEfEX1hKwyWrOZfs93U5fO1uwzMW+ky0CiWt6ZkKCXXE1UMpVLCnEP3/ZQK14TjQCX9TDQAAABoHzVkQJPT9QDFCsxH3iqaCpOrd2mGBNipgkCpfii261c0WkM9zIE3AjOD9rFbZeot32gL3jyUDQMmDM4LC7fErO1np1JYqsiS0XTjpyAxQieC1+3ENjvVPmA4k4ejp+/+c8kT6OavydR9FJ3wBMvxMiE2XhJV1MbCMS5qTNeLIekj+naKgpN9Q0gi1sIrKQNzQ5UMyamL0mITqO+8AIL1Nm4sBhVhkb8AAAC0sxMdBoYw0R/JcHP6sldQ3NmOS/4ZwgDkV55x/eUpBpry8umCAlBd3QhNyum+4+TBk9BmiCxburE6J3ofOZBq3vpvlLPx1QGUmGD00j8dPeocU2HSDHgSIu1+fAshqIinJPcNui4tKN5UXFQIsO7fuvfxYsSKSxLJKokfRDywT9N7GZ41pFOlrqI919ievhfS3aQChtkzYA2kVwv41LLbWyJTKr96yZ42xwcOszVTUAf+VXSs2ts7Wx3TWNGsNP/HkWWLKV13F4llU7iP59YEhVbkU/sCiPm3z+Gxljb4MhO0JxY+/F82yL0vAAAA1Ytw4xGPLTAdOSGfQYMOHGIx46ckM+gxCMeOnJDPoMQjHjpyPWHC3ogssttFhwt51Tu66m0KDP+Cyyyzhxiaw4W86p3dS0Rjx05IZ9BhFzuyO3wi7Qiaw4W9Ry/2ehDjE7yW981C35FiHDjEWDec7f6TynyHDhw4cOHDhxiLBvOdv9J5eUwbznb/SeU/kWDec9QLo/KHUR50ETRa0cYozP2RRaEgY6kTFt/Bbr9E0mYzox90PgqjS4cWmH2DuaFrzdR36HOmByZvqC4LLJgGSB/hZi77xpRjAAAAAAAAAAEAAABacKMAAAA="))
+def ply_ascii(count, rows, props=("x", "y", "z"), fmt="ascii 1.0"):
+    head = "ply\nformat %s\nelement vertex %d\n" % (fmt, count)
+    head += "".join("property float %s\n" % p for p in props) + "end_header\n"
+    return head + "".join(" ".join(str(v) for v in r) + "\n" for r in rows)
+
+
+case("points/count-lies.ply", "scene", ["count-lies.ply", "vertex data"],
+     ply_ascii(40, [(0, 0, 0), (1, 1, 1)]))
+case("points/no-x.ply", "scene", ["no 'x' property"], ply_ascii(1, [(0, 0)], props=("y", "z")))
+case("points/nan-text.ply", "scene", ["nan-text.ply", "vertex data"], ply_ascii(2, [(0, 0, 0), ("nan", 0, 0)]))
+bin_case("points/nan.ply", "scene", ["point 1", "not finite"],
+         b"ply\nformat binary_little_endian 1.0\nelement vertex 2\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+         + struct.pack("<6f", 0, 0, 0, float("nan"), 0, 0))
+case("points/huge-count.ply", "scene", ["99999999999 'vertex' elements", "more than the file"],
+     ply_ascii(99999999999, [(0, 0, 0)]))
+case("points/bad-format.ply", "scene", ["header is malformed"],
+     ply_ascii(1, [(0, 0, 0)], fmt="binary_middle_endian 1.0"))
+case("points/huge-extent.ply", "scene", ["span", "more than 1000000000 m"],
+     ply_ascii(2, [(0, 0, 0), (1e12, 0, 0)]))
+case("points/no-vertex.ply", "scene", ["no vertex element"],
+     "ply\nformat ascii 1.0\nelement face 1\nproperty list uchar int vertex_indices\nend_header\n3 0 1 2\n")
+bin_case("points/truncated-binary.ply", "scene", ["truncated-binary.ply", "vertex data"],
+         b"ply\nformat binary_little_endian 1.0\nelement vertex 10\nproperty float x\nproperty float y\nproperty float z\nend_header\n"
+         + struct.pack("<9f", *range(9)))
 case("manifests/points-grid.toml", "scene", ["points[0]", "not a grid or motion"],
      'name = "x"\n[[points]]\nfile = "../points/count-lies.las"\ngrid = { count = [2, 1, 1], spacing = [1.0, 0.0, 0.0] }\n')
 case("manifests/points-missing.toml", "scene", ["no-such-scan.laz"],

@@ -125,16 +125,22 @@ pub fn lod_cache_scene() -> crate::scene::Scene {
     }
 }
 
-/// Bytes → the LAS/LAZ reader: any Err is fine; an accepted cloud has
+/// Bytes → the PLY and the LAS/LAZ readers: any Err is fine; an accepted cloud has
 /// finite offsets, one colour and class per point, and no more points than
 /// the limit.
 pub fn point_file(data: &[u8]) {
-    let name = std::path::Path::new("fuzz.las");
-    if let Ok(c) = crate::scene::points::read_las_bytes(name, data.to_vec()) {
+    let check = |c: crate::scene::points::PointCloud| {
         assert!(c.origin.is_finite());
         assert!(c.positions.iter().flatten().all(|v| v.is_finite()));
         assert_eq!(c.positions.len(), c.colors.len());
         assert_eq!(c.positions.len(), c.classification.len());
         assert!(c.len() as u64 <= crate::scene::points::MAX_POINTS);
+    };
+    if let Ok(c) = crate::scene::ply::read_ply_bytes(std::path::Path::new("fuzz.ply"), data) {
+        check(c);
+    }
+    let name = std::path::Path::new("fuzz.las");
+    if let Ok(c) = crate::scene::points::read_las_bytes(name, data.to_vec()) {
+        check(c);
     }
 }

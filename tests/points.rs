@@ -532,3 +532,78 @@ fn inside_the_cloud_the_octree_draws_every_visible_point() {
         }
     }
 }
+
+/// PLY clouds, ASCII and binary, read as the same points, colours and
+/// classes; z up turns to y up; the cloud renders.
+#[test]
+fn ply_ascii_and_binary_read_the_same_points() {
+    let dir = scratch("points", "ply");
+    let pts: Vec<([f64; 3], [u8; 3], u8)> = (0..200)
+        .map(|i| {
+            let f = i as f64;
+            (
+                [1000.0 + f * 0.01, 2000.0 - f * 0.02, 5.0 + (f * 0.1).sin()],
+                [i as u8, 255 - i as u8, 7],
+                (i % 5) as u8,
+            )
+        })
+        .collect();
+    let mut ascii = String::from("ply\nformat ascii 1.0\ncomment vergence test\n");
+    ascii += &format!("element vertex {}\n", pts.len());
+    ascii += "property double x\nproperty double y\nproperty double z\n";
+    ascii += "property uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar classification\n";
+    ascii += "element face 1\nproperty list uchar int vertex_indices\nend_header\n";
+    for (p, c, k) in &pts {
+        ascii += &format!(
+            "{} {} {} {} {} {} {}\n",
+            p[0], p[1], p[2], c[0], c[1], c[2], k
+        );
+    }
+    ascii += "3 0 1 2\n";
+    let mut binary = format!(
+        "ply\nformat binary_little_endian 1.0\nelement vertex {}\nproperty double x\nproperty double y\nproperty double z\nproperty uchar red\nproperty uchar green\nproperty uchar blue\nproperty uchar classification\nend_header\n",
+        pts.len()
+    )
+    .into_bytes();
+    for (p, c, k) in &pts {
+        for v in p {
+            binary.extend(v.to_le_bytes());
+        }
+        binary.extend([c[0], c[1], c[2], *k]);
+    }
+    let (a_path, b_path) = (dir.join("a.ply"), dir.join("b.ply"));
+    std::fs::write(&a_path, ascii).unwrap();
+    std::fs::write(&b_path, binary).unwrap();
+    let a = vergence::scene::points::read_file(&a_path).unwrap();
+    let b = vergence::scene::points::read_file(&b_path).unwrap();
+    assert_eq!(a.len(), pts.len());
+    assert_eq!(
+        (a.origin, &a.colors, &a.classification),
+        (b.origin, &b.colors, &b.classification)
+    );
+    for (i, (p, c, k)) in pts.iter().enumerate() {
+        let w = a.world(i);
+        // z up in the file: (x, y, z) → (x, z, −y).
+        let want = DVec3::new(p[0], p[2], -p[1]);
+        assert!(
+            (w - want).abs().max_element() < 1e-4,
+            "point {i}: {w:?} vs {want:?}"
+        );
+        assert_eq!(a.colors[i][..3], c[..]);
+        assert_eq!(a.classification[i], *k);
+        assert!((b.world(i) - w).abs().max_element() < 1e-9);
+    }
+    let stats = common::render_cli(
+        &[
+            "--scene",
+            a_path.to_str().unwrap(),
+            "--width",
+            "96",
+            "--height",
+            "96",
+        ],
+        &dir.join("render"),
+    );
+    assert_eq!(stats["points_total"], pts.len() as u64);
+    assert!(stats["points_drawn"].as_u64().unwrap() > 0);
+}

@@ -1,4 +1,4 @@
-//! Bytes → the LAS/LAZ point-cloud reader
+//! Bytes → the PLY and LAS/LAZ point-cloud readers
 //! (`vergence::fuzz_checks::point_file`). Any Err is fine; a panic, abort
 //! or hang is a bug, and an accepted cloud must be finite and whole.
 #![no_main]

@@ -15,6 +15,7 @@ pub mod lod_cache;
 pub mod manifest;
 pub mod motion;
 pub mod octree;
+pub mod ply;
 pub mod points;
 pub mod shapes;
 pub mod uri;
@@ -390,8 +391,8 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
-            Some(e) if e == "las" || e == "laz" => {
-                Ok(Scene::of_points(points::read_las(path)?.with_octree()))
+            Some(e) if e == "las" || e == "laz" || e == "ply" => {
+                Ok(Scene::of_points(points::read_file(path)?.with_octree()))
             }
             _ => gltf_load::load(path),
         }?;

@@ -110,6 +110,16 @@ impl PointCloud {
     }
 }
 
+/// Reads a point file by its extension: PLY ([`super::ply::read_ply`]),
+/// else LAS or LAZ ([`read_las`]).
+pub fn read_file(path: &Path) -> Result<PointCloud> {
+    if super::ply::is_ply(path) {
+        super::ply::read_ply(path)
+    } else {
+        read_las(path)
+    }
+}
+
 /// Whether `path` names a LAS or LAZ file (by extension).
 pub fn is_las(path: &Path) -> bool {
     path.extension()
