@@ -29,7 +29,10 @@ layout(std430, set = 0, binding = 4) readonly buffer Ranges { uvec2 ranges[]; };
 
 // offset: the cloud's origin relative to the render origin (w: the range
 // count's bits); info: points drawn, image width, height, views; extra.x:
-// points per buffer.
+// points per buffer, extra.y: the point size in pixels (float bits),
+// extra.z: the distance at which a point has that size (float bits).
+// Farther points shrink as 1 / distance, to one pixel at least; a point of
+// side s covers the s × s pixels around its own.
 layout(push_constant) uniform Push { vec4 offset; uvec4 info; uvec4 extra; } pc;
 
 vec4 fetch(uint i) {
@@ -81,7 +84,17 @@ void main() {
             }
             uvec2 px = min(uvec2((n.xy * 0.5 + 0.5) * vec2(size)), size - 1u);
             uint64_t key = (uint64_t(floatBitsToUint(n.z)) << 32) | colour;
-            atomicMax(keys[(v * size.y + px.y) * size.x + px.x], key);
+            float full = uintBitsToFloat(pc.extra.y);
+            int side = int(clamp(full * uintBitsToFloat(pc.extra.z) / c.w, 1.0, full));
+            int lo = -(side - 1) / 2;
+            for (int dy = lo; dy < lo + side; dy++) {
+                for (int dx = lo; dx < lo + side; dx++) {
+                    ivec2 q = ivec2(px) + ivec2(dx, dy);
+                    if (all(greaterThanEqual(q, ivec2(0))) && all(lessThan(q, ivec2(size)))) {
+                        atomicMax(keys[(v * size.y + uint(q.y)) * size.x + uint(q.x)], key);
+                    }
+                }
+            }
             atomicAdd(group_drawn, 1u);
         }
     }

@@ -150,6 +150,9 @@ pub struct RenderConfig {
     /// The most points of a point cloud drawn per frame
     /// (`points-budget=N`): its octree's nodes fill it nearest-first.
     pub points_budget: u64,
+    /// A point's side in pixels at 2 m (`point-size=PX`, 1 to 16; farther
+    /// points shrink as 1 / distance, to one pixel).
+    pub point_size: f64,
     /// Adaptive quality (`aq`): each frame's render scale follows the GPU
     /// times of the last ones against the frame budget (The Lab's rules,
     /// `crate::adaptive`); the targets are made once at the largest scale
@@ -412,6 +415,7 @@ impl Default for RenderConfig {
             occlusion: false,
             lod_cache: false,
             points_budget: DEFAULT_POINTS_BUDGET,
+            point_size: 1.0,
             lod: None,
             aq: false,
             budget_ms: None,
@@ -608,6 +612,9 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                l if l.starts_with("point-size=") => {
+                    self.point_size = opt_value(l, "point-size=", (1.0, 16.0), "PX", "a point's side in pixels at 2 m")?;
+                }
                 l if l.starts_with("points-budget=") => {
                     let max = crate::scene::points::MAX_POINTS as f64;
                     let v = opt_value(l, "points-budget=", (1.0, max), "N", "points drawn per frame")?;
@@ -759,7 +766,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -952,6 +959,9 @@ impl RenderConfig {
             if i.fov_given {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
             }
+        }
+        if self.point_size != 1.0 {
+            v.push(format!("point-size={}", self.point_size));
         }
         if self.points_budget != DEFAULT_POINTS_BUDGET {
             v.push(format!("points-budget={}", self.points_budget));

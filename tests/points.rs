@@ -607,3 +607,66 @@ fn ply_ascii_and_binary_read_the_same_points() {
     assert_eq!(stats["points_total"], pts.len() as u64);
     assert!(stats["points_drawn"].as_u64().unwrap() > 0);
 }
+
+/// `point-size=PX`: a near point covers PX × PX pixels around its own, a
+/// far one shrinks to a pixel; every pixel a one-pixel point keys is still
+/// a point's.
+#[test]
+fn point_size_grows_near_points_and_keeps_far_ones_single() {
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = head();
+    let forward = DVec3::NEG_Z;
+    // Three red points 1 m ahead (full size) and three blue ones 40 m ahead
+    // (one pixel: 5 × 2 m / 40 m < 1).
+    let mut c = PointCloud {
+        origin: pose.position,
+        ..PointCloud::default()
+    };
+    for (i, (d, rgb)) in [(1.0, [255, 0, 0]), (40.0, [0, 0, 255])].iter().enumerate() {
+        for k in 0..3 {
+            let p = forward * *d
+                + DVec3::X * (k as f64 - 1.0) * 0.1 * d
+                + DVec3::Y * 0.05 * i as f64 * d;
+            c.positions.push([p.x as f32, p.y as f32, p.z as f32]);
+            c.colors.push([rgb[0], rgb[1], rgb[2], 255]);
+            c.classification.push(1);
+        }
+    }
+    let scene = points_scene(c);
+    let sized = |px: f64| RenderConfig {
+        point_size: px,
+        msaa: 1,
+        ..config(StereoMode::Multiview)
+    };
+    let one = render_config(&ctx, &scene, &profile, pose, &sized(1.0), W, H);
+    let five = render_config(&ctx, &scene, &profile, pose, &sized(5.0), W, H);
+    let count = |img: &image::RgbaImage, rgb: [u8; 3]| {
+        img.pixels()
+            .filter(|p| p[0] == rgb[0] && p[1] == rgb[1] && p[2] == rgb[2])
+            .count()
+    };
+    for eye in 0..2 {
+        assert_eq!(
+            count(&one.images[eye], [255, 0, 0]),
+            3,
+            "eye {eye}: one pixel each"
+        );
+        assert_eq!(
+            count(&five.images[eye], [255, 0, 0]),
+            3 * 25,
+            "eye {eye}: 5 × 5 each"
+        );
+        assert_eq!(count(&one.images[eye], [0, 0, 255]), 3);
+        assert_eq!(
+            count(&five.images[eye], [0, 0, 255]),
+            3,
+            "eye {eye}: far points stay single pixels"
+        );
+        for (p, q) in one.images[eye].pixels().zip(five.images[eye].pixels()) {
+            if p[0] == 255 && p[1] == 0 {
+                assert_eq!(p, q);
+            }
+        }
+    }
+}

@@ -374,6 +374,7 @@ impl Renderer {
                 cloud,
                 extent,
                 &r.ubos,
+                config.point_size as f32,
             )?);
         }
         r.targets = Some(Attachments::new(

@@ -22,6 +22,10 @@ use crate::scene::points::PointCloud;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
+/// The distance, metres, at which a point has `--opt point-size`'s size;
+/// farther points shrink as 1 / distance (to one pixel).
+pub const POINT_SIZE_DISTANCE_M: f32 = 2.0;
+
 /// Threads per workgroup of the rasterizer.
 const GROUP: u64 = 256;
 /// Workgroups per dispatch row (the rest go to further rows).
@@ -48,6 +52,8 @@ pub struct PointsPass {
     /// This frame's selection: ranges written and points to draw.
     ranges: u32,
     selected: u64,
+    /// Side of a point at [`POINT_SIZE_DISTANCE_M`], pixels.
+    point_size: f32,
     extent: vk::Extent2D,
     slots: Vec<Slot>,
     sets: DescriptorSets,
@@ -64,6 +70,7 @@ impl PointsPass {
         cloud: &PointCloud,
         extent: vk::Extent2D,
         frames: &[Buffer],
+        point_size: f32,
     ) -> Result<PointsPass> {
         let ctx = setup.ctx;
         if !ctx.caps.atomic_int64 {
@@ -90,6 +97,7 @@ impl PointsPass {
             origin: cloud.origin,
             ranges: 1,
             selected: cloud.len() as u64,
+            point_size,
             extent,
             slots: Vec::new(),
             sets: DescriptorSets {
@@ -323,6 +331,8 @@ impl PointsPass {
         push[6] = self.extent.height;
         push[7] = views;
         push[8] = self.per_buffer as u32;
+        push[9] = self.point_size.to_bits();
+        push[10] = POINT_SIZE_DISTANCE_M.to_bits();
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; this slot's buffers were last used by the slot's
         // previous frame, whose fence the renderer has waited on.
