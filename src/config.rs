@@ -153,6 +153,10 @@ pub struct RenderConfig {
     /// A point's side in pixels at 2 m (`point-size=PX`, 1 to 16; farther
     /// points shrink as 1 / distance, to one pixel).
     pub point_size: f64,
+    /// Draw a point cloud as one-pixel point primitives (the fallback for
+    /// devices without 64-bit atomics) even where the compute rasterizer
+    /// runs (`points-pipeline`).
+    pub points_pipeline: bool,
     /// Adaptive quality (`aq`): each frame's render scale follows the GPU
     /// times of the last ones against the frame budget (The Lab's rules,
     /// `crate::adaptive`); the targets are made once at the largest scale
@@ -416,6 +420,7 @@ impl Default for RenderConfig {
             lod_cache: false,
             points_budget: DEFAULT_POINTS_BUDGET,
             point_size: 1.0,
+            points_pipeline: false,
             lod: None,
             aq: false,
             budget_ms: None,
@@ -620,6 +625,7 @@ impl RenderConfig {
                     let v = opt_value(l, "points-budget=", (1.0, max), "N", "points drawn per frame")?;
                     self.points_budget = v as u64;
                 }
+                "points-pipeline" => self.points_pipeline = true,
                 "lms" => self.lms = Some(self.lms.unwrap_or_default()),
                 "lms-emulated" => {
                     self.lms = Some(Lms {
@@ -766,7 +772,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -959,6 +965,9 @@ impl RenderConfig {
             if i.fov_given {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
             }
+        }
+        if self.points_pipeline {
+            v.push("points-pipeline".into());
         }
         if self.point_size != 1.0 {
             v.push(format!("point-size={}", self.point_size));

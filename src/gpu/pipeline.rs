@@ -51,6 +51,8 @@ pub struct GraphicsPipelineDesc<'a> {
     /// Clip-space w scaling (VK_NV_clip_space_w_scaling) on viewport 0,
     /// its coefficients dynamic state (`lms` on the native path).
     pub w_scaling: bool,
+    /// Point-list topology instead of triangle lists.
+    pub points: bool,
 }
 
 fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
@@ -110,8 +112,12 @@ impl GraphicsPipelineDesc<'_> {
         let vertex_input = vk::PipelineVertexInputStateCreateInfo::default()
             .vertex_binding_descriptions(&self.bindings)
             .vertex_attribute_descriptions(&self.attributes);
-        let input_assembly = vk::PipelineInputAssemblyStateCreateInfo::default()
-            .topology(vk::PrimitiveTopology::TRIANGLE_LIST);
+        let input_assembly =
+            vk::PipelineInputAssemblyStateCreateInfo::default().topology(if self.points {
+                vk::PrimitiveTopology::POINT_LIST
+            } else {
+                vk::PrimitiveTopology::TRIANGLE_LIST
+            });
         let mut w_scaling = vk::PipelineViewportWScalingStateCreateInfoNV::default()
             .viewport_w_scaling_enable(true);
         w_scaling.viewport_count = 1;

@@ -61,6 +61,10 @@ pub static INSET_COMPOSITE_FRAG: Module = spirv!("inset_composite.frag");
 pub static POINTS_RASTER_COMP: Module = spirv!("points_raster.comp");
 /// Point clouds: the keys into the forward scope, with depth.
 pub static POINTS_COMPOSITE_FRAG: Module = spirv!("points_composite.frag");
+/// Point clouds without 64-bit atomics: one-pixel point primitives.
+pub static POINTS_LIST_VERT: Module = spirv!("points_list.vert");
+/// The point-list fallback's colour.
+pub static POINTS_LIST_FRAG: Module = spirv!("points_list.frag");
 /// Lens-matched shading's resample to the rectilinear eye image.
 pub static LMS_RESAMPLE_FRAG: Module = spirv!("lms_resample.frag");
 /// The sky's geometry under lens-matched shading (one quadrant per draw).
@@ -116,7 +120,7 @@ pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 38] = [
+pub static ALL: [&Module; 40] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -132,6 +136,8 @@ pub static ALL: [&Module; 38] = [
     &LMS_RESAMPLE_FRAG,
     &POINTS_RASTER_COMP,
     &POINTS_COMPOSITE_FRAG,
+    &POINTS_LIST_VERT,
+    &POINTS_LIST_FRAG,
     &SKY_LMS_VERT,
     &MFFR_COMPOSITE_FRAG,
     &FULLSCREEN_VERT,

@@ -55,7 +55,8 @@ pub struct SetContents<'a> {
 
 /// Set layout, pipeline layout, pool and one set per frame slot.
 pub struct Descriptors {
-    set_layout: vk::DescriptorSetLayout,
+    /// The layout of set 0.
+    pub set_layout: vk::DescriptorSetLayout,
     /// The pipeline layout of every pipeline.
     pub layout: vk::PipelineLayout,
     pool: vk::DescriptorPool,

@@ -464,6 +464,7 @@ impl DistortionPreview {
                 layout,
                 shading_rate_attachment: false,
                 w_scaling: false,
+                points: false,
             }
             .build(ctx)?
         };

@@ -375,6 +375,7 @@ impl Renderer {
                 extent,
                 &r.ubos,
                 config.point_size as f32,
+                config.points_pipeline,
             )?);
         }
         r.targets = Some(Attachments::new(
@@ -480,6 +481,7 @@ impl Renderer {
                 .lms
                 .is_some_and(|l| !l.emulated && self.ctx.caps.clip_space_w_scaling),
             lms: self.config.lms.is_some(),
+            set_layout: self.descriptors.set_layout,
         }
     }
 
@@ -1092,7 +1094,7 @@ impl Renderer {
             gpu.record(ctx, cmd, q, self.slot);
         }
         let points = passes.points.as_ref().filter(|_| floor.is_none());
-        if let Some(p) = points {
+        if let Some(p) = points.filter(|p| p.computes()) {
             p.record_raster(ctx, cmd, q, (self.slot, 2), self.points_offset);
         }
         rec.barriers(&targets.begin_barriers());
@@ -1219,7 +1221,7 @@ impl Renderer {
                         draw_calls += rdm.record(&rec, self.extent, eye);
                     }
                     if let Some(p) = points {
-                        draw_calls += p.record_composite(&rec, eye);
+                        draw_calls += p.record_in_scope(&rec, eye, self.points_offset, extent);
                     }
                 }
                 let near = batches.near_draws();
@@ -1424,6 +1426,11 @@ impl Renderer {
     }
 
     /// Whether this device offers per-view render areas
+    /// Which path draws the scene's points (None: no cloud).
+    pub fn points_path(&self) -> Option<String> {
+        self.passes.points.as_ref().map(|p| p.path().to_string())
+    }
+
     /// Points in the scene's cloud (None: no cloud).
     pub fn points_total(&self) -> Option<u64> {
         self.passes.points.as_ref().map(|p| p.total())

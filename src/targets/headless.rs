@@ -133,6 +133,10 @@ pub struct RenderStats {
     /// without a cloud).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_selected: Option<u64>,
+    /// Which path drew the points: "compute (64-bit atomic max)", or the
+    /// point-list pipeline and why (absent without a cloud).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub points_path: Option<String>,
     /// The cloud's octree: nodes and build time (absent without one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_octree: Option<OctreeReport>,
@@ -579,6 +583,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         points_total: renderer.points_total(),
         points_drawn: frame.points_drawn,
         points_selected: frame.points_selected,
+        points_path: renderer.points_path(),
         points_octree: scene
             .points
             .as_ref()

@@ -197,6 +197,9 @@ pub struct PipelineSetup<'a> {
     /// Whether the forward views are LMS quadrants (`lms`, either path):
     /// the sky is drawn per quadrant (`sky_lms.vert`).
     pub lms: bool,
+    /// The renderer's set 0 layout (for passes with their own push
+    /// constants over the same set).
+    pub set_layout: vk::DescriptorSetLayout,
 }
 
 impl PipelineSetup<'_> {
@@ -262,6 +265,7 @@ impl PipelineSetup<'_> {
             layout: self.layout,
             shading_rate_attachment: self.shading_rate,
             w_scaling: self.w_scaling,
+            points: false,
         }
     }
 

@@ -12,7 +12,7 @@
 //! cloud renders without jitter.
 
 use super::{destroy_pipelines, PipelineSetup, Recorder};
-use crate::error::{Error, Result};
+use crate::error::{Error, Result, VkContext};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
 use crate::gpu::pipeline::{compute_pipeline, DescriptorSets, GraphicsPipelineDesc};
 use crate::gpu::query::Queries;
@@ -54,6 +54,13 @@ pub struct PointsPass {
     selected: u64,
     /// Side of a point at [`POINT_SIZE_DISTANCE_M`], pixels.
     point_size: f32,
+    /// This frame's chosen point ranges (first, count).
+    chosen: Vec<(u32, u32)>,
+    /// The point-list fallback's layout and pipeline (None: the compute
+    /// rasterizer).
+    list: Option<(vk::PipelineLayout, vk::Pipeline)>,
+    /// Which path draws the points, for the stats.
+    path: String,
     extent: vk::Extent2D,
     slots: Vec<Slot>,
     sets: DescriptorSets,
@@ -71,14 +78,18 @@ impl PointsPass {
         extent: vk::Extent2D,
         frames: &[Buffer],
         point_size: f32,
+        force_list: bool,
     ) -> Result<PointsPass> {
         let ctx = setup.ctx;
-        if !ctx.caps.atomic_int64 {
-            return Err(Error::Gpu(format!(
-                "{} offers no 64-bit buffer atomics (shaderInt64 and shaderBufferInt64Atomics, VK_KHR_shader_atomic_int64), which vergence's point rasterizer needs; a scene with a point cloud cannot render on it",
-                ctx.device_name
-            )));
-        }
+        let path = if force_list {
+            "point-list pipeline (points-pipeline)".to_string()
+        } else if !ctx.caps.atomic_int64 {
+            let p = "point-list pipeline (64-bit buffer atomics not offered)".to_string();
+            eprintln!("warning: point clouds fall back to the {p}");
+            p
+        } else {
+            "compute (64-bit atomic max)".to_string()
+        };
         let per_buffer = points_per_buffer(ctx);
         let need = (cloud.len() as u64).div_ceil(per_buffer);
         if need > MAX_BUFFERS as u64 {
@@ -98,6 +109,10 @@ impl PointsPass {
             ranges: 1,
             selected: cloud.len() as u64,
             point_size,
+            chosen: vec![(0, cloud.len() as u32)],
+            list: (force_list || !ctx.caps.atomic_int64)
+                .then_some((vk::PipelineLayout::null(), vk::Pipeline::null())),
+            path,
             extent,
             slots: Vec::new(),
             sets: DescriptorSets {
@@ -231,6 +246,9 @@ impl PointsPass {
             // SAFETY: the set is new and every buffer is live.
             unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
         }
+        if self.list.is_some() {
+            return self.build_list(setup);
+        }
         self.raster = compute_pipeline(
             ctx,
             self.sets.layout,
@@ -248,6 +266,68 @@ impl PointsPass {
         }
         .build(ctx)?;
         Ok(())
+    }
+
+    /// The point-list fallback: a layout over the renderer's set 0 with
+    /// its own push constants, and the pipeline (the scene's depth test,
+    /// one-pixel points).
+    fn build_list(&mut self, setup: &PipelineSetup) -> Result<()> {
+        let ctx = setup.ctx;
+        let ranges = [vk::PushConstantRange {
+            stage_flags: vk::ShaderStageFlags::VERTEX,
+            offset: 0,
+            size: 32,
+        }];
+        let sets = [setup.set_layout];
+        // SAFETY: plain object creation; destroyed by `destroy`.
+        let layout = unsafe {
+            ctx.device.create_pipeline_layout(
+                &vk::PipelineLayoutCreateInfo::default()
+                    .set_layouts(&sets)
+                    .push_constant_ranges(&ranges),
+                None,
+            )
+        }
+        .vk("creating the point-list layout")?;
+        self.list = Some((layout, vk::Pipeline::null()));
+        let (vs, fs) = (
+            shaders::POINTS_LIST_VERT.words(),
+            shaders::POINTS_LIST_FRAG.words(),
+        );
+        let pipeline = GraphicsPipelineDesc {
+            name: "points list",
+            bindings: vec![vk::VertexInputBindingDescription {
+                binding: 0,
+                stride: 16,
+                input_rate: vk::VertexInputRate::VERTEX,
+            }],
+            attributes: vec![vk::VertexInputAttributeDescription {
+                location: 0,
+                binding: 0,
+                format: vk::Format::R32G32B32A32_SFLOAT,
+                offset: 0,
+            }],
+            specialization: Vec::new(),
+            cull_mode: vk::CullModeFlags::NONE,
+            layout,
+            points: true,
+            ..setup.scene_desc(&vs, &fs)
+        }
+        .build(ctx)?;
+        self.list = Some((layout, pipeline));
+        Ok(())
+    }
+
+    /// Which path draws the points ("compute (64-bit atomic max)", or the
+    /// point-list pipeline and why).
+    pub fn path(&self) -> &str {
+        &self.path
+    }
+
+    /// Whether the compute rasterizer runs (else the point-list fallback
+    /// draws inside the scopes).
+    pub fn computes(&self) -> bool {
+        self.list.is_none()
     }
 
     /// Points in the cloud.
@@ -272,9 +352,11 @@ impl PointsPass {
         let s = tree.select(self.origin, rig, near, budget);
         let mut words = Vec::with_capacity(2 * s.nodes.len().max(1));
         let mut at = 0u32;
+        self.chosen.clear();
         for &i in &s.nodes {
             let n = &tree.nodes[i as usize];
             words.extend([at, n.first]);
+            self.chosen.push((n.first, n.count));
             at += n.count;
         }
         if words.is_empty() {
@@ -368,9 +450,76 @@ impl PointsPass {
         q.end_pass(ctx, cmd);
     }
 
-    /// Inside a forward scope, before the meshes: the keyed pixels of view
-    /// `eye` with their depth. Returns the draw calls.
-    pub fn record_composite(&self, rec: &Recorder, eye: u32) -> u64 {
+    /// Inside a forward scope over `extent`, before the meshes: the points
+    /// of view `eye` — the compute rasterizer's keyed pixels with their
+    /// depth, or with the fallback the chosen points as one-pixel
+    /// primitives (the cloud's origin at `offset` from the render origin).
+    /// Returns the draw calls.
+    pub fn record_in_scope(
+        &self,
+        rec: &Recorder,
+        eye: u32,
+        offset: [f32; 3],
+        extent: vk::Extent2D,
+    ) -> u64 {
+        let Some((layout, pipeline)) = self.list else {
+            return self.record_composite(rec, eye);
+        };
+        let d = &rec.ctx.device;
+        let mut push = [0u32; 8];
+        for k in 0..3 {
+            push[k] = offset[k].to_bits();
+        }
+        push[4] = eye;
+        push[5] = extent.width;
+        push[6] = extent.height;
+        let mut calls = 0;
+        // SAFETY: inside a rendering scope; the layout's set 0 is the
+        // renderer's (the slot's set is compatible) and its push range is
+        // the 32 bytes pushed; every vertex buffer is live.
+        unsafe {
+            d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::GRAPHICS, pipeline);
+            d.cmd_bind_descriptor_sets(
+                rec.cmd,
+                vk::PipelineBindPoint::GRAPHICS,
+                layout,
+                0,
+                &[rec.set],
+                &[],
+            );
+            d.cmd_push_constants(
+                rec.cmd,
+                layout,
+                vk::ShaderStageFlags::VERTEX,
+                0,
+                as_bytes(&push),
+            );
+            let mut bound = None;
+            for &(first, count) in &self.chosen {
+                // A range may cross from one point buffer into the next.
+                let (mut at, end) = (first as u64, first as u64 + count as u64);
+                while at < end {
+                    let b = (at / self.per_buffer) as usize;
+                    let stop = end.min((b as u64 + 1) * self.per_buffer);
+                    if bound != Some(b) {
+                        d.cmd_bind_vertex_buffers(rec.cmd, 0, &[self.points[b].buffer], &[0]);
+                        bound = Some(b);
+                    }
+                    let local = (at - b as u64 * self.per_buffer) as u32;
+                    d.cmd_draw(rec.cmd, (stop - at) as u32, 1, local, 0);
+                    calls += 1;
+                    at = stop;
+                }
+            }
+        }
+        // The renderer's set again under its own layout, for the meshes.
+        rec.set_state(extent);
+        calls
+    }
+
+    /// The compute rasterizer's keyed pixels of view `eye` with their
+    /// depth. Returns the draw calls.
+    fn record_composite(&self, rec: &Recorder, eye: u32) -> u64 {
         rec.bind(self.composite);
         rec.push([0, eye, self.extent.width, self.extent.height]);
         rec.draw(3);
@@ -380,6 +529,11 @@ impl PointsPass {
     /// The points `slot`'s last frame rasterized (counted once per view
     /// they landed in); its fence must have signalled.
     pub fn read(&mut self, slot: usize) -> Result<u64> {
+        if self.list.is_some() {
+            // The fallback counts on the CPU: every chosen point goes to
+            // both views (the rasterizer clips those outside).
+            return Ok(2 * self.selected);
+        }
         let m = self.slots[slot]
             .drawn
             .mapped()
@@ -390,6 +544,11 @@ impl PointsPass {
     /// Destroys everything; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
         destroy_pipelines(ctx, [&self.raster, &self.composite]);
+        if let Some((layout, pipeline)) = self.list {
+            destroy_pipelines(ctx, [&pipeline]);
+            // SAFETY: the device is idle; the layout belongs to `self`.
+            unsafe { ctx.device.destroy_pipeline_layout(layout, None) };
+        }
         self.sets.destroy(ctx);
         for s in self.slots {
             s.keys.destroy(ctx);
@@ -449,7 +608,9 @@ fn upload_part(ctx: &Context, cloud: &PointCloud, from: usize, len: usize) -> Re
         &BufferDesc {
             name: "point cloud",
             size: 16 * len.max(1) as u64,
-            usage: vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            usage: vk::BufferUsageFlags::STORAGE_BUFFER
+                | vk::BufferUsageFlags::VERTEX_BUFFER
+                | vk::BufferUsageFlags::TRANSFER_DST,
             location: MemoryLocation::GpuOnly,
             category: "points",
         },
