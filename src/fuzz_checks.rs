@@ -139,6 +139,9 @@ pub fn point_file(data: &[u8]) {
     if let Ok(c) = crate::scene::ply::read_ply_bytes(std::path::Path::new("fuzz.ply"), data) {
         check(c);
     }
+    if let Ok(c) = crate::scene::e57::read_e57_bytes(std::path::Path::new("fuzz.e57"), data) {
+        check(c);
+    }
     let name = std::path::Path::new("fuzz.las");
     if let Ok(c) = crate::scene::points::read_las_bytes(name, data.to_vec()) {
         check(c);

@@ -217,7 +217,7 @@ fn cli_values() {
 #[test]
 #[ignore]
 fn point_files() {
-    let mut seeds = files("tests/bad_inputs/points", &["las", "laz", "ply"]);
+    let mut seeds = files("tests/bad_inputs/points", &["las", "laz", "ply", "e57"]);
     let dir = common::scratch("fuzz", "points");
     let scene = vergence::scene::Scene::load("factory:30").unwrap();
     let cloud = vergence::interact::scan::scan(

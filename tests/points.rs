@@ -729,3 +729,112 @@ fn the_point_list_fallback_matches_the_compute_path() {
         );
     }
 }
+
+/// E57: a file written with the `e57` crate (two scans, Cartesian
+/// coordinates and 8-bit colour) reads back as the same points, z up
+/// turned to y up, and renders.
+#[test]
+fn e57_scans_read_back_and_render() {
+    use e57::{Record, RecordDataType, RecordName, RecordValue};
+    let dir = scratch("points", "e57");
+    let path = dir.join("scan.e57");
+    let pts: Vec<[f64; 3]> = (0..300)
+        .map(|i| {
+            let f = i as f64;
+            [500.0 + f * 0.03, 600.0 - f * 0.01, 3.0 + (f * 0.2).cos()]
+        })
+        .collect();
+    {
+        let mut w = e57::E57Writer::from_file(&path, "vergence-test-file").unwrap();
+        let proto = vec![
+            Record {
+                name: RecordName::CartesianX,
+                data_type: RecordDataType::Double {
+                    min: None,
+                    max: None,
+                },
+            },
+            Record {
+                name: RecordName::CartesianY,
+                data_type: RecordDataType::Double {
+                    min: None,
+                    max: None,
+                },
+            },
+            Record {
+                name: RecordName::CartesianZ,
+                data_type: RecordDataType::Double {
+                    min: None,
+                    max: None,
+                },
+            },
+            Record {
+                name: RecordName::ColorRed,
+                data_type: RecordDataType::Integer { min: 0, max: 255 },
+            },
+            Record {
+                name: RecordName::ColorGreen,
+                data_type: RecordDataType::Integer { min: 0, max: 255 },
+            },
+            Record {
+                name: RecordName::ColorBlue,
+                data_type: RecordDataType::Integer { min: 0, max: 255 },
+            },
+        ];
+        for (s, half) in pts.chunks(150).enumerate() {
+            let mut pc = w
+                .add_pointcloud(&format!("scan-{s}"), proto.clone())
+                .unwrap();
+            for (i, p) in half.iter().enumerate() {
+                pc.add_point(vec![
+                    RecordValue::Double(p[0]),
+                    RecordValue::Double(p[1]),
+                    RecordValue::Double(p[2]),
+                    RecordValue::Integer((i % 256) as i64),
+                    RecordValue::Integer(255),
+                    RecordValue::Integer(s as i64 * 100),
+                ])
+                .unwrap();
+            }
+            pc.finalize().unwrap();
+        }
+        w.finalize().unwrap();
+    }
+    let c = vergence::scene::points::read_file(&path).unwrap();
+    assert_eq!(c.len(), pts.len());
+    for (i, p) in pts.iter().enumerate() {
+        let want = DVec3::new(p[0], p[2], -p[1]);
+        assert!((c.world(i) - want).abs().max_element() < 1e-4, "point {i}");
+        assert_eq!(
+            c.colors[i][..3],
+            [(i % 150 % 256) as u8, 255, (i / 150) as u8 * 100]
+        );
+    }
+    let stats = common::render_cli(
+        &[
+            "--scene",
+            path.to_str().unwrap(),
+            "--width",
+            "96",
+            "--height",
+            "96",
+        ],
+        &dir.join("render"),
+    );
+    assert_eq!(stats["points_total"], pts.len() as u64);
+    assert!(stats["points_drawn"].as_u64().unwrap() > 0);
+    // A cut file is one error.
+    let bytes = std::fs::read(&path).unwrap();
+    let cut = dir.join("cut.e57");
+    std::fs::write(&cut, &bytes[..bytes.len() / 2]).unwrap();
+    let err = fails_with_one_error(
+        std::process::Command::new(env!("CARGO_BIN_EXE_vergence")).args([
+            "render",
+            "--scene",
+            cut.to_str().unwrap(),
+            "--out",
+            dir.join("out").to_str().unwrap(),
+        ]),
+    );
+    assert!(err.contains("cut.e57"), "{err}");
+}

@@ -6,6 +6,7 @@ pub mod basis;
 pub mod budget;
 pub mod cad;
 pub mod draco;
+pub mod e57;
 pub mod factory;
 pub mod gltf_data;
 pub mod gltf_load;
@@ -391,7 +392,7 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
-            Some(e) if e == "las" || e == "laz" || e == "ply" => {
+            Some(e) if e == "las" || e == "laz" || e == "ply" || e == "e57" => {
                 Ok(Scene::of_points(points::read_file(path)?.with_octree()))
             }
             _ => gltf_load::load(path),

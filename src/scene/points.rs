@@ -111,10 +111,12 @@ impl PointCloud {
 }
 
 /// Reads a point file by its extension: PLY ([`super::ply::read_ply`]),
-/// else LAS or LAZ ([`read_las`]).
+/// E57 ([`super::e57::read_e57`]), else LAS or LAZ ([`read_las`]).
 pub fn read_file(path: &Path) -> Result<PointCloud> {
     if super::ply::is_ply(path) {
         super::ply::read_ply(path)
+    } else if super::e57::is_e57(path) {
+        super::e57::read_e57(path)
     } else {
         read_las(path)
     }
