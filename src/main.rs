@@ -960,6 +960,17 @@ fn inspect(s: &Scene, load_ms: f64) {
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
     println!("features    {:?}", c.features);
+    if let Some(cloud) = &s.points {
+        println!("points      {}", cloud.len());
+        if let Some(t) = &cloud.octree {
+            println!(
+                "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
+                t.nodes.len(),
+                t.build_ms,
+                cloud.len() as f64 / (t.build_ms.max(1e-6) * 1e3)
+            );
+        }
+    }
     let support = |e: &str| match vergence::scene::gltf_load::support(e) {
         Some((level, note)) => format!("{level:?}: {note}"),
         None => "not supported (ignored when only used)".to_string(),
