@@ -40,6 +40,36 @@ fn scattered(n: usize, centre: DVec3) -> PointCloud {
     c
 }
 
+/// A laser scan of `scene` from `stations` stations of `rays` rays each.
+fn scan_of(scene: &vergence::scene::Scene, stations: u32, rays: u32) -> PointCloud {
+    scan(
+        scene,
+        &ScanSettings {
+            stations,
+            rays_per_station: rays,
+            ..ScanSettings::default()
+        },
+    )
+}
+
+/// `vergence render` of the point file `file` counts `total` points and
+/// draws some.
+fn renders_all(file: &std::path::Path, total: usize, out: &std::path::Path) {
+    let stats = common::render_cli(
+        &[
+            "--scene",
+            file.to_str().unwrap(),
+            "--width",
+            "96",
+            "--height",
+            "96",
+        ],
+        out,
+    );
+    assert_eq!(stats["points_total"], total as u64);
+    assert!(stats["points_drawn"].as_u64().unwrap() > 0);
+}
+
 fn head() -> Pose {
     Pose::default()
 }
@@ -234,14 +264,7 @@ fn points_and_meshes_composite_by_depth() {
 #[test]
 fn las_and_laz_round_trip_the_same_points() {
     let scene = load("factory:200");
-    let cloud = scan(
-        &scene,
-        &ScanSettings {
-            stations: 2,
-            rays_per_station: 20_000,
-            ..ScanSettings::default()
-        },
-    );
+    let cloud = scan_of(&scene, 2, 20_000);
     assert!(cloud.len() > 10_000);
     let dir = scratch("points", "roundtrip");
     let (las, laz) = (dir.join("scan.las"), dir.join("scan.laz"));
@@ -381,15 +404,7 @@ fn bad_point_files_are_one_error_each() {
 fn the_octree_draws_the_whole_cloud_or_keeps_the_budget() {
     let ctx = context();
     let scene = load("factory:300");
-    let cloud = scan(
-        &scene,
-        &ScanSettings {
-            stations: 2,
-            rays_per_station: 60_000,
-            ..ScanSettings::default()
-        },
-    )
-    .with_octree();
+    let cloud = scan_of(&scene, 2, 60_000).with_octree();
     assert!(cloud.octree.as_ref().unwrap().nodes.len() > 1);
     let profile = HmdProfile::load("valve-index").unwrap();
     let pose = common::framing_pose(&scene, &profile);
@@ -443,14 +458,7 @@ fn a_cloud_over_several_buffers_draws_the_same_image() {
     let dir = scratch("points", "buffers");
     let scan_out = dir.join("scan.las");
     let scene = load("factory:200");
-    let cloud = scan(
-        &scene,
-        &ScanSettings {
-            stations: 1,
-            rays_per_station: 30_000,
-            ..ScanSettings::default()
-        },
-    );
+    let cloud = scan_of(&scene, 1, 30_000);
     write_las(&scan_out, &cloud, 0.001).unwrap();
     let render = |per: Option<&str>, out: &str| {
         let mut cmd = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"));
@@ -488,15 +496,7 @@ fn a_cloud_over_several_buffers_draws_the_same_image() {
 fn inside_the_cloud_the_octree_draws_every_visible_point() {
     let ctx = context();
     let scene = load("factory:300");
-    let cloud = scan(
-        &scene,
-        &ScanSettings {
-            stations: 2,
-            rays_per_station: 60_000,
-            ..ScanSettings::default()
-        },
-    )
-    .with_octree();
+    let cloud = scan_of(&scene, 2, 60_000).with_octree();
     let (lo, hi) = cloud.bounds();
     let profile = HmdProfile::load("valve-index").unwrap();
     let mut whole = cloud.clone();
@@ -593,19 +593,7 @@ fn ply_ascii_and_binary_read_the_same_points() {
         assert_eq!(a.classification[i], *k);
         assert!((b.world(i) - w).abs().max_element() < 1e-9);
     }
-    let stats = common::render_cli(
-        &[
-            "--scene",
-            a_path.to_str().unwrap(),
-            "--width",
-            "96",
-            "--height",
-            "96",
-        ],
-        &dir.join("render"),
-    );
-    assert_eq!(stats["points_total"], pts.len() as u64);
-    assert!(stats["points_drawn"].as_u64().unwrap() > 0);
+    renders_all(&a_path, pts.len(), &dir.join("render"));
 }
 
 /// `point-size=PX`: a near point covers PX × PX pixels around its own, a
@@ -680,15 +668,7 @@ fn the_point_list_fallback_matches_the_compute_path() {
     let ctx = context();
     let profile = HmdProfile::load("valve-index").unwrap();
     let mut scene = load("factory:300");
-    let cloud = scan(
-        &scene,
-        &ScanSettings {
-            stations: 2,
-            rays_per_station: 40_000,
-            ..ScanSettings::default()
-        },
-    )
-    .with_octree();
+    let cloud = scan_of(&scene, 2, 40_000).with_octree();
     // The scan moved 20 cm up, so points and meshes interleave by depth.
     let mut lifted = cloud.clone();
     lifted.origin += DVec3::Y * 0.2;
@@ -810,19 +790,7 @@ fn e57_scans_read_back_and_render() {
             [(i % 150 % 256) as u8, 255, (i / 150) as u8 * 100]
         );
     }
-    let stats = common::render_cli(
-        &[
-            "--scene",
-            path.to_str().unwrap(),
-            "--width",
-            "96",
-            "--height",
-            "96",
-        ],
-        &dir.join("render"),
-    );
-    assert_eq!(stats["points_total"], pts.len() as u64);
-    assert!(stats["points_drawn"].as_u64().unwrap() > 0);
+    renders_all(&path, pts.len(), &dir.join("render"));
     // A cut file is one error.
     let bytes = std::fs::read(&path).unwrap();
     let cut = dir.join("cut.e57");

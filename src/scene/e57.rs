@@ -8,13 +8,9 @@
 //! [`super::points::MAX_EXTENT_M`]). The points are held as f64 while read
 //! (about 30 bytes a point) before the cloud keeps them as f32 offsets.
 
-use super::points::{PointCloud, MAX_EXTENT_M, MAX_POINTS};
+use super::points::{PointCloud, MAX_POINTS};
 use crate::error::{Error, Result};
-use glam::DVec3;
 use std::path::Path;
-
-/// The largest E57 file read.
-pub const MAX_FILE_BYTES: u64 = 64 << 30;
 
 fn bad(path: &Path, message: impl Into<String>) -> Error {
     Error::Scene {
@@ -32,19 +28,8 @@ pub fn is_e57(path: &Path) -> bool {
 
 /// Reads an E57 point cloud (all its scans together).
 pub fn read_e57(path: &Path) -> Result<PointCloud> {
-    let io = |source: std::io::Error| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > MAX_FILE_BYTES {
-        return Err(bad(
-            path,
-            format!("{size} bytes, over the {MAX_FILE_BYTES}-byte limit for point files"),
-        ));
-    }
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut cloud = read_from(path, std::io::BufReader::new(file), size)?;
+    let (file, size) = super::points::open_point_file(path)?;
+    let mut cloud = read_from(path, file, size)?;
     cloud.source = Some(path.to_path_buf());
     Ok(cloud)
 }
@@ -104,39 +89,6 @@ fn read_from<R: std::io::Read + std::io::Seek>(
             colors.push([rgb[0], rgb[1], rgb[2], grey]);
         }
     }
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for w in &world {
-        let v = DVec3::from_array(*w);
-        lo = lo.min(v);
-        hi = hi.max(v);
-    }
-    if !world.is_empty() && (hi - lo).max_element() > MAX_EXTENT_M {
-        return Err(bad(
-            path,
-            format!(
-                "the points span {:.3e} m, more than {MAX_EXTENT_M} m",
-                (hi - lo).max_element()
-            ),
-        ));
-    }
-    let origin = if world.is_empty() {
-        DVec3::ZERO
-    } else {
-        ((lo + hi) * 0.5).round()
-    };
-    let positions = world
-        .iter()
-        .map(|w| {
-            let d = DVec3::from_array(*w) - origin;
-            [d.x as f32, d.y as f32, d.z as f32]
-        })
-        .collect();
-    Ok(PointCloud {
-        origin,
-        positions,
-        classification: vec![0; colors.len()],
-        colors,
-        ..PointCloud::default()
-    })
+    let classes = vec![0; colors.len()];
+    super::points::cloud_of_world(path, &world, colors, classes)
 }

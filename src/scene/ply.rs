@@ -10,14 +10,10 @@
 //! within [`super::points::MAX_POINTS`], finite coordinates, extent within
 //! [`super::points::MAX_EXTENT_M`]).
 
-use super::points::{PointCloud, MAX_EXTENT_M, MAX_POINTS};
+use super::points::{PointCloud, MAX_POINTS};
 use crate::error::{Error, Result};
-use glam::DVec3;
 use ply_rs_bw::{parser, ply};
 use std::path::Path;
-
-/// The largest PLY file read.
-pub const MAX_FILE_BYTES: u64 = 64 << 30;
 
 /// One vertex as read.
 #[derive(Clone, Copy, Debug, Default)]
@@ -126,19 +122,8 @@ pub fn is_ply(path: &Path) -> bool {
 
 /// Reads a PLY point cloud.
 pub fn read_ply(path: &Path) -> Result<PointCloud> {
-    let io = |source: std::io::Error| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > MAX_FILE_BYTES {
-        return Err(bad(
-            path,
-            format!("{size} bytes, over the {MAX_FILE_BYTES}-byte limit for point files"),
-        ));
-    }
-    let file = std::fs::File::open(path).map_err(io)?;
-    let mut cloud = read_from(path, std::io::BufReader::new(file), size)?;
+    let (file, size) = super::points::open_point_file(path)?;
+    let mut cloud = read_from(path, file, size)?;
     cloud.source = Some(path.to_path_buf());
     Ok(cloud)
 }
@@ -204,33 +189,10 @@ fn read_from<R: std::io::BufRead>(path: &Path, read: R, size: u64) -> Result<Poi
     cloud_of(path, &vertices)
 }
 
-/// The cloud of `vertices`: checked, re-centred, z-up turned to y-up.
+/// The cloud of `vertices`: z up turned to y up, intensity scaled to a
+/// byte (0–1, 0–255 or wider ranges), checked and re-centred by
+/// [`super::points::cloud_of_world`].
 fn cloud_of(path: &Path, vertices: &[Vertex]) -> Result<PointCloud> {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for (i, v) in vertices.iter().enumerate() {
-        let w = DVec3::from_array(v.p);
-        if !w.is_finite() {
-            return Err(bad(path, format!("point {i} at {w:?} is not finite")));
-        }
-        lo = lo.min(w);
-        hi = hi.max(w);
-    }
-    if !vertices.is_empty() && (hi - lo).max_element() > MAX_EXTENT_M {
-        return Err(bad(
-            path,
-            format!(
-                "the points span {:.3e} m, more than {MAX_EXTENT_M} m",
-                (hi - lo).max_element()
-            ),
-        ));
-    }
-    let centre = if vertices.is_empty() {
-        DVec3::ZERO
-    } else {
-        ((lo + hi) * 0.5).round()
-    };
-    let origin = DVec3::new(centre.x, centre.z, -centre.y);
     let top = vertices
         .iter()
         .filter_map(|v| v.intensity)
@@ -242,22 +204,19 @@ fn cloud_of(path: &Path, vertices: &[Vertex]) -> Result<PointCloud> {
     } else {
         255.0 / top
     };
-    let mut cloud = PointCloud {
-        origin,
-        ..PointCloud::default()
-    };
-    cloud.positions.reserve(vertices.len());
-    for v in vertices {
-        let d = DVec3::new(v.p[0], v.p[2], -v.p[1]) - origin;
-        cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
-        let grey = v
-            .intensity
-            .map_or(255.0, |i| (i * grey_scale).clamp(0.0, 255.0)) as u8;
-        let c = v
-            .rgb
-            .map_or([grey; 3], |c| c.map(|x| (x * 255.0).round() as u8));
-        cloud.colors.push([c[0], c[1], c[2], grey]);
-        cloud.classification.push(v.class);
-    }
-    Ok(cloud)
+    let world: Vec<[f64; 3]> = vertices.iter().map(|v| [v.p[0], v.p[2], -v.p[1]]).collect();
+    let colors = vertices
+        .iter()
+        .map(|v| {
+            let grey = v
+                .intensity
+                .map_or(255.0, |i| (i * grey_scale).clamp(0.0, 255.0)) as u8;
+            let c = v
+                .rgb
+                .map_or([grey; 3], |c| c.map(|x| (x * 255.0).round() as u8));
+            [c[0], c[1], c[2], grey]
+        })
+        .collect();
+    let classes = vertices.iter().map(|v| v.class).collect();
+    super::points::cloud_of_world(path, &world, colors, classes)
 }

@@ -243,6 +243,13 @@ fn read_up_to<R: std::io::Read>(r: &mut R, buf: &mut [u8]) -> std::io::Result<us
 /// LAS; their high bytes are kept (files whose colours are all 8-bit are
 /// detected on the first chunk and kept as they are).
 pub fn read_las(path: &Path) -> Result<PointCloud> {
+    let (file, size) = open_point_file(path)?;
+    read_las_from(path, file, size)
+}
+
+/// Opens a point file for buffered reading and returns its size; one
+/// error when it cannot be read or is over [`MAX_FILE_BYTES`].
+pub(crate) fn open_point_file(path: &Path) -> Result<(std::io::BufReader<std::fs::File>, u64)> {
     let io = |source: std::io::Error| Error::Io {
         path: path.to_path_buf(),
         source,
@@ -255,7 +262,57 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
         ));
     }
     let file = std::fs::File::open(path).map_err(io)?;
-    read_las_from(path, std::io::BufReader::new(file), size)
+    Ok((std::io::BufReader::new(file), size))
+}
+
+/// The cloud of points given in f64 world coordinates (already y up),
+/// with their colours and classes: every point finite, the extent within
+/// [`MAX_EXTENT_M`], the origin the bounds' centre to the metre (what the
+/// PLY and E57 readers share). `path` names the file in errors.
+pub(crate) fn cloud_of_world(
+    path: &Path,
+    world: &[[f64; 3]],
+    colors: Vec<[u8; 4]>,
+    classification: Vec<u8>,
+) -> Result<PointCloud> {
+    let mut lo = DVec3::splat(f64::INFINITY);
+    let mut hi = DVec3::splat(f64::NEG_INFINITY);
+    for (i, w) in world.iter().enumerate() {
+        let v = DVec3::from_array(*w);
+        if !v.is_finite() {
+            return Err(bad(path, format!("point {i} at {v:?} is not finite")));
+        }
+        lo = lo.min(v);
+        hi = hi.max(v);
+    }
+    if !world.is_empty() && (hi - lo).max_element() > MAX_EXTENT_M {
+        return Err(bad(
+            path,
+            format!(
+                "the points span {:.3e} m, more than {MAX_EXTENT_M} m",
+                (hi - lo).max_element()
+            ),
+        ));
+    }
+    let origin = if world.is_empty() {
+        DVec3::ZERO
+    } else {
+        ((lo + hi) * 0.5).round()
+    };
+    let positions = world
+        .iter()
+        .map(|w| {
+            let d = DVec3::from_array(*w) - origin;
+            [d.x as f32, d.y as f32, d.z as f32]
+        })
+        .collect();
+    Ok(PointCloud {
+        origin,
+        positions,
+        colors,
+        classification,
+        ..PointCloud::default()
+    })
 }
 
 /// [`read_las`] of a file's bytes already in memory (`name` names it in
