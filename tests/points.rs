@@ -574,8 +574,8 @@ fn ply_ascii_and_binary_read_the_same_points() {
     let (a_path, b_path) = (dir.join("a.ply"), dir.join("b.ply"));
     std::fs::write(&a_path, ascii).unwrap();
     std::fs::write(&b_path, binary).unwrap();
-    let a = vergence::scene::points::read_file(&a_path).unwrap();
-    let b = vergence::scene::points::read_file(&b_path).unwrap();
+    let a = vergence::scene::point_files::read_file(&a_path).unwrap();
+    let b = vergence::scene::point_files::read_file(&b_path).unwrap();
     assert_eq!(a.len(), pts.len());
     assert_eq!(
         (a.origin, &a.colors, &a.classification),
@@ -780,7 +780,7 @@ fn e57_scans_read_back_and_render() {
         }
         w.finalize().unwrap();
     }
-    let c = vergence::scene::points::read_file(&path).unwrap();
+    let c = vergence::scene::point_files::read_file(&path).unwrap();
     assert_eq!(c.len(), pts.len());
     for (i, p) in pts.iter().enumerate() {
         let want = DVec3::new(p[0], p[2], -p[1]);

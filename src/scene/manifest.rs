@@ -388,7 +388,7 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
             ));
         }
         let place = placements(path, &what, &p.place, budget)?[0];
-        let cloud = super::points::read_file(&dir.join(&p.file))?.placed(&place);
+        let cloud = super::point_files::read_file(&dir.join(&p.file))?.placed(&place);
         let merged = match scene.points.take() {
             Some(mut all) => {
                 std::sync::Arc::make_mut(&mut all).append(&cloud);

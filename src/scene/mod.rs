@@ -17,6 +17,7 @@ pub mod manifest;
 pub mod motion;
 pub mod octree;
 pub mod ply;
+pub mod point_files;
 pub mod points;
 pub mod shapes;
 pub mod uri;
@@ -392,9 +393,9 @@ impl Scene {
             .map(|e| e.to_ascii_lowercase())
         {
             Some(e) if e == "toml" => manifest::load(path),
-            Some(e) if e == "las" || e == "laz" || e == "ply" || e == "e57" => {
-                Ok(Scene::of_points(points::read_file(path)?.with_octree()))
-            }
+            Some(e) if e == "las" || e == "laz" || e == "ply" || e == "e57" => Ok(
+                Scene::of_points(point_files::read_file(path)?.with_octree()),
+            ),
             _ => gltf_load::load(path),
         }?;
         scene.source = Some(path.to_path_buf());

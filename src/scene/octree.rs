@@ -17,7 +17,6 @@
 //! projected cube first (edge over distance to the nearer eye), until the
 //! point budget is spent; a node is only taken after its parent.
 
-use super::points::PointCloud;
 use crate::view::frustum::Frustum;
 use crate::view::StereoRig;
 use glam::DVec3;
@@ -75,11 +74,11 @@ pub fn morton(c: [u32; 3]) -> u64 {
     spread(c[0] as u64) | spread(c[1] as u64) << 1 | spread(c[2] as u64) << 2
 }
 
-/// The cloud's bounding cube (low corner, edge), relative to its origin.
-fn cube(cloud: &PointCloud) -> ([f32; 3], f32) {
+/// The bounding cube (low corner, edge) of `positions`.
+fn cube(positions: &[[f32; 3]]) -> ([f32; 3], f32) {
     let mut lo = [f32::INFINITY; 3];
     let mut hi = [f32::NEG_INFINITY; 3];
-    for p in &cloud.positions {
+    for p in positions {
         for k in 0..3 {
             lo[k] = lo[k].min(p[k]);
             hi[k] = hi[k].max(p[k]);
@@ -90,18 +89,20 @@ fn cube(cloud: &PointCloud) -> ([f32; 3], f32) {
     (lo, (size * (1.0 + 1e-6)).max(1e-3))
 }
 
-/// Builds the octree of `cloud`, reordering its points.
-pub fn build(cloud: &mut PointCloud) -> Octree {
+/// Builds the octree of a cloud's `positions` (offsets from its origin).
+/// Returns it with the order the points must take for its nodes' ranges:
+/// point i of the reordered cloud is `positions[order[i]]` (the cloud
+/// applies it: `PointCloud::with_octree` in the points module).
+pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
     let started = std::time::Instant::now();
-    let n = cloud.len();
+    let n = positions.len();
     if n == 0 {
-        return Octree::default();
+        return (Octree::default(), Vec::new());
     }
-    let (lo, size) = cube(cloud);
+    let (lo, size) = cube(positions);
     let cells = (1u64 << BITS) as f32;
     let scale = cells / size;
-    let mut keyed: Vec<(u64, u32)> = cloud
-        .positions
+    let mut keyed: Vec<(u64, u32)> = positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
@@ -113,19 +114,11 @@ pub fn build(cloud: &mut PointCloud) -> Octree {
     let mut order: Vec<u32> = Vec::with_capacity(n);
     let nodes = build_node(&mut keyed, lo, size, 0, &mut order);
     drop(keyed);
-    permute(&mut cloud.positions, &order);
-    permute(&mut cloud.colors, &order);
-    permute(&mut cloud.classification, &order);
-    Octree {
+    let tree = Octree {
         nodes,
         build_ms: started.elapsed().as_secs_f64() * 1e3,
-    }
-}
-
-/// `v` reordered so element i is the old element `order[i]`.
-fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, order: &[u32]) {
-    let old = std::mem::take(v);
-    *v = order.par_iter().map(|&i| old[i as usize]).collect();
+    };
+    (tree, order)
 }
 
 /// Builds the subtree of the Morton-sorted `keyed` (the points of the cube
@@ -309,11 +302,38 @@ impl Octree {
 mod tests {
     use super::*;
 
-    fn cloud(n: usize, seed: u64) -> PointCloud {
+    /// The parts of a cloud the octree sees or reorders.
+    #[derive(Default)]
+    struct Points {
+        origin: DVec3,
+        positions: Vec<[f32; 3]>,
+        colors: Vec<[u8; 4]>,
+        classification: Vec<u8>,
+    }
+
+    impl Points {
+        fn len(&self) -> usize {
+            self.positions.len()
+        }
+    }
+
+    /// [`build`] with its order applied to `c`.
+    fn build_into(c: &mut Points) -> Octree {
+        let (tree, order) = build(&c.positions);
+        c.positions = order.iter().map(|&i| c.positions[i as usize]).collect();
+        c.colors = order.iter().map(|&i| c.colors[i as usize]).collect();
+        c.classification = order
+            .iter()
+            .map(|&i| c.classification[i as usize])
+            .collect();
+        tree
+    }
+
+    fn cloud(n: usize, seed: u64) -> Points {
         let mut rng = crate::scene::factory::SplitMix64::new(seed);
-        let mut c = PointCloud {
+        let mut c = Points {
             origin: DVec3::new(100.0, 0.0, -50.0),
-            ..PointCloud::default()
+            ..Points::default()
         };
         for i in 0..n {
             // Clustered: half the points in a small corner, as scans are.
@@ -347,7 +367,7 @@ mod tests {
         let mut c = cloud(200_000, 3);
         let before: std::collections::HashSet<[u32; 3]> =
             c.positions.iter().map(|p| p.map(f32::to_bits)).collect();
-        let t = build(&mut c);
+        let t = build_into(&mut c);
         assert!(t.nodes.len() > 8, "{} nodes", t.nodes.len());
         let mut covered = vec![false; c.len()];
         for (i, n) in t.nodes.iter().enumerate() {
@@ -383,7 +403,7 @@ mod tests {
     #[test]
     fn selection_keeps_the_budget_parents_first_nearer_first() {
         let mut c = cloud(200_000, 5);
-        let t = build(&mut c);
+        let t = build_into(&mut c);
         let profile = crate::view::profile::HmdProfile::load("valve-index").unwrap();
         // A head inside the cloud's big box, looking across it.
         let pose = crate::view::Pose {

@@ -102,24 +102,23 @@ impl PointCloud {
         self.octree = None;
     }
 
-    /// The cloud with its octree built (its points reordered).
+    /// The cloud with its octree built (its points reordered into the
+    /// nodes' order).
     pub fn with_octree(mut self) -> PointCloud {
-        let tree = super::octree::build(&mut self);
+        let (tree, order) = super::octree::build(&self.positions);
+        permute(&mut self.positions, &order);
+        permute(&mut self.colors, &order);
+        permute(&mut self.classification, &order);
         self.octree = Some(tree);
         self
     }
 }
 
-/// Reads a point file by its extension: PLY ([`super::ply::read_ply`]),
-/// E57 ([`super::e57::read_e57`]), else LAS or LAZ ([`read_las`]).
-pub fn read_file(path: &Path) -> Result<PointCloud> {
-    if super::ply::is_ply(path) {
-        super::ply::read_ply(path)
-    } else if super::e57::is_e57(path) {
-        super::e57::read_e57(path)
-    } else {
-        read_las(path)
-    }
+/// `v` reordered so element i is the old element `order[i]`.
+fn permute<T: Copy + Send + Sync>(v: &mut Vec<T>, order: &[u32]) {
+    use rayon::prelude::*;
+    let old = std::mem::take(v);
+    *v = order.par_iter().map(|&i| old[i as usize]).collect();
 }
 
 /// Whether `path` names a LAS or LAZ file (by extension).
