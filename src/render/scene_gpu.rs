@@ -134,24 +134,37 @@ pub fn upload(
             category,
         },
     )?;
-    let r = ctx.one_shot(|cb| {
-        // SAFETY: both buffers are live and at least `size` bytes.
+    let r = copy_now(ctx, &staging, &dst, 0, size);
+    staging.destroy(ctx);
+    r?;
+    Ok(dst)
+}
+
+/// Copies the first `size` bytes of `src` to `dst` at `dst_offset` in a
+/// one-shot submission, waiting for it (uploads at load).
+pub fn copy_now(
+    ctx: &Context,
+    src: &Buffer,
+    dst: &Buffer,
+    dst_offset: u64,
+    size: u64,
+) -> Result<()> {
+    ctx.one_shot(|cb| {
+        // SAFETY: both buffers are live; the caller keeps the region inside
+        // each (`size` bytes of `src`, `dst_offset + size` of `dst`).
         unsafe {
             ctx.device.cmd_copy_buffer(
                 cb,
-                staging.buffer,
+                src.buffer,
                 dst.buffer,
                 &[vk::BufferCopy {
                     src_offset: 0,
-                    dst_offset: 0,
+                    dst_offset,
                     size,
                 }],
             )
         };
-    });
-    staging.destroy(ctx);
-    r?;
-    Ok(dst)
+    })
 }
 
 fn bytes_of<T: Copy>(v: &[T]) -> &[u8] {

@@ -37,6 +37,8 @@ struct Slot {
     drawn: Buffer,
     /// The frame's point ranges: (first thread, first point) per node.
     ranges: Buffer,
+    /// The points chosen for the slot's frame.
+    selected: u64,
 }
 
 /// The point buffer, the per-slot keys and counters, the rasterizer and
@@ -56,6 +58,8 @@ pub struct PointsPass {
     point_size: f32,
     /// This frame's chosen point ranges (first, count).
     chosen: Vec<(u32, u32)>,
+    /// The ranges' words as written, kept to be refilled each frame.
+    words: Vec<u32>,
     /// The point-list fallback's layout and pipeline (None: the compute
     /// rasterizer).
     list: Option<(vk::PipelineLayout, vk::Pipeline)>,
@@ -110,6 +114,7 @@ impl PointsPass {
             selected: cloud.len() as u64,
             point_size,
             chosen: vec![(0, cloud.len() as u32)],
+            words: Vec::new(),
             list: (force_list || !ctx.caps.atomic_int64)
                 .then_some((vk::PipelineLayout::null(), vk::Pipeline::null())),
             path,
@@ -194,6 +199,7 @@ impl PointsPass {
                 keys,
                 drawn,
                 ranges,
+                selected: self.count,
             });
         }
         let (uniform, storage) = (
@@ -350,7 +356,8 @@ impl PointsPass {
             return Ok(self.count);
         };
         let s = tree.select(self.origin, rig, near, budget);
-        let mut words = Vec::with_capacity(2 * s.nodes.len().max(1));
+        let mut words = std::mem::take(&mut self.words);
+        words.clear();
         let mut at = 0u32;
         self.chosen.clear();
         for &i in &s.nodes {
@@ -362,9 +369,12 @@ impl PointsPass {
         if words.is_empty() {
             words.extend([0, 0]);
         }
-        self.slots[slot].ranges.write(0, as_bytes(&words))?;
+        let written = self.slots[slot].ranges.write(0, as_bytes(&words));
         self.ranges = (words.len() / 2) as u32;
+        self.words = words;
+        written?;
         self.selected = s.points;
+        self.slots[slot].selected = s.points;
         Ok(s.points)
     }
 
@@ -532,7 +542,7 @@ impl PointsPass {
         if self.list.is_some() {
             // The fallback counts on the CPU: every chosen point goes to
             // both views (the rasterizer clips those outside).
-            return Ok(2 * self.selected);
+            return Ok(2 * self.slots[slot].selected);
         }
         let m = self.slots[slot]
             .drawn
@@ -645,21 +655,8 @@ fn upload_part(ctx: &Context, cloud: &PointCloud, from: usize, len: usize) -> Re
                 .map(|(p, c)| [p[0], p[1], p[2], f32::from_bits(u32::from_le_bytes(*c))]),
         );
         result = staging.write(0, as_bytes(&data)).and_then(|()| {
-            ctx.one_shot(|cb| {
-                // SAFETY: both buffers are live; the region lies inside each.
-                unsafe {
-                    ctx.device.cmd_copy_buffer(
-                        cb,
-                        staging.buffer,
-                        dst.buffer,
-                        &[vk::BufferCopy {
-                            src_offset: 0,
-                            dst_offset: 16 * start as u64,
-                            size: 16 * (end - start) as u64,
-                        }],
-                    )
-                };
-            })
+            let (at, size) = (16 * start as u64, 16 * (end - start) as u64);
+            crate::render::scene_gpu::copy_now(ctx, &staging, &dst, at, size)
         });
         if result.is_err() {
             break;
