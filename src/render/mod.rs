@@ -142,10 +142,6 @@ pub struct Renderer {
     allocated: vk::Extent2D,
     /// With `inset`: this frame's inset rectangle (both eyes').
     inset_rect: crate::view::inset::PixelRect,
-    /// With a point cloud: its origin (world), and this frame's offset of
-    /// it from the render origin.
-    points_origin: Option<glam::DVec3>,
-    points_offset: [f32; 3],
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
@@ -319,8 +315,6 @@ impl Renderer {
                 x1: nominal.width,
                 y1: nominal.height,
             },
-            points_origin: scene.points.as_ref().map(|c| c.origin),
-            points_offset: [0.0; 3],
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -781,10 +775,6 @@ impl Renderer {
                 "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
             ));
         }
-        if let Some(o) = self.points_origin {
-            let d = o - rig.head.position;
-            self.points_offset = [d.x as f32, d.y as f32, d.z as f32];
-        }
         if let Some(i) = self.config.inset {
             // Two views (checked above): no allocation in the frame.
             let fovs = [rig.views[0].fov, rig.views[1].fov];
@@ -1095,7 +1085,7 @@ impl Renderer {
         }
         let points = passes.points.as_ref().filter(|_| floor.is_none());
         if let Some(p) = points.filter(|p| p.computes()) {
-            p.record_raster(ctx, cmd, q, (self.slot, 2), self.points_offset);
+            p.record_raster(ctx, cmd, q, (self.slot, 2));
         }
         rec.barriers(&targets.begin_barriers());
         if let Some(inset) = &passes.inset {
@@ -1221,7 +1211,7 @@ impl Renderer {
                         draw_calls += rdm.record(&rec, self.extent, eye);
                     }
                     if let Some(p) = points {
-                        draw_calls += p.record_in_scope(&rec, eye, self.points_offset, extent);
+                        draw_calls += p.record_in_scope(&rec, eye, extent);
                     }
                 }
                 let near = batches.near_draws();

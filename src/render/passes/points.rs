@@ -51,6 +51,9 @@ pub struct PointsPass {
     /// The cloud's octree (None: every point every frame).
     octree: Option<crate::scene::octree::Octree>,
     origin: glam::DVec3,
+    /// This frame's offset of the cloud's origin from the render origin
+    /// (the head), set by [`PointsPass::select`].
+    offset: [f32; 3],
     /// This frame's selection: ranges written and points to draw.
     ranges: u32,
     selected: u64,
@@ -110,6 +113,7 @@ impl PointsPass {
             count: cloud.len() as u64,
             octree: cloud.octree.clone(),
             origin: cloud.origin,
+            offset: [0.0; 3],
             ranges: 1,
             selected: cloud.len() as u64,
             point_size,
@@ -352,6 +356,8 @@ impl PointsPass {
         near: f64,
         budget: u64,
     ) -> Result<u64> {
+        let d = self.origin - rig.head.position;
+        self.offset = [d.x as f32, d.y as f32, d.z as f32];
         let Some(tree) = &self.octree else {
             return Ok(self.count);
         };
@@ -383,16 +389,15 @@ impl PointsPass {
         self.slots[slot].keys.buffer
     }
 
-    /// Records `points-raster` for `slot` with `views` views, the cloud's
-    /// origin at `offset` from the render origin: clear, rasterize, and
-    /// make the keys readable to the composite.
+    /// Records `points-raster` for `slot` with `views` views (the cloud
+    /// placed by this frame's offset from [`PointsPass::select`]): clear,
+    /// rasterize, and make the keys readable to the composite.
     pub fn record_raster(
         &self,
         ctx: &Context,
         cmd: vk::CommandBuffer,
         q: &mut Queries,
         (slot, views): (usize, u32),
-        offset: [f32; 3],
     ) {
         let s = &self.slots[slot];
         let d = &ctx.device;
@@ -415,7 +420,7 @@ impl PointsPass {
         let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
         let mut push = [0u32; 12];
         for k in 0..3 {
-            push[k] = offset[k].to_bits();
+            push[k] = self.offset[k].to_bits();
         }
         push[3] = self.ranges;
         push[4] = self.selected as u32;
@@ -463,22 +468,15 @@ impl PointsPass {
     /// Inside a forward scope over `extent`, before the meshes: the points
     /// of view `eye` — the compute rasterizer's keyed pixels with their
     /// depth, or with the fallback the chosen points as one-pixel
-    /// primitives (the cloud's origin at `offset` from the render origin).
-    /// Returns the draw calls.
-    pub fn record_in_scope(
-        &self,
-        rec: &Recorder,
-        eye: u32,
-        offset: [f32; 3],
-        extent: vk::Extent2D,
-    ) -> u64 {
+    /// primitives (placed by this frame's offset). Returns the draw calls.
+    pub fn record_in_scope(&self, rec: &Recorder, eye: u32, extent: vk::Extent2D) -> u64 {
         let Some((layout, pipeline)) = self.list else {
             return self.record_composite(rec, eye);
         };
         let d = &rec.ctx.device;
         let mut push = [0u32; 8];
         for k in 0..3 {
-            push[k] = offset[k].to_bits();
+            push[k] = self.offset[k].to_bits();
         }
         push[4] = eye;
         push[5] = extent.width;
