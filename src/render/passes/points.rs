@@ -419,8 +419,8 @@ impl PointsPass {
         let groups = self.selected.div_ceil(GROUP).max(1);
         let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
         let mut push = [0u32; 12];
-        for k in 0..3 {
-            push[k] = self.offset[k].to_bits();
+        for (word, v) in push.iter_mut().zip(self.offset) {
+            *word = v.to_bits();
         }
         push[3] = self.ranges;
         push[4] = self.selected as u32;
@@ -475,8 +475,8 @@ impl PointsPass {
         };
         let d = &rec.ctx.device;
         let mut push = [0u32; 8];
-        for k in 0..3 {
-            push[k] = self.offset[k].to_bits();
+        for (word, v) in push.iter_mut().zip(self.offset) {
+            *word = v.to_bits();
         }
         push[4] = eye;
         push[5] = extent.width;
