@@ -14,6 +14,10 @@
 // next frame, and draws those phase 1 did not. The late commands and
 // counts follow the early ones (index + primitives), and the late visible
 // ranges follow the early ones (firstInstance in the late template).
+// Phase 2 also lists the instances it finds visible (the early list) and
+// sizes the next frame's phase 1 dispatch to them, so phase 1 runs one
+// thread per instance visible last frame instead of one per instance; with
+// occlusion phase 2 therefore counts the tested, inside and dropped ones.
 //
 // With a monoscopic far field (`mffr`, no occlusion) the second set is the
 // far pass's: an instance whose bounding sphere reaches nearer than the
@@ -74,6 +78,15 @@ layout(std430, set = 0, binding = 9) buffer Visibility { uint visibility[]; };
 layout(std430, set = 0, binding = 10) readonly buffer LodLevels { uvec4 lod_level[]; };
 // Per draw command: its level's object-space error (src/scene/lod.rs).
 layout(std430, set = 0, binding = 11) readonly buffer LodErrors { float lod_error[]; };
+// The instances visible at the end of the last frame (phase 2 writes,
+// phase 1 reads), after phase 1's indirect dispatch size.
+layout(std430, set = 0, binding = 12) buffer EarlyList {
+    uint early_groups_x;  // EARLY_ROW
+    uint early_groups_y;  // rows: ceil(listed / (EARLY_ROW · 64))
+    uint early_groups_z;  // 1
+    uint listed;
+    uint early_list[];
+};
 
 layout(push_constant) uniform Push {
     uint primitives;  // draw commands per phase (the late commands' offset)
@@ -90,6 +103,9 @@ layout(push_constant) uniform Push {
 } pc;
 
 const float PIXEL_SLACK = 0.5;
+// Workgroups per row of phase 1's dispatch (EARLY_ROW in
+// src/render/passes/gpu_cull.rs).
+const uint EARLY_ROW = 256u;
 const float DEPTH_SLACK = 1e-6;
 
 shared uint group_tested;
@@ -248,6 +264,27 @@ void append(uint i, CullInstance inst, vec3 c, uint base) {
     }
 }
 
+// Phase 2: appends visible instance `i` to the next frame's early list and
+// grows that dispatch's rows to cover it.
+void list_visible(uint i) {
+    const uint row = EARLY_ROW * 64u;
+#if SUBGROUP
+    uvec4 lanes = subgroupBallot(true);
+    uint rank = subgroupBallotExclusiveBitCount(lanes);
+    uint n = subgroupBallotBitCount(lanes);
+    uint at = 0u;
+    if (rank == 0u) {
+        at = atomicAdd(listed, n);
+        atomicMax(early_groups_y, (at + n + row - 1u) / row);
+    }
+    at = subgroupBroadcastFirst(at) + rank;
+#else
+    uint at = atomicAdd(listed, 1u);
+    atomicMax(early_groups_y, (at + row) / row);
+#endif
+    early_list[at] = i;
+}
+
 // Adds each of `v`'s flags over the subgroup (or per invocation) into the
 // group's counters.
 void count(bvec4 v, bool dropped) {
@@ -282,12 +319,22 @@ void main() {
         group_dropped = 0u;
     }
     barrier();
-    uint i = gl_WorkGroupID.y * vol.counts.y + gl_GlobalInvocationID.x;
+    // Phase 1 runs over the early list, in rows of its own dispatch.
+    uint t = gl_WorkGroupID.y * gl_NumWorkGroups.x * 64u + gl_GlobalInvocationID.x;
+    uint i = t;
+    bool valid = t < vol.counts.x;
+    if (pc.phase == 1u) {
+        valid = t < listed;
+        if (valid) {
+            i = early_list[t];
+            valid = i < vol.counts.x;
+        }
+    }
     // tested, kept, drawn, hidden; dropped: counted below in uniform
     // control flow.
     bvec4 flags = bvec4(false);
     bool was_dropped = false;
-    if (i < vol.counts.x) {
+    if (valid) {
         CullInstance inst = instances[i];
         // Relative-to-origin centre from the two-float split, as scene.vert.
         vec3 c = (inst.center_hi.xyz - vol.origin_hi.xyz) + (inst.center_lo.xyz - vol.origin_lo.xyz);
@@ -296,7 +343,14 @@ void main() {
         // projects to at most the bound is not drawn.
         bool dropped = pc.lod != 0u
             && 2.0 * length(inst.extent.xyz) * pc.lod_k <= lod_distance(c, inst.extent.xyz);
-        if (pc.phase < 2u) {
+        if (pc.phase == 1u) {
+            // Listed: visible at the end of the last frame.
+            flags.x = true;
+            if (inside && !dropped) {
+                flags.z = true;
+                append(i, inst, c, 0u);
+            }
+        } else if (pc.phase == 0u) {
             flags.x = true;
             if (inside) {
                 flags.y = true;
@@ -327,21 +381,29 @@ void main() {
                     if (far) {
                         append(i, inst, c, pc.primitives);
                     }
-                } else if (pc.phase == 0u || visibility[i] != 0u) {
+                } else {
                     flags.z = true;
                     append(i, inst, c, 0u);
                 }
             }
-        } else if (!inside) {
-            visibility[i] = 0u;
         } else {
-            bool seen = !hidden_in(0u, c, inst.extent.xyz) || !hidden_in(1u, c, inst.extent.xyz);
-            if (seen && visibility[i] == 0u && !dropped) {
-                flags.z = true;
-                append(i, inst, c, pc.primitives);
+            flags.x = true;
+            if (!inside) {
+                visibility[i] = 0u;
+            } else {
+                flags.y = true;
+                was_dropped = dropped;
+                bool seen = !hidden_in(0u, c, inst.extent.xyz) || !hidden_in(1u, c, inst.extent.xyz);
+                if (seen && visibility[i] == 0u && !dropped) {
+                    flags.z = true;
+                    append(i, inst, c, pc.primitives);
+                }
+                if (seen) {
+                    list_visible(i);
+                }
+                flags.w = !seen;
+                visibility[i] = seen ? 1u : 0u;
             }
-            flags.w = !seen;
-            visibility[i] = seen ? 1u : 0u;
         }
     }
     count(flags, was_dropped);
@@ -350,13 +412,15 @@ void main() {
         uint at = 2u * pc.primitives;
         // Zero counts are not added (most groups have nothing drawn or
         // hidden): fewer atomics on the same few words.
-        if (pc.phase < 2u) {
+        if (pc.phase == 1u) {
+            if (group_tested != 0u) atomicAdd(draw_count[at + 6u], group_tested);
+            if (group_drawn != 0u) atomicAdd(draw_count[at + 2u], group_drawn);
+        } else {
             atomicAdd(draw_count[at], group_tested);
             if (group_kept != 0u) atomicAdd(draw_count[at + 1u], group_kept);
-            if (group_drawn != 0u) atomicAdd(draw_count[at + 2u], group_drawn);
             if (group_dropped != 0u) atomicAdd(draw_count[at + 5u], group_dropped);
-        } else {
-            if (group_drawn != 0u) atomicAdd(draw_count[at + 3u], group_drawn);
+            uint drawn = pc.phase == 0u ? at + 2u : at + 3u;
+            if (group_drawn != 0u) atomicAdd(draw_count[drawn], group_drawn);
             if (group_hidden != 0u) atomicAdd(draw_count[at + 4u], group_hidden);
         }
     }

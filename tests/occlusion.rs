@@ -128,6 +128,14 @@ fn boxes_behind_a_wall_are_not_drawn_and_the_image_is_unchanged() {
                 // Frame 0 starts from "all visible" and learns what is
                 // hidden; from the second frame on the hidden boxes are
                 // neither drawn early nor late.
+                // The early phase runs over what was visible at the end of
+                // the last frame: every instance on the first.
+                let listed = if i == 0 {
+                    scene.instances.len() as u64
+                } else {
+                    shown
+                };
+                assert_eq!(c.tested_early, listed, "{opts} frame {i}: {c:?}");
                 if i >= 1 {
                     assert_eq!(c.occluded, HIDDEN as u64, "{opts} frame {i}: {c:?}");
                     assert_eq!(c.drawn_early, shown, "{opts} frame {i}: {c:?}");

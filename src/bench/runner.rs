@@ -2,7 +2,7 @@
 //! reference images, then each configuration along the same head path,
 //! timing every frame and comparing the chosen frames with the reference.
 
-use super::cull::{head_path, orbit_path, scene_bounds};
+use super::cull::{head_path, orbit_path};
 use super::metrics::{self, MIN_FLIP_PPD};
 use super::plan::PathKind;
 use super::plan::{sanitize, Plan};
@@ -160,6 +160,10 @@ pub struct ConfigResult {
     /// With `gpu-cull`: instances passing the frustum test (median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gpu_cull_passed_frustum: Option<f64>,
+    /// With `gpu-cull,occlusion`: instances the early phase tested (those
+    /// visible at the end of the previous frame; median).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_cull_tested_early: Option<f64>,
     /// With `gpu-cull,occlusion`: instances drawn by the late phase
     /// (newly visible; median).
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -321,7 +325,8 @@ pub struct BenchResults {
 /// The head path of a plan for one group: one rig per frame (warm-up
 /// frames first).
 fn path_rigs(plan: &Plan, scene: &Scene, profile: &HmdProfile) -> Vec<StereoRig> {
-    let (lo, hi) = scene_bounds(&scene.world_aabbs());
+    // The meshes' and the point cloud's bounds together.
+    let (lo, hi) = scene.bounds();
     (0..(plan.warmup + plan.frames) as u64)
         .map(|i| {
             profile.rig(match plan.path {
@@ -1057,6 +1062,7 @@ fn summarize(
             .filter(|_| !frames.is_empty()),
         gpu_cull_tested: gpu_cull_median(&|c| c.tested),
         gpu_cull_passed_frustum: gpu_cull_median(&|c| c.passed_frustum),
+        gpu_cull_tested_early: gpu_cull_median(&|c| c.tested_early),
         gpu_cull_drawn_late: gpu_cull_median(&|c| c.drawn_late),
         gpu_cull_occluded: gpu_cull_median(&|c| c.occluded),
         gpu_cull_lod_dropped: gpu_cull_median(&|c| c.lod_dropped),

@@ -19,6 +19,9 @@
 //! rest against it, draws what became visible after the early draws, and
 //! keeps each instance's visibility for the next frame (one persistent
 //! buffer: frame n reads what frame n − 1 wrote, ordered by the queue).
+//! The late phase also lists the visible instances and sizes the next
+//! early phase's indirect dispatch to that list, so the early phase costs
+//! what was visible, not what the scene holds.
 
 use super::depth_pyramid::DepthPyramid;
 use super::{PipelineSetup, Recorder};
@@ -48,18 +51,25 @@ const GROUP: u32 = 64;
 /// Workgroups per dispatch row: Vulkan guarantees at least 65535 per
 /// dimension (maxComputeWorkGroupCount), so larger scenes use rows.
 const ROW: u32 = 65_535;
+/// Workgroups per row of the early phase's indirect dispatch (EARLY_ROW in
+/// gpu_cull_body.glsl): the late phase sets the rows to cover its list.
+const EARLY_ROW: u32 = 256;
 /// Bytes of one VkDrawIndexedIndirectCommand.
 const COMMAND: u64 = std::mem::size_of::<vk::DrawIndexedIndirectCommand>() as u64;
 
 /// Counters after the draw counts: tested, inside the volumes, drawn
-/// early, drawn late, hidden, dropped by LOD.
-const COUNTERS: u64 = 6;
+/// early, drawn late, hidden, dropped by LOD, tested early.
+const COUNTERS: u64 = 7;
 
 /// What the GPU did in one frame, read back after its fence.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize)]
 pub struct GpuCullStats {
-    /// Instances the compute pass tested.
+    /// Instances the compute pass tested (with occlusion: the late phase,
+    /// which tests every instance).
     pub tested: u64,
+    /// With occlusion: instances the early phase tested — those visible at
+    /// the end of the last frame (every instance on the first frame).
+    pub tested_early: u64,
     /// Instances inside the stereo volume.
     pub passed_frustum: u64,
     /// Instances drawn by the early phase: without occlusion, every one
@@ -120,6 +130,24 @@ pub struct Drawn {
     pub cull: GpuCullStats,
 }
 
+/// Bytes of a slot's draw commands (early and late, or near and far) and
+/// of its counts (a draw count per command, then [`COUNTERS`]) for
+/// `n_cmds` commands per set.
+fn sizes(n_cmds: usize) -> (u64, u64) {
+    (
+        2 * COMMAND * n_cmds.max(1) as u64,
+        4 * (2 * n_cmds as u64 + COUNTERS),
+    )
+}
+
+/// The early list before the first frame, when every one of `n` instances
+/// counts as visible: the dispatch covering `n` threads in rows of
+/// [`EARLY_ROW`] groups, the count, then `0..n`.
+fn first_early_list(n: u32) -> Vec<u32> {
+    let rows = n.div_ceil(EARLY_ROW * GROUP);
+    [EARLY_ROW, rows, 1, n].into_iter().chain(0..n).collect()
+}
+
 /// The cull's record of an instance with world bounds `b` under
 /// `transform` whose mesh's primitives are `slice` (first, count) of the
 /// flat primitive list: the box centre as a two-float split (the vertex
@@ -168,6 +196,9 @@ struct Slot {
     commands: Buffer,
     counts: Buffer,
     visible: Buffer,
+    /// Host-visible copy of `commands` then `counts`, made at the end of
+    /// the slot's cull.
+    readback: Buffer,
     set: vk::DescriptorSet,
 }
 
@@ -181,6 +212,10 @@ pub struct GpuCull {
     visibility: Buffer,
     /// A placeholder bound for the pyramid and its levels without occlusion.
     placeholder: Buffer,
+    /// With occlusion: the early phase's indirect dispatch (groups x, y,
+    /// z), the listed count, then the instances visible at the end of the
+    /// last frame (the late phase writes them); else 16 bytes.
+    early: Buffer,
     /// Per primitive: its first draw command and level count (u32 pairs
     /// padded to uvec4).
     lod_levels: Buffer,
@@ -444,12 +479,38 @@ impl GpuCull {
         }
         let [visibility, placeholder, lod_levels, lod_errors] =
             made.map(|b| b.expect("checked above"));
+        let early = match upload(
+            ctx,
+            "early list",
+            storage | vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            "instances",
+            as_bytes(&first_early_list(
+                occlusion.map_or(0, |_| scene.instances.len() as u32),
+            )),
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                for b in [
+                    instances,
+                    prims,
+                    template,
+                    visibility,
+                    placeholder,
+                    lod_levels,
+                    lod_errors,
+                ] {
+                    b.destroy(ctx);
+                }
+                return Err(e);
+            }
+        };
         let mut pass = GpuCull {
             instances,
             prims,
             template,
             visibility,
             placeholder,
+            early,
             lod_levels,
             lod_errors,
             lod,
@@ -518,19 +579,30 @@ impl GpuCull {
                 vk::BufferUsageFlags::UNIFORM_BUFFER,
                 MemoryLocation::CpuToGpu,
             )?;
+            // Commands and counters stay in device memory (the cull's
+            // atomics and the indirect reads would otherwise cross the
+            // bus); the frame copies them into a host-visible buffer.
             let indirect = vk::BufferUsageFlags::STORAGE_BUFFER
                 | vk::BufferUsageFlags::INDIRECT_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST;
+                | vk::BufferUsageFlags::TRANSFER_DST
+                | vk::BufferUsageFlags::TRANSFER_SRC;
+            let (commands_size, counts_size) = sizes(n_cmds);
             let commands = buffer(
                 "draw commands",
-                2 * COMMAND * n_cmds.max(1) as u64,
+                commands_size,
                 indirect,
-                MemoryLocation::GpuToCpu,
+                MemoryLocation::GpuOnly,
             );
             let counts = buffer(
                 "draw counts",
-                4 * (2 * n_cmds as u64 + COUNTERS),
+                counts_size,
                 indirect,
+                MemoryLocation::GpuOnly,
+            );
+            let readback = buffer(
+                "gpu-cull readback",
+                commands_size + counts_size,
+                vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuToCpu,
             );
             let visible = buffer(
@@ -540,18 +612,19 @@ impl GpuCull {
                 MemoryLocation::GpuOnly,
             );
             // Keep whatever was made so `destroy` frees it on failure.
-            match (commands, counts, visible) {
-                (Ok(commands), Ok(counts), Ok(visible)) => self.slots.push(Slot {
+            match (commands, counts, visible, readback) {
+                (Ok(commands), Ok(counts), Ok(visible), Ok(readback)) => self.slots.push(Slot {
                     volumes,
                     commands,
                     counts,
                     visible,
+                    readback,
                     set: vk::DescriptorSet::null(),
                 }),
-                (a, b, c) => {
+                (a, b, c, r) => {
                     volumes.destroy(ctx);
                     let mut err = None;
-                    for r in [a, b, c] {
+                    for r in [a, b, c, r] {
                         match r {
                             Ok(buf) => buf.destroy(ctx),
                             Err(e) => err = err.or(Some(e)),
@@ -569,7 +642,7 @@ impl GpuCull {
         let compute = vk::ShaderStageFlags::COMPUTE;
         let types = [
             uniform, storage, storage, storage, storage, storage, uniform, storage, storage,
-            storage, storage, storage,
+            storage, storage, storage, storage,
         ];
         let bindings: Vec<_> = types.iter().map(|&ty| (ty, 1, compute)).collect();
         let made = DescriptorSets::new(ctx, &bindings, compute, PUSH_BYTES, slots, "gpu-cull")?;
@@ -606,6 +679,7 @@ impl GpuCull {
                 info(&self.visibility),
                 info(&self.lod_levels),
                 info(&self.lod_errors),
+                info(&self.early),
             ];
             let writes: Vec<vk::WriteDescriptorSet> = infos
                 .iter()
@@ -716,13 +790,13 @@ impl GpuCull {
                 vk::PipelineStageFlags2::DRAW_INDIRECT
                     | vk::PipelineStageFlags2::VERTEX_SHADER
                     | vk::PipelineStageFlags2::COMPUTE_SHADER
-                    | vk::PipelineStageFlags2::HOST,
+                    | vk::PipelineStageFlags2::ALL_TRANSFER,
             )
             .dst_access_mask(
                 vk::AccessFlags2::INDIRECT_COMMAND_READ
                     | vk::AccessFlags2::SHADER_STORAGE_READ
                     | vk::AccessFlags2::SHADER_STORAGE_WRITE
-                    | vk::AccessFlags2::HOST_READ,
+                    | vk::AccessFlags2::TRANSFER_READ,
             )];
         // SAFETY: recording outside any rendering scope; the set's buffers
         // belong to this pass and slot (see `record`).
@@ -743,7 +817,11 @@ impl GpuCull {
                 0,
                 as_bytes(&push),
             );
-            d.cmd_dispatch(cmd, groups.min(ROW), groups.div_ceil(ROW), 1);
+            if phase == 1 {
+                d.cmd_dispatch_indirect(cmd, self.early.buffer, 0);
+            } else {
+                d.cmd_dispatch(cmd, groups.min(ROW), groups.div_ceil(ROW), 1);
+            }
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().memory_barriers(&to_draw),
@@ -796,7 +874,51 @@ impl GpuCull {
             );
         }
         self.dispatch(ctx, cmd, slot, if self.occlusion() { 1 } else { 0 });
+        if !self.occlusion() {
+            self.copy_out(ctx, cmd, slot);
+        }
         q.end_pass(ctx, cmd);
+    }
+
+    /// Copies `slot`'s commands and counters (complete after its last cull
+    /// dispatch, whose barrier covers transfer reads) into its readback
+    /// buffer for the host, which reads it after the frame's fence.
+    fn copy_out(&self, ctx: &Context, cmd: vk::CommandBuffer, slot: usize) {
+        let s = &self.slots[slot];
+        let (commands_size, counts_size) = sizes(self.cmd_tris.len());
+        let to_host = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
+        // SAFETY: outside any rendering scope; the buffers belong to this
+        // slot, the regions lie inside them, and the host reads the
+        // readback only after the slot's fence.
+        unsafe {
+            let d = &ctx.device;
+            let whole = |size| {
+                [vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size,
+                }]
+            };
+            d.cmd_copy_buffer(
+                cmd,
+                s.commands.buffer,
+                s.readback.buffer,
+                &whole(commands_size),
+            );
+            let counts = [vk::BufferCopy {
+                dst_offset: commands_size,
+                ..whole(counts_size)[0]
+            }];
+            d.cmd_copy_buffer(cmd, s.counts.buffer, s.readback.buffer, &counts);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_host),
+            );
+        }
     }
 
     /// With occlusion, after the early views: builds `slot`'s depth
@@ -808,7 +930,40 @@ impl GpuCull {
         };
         pyramid.record(ctx, cmd, q, slot);
         q.begin_pass(ctx, cmd, "cull-late");
+        let read_done = [vk::MemoryBarrier2::default()
+            .src_stage_mask(
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::DRAW_INDIRECT,
+            )
+            .src_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::INDIRECT_COMMAND_READ,
+            )
+            .dst_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .dst_access_mask(vk::AccessFlags2::TRANSFER_WRITE)];
+        let reset_done = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
+            )];
+        let header = [EARLY_ROW, 0, 1, 0];
+        // SAFETY: outside any rendering scope; the early list belongs to
+        // this pass, and the first barrier orders this frame's early
+        // dispatch (its indirect read and list reads) before the reset.
+        unsafe {
+            let d = &ctx.device;
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&read_done),
+            );
+            d.cmd_update_buffer(cmd, self.early.buffer, 0, as_bytes(&header));
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&reset_done),
+            );
+        }
         self.dispatch(ctx, cmd, slot, 2);
+        self.copy_out(ctx, cmd, slot);
         q.end_pass(ctx, cmd);
     }
 
@@ -885,9 +1040,9 @@ impl GpuCull {
                 .map(|c| u32::from_le_bytes([c[0], c[1], c[2], c[3]]))
                 .collect())
         };
-        let commands = words(&mut s.commands)?;
-        let counts = words(&mut s.counts)?;
         let n = self.cmd_tris.len();
+        let mut commands = words(&mut s.readback)?;
+        let counts = commands.split_off(sizes(n).0 as usize / 4);
         let phases = self.sets();
         let mut out = Drawn::default();
         for c in 0..phases * n {
@@ -905,6 +1060,7 @@ impl GpuCull {
         let c = |k: usize| counts[2 * n + k] as u64;
         out.cull = GpuCullStats {
             tested: c(0),
+            tested_early: c(6),
             passed_frustum: c(1),
             drawn_early: c(2),
             drawn_late: c(3),
@@ -938,7 +1094,7 @@ impl GpuCull {
                 .destroy_descriptor_set_layout(self.set_layout, None);
         }
         for s in self.slots {
-            for b in [s.volumes, s.commands, s.counts, s.visible] {
+            for b in [s.volumes, s.commands, s.counts, s.visible, s.readback] {
                 b.destroy(ctx);
             }
         }
@@ -948,6 +1104,7 @@ impl GpuCull {
             self.template,
             self.visibility,
             self.placeholder,
+            self.early,
             self.lod_levels,
             self.lod_errors,
         ] {

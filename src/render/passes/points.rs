@@ -34,7 +34,11 @@ const ROW: u64 = 65_535;
 /// One frame slot's buffers.
 struct Slot {
     keys: Buffer,
+    /// The points drawn, counted in device memory (one atomic per
+    /// workgroup: over the bus they cost milliseconds)...
     drawn: Buffer,
+    /// ...and copied here for the host after the rasterizer.
+    drawn_host: Buffer,
     /// The frame's point ranges: (first thread, first point) per node.
     ranges: Buffer,
     /// The points chosen for the slot's frame.
@@ -164,37 +168,42 @@ impl PointsPass {
                         name: &name,
                         size,
                         usage: vk::BufferUsageFlags::STORAGE_BUFFER
-                            | vk::BufferUsageFlags::TRANSFER_DST,
+                            | vk::BufferUsageFlags::TRANSFER_DST
+                            | vk::BufferUsageFlags::TRANSFER_SRC,
                         location,
                         category: "per-frame",
                     },
                 )
             };
             let nodes = self.octree.as_ref().map_or(1, |t| t.nodes.len().max(1)) as u64;
-            let made =
-                small(format!("points drawn {i}"), 4, MemoryLocation::GpuToCpu).and_then(|drawn| {
-                    match small(
-                        format!("point ranges {i}"),
-                        8 * nodes,
-                        MemoryLocation::CpuToGpu,
-                    ) {
-                        Ok(ranges) => Ok((drawn, ranges)),
-                        Err(e) => {
-                            drawn.destroy(ctx);
-                            Err(e)
-                        }
+            let made = [
+                small(format!("points drawn {i}"), 4, MemoryLocation::GpuOnly),
+                small(
+                    format!("points drawn (host) {i}"),
+                    4,
+                    MemoryLocation::GpuToCpu,
+                ),
+                small(
+                    format!("point ranges {i}"),
+                    8 * nodes,
+                    MemoryLocation::CpuToGpu,
+                ),
+            ];
+            if made.iter().any(|b| b.is_err()) {
+                keys.destroy(ctx);
+                let mut err = None;
+                for b in made {
+                    match b {
+                        Ok(b) => b.destroy(ctx),
+                        Err(e) => err = err.or(Some(e)),
                     }
-                });
-            let (drawn, mut ranges) = match made {
-                Ok(b) => b,
-                Err(e) => {
-                    keys.destroy(ctx);
-                    return Err(e);
                 }
-            };
+                return Err(err.expect("one of them failed"));
+            }
+            let [drawn, drawn_host, mut ranges] = made.map(|b| b.expect("checked above"));
             // Without an octree the one range is every point.
             if let Err(e) = ranges.write(0, as_bytes(&[0u32, 0u32])) {
-                for b in [keys, drawn, ranges] {
+                for b in [keys, drawn, drawn_host, ranges] {
                     b.destroy(ctx);
                 }
                 return Err(e);
@@ -202,6 +211,7 @@ impl PointsPass {
             self.slots.push(Slot {
                 keys,
                 drawn,
+                drawn_host,
                 ranges,
                 selected: self.count,
             });
@@ -413,9 +423,16 @@ impl PointsPass {
             .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
             .src_access_mask(vk::AccessFlags2::SHADER_STORAGE_WRITE)
             .dst_stage_mask(
-                vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::HOST,
+                vk::PipelineStageFlags2::FRAGMENT_SHADER | vk::PipelineStageFlags2::ALL_TRANSFER,
             )
-            .dst_access_mask(vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::HOST_READ)];
+            .dst_access_mask(
+                vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::TRANSFER_READ,
+            )];
+        let to_host = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)];
         let groups = self.selected.div_ceil(GROUP).max(1);
         let (x, y) = (groups.min(ROW) as u32, groups.div_ceil(ROW) as u32);
         let mut push = [0u32; 12];
@@ -460,6 +477,20 @@ impl PointsPass {
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().memory_barriers(&to_fragment),
+            );
+            d.cmd_copy_buffer(
+                cmd,
+                s.drawn.buffer,
+                s.drawn_host.buffer,
+                &[vk::BufferCopy {
+                    src_offset: 0,
+                    dst_offset: 0,
+                    size: 4,
+                }],
+            );
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().memory_barriers(&to_host),
             );
         }
         q.end_pass(ctx, cmd);
@@ -543,7 +574,7 @@ impl PointsPass {
             return Ok(2 * self.slots[slot].selected);
         }
         let m = self.slots[slot]
-            .drawn
+            .drawn_host
             .mapped()
             .ok_or_else(|| Error::Gpu("the points counter is not mapped".into()))?;
         Ok(u32::from_le_bytes([m[0], m[1], m[2], m[3]]) as u64)
@@ -561,6 +592,7 @@ impl PointsPass {
         for s in self.slots {
             s.keys.destroy(ctx);
             s.drawn.destroy(ctx);
+            s.drawn_host.destroy(ctx);
             s.ranges.destroy(ctx);
         }
         for b in self.points {
