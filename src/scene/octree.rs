@@ -11,10 +11,7 @@
 //! first point of every run sharing its top `3 · (depth + log2 GRID)` code
 //! bits is that grid cell's first point; a stable partition moves those to
 //! the front (the node's own), and the rest, still sorted, split into the
-//! eight children by the next three bits (found by binary search). Children
-//! build in parallel, and a large node partitions in parallel. Everything
-//! happens in place in the sorted array, which ends in node order: a node's
-//! own points, then each child's subtree.
+//! eight children by the next three bits. Children build in parallel.
 //!
 //! Per frame ([`Octree::select`]): nodes in either eye's frustum, largest
 //! projected cube first (edge over distance to the nearer eye), until the
@@ -77,34 +74,16 @@ pub fn morton(c: [u32; 3]) -> u64 {
     spread(c[0] as u64) | spread(c[1] as u64) << 1 | spread(c[2] as u64) << 2
 }
 
-/// A node with at least this many points partitions its own from the
-/// rest in parallel.
-const PARALLEL_PARTITION: usize = 1 << 20;
-
 /// The bounding cube (low corner, edge) of `positions`.
 fn cube(positions: &[[f32; 3]]) -> ([f32; 3], f32) {
-    let empty = ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]);
-    let (lo, hi) = positions
-        .par_chunks(1 << 16)
-        .map(|chunk| {
-            let (mut lo, mut hi) = empty;
-            for p in chunk {
-                for k in 0..3 {
-                    lo[k] = lo[k].min(p[k]);
-                    hi[k] = hi[k].max(p[k]);
-                }
-            }
-            (lo, hi)
-        })
-        .reduce(
-            || empty,
-            |a, b| {
-                (
-                    [0, 1, 2].map(|k| a.0[k].min(b.0[k])),
-                    [0, 1, 2].map(|k| a.1[k].max(b.1[k])),
-                )
-            },
-        );
+    let mut lo = [f32::INFINITY; 3];
+    let mut hi = [f32::NEG_INFINITY; 3];
+    for p in positions {
+        for k in 0..3 {
+            lo[k] = lo[k].min(p[k]);
+            hi[k] = hi[k].max(p[k]);
+        }
+    }
     let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max);
     // A little slack so the far faces' points stay inside the last cell.
     (lo, (size * (1.0 + 1e-6)).max(1e-3))
@@ -132,8 +111,8 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
         })
         .collect();
     keyed.par_sort_unstable();
-    let nodes = build_node(&mut keyed, lo, size, 0, 0);
-    let order: Vec<u32> = keyed.par_iter().map(|k| k.1).collect();
+    let mut order: Vec<u32> = Vec::with_capacity(n);
+    let nodes = build_node(&mut keyed, lo, size, 0, &mut order);
     drop(keyed);
     let tree = Octree {
         nodes,
@@ -142,100 +121,87 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
     (tree, order)
 }
 
-/// A point's Morton code and its index in the cloud.
-type Keyed = (u64, u32);
-
-/// Moves the first point of every run of `keyed` sharing `key >> shift`
-/// (one per grid cell) to the front, keeping both parts in order; returns
-/// how many moved. `parallel`: on all threads (the same result).
-fn partition_cells(keyed: &mut [(u64, u32)], shift: u32, parallel: bool) -> usize {
-    let first = |k: &[(u64, u32)], i: usize| i == 0 || k[i].0 >> shift != k[i - 1].0 >> shift;
-    let (own, rest): (Vec<_>, Vec<_>) = if parallel {
-        let k = &*keyed;
-        let pick = |want: bool| -> Vec<(u64, u32)> {
-            (0..k.len())
-                .into_par_iter()
-                .filter(|&i| first(k, i) == want)
-                .map(|i| k[i])
-                .collect()
-        };
-        rayon::join(|| pick(true), || pick(false))
-    } else {
-        let mut own = Vec::new();
-        let mut rest = Vec::with_capacity(keyed.len());
-        for i in 0..keyed.len() {
-            if first(keyed, i) {
-                own.push(keyed[i]);
-            } else {
-                rest.push(keyed[i]);
-            }
-        }
-        (own, rest)
-    };
-    keyed[..own.len()].copy_from_slice(&own);
-    keyed[own.len()..].copy_from_slice(&rest);
-    own.len()
-}
-
 /// Builds the subtree of the Morton-sorted `keyed` (the points of the cube
-/// at `lo`, edge `size`, depth `depth`; `offset`: where `keyed` starts in
-/// the whole cloud), rearranging it in place into node order: the node's
-/// own points, then each child's subtree. Returns the subtree's nodes,
-/// root first; child links count from the subtree's root.
+/// at `lo`, edge `size`, depth `depth`), appending its points' original
+/// indices to `order` in node order: a node's own points, then each
+/// child's subtree. Returns the subtree's nodes, root first; `first` and
+/// child links count from where `order` and the list stood on entry.
 fn build_node(
     keyed: &mut [(u64, u32)],
     lo: [f32; 3],
     size: f32,
     depth: u32,
-    offset: u32,
+    order: &mut Vec<u32>,
 ) -> Vec<Node> {
+    let base_order = order.len() as u32;
     let mut node = Node {
         lo,
         size,
-        first: offset,
-        count: keyed.len() as u32,
+        first: base_order,
+        count: 0,
         children: [NONE; 8],
     };
     if keyed.len() <= LEAF_POINTS || depth + GRID_BITS >= BITS {
+        node.count = keyed.len() as u32;
+        order.extend(keyed.iter().map(|k| k.1));
         return vec![node];
     }
-    // The first point of every grid cell is this node's.
-    let shift = 3 * (BITS - depth - GRID_BITS);
-    let own_len = partition_cells(keyed, shift, keyed.len() >= PARALLEL_PARTITION);
-    node.count = own_len as u32;
-    // The children: the rest shares this node's top bits and is sorted, so
-    // each octant of the next three bits is one run, found by bisection.
-    let child_shift = 3 * (BITS - depth - 1);
-    let octant = |k: &(u64, u32)| ((k.0 >> child_shift) & 7) as usize;
-    let mut parts: Vec<(usize, u32, &mut [Keyed])> = Vec::new();
-    let mut tail = &mut keyed[own_len..];
-    let mut at = offset + own_len as u32;
-    for oct in 0..8 {
-        let len = tail.partition_point(|k| octant(k) <= oct);
-        let (head, t) = std::mem::take(&mut tail).split_at_mut(len);
-        if !head.is_empty() {
-            parts.push((oct, at, head));
+    // The first point of every grid cell is this node's; a stable
+    // partition keeps both parts in Morton order.
+    let cell_shift = 3 * (BITS - depth - GRID_BITS);
+    let mut own = Vec::new();
+    let mut rest = Vec::with_capacity(keyed.len());
+    let mut last = None;
+    for &k in keyed.iter() {
+        let cell = k.0 >> cell_shift;
+        if last != Some(cell) {
+            own.push(k);
+            last = Some(cell);
+        } else {
+            rest.push(k);
         }
-        at += len as u32;
+    }
+    node.count = own.len() as u32;
+    order.extend(own.iter().map(|k| k.1));
+    let own_len = own.len();
+    keyed[..own_len].copy_from_slice(&own);
+    keyed[own_len..].copy_from_slice(&rest);
+    drop((own, rest));
+    // The children: the runs of the rest sharing the next three bits.
+    let child_shift = 3 * (BITS - depth - 1);
+    let mut parts: Vec<(usize, &mut [(u64, u32)])> = Vec::new();
+    let mut tail = &mut keyed[own_len..];
+    while !tail.is_empty() {
+        let oct = ((tail[0].0 >> child_shift) & 7) as usize;
+        let len = tail
+            .iter()
+            .position(|k| ((k.0 >> child_shift) & 7) as usize != oct)
+            .unwrap_or(tail.len());
+        let (head, t) = std::mem::take(&mut tail).split_at_mut(len);
+        parts.push((oct, head));
         tail = t;
     }
     let half = size * 0.5;
-    let built: Vec<(usize, Vec<Node>)> = parts
+    let built: Vec<(usize, Vec<Node>, Vec<u32>)> = parts
         .into_par_iter()
-        .map(|(oct, first, part)| {
+        .map(|(oct, part)| {
             let clo = [
                 lo[0] + if oct & 1 != 0 { half } else { 0.0 },
                 lo[1] + if oct & 2 != 0 { half } else { 0.0 },
                 lo[2] + if oct & 4 != 0 { half } else { 0.0 },
             ];
-            (oct, build_node(part, clo, half, depth + 1, first))
+            let mut sub = Vec::with_capacity(part.len());
+            let nodes = build_node(part, clo, half, depth + 1, &mut sub);
+            (oct, nodes, sub)
         })
         .collect();
     let mut out = vec![node];
-    for (oct, nodes) in built {
+    for (oct, nodes, sub) in built {
         let base = out.len() as u32;
+        let shift = order.len() as u32;
         out[0].children[oct] = base;
         out.extend(nodes.into_iter().map(|mut n| {
+            n.first += shift;
             for c in &mut n.children {
                 if *c != NONE {
                     *c += base;
@@ -243,6 +209,7 @@ fn build_node(
             }
             n
         }));
+        order.extend(sub);
     }
     out
 }
@@ -360,27 +327,6 @@ mod tests {
             .map(|&i| c.classification[i as usize])
             .collect();
         tree
-    }
-
-    #[test]
-    fn the_parallel_partition_equals_the_serial_one() {
-        let mut rng = crate::scene::factory::SplitMix64::new(9);
-        let mut keyed: Vec<(u64, u32)> = (0..200_000u32)
-            .map(|i| ((rng.unit() * 4096.0) as u64, i))
-            .collect();
-        keyed.sort_unstable();
-        for shift in [0, 3, 6, 11] {
-            let (mut a, mut b) = (keyed.clone(), keyed.clone());
-            let n = partition_cells(&mut a, shift, false);
-            assert_eq!(partition_cells(&mut b, shift, true), n);
-            assert_eq!(a, b, "shift {shift}");
-            // The own part: one per distinct cell, in order; the rest too.
-            let mut cells: Vec<u64> = keyed.iter().map(|k| k.0 >> shift).collect();
-            cells.dedup();
-            assert_eq!(n, cells.len());
-            assert!(a[..n].windows(2).all(|w| w[0].0 >> shift < w[1].0 >> shift));
-            assert!(a[n..].windows(2).all(|w| w[0] <= w[1]));
-        }
     }
 
     fn cloud(n: usize, seed: u64) -> Points {
