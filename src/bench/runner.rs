@@ -1156,3 +1156,48 @@ fn cpu_model() -> String {
         })
         .unwrap_or_else(|| "unknown".into())
 }
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+    use crate::scene::points::PointCloud;
+    use glam::DVec3;
+
+    /// A cloud of `n` points on a 200 m square far from the origin.
+    fn far_cloud(n: usize) -> Scene {
+        let origin = DVec3::new(5.0e5, 20.0, -3.0e6);
+        let positions = (0..n)
+            .map(|i| {
+                let t = i as f32 / n as f32;
+                [200.0 * t, 10.0 * t, 200.0 * (1.0 - t)]
+            })
+            .collect();
+        Scene::of_points(PointCloud {
+            origin,
+            positions,
+            colors: vec![[200, 200, 200, 0]; n],
+            classification: vec![0; n],
+            ..PointCloud::default()
+        })
+    }
+
+    #[test]
+    fn head_paths_frame_a_scene_of_points_alone() {
+        let scene = far_cloud(1000);
+        let (lo, hi) = scene.bounds();
+        let profile = HmdProfile::load("valve-index").unwrap();
+        for path in ["walk", "orbit"] {
+            let text = format!(
+                "name = \"t\"\nscenes = [\"factory:10\"]\nhmds = [\"valve-index\"]\nframes = 8\npath = \"{path}\"\n[[configs]]\nname = \"a\"\nopt = \"two-pass\"\n"
+            );
+            let plan = Plan::parse("t", &text).unwrap();
+            let diag = (hi - lo).length();
+            for rig in path_rigs(&plan, &scene, &profile) {
+                // Every head is near the cloud (a walk inside its box, an
+                // orbit within about its diagonal), not at the origin.
+                let d = rig.head.position.distance((lo + hi) * 0.5);
+                assert!(d < 1.2 * diag, "{path}: head {d} m from the cloud's centre");
+            }
+        }
+    }
+}
