@@ -108,6 +108,50 @@ pub fn lod_cache(data: &[u8]) {
     }
 }
 
+/// Bytes → the point-cloud octree cache decoder, against a small cloud
+/// whose cache the seeds are: an accepted file must give an octree and
+/// order [`check_octree`] accepts.
+pub fn octree_cache(data: &[u8]) {
+    let positions = octree_cache_cloud();
+    let hash = crate::scene::octree_cache::content_hash(glam::DVec3::ZERO, &positions);
+    if let Ok((tree, order)) = crate::scene::octree_cache::decode(data, hash, positions.len()) {
+        check_octree(&tree, &order, positions.len());
+    }
+}
+
+/// The cloud [`octree_cache`] decodes against (a lattice of 27,000 points).
+pub fn octree_cache_cloud() -> Vec<[f32; 3]> {
+    (0..27_000u32)
+        .map(|i| {
+            [
+                (i % 30) as f32,
+                (i / 30 % 30) as f32 * 0.5,
+                (i / 900) as f32,
+            ]
+        })
+        .collect()
+}
+
+/// What the renderer relies on in a decoded octree over `points` points:
+/// the order is a permutation, every node's range lies in the cloud and
+/// its children are later nodes.
+pub fn check_octree(tree: &crate::scene::octree::Octree, order: &[u32], points: usize) {
+    assert_eq!(order.len(), points);
+    let mut seen = vec![false; points];
+    for &i in order {
+        assert!(!std::mem::replace(&mut seen[i as usize], true));
+    }
+    for (k, n) in tree.nodes.iter().enumerate() {
+        assert!(n.first as usize + n.count as usize <= points);
+        for &c in &n.children {
+            assert!(
+                c == crate::scene::octree::NONE
+                    || (c as usize > k && (c as usize) < tree.nodes.len())
+            );
+        }
+    }
+}
+
 /// The scene [`lod_cache`] decodes against (two simple shapes).
 pub fn lod_cache_scene() -> crate::scene::Scene {
     use crate::scene::{shapes, Mesh, Scene};

@@ -105,6 +105,11 @@ enum Command {
     Inspect {
         /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
         scene: String,
+        /// For a point cloud: build its octree and write it next to the
+        /// file (`FILE.octree`), which later loads read instead of
+        /// building.
+        #[arg(long)]
+        write_octree: bool,
     },
     /// Print an HMD profile's lens sampling density: eye-image pixels per
     /// panel pixel per ring of the lens, over-rendering, the eye-image
@@ -669,8 +674,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             json,
             heatmap,
         } => compare(&reference, &test, ppd, json, heatmap)?,
-        Command::Inspect { scene } => {
-            let (s, ms) = headless::load_scene(&scene)?;
+        Command::Inspect {
+            scene,
+            write_octree,
+        } => {
+            let (s, ms) = headless::load_scene_with(&scene, write_octree)?;
             inspect(&s, ms);
         }
         Command::Scan {
@@ -963,12 +971,30 @@ fn inspect(s: &Scene, load_ms: f64) {
     if let Some(cloud) = &s.points {
         println!("points      {}", cloud.len());
         if let Some(t) = &cloud.octree {
-            println!(
-                "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
-                t.nodes.len(),
-                t.build_ms,
-                cloud.len() as f64 / (t.build_ms.max(1e-6) * 1e3)
-            );
+            use vergence::scene::octree::CacheUse;
+            match &t.cache {
+                Some(CacheUse::Read(p)) => println!(
+                    "octree      {} nodes, read from {} in {:.1} ms",
+                    t.nodes.len(),
+                    p.display(),
+                    t.build_ms
+                ),
+                other => {
+                    println!(
+                        "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
+                        t.nodes.len(),
+                        t.build_ms,
+                        cloud.len() as f64 / (t.build_ms.max(1e-6) * 1e3)
+                    );
+                    match other {
+                        Some(CacheUse::Written(p)) => {
+                            println!("octree cache written to {}", p.display())
+                        }
+                        Some(CacheUse::NotUsed(why)) => println!("octree cache not used: {why}"),
+                        _ => {}
+                    }
+                }
+            }
         }
     }
     let support = |e: &str| match vergence::scene::gltf_load::support(e) {

@@ -248,6 +248,21 @@ fn lod_cache() {
 
 #[test]
 #[ignore]
+fn octree_cache() {
+    let positions = vergence::fuzz_checks::octree_cache_cloud();
+    let (tree, order) = vergence::scene::octree::build(&positions);
+    let hash = vergence::scene::octree_cache::content_hash(glam::DVec3::ZERO, &positions);
+    let seeds = vec![vergence::scene::octree_cache::encode(hash, &tree, &order)];
+    fuzz(
+        "octree_cache",
+        3,
+        seeds,
+        vergence::fuzz_checks::octree_cache,
+    );
+}
+
+#[test]
+#[ignore]
 fn rig_json_and_plans() {
     let mut seeds = files("tests/bad_inputs/rigs", &["json"]);
     seeds.extend(files("tests/bad_inputs/plans", &["toml"]));

@@ -334,6 +334,64 @@ fn scan_writes_a_cloud_that_render_draws_and_counts() {
     let drawn = stats["points_drawn"].as_u64().unwrap();
     assert!(drawn > 0 && drawn <= 2 * total, "{drawn} of 2 × {total}");
     assert_eq!(stats["validation_messages"], 0);
+    assert_eq!(stats["points_octree"]["cache"]["not_used"], "no cache file");
+
+    // The octree cache: `inspect --write-octree` writes it, a render reads
+    // it and draws the same image; a stale cache is rebuilt, not an error.
+    let inspect = |extra: &[&str]| {
+        let o = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .arg("inspect")
+            .arg(&out)
+            .args(extra)
+            .output()
+            .unwrap();
+        assert!(o.status.success());
+        String::from_utf8(o.stdout).unwrap()
+    };
+    assert!(inspect(&["--write-octree"]).contains("octree cache written to"));
+    let cache = dir.join("scan.laz.octree");
+    assert!(cache.is_file());
+    assert!(inspect(&[]).contains("read from"));
+    let args = [
+        "--scene",
+        out.to_str().unwrap(),
+        "--width",
+        "160",
+        "--height",
+        "144",
+    ];
+    let cached = common::render_cli(&args, &dir.join("render-cached"));
+    assert_eq!(
+        cached["points_octree"]["nodes"],
+        stats["points_octree"]["nodes"]
+    );
+    assert!(
+        cached["points_octree"]["cache"]["read"].is_string(),
+        "{cached}"
+    );
+    assert_eq!(cached["points_drawn"], stats["points_drawn"]);
+    let pngs = |d: &str| -> Vec<Vec<u8>> {
+        let mut names: Vec<_> = std::fs::read_dir(dir.join(d))
+            .unwrap()
+            .flatten()
+            .map(|e| e.path())
+            .filter(|p| p.extension().is_some_and(|e| e == "png"))
+            .collect();
+        names.sort();
+        assert!(!names.is_empty());
+        names.iter().map(|p| std::fs::read(p).unwrap()).collect()
+    };
+    assert_eq!(pngs("render"), pngs("render-cached"));
+    // Cut short: a warning, the octree built again.
+    let bytes = std::fs::read(&cache).unwrap();
+    std::fs::write(&cache, &bytes[..bytes.len() / 2]).unwrap();
+    let stale = common::render_cli(&args, &dir.join("render-stale"));
+    assert!(
+        stale["points_octree"]["cache"]["not_used"]
+            .as_str()
+            .is_some_and(|w| w.contains("bytes for")),
+        "{stale}"
+    );
 }
 
 /// Bytes of a valid LAS 1.4 file of a few points, for the bad-file cases.

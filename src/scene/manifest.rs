@@ -307,6 +307,12 @@ pub const MAX_INSTANCES: u64 = 50_000_000;
 
 /// Loads a scene manifest; relative file paths resolve against its folder.
 pub fn load(path: &Path) -> Result<Scene> {
+    load_with(path, false)
+}
+
+/// [`load`]; with `write_octree_cache`, the point clouds' octree is built
+/// and written to the manifest's cache file (`FILE.toml.octree`).
+pub fn load_with(path: &Path, write_octree_cache: bool) -> Result<Scene> {
     let text =
         crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES).map_err(|source| {
             Error::Io {
@@ -314,7 +320,7 @@ pub fn load(path: &Path) -> Result<Scene> {
                 source,
             }
         })?;
-    from_text(path, &text)
+    from_text_with(path, &text, &LoadBudget::default(), write_octree_cache)
 }
 
 /// Builds the scene of manifest `text` read from `path`, within one
@@ -325,6 +331,17 @@ pub fn from_text(path: &Path, text: &str) -> Result<Scene> {
 
 /// [`from_text`] within `budget`.
 pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scene> {
+    from_text_with(path, text, budget, false)
+}
+
+/// [`from_text_in`]; with `write_octree_cache`, the clouds' octree is
+/// built and written to the manifest's cache file.
+fn from_text_with(
+    path: &Path,
+    text: &str,
+    budget: &LoadBudget,
+    write_octree_cache: bool,
+) -> Result<Scene> {
     let m: Manifest = toml::from_str(text)
         .map_err(|e| Error::scene(path, format!("malformed scene manifest: {}", e.message())))?;
     if m.gltf.is_empty() && m.procedural.is_empty() && m.points.is_empty() {
@@ -409,7 +426,9 @@ pub fn from_text_in(path: &Path, text: &str, budget: &LoadBudget) -> Result<Scen
     }
     if let Some(all) = scene.points.take() {
         let cloud = std::sync::Arc::try_unwrap(all).unwrap_or_else(|shared| (*shared).clone());
-        scene.points = Some(std::sync::Arc::new(cloud.with_octree()));
+        scene.points = Some(std::sync::Arc::new(
+            cloud.with_octree_cached(path, write_octree_cache),
+        ));
     }
     viewpoint_cameras(path, &m.viewpoint, &mut scene)?;
     Ok(scene)

@@ -16,6 +16,7 @@ pub mod lod_cache;
 pub mod manifest;
 pub mod motion;
 pub mod octree;
+pub mod octree_cache;
 pub mod ply;
 pub mod point_files;
 pub mod points;
@@ -378,8 +379,16 @@ pub struct SceneFeatures {
 
 impl Scene {
     /// Loads a scene from a `--scene` argument: `factory`, `factory:N`,
-    /// `cad:N`, a `.gltf`/`.glb` file or a `.toml` scene manifest.
+    /// `cad:N`, a `.gltf`/`.glb` file, a point file or a `.toml` scene
+    /// manifest. A point cloud's octree comes from its cache file when
+    /// that is usable (`octree_cache`).
     pub fn load(spec: &str) -> Result<Scene> {
+        Scene::load_with(spec, false)
+    }
+
+    /// [`Scene::load`]; with `write_octree_cache`, a point cloud's octree
+    /// is built and written to its cache file (`inspect --write-octree`).
+    pub fn load_with(spec: &str, write_octree_cache: bool) -> Result<Scene> {
         if let Some(n) = factory_count(spec) {
             return factory::generate(n?, factory::DEFAULT_SEED);
         }
@@ -392,10 +401,12 @@ impl Scene {
             .and_then(|e| e.to_str())
             .map(|e| e.to_ascii_lowercase())
         {
-            Some(e) if e == "toml" => manifest::load(path),
-            Some(e) if e == "las" || e == "laz" || e == "ply" || e == "e57" => Ok(
-                Scene::of_points(point_files::read_file(path)?.with_octree()),
-            ),
+            Some(e) if e == "toml" => manifest::load_with(path, write_octree_cache),
+            Some(e) if e == "las" || e == "laz" || e == "ply" || e == "e57" => {
+                Ok(Scene::of_points(
+                    point_files::read_file(path)?.with_octree_cached(path, write_octree_cache),
+                ))
+            }
             _ => gltf_load::load(path),
         }?;
         scene.source = Some(path.to_path_buf());

@@ -54,8 +54,24 @@ pub struct Node {
 pub struct Octree {
     /// The nodes, parents before children.
     pub nodes: Vec<Node>,
-    /// Milliseconds the build took.
+    /// Milliseconds the build took (or reading it from its cache).
     pub build_ms: f64,
+    /// For a cloud loaded from a file: whether the octree came from its
+    /// cache file (`scene::octree_cache`).
+    pub cache: Option<CacheUse>,
+}
+
+/// Where the octree of a cloud loaded from a file came from (for
+/// `stats.json` and `inspect`).
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+#[serde(rename_all = "snake_case")]
+pub enum CacheUse {
+    /// Read from this cache file.
+    Read(std::path::PathBuf),
+    /// Built and written to this cache file.
+    Written(std::path::PathBuf),
+    /// Built; no cache file was used (why).
+    NotUsed(String),
 }
 
 /// Interleaves the low 21 bits of `v` with two zero bits between each.
@@ -117,6 +133,7 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
     let tree = Octree {
         nodes,
         build_ms: started.elapsed().as_secs_f64() * 1e3,
+        cache: None,
     };
     (tree, order)
 }

@@ -104,8 +104,25 @@ impl PointCloud {
 
     /// The cloud with its octree built (its points reordered into the
     /// nodes' order).
-    pub fn with_octree(mut self) -> PointCloud {
+    pub fn with_octree(self) -> PointCloud {
         let (tree, order) = super::octree::build(&self.positions);
+        self.ordered(tree, order)
+    }
+
+    /// [`PointCloud::with_octree`] for a cloud loaded from `source`: the
+    /// octree read from `source`'s cache file when it is usable, else
+    /// built (and with `write_cache`, written there); the tree's `cache`
+    /// says which (`scene::octree_cache`).
+    pub fn with_octree_cached(self, source: &Path, write_cache: bool) -> PointCloud {
+        let (mut tree, order, used) =
+            super::octree_cache::load_or_build(self.origin, &self.positions, source, write_cache);
+        tree.cache = Some(used);
+        self.ordered(tree, order)
+    }
+
+    /// The cloud reordered by `order` (point i becomes old point
+    /// `order[i]`) with `tree` over it.
+    fn ordered(mut self, tree: super::octree::Octree, order: Vec<u32>) -> PointCloud {
         permute(&mut self.positions, &order);
         permute(&mut self.colors, &order);
         permute(&mut self.classification, &order);

@@ -209,6 +209,11 @@ pub struct OctreeReport {
     pub build_ms: f64,
     /// Points built per second, millions.
     pub build_mpoints_per_s: f64,
+    /// For a cloud from a file: `{"read": PATH}` (then `build_ms` is the
+    /// time to read and check it), `{"written": PATH}` or
+    /// `{"not_used": WHY}`.
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub cache: Option<crate::scene::octree::CacheUse>,
 }
 
 impl OctreeReport {
@@ -218,6 +223,7 @@ impl OctreeReport {
             nodes: tree.nodes.len(),
             build_ms: tree.build_ms,
             build_mpoints_per_s: points as f64 / (tree.build_ms.max(1e-6) * 1e3),
+            cache: tree.cache.clone(),
         }
     }
 }
@@ -245,11 +251,17 @@ pub struct Floors {
 
 /// Loads a scene with a spinner when it takes more than a moment.
 pub fn load_scene(spec: &str) -> Result<(Scene, f64)> {
+    load_scene_with(spec, false)
+}
+
+/// [`load_scene`]; with `write_octree_cache`, a point cloud's octree is
+/// built and written to its cache file.
+pub fn load_scene_with(spec: &str, write_octree_cache: bool) -> Result<(Scene, f64)> {
     let t = Instant::now();
     let bar = indicatif::ProgressBar::new_spinner();
     bar.set_message(format!("loading {spec}"));
     bar.enable_steady_tick(std::time::Duration::from_millis(120));
-    let scene = Scene::load(spec);
+    let scene = Scene::load_with(spec, write_octree_cache);
     bar.finish_and_clear();
     let ms = t.elapsed().as_secs_f64() * 1e3;
     let scene = scene?;
