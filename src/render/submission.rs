@@ -11,8 +11,9 @@
 //!   (set 1); the three paths draw identical images.
 //! - **Parallel recording** (`--record-threads N`): the forward views'
 //!   draw list is cut into N contiguous runs, each recorded into its own
-//!   secondary command buffer by its own thread (a rayon pool of N threads,
-//!   one command pool per thread and frame slot, as Vulkan requires command
+//!   secondary command buffer by its own thread (the frame's own thread
+//!   records the first run, a rayon pool of N − 1 threads the others; one
+//!   command pool per thread and frame slot, as Vulkan requires command
 //!   pools to be used by one thread at a time), and the frame's primary
 //!   command buffer executes them in order inside the rendering scope
 //!   ([`ParallelRecording`]). The order of draws, and so the image, is the
@@ -27,8 +28,8 @@ use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
-use std::sync::atomic::{AtomicBool, Ordering};
-use std::sync::Arc;
+use std::sync::atomic::{AtomicBool, AtomicUsize, Ordering};
+use std::sync::{Arc, Mutex};
 use std::time::Instant;
 
 /// Bytes of one record: material, first visible slot, two unused words
@@ -292,11 +293,13 @@ impl Drop for Woken {
 }
 
 /// Parallel recording of a frame's forward draws into secondary command
-/// buffers (see the module documentation): N pool threads, thread t
-/// records run t of the draw list for every scope.
+/// buffers (see the module documentation): thread t records run t of the
+/// draw list for every scope; thread 0 is the caller's, the others are
+/// pool threads.
 pub struct ParallelRecording {
     threads: usize,
-    workers: rayon::ThreadPool,
+    /// The threads besides the caller's (None with one thread).
+    workers: Option<rayon::ThreadPool>,
     /// Set when the draws are ready: the threads woken early stop spinning.
     ready: Arc<AtomicBool>,
     /// Per frame slot, per thread.
@@ -324,14 +327,22 @@ pub struct Chunk {
 }
 
 impl ParallelRecording {
-    /// `threads` recording threads with their command pools for `slots`
-    /// frame slots.
+    /// `threads` recording threads (the caller's and `threads` − 1 pool
+    /// threads) with their command pools for `slots` frame slots.
     pub fn new(ctx: &Context, threads: usize, slots: usize) -> Result<ParallelRecording> {
-        let workers = rayon::ThreadPoolBuilder::new()
-            .num_threads(threads)
-            .thread_name(|i| format!("vergence-record-{i}"))
-            .build()
-            .map_err(|e| crate::error::Error::Gpu(format!("starting recording threads: {e}")))?;
+        let threads = threads.max(1);
+        let workers = if threads > 1 {
+            let pool = rayon::ThreadPoolBuilder::new()
+                .num_threads(threads - 1)
+                .thread_name(|i| format!("vergence-record-{}", i + 1))
+                .build()
+                .map_err(|e| {
+                    crate::error::Error::Gpu(format!("starting recording threads: {e}"))
+                })?;
+            Some(pool)
+        } else {
+            None
+        };
         let mut made = ParallelRecording {
             threads,
             workers,
@@ -402,8 +413,9 @@ impl ParallelRecording {
         &self.by_scope[slot][scope]
     }
 
-    /// Wakes the recording threads ahead of [`ParallelRecording::record`]
-    /// (call it when the frame begins, before batching): each spins until
+    /// Wakes the pool's recording threads ahead of
+    /// [`ParallelRecording::record`] (call it when the frame begins, before
+    /// batching): each spins until
     /// the draws are ready, at most [`WAKE_SPIN`], so the recording does not
     /// wait for threads the OS has to wake first. Their cores are busy
     /// meanwhile.
@@ -413,21 +425,25 @@ impl ParallelRecording {
     pub fn wake(&self) -> Woken {
         self.ready.store(false, Ordering::Release);
         let ready = self.ready.clone();
-        self.workers.spawn_broadcast(move |_| {
-            let t = Instant::now();
-            while !ready.load(Ordering::Acquire) && t.elapsed() < WAKE_SPIN {
-                std::hint::spin_loop();
-            }
-        });
+        if let Some(workers) = &self.workers {
+            workers.spawn_broadcast(move |_| {
+                let t = Instant::now();
+                while !ready.load(Ordering::Acquire) && t.elapsed() < WAKE_SPIN {
+                    std::hint::spin_loop();
+                }
+            });
+        }
         Woken(self.ready.clone())
     }
 
     /// Records slot `slot`'s secondaries: for each rendering scope of
     /// format `format[scope]`, `draws` draws cut into one run per thread,
     /// and on thread t `f(chunk, cmd)` records run t into `cmd` (begun to
-    /// continue the scope, ended after). The slot's previous frame must be
-    /// done. Returns the draw calls `f` reports, summed, and the threads'
-    /// timing.
+    /// continue the scope, ended after). Run 0 is recorded on the calling
+    /// thread while the pool records the others, and the caller then spins
+    /// (yielding) until they are done rather than sleeping on a lock it
+    /// would have to be woken from. The slot's previous frame must be done.
+    /// Returns the draw calls `f` reports, summed, and the threads' timing.
     pub fn record<F>(
         &self,
         ctx: &Context,
@@ -442,12 +458,8 @@ impl ParallelRecording {
         self.ready.store(true, Ordering::Release);
         let buffers = &self.slots[slot];
         let threads = self.threads;
-        // One call per pool thread, all started at once (a broadcast),
-        // rather than a parallel iterator whose work splitting starts the
-        // threads one after another.
-        let per_thread = self.workers.broadcast(|b| -> Result<(u64, f64)> {
+        let run = |t: usize| -> Result<(u64, f64)> {
             let t_start = Instant::now();
-            let t = b.index();
             let tb = &buffers[t];
             let d = &ctx.device;
             // SAFETY: the pool belongs to this thread for this slot, whose
@@ -489,11 +501,36 @@ impl ParallelRecording {
                 unsafe { d.end_command_buffer(cmd) }.vk("ending a secondary command buffer")?;
             }
             Ok((calls, t_start.elapsed().as_secs_f64() * 1e3))
-        });
+        };
+        let results: Vec<Mutex<Option<Result<RunTime>>>> =
+            (0..threads).map(|_| Mutex::new(None)).collect();
+        let keep = |t: usize, r: Result<RunTime>| {
+            *results[t].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+        };
+        match &self.workers {
+            None => keep(0, run(0)),
+            Some(workers) => {
+                let done = AtomicUsize::new(0);
+                workers.in_place_scope(|scope| {
+                    // One call per pool thread, all started at once (a
+                    // broadcast), rather than a parallel iterator whose
+                    // work splitting starts the threads one after another.
+                    scope.spawn_broadcast(|_, b| {
+                        let _counted = Finished(&done);
+                        keep(b.index() + 1, run(b.index() + 1));
+                    });
+                    keep(0, run(0));
+                    wait_for(&done, threads - 1);
+                });
+            }
+        }
         let mut calls = 0;
         let mut times = ThreadTimes::default();
-        for r in per_thread {
-            let (c, ms) = r?;
+        for r in results {
+            let r = r.into_inner().unwrap_or_else(|e| e.into_inner());
+            let (c, ms) = r.ok_or_else(|| {
+                crate::error::Error::Gpu("a recording thread returned nothing".into())
+            })??;
             calls += c;
             times.sum += ms;
             times.slowest = times.slowest.max(ms);
@@ -507,6 +544,35 @@ impl ParallelRecording {
         for t in self.slots.into_iter().flatten() {
             // SAFETY: the device is idle; the pool belongs to `self`.
             unsafe { ctx.device.destroy_command_pool(t.pool, None) };
+        }
+    }
+}
+
+/// A run's draw calls and its thread's recording milliseconds.
+type RunTime = (u64, f64);
+
+/// Counts a pool thread's run as finished when dropped, also when the run
+/// panics (rayon then passes the panic on when the scope ends), so
+/// [`wait_for`] cannot wait forever.
+struct Finished<'a>(&'a AtomicUsize);
+
+impl Drop for Finished<'_> {
+    fn drop(&mut self) {
+        self.0.fetch_add(1, Ordering::Release);
+    }
+}
+
+/// Spins until `done` reaches `n`, yielding the core after the first
+/// microseconds so that on a machine with fewer cores than recording
+/// threads the ones still recording get to run.
+fn wait_for(done: &AtomicUsize, n: usize) {
+    let mut spins = 0u32;
+    while done.load(Ordering::Acquire) < n {
+        if spins < 2048 {
+            spins += 1;
+            std::hint::spin_loop();
+        } else {
+            std::thread::yield_now();
         }
     }
 }
