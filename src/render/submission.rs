@@ -502,13 +502,24 @@ impl ParallelRecording {
             }
             Ok((calls, t_start.elapsed().as_secs_f64() * 1e3))
         };
-        let results: Vec<Mutex<Option<Result<RunTime>>>> =
-            (0..threads).map(|_| Mutex::new(None)).collect();
-        let keep = |t: usize, r: Result<RunTime>| {
-            *results[t].lock().unwrap_or_else(|e| e.into_inner()) = Some(r);
+        // Every run adds its outcome to one tally: no per-frame allocation.
+        let tally: Mutex<(u64, ThreadTimes, Option<crate::error::Error>)> =
+            Mutex::new((0, ThreadTimes::default(), None));
+        let keep = |r: Result<(u64, f64)>| {
+            let mut t = tally.lock().unwrap_or_else(|e| e.into_inner());
+            match r {
+                Ok((c, ms)) => {
+                    t.0 += c;
+                    t.1.sum += ms;
+                    t.1.slowest = t.1.slowest.max(ms);
+                }
+                Err(e) => {
+                    t.2.get_or_insert(e);
+                }
+            }
         };
         match &self.workers {
-            None => keep(0, run(0)),
+            None => keep(run(0)),
             Some(workers) => {
                 let done = AtomicUsize::new(0);
                 workers.in_place_scope(|scope| {
@@ -517,23 +528,16 @@ impl ParallelRecording {
                     // work splitting starts the threads one after another.
                     scope.spawn_broadcast(|_, b| {
                         let _counted = Finished(&done);
-                        keep(b.index() + 1, run(b.index() + 1));
+                        keep(run(b.index() + 1));
                     });
-                    keep(0, run(0));
+                    keep(run(0));
                     wait_for(&done, threads - 1);
                 });
             }
         }
-        let mut calls = 0;
-        let mut times = ThreadTimes::default();
-        for r in results {
-            let r = r.into_inner().unwrap_or_else(|e| e.into_inner());
-            let (c, ms) = r.ok_or_else(|| {
-                crate::error::Error::Gpu("a recording thread returned nothing".into())
-            })??;
-            calls += c;
-            times.sum += ms;
-            times.slowest = times.slowest.max(ms);
+        let (calls, times, error) = tally.into_inner().unwrap_or_else(|e| e.into_inner());
+        if let Some(e) = error {
+            return Err(e);
         }
         Ok((calls, times))
     }
@@ -547,9 +551,6 @@ impl ParallelRecording {
         }
     }
 }
-
-/// A run's draw calls and its thread's recording milliseconds.
-type RunTime = (u64, f64);
 
 /// Counts a pool thread's run as finished when dropped, also when the run
 /// panics (rayon then passes the panic on when the scope ends), so
