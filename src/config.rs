@@ -157,6 +157,10 @@ pub struct RenderConfig {
     /// devices without 64-bit atomics) even where the compute rasterizer
     /// runs (`points-pipeline`).
     pub points_pipeline: bool,
+    /// Draw the sky once per pixel after the MSAA resolve instead of at
+    /// every sample inside the forward scope (`resolved-sky`; the same
+    /// image up to rounding, see `render::passes::resolved_sky`).
+    pub resolved_sky: bool,
     /// Adaptive quality (`aq`): each frame's render scale follows the GPU
     /// times of the last ones against the frame budget (The Lab's rules,
     /// `crate::adaptive`); the targets are made once at the largest scale
@@ -421,6 +425,7 @@ impl Default for RenderConfig {
             points_budget: DEFAULT_POINTS_BUDGET,
             point_size: 1.0,
             points_pipeline: false,
+            resolved_sky: false,
             lod: None,
             aq: false,
             budget_ms: None,
@@ -529,6 +534,26 @@ impl RenderConfig {
                 ],
             )?;
         }
+        if self.resolved_sky {
+            if self.msaa == 1 {
+                return Err(Error::config(
+                    "--opt",
+                    "resolved-sky draws the sky after the MSAA resolve: it needs msaa4 (leave out no-msaa)",
+                ));
+            }
+            refuse_with(
+                "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
+                &[
+                    (rdm, "rdm"),
+                    (self.mffr.is_some(), "mffr"),
+                    (self.inset.is_some(), "inset"),
+                    (self.lms.is_some(), "lms"),
+                    (self.aq, "aq"),
+                    (self.timewarp.is_some(), "timewarp"),
+                    (self.record_threads.is_some(), "--record-threads"),
+                ],
+            )?;
+        }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
@@ -626,6 +651,7 @@ impl RenderConfig {
                     self.points_budget = v as u64;
                 }
                 "points-pipeline" => self.points_pipeline = true,
+                "resolved-sky" => self.resolved_sky = true,
                 "lms" => self.lms = Some(self.lms.unwrap_or_default()),
                 "lms-emulated" => {
                     self.lms = Some(Lms {
@@ -772,7 +798,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -968,6 +994,9 @@ impl RenderConfig {
         }
         if self.points_pipeline {
             v.push("points-pipeline".into());
+        }
+        if self.resolved_sky {
+            v.push("resolved-sky".into());
         }
         if self.point_size != 1.0 {
             v.push(format!("point-size={}", self.point_size));

@@ -31,10 +31,10 @@ pub struct GraphicsPipelineDesc<'a> {
     pub depth_compare: vk::CompareOp,
     /// Stencil test state for both faces (None: stencil off).
     pub stencil: Option<vk::StencilOpState>,
-    /// Premultiplied-free "over" alpha blending.
-    pub blend: bool,
-    /// Colour writes on.
-    pub color_write: bool,
+    /// How fragments blend with the attachment.
+    pub blend: Blend,
+    /// The colour channels written (empty: colour writes off).
+    pub color_write: vk::ColorComponentFlags,
     /// Rasterization samples.
     pub samples: vk::SampleCountFlags,
     /// Colour attachment format.
@@ -53,6 +53,21 @@ pub struct GraphicsPipelineDesc<'a> {
     pub w_scaling: bool,
     /// Point-list topology instead of triangle lists.
     pub points: bool,
+}
+
+/// Colour blending of a pipeline's fragments with the attachment.
+#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+pub enum Blend {
+    /// Written as they are.
+    Off,
+    /// "Over" with straight (not premultiplied) source alpha: colour
+    /// `a·src + (1 − a)·dst`; alpha `a + (1 − a)·dst.a`, so the
+    /// attachment's alpha accumulates the coverage of what was drawn.
+    Over,
+    /// "Under" (Porter and Duff 1984): the source goes behind what the
+    /// attachment holds, whose alpha is its coverage: colour
+    /// `dst + (1 − dst.a)·src`, alpha `dst.a + (1 − dst.a)·src.a`.
+    Under,
 }
 
 fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
@@ -142,18 +157,30 @@ impl GraphicsPipelineDesc<'_> {
             .stencil_test_enable(self.stencil.is_some())
             .front(stencil)
             .back(stencil);
-        let mask = if self.color_write {
-            vk::ColorComponentFlags::RGBA
-        } else {
-            vk::ColorComponentFlags::empty()
+        let mask = self.color_write;
+        // (source colour, destination colour, source alpha, destination
+        // alpha) factors.
+        let (sc, dc, sa, da) = match self.blend {
+            Blend::Off | Blend::Over => (
+                vk::BlendFactor::SRC_ALPHA,
+                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
+                vk::BlendFactor::ONE,
+                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
+            ),
+            Blend::Under => (
+                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
+                vk::BlendFactor::ONE,
+                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
+                vk::BlendFactor::ONE,
+            ),
         };
         let attachment = [vk::PipelineColorBlendAttachmentState::default()
-            .blend_enable(self.blend)
-            .src_color_blend_factor(vk::BlendFactor::SRC_ALPHA)
-            .dst_color_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .blend_enable(self.blend != Blend::Off)
+            .src_color_blend_factor(sc)
+            .dst_color_blend_factor(dc)
             .color_blend_op(vk::BlendOp::ADD)
-            .src_alpha_blend_factor(vk::BlendFactor::ONE)
-            .dst_alpha_blend_factor(vk::BlendFactor::ONE_MINUS_SRC_ALPHA)
+            .src_alpha_blend_factor(sa)
+            .dst_alpha_blend_factor(da)
             .alpha_blend_op(vk::BlendOp::ADD)
             .color_write_mask(mask)];
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachment);

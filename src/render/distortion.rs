@@ -23,7 +23,7 @@
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Image, ImageDesc, Pod};
-use crate::gpu::pipeline::{DescriptorSets, GraphicsPipelineDesc};
+use crate::gpu::pipeline::{Blend, DescriptorSets, GraphicsPipelineDesc};
 use crate::gpu::shaders;
 use crate::gpu::surface::{Source, SHOWN};
 use crate::gpu::Context;
@@ -455,8 +455,8 @@ impl DistortionPreview {
                 depth_write: false,
                 depth_compare: vk::CompareOp::ALWAYS,
                 stencil: None,
-                blend: false,
-                color_write: true,
+                blend: Blend::Off,
+                color_write: vk::ColorComponentFlags::RGBA,
                 samples: vk::SampleCountFlags::TYPE_1,
                 color_format: FORMAT,
                 depth_format: vk::Format::UNDEFINED,

@@ -475,6 +475,7 @@ impl Renderer {
                 .lms
                 .is_some_and(|l| !l.emulated && self.ctx.caps.clip_space_w_scaling),
             lms: self.config.lms.is_some(),
+            resolved_sky: self.config.resolved_sky,
             set_layout: self.descriptors.set_layout,
         }
     }
@@ -1118,6 +1119,9 @@ impl Renderer {
         // early draws, then (after the depth pyramid and the late cull) the
         // late draws and the sky.
         let occlusion = gpu_cull.filter(|g| g.occlusion());
+        // With `resolved-sky` the sky is drawn after the resolve, not in
+        // the scopes (floor frames draw no sky either way).
+        let resolved_sky = passes.resolved_sky.as_ref().filter(|_| floor.is_none());
         let parts: &[ScopePart] = match occlusion {
             Some(_) => &[ScopePart::First, ScopePart::Second],
             None => &[ScopePart::Whole],
@@ -1191,6 +1195,7 @@ impl Renderer {
                     depth_clear,
                     shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
                     secondaries: parallel.is_some(),
+                    sky_after_resolve: resolved_sky.is_some(),
                 });
                 if let Some(par) = parallel {
                     // SAFETY: inside a scope begun for secondary contents;
@@ -1215,7 +1220,7 @@ impl Renderer {
                     }
                 }
                 let near = batches.near_draws();
-                let sky = part != ScopePart::First;
+                let sky = part != ScopePart::First && resolved_sky.is_none();
                 // With lms the scope's contents are drawn once per quadrant
                 // (floor frames once, unscaled).
                 let quadrants: &[Option<u32>] = match (&passes.lms, floor) {
@@ -1244,7 +1249,7 @@ impl Renderer {
                                     .forward
                                     .record_gpu(&rec, gpu, eye, self.slot, sky, late)
                             }
-                            None => draw_calls += passes.forward.record(&rec, near, eye, true),
+                            None => draw_calls += passes.forward.record(&rec, near, eye, sky),
                         },
                     }
                     if floor.is_none() && part != ScopePart::First {
@@ -1254,6 +1259,9 @@ impl Renderer {
                 rec.end_scope();
                 q.end_pass(ctx, cmd);
             }
+        }
+        if let Some(s) = resolved_sky {
+            draw_calls += s.record(&rec, q, targets, self.extent, self.view_mask());
         }
         if let Some(rdm) = &passes.rdm {
             draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());

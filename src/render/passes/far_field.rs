@@ -323,6 +323,7 @@ impl FarField {
             let set = &self.sets[i];
             rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
             rec.begin_scope(&Scope {
+                sky_after_resolve: false,
                 part: ScopePart::Whole,
                 views: set.views(),
                 area: None,

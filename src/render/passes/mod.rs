@@ -17,6 +17,7 @@ pub mod output;
 pub mod overlay;
 pub mod points;
 pub mod rdm;
+pub mod resolved_sky;
 pub mod sampled;
 pub mod stencil_mask;
 
@@ -28,7 +29,7 @@ use crate::config::{PerDraw, RenderConfig};
 use crate::error::Result;
 use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{as_bytes, Image};
-use crate::gpu::pipeline::GraphicsPipelineDesc;
+use crate::gpu::pipeline::{Blend, GraphicsPipelineDesc};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -69,6 +70,8 @@ pub struct Passes {
     /// The scene's point cloud (built by the renderer, which has the
     /// scene and the frame uniform buffers).
     pub points: Option<points::PointsPass>,
+    /// The sky drawn under the resolved image (`resolved-sky`).
+    pub resolved_sky: Option<resolved_sky::ResolvedSky>,
 }
 
 impl Passes {
@@ -102,6 +105,9 @@ impl Passes {
         self.overlay = Overlay::new(setup)?;
         if config.stencil_mask {
             self.stencil_mask = Some(StencilMask::new(setup, slots)?);
+        }
+        if config.resolved_sky {
+            self.resolved_sky = Some(resolved_sky::ResolvedSky::new(setup)?);
         }
         if let Some(radius) = config.rdm {
             self.rdm = Some(Rdm::new(setup, radius, config.rdm_fill)?);
@@ -166,6 +172,9 @@ impl Passes {
         if let Some(p) = self.points {
             p.destroy(ctx);
         }
+        if let Some(p) = self.resolved_sky {
+            p.destroy(ctx);
+        }
     }
 }
 
@@ -197,6 +206,9 @@ pub struct PipelineSetup<'a> {
     /// Whether the forward views are LMS quadrants (`lms`, either path):
     /// the sky is drawn per quadrant (`sky_lms.vert`).
     pub lms: bool,
+    /// Whether the sky is drawn after the resolve (`resolved-sky`): the
+    /// forward scope's colour starts transparent.
+    pub resolved_sky: bool,
     /// The renderer's set 0 layout (for passes with their own push
     /// constants over the same set).
     pub set_layout: vk::DescriptorSetLayout,
@@ -256,8 +268,8 @@ impl PipelineSetup<'_> {
                 write_mask: 0,
                 reference: 0,
             }),
-            blend: false,
-            color_write: true,
+            blend: Blend::Off,
+            color_write: vk::ColorComponentFlags::RGBA,
             samples: vk::SampleCountFlags::from_raw(self.samples),
             color_format: COLOR_FORMAT,
             depth_format: self.ctx.caps.depth_format,
@@ -348,7 +360,11 @@ impl PipelineSetup<'_> {
                     vk::CullModeFlags::BACK
                 },
                 depth_write: key.alpha < 2,
-                blend: key.alpha == 2,
+                blend: if key.alpha == 2 {
+                    Blend::Over
+                } else {
+                    Blend::Off
+                },
                 ..base.clone()
             };
             out.insert(key, desc.build(self.ctx)?);
@@ -573,6 +589,10 @@ pub struct Scope {
     /// (`--record-threads`): the primary only executes them, and each
     /// secondary sets its own state ([`Recorder::set_state`]).
     pub secondaries: bool,
+    /// The sky is drawn after the resolve (`resolved-sky`): colour clears
+    /// to transparent black so the resolved alpha is each pixel's
+    /// coverage ([`resolved_sky`]).
+    pub sky_after_resolve: bool,
 }
 
 /// Records a frame's commands: the command buffer, the device, this frame
@@ -648,7 +668,11 @@ impl Recorder<'_> {
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 color: vk::ClearColorValue {
-                    float32: [0.0, 0.0, 0.0, 1.0],
+                    float32: if scope.sky_after_resolve {
+                        resolved_sky::CLEAR
+                    } else {
+                        [0.0, 0.0, 0.0, 1.0]
+                    },
                 },
             });
         let first = scope.part == ScopePart::First;
@@ -762,6 +786,24 @@ impl Recorder<'_> {
     /// Begins a rendering scope of one colour attachment (loaded as don't
     /// care, stored) over `extent`, with no depth.
     pub fn begin_color_only(&self, view: vk::ImageView, extent: vk::Extent2D, view_mask: u32) {
+        self.begin_color(
+            view,
+            extent,
+            view_mask,
+            crate::gpu::rendering::Load::Discard,
+        );
+    }
+
+    /// Begins a rendering scope of one colour attachment (started as `load`
+    /// says, stored) over `extent`, with no depth; the caller has made the
+    /// attachment's earlier writes visible to colour-attachment access.
+    pub fn begin_color(
+        &self,
+        view: vk::ImageView,
+        extent: vk::Extent2D,
+        view_mask: u32,
+        load: crate::gpu::rendering::Load,
+    ) {
         // SAFETY: recording into the frame's open command buffer outside any
         // rendering scope; the attachment is in the colour attachment layout.
         unsafe {
@@ -770,7 +812,7 @@ impl Recorder<'_> {
                 self.cmd,
                 view,
                 extent,
-                crate::gpu::rendering::Load::Discard,
+                load,
                 view_mask,
             )
         };

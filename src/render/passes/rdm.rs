@@ -44,7 +44,7 @@ impl Rdm {
         let mask = GraphicsPipelineDesc {
             depth_test: false,
             depth_write: false,
-            color_write: false,
+            color_write: vk::ColorComponentFlags::empty(),
             stencil: Some(stencil_write(2)),
             ..setup.fullscreen_desc("rdm checkerboard stencil", &vs, &mask_fs)
         };

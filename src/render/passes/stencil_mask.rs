@@ -49,7 +49,14 @@ impl StencilMask {
         let pipeline = GraphicsPipelineDesc {
             depth_test: false,
             depth_write: false,
-            color_write: false,
+            // With `resolved-sky` the hidden area is marked covered (alpha
+            // 1 over the transparent clear) so the sky added after the
+            // resolve leaves it black, as the sky in the scope does.
+            color_write: if setup.resolved_sky {
+                vk::ColorComponentFlags::A
+            } else {
+                vk::ColorComponentFlags::empty()
+            },
             stencil: Some(stencil_write(1)),
             ..setup.fullscreen_desc("hidden-area stencil", &vs, &fs)
         };

@@ -1,0 +1,95 @@
+//! The sky after the MSAA resolve (`resolved-sky`). With 4× MSAA the
+//! procedural sky, a full-screen triangle at the far plane, is depth-tested
+//! at every sample of every pixel of the forward scope; on a GPU bound by
+//! its raster back end that costs as much as a full-screen layer of
+//! geometry (the H200's "one full-screen triangle" floor). Instead the
+//! forward scope clears colour to transparent black (alpha 0), every
+//! opaque, masked, point and overlay fragment writes alpha 1 and blended
+//! ones accumulate coverage ("over" with alpha `a + (1 − a)·dst.a`,
+//! [`crate::gpu::pipeline::Blend::Over`]), and after the resolve one
+//! single-sample full-screen pass draws the sky *under* the image
+//! ([`crate::gpu::pipeline::Blend::Under`]): `rgb + (1 − a)·sky`.
+//!
+//! Why this is the same image. Let a pixel's N samples hold premultiplied
+//! (c_i, a_i), where a_i = 0 and c_i = 0 at samples nothing covered. The
+//! reference composites the sky s (constant over the pixel: the sky's
+//! fragment shader runs once per pixel at its centre, without sample
+//! shading) under each sample and averages: (1/N)·Σ (c_i + (1 − a_i)·s).
+//! The resolve averages first: (C, A) = (1/N)·Σ (c_i, a_i), and
+//! C + (1 − A)·s is the same sum (Porter and Duff, "Compositing Digital
+//! Images", SIGGRAPH 1984: "under" is "over" with the operands swapped,
+//! and both are linear in the premultiplied pixel). A blended fragment
+//! drawn over an uncovered sample in the reference sees the sky behind it;
+//! here it sees (0, 0) and leaves alpha a, so the sky added later is
+//! weighted by (1 − a): again the same sum. What differs is rounding: the
+//! resolved colour is stored in 8-bit sRGB before the sky is added, so a
+//! pixel can differ by one code value.
+//!
+//! The stencil mask marks its hidden area covered (it writes alpha 1 there,
+//! colour untouched), so the area stays black as with the sky in the scope.
+
+use super::{destroy_pipelines, PipelineSetup, Recorder};
+use crate::error::Result;
+use crate::gpu::pipeline::{Blend, GraphicsPipelineDesc};
+use crate::gpu::query::Queries;
+use crate::gpu::rendering::Load;
+use crate::gpu::shaders;
+use crate::gpu::Context;
+use crate::render::attachments::{self, Attachments};
+use ash::vk;
+
+/// The forward scope's colour clear with `resolved-sky`: transparent black,
+/// so the resolved alpha is each pixel's coverage.
+pub const CLEAR: [f32; 4] = [0.0, 0.0, 0.0, 0.0];
+
+/// The sky drawn under the resolved forward image.
+pub struct ResolvedSky {
+    pipeline: vk::Pipeline,
+}
+
+impl ResolvedSky {
+    /// Builds the single-sample sky pipeline that blends under.
+    pub fn new(setup: &PipelineSetup) -> Result<ResolvedSky> {
+        let (full, sky) = (shaders::FULLSCREEN_VERT.words(), shaders::SKY_FRAG.words());
+        let desc = GraphicsPipelineDesc {
+            blend: Blend::Under,
+            ..setup.composed_desc("resolved sky", &full, &sky)
+        };
+        Ok(ResolvedSky {
+            pipeline: desc.build(setup.ctx)?,
+        })
+    }
+
+    /// After every forward scope: waits for their resolves, then draws the
+    /// sky under each set's resolved image (`view_mask`: both eyes in one
+    /// scope under multiview; one set per eye in two-pass). Returns the
+    /// draw calls.
+    pub fn record(
+        &self,
+        rec: &Recorder,
+        q: &mut Queries,
+        targets: &Attachments,
+        extent: vk::Extent2D,
+        view_mask: u32,
+    ) -> u64 {
+        rec.memory_barriers(&[attachments::between_scopes()]);
+        q.begin_pass(rec.ctx, rec.cmd, "sky-resolved");
+        let mut calls = 0;
+        for (eye, set) in targets.sets.iter().enumerate() {
+            rec.begin_color(set.resolve.view, extent, view_mask, Load::Keep);
+            rec.set_state(extent);
+            rec.bind(self.pipeline);
+            rec.push([0, eye as u32, 0, 0]);
+            rec.draw(3);
+            rec.end_scope();
+            calls += 1;
+        }
+        q.end_pass(rec.ctx, rec.cmd);
+        calls
+    }
+
+    /// Destroys the pipeline; the device must be idle.
+    pub fn destroy(self, ctx: &Context) {
+        destroy_pipelines(ctx, [&self.pipeline]);
+    }
+}

@@ -1,0 +1,122 @@
+//! `resolved-sky`: the sky drawn once per pixel under the resolved 4× MSAA
+//! image draws the image of the sky drawn at every sample inside the
+//! forward scope, up to 8-bit rounding, with blended materials, occlusion's
+//! two scopes, both stereo modes and the stencil mask (whose hidden area
+//! stays black). Every frame runs under Vulkan validation (with
+//! synchronization validation in `cargo xtask test`); any message fails.
+
+mod common;
+
+use common::{context, fails_with_one_error, framing_pose, load, render_config, scratch};
+use vergence::config::{cull_names, RenderConfig, StereoMode};
+use vergence::view::profile::HmdProfile;
+
+fn config(stereo: StereoMode, opt: &str) -> RenderConfig {
+    let mut c = RenderConfig {
+        stereo,
+        msaa: 4,
+        ..RenderConfig::default()
+    };
+    c.apply_opts(opt, &cull_names()).unwrap();
+    c.validate().unwrap();
+    c
+}
+
+/// The largest difference of any colour channel between `a` and `b`.
+fn largest_difference(a: &image::RgbaImage, b: &image::RgbaImage) -> u8 {
+    a.pixels()
+        .zip(b.pixels())
+        .flat_map(|(p, q)| (0..3).map(move |c| p[c].abs_diff(q[c])))
+        .max()
+        .unwrap_or(0)
+}
+
+#[test]
+fn the_sky_under_the_resolved_image_draws_the_image_of_the_sky_in_the_scope() {
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    // AlphaBlendModeTest: blended materials over the sky; cad: glass parts
+    // among a thousand opaque ones; factory: occlusion's two scopes (the
+    // GPU cull takes no blended scene).
+    for (spec, opts) in [
+        (
+            "assets/AlphaBlendModeTest/AlphaBlendModeTest.gltf",
+            &["", "stencil-mask"][..],
+        ),
+        ("cad:1500", &[""][..]),
+        ("factory:3000", &["superfrustum,gpu-cull,occlusion"][..]),
+    ] {
+        let scene = load(spec);
+        let pose = framing_pose(&scene, &profile);
+        for stereo in [StereoMode::Multiview, StereoMode::TwoPass] {
+            for &opt in opts {
+                let what = format!("{spec} {stereo:?} '{opt}'");
+                let want =
+                    render_config(&ctx, &scene, &profile, pose, &config(stereo, opt), 160, 144);
+                let with = if opt.is_empty() {
+                    "resolved-sky".to_string()
+                } else {
+                    format!("{opt},resolved-sky")
+                };
+                let got = render_config(
+                    &ctx,
+                    &scene,
+                    &profile,
+                    pose,
+                    &config(stereo, &with),
+                    160,
+                    144,
+                );
+                assert!(
+                    got.stats.gpu_ms.contains_key("sky-resolved"),
+                    "{what}: no sky-resolved pass in {:?}",
+                    got.stats.gpu_ms.keys()
+                );
+                for eye in 0..2 {
+                    // The sky is in view: the top row is not black.
+                    let top: u32 = (0..want.images[eye].width())
+                        .map(|x| want.images[eye].get_pixel(x, 0).0[2] as u32)
+                        .sum();
+                    assert!(
+                        top > 20 * want.images[eye].width(),
+                        "{what}: no sky in view"
+                    );
+                    // Nothing may differ by more than rounding, the
+                    // stencil mask's hidden area (black) included.
+                    let worst = largest_difference(&want.images[eye], &got.images[eye]);
+                    assert!(
+                        worst <= 2,
+                        "{what}: eye {eye} differs by {worst} code values"
+                    );
+                    // Every pixel is opaque: the sky filled what the scene
+                    // left uncovered.
+                    assert!(
+                        got.images[eye].pixels().all(|p| p.0[3] == 255),
+                        "{what}: eye {eye} has uncovered pixels"
+                    );
+                }
+            }
+        }
+    }
+}
+
+#[test]
+fn resolved_sky_with_what_it_cannot_run_with_is_one_error() {
+    for (opt, expect) in [
+        ("no-msaa,resolved-sky", "needs msaa4"),
+        ("rdm,resolved-sky", "rdm"),
+        ("inset,resolved-sky", "inset"),
+        ("mffr,resolved-sky", "mffr"),
+    ] {
+        let stderr = fails_with_one_error(
+            std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+                .args(["render", "--scene", "factory:10", "--opt", opt])
+                .arg("--out")
+                .arg(scratch("resolved-sky", "bad")),
+        );
+        assert!(
+            stderr.contains("resolved-sky") && stderr.contains(expect),
+            "{opt}: {stderr}"
+        );
+    }
+}
