@@ -548,6 +548,11 @@ impl RenderConfig {
                     (self.mffr.is_some(), "mffr"),
                     (self.inset.is_some(), "inset"),
                     (self.lms.is_some(), "lms"),
+                ],
+            )?;
+            refuse_with(
+                "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (aq resizes the frame, timewarp reprojects it, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
+                &[
                     (self.aq, "aq"),
                     (self.timewarp.is_some(), "timewarp"),
                     (self.record_threads.is_some(), "--record-threads"),

@@ -654,6 +654,55 @@ fn ply_ascii_and_binary_read_the_same_points() {
     renders_all(&a_path, pts.len(), &dir.join("render"));
 }
 
+/// A big-endian PLY whose first element is not the vertices (faces with
+/// index lists, read past record by record) and whose intensity runs past
+/// 255: every point, its grey (intensity scaled to the file's largest)
+/// and the faces after it are read.
+#[test]
+fn ply_big_endian_with_elements_around_the_vertices() {
+    let dir = scratch("points", "ply-be");
+    let n = 50u32;
+    let mut file = format!(
+        "ply\nformat binary_big_endian 1.0\nelement face 2\nproperty list uchar int vertex_indices\nelement vertex {n}\nproperty float x\nproperty float y\nproperty float z\nproperty ushort intensity\nelement edge 1\nproperty int vertex1\nproperty int vertex2\nend_header\n"
+    )
+    .into_bytes();
+    for face in [[0i32, 1, 2], [2, 3, 4]] {
+        file.push(3);
+        for v in face {
+            file.extend(v.to_be_bytes());
+        }
+    }
+    for i in 0..n {
+        for v in [i as f32, -2.0 * i as f32, 0.5] {
+            file.extend(v.to_be_bytes());
+        }
+        file.extend(((i * 20) as u16).to_be_bytes());
+    }
+    file.extend(0i32.to_be_bytes());
+    file.extend(1i32.to_be_bytes());
+    let path = dir.join("be.ply");
+    std::fs::write(&path, &file).unwrap();
+    let c = vergence::scene::point_files::read_file(&path).unwrap();
+    assert_eq!(c.len(), n as usize);
+    let top = ((n - 1) * 20) as f64;
+    for i in 0..n as usize {
+        let want = DVec3::new(i as f64, 0.5, 2.0 * i as f64);
+        assert!(
+            (c.world(i) - want).abs().max_element() < 1e-5,
+            "point {i}: {:?}",
+            c.world(i)
+        );
+        let grey = ((i * 20) as f64 * (255.0 / top)) as u8;
+        assert_eq!(c.colors[i], [grey, grey, grey, grey], "point {i}");
+    }
+    // Cut inside the edge element after the vertices: still an error.
+    std::fs::write(&path, &file[..file.len() - 2]).unwrap();
+    let e = vergence::scene::point_files::read_file(&path)
+        .unwrap_err()
+        .to_string();
+    assert!(e.contains("'edge' data"), "{e}");
+}
+
 /// `point-size=PX`: a near point covers PX × PX pixels around its own, a
 /// far one shrinks to a pixel; every pixel a one-pixel point keys is still
 /// a point's.

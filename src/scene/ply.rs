@@ -8,11 +8,17 @@
 //! as LAS does: (x, y, z) becomes vergence's (x, z, −y). The cloud's origin
 //! is its bounds' centre to the metre; the same checks as LAS apply (count
 //! within [`super::points::MAX_POINTS`], finite coordinates, extent within
-//! [`super::points::MAX_EXTENT_M`]).
+//! [`super::points::MAX_EXTENT_M`]). The file is streamed twice, a record
+//! at a time (the parser's per-element calls): once to check it and find
+//! the bounds and intensity range, once to write each vertex straight into
+//! the cloud, so reading holds no more than the cloud's own 17 bytes a
+//! point.
 
-use super::points::{PointCloud, MAX_POINTS};
+use super::points::{PointCloud, MAX_EXTENT_M, MAX_POINTS};
 use crate::error::{Error, Result};
+use glam::DVec3;
 use ply_rs_bw::{parser, ply};
+use std::io::BufRead;
 use std::path::Path;
 
 /// One vertex as read.
@@ -122,8 +128,10 @@ pub fn is_ply(path: &Path) -> bool {
 
 /// Reads a PLY point cloud.
 pub fn read_ply(path: &Path) -> Result<PointCloud> {
-    let (file, size) = super::points::open_point_file(path)?;
-    let mut cloud = read_from(path, file, size)?;
+    let size = super::points::open_point_file(path)?.1;
+    let mut cloud = read_from(path, size, || {
+        super::points::open_point_file(path).map(|(file, _)| file)
+    })?;
     cloud.source = Some(path.to_path_buf());
     Ok(cloud)
 }
@@ -131,10 +139,110 @@ pub fn read_ply(path: &Path) -> Result<PointCloud> {
 /// [`read_ply`] of a file's bytes in memory (`name` names it in errors;
 /// what the fuzz target reads).
 pub fn read_ply_bytes(name: &Path, bytes: &[u8]) -> Result<PointCloud> {
-    read_from(name, std::io::Cursor::new(bytes), bytes.len() as u64)
+    read_from(name, bytes.len() as u64, || Ok(std::io::Cursor::new(bytes)))
 }
 
-fn read_from<R: std::io::BufRead>(path: &Path, read: R, size: u64) -> Result<PointCloud> {
+/// What the first pass learns: the vertex count, the bounds of the
+/// vertices turned y up, and the largest intensity.
+struct Survey {
+    count: u64,
+    lo: DVec3,
+    hi: DVec3,
+    top_intensity: f64,
+}
+
+/// The cloud in two streaming passes over the file (`open` starts one):
+/// the first checks every record and finds the bounds and the intensity
+/// range, the second converts each vertex straight into the cloud's f32
+/// offsets, colours and classes. Memory holds one record besides the
+/// cloud itself (17 bytes a point), not the file's points as read.
+fn read_from<R: BufRead>(
+    path: &Path,
+    size: u64,
+    mut open: impl FnMut() -> Result<R>,
+) -> Result<PointCloud> {
+    let mut survey = Survey {
+        count: 0,
+        lo: DVec3::splat(f64::INFINITY),
+        hi: DVec3::splat(f64::NEG_INFINITY),
+        top_intensity: 0.0,
+    };
+    survey.count = each_vertex(path, open()?, size, true, |i, v| {
+        let w = y_up(v);
+        if !w.is_finite() {
+            return Err(bad(path, format!("point {i} at {w:?} is not finite")));
+        }
+        survey.lo = survey.lo.min(w);
+        survey.hi = survey.hi.max(w);
+        if let Some(t) = v.intensity {
+            survey.top_intensity = survey.top_intensity.max(t);
+        }
+        Ok(())
+    })?;
+    let extent = (survey.hi - survey.lo).max_element();
+    if survey.count > 0 && extent > MAX_EXTENT_M {
+        return Err(bad(
+            path,
+            format!("the points span {extent:.3e} m, more than {MAX_EXTENT_M} m"),
+        ));
+    }
+    let origin = if survey.count == 0 {
+        DVec3::ZERO
+    } else {
+        ((survey.lo + survey.hi) * 0.5).round()
+    };
+    let top = survey.top_intensity;
+    let grey_scale = if top <= 1.0 {
+        255.0
+    } else if top <= 255.0 {
+        1.0
+    } else {
+        255.0 / top
+    };
+    let n = survey.count as usize;
+    let mut cloud = PointCloud {
+        origin,
+        positions: Vec::with_capacity(n),
+        colors: Vec::with_capacity(n),
+        classification: Vec::with_capacity(n),
+        ..PointCloud::default()
+    };
+    let again = each_vertex(path, open()?, size, false, |_, v| {
+        let d = y_up(v) - origin;
+        cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
+        let grey = v
+            .intensity
+            .map_or(255.0, |i| (i * grey_scale).clamp(0.0, 255.0)) as u8;
+        let c = v
+            .rgb
+            .map_or([grey; 3], |c| c.map(|x| (x * 255.0).round() as u8));
+        cloud.colors.push([c[0], c[1], c[2], grey]);
+        cloud.classification.push(v.class);
+        Ok(())
+    })?;
+    if again != survey.count || cloud.positions.len() != n {
+        return Err(bad(path, "the file changed while it was read"));
+    }
+    Ok(cloud)
+}
+
+/// A vertex's position with z up turned to y up: (x, y, z) → (x, z, −y).
+fn y_up(v: &Vertex) -> DVec3 {
+    DVec3::new(v.p[0], v.p[2], -v.p[1])
+}
+
+/// One pass over `read`: parses the header (checking it as [`read_ply`]
+/// documents), reads past the elements before `vertex` record by record,
+/// hands each vertex to `each` with its index, and with `rest` reads past
+/// the elements after it (so a file cut short there is an error) — else it
+/// stops after the last vertex. Returns the vertex count.
+fn each_vertex<R: BufRead>(
+    path: &Path,
+    read: R,
+    size: u64,
+    rest: bool,
+    mut each: impl FnMut(u64, &Vertex) -> Result<()>,
+) -> Result<u64> {
     let mut reader = parser::Reader::new(read);
     let vertex_parser = parser::Parser::<Vertex>::new();
     let other_parser = parser::Parser::<ply::DefaultElement>::new();
@@ -144,7 +252,11 @@ fn read_from<R: std::io::BufRead>(path: &Path, read: R, size: u64) -> Result<Poi
             format!("not a PLY file, or its header is malformed: {e}"),
         )
     })?;
-    let mut vertices: Option<Vec<Vertex>> = None;
+    if !header.elements.contains_key("vertex") {
+        return Err(bad(path, "the file has no vertex element"));
+    }
+    let mut count = None;
+    let mut line = String::new();
     for (name, element) in &header.elements {
         // Every element takes at least a byte a record: a count past the
         // file's size is a lie.
@@ -157,7 +269,8 @@ fn read_from<R: std::io::BufRead>(path: &Path, read: R, size: u64) -> Result<Poi
                 ),
             ));
         }
-        if name == "vertex" {
+        let vertex = name == "vertex";
+        if vertex {
             if element.count as u64 > MAX_POINTS {
                 return Err(bad(
                     path,
@@ -175,48 +288,75 @@ fn read_from<R: std::io::BufRead>(path: &Path, read: R, size: u64) -> Result<Poi
                     ));
                 }
             }
-            let v = vertex_parser
-                .read_payload_for_element(&mut reader, element, &header)
-                .map_err(|e| bad(path, format!("vertex data: {e}")))?;
-            vertices = Some(v);
+        } else if count.is_some() && !rest {
+            break;
+        }
+        let what = if vertex {
+            "vertex data".to_string()
         } else {
-            other_parser
-                .read_payload_for_element(&mut reader, element, &header)
-                .map_err(|e| bad(path, format!("'{name}' data: {e}")))?;
+            format!("'{name}' data")
+        };
+        let fail = |e: ply_rs_bw::parser::ParseError| bad(path, format!("{what}: {e}"));
+        for i in 0..element.count as u64 {
+            let inner = reader.get_mut();
+            if vertex {
+                let v = match header.encoding {
+                    ply::Encoding::Ascii => {
+                        read_line(path, inner, &mut line, &what, i, element.count)?;
+                        vertex_parser.read_ascii_element(&line, element)
+                    }
+                    ply::Encoding::BinaryLittleEndian => {
+                        vertex_parser.read_little_endian_element(inner, element)
+                    }
+                    ply::Encoding::BinaryBigEndian => {
+                        vertex_parser.read_big_endian_element(inner, element)
+                    }
+                }
+                .map_err(fail)?;
+                each(i, &v)?;
+            } else {
+                match header.encoding {
+                    ply::Encoding::Ascii => {
+                        read_line(path, inner, &mut line, &what, i, element.count)?;
+                        other_parser.read_ascii_element(&line, element)
+                    }
+                    ply::Encoding::BinaryLittleEndian => {
+                        other_parser.read_little_endian_element(inner, element)
+                    }
+                    ply::Encoding::BinaryBigEndian => {
+                        other_parser.read_big_endian_element(inner, element)
+                    }
+                }
+                .map_err(fail)?;
+            }
+        }
+        if vertex {
+            count = Some(element.count as u64);
         }
     }
-    let vertices = vertices.ok_or_else(|| bad(path, "the file has no vertex element"))?;
-    cloud_of(path, &vertices)
+    Ok(count.unwrap_or(0))
 }
 
-/// The cloud of `vertices`: z up turned to y up, intensity scaled to a
-/// byte (0–1, 0–255 or wider ranges), checked and re-centred by
-/// [`super::points::cloud_of_world`].
-fn cloud_of(path: &Path, vertices: &[Vertex]) -> Result<PointCloud> {
-    let top = vertices
-        .iter()
-        .filter_map(|v| v.intensity)
-        .fold(0.0f64, f64::max);
-    let grey_scale = if top <= 1.0 {
-        255.0
-    } else if top <= 255.0 {
-        1.0
-    } else {
-        255.0 / top
-    };
-    let world: Vec<[f64; 3]> = vertices.iter().map(|v| [v.p[0], v.p[2], -v.p[1]]).collect();
-    let colors = vertices
-        .iter()
-        .map(|v| {
-            let grey = v
-                .intensity
-                .map_or(255.0, |i| (i * grey_scale).clamp(0.0, 255.0)) as u8;
-            let c = v
-                .rgb
-                .map_or([grey; 3], |c| c.map(|x| (x * 255.0).round() as u8));
-            [c[0], c[1], c[2], grey]
-        })
-        .collect();
-    let classes = vertices.iter().map(|v| v.class).collect();
-    super::points::cloud_of_world(path, &world, colors, classes)
+/// Reads record `i` of `count` of an ASCII element (one line) into `line`;
+/// the end of the file before it is an error naming `what`.
+fn read_line<R: BufRead>(
+    path: &Path,
+    read: &mut R,
+    line: &mut String,
+    what: &str,
+    i: u64,
+    count: usize,
+) -> Result<()> {
+    line.clear();
+    let n = read.read_line(line).map_err(|e| Error::Io {
+        path: path.to_path_buf(),
+        source: e,
+    })?;
+    if n == 0 {
+        return Err(bad(
+            path,
+            format!("{what}: the file ends after {i} of {count} records"),
+        ));
+    }
+    Ok(())
 }
