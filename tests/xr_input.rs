@@ -550,15 +550,17 @@ fn check(s: &Value, log: &str, path: &Path, began: &[(&str, Instant)]) {
         .map(|i| (time(i) - time(i - 1)) as f64 * 1e-9)
         .sum();
     eprintln!("stick held {held_s:.3} s by the test, seen for {seen_s:.3} s of display time");
-    assert!(
-        (seen_s - held_s).abs() <= 0.25,
-        "the runtime delivered the stick for {seen_s} s of a {held_s} s hold"
-    );
-    // Within one display period of movement: the frame the stick arrives
-    // in and the one it leaves in may each count a step or not.
+    // The frame the stick arrives in and the one it leaves in may each
+    // count a step or not: at Monado's 20 Hz that is 0.05 s each, but a
+    // stalled frame on this loaded 2-core machine spans up to a few
+    // periods (0.25 s seen), so the slack is two of the longest step.
     let period = (si + 1..ti)
         .map(|i| (time(i) - time(i - 1)) as f64 * 1e-9)
         .fold(0.0, f64::max);
+    assert!(
+        (seen_s - held_s).abs() <= (2.0 * period).max(0.25),
+        "the runtime delivered the stick for {seen_s} s of a {held_s} s hold (longest step {period} s)"
+    );
     // A frame's step is capped at 0.1 s (`interact::Interaction::update`:
     // after a stall the origin does not jump), so a frame that waited
     // longer on this loaded machine moves 0.1 s worth.
