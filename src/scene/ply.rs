@@ -128,8 +128,8 @@ pub fn is_ply(path: &Path) -> bool {
 
 /// Reads a PLY point cloud.
 pub fn read_ply(path: &Path) -> Result<PointCloud> {
-    let size = super::points::open_point_file(path)?.1;
-    let mut cloud = read_from(path, size, || {
+    let (file, size) = super::points::open_point_file(path)?;
+    let mut cloud = read_from(path, size, file, || {
         super::points::open_point_file(path).map(|(file, _)| file)
     })?;
     cloud.source = Some(path.to_path_buf());
@@ -139,7 +139,8 @@ pub fn read_ply(path: &Path) -> Result<PointCloud> {
 /// [`read_ply`] of a file's bytes in memory (`name` names it in errors;
 /// what the fuzz target reads).
 pub fn read_ply_bytes(name: &Path, bytes: &[u8]) -> Result<PointCloud> {
-    read_from(name, bytes.len() as u64, || Ok(std::io::Cursor::new(bytes)))
+    let open = || std::io::Cursor::new(bytes);
+    read_from(name, bytes.len() as u64, open(), || Ok(open()))
 }
 
 /// What the first pass learns: the vertex count, the bounds of the
@@ -151,7 +152,8 @@ struct Survey {
     top_intensity: f64,
 }
 
-/// The cloud in two streaming passes over the file (`open` starts one):
+/// The cloud in two streaming passes over the file (`first` is read by the
+/// first, `again` opens it for the second):
 /// the first checks every record and finds the bounds and the intensity
 /// range, the second converts each vertex straight into the cloud's f32
 /// offsets, colours and classes. Memory holds one record besides the
@@ -159,7 +161,8 @@ struct Survey {
 fn read_from<R: BufRead>(
     path: &Path,
     size: u64,
-    mut open: impl FnMut() -> Result<R>,
+    first: R,
+    again: impl FnOnce() -> Result<R>,
 ) -> Result<PointCloud> {
     let mut survey = Survey {
         count: 0,
@@ -167,7 +170,7 @@ fn read_from<R: BufRead>(
         hi: DVec3::splat(f64::NEG_INFINITY),
         top_intensity: 0.0,
     };
-    survey.count = each_vertex(path, open()?, size, true, |i, v| {
+    survey.count = each_vertex(path, first, size, true, |i, v| {
         let w = y_up(v);
         if !w.is_finite() {
             return Err(bad(path, format!("point {i} at {w:?} is not finite")));
@@ -207,7 +210,7 @@ fn read_from<R: BufRead>(
         classification: Vec::with_capacity(n),
         ..PointCloud::default()
     };
-    let again = each_vertex(path, open()?, size, false, |_, v| {
+    let second = each_vertex(path, again()?, size, false, |_, v| {
         let d = y_up(v) - origin;
         cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
         let grey = v
@@ -220,7 +223,7 @@ fn read_from<R: BufRead>(
         cloud.classification.push(v.class);
         Ok(())
     })?;
-    if again != survey.count || cloud.positions.len() != n {
+    if second != survey.count || cloud.positions.len() != n {
         return Err(bad(path, "the file changed while it was read"));
     }
     Ok(cloud)
@@ -299,35 +302,16 @@ fn each_vertex<R: BufRead>(
         let fail = |e: ply_rs_bw::parser::ParseError| bad(path, format!("{what}: {e}"));
         for i in 0..element.count as u64 {
             let inner = reader.get_mut();
+            if matches!(header.encoding, ply::Encoding::Ascii) {
+                read_line(path, inner, &mut line, &what, i, element.count)?;
+            }
             if vertex {
-                let v = match header.encoding {
-                    ply::Encoding::Ascii => {
-                        read_line(path, inner, &mut line, &what, i, element.count)?;
-                        vertex_parser.read_ascii_element(&line, element)
-                    }
-                    ply::Encoding::BinaryLittleEndian => {
-                        vertex_parser.read_little_endian_element(inner, element)
-                    }
-                    ply::Encoding::BinaryBigEndian => {
-                        vertex_parser.read_big_endian_element(inner, element)
-                    }
-                }
-                .map_err(fail)?;
+                let v = read_record(&vertex_parser, &header.encoding, inner, &line, element)
+                    .map_err(fail)?;
                 each(i, &v)?;
             } else {
-                match header.encoding {
-                    ply::Encoding::Ascii => {
-                        read_line(path, inner, &mut line, &what, i, element.count)?;
-                        other_parser.read_ascii_element(&line, element)
-                    }
-                    ply::Encoding::BinaryLittleEndian => {
-                        other_parser.read_little_endian_element(inner, element)
-                    }
-                    ply::Encoding::BinaryBigEndian => {
-                        other_parser.read_big_endian_element(inner, element)
-                    }
-                }
-                .map_err(fail)?;
+                read_record(&other_parser, &header.encoding, inner, &line, element)
+                    .map_err(fail)?;
             }
         }
         if vertex {
@@ -335,6 +319,22 @@ fn each_vertex<R: BufRead>(
         }
     }
     Ok(count.unwrap_or(0))
+}
+
+/// One record of `element` by `parser` in `encoding`: an ASCII record from
+/// `line` (already read), a binary one from `read`.
+fn read_record<E: ply::PropertyAccess, R: BufRead>(
+    parser: &parser::Parser<E>,
+    encoding: &ply::Encoding,
+    read: &mut R,
+    line: &str,
+    element: &ply::ElementDef,
+) -> std::result::Result<E, parser::ParseError> {
+    match encoding {
+        ply::Encoding::Ascii => parser.read_ascii_element(line, element),
+        ply::Encoding::BinaryLittleEndian => parser.read_little_endian_element(read, element),
+        ply::Encoding::BinaryBigEndian => parser.read_big_endian_element(read, element),
+    }
 }
 
 /// Reads record `i` of `count` of an ASCII element (one line) into `line`;
