@@ -126,7 +126,8 @@ enum Command {
     /// Laser-scan a scene into a point cloud (test data): scanner stations
     /// on a grid over the floor cast rays in every direction through the
     /// scene; hits become points with range noise, the material's colour
-    /// and an intensity; written as LAS 1.4, or LAZ when OUT ends in .laz.
+    /// and an intensity; written as LAS 1.4, LAZ when OUT ends in .laz, or
+    /// E57 when it ends in .e57.
     Scan {
         /// The scene to scan (as for render).
         #[arg(long, default_value = "factory:20000")]
@@ -143,7 +144,7 @@ enum Command {
         /// Seed of the noise.
         #[arg(long, default_value_t = 1)]
         seed: u64,
-        /// The LAS or LAZ file to write.
+        /// The LAS, LAZ or E57 file to write.
         #[arg(long)]
         out: PathBuf,
     },
@@ -689,8 +690,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             seed,
             out,
         } => {
-            if !vergence::scene::points::is_las(&out) {
-                anyhow::bail!("--out {}: a point file ends in .las or .laz", out.display());
+            if !vergence::scene::point_files::writes(&out) {
+                anyhow::bail!(
+                    "--out {}: a point file ends in .las, .laz or .e57",
+                    out.display()
+                );
             }
             let (s, _) = headless::load_scene(&scene)?;
             let settings = vergence::interact::scan::ScanSettings {
@@ -703,7 +707,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let started = std::time::Instant::now();
             let cloud = vergence::interact::scan::scan(&s, &settings);
             let scanned = started.elapsed().as_secs_f64();
-            vergence::scene::points::write_las(&out, &cloud, 0.0005)?;
+            vergence::scene::point_files::write_file(&out, &cloud)?;
             println!(
                 "scanned {} from {stations} stations × {rays} rays: {} points in {scanned:.2} s; wrote {}",
                 s.name,

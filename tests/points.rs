@@ -299,6 +299,56 @@ fn las_and_laz_round_trip_the_same_points() {
     assert!(a.colors == c.colors, "colours written again");
 }
 
+/// E57 as vergence writes it (`write_e57`, `scan --out X.e57`): the
+/// scan's world positions read back within a micrometre (doubles), colours
+/// and intensity bytes exactly; written again and read back, bit for bit; a
+/// point that is not finite is one error naming it.
+#[test]
+fn e57_round_trips_a_scan() {
+    use vergence::scene::e57::{read_e57, write_e57};
+    let scene = load("factory:200");
+    let cloud = scan_of(&scene, 2, 20_000);
+    assert!(cloud.len() > 10_000);
+    let dir = scratch("points", "e57-roundtrip");
+    let path = dir.join("scan.e57");
+    write_e57(&path, &cloud).unwrap();
+    let a = read_e57(&path).unwrap();
+    assert_eq!(a.len(), cloud.len());
+    for i in 0..cloud.len() {
+        let e = (a.world(i) - cloud.world(i)).abs().max_element();
+        assert!(e < 1e-6, "point {i} moved {e} m");
+    }
+    assert!(a.colors == cloud.colors, "colours and intensity bytes");
+    let again = dir.join("again.e57");
+    write_e57(&again, &a).unwrap();
+    let b = read_e57(&again).unwrap();
+    assert_eq!(a.origin, b.origin);
+    assert!(a.positions == b.positions, "positions written again");
+    assert!(a.colors == b.colors, "colours written again");
+
+    let mut broken = scattered(3, DVec3::new(100.0, 0.0, 0.0));
+    broken.positions[1][2] = f32::NAN;
+    let nan = dir.join("nan.e57");
+    write_e57(&nan, &broken).unwrap();
+    let err = read_e57(&nan).unwrap_err().to_string();
+    assert!(
+        err.contains("nan.e57") && err.contains("point 1 at"),
+        "{err}"
+    );
+    assert!(err.contains("not finite"), "{err}");
+
+    // The command line writes E57 by the extension.
+    let out = dir.join("cli.e57");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(["scan", "--scene", "factory:100", "--stations", "1"])
+        .args(["--rays", "5000", "--out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    assert!(read_e57(&out).unwrap().len() > 1000);
+}
+
 #[test]
 fn scan_writes_a_cloud_that_render_draws_and_counts() {
     let dir = scratch("points", "cli");

@@ -14,7 +14,7 @@
 //! the cloud, so reading holds no more than the cloud's own 17 bytes a
 //! point.
 
-use super::points::{PointCloud, MAX_EXTENT_M, MAX_POINTS};
+use super::points::{PointCloud, Survey, MAX_POINTS};
 use crate::error::{Error, Result};
 use glam::DVec3;
 use ply_rs_bw::{parser, ply};
@@ -143,15 +143,6 @@ pub fn read_ply_bytes(name: &Path, bytes: &[u8]) -> Result<PointCloud> {
     read_from(name, bytes.len() as u64, open(), || Ok(open()))
 }
 
-/// What the first pass learns: the vertex count, the bounds of the
-/// vertices turned y up, and the largest intensity.
-struct Survey {
-    count: u64,
-    lo: DVec3,
-    hi: DVec3,
-    top_intensity: f64,
-}
-
 /// The cloud in two streaming passes over the file (`first` is read by the
 /// first, `again` opens it for the second):
 /// the first checks every record and finds the bounds and the intensity
@@ -164,66 +155,34 @@ fn read_from<R: BufRead>(
     first: R,
     again: impl FnOnce() -> Result<R>,
 ) -> Result<PointCloud> {
-    let mut survey = Survey {
-        count: 0,
-        lo: DVec3::splat(f64::INFINITY),
-        hi: DVec3::splat(f64::NEG_INFINITY),
-        top_intensity: 0.0,
-    };
-    survey.count = each_vertex(path, first, size, true, |i, v| {
-        let w = y_up(v);
-        if !w.is_finite() {
-            return Err(bad(path, format!("point {i} at {w:?} is not finite")));
-        }
-        survey.lo = survey.lo.min(w);
-        survey.hi = survey.hi.max(w);
+    let mut survey = Survey::new();
+    let mut top_intensity: f64 = 0.0;
+    each_vertex(path, first, size, true, |_, v| {
+        survey.add(path, y_up(v))?;
         if let Some(t) = v.intensity {
-            survey.top_intensity = survey.top_intensity.max(t);
+            top_intensity = top_intensity.max(t);
         }
         Ok(())
     })?;
-    let extent = (survey.hi - survey.lo).max_element();
-    if survey.count > 0 && extent > MAX_EXTENT_M {
-        return Err(bad(
-            path,
-            format!("the points span {extent:.3e} m, more than {MAX_EXTENT_M} m"),
-        ));
-    }
-    let origin = if survey.count == 0 {
-        DVec3::ZERO
-    } else {
-        ((survey.lo + survey.hi) * 0.5).round()
-    };
-    let top = survey.top_intensity;
-    let grey_scale = if top <= 1.0 {
+    let mut cloud = survey.empty_cloud(path)?;
+    let grey_scale = if top_intensity <= 1.0 {
         255.0
-    } else if top <= 255.0 {
+    } else if top_intensity <= 255.0 {
         1.0
     } else {
-        255.0 / top
-    };
-    let n = survey.count as usize;
-    let mut cloud = PointCloud {
-        origin,
-        positions: Vec::with_capacity(n),
-        colors: Vec::with_capacity(n),
-        classification: Vec::with_capacity(n),
-        ..PointCloud::default()
+        255.0 / top_intensity
     };
     let second = each_vertex(path, again()?, size, false, |_, v| {
-        let d = y_up(v) - origin;
-        cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
         let grey = v
             .intensity
             .map_or(255.0, |i| (i * grey_scale).clamp(0.0, 255.0)) as u8;
         let c = v
             .rgb
             .map_or([grey; 3], |c| c.map(|x| (x * 255.0).round() as u8));
-        cloud.colors.push([c[0], c[1], c[2], grey]);
-        cloud.classification.push(v.class);
+        cloud.push_world(y_up(v), [c[0], c[1], c[2], grey], v.class);
         Ok(())
     })?;
-    if second != survey.count || cloud.positions.len() != n {
+    if second != survey.count || cloud.len() as u64 != survey.count {
         return Err(bad(path, "the file changed while it was read"));
     }
     Ok(cloud)

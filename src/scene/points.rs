@@ -281,54 +281,86 @@ pub(crate) fn open_point_file(path: &Path) -> Result<(std::io::BufReader<std::fs
     Ok((std::io::BufReader::new(file), size))
 }
 
-/// The cloud of points given in f64 world coordinates (already y up),
-/// with their colours and classes: every point finite, the extent within
-/// [`MAX_EXTENT_M`], the origin the bounds' centre to the metre (what the
-/// PLY and E57 readers share). `path` names the file in errors.
-pub(crate) fn cloud_of_world(
-    path: &Path,
-    world: &[[f64; 3]],
-    colors: Vec<[u8; 4]>,
-    classification: Vec<u8>,
-) -> Result<PointCloud> {
-    let mut lo = DVec3::splat(f64::INFINITY);
-    let mut hi = DVec3::splat(f64::NEG_INFINITY);
-    for (i, w) in world.iter().enumerate() {
-        let v = DVec3::from_array(*w);
-        if !v.is_finite() {
-            return Err(bad(path, format!("point {i} at {v:?} is not finite")));
+/// The bounds of a file's points as a first pass over it finds them (f64
+/// world coordinates, already y up), checked as every streaming reader
+/// (PLY, E57) checks them: each point finite, the extent within
+/// [`MAX_EXTENT_M`]; the cloud's origin is the bounds' centre to the metre.
+#[derive(Clone, Copy, Debug)]
+pub(crate) struct Survey {
+    /// Points added so far.
+    pub count: u64,
+    lo: DVec3,
+    hi: DVec3,
+}
+
+impl Survey {
+    /// No points yet.
+    pub(crate) fn new() -> Self {
+        Survey {
+            count: 0,
+            lo: DVec3::splat(f64::INFINITY),
+            hi: DVec3::splat(f64::NEG_INFINITY),
         }
-        lo = lo.min(v);
-        hi = hi.max(v);
     }
-    if !world.is_empty() && (hi - lo).max_element() > MAX_EXTENT_M {
-        return Err(bad(
-            path,
-            format!(
-                "the points span {:.3e} m, more than {MAX_EXTENT_M} m",
-                (hi - lo).max_element()
-            ),
-        ));
+
+    /// Adds the point at `w`; a coordinate that is not finite is an error
+    /// naming the point's index (`path` names the file).
+    pub(crate) fn add(&mut self, path: &Path, w: DVec3) -> Result<()> {
+        if !w.is_finite() {
+            return Err(bad(
+                path,
+                format!("point {} at {w:?} is not finite", self.count),
+            ));
+        }
+        self.lo = self.lo.min(w);
+        self.hi = self.hi.max(w);
+        self.count += 1;
+        Ok(())
     }
-    let origin = if world.is_empty() {
-        DVec3::ZERO
-    } else {
-        ((lo + hi) * 0.5).round()
-    };
-    let positions = world
-        .iter()
-        .map(|w| {
-            let d = DVec3::from_array(*w) - origin;
-            [d.x as f32, d.y as f32, d.z as f32]
+
+    /// An error when the points span more than [`MAX_EXTENT_M`].
+    pub(crate) fn check_extent(&self, path: &Path) -> Result<()> {
+        let extent = (self.hi - self.lo).max_element();
+        if self.count > 0 && extent > MAX_EXTENT_M {
+            return Err(bad(
+                path,
+                format!("the points span {extent:.3e} m, more than {MAX_EXTENT_M} m"),
+            ));
+        }
+        Ok(())
+    }
+
+    /// An empty cloud with room for every point surveyed, its origin the
+    /// bounds' centre to the metre (zero without points); an extent over
+    /// [`MAX_EXTENT_M`] is an error.
+    pub(crate) fn empty_cloud(&self, path: &Path) -> Result<PointCloud> {
+        self.check_extent(path)?;
+        let origin = if self.count == 0 {
+            DVec3::ZERO
+        } else {
+            ((self.lo + self.hi) * 0.5).round()
+        };
+        let n = self.count as usize;
+        Ok(PointCloud {
+            origin,
+            positions: Vec::with_capacity(n),
+            colors: Vec::with_capacity(n),
+            classification: Vec::with_capacity(n),
+            ..PointCloud::default()
         })
-        .collect();
-    Ok(PointCloud {
-        origin,
-        positions,
-        colors,
-        classification,
-        ..PointCloud::default()
-    })
+    }
+}
+
+impl PointCloud {
+    /// Appends a point given in f64 world coordinates (y up) as its f32
+    /// offset from the origin, with its colour and class (what the
+    /// streaming readers call a point at a time).
+    pub(crate) fn push_world(&mut self, w: DVec3, color: [u8; 4], class: u8) {
+        let d = w - self.origin;
+        self.positions.push([d.x as f32, d.y as f32, d.z as f32]);
+        self.colors.push(color);
+        self.classification.push(class);
+    }
 }
 
 /// [`read_las`] of a file's bytes already in memory (`name` names it in
