@@ -12,6 +12,10 @@
 //! bits is that grid cell's first point; a stable partition moves those to
 //! the front (the node's own), and the rest, still sorted, split into the
 //! eight children by the next three bits. Children build in parallel.
+//! Every range is rearranged in place (one scratch buffer of the cloud's
+//! length for the partitions; long ranges partition in parallel chunks by
+//! prefix sums of each chunk's count), so at the end the sorted keys'
+//! indices are the points' new order.
 //!
 //! Per frame ([`Octree::select`]): nodes in either eye's frustum, largest
 //! projected cube first (edge over distance to the nearer eye), until the
@@ -90,26 +94,53 @@ pub fn morton(c: [u32; 3]) -> u64 {
     spread(c[0] as u64) | spread(c[1] as u64) << 1 | spread(c[2] as u64) << 2
 }
 
-/// The bounding cube (low corner, edge) of `positions`.
+/// The bounding cube (low corner, edge) of `positions` (a parallel
+/// reduction).
 fn cube(positions: &[[f32; 3]]) -> ([f32; 3], f32) {
-    let mut lo = [f32::INFINITY; 3];
-    let mut hi = [f32::NEG_INFINITY; 3];
-    for p in positions {
-        for k in 0..3 {
-            lo[k] = lo[k].min(p[k]);
-            hi[k] = hi[k].max(p[k]);
-        }
-    }
+    let (lo, hi) = positions
+        .par_chunks(1 << 16)
+        .map(|chunk| {
+            let mut lo = [f32::INFINITY; 3];
+            let mut hi = [f32::NEG_INFINITY; 3];
+            for p in chunk {
+                for k in 0..3 {
+                    lo[k] = lo[k].min(p[k]);
+                    hi[k] = hi[k].max(p[k]);
+                }
+            }
+            (lo, hi)
+        })
+        .reduce(
+            || ([f32::INFINITY; 3], [f32::NEG_INFINITY; 3]),
+            |(a, b), (c, d)| {
+                (
+                    [0, 1, 2].map(|k| a[k].min(c[k])),
+                    [0, 1, 2].map(|k| b[k].max(d[k])),
+                )
+            },
+        );
     let size = (0..3).map(|k| hi[k] - lo[k]).fold(0.0f32, f32::max);
     // A little slack so the far faces' points stay inside the last cell.
     (lo, (size * (1.0 + 1e-6)).max(1e-3))
 }
+
+/// A point's Morton code and its index in the cloud as given.
+type Keyed = (u64, u32);
+
+/// Ranges at least this long partition in parallel chunks.
+const PARALLEL_RANGE: usize = 1 << 17;
 
 /// Builds the octree of a cloud's `positions` (offsets from its origin).
 /// Returns it with the order the points must take for its nodes' ranges:
 /// point i of the reordered cloud is `positions[order[i]]` (the cloud
 /// applies it: `PointCloud::with_octree` in the points module).
 pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
+    build_with(positions, PARALLEL_RANGE)
+}
+
+/// [`build`], ranges of at least `parallel_range` points partitioned in
+/// parallel (a parameter so tests reach that path with small clouds).
+fn build_with(positions: &[[f32; 3]], parallel_range: usize) -> (Octree, Vec<u32>) {
     let started = std::time::Instant::now();
     let n = positions.len();
     if n == 0 {
@@ -118,7 +149,7 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
     let (lo, size) = cube(positions);
     let cells = (1u64 << BITS) as f32;
     let scale = cells / size;
-    let mut keyed: Vec<(u64, u32)> = positions
+    let mut keyed: Vec<Keyed> = positions
         .par_iter()
         .enumerate()
         .map(|(i, p)| {
@@ -127,9 +158,18 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
         })
         .collect();
     keyed.par_sort_unstable();
-    let mut order: Vec<u32> = Vec::with_capacity(n);
-    let nodes = build_node(&mut keyed, lo, size, 0, &mut order);
-    drop(keyed);
+    let mut scratch: Vec<Keyed> = vec![(0, 0); n];
+    let at = Place {
+        lo,
+        size,
+        depth: 0,
+        first: 0,
+    };
+    let nodes = build_node(&mut keyed, &mut scratch, at, parallel_range);
+    drop(scratch);
+    // Every node's range was rearranged in place into its own points, then
+    // its children's ranges: the keys' indices are the order.
+    let order: Vec<u32> = keyed.par_iter().map(|k| k.1).collect();
     let tree = Octree {
         nodes,
         build_ms: started.elapsed().as_secs_f64() * 1e3,
@@ -138,87 +178,87 @@ pub fn build(positions: &[[f32; 3]]) -> (Octree, Vec<u32>) {
     (tree, order)
 }
 
-/// Builds the subtree of the Morton-sorted `keyed` (the points of the cube
-/// at `lo`, edge `size`, depth `depth`), appending its points' original
-/// indices to `order` in node order: a node's own points, then each
-/// child's subtree. Returns the subtree's nodes, root first; `first` and
-/// child links count from where `order` and the list stood on entry.
-fn build_node(
-    keyed: &mut [(u64, u32)],
+/// Where a node's range lies: its cube, its depth and its first point in
+/// the whole cloud's order.
+#[derive(Clone, Copy)]
+struct Place {
     lo: [f32; 3],
     size: f32,
     depth: u32,
-    order: &mut Vec<u32>,
+    first: u32,
+}
+
+/// Builds the subtree of the Morton-sorted `keyed` (the points of the cube
+/// at `at`), rearranging `keyed` in place into the subtree's order: the
+/// node's own points, then each child's range in octant order (`scratch`,
+/// as long as `keyed`, is the partition's room). Returns the subtree's
+/// nodes, root first, child links counting from the subtree's root.
+fn build_node(
+    keyed: &mut [Keyed],
+    scratch: &mut [Keyed],
+    at: Place,
+    parallel_range: usize,
 ) -> Vec<Node> {
-    let base_order = order.len() as u32;
     let mut node = Node {
-        lo,
-        size,
-        first: base_order,
-        count: 0,
+        lo: at.lo,
+        size: at.size,
+        first: at.first,
+        count: keyed.len() as u32,
         children: [NONE; 8],
     };
-    if keyed.len() <= LEAF_POINTS || depth + GRID_BITS >= BITS {
-        node.count = keyed.len() as u32;
-        order.extend(keyed.iter().map(|k| k.1));
+    if keyed.len() <= LEAF_POINTS || at.depth + GRID_BITS >= BITS {
         return vec![node];
     }
     // The first point of every grid cell is this node's; a stable
     // partition keeps both parts in Morton order.
-    let cell_shift = 3 * (BITS - depth - GRID_BITS);
-    let mut own = Vec::new();
-    let mut rest = Vec::with_capacity(keyed.len());
-    let mut last = None;
-    for &k in keyed.iter() {
-        let cell = k.0 >> cell_shift;
-        if last != Some(cell) {
-            own.push(k);
-            last = Some(cell);
-        } else {
-            rest.push(k);
-        }
-    }
-    node.count = own.len() as u32;
-    order.extend(own.iter().map(|k| k.1));
-    let own_len = own.len();
-    keyed[..own_len].copy_from_slice(&own);
-    keyed[own_len..].copy_from_slice(&rest);
-    drop((own, rest));
-    // The children: the runs of the rest sharing the next three bits.
-    let child_shift = 3 * (BITS - depth - 1);
-    let mut parts: Vec<(usize, &mut [(u64, u32)])> = Vec::new();
-    let mut tail = &mut keyed[own_len..];
+    let cell_shift = 3 * (BITS - at.depth - GRID_BITS);
+    let own_len = if keyed.len() >= parallel_range {
+        partition_parallel(keyed, scratch, cell_shift)
+    } else {
+        partition(keyed, scratch, cell_shift)
+    };
+    node.count = own_len as u32;
+    // The children: the runs of the rest sharing the next three bits (the
+    // rest is sorted, so each run's end is a binary search).
+    let child_shift = 3 * (BITS - at.depth - 1);
+    let octant = |k: &Keyed| ((k.0 >> child_shift) & 7) as usize;
+    let mut parts: Vec<(usize, u32, &mut [Keyed], &mut [Keyed])> = Vec::new();
+    let (_, mut tail) = keyed.split_at_mut(own_len);
+    let (_, mut room) = scratch.split_at_mut(own_len);
+    let mut first = at.first + own_len as u32;
     while !tail.is_empty() {
-        let oct = ((tail[0].0 >> child_shift) & 7) as usize;
-        let len = tail
-            .iter()
-            .position(|k| ((k.0 >> child_shift) & 7) as usize != oct)
-            .unwrap_or(tail.len());
+        let oct = octant(&tail[0]);
+        let len = tail.partition_point(|k| octant(k) <= oct);
         let (head, t) = std::mem::take(&mut tail).split_at_mut(len);
-        parts.push((oct, head));
+        let (head_room, r) = std::mem::take(&mut room).split_at_mut(len);
+        parts.push((oct, first, head, head_room));
+        first += len as u32;
         tail = t;
+        room = r;
     }
-    let half = size * 0.5;
-    let built: Vec<(usize, Vec<Node>, Vec<u32>)> = parts
+    let half = at.size * 0.5;
+    let built: Vec<(usize, Vec<Node>)> = parts
         .into_par_iter()
-        .map(|(oct, part)| {
-            let clo = [
-                lo[0] + if oct & 1 != 0 { half } else { 0.0 },
-                lo[1] + if oct & 2 != 0 { half } else { 0.0 },
-                lo[2] + if oct & 4 != 0 { half } else { 0.0 },
+        .map(|(oct, first, part, part_room)| {
+            let lo = [
+                at.lo[0] + if oct & 1 != 0 { half } else { 0.0 },
+                at.lo[1] + if oct & 2 != 0 { half } else { 0.0 },
+                at.lo[2] + if oct & 4 != 0 { half } else { 0.0 },
             ];
-            let mut sub = Vec::with_capacity(part.len());
-            let nodes = build_node(part, clo, half, depth + 1, &mut sub);
-            (oct, nodes, sub)
+            let child = Place {
+                lo,
+                size: half,
+                depth: at.depth + 1,
+                first,
+            };
+            (oct, build_node(part, part_room, child, parallel_range))
         })
         .collect();
     let mut out = vec![node];
-    for (oct, nodes, sub) in built {
+    for (oct, nodes) in built {
         let base = out.len() as u32;
-        let shift = order.len() as u32;
         out[0].children[oct] = base;
         out.extend(nodes.into_iter().map(|mut n| {
-            n.first += shift;
             for c in &mut n.children {
                 if *c != NONE {
                     *c += base;
@@ -226,9 +266,84 @@ fn build_node(
             }
             n
         }));
-        order.extend(sub);
     }
     out
+}
+
+/// Whether `keyed[i]` is the first of its grid cell (cells: the codes'
+/// bits above `cell_shift`).
+fn opens_cell(keyed: &[Keyed], i: usize, cell_shift: u32) -> bool {
+    i == 0 || keyed[i].0 >> cell_shift != keyed[i - 1].0 >> cell_shift
+}
+
+/// The stable partition of `keyed` into its cells' first points, then the
+/// rest, through `scratch`; returns how many came first.
+fn partition(keyed: &mut [Keyed], scratch: &mut [Keyed], cell_shift: u32) -> usize {
+    let mut own = 0;
+    for i in 0..keyed.len() {
+        if opens_cell(keyed, i, cell_shift) {
+            scratch[own] = keyed[i];
+            own += 1;
+        }
+    }
+    let mut rest = own;
+    for i in 0..keyed.len() {
+        if !opens_cell(keyed, i, cell_shift) {
+            scratch[rest] = keyed[i];
+            rest += 1;
+        }
+    }
+    keyed.copy_from_slice(scratch);
+    own
+}
+
+/// [`partition`] over chunks in parallel: each chunk counts its cells'
+/// first points, the counts' prefix sums give every chunk its place in both
+/// parts, and the chunks write there at once.
+fn partition_parallel(keyed: &mut [Keyed], scratch: &mut [Keyed], cell_shift: u32) -> usize {
+    let chunk = keyed
+        .len()
+        .div_ceil(4 * rayon::current_num_threads())
+        .max(1 << 12);
+    let view: &[Keyed] = keyed;
+    let starts: Vec<usize> = (0..view.len()).step_by(chunk).collect();
+    let owns: Vec<usize> = starts
+        .par_iter()
+        .map(|&s| {
+            (s..(s + chunk).min(view.len()))
+                .filter(|&i| opens_cell(view, i, cell_shift))
+                .count()
+        })
+        .collect();
+    let own_total: usize = owns.iter().sum();
+    // Each chunk's room in the first part and in the rest.
+    let (mut own_room, mut rest_room) = scratch.split_at_mut(own_total);
+    let mut jobs = Vec::with_capacity(starts.len());
+    for (&s, &own) in starts.iter().zip(&owns) {
+        let len = (s + chunk).min(view.len()) - s;
+        let (o, or) = std::mem::take(&mut own_room).split_at_mut(own);
+        let (r, rr) = std::mem::take(&mut rest_room).split_at_mut(len - own);
+        own_room = or;
+        rest_room = rr;
+        jobs.push((s, len, o, r));
+    }
+    jobs.into_par_iter().for_each(|(s, len, o, r)| {
+        let (mut a, mut b) = (0, 0);
+        for i in s..s + len {
+            if opens_cell(view, i, cell_shift) {
+                o[a] = view[i];
+                a += 1;
+            } else {
+                r[b] = view[i];
+                b += 1;
+            }
+        }
+    });
+    keyed
+        .par_chunks_mut(chunk)
+        .zip(scratch.par_chunks(chunk))
+        .for_each(|(k, s)| k.copy_from_slice(s));
+    own_total
 }
 
 /// A node's priority in the heap (its projected size), ordered by value.
@@ -415,6 +530,94 @@ mod tests {
         assert_eq!(before, after);
         // Colours and classes moved with their points.
         assert!(c.colors.iter().zip(&c.classification).count() == c.len());
+    }
+
+    /// The octree the plain way, for comparison: per node its cells'
+    /// first points, then the rest filtered octant by octant into
+    /// children built one after another, the order appended as it goes.
+    fn reference(positions: &[[f32; 3]]) -> (Vec<Node>, Vec<u32>) {
+        fn node(
+            keyed: Vec<Keyed>,
+            lo: [f32; 3],
+            size: f32,
+            depth: u32,
+            nodes: &mut Vec<Node>,
+            order: &mut Vec<u32>,
+        ) -> u32 {
+            let at = nodes.len();
+            nodes.push(Node {
+                lo,
+                size,
+                first: order.len() as u32,
+                count: keyed.len() as u32,
+                children: [NONE; 8],
+            });
+            if keyed.len() <= LEAF_POINTS || depth + GRID_BITS >= BITS {
+                order.extend(keyed.iter().map(|k| k.1));
+                return at as u32;
+            }
+            let shift = 3 * (BITS - depth - GRID_BITS);
+            let firsts: Vec<bool> = (0..keyed.len())
+                .map(|i| i == 0 || keyed[i].0 >> shift != keyed[i - 1].0 >> shift)
+                .collect();
+            let own: Vec<u32> = (0..keyed.len())
+                .filter(|&i| firsts[i])
+                .map(|i| keyed[i].1)
+                .collect();
+            nodes[at].count = own.len() as u32;
+            order.extend(own);
+            let child_shift = 3 * (BITS - depth - 1);
+            let half = size * 0.5;
+            for oct in 0..8usize {
+                let part: Vec<Keyed> = (0..keyed.len())
+                    .filter(|&i| !firsts[i] && ((keyed[i].0 >> child_shift) & 7) as usize == oct)
+                    .map(|i| keyed[i])
+                    .collect();
+                if part.is_empty() {
+                    continue;
+                }
+                let clo = [0, 1, 2].map(|k| lo[k] + if oct & (1 << k) != 0 { half } else { 0.0 });
+                let c = node(part, clo, half, depth + 1, nodes, order);
+                nodes[at].children[oct] = c;
+            }
+            at as u32
+        }
+        let (lo, size) = cube(positions);
+        let scale = (1u64 << BITS) as f32 / size;
+        let mut keyed: Vec<Keyed> = positions
+            .iter()
+            .enumerate()
+            .map(|(i, p)| {
+                let c = |k: usize| (((p[k] - lo[k]) * scale) as u32).min((1 << BITS) - 1);
+                (morton([c(0), c(1), c(2)]), i as u32)
+            })
+            .collect();
+        keyed.sort();
+        let (mut nodes, mut order) = (Vec::new(), Vec::new());
+        node(keyed, lo, size, 0, &mut nodes, &mut order);
+        (nodes, order)
+    }
+
+    /// The in-place build, with its ranges partitioned serially or in
+    /// parallel chunks (cells straddling the chunks' edges), gives the
+    /// plain build's nodes and order exactly.
+    #[test]
+    fn the_in_place_build_equals_the_plain_one() {
+        for (n, seed) in [(1usize, 1u64), (20_000, 2), (200_000, 3), (120_000, 8)] {
+            let c = cloud(n, seed);
+            let (nodes, order) = reference(&c.positions);
+            for parallel_range in [usize::MAX, PARALLEL_RANGE, 1 << 10] {
+                let (t, o) = build_with(&c.positions, parallel_range);
+                assert!(
+                    t.nodes == nodes,
+                    "{n} points, parallel from {parallel_range}: nodes"
+                );
+                assert!(
+                    o == order,
+                    "{n} points, parallel from {parallel_range}: order"
+                );
+            }
+        }
     }
 
     #[test]
