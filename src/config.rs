@@ -157,6 +157,11 @@ pub struct RenderConfig {
     /// devices without 64-bit atomics) even where the compute rasterizer
     /// runs (`points-pipeline`).
     pub points_pipeline: bool,
+    /// Eye-dome lighting of a point cloud's pixels (`edl[=S]`, strength S
+    /// from 0.01 to 10, default [`DEFAULT_EDL_STRENGTH`]): each darkens by
+    /// how far its neighbours lie in front of it
+    /// (`shaders/points_composite.frag`); needs the compute rasterizer.
+    pub edl: Option<f64>,
     /// Draw the sky once per pixel after the MSAA resolve instead of at
     /// every sample inside the forward scope (`resolved-sky`; the same
     /// image up to rounding, see `render::passes::resolved_sky`).
@@ -317,6 +322,9 @@ impl Lms {
 /// million per eye; the H200 rasterizes 88 M points for both eyes in
 /// 0.55 ms, see README "Point clouds").
 pub const DEFAULT_POINTS_BUDGET: u64 = 20_000_000;
+/// Eye-dome lighting's strength without a value (`edl`): Potree's default
+/// (k = 300 × 0.4 in `shaders/points_composite.frag`).
+pub const DEFAULT_EDL_STRENGTH: f64 = 0.4;
 
 /// Most threads `--record-threads` accepts.
 pub const MAX_RECORD_THREADS: u32 = 64;
@@ -425,6 +433,7 @@ impl Default for RenderConfig {
             points_budget: DEFAULT_POINTS_BUDGET,
             point_size: 1.0,
             points_pipeline: false,
+            edl: None,
             resolved_sky: false,
             lod: None,
             aq: false,
@@ -533,6 +542,12 @@ impl RenderConfig {
                     (self.record_threads.is_some(), "--record-threads"),
                 ],
             )?;
+        }
+        if self.edl.is_some() && self.points_pipeline {
+            return Err(Error::config(
+                "--opt",
+                "edl shades the compute rasterizer's pixels by their neighbours' depths; points-pipeline draws points without them: leave one out",
+            ));
         }
         if self.resolved_sky {
             if self.msaa == 1 {
@@ -656,6 +671,10 @@ impl RenderConfig {
                     self.points_budget = v as u64;
                 }
                 "points-pipeline" => self.points_pipeline = true,
+                "edl" => self.edl = Some(DEFAULT_EDL_STRENGTH),
+                l if l.starts_with("edl=") => {
+                    self.edl = Some(opt_value(l, "edl=", (0.01, 10.0), "S", "the eye-dome lighting's strength")?);
+                }
                 "resolved-sky" => self.resolved_sky = true,
                 "lms" => self.lms = Some(self.lms.unwrap_or_default()),
                 "lms-emulated" => {
@@ -803,7 +822,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1000,6 +1019,13 @@ impl RenderConfig {
         if self.points_pipeline {
             v.push("points-pipeline".into());
         }
+        if let Some(s) = self.edl {
+            v.push(if s == DEFAULT_EDL_STRENGTH {
+                "edl".into()
+            } else {
+                format!("edl={s}")
+            });
+        }
         if self.resolved_sky {
             v.push("resolved-sky".into());
         }
@@ -1124,6 +1150,8 @@ mod tests {
             "superfrustum,lms",
             "two-pass,lms=0.25,lms-emulated",
             "superfrustum,inset=0.6,inset-fov=15",
+            "point-size=3,edl",
+            "edl=1.5,points-budget=5000",
         ] {
             let mut c = RenderConfig::default();
             c.apply_opts(list, &names).unwrap();

@@ -88,12 +88,12 @@ fn config(stereo: StereoMode) -> RenderConfig {
 
 /// The CPU rasterizer: every point projected with the frame's f32
 /// matrices, each pixel keeping the nearest (largest reverse-Z depth), as
-/// sRGB colour per pixel (None: empty).
-fn cpu_raster(
+/// (depth, sRGB colour) per pixel (None: empty).
+fn cpu_keys(
     cloud: &PointCloud,
     rig: &vergence::view::StereoRig,
     eye: usize,
-) -> Vec<Option<[u8; 3]>> {
+) -> Vec<Option<(f32, [u8; 3])>> {
     let u = vergence::render::uniforms::FrameUniforms::new(
         rig,
         RenderConfig::default().near,
@@ -120,7 +120,19 @@ fn cpu_raster(
             *slot = Some((n.z, [c[0], c[1], c[2]]));
         }
     }
-    best.into_iter().map(|b| b.map(|(_, c)| c)).collect()
+    best
+}
+
+/// [`cpu_keys`]' colours alone.
+fn cpu_raster(
+    cloud: &PointCloud,
+    rig: &vergence::view::StereoRig,
+    eye: usize,
+) -> Vec<Option<[u8; 3]>> {
+    cpu_keys(cloud, rig, eye)
+        .into_iter()
+        .map(|k| k.map(|(_, c)| c))
+        .collect()
 }
 
 #[test]
@@ -184,6 +196,149 @@ fn every_point_lands_in_its_pixel_and_the_stereo_modes_agree() {
         );
     }
     assert_eq!(mv.stats.points_drawn, tp.stats.points_drawn);
+}
+
+/// Eye-dome lighting's shade of each keyed pixel as the composite computes
+/// it, from the CPU rasterizer's keys: exp(−300 S · mean over the 8
+/// neighbours of max(0, log2 d_n − log2 d)), d the reverse-Z depth
+/// (None: no point there).
+fn cpu_edl(keys: &[Option<(f32, [u8; 3])>], strength: f64) -> Vec<Option<f64>> {
+    (0..keys.len())
+        .map(|i| {
+            let (d, _) = keys[i]?;
+            let (x, y) = ((i as u32 % W) as i64, (i as u32 / W) as i64);
+            let mut sum = 0.0f64;
+            for (dx, dy) in (-1..=1).flat_map(|dy| (-1..=1).map(move |dx| (dx, dy))) {
+                let (qx, qy) = (x + dx, y + dy);
+                if (dx, dy) == (0, 0) || qx < 0 || qy < 0 || qx >= W as i64 || qy >= H as i64 {
+                    continue;
+                }
+                if let Some((dn, _)) = keys[(qy * W as i64 + qx) as usize] {
+                    sum += (dn.log2() as f64 - d.log2() as f64).max(0.0);
+                }
+            }
+            Some((-300.0 * strength * sum / 8.0).exp())
+        })
+        .collect()
+}
+
+fn srgb_to_linear(v: u8) -> f64 {
+    let c = v as f64 / 255.0;
+    if c <= 0.04045 {
+        c / 12.92
+    } else {
+        ((c + 0.055) / 1.055).powf(2.4)
+    }
+}
+
+fn linear_to_srgb(l: f64) -> f64 {
+    255.0
+        * if l <= 0.0031308 {
+            l * 12.92
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        }
+}
+
+/// `edl`: every point pixel takes the shade a CPU form of the composite
+/// computes from the CPU rasterizer's depths (within 2 levels but for the
+/// pixels near a point on a pixel edge); pixels with no nearer neighbour
+/// keep their colour; behind nearer points they darken; multiview equals
+/// two-pass; `edl` with the point-list fallback is one error.
+#[test]
+fn eye_dome_lighting_shades_points_behind_nearer_ones() {
+    let ctx = context();
+    let cloud = scattered(3000, DVec3::new(0.0, 0.0, -9.0));
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let scene = points_scene(cloud.clone());
+    let strength = 0.4;
+    let lit_config = |stereo| RenderConfig {
+        edl: Some(strength),
+        ..config(stereo)
+    };
+    let plain = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        head(),
+        &config(StereoMode::Multiview),
+        W,
+        H,
+    );
+    let lit = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        head(),
+        &lit_config(StereoMode::Multiview),
+        W,
+        H,
+    );
+    let rig = profile.rig(head());
+    for eye in 0..2 {
+        let keys = cpu_keys(&cloud, &rig, eye);
+        let shades = cpu_edl(&keys, strength);
+        let (mut keyed, mut close, mut dark, mut darker, mut flat, mut kept) = (0, 0, 0, 0, 0, 0);
+        for (i, (k, shade)) in keys.iter().zip(&shades).enumerate() {
+            let (Some((_, c)), Some(shade)) = (k, shade) else {
+                continue;
+            };
+            keyed += 1;
+            let (x, y) = (i as u32 % W, i as u32 / W);
+            let got = lit.images[eye].get_pixel(x, y);
+            let was = plain.images[eye].get_pixel(x, y);
+            let want = c.map(|v| linear_to_srgb(srgb_to_linear(v) * shade));
+            close += usize::from((0..3).all(|j| (got[j] as f64 - want[j]).abs() <= 2.0));
+            if *shade < 0.8 {
+                dark += 1;
+                darker += usize::from(
+                    (0..3).map(|j| got[j] as u32).sum::<u32>()
+                        < (0..3).map(|j| was[j] as u32).sum::<u32>(),
+                );
+            }
+            if *shade == 1.0 {
+                flat += 1;
+                kept += usize::from(got == was);
+            }
+        }
+        assert!(keyed > 1000, "eye {eye}: {keyed} point pixels");
+        assert!(
+            close * 100 >= keyed * 97,
+            "eye {eye}: {close} of {keyed} point pixels take the CPU form's shade"
+        );
+        assert!(
+            dark * 10 >= keyed,
+            "eye {eye}: only {dark} of {keyed} pixels lie behind nearer points"
+        );
+        assert!(
+            darker * 100 >= dark * 97,
+            "eye {eye}: {darker} of {dark} shaded pixels darkened"
+        );
+        assert!(
+            flat > 100 && kept * 100 >= flat * 97,
+            "eye {eye}: {kept} of {flat} unshaded pixels kept"
+        );
+    }
+    let tp = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        head(),
+        &lit_config(StereoMode::TwoPass),
+        W,
+        H,
+    );
+    for eye in 0..2 {
+        assert_eq!(
+            common::pixels_differing(&lit.images[eye], &tp.images[eye]),
+            0,
+            "eye {eye}: two-pass lights the multiview image"
+        );
+    }
+    let mut both = lit_config(StereoMode::Multiview);
+    both.points_pipeline = true;
+    let err = both.validate().unwrap_err().to_string();
+    assert!(err.contains("points-pipeline"), "{err}");
 }
 
 #[test]

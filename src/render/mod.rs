@@ -370,6 +370,7 @@ impl Renderer {
                 &r.ubos,
                 config.point_size as f32,
                 config.points_pipeline,
+                config.edl,
             )?);
         }
         r.targets = Some(Attachments::new(

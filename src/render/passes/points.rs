@@ -63,6 +63,9 @@ pub struct PointsPass {
     selected: u64,
     /// Side of a point at [`POINT_SIZE_DISTANCE_M`], pixels.
     point_size: f32,
+    /// Eye-dome lighting's k (300 × the strength; 0: off), pushed to the
+    /// composite (`shaders/points_composite.frag` derives it).
+    edl_k: f32,
     /// This frame's chosen point ranges (first, count).
     chosen: Vec<(u32, u32)>,
     /// The ranges' words as written, kept to be refilled each frame.
@@ -90,8 +93,13 @@ impl PointsPass {
         frames: &[Buffer],
         point_size: f32,
         force_list: bool,
+        edl: Option<f64>,
     ) -> Result<PointsPass> {
         let ctx = setup.ctx;
+        let list = force_list || !ctx.caps.atomic_int64;
+        if edl.is_some() && list {
+            eprintln!("warning: eye-dome lighting needs the compute path; the points are drawn without it");
+        }
         let path = if force_list {
             "point-list pipeline (points-pipeline)".to_string()
         } else if !ctx.caps.atomic_int64 {
@@ -121,10 +129,14 @@ impl PointsPass {
             ranges: 1,
             selected: cloud.len() as u64,
             point_size,
+            edl_k: if list {
+                0.0
+            } else {
+                edl.map_or(0.0, |s| (300.0 * s) as f32)
+            },
             chosen: vec![(0, cloud.len() as u32)],
             words: Vec::new(),
-            list: (force_list || !ctx.caps.atomic_int64)
-                .then_some((vk::PipelineLayout::null(), vk::Pipeline::null())),
+            list: list.then_some((vk::PipelineLayout::null(), vk::Pipeline::null())),
             path,
             extent,
             slots: Vec::new(),
@@ -560,7 +572,12 @@ impl PointsPass {
     /// depth. Returns the draw calls.
     fn record_composite(&self, rec: &Recorder, eye: u32) -> u64 {
         rec.bind(self.composite);
-        rec.push([0, eye, self.extent.width, self.extent.height]);
+        rec.push([
+            self.edl_k.to_bits(),
+            eye,
+            self.extent.width,
+            self.extent.height,
+        ]);
         rec.draw(3);
         1
     }
