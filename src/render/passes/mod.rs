@@ -501,13 +501,42 @@ pub fn record_composed<'a>(
     let to_read: Vec<vk::ImageMemoryBarrier2> =
         sources.map(|set| to_sampled(&set.resolve)).collect();
     rec.barriers(&to_read);
+    record_per_set(
+        rec,
+        q,
+        name,
+        targets,
+        (extent, view_mask),
+        (pipeline, crate::gpu::rendering::Load::Discard),
+        |set| set.filled.as_ref().map(|(composed, _)| composed.view),
+        push,
+    )
+}
+
+/// Inside the GPU pass `name`, per attachment set of `targets` one
+/// full-screen triangle of `pipeline` with the push constants `push(eye)`
+/// over `extent`, into the colour image `target(set)` picks (a set without
+/// one is skipped), started as `load` says; the caller has made what the
+/// pipeline reads readable and the targets writable. The full-screen passes
+/// (composites, the resolved sky) share it. Returns the draw calls.
+#[allow(clippy::too_many_arguments)]
+pub fn record_per_set(
+    rec: &Recorder,
+    q: &mut Queries,
+    name: &'static str,
+    targets: &Attachments,
+    (extent, view_mask): (vk::Extent2D, u32),
+    (pipeline, load): (vk::Pipeline, crate::gpu::rendering::Load),
+    target: impl Fn(&AttachmentSet) -> Option<vk::ImageView>,
+    push: impl Fn(u32) -> [u32; 4],
+) -> u64 {
     q.begin_pass(rec.ctx, rec.cmd, name);
     let mut calls = 0;
     for (eye, set) in targets.sets.iter().enumerate() {
-        let Some((composed, _)) = &set.filled else {
+        let Some(view) = target(set) else {
             continue;
         };
-        rec.begin_color_only(composed.view, extent, view_mask);
+        rec.begin_color(view, extent, view_mask, load);
         // Its own viewport, scissor and sets: it follows other scopes (or
         // executed secondaries) whose state it must not rely on.
         rec.set_state(extent);
@@ -781,17 +810,6 @@ impl Recorder<'_> {
                 );
             }
         }
-    }
-
-    /// Begins a rendering scope of one colour attachment (loaded as don't
-    /// care, stored) over `extent`, with no depth.
-    pub fn begin_color_only(&self, view: vk::ImageView, extent: vk::Extent2D, view_mask: u32) {
-        self.begin_color(
-            view,
-            extent,
-            view_mask,
-            crate::gpu::rendering::Load::Discard,
-        );
     }
 
     /// Begins a rendering scope of one colour attachment (started as `load`

@@ -73,19 +73,16 @@ impl ResolvedSky {
         view_mask: u32,
     ) -> u64 {
         rec.memory_barriers(&[attachments::between_scopes()]);
-        q.begin_pass(rec.ctx, rec.cmd, "sky-resolved");
-        let mut calls = 0;
-        for (eye, set) in targets.sets.iter().enumerate() {
-            rec.begin_color(set.resolve.view, extent, view_mask, Load::Keep);
-            rec.set_state(extent);
-            rec.bind(self.pipeline);
-            rec.push([0, eye as u32, 0, 0]);
-            rec.draw(3);
-            rec.end_scope();
-            calls += 1;
-        }
-        q.end_pass(rec.ctx, rec.cmd);
-        calls
+        super::record_per_set(
+            rec,
+            q,
+            "sky-resolved",
+            targets,
+            (extent, view_mask),
+            (self.pipeline, Load::Keep),
+            |set| Some(set.resolve.view),
+            |eye| [0, eye, 0, 0],
+        )
     }
 
     /// Destroys the pipeline; the device must be idle.
