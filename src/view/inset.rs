@@ -72,7 +72,9 @@ pub fn inset_rect(
     let t = half_angle_deg.to_radians().tan().max(0.0);
     let (mut hx, mut hy) = (0.0f64, 0.0f64);
     for f in fovs {
-        let (w, h) = (f.right - f.left, f.up - f.down);
+        // Widths in tangents: the FOV's fields are angles.
+        let [tl, tr, tu, td] = f.tangents();
+        let (w, h) = (tr - tl, tu - td);
         if w > 0.0 && h > 0.0 {
             hx = hx.max(2.0 * t / w);
             hy = hy.max(2.0 * t / h);
@@ -111,13 +113,9 @@ mod tests {
     use super::*;
     use proptest::prelude::*;
 
+    /// A symmetric eye whose edges lie at tangent `t`.
     fn sym(t: f64) -> Fov {
-        Fov {
-            left: -t,
-            right: t,
-            up: t,
-            down: -t,
-        }
+        Fov::symmetric(t.atan(), t.atan())
     }
 
     #[test]
@@ -156,14 +154,16 @@ mod tests {
     proptest! {
         /// The rectangle stays in the image, holds the gaze pixel, grows
         /// with the angle, and covers every pixel whose centre is within
-        /// the angle's tangent range of the gaze (brute force).
+        /// the angle's tangent range of the gaze and none more than a pixel
+        /// and a half beyond it (brute force).
         #[test]
         fn inside_the_image_around_the_gaze_and_covering_the_angle(
             l in 0.3..1.5f64, r in 0.3..1.5f64, u in 0.3..1.5f64, d in 0.3..1.5f64,
             gx in -0.9..0.9f32, gy in -0.9..0.9f32, a in 1.0..40.0f64,
             w in 8u32..400, h in 8u32..400,
         ) {
-            let fov = Fov { left: -l, right: r, up: u, down: -d };
+            // l, r, u, d are the edges' tangents; the FOV holds angles.
+            let fov = Fov { left: -l.atan(), right: r.atan(), up: u.atan(), down: -d.atan() };
             let rect = inset_rect(&[fov], [gx, gy], a, w, h);
             prop_assert!(rect.x0 < rect.x1 && rect.x1 <= w && rect.y0 < rect.y1 && rect.y1 <= h);
             let gpx = (((gx as f64 + 1.0) * 0.5 * w as f64) as u32).min(w - 1);
@@ -175,9 +175,16 @@ mod tests {
             // Tangent of pixel centre x: linear from left to right.
             let tan_x = |x: u32| -l + (x as f64 + 0.5) / w as f64 * (l + r);
             let gaze_tan = -l + (gx as f64 + 1.0) * 0.5 * (l + r);
+            // And no wider: a column more than a pixel and a half beyond
+            // the angle is left out.
+            let pixel = (l + r) / w as f64;
             for x in 0..w {
-                if (tan_x(x) - gaze_tan).abs() <= t * 0.999 {
+                let off = (tan_x(x) - gaze_tan).abs();
+                if off <= t * 0.999 {
                     prop_assert!(rect.x0 <= x && x < rect.x1, "column {x} within the angle");
+                }
+                if off > t + 1.5 * pixel {
+                    prop_assert!(!(rect.x0 <= x && x < rect.x1), "column {x} beyond the angle in {rect:?}");
                 }
             }
         }
