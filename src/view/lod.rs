@@ -35,8 +35,10 @@ pub const MAX_LEVELS: usize = 8;
 pub fn pixel_density(eyes: &[(Fov, (u32, u32))]) -> f64 {
     eyes.iter()
         .map(|(fov, (w, h))| {
-            let x = *w as f64 / (fov.right - fov.left);
-            let y = *h as f64 / (fov.up - fov.down);
+            // Over the tangent range: the FOV's fields are angles.
+            let [l, r, u, d] = fov.tangents();
+            let x = *w as f64 / (r - l);
+            let y = *h as f64 / (u - d);
             x.max(y)
         })
         .fold(0.0, f64::max)
@@ -89,22 +91,42 @@ mod tests {
 
     #[test]
     fn density_is_the_denser_axis_and_eye() {
-        let fov = Fov {
-            left: -1.0,
-            right: 1.0,
-            up: 1.0,
-            down: -1.0,
-        };
-        assert_eq!(pixel_density(&[(fov, (200, 100))]), 100.0);
+        // Edges at tangent ±1 (±45°): 200 pixels over a tangent range of 2.
+        let a = 1f64.atan();
+        let fov = Fov::symmetric(a, a);
+        assert!((pixel_density(&[(fov, (200, 100))]) - 100.0).abs() < 1e-9);
         let narrow = Fov {
-            left: -0.5,
-            right: 0.5,
+            left: -0.5f64.atan(),
+            right: 0.5f64.atan(),
             ..fov
         };
-        assert_eq!(
-            pixel_density(&[(fov, (200, 100)), (narrow, (200, 100))]),
-            200.0
-        );
+        let both = pixel_density(&[(fov, (200, 100)), (narrow, (200, 100))]);
+        assert!((both - 200.0).abs() < 1e-9, "{both}");
+    }
+
+    proptest! {
+        /// Against brute force: the density is the pixels per radian of
+        /// the centre of a rectilinear image, measured as the angle
+        /// subtended by the central pixels of each axis.
+        #[test]
+        fn density_is_the_centre_pixels_per_radian(
+            l in 0.2..1.4f64, r in 0.2..1.4f64, u in 0.2..1.4f64, d in 0.2..1.4f64,
+            w in 100u32..4000, h in 100u32..4000,
+        ) {
+            // l, r, u, d: the edges' angles.
+            let fov = Fov { left: -l, right: r, up: u, down: -d };
+            let [tl, tr, tu, td] = fov.tangents();
+            // The angle between the view axis and the ray through a pixel
+            // one pixel right of the axis's pixel position (the projection
+            // is linear in tangents).
+            let per_axis = |t0: f64, t1: f64, n: u32| {
+                let step = (t1 - t0) / n as f64;
+                1.0 / step.atan()
+            };
+            let want = per_axis(tl, tr, w).max(per_axis(td, tu, h));
+            let got = pixel_density(&[(fov, (w, h))]);
+            prop_assert!((got - want).abs() <= want * 1e-3, "{got} vs {want}");
+        }
     }
 
     proptest! {
