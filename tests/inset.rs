@@ -155,6 +155,37 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     assert!(mv.stats.gpu_ms.contains_key("forward-wide"));
     assert!(mv.stats.gpu_ms.contains_key("forward-inset"));
     assert!(mv.stats.gpu_ms.contains_key("inset-composite"));
+    // The inset views draw their own list, culled by the eyes' volumes
+    // through the rectangle: more than the wide views' alone, fewer than a
+    // second full list, and fewer still for a narrower inset.
+    let all = full.stats.instances_drawn;
+    let inset_list = |r: &common::Frame| r.stats.instances_drawn - all;
+    assert!(
+        mv.stats.instances_drawn > all && inset_list(&mv) < all,
+        "{} instance draws with inset against {all} without",
+        mv.stats.instances_drawn
+    );
+    let narrow = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &config(
+            StereoMode::Multiview,
+            Some(Inset {
+                half_angle_deg: 3.0,
+                ..settings
+            }),
+            [0.0; 2],
+        ),
+        W,
+        H,
+    );
+    assert!(
+        inset_list(&narrow) * 4 < all && inset_list(&narrow) < inset_list(&mv),
+        "a ±3° inset draws {} of {all} instances",
+        inset_list(&narrow)
+    );
     // The gaze moves it: to the right, the sharp core follows.
     let gaze = [0.6, 0.0];
     let moved = render_config(
@@ -184,4 +215,36 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         .filter(|&(x, y)| core(&rect, x, y) && !right.contains(x, y))
         .all(|(x, y)| moved.images[0].get_pixel(x, y) == full.images[0].get_pixel(x, y));
     assert!(!centre_sharp, "the old centre is no longer the full render");
+    // Off-axis both ways (up-left, down-right): the core stays the full
+    // render's pixels with the inset's narrower list.
+    for gaze in [[-0.5, -0.5], [0.4, 0.6]] {
+        let moved = render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &config(StereoMode::Multiview, Some(settings), gaze),
+            W,
+            H,
+        );
+        let r = inset_rect(&fovs, gaze, 15.0, W, H);
+        for eye in 0..2 {
+            let (mut inside, mut same) = (0, 0);
+            for y in 0..H {
+                for x in 0..W {
+                    if core(&r, x, y) {
+                        inside += 1;
+                        same += usize::from(
+                            moved.images[eye].get_pixel(x, y) == full.images[eye].get_pixel(x, y),
+                        );
+                    }
+                }
+            }
+            assert!(inside > 100, "{r:?}");
+            assert_eq!(
+                same, inside,
+                "gaze {gaze:?}, eye {eye}: the core is the full render's"
+            );
+        }
+    }
 }

@@ -70,12 +70,26 @@ pub struct Batches {
     /// With a split monoscopic far field: `draws[..k]` feed the near field
     /// and `draws[k..]` the far field (None: every draw feeds both).
     pub far_start: Option<usize>,
+    /// With `inset`'s own list: `draws[..k]` feed the wide views and
+    /// `draws[k..]` the inset (None: every draw feeds both).
+    pub inset_start: Option<usize>,
 }
 
 impl Batches {
-    /// The draws of the (near-field) stereo passes.
+    /// The draws of the (near-field) stereo passes (with inset: of the
+    /// wide views).
     pub fn near_draws(&self) -> &[Draw] {
-        &self.draws[..self.far_start.unwrap_or(self.draws.len())]
+        let end = self.far_start.or(self.inset_start);
+        &self.draws[..end.unwrap_or(self.draws.len())]
+    }
+
+    /// The draws of the inset views (the near draws when the inset has no
+    /// list of its own).
+    pub fn inset_draws(&self) -> &[Draw] {
+        match self.inset_start {
+            Some(k) => &self.draws[k..],
+            None => self.near_draws(),
+        }
     }
 
     /// The draws of the far-field pass.
@@ -174,6 +188,32 @@ impl Batcher {
         far: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) {
+        out.far_start = Some(self.build_pair(visible, eye, near, far, out));
+    }
+
+    /// Like [`Batcher::build`] for `inset`: the wide views' draws get every
+    /// visible instance, the inset's (after `inset_start`) those whose
+    /// bounding sphere `keep(centre, radius)` keeps (its narrower volume).
+    pub fn build_inset(
+        &mut self,
+        visible: Option<&[u32]>,
+        eye: DVec3,
+        keep: impl Fn(DVec3, f64) -> bool,
+        out: &mut Batches,
+    ) {
+        out.inset_start = Some(self.build_pair(visible, eye, |_, _| true, keep, out));
+    }
+
+    /// Two lists in one: the visible instances `first` keeps, then those
+    /// `second` keeps, their draws after the returned index (ids offset).
+    fn build_pair(
+        &mut self,
+        visible: Option<&[u32]>,
+        eye: DVec3,
+        near: impl Fn(DVec3, f64) -> bool,
+        far: impl Fn(DVec3, f64) -> bool,
+        out: &mut Batches,
+    ) -> usize {
         let (mut near_list, mut far_list) = (
             std::mem::take(&mut self.near_list),
             std::mem::take(&mut self.far_list),
@@ -195,7 +235,7 @@ impl Batcher {
         self.group(&near_list, eye, out);
         self.group(&far_list, eye, &mut tmp);
         let offset = out.ids.len() as u32;
-        out.far_start = Some(out.draws.len());
+        let start = out.draws.len();
         out.ids.extend_from_slice(&tmp.ids);
         out.draws.extend(tmp.draws.iter().map(|d| Draw {
             first: d.first + offset,
@@ -206,6 +246,7 @@ impl Batcher {
         self.far_tmp = tmp;
         self.near_list = near_list;
         self.far_list = far_list;
+        start
     }
 
     /// Groups `visible` (instance indices; None = all) into draws. `eye` is
@@ -218,6 +259,7 @@ impl Batcher {
 
     fn group(&mut self, visible: &[u32], eye: DVec3, out: &mut Batches) {
         out.far_start = None;
+        out.inset_start = None;
         out.ids.clear();
         out.draws.clear();
         out.triangles = 0;

@@ -564,6 +564,30 @@ impl Renderer {
         u
     }
 
+    /// With `inset` (CPU-culled or not culled), each eye's volume through
+    /// this frame's inset rectangle: the inset views draw only what one of
+    /// them keeps (the rectangle's pixels are all they rasterize).
+    fn inset_volumes(&self, rig: &StereoRig) -> Option<[crate::view::frustum::PlaneSet; 2]> {
+        self.config.inset?;
+        let volume = |v: &crate::view::View| {
+            let t = crate::view::inset::rect_tangents(
+                &v.fov,
+                &self.inset_rect,
+                self.extent.width,
+                self.extent.height,
+            );
+            crate::view::frustum::Frustum::from_tangents(
+                &v.pose,
+                t,
+                self.config.near,
+                self.config.draw_distance,
+            )
+            .ok()
+            .map(|f| f.planes)
+        };
+        Some([volume(rig.views.first()?)?, volume(rig.views.get(1)?)?])
+    }
+
     /// Renders one stereo frame of `rig` drawing the instances in `visible`
     /// (None: all), waits for it and returns its statistics. With
     /// `readback`, the frame is copied for [`Renderer::read_images`].
@@ -842,7 +866,16 @@ impl Renderer {
                     &mut batches,
                 );
             }
-            None => self.batcher.build(visible, rig.head.position, &mut batches),
+            None => match self.inset_volumes(rig) {
+                // The inset views draw what their narrower volumes keep.
+                Some(v) => self.batcher.build_inset(
+                    visible,
+                    rig.head.position,
+                    |c, r| v.iter().any(|p| p.keeps_sphere(c, r)),
+                    &mut batches,
+                ),
+                None => self.batcher.build(visible, rig.head.position, &mut batches),
+            },
         }
         // Counted once per pass family: with a far field its pass draws too
         // (the split batches already hold near + far; unsplit, the far pass
@@ -1220,7 +1253,12 @@ impl Renderer {
                         draw_calls += p.record_in_scope(&rec, eye, extent);
                     }
                 }
-                let near = batches.near_draws();
+                // The inset scope (the one with a render area) draws the
+                // inset's own list.
+                let near = match area {
+                    Some(_) => batches.inset_draws(),
+                    None => batches.near_draws(),
+                };
                 let sky = part != ScopePart::First && resolved_sky.is_none();
                 // With lms the scope's contents are drawn once per quadrant
                 // (floor frames once, unscaled).

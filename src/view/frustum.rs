@@ -101,6 +101,14 @@ impl PlaneSet {
         let (a, b) = (min - self.origin, max - self.origin);
         self.planes().iter().all(|p| p.max_over_box(a, b) >= 0.0)
     }
+
+    /// Conservative test of a world-space sphere: false only when it lies
+    /// entirely outside one plane (its centre farther than its radius).
+    #[inline]
+    pub fn keeps_sphere(&self, centre: DVec3, radius: f64) -> bool {
+        let c = centre - self.origin;
+        self.planes().iter().all(|p| p.distance(c) >= -radius)
+    }
 }
 
 /// Validates near and optional far distances shared by all volumes.

@@ -96,6 +96,20 @@ pub fn inset_rect(
     PixelRect { x0, y0, x1, y1 }
 }
 
+/// The signed tangents `[left, right, up, down]` of the eye `fov`'s
+/// pixel rectangle `r` in an image of `width`×`height` pixels: the
+/// projection is linear in the tangents, columns left to right and rows
+/// top (`up`) to bottom (`down`), as `projection::reverse_z_infinite`
+/// maps them. What the inset's own culling volume is built from: every
+/// point whose pixel lies in `r` lies within these tangents.
+pub fn rect_tangents(fov: &Fov, r: &PixelRect, width: u32, height: u32) -> [f64; 4] {
+    let [tl, tr, tu, td] = fov.tangents();
+    let (w, h) = (width.max(1) as f64, height.max(1) as f64);
+    let col = |x: u32| tl + x as f64 / w * (tr - tl);
+    let row = |y: u32| tu - y as f64 / h * (tu - td);
+    [col(r.x0), col(r.x1), row(r.y0), row(r.y1)]
+}
+
 /// The inset's weight at the centre of pixel (x, y): 1 deeper than
 /// `feather` pixels inside the rectangle, falling linearly to 0 at its
 /// edge, 0 outside (what `shaders/inset_composite.frag` computes).
@@ -152,6 +166,38 @@ mod tests {
     }
 
     proptest! {
+        /// Against the projection itself: a direction projects into the
+        /// rectangle's pixels exactly when its tangents lie within
+        /// [`rect_tangents`] (away from the edges by a millionth).
+        #[test]
+        fn the_rectangle_tangents_hold_what_projects_into_it(
+            l in 0.2..1.4f64, r in 0.2..1.4f64, u in 0.2..1.4f64, d in 0.2..1.4f64,
+            gx in -0.9..0.9f32, gy in -0.9..0.9f32, a in 1.0..40.0f64,
+            tx in -1.0..1.0f64, ty in -1.0..1.0f64,
+        ) {
+            let fov = Fov { left: -l, right: r, up: u, down: -d };
+            let (w, h) = (320, 240);
+            let rect = inset_rect(&[fov], [gx, gy], a, w, h);
+            let t = rect_tangents(&fov, &rect, w, h);
+            // A direction anywhere in the eye: tangents by (tx, ty) across it.
+            let [el, er, eu, ed] = fov.tangents();
+            let x = el + (tx + 1.0) * 0.5 * (er - el);
+            let y = ed + (ty + 1.0) * 0.5 * (eu - ed);
+            let p = crate::view::projection::reverse_z_infinite(&fov, 0.1)
+                * glam::DVec4::new(x, y, -1.0, 1.0);
+            let (nx, ny) = (p.x / p.w, p.y / p.w);
+            let px = (nx + 1.0) * 0.5 * w as f64;
+            let py = (ny + 1.0) * 0.5 * h as f64;
+            let inside_px = px >= rect.x0 as f64 && px < rect.x1 as f64
+                && py >= rect.y0 as f64 && py < rect.y1 as f64;
+            let inside_t = x >= t[0] && x <= t[1] && y <= t[2] && y >= t[3];
+            let near_edge = [x - t[0], t[1] - x, t[2] - y, y - t[3]]
+                .iter()
+                .any(|e| e.abs() < 1e-6);
+            prop_assert!(near_edge || inside_px == inside_t, "{rect:?} {t:?} ({x}, {y}) at ({px}, {py})");
+            prop_assert!(t[0] >= el - 1e-12 && t[1] <= er + 1e-12 && t[2] <= eu + 1e-12 && t[3] >= ed - 1e-12);
+        }
+
         /// The rectangle stays in the image, holds the gaze pixel, grows
         /// with the angle, and covers every pixel whose centre is within
         /// the angle's tangent range of the gaze and none more than a pixel

@@ -7,7 +7,9 @@
 //! `shaders/inset_composite.frag`) then writes the eye image: the wide view
 //! upsampled bilinearly, the inset over it with a feathered seam
 //! ([`crate::view::inset`] has the rectangle and the weight). Culling tests
-//! each eye once: both views draw the eye's visible list.
+//! each eye once: the wide views draw the eye's visible list, the inset
+//! views the part of it inside the eyes' volumes through the rectangle
+//! (`Batcher::build_inset`; with `gpu-cull`, the GPU's list).
 //!
 //! The inset keeps the eye's own projection and viewport, so its pixels are
 //! the full-resolution render's own; the wide view keeps the eye's
