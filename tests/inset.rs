@@ -60,6 +60,20 @@ fn core(r: &PixelRect, x: u32, y: u32) -> bool {
     weight(r, x, y, FEATHER_PX) >= 1.0
 }
 
+/// Pixels of `got`'s core of `r` (inside, equal to `full`'s).
+fn core_matches(got: &image::RgbaImage, full: &image::RgbaImage, r: &PixelRect) -> (usize, usize) {
+    let (mut inside, mut same) = (0, 0);
+    for y in 0..H {
+        for x in 0..W {
+            if core(r, x, y) {
+                inside += 1;
+                same += usize::from(got.get_pixel(x, y) == full.get_pixel(x, y));
+            }
+        }
+    }
+    (inside, same)
+}
+
 #[test]
 fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let ctx = context();
@@ -199,16 +213,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     );
     let right = inset_rect(&fovs, gaze, 15.0, W, H);
     assert!(right.x0 > rect.x1 - 10, "{right:?} vs {rect:?}");
-    let (mut inside, mut same) = (0, 0);
-    for y in 0..H {
-        for x in 0..W {
-            if core(&right, x, y) {
-                inside += 1;
-                same +=
-                    usize::from(moved.images[0].get_pixel(x, y) == full.images[0].get_pixel(x, y));
-            }
-        }
-    }
+    let (inside, same) = core_matches(&moved.images[0], &full.images[0], &right);
     assert_eq!(same, inside, "the moved inset is the full render's pixels");
     let centre_sharp = (0..H)
         .flat_map(|y| (0..W).map(move |x| (x, y)))
@@ -229,17 +234,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         );
         let r = inset_rect(&fovs, gaze, 15.0, W, H);
         for eye in 0..2 {
-            let (mut inside, mut same) = (0, 0);
-            for y in 0..H {
-                for x in 0..W {
-                    if core(&r, x, y) {
-                        inside += 1;
-                        same += usize::from(
-                            moved.images[eye].get_pixel(x, y) == full.images[eye].get_pixel(x, y),
-                        );
-                    }
-                }
-            }
+            let (inside, same) = core_matches(&moved.images[eye], &full.images[eye], &r);
             assert!(inside > 100, "{r:?}");
             assert_eq!(
                 same, inside,

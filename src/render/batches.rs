@@ -210,8 +210,8 @@ impl Batcher {
         &mut self,
         visible: Option<&[u32]>,
         eye: DVec3,
-        near: impl Fn(DVec3, f64) -> bool,
-        far: impl Fn(DVec3, f64) -> bool,
+        first: impl Fn(DVec3, f64) -> bool,
+        second: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) -> usize {
         let (mut near_list, mut far_list) = (
@@ -223,10 +223,10 @@ impl Batcher {
         let all = std::mem::take(&mut self.all);
         for &i in visible.unwrap_or(&all) {
             let (c, r) = (self.centers[i as usize], self.radii[i as usize]);
-            if near(c, r) {
+            if first(c, r) {
                 near_list.push(i);
             }
-            if far(c, r) {
+            if second(c, r) {
                 far_list.push(i);
             }
         }
