@@ -188,7 +188,7 @@ impl Batcher {
         far: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) {
-        out.far_start = Some(self.build_pair(visible, eye, near, far, out));
+        out.far_start = Some(self.build_pair(visible, eye, Some(near), far, out));
     }
 
     /// Like [`Batcher::build`] for `inset`: the wide views' draws get every
@@ -201,16 +201,18 @@ impl Batcher {
         keep: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) {
-        out.inset_start = Some(self.build_pair(visible, eye, |_, _| true, keep, out));
+        let every: Option<fn(DVec3, f64) -> bool> = None;
+        out.inset_start = Some(self.build_pair(visible, eye, every, keep, out));
     }
 
-    /// Two lists in one: the visible instances `first` keeps, then those
-    /// `second` keeps, their draws after the returned index (ids offset).
+    /// Two lists in one: the visible instances `first` keeps (None: all of
+    /// them, grouped without a copy), then those `second` keeps, their
+    /// draws after the returned index (ids offset).
     fn build_pair(
         &mut self,
         visible: Option<&[u32]>,
         eye: DVec3,
-        first: impl Fn(DVec3, f64) -> bool,
+        first: Option<impl Fn(DVec3, f64) -> bool>,
         second: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) -> usize {
@@ -221,18 +223,19 @@ impl Batcher {
         near_list.clear();
         far_list.clear();
         let all = std::mem::take(&mut self.all);
-        for &i in visible.unwrap_or(&all) {
+        let list = visible.unwrap_or(&all);
+        for &i in list {
             let (c, r) = (self.centers[i as usize], self.radii[i as usize]);
-            if first(c, r) {
+            if first.as_ref().is_some_and(|f| f(c, r)) {
                 near_list.push(i);
             }
             if second(c, r) {
                 far_list.push(i);
             }
         }
-        self.all = all;
         let mut tmp = std::mem::take(&mut self.far_tmp);
-        self.group(&near_list, eye, out);
+        self.group(if first.is_some() { &near_list } else { list }, eye, out);
+        self.all = all;
         self.group(&far_list, eye, &mut tmp);
         let offset = out.ids.len() as u32;
         let start = out.draws.len();
