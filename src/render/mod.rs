@@ -91,10 +91,11 @@ pub struct FrameStats {
     /// Draw calls recorded (over both eyes in two-pass mode).
     pub draw_calls: u64,
     /// Instance-primitive pairs drawn (per frame, not per eye; a monoscopic
-    /// far field's pass counts as well).
+    /// far field's pass counts as well, and so does a CPU-built inset's own
+    /// list; with `gpu-cull` the inset draws the GPU's list, counted once).
     pub instances_drawn: u64,
-    /// Triangles submitted per frame (not per eye; a monoscopic far field's
-    /// pass counts as well).
+    /// Triangles submitted per frame (not per eye; counted as
+    /// `instances_drawn` is).
     pub triangles: u64,
     /// CPU times.
     pub cpu_ms: CpuTimes,
@@ -1255,9 +1256,12 @@ impl Renderer {
                 }
                 // The inset scope (the one with a render area) draws the
                 // inset's own list.
-                let near = match area {
-                    Some(_) => batches.inset_draws(),
-                    None => batches.near_draws(),
+                let (near, base) = match area {
+                    Some(_) => (
+                        batches.inset_draws(),
+                        batches.inset_start.unwrap_or(0) as u32,
+                    ),
+                    None => (batches.near_draws(), 0),
                 };
                 let sky = part != ScopePart::First && resolved_sky.is_none();
                 // With lms the scope's contents are drawn once per quadrant
@@ -1288,7 +1292,9 @@ impl Renderer {
                                     .forward
                                     .record_gpu(&rec, gpu, eye, self.slot, sky, late)
                             }
-                            None => draw_calls += passes.forward.record(&rec, near, eye, sky),
+                            None => {
+                                draw_calls += passes.forward.record_from(&rec, near, base, eye, sky)
+                            }
                         },
                     }
                     if floor.is_none() && part != ScopePart::First {

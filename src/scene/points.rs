@@ -284,7 +284,8 @@ pub(crate) fn open_point_file(path: &Path) -> Result<(std::io::BufReader<std::fs
 /// The bounds of a file's points as a first pass over it finds them (f64
 /// world coordinates, already y up), checked as every streaming reader
 /// (PLY, E57) checks them: each point finite, the extent within
-/// [`MAX_EXTENT_M`]; the cloud's origin is the bounds' centre to the metre.
+/// [`MAX_EXTENT_M`]; [`Survey::empty_cloud`] puts the origin at the bounds'
+/// centre to the metre (PLY; E57 reads in one pass and uses its first point).
 #[derive(Clone, Copy, Debug)]
 pub(crate) struct Survey {
     /// Points added so far.

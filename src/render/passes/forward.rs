@@ -69,8 +69,22 @@ impl Forward {
     /// inside the open scope, and the sky when `with_sky`. Returns the draw
     /// calls.
     pub fn record(&self, rec: &Recorder, draws: &[Draw], eye: u32, with_sky: bool) -> u64 {
+        self.record_from(rec, draws, 0, eye, with_sky)
+    }
+
+    /// [`ForwardPass::record`] of `draws` whose first is draw `base` of the
+    /// frame's list (its per-draw record: the inset's own list follows the
+    /// wide views').
+    pub fn record_from(
+        &self,
+        rec: &Recorder,
+        draws: &[Draw],
+        base: u32,
+        eye: u32,
+        with_sky: bool,
+    ) -> u64 {
         let sky = with_sky.then(|| (self.sky, rec.sky_slot(draws)));
-        rec.draw_batches(draws, 0, self.pipelines.get(rec.section), sky, eye)
+        rec.draw_batches(draws, base, self.pipelines.get(rec.section), sky, eye)
     }
 
     /// Draws the run `run` of the frame's list `draws` for view `eye` into
