@@ -19,12 +19,7 @@ fn srgb_to_linear(v: u8) -> f32 {
 }
 
 fn linear_to_srgb(l: f32) -> f32 {
-    let c = if l <= 0.0031308 {
-        l * 12.92
-    } else {
-        1.055 * l.powf(1.0 / 2.4) - 0.055
-    };
-    c * 255.0
+    common::linear_to_srgb(l as f64) as f32
 }
 
 /// `img` sampled at the centre of pixel (x, y) of a `w`×`h` image the way
@@ -104,15 +99,19 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         W / 2,
         H / 2,
     );
-    let mv = render_config(
-        &ctx,
-        &scene,
-        &profile,
-        pose,
-        &config(StereoMode::Multiview, Some(settings), [0.0; 2]),
-        W,
-        H,
-    );
+    // A multiview render with `inset` at `gaze`.
+    let with_inset = |inset: Inset, gaze: [f32; 2]| {
+        render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &config(StereoMode::Multiview, Some(inset), gaze),
+            W,
+            H,
+        )
+    };
+    let mv = with_inset(settings, [0.0; 2]);
     let rect = inset_rect(&fovs, [0.0, 0.0], 15.0, W, H);
     assert!(rect.width() > 20 && rect.width() < W - 20, "{rect:?}");
     for eye in 0..2 {
@@ -179,21 +178,12 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         "{} instance draws with inset against {all} without",
         mv.stats.instances_drawn
     );
-    let narrow = render_config(
-        &ctx,
-        &scene,
-        &profile,
-        pose,
-        &config(
-            StereoMode::Multiview,
-            Some(Inset {
-                half_angle_deg: 3.0,
-                ..settings
-            }),
-            [0.0; 2],
-        ),
-        W,
-        H,
+    let narrow = with_inset(
+        Inset {
+            half_angle_deg: 3.0,
+            ..settings
+        },
+        [0.0; 2],
     );
     assert!(
         inset_list(&narrow) * 4 < all && inset_list(&narrow) < inset_list(&mv),
@@ -202,15 +192,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     );
     // The gaze moves it: to the right, the sharp core follows.
     let gaze = [0.6, 0.0];
-    let moved = render_config(
-        &ctx,
-        &scene,
-        &profile,
-        pose,
-        &config(StereoMode::Multiview, Some(settings), gaze),
-        W,
-        H,
-    );
+    let moved = with_inset(settings, gaze);
     let right = inset_rect(&fovs, gaze, 15.0, W, H);
     assert!(right.x0 > rect.x1 - 10, "{right:?} vs {rect:?}");
     let (inside, same) = core_matches(&moved.images[0], &full.images[0], &right);
@@ -223,15 +205,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     // Off-axis both ways (up-left, down-right): the core stays the full
     // render's pixels with the inset's narrower list.
     for gaze in [[-0.5, -0.5], [0.4, 0.6]] {
-        let moved = render_config(
-            &ctx,
-            &scene,
-            &profile,
-            pose,
-            &config(StereoMode::Multiview, Some(settings), gaze),
-            W,
-            H,
-        );
+        let moved = with_inset(settings, gaze);
         let r = inset_rect(&fovs, gaze, 15.0, W, H);
         for eye in 0..2 {
             let (inside, same) = core_matches(&moved.images[eye], &full.images[eye], &r);

@@ -222,24 +222,6 @@ fn cpu_edl(keys: &[Option<(f32, [u8; 3])>], strength: f64) -> Vec<Option<f64>> {
         .collect()
 }
 
-fn srgb_to_linear(v: u8) -> f64 {
-    let c = v as f64 / 255.0;
-    if c <= 0.04045 {
-        c / 12.92
-    } else {
-        ((c + 0.055) / 1.055).powf(2.4)
-    }
-}
-
-fn linear_to_srgb(l: f64) -> f64 {
-    255.0
-        * if l <= 0.0031308 {
-            l * 12.92
-        } else {
-            1.055 * l.powf(1.0 / 2.4) - 0.055
-        }
-}
-
 /// `edl`: every point pixel takes the shade a CPU form of the composite
 /// computes from the CPU rasterizer's depths (within 2 levels but for the
 /// pixels near a point on a pixel edge); pixels with no nearer neighbour
@@ -287,7 +269,7 @@ fn eye_dome_lighting_shades_points_behind_nearer_ones() {
             let (x, y) = (i as u32 % W, i as u32 / W);
             let got = lit.images[eye].get_pixel(x, y);
             let was = plain.images[eye].get_pixel(x, y);
-            let want = c.map(|v| linear_to_srgb(srgb_to_linear(v) * shade));
+            let want = c.map(|v| common::linear_to_srgb(common::srgb_to_linear(v) * shade));
             close += usize::from((0..3).all(|j| (got[j] as f64 - want[j]).abs() <= 2.0));
             if *shade < 0.8 {
                 dark += 1;

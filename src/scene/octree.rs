@@ -127,6 +127,13 @@ fn cube(positions: &[[f32; 3]]) -> ([f32; 3], f32) {
 /// A point's Morton code and its index in the cloud as given.
 type Keyed = (u64, u32);
 
+/// The Morton code of the cell holding `p` in the cube at `lo` with
+/// `scale` cells per metre.
+fn key(p: &[f32; 3], lo: [f32; 3], scale: f32) -> u64 {
+    let c = |k: usize| (((p[k] - lo[k]) * scale) as u32).min((1 << BITS) - 1);
+    morton([c(0), c(1), c(2)])
+}
+
 /// Ranges at least this long partition in parallel chunks.
 const PARALLEL_RANGE: usize = 1 << 17;
 
@@ -147,15 +154,11 @@ fn build_with(positions: &[[f32; 3]], parallel_range: usize) -> (Octree, Vec<u32
         return (Octree::default(), Vec::new());
     }
     let (lo, size) = cube(positions);
-    let cells = (1u64 << BITS) as f32;
-    let scale = cells / size;
+    let scale = (1u64 << BITS) as f32 / size;
     let mut keyed: Vec<Keyed> = positions
         .par_iter()
         .enumerate()
-        .map(|(i, p)| {
-            let c = |k: usize| (((p[k] - lo[k]) * scale) as u32).min((1 << BITS) - 1);
-            (morton([c(0), c(1), c(2)]), i as u32)
-        })
+        .map(|(i, p)| (key(p, lo, scale), i as u32))
         .collect();
     keyed.par_sort_unstable();
     let mut scratch: Vec<Keyed> = vec![(0, 0); n];
@@ -587,10 +590,7 @@ mod tests {
         let mut keyed: Vec<Keyed> = positions
             .iter()
             .enumerate()
-            .map(|(i, p)| {
-                let c = |k: usize| (((p[k] - lo[k]) * scale) as u32).min((1 << BITS) - 1);
-                (morton([c(0), c(1), c(2)]), i as u32)
-            })
+            .map(|(i, p)| (key(p, lo, scale), i as u32))
             .collect();
         keyed.sort();
         let (mut nodes, mut order) = (Vec::new(), Vec::new());

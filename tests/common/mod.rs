@@ -210,3 +210,14 @@ pub fn srgb_to_linear(c: u8) -> f64 {
         ((c + 0.055) / 1.055).powf(2.4)
     }
 }
+
+/// Linear light as an sRGB code value on 0–255, unrounded (IEC 61966-2-1's
+/// encoding).
+pub fn linear_to_srgb(l: f64) -> f64 {
+    let c = if l <= 0.0031308 {
+        l * 12.92
+    } else {
+        1.055 * l.powf(1.0 / 2.4) - 0.055
+    };
+    c * 255.0
+}
