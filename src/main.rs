@@ -35,6 +35,10 @@ enum Command {
     View(ViewCli),
     /// Time the stereo culling strategies on factory:N along a deterministic head path.
     CullBench(vergence::bench::cull::CullBenchArgs),
+    /// Time an empty 2-layer multiview frame's clear and resolve routes
+    /// (scope clear, transfer clear, depth without stencil, resolve
+    /// attachment, command or compute) on the GPU.
+    RasterFloors(vergence::bench::raster_floors::RasterFloorsArgs),
     /// Measure every optimization alone and combined along a head path:
     /// CPU and GPU time, pacing, counts, memory and image error; writes
     /// results.json, results.csv, report.md and report.html into DIR.
@@ -641,6 +645,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             }
         }
         Command::CullBench(args) => cull_bench(&args)?,
+        Command::RasterFloors(args) => raster_floors(&args)?,
         Command::Bench {
             plan,
             out,
@@ -935,6 +940,17 @@ fn tune(
         out.display(),
         dir.display()
     );
+    Ok(())
+}
+
+fn raster_floors(args: &vergence::bench::raster_floors::RasterFloorsArgs) -> anyhow::Result<()> {
+    let ctx = vergence::gpu::Context::new_headless(vergence::gpu::Validation::from_env())?;
+    let report = vergence::bench::raster_floors::run(&ctx, args)?;
+    if args.json {
+        println!("{}", serde_json::to_string(&report)?);
+    } else {
+        print!("{}", report.to_table());
+    }
     Ok(())
 }
 

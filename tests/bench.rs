@@ -591,3 +591,37 @@ fn flicker_is_zero_for_the_reference_and_larger_without_msaa() {
         .iter()
         .all(|r| r.flicker.is_none()));
 }
+
+#[test]
+fn raster_floors_times_every_route_without_validation_messages() {
+    let out = ok(&[
+        "raster-floors",
+        "--width",
+        "64",
+        "--height",
+        "48",
+        "--repeats",
+        "3",
+        "--json",
+    ]);
+    let report: serde_json::Value = serde_json::from_str(&out).unwrap();
+    assert_eq!(report["extent"], serde_json::json!([64, 48]));
+    assert_eq!(report["samples"], 4);
+    assert_eq!(report["validation_messages"], 0, "{out}");
+    let timings = report["timings"].as_array().unwrap();
+    let names: Vec<&str> = timings
+        .iter()
+        .map(|t| t["variant"]["name"].as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        vergence::bench::raster_floors::VARIANTS
+            .iter()
+            .map(|v| v.name)
+            .collect::<Vec<_>>()
+    );
+    for t in timings {
+        let (p50, min) = (t["p50_ms"].as_f64().unwrap(), t["min_ms"].as_f64().unwrap());
+        assert!(min > 0.0 && min <= p50 && p50.is_finite(), "{t}");
+    }
+}

@@ -226,29 +226,30 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
 }
 
 #[test]
-fn the_gpu_cull_bench_plans_parse_and_their_configs_validate() {
-    for plan in [
-        "gpu-cull.toml",
-        "occlusion.toml",
-        "lod.toml",
-        "ufo-lod.toml",
-        "ufo-lod-1x.toml",
-        "motion.toml",
-        "scale.toml",
-        "default.toml",
-    ] {
-        let path = common::root().join("manifests/bench").join(plan);
-        let plan = vergence::bench::plan::Plan::load(&path).unwrap_or_else(|e| panic!("{e}"));
+fn every_bench_plan_loads_and_its_gpu_cull_configs_validate() {
+    let dir = common::root().join("manifests/bench");
+    let mut plans: Vec<_> = std::fs::read_dir(&dir)
+        .unwrap()
+        .map(|e| e.unwrap().path())
+        .filter(|p| p.extension().is_some_and(|e| e == "toml"))
+        .collect();
+    plans.sort();
+    assert!(plans.len() >= 20, "{} plans", plans.len());
+    let mut gpu_plans = 0;
+    for path in plans {
+        let plan = vergence::bench::plan::Plan::load(&path)
+            .unwrap_or_else(|e| panic!("{}: {e}", path.display()));
         let gpu: Vec<_> = plan
             .configs
             .iter()
             .filter(|c| c.opt.contains("gpu-cull"))
             .collect();
-        assert!(!gpu.is_empty(), "{}: no gpu-cull config", path.display());
+        gpu_plans += usize::from(!gpu.is_empty());
         for c in gpu {
             config(&c.opt)
                 .validate()
-                .unwrap_or_else(|e| panic!("{}: {e}", c.name));
+                .unwrap_or_else(|e| panic!("{}: {}: {e}", path.display(), c.name));
         }
     }
+    assert!(gpu_plans >= 8, "{gpu_plans} plans with gpu-cull configs");
 }

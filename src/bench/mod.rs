@@ -7,6 +7,7 @@ pub mod html;
 pub mod lens;
 pub mod metrics;
 pub mod plan;
+pub mod raster_floors;
 pub mod report;
 pub mod runner;
 pub mod tables;

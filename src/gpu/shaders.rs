@@ -118,9 +118,11 @@ pub static TIMEWARP_SCATTER_COMP: Module = spirv!("timewarp_scatter.comp");
 pub static TIMEWARP_RESOLVE_COMP: Module = spirv!("timewarp_resolve.comp");
 /// Timewarp: the rotation-only homography.
 pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
+/// `raster-floors`: a multisample resolve in compute.
+pub static MSAA_RESOLVE_COMP: Module = spirv!("msaa_resolve.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 40] = [
+pub static ALL: [&Module; 41] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -161,6 +163,7 @@ pub static ALL: [&Module; 40] = [
     &TIMEWARP_SCATTER_COMP,
     &TIMEWARP_RESOLVE_COMP,
     &TIMEWARP_ROTATE_COMP,
+    &MSAA_RESOLVE_COMP,
 ];
 
 /// Every SPIR-V module the renderer uses, by file name (for validation tests).
