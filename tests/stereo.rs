@@ -124,3 +124,48 @@ fn fragment_invocations_scale_with_msaa_off_and_pixels() {
         "4x the pixels -> about 4x the fragments, got {ratio}"
     );
 }
+
+/// The forward scopes start their colour as don't-care when the sky fills
+/// what geometry leaves (no stencil, no far field, no LMS): a frame looking
+/// at the sky after one looking at machines must equal that sky frame
+/// rendered alone, so no pixel shows the earlier frame. With the sky left
+/// out (a mutation) the inset configuration fails here by about 5,950
+/// pixels per eye; the plain scopes do not, as lavapipe shows no earlier
+/// contents through them, so for those this test checks the images only.
+#[test]
+fn frames_that_do_not_clear_colour_still_write_every_pixel() {
+    let ctx = context();
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let scene = load("factory:2000");
+    let (lo, hi) = scene.bounds();
+    let centre = (lo + hi) * 0.5;
+    let machines = Pose::from_euler_deg(centre + DVec3::new(0.0, 1.6, 0.0), 30.0, -10.0, 0.0);
+    let sky = Pose::from_euler_deg(centre + DVec3::new(0.0, 1.6, 0.0), 30.0, 60.0, 0.0);
+    let rigs = [profile.rig(machines), profile.rig(sky)];
+    for opt in [
+        "multiview,superfrustum",
+        "multiview,superfrustum,no-msaa",
+        "two-pass,per-eye",
+        "multiview,superfrustum,inset",
+        "multiview,superfrustum,gpu-cull,occlusion",
+    ] {
+        let mut config = vergence::config::RenderConfig::default();
+        config
+            .apply_opts(opt, &vergence::config::cull_names())
+            .unwrap();
+        let (_, frames) = common::frame_by_frame(&ctx, &scene, &config, &rigs, 96);
+        let (_, alone) = common::frame_by_frame(&ctx, &scene, &config, &rigs[1..], 96);
+        let busy = common::pixels_differing(&frames[0][0], &alone[0][0]);
+        assert!(
+            busy > 96 * 96 / 10,
+            "{opt}: the two views differ ({busy} px)"
+        );
+        for eye in 0..2 {
+            let diff = common::pixels_differing(&frames[1][eye], &alone[0][eye]);
+            assert_eq!(
+                diff, 0,
+                "{opt}: eye {eye}: {diff} pixels kept the last frame"
+            );
+        }
+    }
+}

@@ -57,6 +57,26 @@ impl Validation {
     }
 }
 
+/// Whether depth format `format` has a stencil aspect.
+pub fn has_stencil(format: vk::Format) -> bool {
+    matches!(
+        format,
+        vk::Format::D32_SFLOAT_S8_UINT
+            | vk::Format::D24_UNORM_S8_UINT
+            | vk::Format::D16_UNORM_S8_UINT
+            | vk::Format::S8_UINT
+    )
+}
+
+/// The aspects of depth format `format`: depth, and stencil when it has one.
+pub fn depth_aspect(format: vk::Format) -> vk::ImageAspectFlags {
+    if has_stencil(format) {
+        vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL
+    } else {
+        vk::ImageAspectFlags::DEPTH
+    }
+}
+
 /// Optional device capabilities the renderer may use.
 #[derive(Clone, Copy, Debug, Default, serde::Serialize)]
 pub struct Capabilities {
@@ -71,6 +91,12 @@ pub struct Capabilities {
     /// Depth-stencil format chosen for the depth attachment.
     #[serde(skip)]
     pub depth_format: vk::Format,
+    /// A depth format without stencil for frames that use no stencil
+    /// (D32_SFLOAT where it can be a sampled depth attachment): clearing
+    /// it costs less than a depth-stencil image (H200 at 4x: 0.86 ms per
+    /// frame, `bench/results/2026-12-03-h200-raster-floors.md`).
+    #[serde(skip)]
+    pub depth_only_format: Option<vk::Format>,
     /// VK_KHR_fragment_shading_rate with attachment rates is enabled: the
     /// rate attachment's texel size (None: not offered).
     pub shading_rate_texel: Option<(u32, u32)>,
@@ -770,6 +796,15 @@ impl PartialInstance {
                 .contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT)
         })
         .ok_or_else(|| Error::Gpu("no depth-stencil format with stencil is supported".into()))?;
+        // SAFETY: valid physical device.
+        let d32 = unsafe { inst.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
+        let depth_only_format = d32
+            .optimal_tiling_features
+            .contains(
+                vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
+                    | vk::FormatFeatureFlags::SAMPLED_IMAGE,
+            )
+            .then_some(vk::Format::D32_SFLOAT);
         let caps = Capabilities {
             pipeline_statistics,
             timestamp_period_ns: if timestamp_ok {
@@ -780,6 +815,7 @@ impl PartialInstance {
             lazily_allocated_memory,
             max_samples,
             depth_format,
+            depth_only_format,
             shading_rate_texel,
             fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),

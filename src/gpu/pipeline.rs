@@ -196,7 +196,7 @@ impl GraphicsPipelineDesc<'_> {
             .view_mask(self.view_mask)
             .color_attachment_formats(&formats)
             .depth_attachment_format(self.depth_format)
-            .stencil_attachment_format(self.depth_format);
+            .stencil_attachment_format(stencil_format(self.depth_format));
         let mut fsr = vk::PipelineFragmentShadingRateStateCreateInfoKHR::default()
             .fragment_size(vk::Extent2D {
                 width: 1,
@@ -239,6 +239,16 @@ impl GraphicsPipelineDesc<'_> {
             .vk(&format!("creating pipeline {}", self.name))?[0];
         ctx.set_name(pipeline, self.name);
         Ok(pipeline)
+    }
+}
+
+/// The stencil attachment format that goes with depth format `depth`:
+/// the same format when it has a stencil aspect, else none.
+pub fn stencil_format(depth: vk::Format) -> vk::Format {
+    if crate::gpu::has_stencil(depth) {
+        depth
+    } else {
+        vk::Format::UNDEFINED
     }
 }
 

@@ -26,6 +26,9 @@ pub struct TargetViews {
     pub depth_resolve: Option<vk::ImageView>,
     /// Whether the depth contents must be stored (kept at 1 sample).
     pub store_depth: bool,
+    /// Whether the depth attachment has a stencil aspect (bound as the
+    /// stencil attachment too).
+    pub stencil: bool,
 }
 
 /// One set of attachments (2 layers for multiview, 1 for an eye in two-pass).
@@ -47,8 +50,11 @@ pub struct AttachmentSet {
 }
 
 /// What a set's images must support beyond drawing and resolving.
-#[derive(Clone, Copy, Debug, Default)]
+#[derive(Clone, Copy, Debug)]
 pub struct SetOptions {
+    /// The depth attachment's format (the renderer's: with a stencil
+    /// aspect only when a pass uses stencil).
+    pub depth_format: vk::Format,
     /// Keep a single-sample copy of the frame's depth (for output).
     pub keep_depth: bool,
     /// Add a composed output image (`filled`), written by a pass after the
@@ -73,6 +79,7 @@ impl AttachmentSet {
         opts: SetOptions,
     ) -> Result<AttachmentSet> {
         let SetOptions {
+            depth_format,
             keep_depth,
             composed,
             sampled,
@@ -107,7 +114,7 @@ impl AttachmentSet {
         } else {
             None
         };
-        let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let ds = crate::gpu::depth_aspect(depth_format);
         let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
         let stored_depth = keep_depth && samples == 1;
         let depth_sampled = if occlusion {
@@ -119,7 +126,7 @@ impl AttachmentSet {
             ctx,
             &desc(
                 "depth-stencil",
-                ctx.caps.depth_format,
+                depth_format,
                 s,
                 if stored_depth {
                     depth_usage | depth_sampled | vk::ImageUsageFlags::TRANSFER_SRC
@@ -134,7 +141,7 @@ impl AttachmentSet {
                 ctx,
                 &desc(
                     "depth resolve",
-                    ctx.caps.depth_format,
+                    depth_format,
                     vk::SampleCountFlags::TYPE_1,
                     depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
                     ds,
@@ -218,6 +225,7 @@ impl AttachmentSet {
                 resolve: Some(self.resolve.view),
                 depth_resolve: self.depth_resolve.as_ref().map(|d| d.view),
                 store_depth: false,
+                stencil: crate::gpu::has_stencil(self.depth.format),
             },
             None => TargetViews {
                 color: self.resolve.view,
@@ -225,6 +233,7 @@ impl AttachmentSet {
                 resolve: None,
                 depth_resolve: None,
                 store_depth: self.keep_depth,
+                stencil: crate::gpu::has_stencil(self.depth.format),
             },
         }
     }
@@ -350,7 +359,7 @@ pub fn begin_barriers(sets: &[AttachmentSet]) -> Vec<vk::ImageMemoryBarrier2<'st
         for d in std::iter::once(&set.depth).chain(&set.depth_resolve) {
             add(
                 d,
-                vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
+                crate::gpu::depth_aspect(d.format),
                 vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
                 vk::PipelineStageFlags2::EARLY_FRAGMENT_TESTS
                     | vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS

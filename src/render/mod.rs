@@ -143,6 +143,10 @@ pub struct Renderer {
     allocated: vk::Extent2D,
     /// With `inset`: this frame's inset rectangle (both eyes').
     inset_rect: crate::view::inset::PixelRect,
+    /// The depth attachments' format: the device's depth-stencil format
+    /// when a pass uses stencil (stencil mask, RDM) or the frame's depth
+    /// goes out to a depth swapchain, else a depth-only one where offered.
+    depth_format: vk::Format,
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
@@ -301,8 +305,15 @@ impl Renderer {
             let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
             queries.push(Some(Queries::new(&ctx, 32, stats)?));
         }
+        let stencil =
+            config.stencil_mask || config.rdm.is_some() || output.as_ref().is_some_and(|o| o.depth);
+        let depth_format = match ctx.caps.depth_only_format {
+            Some(f) if !stencil => f,
+            _ => ctx.caps.depth_format,
+        };
         let mut r = Renderer {
             ctx: ctx.clone(),
+            depth_format,
             config: RenderConfig {
                 msaa: samples,
                 ..config.clone()
@@ -380,6 +391,7 @@ impl Renderer {
             samples,
             config.stereo == StereoMode::Multiview,
             SetOptions {
+                depth_format,
                 // The depth variants of the timewarp read the frame's depth;
                 // the rotation-only one does not.
                 keep_depth: output.is_some_and(|o| o.depth)
@@ -468,6 +480,7 @@ impl Renderer {
             samples: self.config.msaa,
             view_mask: self.view_mask(),
             stencil_test: self.config.stencil_mask || self.config.rdm.is_some(),
+            depth_format: self.depth_format,
             shading_rate: self.shading_rate.is_some(),
             scene: self.scene(),
             keys: &self.batcher.keys,
@@ -1157,6 +1170,17 @@ impl Renderer {
         // With `resolved-sky` the sky is drawn after the resolve, not in
         // the scopes (floor frames draw no sky either way).
         let resolved_sky = passes.resolved_sky.as_ref().filter(|_| floor.is_none());
+        // Every colour sample is written when the sky is drawn inside the
+        // scopes and no stencil (hidden-area mask, RDM's checkerboard)
+        // keeps draws out; the far field's composite is not counted on, nor
+        // LMS's quadrants (their resample filters across the quadrant
+        // edges, past what the per-quadrant sky covers). Floor frames start
+        // their colour the same way as the frame.
+        let colour_covered = resolved_sky.is_none()
+            && passes.stencil_mask.is_none()
+            && passes.rdm.is_none()
+            && passes.far.is_none()
+            && passes.lms.is_none();
         let parts: &[ScopePart] = match occlusion {
             Some(_) => &[ScopePart::First, ScopePart::Second],
             None => &[ScopePart::Whole],
@@ -1231,6 +1255,7 @@ impl Renderer {
                     shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
                     secondaries: parallel.is_some(),
                     sky_after_resolve: resolved_sky.is_some(),
+                    colour_covered,
                 });
                 if let Some(par) = parallel {
                     // SAFETY: inside a scope begun for secondary contents;
@@ -1377,7 +1402,7 @@ impl Renderer {
         let format = |&(view_mask, _): &(u32, u32)| ScopeFormat {
             view_mask,
             color: attachments::COLOR_FORMAT,
-            depth: self.ctx.caps.depth_format,
+            depth: self.depth_format,
             samples: self.config.msaa,
             stats,
         };
@@ -1465,7 +1490,7 @@ impl Renderer {
     pub fn read_depth(&mut self) -> Result<[Vec<f32>; 2]> {
         self.finish()?;
         self.readback
-            .depth(self.readback.extent(), self.ctx.caps.depth_format)
+            .depth(self.readback.extent(), self.depth_format)
     }
 
     /// Whether this device offers per-view render areas

@@ -473,7 +473,7 @@ impl ParallelRecording {
                     .view_mask(fmt.view_mask)
                     .color_attachment_formats(&colors)
                     .depth_attachment_format(fmt.depth)
-                    .stencil_attachment_format(fmt.depth)
+                    .stencil_attachment_format(crate::gpu::pipeline::stencil_format(fmt.depth))
                     .rasterization_samples(vk::SampleCountFlags::from_raw(fmt.samples));
                 let inheritance = vk::CommandBufferInheritanceInfo::default()
                     .pipeline_statistics(fmt.stats.unwrap_or_default())

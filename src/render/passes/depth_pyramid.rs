@@ -30,6 +30,8 @@ pub struct DepthPyramid {
     views: Vec<vk::ImageView>,
     /// The depth images (one per attachment set).
     images: Vec<(vk::Image, u32)>,
+    /// Their aspects (depth, and stencil when the format has one).
+    aspect: vk::ImageAspectFlags,
     extent: vk::Extent2D,
     samples: u32,
     layered: bool,
@@ -75,6 +77,7 @@ impl DepthPyramid {
                 .iter()
                 .map(|s| (s.depth.image, s.depth.layers))
                 .collect(),
+            aspect: crate::gpu::depth_aspect(targets.sets[0].depth.format),
             extent,
             samples,
             layered: targets.sets.len() == 1,
@@ -228,7 +231,7 @@ impl DepthPyramid {
     /// the late cull.
     pub fn record(&self, ctx: &Context, cmd: vk::CommandBuffer, q: &mut Queries, slot: usize) {
         let d = &ctx.device;
-        let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
+        let ds = self.aspect;
         let to_read: Vec<_> = self
             .images
             .iter()

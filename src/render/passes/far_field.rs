@@ -118,8 +118,11 @@ impl FarField {
                 setup.samples,
                 1,
                 SetOptions {
+                    depth_format: setup.depth_format,
+                    keep_depth: false,
+                    composed: false,
                     sampled: true,
-                    ..SetOptions::default()
+                    occlusion: false,
                 },
             )?);
         }
@@ -324,6 +327,7 @@ impl FarField {
             rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
             rec.begin_scope(&Scope {
                 sky_after_resolve: false,
+                colour_covered: false,
                 part: ScopePart::Whole,
                 views: set.views(),
                 area: None,

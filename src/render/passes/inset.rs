@@ -47,7 +47,14 @@ impl InsetPass {
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
         let wide_extent = crate::render::scaled(extent, scale);
-        let wide = SampledSets::new(ctx, wide_extent, samples, multiview, "inset composite")?;
+        let wide = SampledSets::new(
+            ctx,
+            wide_extent,
+            samples,
+            multiview,
+            setup.depth_format,
+            "inset composite",
+        )?;
         let (vs, fs) = (
             shaders::FLOOR_VERT.words(),
             shaders::INSET_COMPOSITE_FRAG.words(),

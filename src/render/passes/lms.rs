@@ -69,7 +69,14 @@ impl LmsPass {
             width: layout.size[0],
             height: layout.size[1],
         };
-        let targets = SampledSets::new(ctx, size, samples, multiview, "LMS resample")?;
+        let targets = SampledSets::new(
+            ctx,
+            size,
+            samples,
+            multiview,
+            setup.depth_format,
+            "LMS resample",
+        )?;
         let (vs, fs) = (
             shaders::FLOOR_VERT.words(),
             shaders::LMS_RESAMPLE_FRAG.words(),

@@ -190,6 +190,9 @@ pub struct PipelineSetup<'a> {
     pub view_mask: u32,
     /// Whether draws test stencil (stencil mask or RDM on).
     pub stencil_test: bool,
+    /// The depth attachments' format (with a stencil aspect when
+    /// `stencil_test` or the frame's depth output needs one).
+    pub depth_format: vk::Format,
     /// Whether the forward views have a fragment-shading-rate attachment.
     pub shading_rate: bool,
     /// The scene (vertex streams in use, texture count, features).
@@ -272,7 +275,7 @@ impl PipelineSetup<'_> {
             color_write: vk::ColorComponentFlags::RGBA,
             samples: vk::SampleCountFlags::from_raw(self.samples),
             color_format: COLOR_FORMAT,
-            depth_format: self.ctx.caps.depth_format,
+            depth_format: self.depth_format,
             view_mask: self.view_mask,
             layout: self.layout,
             shading_rate_attachment: self.shading_rate,
@@ -622,6 +625,13 @@ pub struct Scope {
     /// to transparent black so the resolved alpha is each pixel's
     /// coverage ([`resolved_sky`]).
     pub sky_after_resolve: bool,
+    /// The scope's draws write every sample's colour (the sky, drawn at
+    /// the far plane inside the frame's scopes, fills what geometry
+    /// leaves, and no stencil keeps it out), so the colour is not cleared
+    /// but started as don't-care. On the H200 at 4x the colour clear is
+    /// 2.56 ms of an empty frame's 6.68
+    /// (`bench/results/2026-12-03-h200-raster-floors.md`).
+    pub colour_covered: bool,
 }
 
 /// Records a frame's commands: the command buffer, the device, this frame
@@ -690,10 +700,14 @@ impl Recorder<'_> {
         } else {
             vk::AttachmentLoadOp::CLEAR
         };
+        let colour_load = match load {
+            vk::AttachmentLoadOp::CLEAR if scope.colour_covered => vk::AttachmentLoadOp::DONT_CARE,
+            l => l,
+        };
         let mut color = vk::RenderingAttachmentInfo::default()
             .image_view(views.color)
             .image_layout(vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL)
-            .load_op(load)
+            .load_op(colour_load)
             .store_op(vk::AttachmentStoreOp::STORE)
             .clear_value(vk::ClearValue {
                 color: vk::ClearColorValue {
@@ -760,8 +774,10 @@ impl Recorder<'_> {
             .layer_count(1)
             .view_mask(scope.view_mask)
             .color_attachments(&colors)
-            .depth_attachment(&depth)
-            .stencil_attachment(&depth);
+            .depth_attachment(&depth);
+        if views.stencil {
+            info = info.stencil_attachment(&depth);
+        }
         if let Some(r) = rate_info.as_mut() {
             info = info.push_next(r);
         }

@@ -73,7 +73,6 @@ impl OutputCopy {
         }
         let d = &ctx.device;
         let (w, h) = (extent.width, extent.height);
-        let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
         let barrier = barrier::image;
         let color_out = Use::COLOR_ATTACHMENT;
         let depth_out = Use {
@@ -93,6 +92,9 @@ impl OutputCopy {
             before.push(barrier(out.color[i], c, layers, color_out.discarded(), dst));
             after.push(barrier(out.color[i], c, layers, dst, color_out));
             if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
+                // The renderer keeps the depth-stencil format when its
+                // depth goes out, so both images share these aspects.
+                let ds = crate::gpu::depth_aspect(depth.format);
                 before.push(barrier(depth.image, ds, layers, depth_out, src));
                 before.push(barrier(
                     out.depth[i],
@@ -291,7 +293,6 @@ impl Readback {
         }
         self.depth = depth;
         if depth {
-            let ds = vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL;
             // Written by the depth tests (kept depth at 1 sample) or by the
             // depth resolve, which runs in the colour-output stage with
             // colour-attachment writes.
@@ -310,6 +311,7 @@ impl Readback {
             };
             for set in &targets.sets {
                 let img = set.depth_output().expect("checked above");
+                let ds = crate::gpu::depth_aspect(img.format);
                 let layers = set.resolve.layers;
                 to_src.push(barrier::image(img.image, ds, layers, rendered, read));
                 let done = Use {

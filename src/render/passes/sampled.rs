@@ -28,11 +28,15 @@ impl SampledSets {
         extent: vk::Extent2D,
         samples: u32,
         multiview: bool,
+        depth_format: vk::Format,
         what: &str,
     ) -> Result<SampledSets> {
         let opts = SetOptions {
+            depth_format,
+            keep_depth: false,
+            composed: false,
             sampled: true,
-            ..SetOptions::default()
+            occlusion: false,
         };
         let mut made = SampledSets {
             sets: Attachments::new(ctx, extent, samples, multiview, opts)?.sets,
