@@ -1,4 +1,6 @@
 #version 450
+#extension GL_GOOGLE_include_directive : require
+#include "srgb.glsl"
 // A multisample resolve in a compute shader (`vergence raster-floors`'
 // compute-resolve variants): pixel (x, y) of layer z is the mean of its
 // samples, averaged in linear light (the colour image is sRGB, so the
@@ -14,12 +16,6 @@ layout(push_constant) uniform Push {
     uvec4 size;   // width, height, layers, samples
 } pc;
 
-vec3 encode_srgb(vec3 c) {
-    vec3 lo = c * 12.92;
-    vec3 hi = 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055;
-    return mix(hi, lo, lessThanEqual(c, vec3(0.0031308)));
-}
-
 void main() {
     uvec3 p = gl_GlobalInvocationID;
     if (p.x >= pc.size.x || p.y >= pc.size.y || p.z >= pc.size.z) {
@@ -30,5 +26,5 @@ void main() {
         sum += texelFetch(colour, ivec3(p), int(s));
     }
     vec4 mean = sum / float(pc.size.w);
-    imageStore(resolved, ivec3(p), vec4(encode_srgb(clamp(mean.rgb, 0.0, 1.0)), mean.a));
+    imageStore(resolved, ivec3(p), vec4(encode_srgb(mean.rgb), mean.a));
 }

@@ -332,6 +332,7 @@ fn make_targets(ctx: &Context, extent: vk::Extent2D, samples: u32) -> Result<Tar
         usage,
         aspect,
         category: "raster floors",
+        flags: vk::ImageCreateFlags::empty(),
     };
     let ms = vk::SampleCountFlags::from_raw(samples);
     let one = vk::SampleCountFlags::TYPE_1;

@@ -198,6 +198,9 @@ pub struct ImageDesc<'a> {
     pub aspect: vk::ImageAspectFlags,
     /// Statistics category.
     pub category: &'static str,
+    /// Creation flags (e.g. MUTABLE_FORMAT with EXTENDED_USAGE for an sRGB
+    /// image a compute shader writes through a UNORM view).
+    pub flags: vk::ImageCreateFlags,
 }
 
 impl<'a> ImageDesc<'a> {
@@ -223,6 +226,7 @@ impl<'a> ImageDesc<'a> {
                 | vk::ImageUsageFlags::TRANSFER_SRC,
             aspect: vk::ImageAspectFlags::COLOR,
             category,
+            flags: vk::ImageCreateFlags::empty(),
         }
     }
 }
@@ -232,6 +236,7 @@ impl Image {
     pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image> {
         let d = &ctx.device;
         let info = vk::ImageCreateInfo::default()
+            .flags(desc.flags)
             .image_type(vk::ImageType::TYPE_2D)
             .format(desc.format)
             .extent(vk::Extent3D {
@@ -304,15 +309,21 @@ impl Image {
         } else {
             vk::ImageViewType::TYPE_2D_ARRAY
         };
-        let view = Self::make_view(
+        // With extended usage the image's own (all-layer) view keeps only
+        // the uses its format has: storage goes through another view.
+        let view_usage = desc
+            .flags
+            .contains(vk::ImageCreateFlags::EXTENDED_USAGE)
+            .then(|| desc.usage & !vk::ImageUsageFlags::STORAGE);
+        let view = Self::view_for(
             ctx,
             image,
             desc.format,
             desc.aspect,
             view_type,
-            0,
-            desc.layers,
+            (0, desc.layers),
             desc.mips,
+            view_usage,
         )?;
         ctx.set_name(image, desc.name);
         Ok(Image {
@@ -340,7 +351,34 @@ impl Image {
         count: u32,
         mips: u32,
     ) -> Result<vk::ImageView> {
-        let info = vk::ImageViewCreateInfo::default()
+        Self::view_for(
+            ctx,
+            image,
+            format,
+            aspect,
+            view_type,
+            (first, count),
+            mips,
+            None,
+        )
+    }
+
+    /// Like [`Image::make_view`], the view's usage limited to `usage` when
+    /// given (an image with extended usage has uses its own format lacks:
+    /// each view keeps only what its format supports).
+    #[allow(clippy::too_many_arguments)]
+    pub fn view_for(
+        ctx: &Context,
+        image: vk::Image,
+        format: vk::Format,
+        aspect: vk::ImageAspectFlags,
+        view_type: vk::ImageViewType,
+        (first, count): (u32, u32),
+        mips: u32,
+        usage: Option<vk::ImageUsageFlags>,
+    ) -> Result<vk::ImageView> {
+        let mut limited = usage.map(|u| vk::ImageViewUsageCreateInfo::default().usage(u));
+        let mut info = vk::ImageViewCreateInfo::default()
             .image(image)
             .view_type(view_type)
             .format(format)
@@ -351,6 +389,9 @@ impl Image {
                 base_array_layer: first,
                 layer_count: count,
             });
+        if let Some(l) = limited.as_mut() {
+            info = info.push_next(l);
+        }
         // SAFETY: valid view of a live image.
         unsafe { ctx.device.create_image_view(&info, None) }.vk("creating an image view")
     }

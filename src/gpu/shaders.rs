@@ -55,8 +55,8 @@ pub static HIDDEN_VERT: Module = spirv!("hidden.vert");
 pub static RDM_FRAG: Module = spirv!("rdm.frag");
 /// Radial density masking's reconstruction.
 pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
-/// The inset composite (multi-resolution foveated rendering).
-pub static INSET_COMPOSITE_FRAG: Module = spirv!("inset_composite.frag");
+/// The inset composite (multi-resolution foveated rendering), in compute.
+pub static INSET_COMPOSITE_COMP: Module = spirv!("inset_composite.comp");
 /// Point clouds: the compute rasterizer (64-bit atomic max per pixel).
 pub static POINTS_RASTER_COMP: Module = spirv!("points_raster.comp");
 /// Point clouds: the keys into the forward scope, with depth.
@@ -134,7 +134,7 @@ pub static ALL: [&Module; 41] = [
     &HIDDEN_VERT,
     &RDM_FRAG,
     &RDM_FILL_FRAG,
-    &INSET_COMPOSITE_FRAG,
+    &INSET_COMPOSITE_COMP,
     &LMS_RESAMPLE_FRAG,
     &POINTS_RASTER_COMP,
     &POINTS_COMPOSITE_FRAG,

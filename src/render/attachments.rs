@@ -47,6 +47,9 @@ pub struct AttachmentSet {
     /// writes (the frame's output), and a 2D-array view of `resolve` it
     /// samples.
     pub filled: Option<(Image, vk::ImageView)>,
+    /// A UNORM 2D-array view of the composed output for compute writes
+    /// (with [`SetOptions::storage_output`]).
+    pub filled_storage: Option<vk::ImageView>,
 }
 
 /// What a set's images must support beyond drawing and resolving.
@@ -63,6 +66,10 @@ pub struct SetOptions {
     pub composed: bool,
     /// Make the resolve image sampleable.
     pub sampled: bool,
+    /// The composed output image is written by a compute shader (the
+    /// inset composite): it gets storage use and a UNORM view
+    /// ([`AttachmentSet::filled_storage`]).
+    pub storage_output: bool,
     /// Occlusion culling: the frame is drawn in two rendering scopes, so
     /// the multisampled colour and depth are stored between them (not
     /// transient), and the depth is sampleable (the depth pyramid).
@@ -83,6 +90,7 @@ impl AttachmentSet {
             keep_depth,
             composed,
             sampled,
+            storage_output,
             occlusion,
         } = opts;
         let s = vk::SampleCountFlags::from_raw(samples);
@@ -101,6 +109,7 @@ impl AttachmentSet {
             usage,
             aspect,
             category: "render target",
+            flags: vk::ImageCreateFlags::empty(),
         };
         let color_msaa = if samples > 1 {
             let d = desc(
@@ -167,15 +176,27 @@ impl AttachmentSet {
             ),
         )?;
         let filled = if composed {
+            let plain = desc(
+                "composed output",
+                COLOR_FORMAT,
+                vk::SampleCountFlags::TYPE_1,
+                usage,
+                vk::ImageAspectFlags::COLOR,
+            );
+            // sRGB has no storage use: the image is made mutable with
+            // extended usage and written through a UNORM view.
             let img = Image::new(
                 ctx,
-                &desc(
-                    "composed output",
-                    COLOR_FORMAT,
-                    vk::SampleCountFlags::TYPE_1,
-                    usage,
-                    vk::ImageAspectFlags::COLOR,
-                ),
+                &if storage_output {
+                    ImageDesc {
+                        usage: usage | vk::ImageUsageFlags::STORAGE,
+                        flags: vk::ImageCreateFlags::MUTABLE_FORMAT
+                            | vk::ImageCreateFlags::EXTENDED_USAGE,
+                        ..plain
+                    }
+                } else {
+                    plain
+                },
             )?;
             let view = Image::make_view(
                 ctx,
@@ -191,6 +212,19 @@ impl AttachmentSet {
         } else {
             None
         };
+        let filled_storage = match (&filled, storage_output) {
+            (Some((img, _)), true) => Some(Image::view_for(
+                ctx,
+                img.image,
+                vk::Format::R8G8B8A8_UNORM,
+                vk::ImageAspectFlags::COLOR,
+                vk::ImageViewType::TYPE_2D_ARRAY,
+                (0, layers),
+                1,
+                Some(vk::ImageUsageFlags::STORAGE),
+            )?),
+            _ => None,
+        };
         Ok(AttachmentSet {
             color_msaa,
             depth,
@@ -198,6 +232,7 @@ impl AttachmentSet {
             depth_resolve,
             keep_depth,
             filled,
+            filled_storage,
         })
     }
 
@@ -247,6 +282,10 @@ impl AttachmentSet {
         self.resolve.destroy(ctx);
         if let Some(d) = self.depth_resolve {
             d.destroy(ctx);
+        }
+        if let Some(view) = self.filled_storage {
+            // SAFETY: the GPU is idle when attachments are destroyed.
+            unsafe { ctx.device.destroy_image_view(view, None) };
         }
         if let Some((img, view)) = self.filled {
             // SAFETY: the GPU is idle when attachments are destroyed.

@@ -254,6 +254,7 @@ impl DistortionPreview {
                 usage: vk::ImageUsageFlags::SAMPLED | vk::ImageUsageFlags::TRANSFER_DST,
                 aspect: color,
                 category: "preview",
+                flags: vk::ImageCreateFlags::empty(),
             },
         )?;
         let compute = method == Method::Compute;
@@ -274,6 +275,7 @@ impl DistortionPreview {
                 usage: target_usage | vk::ImageUsageFlags::TRANSFER_SRC,
                 aspect: color,
                 category: "preview",
+                flags: vk::ImageCreateFlags::empty(),
             },
         )?;
         let view = |layer| {

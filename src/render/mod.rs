@@ -402,9 +402,13 @@ impl Renderer {
                     || config.inset.is_some()
                     || config.lms.is_some(),
                 sampled: false,
+                storage_output: config.inset.is_some(),
                 occlusion: config.occlusion,
             },
         )?);
+        if let (Some(inset), Some(targets)) = (&r.passes.inset, &r.targets) {
+            inset.bind(&ctx, targets);
+        }
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
             let occlusion = config.occlusion.then(|| (r.targets(), config.near as f32));
@@ -527,14 +531,6 @@ impl Renderer {
             (None, Some(v)) => v,
             (None, None) => return,
         };
-        // With inset, the composite's frames take the bindings RDM's fill
-        // and MFFR's far field use (neither combines with inset).
-        let inset = self
-            .passes
-            .inset
-            .as_ref()
-            .zip(self.targets.as_ref())
-            .and_then(|(p, targets)| p.images(targets));
         let contents = SetContents {
             frame: &self.ubos[slot],
             scene: self.scene(),
@@ -545,15 +541,12 @@ impl Renderer {
                 .rdm
                 .as_ref()
                 .zip(self.targets.as_ref())
-                .and_then(|(rdm, targets)| rdm.filled_images(targets))
-                .or(inset.map(|i| i.0)),
-            far_field: self
+                .and_then(|(rdm, targets)| rdm.filled_images(targets)),
+            far_field: self.passes.far.as_ref().map(FarField::images).or(self
                 .passes
-                .far
+                .lms
                 .as_ref()
-                .map(FarField::images)
-                .or(inset.map(|i| i.1))
-                .or(self.passes.lms.as_ref().and_then(|l| l.images())),
+                .and_then(|l| l.images())),
             points: self.passes.points.as_ref().map(|p| p.keys(slot)),
         };
         self.descriptors.write(&self.ctx, slot, &contents);
@@ -1340,14 +1333,8 @@ impl Renderer {
             draw_calls += lms.record_resample(&rec, q, targets, self.extent, self.view_mask());
         }
         if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
-            draw_calls += inset.record_composite(
-                &rec,
-                q,
-                targets,
-                self.extent,
-                self.view_mask(),
-                self.inset_rect,
-            );
+            // A dispatch per set, not a draw: not counted in draw_calls.
+            inset.record_composite(&rec, q, targets, self.extent, self.inset_rect);
         }
         q.end_stats(ctx, cmd);
         draw_calls

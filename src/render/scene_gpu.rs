@@ -456,6 +456,7 @@ fn upload_texture(
                 | vk::ImageUsageFlags::TRANSFER_SRC,
             aspect: vk::ImageAspectFlags::COLOR,
             category: "texture",
+            flags: vk::ImageCreateFlags::empty(),
         },
     )?;
     let staging = Buffer::with_data(

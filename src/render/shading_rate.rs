@@ -92,6 +92,7 @@ impl ShadingRate {
                         | vk::ImageUsageFlags::TRANSFER_DST,
                     aspect: vk::ImageAspectFlags::COLOR,
                     category: "render target",
+                    flags: vk::ImageCreateFlags::empty(),
                 },
             )?);
         }

@@ -122,6 +122,7 @@ impl FarField {
                     keep_depth: false,
                     composed: false,
                     sampled: true,
+                    storage_output: false,
                     occlusion: false,
                 },
             )?);

@@ -4,7 +4,9 @@
 //! full size but only inside the inset rectangle around the gaze — render
 //! area and scissor limited to it, so only its pixels are rasterized,
 //! cleared and resolved (`forward-inset`). The composite (`inset-composite`,
-//! `shaders/inset_composite.frag`) then writes the eye image: the wide view
+//! `shaders/inset_composite.comp`, a compute pass: on a GPU with little
+//! raster hardware a full-resolution fragment pass is the dearer way) then
+//! writes the eye image: the wide view
 //! upsampled bilinearly, the inset over it with a feathered seam
 //! ([`crate::view::inset`] has the rectangle and the weight). Culling tests
 //! each eye once: the wide views draw the eye's visible list, the inset
@@ -17,8 +19,10 @@
 //! resolution.
 
 use super::sampled::SampledSets;
-use super::{destroy_pipelines, PipelineSetup, Recorder};
+use super::{PipelineSetup, Recorder};
 use crate::error::Result;
+use crate::gpu::barrier::{self, Use};
+use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
@@ -26,12 +30,28 @@ use crate::render::attachments::Attachments;
 use crate::view::inset::PixelRect;
 use ash::vk;
 
-/// The wide view's targets, the composite pipeline and its sampler.
+/// A rendered frame read by the composite's compute shader.
+const COMPUTE_SAMPLED: Use = Use {
+    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::SHADER_SAMPLED_READ,
+};
+
+/// The composed output while the compute shader writes it.
+const COMPUTE_WRITE: Use = Use {
+    layout: vk::ImageLayout::GENERAL,
+    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+    access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
+};
+
+/// The wide view's targets and the composite's compute pipeline with its
+/// one descriptor set (the frames do not change between frame slots).
 pub struct InsetPass {
     /// The wide view's attachment sets at F × the eye size (as the eye's:
     /// one 2-layer set under multiview, one per eye in two-pass), resolved
     /// images sampled.
     pub wide: SampledSets,
+    sets: DescriptorSets,
     composite: vk::Pipeline,
 }
 
@@ -55,67 +75,188 @@ impl InsetPass {
             setup.depth_format,
             "inset composite",
         )?;
-        let (vs, fs) = (
-            shaders::FLOOR_VERT.words(),
-            shaders::INSET_COMPOSITE_FRAG.words(),
-        );
-        let desc = setup.composed_desc("inset composite", &vs, &fs);
-        match desc.build(ctx) {
-            Ok(composite) => Ok(InsetPass { wide, composite }),
+        let stage = vk::ShaderStageFlags::COMPUTE;
+        let sets = match DescriptorSets::new(
+            ctx,
+            &[
+                (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, 2, stage),
+                (vk::DescriptorType::COMBINED_IMAGE_SAMPLER, 2, stage),
+                (vk::DescriptorType::STORAGE_IMAGE, 2, stage),
+            ],
+            stage,
+            16,
+            1,
+            "inset composite",
+        ) {
+            Ok(s) => s,
             Err(e) => {
+                wide.destroy(ctx);
+                return Err(e);
+            }
+        };
+        match compute_pipeline(
+            ctx,
+            sets.layout,
+            &shaders::INSET_COMPOSITE_COMP.words(),
+            "inset composite",
+        ) {
+            Ok(composite) => Ok(InsetPass {
+                wide,
+                sets,
+                composite,
+            }),
+            Err(e) => {
+                sets.destroy(ctx);
                 wide.destroy(ctx);
                 Err(e)
             }
         }
     }
 
-    /// What the composite samples: per attachment set the eye's resolved
-    /// frame (binding 6) and the wide view's (binding 7), the second
-    /// repeating the first under multiview.
-    pub fn images(
-        &self,
-        targets: &Attachments,
-    ) -> Option<([vk::DescriptorImageInfo; 2], [vk::DescriptorImageInfo; 2])> {
+    /// Writes the composite's descriptor set for the frame's `targets`:
+    /// per attachment set the eye's resolved frame (binding 0), the wide
+    /// view's (binding 1) and the composed output's UNORM view (binding
+    /// 2), the second element repeating the first under multiview. Call
+    /// once the targets exist, before the first frame.
+    pub fn bind(&self, ctx: &Context, targets: &Attachments) {
         let eye: Vec<vk::ImageView> = targets
             .sets
             .iter()
             .filter_map(|s| s.filled.as_ref().map(|f| f.1))
             .collect();
-        let e0 = *eye.first()?;
+        let out: Vec<vk::ImageView> = targets
+            .sets
+            .iter()
+            .filter_map(|s| s.filled_storage)
+            .collect();
+        let (Some(wide), Some(&e0), Some(&o0)) = (self.wide.infos(), eye.first(), out.first())
+        else {
+            return;
+        };
         let e1 = eye.get(1).copied().unwrap_or(e0);
-        Some(([self.wide.info(e0), self.wide.info(e1)], self.wide.infos()?))
+        let o1 = out.get(1).copied().unwrap_or(o0);
+        let frames = [self.wide.info(e0), self.wide.info(e1)];
+        let storage = [o0, o1].map(|v| vk::DescriptorImageInfo {
+            sampler: vk::Sampler::null(),
+            image_view: v,
+            image_layout: vk::ImageLayout::GENERAL,
+        });
+        let set = self.sets.sets[0];
+        let write = |binding, ty| {
+            vk::WriteDescriptorSet::default()
+                .dst_set(set)
+                .dst_binding(binding)
+                .descriptor_type(ty)
+        };
+        let sampler = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
+        let writes = [
+            write(0, sampler).image_info(&frames),
+            write(1, sampler).image_info(&wide),
+            write(2, vk::DescriptorType::STORAGE_IMAGE).image_info(&storage),
+        ];
+        // SAFETY: no frame has used the set yet; the views are live.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
     /// After both views of every set: their resolved frames are made
-    /// readable and each set's output image is written from them. Returns
-    /// the draw calls.
+    /// readable, each set's output image is written from them by the
+    /// compute shader over `extent`, and handed on as a written colour
+    /// attachment (what the output copy and read-back expect).
     pub fn record_composite(
         &self,
         rec: &Recorder,
         q: &mut Queries,
         targets: &Attachments,
         extent: vk::Extent2D,
-        view_mask: u32,
         rect: PixelRect,
-    ) -> u64 {
+    ) {
+        let colour = vk::ImageAspectFlags::COLOR;
+        let outputs = targets
+            .sets
+            .iter()
+            .filter_map(|s| s.filled.as_ref().map(|f| &f.0));
+        let mut before: Vec<_> = targets
+            .sets
+            .iter()
+            .chain(&self.wide.sets)
+            .map(|s| {
+                let r = &s.resolve;
+                barrier::image(
+                    r.image,
+                    colour,
+                    r.layers,
+                    Use::COLOR_ATTACHMENT,
+                    COMPUTE_SAMPLED,
+                )
+            })
+            .collect();
+        before.extend(outputs.clone().map(|o| {
+            barrier::image(
+                o.image,
+                colour,
+                o.layers,
+                Use::COLOR_ATTACHMENT.discarded(),
+                COMPUTE_WRITE,
+            )
+        }));
+        let after: Vec<_> = outputs
+            .map(|o| {
+                barrier::image(
+                    o.image,
+                    colour,
+                    o.layers,
+                    COMPUTE_WRITE,
+                    Use::COLOR_ATTACHMENT,
+                )
+            })
+            .collect();
         let lo = rect.x0 | rect.y0 << 16;
         let hi = rect.x1 | rect.y1 << 16;
         let feather = crate::view::inset::FEATHER_PX.to_bits();
-        super::record_composed(
-            rec,
-            q,
-            "inset-composite",
-            targets,
-            targets.sets.iter().chain(&self.wide.sets),
-            (extent, view_mask),
-            self.composite,
-            |eye| [lo, eye, hi, feather],
-        )
+        let d = &rec.ctx.device;
+        q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
+        rec.barriers(&before);
+        // SAFETY: recording outside any rendering scope into the frame's
+        // command buffer; the set was written by `bind` for these targets.
+        unsafe {
+            d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::COMPUTE, self.composite);
+            d.cmd_bind_descriptor_sets(
+                rec.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                self.sets.layout,
+                0,
+                &self.sets.sets,
+                &[],
+            );
+            for (i, set) in targets.sets.iter().enumerate() {
+                let Some((out, _)) = &set.filled else {
+                    continue;
+                };
+                let push = [lo, hi, feather, i as u32];
+                d.cmd_push_constants(
+                    rec.cmd,
+                    self.sets.layout,
+                    vk::ShaderStageFlags::COMPUTE,
+                    0,
+                    crate::gpu::memory::as_bytes(&push),
+                );
+                d.cmd_dispatch(
+                    rec.cmd,
+                    extent.width.div_ceil(8),
+                    extent.height.div_ceil(8),
+                    out.layers,
+                );
+            }
+        }
+        rec.barriers(&after);
+        q.end_pass(rec.ctx, rec.cmd);
     }
 
-    /// Destroys the targets and pipeline; the device must be idle.
+    /// Destroys the targets, pipeline and set; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
-        destroy_pipelines(ctx, [&self.composite]);
+        // SAFETY: the device is idle; the pipeline belongs to `self`.
+        unsafe { ctx.device.destroy_pipeline(self.composite, None) };
+        self.sets.destroy(ctx);
         self.wide.destroy(ctx);
     }
 }

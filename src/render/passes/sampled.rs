@@ -36,6 +36,7 @@ impl SampledSets {
             keep_depth: false,
             composed: false,
             sampled: true,
+            storage_output: false,
             occlusion: false,
         };
         let mut made = SampledSets {

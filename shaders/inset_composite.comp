@@ -1,0 +1,57 @@
+#version 450
+#extension GL_GOOGLE_include_directive : require
+#include "srgb.glsl"
+// Multi-resolution foveated rendering's composite (src/view/inset.rs), in
+// compute: the eye pixel takes the wide view, bilinearly upsampled from
+// its lower resolution at the same image position (the sampler decodes
+// sRGB before filtering), and inside the inset rectangle the
+// full-density inset, fading over `feather` pixels inside its edge (the
+// same weight as view::inset::weight, at the pixel centre). One
+// invocation per pixel of layer gl_GlobalInvocationID.z of attachment set
+// pc.set; the result is encoded to sRGB and stored through the output
+// image's UNORM view.
+layout(local_size_x = 8, local_size_y = 8, local_size_z = 1) in;
+
+layout(set = 0, binding = 0) uniform sampler2DArray inset_frames[2];
+layout(set = 0, binding = 1) uniform sampler2DArray wide_frames[2];
+layout(set = 0, binding = 2, rgba8) uniform writeonly image2DArray composed[2];
+
+layout(push_constant) uniform Push {
+    uint lo;       // x0 | y0 << 16
+    uint hi;       // x1 | y1 << 16
+    uint feather;  // float bits, pixels
+    uint set;      // attachment set (0 or 1)
+} pc;
+
+vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
+    vec2 size = vec2(textureSize(inset_frame, 0).xy);
+    vec2 at = vec2(p.xy) + 0.5;
+    vec4 wide = texture(wide_frame, vec3(at / size, float(p.z)));
+    vec2 lo = vec2(float(pc.lo & 0xffffu), float(pc.lo >> 16));
+    vec2 hi = vec2(float(pc.hi & 0xffffu), float(pc.hi >> 16));
+    float d = min(min(at.x - lo.x, hi.x - at.x), min(at.y - lo.y, hi.y - at.y));
+    float w = clamp(d / max(uintBitsToFloat(pc.feather), 1e-6), 0.0, 1.0);
+    // Outside the rectangle the inset image was never drawn: select, do not
+    // blend, so nothing of it reaches the pixel.
+    if (w <= 0.0) {
+        return wide;
+    }
+    return mix(wide, texelFetch(inset_frame, p, 0), w);
+}
+
+void main() {
+    ivec3 p = ivec3(gl_GlobalInvocationID);
+    // Constant indices into the arrays (no dynamic indexing needed).
+    ivec2 size = pc.set == 0u ? imageSize(composed[0]).xy : imageSize(composed[1]).xy;
+    if (p.x >= size.x || p.y >= size.y) {
+        return;
+    }
+    vec4 c = pc.set == 0u ? composite(inset_frames[0], wide_frames[0], p)
+                          : composite(inset_frames[1], wide_frames[1], p);
+    vec4 out_c = vec4(encode_srgb(c.rgb), c.a);
+    if (pc.set == 0u) {
+        imageStore(composed[0], p, out_c);
+    } else {
+        imageStore(composed[1], p, out_c);
+    }
+}
