@@ -112,7 +112,7 @@ pub fn rect_tangents(fov: &Fov, r: &PixelRect, width: u32, height: u32) -> [f64;
 
 /// The inset's weight at the centre of pixel (x, y): 1 deeper than
 /// `feather` pixels inside the rectangle, falling linearly to 0 at its
-/// edge, 0 outside (what `shaders/inset_composite.frag` computes).
+/// edge, 0 outside (what `shaders/inset_composite.comp` computes).
 pub fn weight(r: &PixelRect, x: u32, y: u32, feather: f32) -> f32 {
     let (px, py) = (x as f32 + 0.5, y as f32 + 0.5);
     let d = (px - r.x0 as f32)
