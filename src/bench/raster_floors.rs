@@ -477,20 +477,6 @@ fn make_compute(ctx: &Context, t: &Targets) -> Result<ComputeResolve> {
     })
 }
 
-/// Colour read by a compute shader.
-const COMPUTE_SAMPLED: Use = Use {
-    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-    access: vk::AccessFlags2::SHADER_SAMPLED_READ,
-};
-
-/// Written by a compute shader as a storage image.
-const COMPUTE_STORAGE: Use = Use {
-    layout: vk::ImageLayout::GENERAL,
-    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-    access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
-};
-
 /// Resolve attachment writes are colour attachment writes.
 const RESOLVE_ATTACHMENT: Use = Use {
     layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
@@ -551,7 +537,7 @@ fn record(
     let resolved_first = match v.resolve {
         Resolve::Attachment => Some((t.resolved.image, RESOLVE_ATTACHMENT)),
         Resolve::Command => Some((t.resolved.image, Use::TRANSFER_DST)),
-        Resolve::Compute => Some((t.storage.image, COMPUTE_STORAGE)),
+        Resolve::Compute => Some((t.storage.image, Use::COMPUTE_STORAGE)),
         Resolve::None => None,
     };
     if let Some((img, u)) = resolved_first {
@@ -668,7 +654,7 @@ fn record(
                     colour_aspect,
                     LAYERS,
                     RESOLVE_ATTACHMENT,
-                    COMPUTE_SAMPLED,
+                    Use::COMPUTE_SAMPLED,
                 )];
                 d.cmd_pipeline_barrier2(
                     cmd,

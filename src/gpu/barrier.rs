@@ -29,6 +29,18 @@ impl Use {
         stage: vk::PipelineStageFlags2::FRAGMENT_SHADER,
         access: vk::AccessFlags2::SHADER_SAMPLED_READ,
     };
+    /// Sampled by compute shaders.
+    pub const COMPUTE_SAMPLED: Use = Use {
+        layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+        stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+        access: vk::AccessFlags2::SHADER_SAMPLED_READ,
+    };
+    /// Written by compute shaders as a storage image.
+    pub const COMPUTE_STORAGE: Use = Use {
+        layout: vk::ImageLayout::GENERAL,
+        stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+        access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
+    };
     /// Read by a copy or blit.
     pub const TRANSFER_SRC: Use = Use {
         layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,

@@ -30,20 +30,6 @@ use crate::render::attachments::Attachments;
 use crate::view::inset::PixelRect;
 use ash::vk;
 
-/// A rendered frame read by the composite's compute shader.
-const COMPUTE_SAMPLED: Use = Use {
-    layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
-    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-    access: vk::AccessFlags2::SHADER_SAMPLED_READ,
-};
-
-/// The composed output while the compute shader writes it.
-const COMPUTE_WRITE: Use = Use {
-    layout: vk::ImageLayout::GENERAL,
-    stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-    access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
-};
-
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
 pub struct InsetPass {
@@ -186,7 +172,7 @@ impl InsetPass {
                     colour,
                     r.layers,
                     Use::COLOR_ATTACHMENT,
-                    COMPUTE_SAMPLED,
+                    Use::COMPUTE_SAMPLED,
                 )
             })
             .collect();
@@ -196,7 +182,7 @@ impl InsetPass {
                 colour,
                 o.layers,
                 Use::COLOR_ATTACHMENT.discarded(),
-                COMPUTE_WRITE,
+                Use::COMPUTE_STORAGE,
             )
         }));
         let after: Vec<_> = outputs
@@ -205,7 +191,7 @@ impl InsetPass {
                     o.image,
                     colour,
                     o.layers,
-                    COMPUTE_WRITE,
+                    Use::COMPUTE_STORAGE,
                     Use::COLOR_ATTACHMENT,
                 )
             })
