@@ -436,6 +436,7 @@ cli("cli-cull-threads", ["cull-bench", "--threads", "10000"], ["--threads", "1..
 cli("cli-floors-samples", ["raster-floors", "--samples", "3"], ["--samples", "not 2, 4 or 8"], exit=2)
 cli("cli-floors-width", ["raster-floors", "--width", "0"], ["--width", "16..=8192"], exit=2)
 cli("cli-floors-repeats", ["raster-floors", "--repeats", "100000"], ["--repeats", "1..=1000"], exit=2)
+cli("cli-floors-views", ["raster-floors", "--views", "3"], ["--views", "1..=2"], exit=2)
 cli("cli-cull-leaf-size", ["cull-bench", "--leaf-size", "0"], ["--leaf-size"], exit=2)
 cli("cli-cull-near", ["cull-bench", "--near=-1"], ["--near"], exit=2)
 cli("cli-render-width", ["render", "--width", "100000", "--height", "10", "--out", "{out}"], ["--width", "1..=16384"], exit=2)

@@ -9,7 +9,8 @@
 //! of an empty 4x frame) other routes may be cheaper: a transfer clear
 //! before a scope that loads, a depth format without stencil, or a resolve
 //! in a compute shader. Each variant here records that route alone, over
-//! two-layer targets drawn with view mask 0b11, and is timed with two
+//! two-layer targets drawn with view mask 0b11 (`--views 1`: one
+//! single-layer view), and is timed with two
 //! timestamps around its commands; the table gives the median and the
 //! fastest of `--repeats` submissions.
 
@@ -36,6 +37,12 @@ pub struct RasterFloorsArgs {
     /// Submissions timed per variant (1 to 1000).
     #[arg(long, default_value_t = 20, value_parser = clap::value_parser!(u32).range(1..=1000))]
     pub repeats: u32,
+    /// Views: 2 (both eyes in one multiview scope over 2-layer targets,
+    /// as the renderer draws) or 1 (one single-layer view; Mesa 25's
+    /// lavapipe crashes executing an empty multiview scope, so the tests
+    /// run this).
+    #[arg(long, default_value_t = 2, value_parser = clap::value_parser!(u32).range(1..=2))]
+    pub views: u32,
     /// Print one JSON object instead of a table.
     #[arg(long)]
     pub json: bool,
@@ -179,6 +186,8 @@ pub struct Report {
     pub extent: [u32; 2],
     /// Samples per pixel.
     pub samples: u32,
+    /// Views (layers) drawn.
+    pub views: u32,
     /// Submissions per variant.
     pub repeats: u32,
     /// The depth-stencil format's name.
@@ -193,8 +202,9 @@ impl Report {
     /// A Markdown table.
     pub fn to_table(&self) -> String {
         let mut s = format!(
-            "raster floors: {} · 2×{}×{} · {}× MSAA · depth-stencil {} · {} submissions each\n\n",
+            "raster floors: {} · {}×{}×{} · {}× MSAA · depth-stencil {} · {} submissions each\n\n",
             self.device,
+            self.views,
             self.extent[0],
             self.extent[1],
             self.samples,
@@ -225,6 +235,9 @@ struct Targets {
     depth: Image,
     resolved: Image,
     storage: Image,
+    /// 2D-array views of `colour` and `storage` for the compute resolve
+    /// (an image of one layer gets a plain 2D view of its own).
+    arrays: [vk::ImageView; 2],
 }
 
 /// The compute resolve's pipeline and its one descriptor set.
@@ -234,7 +247,6 @@ struct ComputeResolve {
     sampler: vk::Sampler,
 }
 
-const LAYERS: u32 = 2;
 const DEPTH_ONLY: vk::Format = vk::Format::D32_SFLOAT;
 
 /// Measures every variant on `ctx`.
@@ -254,7 +266,7 @@ pub fn run(ctx: &Context, args: &RasterFloorsArgs) -> Result<Report> {
         width: args.width,
         height: args.height,
     };
-    let targets = make_targets(ctx, extent, args.samples)?;
+    let targets = make_targets(ctx, extent, args.samples, args.views)?;
     let timings = make_compute(ctx, &targets).and_then(|compute| {
         let timings = timestamp_pair(ctx).and_then(|pool| {
             let t = measure(ctx, pool, &targets, &compute, args);
@@ -265,6 +277,10 @@ pub fn run(ctx: &Context, args: &RasterFloorsArgs) -> Result<Report> {
         compute.destroy(ctx);
         timings
     });
+    for view in targets.arrays {
+        // SAFETY: one_shot waited for every submission.
+        unsafe { ctx.device.destroy_image_view(view, None) };
+    }
     for img in [
         targets.colour,
         targets.depth_stencil,
@@ -278,6 +294,7 @@ pub fn run(ctx: &Context, args: &RasterFloorsArgs) -> Result<Report> {
         device: ctx.device_name.clone(),
         extent: [args.width, args.height],
         samples: args.samples,
+        views: args.views,
         repeats: args.repeats,
         depth_stencil_format: format!("{:?}", ctx.caps.depth_format),
         timings: timings?,
@@ -321,12 +338,12 @@ impl ComputeResolve {
     }
 }
 
-fn make_targets(ctx: &Context, extent: vk::Extent2D, samples: u32) -> Result<Targets> {
+fn make_targets(ctx: &Context, extent: vk::Extent2D, samples: u32, layers: u32) -> Result<Targets> {
     let desc = |name, format, samples, usage, aspect| ImageDesc {
         name,
         format,
         extent,
-        layers: LAYERS,
+        layers,
         mips: 1,
         samples,
         usage,
@@ -391,12 +408,26 @@ fn make_targets(ctx: &Context, extent: vk::Extent2D, samples: u32) -> Result<Tar
             vk::ImageAspectFlags::COLOR,
         ),
     )?;
+    let array = |img: &Image| {
+        Image::make_view(
+            ctx,
+            img.image,
+            img.format,
+            vk::ImageAspectFlags::COLOR,
+            vk::ImageViewType::TYPE_2D_ARRAY,
+            0,
+            layers,
+            1,
+        )
+    };
+    let arrays = [array(&colour)?, array(&storage)?];
     Ok(Targets {
         colour,
         depth_stencil,
         depth,
         resolved,
         storage,
+        arrays,
     })
 }
 
@@ -448,12 +479,12 @@ fn make_compute(ctx: &Context, t: &Targets) -> Result<ComputeResolve> {
     };
     let colour = [vk::DescriptorImageInfo {
         sampler,
-        image_view: t.colour.view,
+        image_view: t.arrays[0],
         image_layout: vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
     }];
     let storage = [vk::DescriptorImageInfo {
         sampler: vk::Sampler::null(),
-        image_view: t.storage.view,
+        image_view: t.arrays[1],
         image_layout: vk::ImageLayout::GENERAL,
     }];
     let writes = [
@@ -497,6 +528,7 @@ fn record(
     args: &RasterFloorsArgs,
 ) {
     let d = &ctx.device;
+    let layers_n = args.views;
     let (depth, depth_aspect) = if v.stencil {
         (
             &t.depth_stencil,
@@ -522,14 +554,14 @@ fn record(
         barrier::image(
             t.colour.image,
             colour_aspect,
-            LAYERS,
+            layers_n,
             first.discarded(),
             first,
         ),
         barrier::image(
             depth.image,
             depth_aspect,
-            LAYERS,
+            layers_n,
             depth_first.discarded(),
             depth_first,
         ),
@@ -541,14 +573,20 @@ fn record(
         Resolve::None => None,
     };
     if let Some((img, u)) = resolved_first {
-        start.push(barrier::image(img, colour_aspect, LAYERS, u.discarded(), u));
+        start.push(barrier::image(
+            img,
+            colour_aspect,
+            layers_n,
+            u.discarded(),
+            u,
+        ));
     }
     let layers = vk::ImageSubresourceRange {
         aspect_mask: colour_aspect,
         base_mip_level: 0,
         level_count: 1,
         base_array_layer: 0,
-        layer_count: LAYERS,
+        layer_count: layers_n,
     };
     // SAFETY: recording into the one-shot command buffer; every image
     // belongs to this device and is in the layout its barriers say.
@@ -587,14 +625,14 @@ fn record(
                     barrier::image(
                         t.colour.image,
                         colour_aspect,
-                        LAYERS,
+                        layers_n,
                         Use::TRANSFER_DST,
                         RESOLVE_ATTACHMENT,
                     ),
                     barrier::image(
                         depth.image,
                         depth_aspect,
-                        LAYERS,
+                        layers_n,
                         Use::TRANSFER_DST,
                         Use::DEPTH_ATTACHMENT,
                     ),
@@ -615,7 +653,7 @@ fn record(
                 let to = [barrier::image(
                     t.colour.image,
                     colour_aspect,
-                    LAYERS,
+                    layers_n,
                     RESOLVE_ATTACHMENT,
                     Use::TRANSFER_SRC,
                 )];
@@ -627,7 +665,7 @@ fn record(
                     aspect_mask: colour_aspect,
                     mip_level: 0,
                     base_array_layer: 0,
-                    layer_count: LAYERS,
+                    layer_count: layers_n,
                 };
                 d.cmd_resolve_image(
                     cmd,
@@ -652,7 +690,7 @@ fn record(
                 let to = [barrier::image(
                     t.colour.image,
                     colour_aspect,
-                    LAYERS,
+                    layers_n,
                     RESOLVE_ATTACHMENT,
                     Use::COMPUTE_SAMPLED,
                 )];
@@ -669,7 +707,7 @@ fn record(
                     &compute.sets.sets,
                     &[],
                 );
-                let push = [args.width, args.height, LAYERS, args.samples];
+                let push = [args.width, args.height, layers_n, args.samples];
                 d.cmd_push_constants(
                     cmd,
                     compute.sets.layout,
@@ -677,7 +715,12 @@ fn record(
                     0,
                     crate::gpu::memory::as_bytes(&push),
                 );
-                d.cmd_dispatch(cmd, args.width.div_ceil(8), args.height.div_ceil(8), LAYERS);
+                d.cmd_dispatch(
+                    cmd,
+                    args.width.div_ceil(8),
+                    args.height.div_ceil(8),
+                    layers_n,
+                );
             }
         }
         d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, pool, 1);
@@ -741,7 +784,7 @@ fn begin_scope(
             },
         })
         .layer_count(1)
-        .view_mask(0b11)
+        .view_mask(if args.views == 2 { 0b11 } else { 0 })
         .color_attachments(&colours)
         .depth_attachment(&depth_info);
     if v.stencil {
@@ -756,8 +799,8 @@ fn begin_scope(
     // set as the renderer's scopes set them (Mesa 25's lavapipe crashes on
     // an empty multiview scope without them).
     unsafe {
-        ctx.device.cmd_begin_rendering(cmd, &info);
         ctx.device.cmd_set_viewport(cmd, 0, &[viewport]);
         ctx.device.cmd_set_scissor(cmd, 0, &[area]);
+        ctx.device.cmd_begin_rendering(cmd, &info);
     }
 }
