@@ -247,8 +247,6 @@ struct ComputeResolve {
     sampler: vk::Sampler,
 }
 
-const DEPTH_ONLY: vk::Format = vk::Format::D32_SFLOAT;
-
 /// Measures every variant on `ctx`.
 pub fn run(ctx: &Context, args: &RasterFloorsArgs) -> Result<Report> {
     if args.samples > ctx.caps.max_samples {
@@ -311,7 +309,11 @@ fn measure(
     args: &RasterFloorsArgs,
 ) -> Result<Vec<Timing>> {
     let mut timings = Vec::new();
-    for v in VARIANTS {
+    // Without a depth-only format the no-stencil variants are left out.
+    let variants = VARIANTS
+        .into_iter()
+        .filter(|v| v.stencil || ctx.caps.depth_only_format.is_some());
+    for v in variants {
         let mut ms = Vec::new();
         for _ in 0..args.repeats {
             ctx.one_shot(|cmd| record(ctx, cmd, pool, targets, compute, &v, args))?;
@@ -378,14 +380,17 @@ fn make_targets(ctx: &Context, extent: vk::Extent2D, samples: u32, layers: u32) 
             vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
         ),
     )?;
+    // Without a depth-only format the variants that use it are left out;
+    // the image is then made in the combined format.
+    let depth_only = ctx.caps.depth_only_format.unwrap_or(ctx.caps.depth_format);
     let depth = Image::new(
         ctx,
         &desc(
             "floors depth",
-            DEPTH_ONLY,
+            depth_only,
             ms,
             ds_usage,
-            vk::ImageAspectFlags::DEPTH,
+            crate::gpu::depth_aspect(depth_only),
         ),
     )?;
     let resolved = Image::new(

@@ -57,14 +57,14 @@ impl Validation {
     }
 }
 
-/// Whether depth format `format` has a stencil aspect.
+/// Whether depth format `format` has both a depth and a stencil aspect
+/// (the combined formats the renderer chooses from).
 pub fn has_stencil(format: vk::Format) -> bool {
     matches!(
         format,
         vk::Format::D32_SFLOAT_S8_UINT
             | vk::Format::D24_UNORM_S8_UINT
             | vk::Format::D16_UNORM_S8_UINT
-            | vk::Format::S8_UINT
     )
 }
 
@@ -88,7 +88,10 @@ pub struct Capabilities {
     pub lazily_allocated_memory: bool,
     /// Largest sample count usable for colour and depth together.
     pub max_samples: u32,
-    /// Depth-stencil format chosen for the depth attachment.
+    /// The depth-stencil format (with a stencil aspect): the depth
+    /// attachment's format when a pass uses stencil or the depth goes to a
+    /// depth swapchain, and the fallback when no depth-only format is
+    /// offered.
     #[serde(skip)]
     pub depth_format: vk::Format,
     /// A depth format without stencil for frames that use no stencil
@@ -802,7 +805,8 @@ impl PartialInstance {
             .optimal_tiling_features
             .contains(
                 vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
-                    | vk::FormatFeatureFlags::SAMPLED_IMAGE,
+                    | vk::FormatFeatureFlags::SAMPLED_IMAGE
+                    | vk::FormatFeatureFlags::TRANSFER_SRC,
             )
             .then_some(vk::Format::D32_SFLOAT);
         let caps = Capabilities {

@@ -56,7 +56,8 @@ pub struct AttachmentSet {
 #[derive(Clone, Copy, Debug)]
 pub struct SetOptions {
     /// The depth attachment's format (the renderer's: with a stencil
-    /// aspect only when a pass uses stencil).
+    /// aspect only when a pass uses stencil or the depth goes to a depth
+    /// swapchain).
     pub depth_format: vk::Format,
     /// Keep a single-sample copy of the frame's depth (for output).
     pub keep_depth: bool,

@@ -407,7 +407,7 @@ impl Renderer {
             },
         )?);
         if let (Some(inset), Some(targets)) = (&r.passes.inset, &r.targets) {
-            inset.bind(&ctx, targets);
+            inset.bind(&ctx, targets)?;
         }
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
@@ -1169,7 +1169,7 @@ impl Renderer {
         // LMS's quadrants (their resample filters across the quadrant
         // edges, past what the per-quadrant sky covers). Floor frames start
         // their colour the same way as the frame.
-        let colour_covered = resolved_sky.is_none()
+        let colour_covered = passes.resolved_sky.is_none()
             && passes.stencil_mask.is_none()
             && passes.rdm.is_none()
             && passes.far.is_none()

@@ -1,8 +1,10 @@
 //! The raster floors: what a frame costs with no scene at all, measured in
 //! the forward views' own scopes (same attachments, clears, resolves, masks
-//! and shading rate). `Clear` only clears and resolves; `FullscreenTriangle`
-//! adds one full-screen triangle with a trivial fragment shader (the fill
-//! rate floor).
+//! and shading rate). `Clear` only starts the attachments as the frame's
+//! scopes do (depth cleared; colour cleared only where the frame clears
+//! it, else don't-care, so its image is undefined: only its time is read)
+//! and resolves; `FullscreenTriangle` adds one full-screen triangle with a
+//! trivial fragment shader (the fill rate floor).
 
 use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::Result;

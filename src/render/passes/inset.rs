@@ -103,8 +103,10 @@ impl InsetPass {
     /// per attachment set the eye's resolved frame (binding 0), the wide
     /// view's (binding 1) and the composed output's UNORM view (binding
     /// 2), the second element repeating the first under multiview. Call
-    /// once the targets exist, before the first frame.
-    pub fn bind(&self, ctx: &Context, targets: &Attachments) {
+    /// once the targets exist, before the first frame. Fails when the
+    /// targets lack the composed output or its storage view (made without
+    /// `SetOptions::storage_output`).
+    pub fn bind(&self, ctx: &Context, targets: &Attachments) -> Result<()> {
         let eye: Vec<vk::ImageView> = targets
             .sets
             .iter()
@@ -117,7 +119,9 @@ impl InsetPass {
             .collect();
         let (Some(wide), Some(&e0), Some(&o0)) = (self.wide.infos(), eye.first(), out.first())
         else {
-            return;
+            return Err(crate::error::Error::Gpu(
+                "the inset composite's targets have no composed output with a storage view".into(),
+            ));
         };
         let e1 = eye.get(1).copied().unwrap_or(e0);
         let o1 = out.get(1).copied().unwrap_or(o0);
@@ -142,6 +146,7 @@ impl InsetPass {
         ];
         // SAFETY: no frame has used the set yet; the views are live.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        Ok(())
     }
 
     /// After both views of every set: their resolved frames are made

@@ -284,8 +284,8 @@ impl PipelineSetup<'_> {
         }
     }
 
-    /// A pass writing a composed output image (RDM's fill, the inset
-    /// composite): a full-screen triangle (`vertex`: `floor.vert`'s) and
+    /// A pass writing a composed output image (RDM's fill, LMS's
+    /// resample): a full-screen triangle (`vertex`: `floor.vert`'s) and
     /// `fragment`, one sample, no depth, stencil or shading-rate
     /// attachment.
     pub fn composed_desc<'s>(
@@ -485,7 +485,7 @@ pub fn to_sampled(image: &Image) -> vk::ImageMemoryBarrier2<'static> {
 }
 
 /// A pass that writes each attachment set's composed output image from
-/// sampled frames (RDM's fill, the inset composite), timed as `name`:
+/// sampled frames (RDM's fill, LMS's resample), timed as `name`:
 /// `sources` are made readable first (all of them: the shaders index
 /// arrays of every set's frames), then per set one full-screen triangle of
 /// `pipeline` with the push constants `push(eye)` over `extent`. Returns
@@ -686,9 +686,11 @@ impl Recorder<'_> {
         };
     }
 
-    /// Begins the rendering scope `scope`: colour cleared to black and
-    /// stored (resolved by averaging at more than one sample), depth and
-    /// stencil cleared (stored or resolved from sample zero only when the
+    /// Begins the rendering scope `scope`: colour cleared to black (or to
+    /// transparent black for `resolved-sky`, or started as don't-care when
+    /// [`Scope::colour_covered`]) and stored (resolved by averaging at more
+    /// than one sample), depth (and stencil, when the format has it)
+    /// cleared (stored or resolved from sample zero only when the
     /// frame keeps its depth), the shading-rate attachment when given; then,
     /// unless the scope's contents come from secondaries (which set their
     /// own), sets the viewport and scissor to the whole extent and binds the
