@@ -128,10 +128,9 @@ fn fragment_invocations_scale_with_msaa_off_and_pixels() {
 /// The forward scopes start their colour as don't-care when the sky fills
 /// what geometry leaves (no stencil, no far field, no LMS): a frame looking
 /// at the sky after one looking at machines must equal that sky frame
-/// rendered alone, so no pixel shows the earlier frame. With the sky left
-/// out (a mutation) the inset configuration fails here by about 5,950
-/// pixels per eye; the plain scopes do not, as lavapipe shows no earlier
-/// contents through them, so for those this test checks the images only.
+/// rendered alone, so no pixel shows the earlier frame, and no pixel of
+/// either is black (what lavapipe shows for a don't-care sample nobody
+/// wrote). With the sky left out (a mutation) every configuration fails.
 #[test]
 fn frames_that_do_not_clear_colour_still_write_every_pixel() {
     let ctx = context();
@@ -166,6 +165,19 @@ fn frames_that_do_not_clear_colour_still_write_every_pixel() {
                 diff, 0,
                 "{opt}: eye {eye}: {diff} pixels kept the last frame"
             );
+            // No sample was left to the attachment's start: neither the sky
+            // nor the factory's materials are black, and lavapipe shows a
+            // don't-care sample nobody wrote as black.
+            for (i, frame) in [&frames[0][eye], &frames[1][eye], &alone[0][eye]]
+                .into_iter()
+                .enumerate()
+            {
+                let black = frame.pixels().filter(|p| p.0[..3] == [0, 0, 0]).count();
+                assert_eq!(
+                    black, 0,
+                    "{opt}: eye {eye}, image {i}: {black} black pixels"
+                );
+            }
         }
     }
 }
