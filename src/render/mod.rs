@@ -202,6 +202,12 @@ pub struct Renderer {
     instance_count: usize,
 }
 
+/// Whether the frame's draws test stencil (the stencil mask or RDM's
+/// checkerboard writes it).
+fn tests_stencil(config: &RenderConfig) -> bool {
+    config.stencil_mask || config.rdm.is_some()
+}
+
 impl Renderer {
     /// Creates a renderer for `scene` at `extent` pixels per eye.
     pub fn new(
@@ -305,8 +311,7 @@ impl Renderer {
             let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
             queries.push(Some(Queries::new(&ctx, 32, stats)?));
         }
-        let stencil =
-            config.stencil_mask || config.rdm.is_some() || output.as_ref().is_some_and(|o| o.depth);
+        let stencil = tests_stencil(config) || output.as_ref().is_some_and(|o| o.depth);
         let depth_format = match ctx.caps.depth_only_format {
             Some(f) if !stencil => f,
             _ => ctx.caps.depth_format,
@@ -406,7 +411,7 @@ impl Renderer {
                 occlusion: config.occlusion,
             },
         )?);
-        if let (Some(inset), Some(targets)) = (&r.passes.inset, &r.targets) {
+        if let (Some(inset), Some(targets)) = (r.passes.inset.as_mut(), r.targets.as_ref()) {
             inset.bind(&ctx, targets)?;
         }
         if config.gpu_cull {
@@ -483,7 +488,7 @@ impl Renderer {
             layout: self.descriptors.layout,
             samples: self.config.msaa,
             view_mask: self.view_mask(),
-            stencil_test: self.config.stencil_mask || self.config.rdm.is_some(),
+            stencil_test: tests_stencil(&self.config),
             depth_format: self.depth_format,
             shading_rate: self.shading_rate.is_some(),
             scene: self.scene(),

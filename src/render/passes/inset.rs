@@ -39,6 +39,11 @@ pub struct InsetPass {
     pub wide: SampledSets,
     sets: DescriptorSets,
     composite: vk::Pipeline,
+    /// The composite's barriers for the bound targets, made once by
+    /// [`InsetPass::bind`] (not per frame): resolves to compute-sampled and
+    /// outputs to storage before, outputs back to colour attachment after.
+    before: Vec<vk::ImageMemoryBarrier2<'static>>,
+    after: Vec<vk::ImageMemoryBarrier2<'static>>,
 }
 
 impl InsetPass {
@@ -90,6 +95,8 @@ impl InsetPass {
                 wide,
                 sets,
                 composite,
+                before: Vec::new(),
+                after: Vec::new(),
             }),
             Err(e) => {
                 sets.destroy(ctx);
@@ -106,7 +113,7 @@ impl InsetPass {
     /// once the targets exist, before the first frame. Fails when the
     /// targets lack the composed output or its storage view (made without
     /// `SetOptions::storage_output`).
-    pub fn bind(&self, ctx: &Context, targets: &Attachments) -> Result<()> {
+    pub fn bind(&mut self, ctx: &Context, targets: &Attachments) -> Result<()> {
         let eye: Vec<vk::ImageView> = targets
             .sets
             .iter()
@@ -146,6 +153,46 @@ impl InsetPass {
         ];
         // SAFETY: no frame has used the set yet; the views are live.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        let colour = vk::ImageAspectFlags::COLOR;
+        let outputs = targets
+            .sets
+            .iter()
+            .filter_map(|s| s.filled.as_ref().map(|f| &f.0));
+        self.before = targets
+            .sets
+            .iter()
+            .chain(&self.wide.sets)
+            .map(|s| {
+                let r = &s.resolve;
+                barrier::image(
+                    r.image,
+                    colour,
+                    r.layers,
+                    Use::COLOR_ATTACHMENT,
+                    Use::COMPUTE_SAMPLED,
+                )
+            })
+            .collect();
+        self.before.extend(outputs.clone().map(|o| {
+            barrier::image(
+                o.image,
+                colour,
+                o.layers,
+                Use::COLOR_ATTACHMENT.discarded(),
+                Use::COMPUTE_STORAGE,
+            )
+        }));
+        self.after = outputs
+            .map(|o| {
+                barrier::image(
+                    o.image,
+                    colour,
+                    o.layers,
+                    Use::COMPUTE_STORAGE,
+                    Use::COLOR_ATTACHMENT,
+                )
+            })
+            .collect();
         Ok(())
     }
 
@@ -161,52 +208,12 @@ impl InsetPass {
         extent: vk::Extent2D,
         rect: PixelRect,
     ) {
-        let colour = vk::ImageAspectFlags::COLOR;
-        let outputs = targets
-            .sets
-            .iter()
-            .filter_map(|s| s.filled.as_ref().map(|f| &f.0));
-        let mut before: Vec<_> = targets
-            .sets
-            .iter()
-            .chain(&self.wide.sets)
-            .map(|s| {
-                let r = &s.resolve;
-                barrier::image(
-                    r.image,
-                    colour,
-                    r.layers,
-                    Use::COLOR_ATTACHMENT,
-                    Use::COMPUTE_SAMPLED,
-                )
-            })
-            .collect();
-        before.extend(outputs.clone().map(|o| {
-            barrier::image(
-                o.image,
-                colour,
-                o.layers,
-                Use::COLOR_ATTACHMENT.discarded(),
-                Use::COMPUTE_STORAGE,
-            )
-        }));
-        let after: Vec<_> = outputs
-            .map(|o| {
-                barrier::image(
-                    o.image,
-                    colour,
-                    o.layers,
-                    Use::COMPUTE_STORAGE,
-                    Use::COLOR_ATTACHMENT,
-                )
-            })
-            .collect();
         let lo = rect.x0 | rect.y0 << 16;
         let hi = rect.x1 | rect.y1 << 16;
         let feather = crate::view::inset::FEATHER_PX.to_bits();
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
-        rec.barriers(&before);
+        rec.barriers(&self.before);
         // SAFETY: recording outside any rendering scope into the frame's
         // command buffer; the set was written by `bind` for these targets.
         unsafe {
@@ -239,7 +246,7 @@ impl InsetPass {
                 );
             }
         }
-        rec.barriers(&after);
+        rec.barriers(&self.after);
         q.end_pass(rec.ctx, rec.cmd);
     }
 
