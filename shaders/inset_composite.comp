@@ -4,7 +4,11 @@
 // Multi-resolution foveated rendering's composite (src/view/inset.rs), in
 // compute: the eye pixel takes the wide view, bilinearly upsampled from
 // its lower resolution at the same image position (the sampler decodes
-// sRGB before filtering), and inside the inset rectangle the
+// sRGB before filtering; the wide view lies in a region of its frame,
+// the whole of a frame of its own or, with four views, a region of
+// layers 2 and 3 of the eye's frame, read clamped to the region's edge
+// texel centres as clamp-to-edge reads a whole image), and inside the
+// inset rectangle the
 // full-density inset, fading over `feather` pixels inside its edge (the
 // same weight as view::inset::weight, at the pixel centre). One
 // invocation per pixel of layer gl_GlobalInvocationID.z of attachment set
@@ -21,12 +25,19 @@ layout(push_constant) uniform Push {
     uint hi;       // x1 | y1 << 16
     uint feather;  // float bits, pixels
     uint set;      // attachment set (0 or 1)
+    uint wide_lo;  // the wide view's region in its frame: x0 | y0 << 16
+    uint wide_size; // and its width | height << 16
+    uint wide_layer; // the wide frame's layer of eye layer 0
 } pc;
 
 vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     vec2 size = vec2(textureSize(inset_frame, 0).xy);
     vec2 at = vec2(p.xy) + 0.5;
-    vec4 wide = texture(wide_frame, vec3(at / size, float(p.z)));
+    vec2 wsize = vec2(float(pc.wide_size & 0xffffu), float(pc.wide_size >> 16));
+    vec2 worigin = vec2(float(pc.wide_lo & 0xffffu), float(pc.wide_lo >> 16));
+    vec2 q = clamp(at / size * wsize, vec2(0.5), wsize - 0.5);
+    vec2 uv = (worigin + q) / vec2(textureSize(wide_frame, 0).xy);
+    vec4 wide = texture(wide_frame, vec3(uv, float(p.z + int(pc.wide_layer))));
     vec2 lo = vec2(float(pc.lo & 0xffffu), float(pc.lo >> 16));
     vec2 hi = vec2(float(pc.hi & 0xffffu), float(pc.hi >> 16));
     float d = min(min(at.x - lo.x, hi.x - at.x), min(at.y - lo.y, hi.y - at.y));

@@ -277,6 +277,12 @@ pub struct Inset {
     /// lenses derives it ([`RenderConfig::resolve_lens`]).
     #[serde(default)]
     pub fov_given: bool,
+    /// `inset-views=2`: draw the wide and the inset views in two scopes
+    /// even where one multiview scope could hold all four (the default,
+    /// `inset-views=4`, under multiview when the device's
+    /// maxMultiviewViewCount is at least 4).
+    #[serde(default)]
+    pub two_scopes: bool,
 }
 
 impl Default for Inset {
@@ -285,6 +291,7 @@ impl Default for Inset {
             wide_scale: crate::view::inset::DEFAULT_WIDE_SCALE,
             half_angle_deg: crate::view::inset::DEFAULT_HALF_ANGLE_DEG,
             fov_given: false,
+            two_scopes: false,
         }
     }
 }
@@ -696,6 +703,22 @@ impl RenderConfig {
                         ..self.lms.unwrap_or_default()
                     })
                 }
+                l if l.starts_with("inset-views=") => {
+                    let two_scopes = match &l["inset-views=".len()..] {
+                        "4" => false,
+                        "2" => true,
+                        _ => {
+                            return Err(Error::config(
+                                "--opt",
+                                format!("'{l}': expected inset-views=4 (one multiview scope of four views) or inset-views=2 (two scopes)"),
+                            ))
+                        }
+                    };
+                    self.inset = Some(Inset {
+                        two_scopes,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 l if l.starts_with("inset-fov=") => {
                     let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
                     self.inset = Some(Inset {
@@ -822,7 +845,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, inset-views=4|2, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1014,6 +1037,9 @@ impl RenderConfig {
             });
             if i.fov_given {
                 v.push(format!("inset-fov={}", i.half_angle_deg));
+            }
+            if i.two_scopes {
+                v.push("inset-views=2".into());
             }
         }
         if self.points_pipeline {

@@ -2,7 +2,8 @@
 //! the inset (away from the feathered seam) the eye image is the
 //! full-resolution render's own pixels; outside it, the wide view rendered
 //! at half size and upsampled bilinearly; multiview equals two-pass; the
-//! gaze moves the inset; zero validation messages (`render_config` checks).
+//! gaze moves the inset; the four views in one multiview scope equal the
+//! two-scope path; zero validation messages (`render_config` checks).
 
 mod common;
 
@@ -76,10 +77,13 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let profile = HmdProfile::load("valve-index").unwrap();
     let pose = framing_pose(&scene, &profile);
     let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    // The two-scope path (what two-pass draws too); the four views in one
+    // scope are compared with it below.
     let settings = Inset {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
         fov_given: true,
+        two_scopes: true,
     };
     let full = render_config(
         &ctx,
@@ -215,5 +219,119 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
                 "gaze {gaze:?}, eye {eye}: the core is the full render's"
             );
         }
+    }
+}
+
+/// Under multiview the four views go into one scope (layers 2 and 3 the
+/// wide views, each drawn into a region of its layer through a widened
+/// FOV): the core is still the full render's pixels, the periphery the
+/// wide view upsampled, and the eye images equal the two-scope path's but
+/// for a few edge pixels (the wide view's vertices are projected through
+/// another matrix, equal up to rounding), at three gazes.
+#[test]
+fn four_views_in_one_scope_equal_the_two_scope_path() {
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = framing_pose(&scene, &profile);
+    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let four = Inset {
+        wide_scale: 0.5,
+        half_angle_deg: 15.0,
+        fov_given: true,
+        two_scopes: false,
+    };
+    let two = Inset {
+        two_scopes: true,
+        ..four
+    };
+    let render = |inset: Option<Inset>, gaze: [f32; 2], w: u32, h: u32| {
+        render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &config(StereoMode::Multiview, inset, gaze),
+            w,
+            h,
+        )
+    };
+    let full = render(None, [0.0; 2], W, H);
+    let wide = render(None, [0.0; 2], W / 2, H / 2);
+    for gaze in [[0.0, 0.0], [0.6, 0.0], [-0.5, -0.5]] {
+        let one = render(Some(four), gaze, W, H);
+        let split = render(Some(two), gaze, W, H);
+        assert!(one.stats.gpu_ms.contains_key("forward-four-view"));
+        assert!(!one.stats.gpu_ms.contains_key("forward-wide"));
+        assert!(split.stats.gpu_ms.contains_key("forward-wide"));
+        // One list for the four views: the eye's, drawn once.
+        assert_eq!(one.stats.instances_drawn, full.stats.instances_drawn);
+        let rect = inset_rect(&fovs, gaze, 15.0, W, H);
+        for eye in 0..2 {
+            let (inside, same) = core_matches(&one.images[eye], &full.images[eye], &rect);
+            assert!(inside > 100, "{rect:?}");
+            assert_eq!(
+                same, inside,
+                "gaze {gaze:?}, eye {eye}: the core is the full render's"
+            );
+            let (mut outside, mut close) = (0, 0);
+            for y in 0..H {
+                for x in 0..W {
+                    if weight(&rect, x, y, FEATHER_PX) == 0.0 {
+                        outside += 1;
+                        let p = one.images[eye].get_pixel(x, y);
+                        let ok = (0..3).all(|c| {
+                            (p[c] as f32 - bilinear(&wide.images[eye], x, y, W, H, c)).abs() <= 2.5
+                        });
+                        close += usize::from(ok);
+                    }
+                }
+            }
+            assert!(
+                close * 1000 >= outside * 995,
+                "gaze {gaze:?}, eye {eye}: {close} of {outside} periphery pixels match the wide view upsampled"
+            );
+            let diff = common::pixels_differing(&one.images[eye], &split.images[eye]);
+            assert!(
+                diff * 100 <= (W * H) as usize,
+                "gaze {gaze:?}, eye {eye}: {diff} pixels differ from the two-scope path"
+            );
+        }
+    }
+    // With the stencil mask the wide views' layers get the hidden area
+    // through their own FOVs: the same black corners as two scopes.
+    let masked = |inset: Inset| {
+        render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &RenderConfig {
+                stencil_mask: true,
+                ..config(StereoMode::Multiview, Some(inset), [0.0; 2])
+            },
+            W,
+            H,
+        )
+    };
+    let (one, split) = (masked(four), masked(two));
+    for eye in 0..2 {
+        let black = |img: &image::RgbaImage| {
+            img.pixels()
+                .filter(|p| p[0] == 0 && p[1] == 0 && p[2] == 0)
+                .count()
+        };
+        let hidden = black(&split.images[eye]);
+        assert!(hidden > 1000, "eye {eye}: {hidden} hidden pixels");
+        assert!(
+            black(&one.images[eye]).abs_diff(hidden) * 50 <= hidden,
+            "eye {eye}: {} black pixels with four views, {hidden} with two scopes",
+            black(&one.images[eye])
+        );
+        let diff = common::pixels_differing(&one.images[eye], &split.images[eye]);
+        assert!(
+            diff * 100 <= (W * H) as usize,
+            "stencil mask, eye {eye}: {diff} pixels differ from the two-scope path"
+        );
     }
 }

@@ -107,6 +107,9 @@ pub struct Capabilities {
     pub fragment_density_map: bool,
     /// VK_QCOM_multiview_per_view_render_areas is offered.
     pub per_view_render_areas: bool,
+    /// maxMultiviewViewCount: the most views one multiview scope draws
+    /// (`inset` draws its four views in one scope when this is at least 4).
+    pub max_multiview_views: u32,
     /// VK_EXT_memory_budget is enabled ([`Context::memory_budget`]).
     pub memory_budget: bool,
     /// VK_KHR_draw_indirect_count is enabled (vkCmdDrawIndexedIndirectCount,
@@ -627,10 +630,15 @@ impl PartialInstance {
             ));
         };
         let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut driver_props);
+        let mut multiview_props = vk::PhysicalDeviceMultiviewProperties::default();
+        let mut p2 = vk::PhysicalDeviceProperties2::default()
+            .push_next(&mut driver_props)
+            .push_next(&mut multiview_props);
         // SAFETY: valid physical device of a Vulkan 1.3 instance (driver
-        // properties are core since 1.2) and a correctly chained query.
+        // properties are core since 1.2, multiview's since 1.1) and a
+        // correctly chained query.
         unsafe { inst.get_physical_device_properties2(pd, &mut p2) };
+        let max_multiview_views = multiview_props.max_multiview_view_count;
         let c_text = |s: std::result::Result<&CStr, _>| {
             s.map(|s| s.to_string_lossy().into_owned())
                 .unwrap_or_default()
@@ -823,6 +831,7 @@ impl PartialInstance {
             shading_rate_texel,
             fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
             per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
+            max_multiview_views,
             memory_budget,
             draw_indirect_count,
             shader_draw_parameters,

@@ -31,7 +31,8 @@ pub struct TargetViews {
     pub stencil: bool,
 }
 
-/// One set of attachments (2 layers for multiview, 1 for an eye in two-pass).
+/// One set of attachments (2 layers for multiview, 4 for `inset`'s four
+/// views, 1 for an eye in two-pass).
 pub struct AttachmentSet {
     /// Multisampled colour (None at 1 sample).
     pub color_msaa: Option<Image>,
@@ -75,6 +76,10 @@ pub struct SetOptions {
     /// the multisampled colour and depth are stored between them (not
     /// transient), and the depth is sampleable (the depth pyramid).
     pub occlusion: bool,
+    /// Layers of a multiview set's drawn images: 2, or 4 for `inset`'s
+    /// four views (the eyes, then the wide views); the composed output
+    /// keeps the eyes' 2.
+    pub multiview_layers: u32,
 }
 
 impl AttachmentSet {
@@ -93,7 +98,10 @@ impl AttachmentSet {
             sampled,
             storage_output,
             occlusion,
+            multiview_layers: _,
         } = opts;
+        // The frame the runtime gets: the eyes' layers.
+        let output_layers = layers.min(2);
         let s = vk::SampleCountFlags::from_raw(samples);
         let transient = if occlusion {
             vk::ImageUsageFlags::empty()
@@ -177,13 +185,16 @@ impl AttachmentSet {
             ),
         )?;
         let filled = if composed {
-            let plain = desc(
-                "composed output",
-                COLOR_FORMAT,
-                vk::SampleCountFlags::TYPE_1,
-                usage,
-                vk::ImageAspectFlags::COLOR,
-            );
+            let plain = ImageDesc {
+                layers: output_layers,
+                ..desc(
+                    "composed output",
+                    COLOR_FORMAT,
+                    vk::SampleCountFlags::TYPE_1,
+                    usage,
+                    vk::ImageAspectFlags::COLOR,
+                )
+            };
             // sRGB has no storage use: the image is made mutable with
             // extended usage and written through a UNORM view.
             let img = Image::new(
@@ -220,7 +231,7 @@ impl AttachmentSet {
                 vk::Format::R8G8B8A8_UNORM,
                 vk::ImageAspectFlags::COLOR,
                 vk::ImageViewType::TYPE_2D_ARRAY,
-                (0, layers),
+                (0, output_layers),
                 1,
                 Some(vk::ImageUsageFlags::STORAGE),
             )?),
@@ -315,7 +326,13 @@ impl Attachments {
         opts: SetOptions,
     ) -> Result<Attachments> {
         let sets = if multiview {
-            vec![AttachmentSet::new(ctx, extent, samples, 2, opts)?]
+            vec![AttachmentSet::new(
+                ctx,
+                extent,
+                samples,
+                opts.multiview_layers,
+                opts,
+            )?]
         } else {
             vec![
                 AttachmentSet::new(ctx, extent, samples, 1, opts)?,

@@ -190,6 +190,12 @@ pub struct Renderer {
     /// Which foveation path runs (for stats), e.g. "off" or
     /// "vk-khr-fragment-shading-rate (16x16 texels)".
     pub foveation_path: String,
+    /// With `inset`: how its views are drawn (for stats), "four-view
+    /// multiview" or "two scopes (why)".
+    pub inset_path: Option<String>,
+    /// `inset`'s four views in one multiview scope (the eyes in layers 0
+    /// and 1, the wide views in 2 and 3).
+    four_view: bool,
     /// With `lod`: what building the chains made and cost.
     pub lod: Option<LodReport>,
     /// `--per-draw ubo|ssbo`: the per-draw records and their set 1.
@@ -206,6 +212,37 @@ pub struct Renderer {
 /// checkerboard writes it).
 fn tests_stencil(config: &RenderConfig) -> bool {
     config.stencil_mask || config.rdm.is_some()
+}
+
+/// The render area of pixel rectangle `r`.
+fn pixel_area(r: &crate::view::inset::PixelRect) -> vk::Rect2D {
+    vk::Rect2D {
+        offset: vk::Offset2D {
+            x: r.x0 as i32,
+            y: r.y0 as i32,
+        },
+        extent: vk::Extent2D {
+            width: r.width(),
+            height: r.height(),
+        },
+    }
+}
+
+/// How `inset`'s four views are drawn: in one multiview scope (true) when
+/// the frame is multiview, `inset-views=2` did not ask for two scopes and
+/// the device draws at least four views in a scope; else two scopes. The
+/// string says which, and why not four (for stats).
+fn inset_path(inset: crate::config::Inset, stereo: StereoMode, max_views: u32) -> (bool, String) {
+    let why = if stereo != StereoMode::Multiview {
+        "two-pass"
+    } else if inset.two_scopes {
+        "inset-views=2"
+    } else if max_views < 4 {
+        "the device's maxMultiviewViewCount is below 4"
+    } else {
+        return (true, "four-view multiview".into());
+    };
+    (false, format!("two scopes ({why})"))
 }
 
 impl Renderer {
@@ -361,6 +398,12 @@ impl Renderer {
             mffr_fallbacks: 0,
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
+            inset_path: config
+                .inset
+                .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).1),
+            four_view: config
+                .inset
+                .is_some_and(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).0),
             lod: lod_report,
             draw_records,
             parallel: None,
@@ -377,6 +420,9 @@ impl Renderer {
         }
         r.shading_rate = rates;
         r.foveation_path = path;
+        if let Some(path) = &r.inset_path {
+            tracing::info!("inset: {path}");
+        }
         r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
         if let Some(cloud) = scene.points.as_ref() {
             config.refuse_for_points()?;
@@ -409,6 +455,7 @@ impl Renderer {
                 sampled: false,
                 storage_output: config.inset.is_some(),
                 occlusion: config.occlusion,
+                multiview_layers: if r.four_view { 4 } else { 2 },
             },
         )?);
         if let (Some(inset), Some(targets)) = (r.passes.inset.as_mut(), r.targets.as_ref()) {
@@ -468,6 +515,7 @@ impl Renderer {
 
     fn view_mask(&self) -> u32 {
         match self.config.stereo {
+            StereoMode::Multiview if self.four_view => 0b1111,
             StereoMode::Multiview => 0b11,
             StereoMode::TwoPass => 0,
         }
@@ -560,13 +608,26 @@ impl Renderer {
     fn frame_data(&self, rig: &StereoRig) -> FrameUniforms {
         // Views 2 and 3 are the far-field cameras; their near plane is the
         // split distance, so everything nearer is clipped from the far field.
-        let (far_views, far_near) = self
-            .passes
-            .far
-            .as_ref()
-            .map_or(([None, None], self.config.near), |f| {
-                f.cameras(self.config.near)
-            });
+        // With inset's four views they are the wide views: the eyes' poses
+        // with the FOVs that put each eye on its region of the layer.
+        let (far_views, far_near) = match (&self.passes.far, self.four_view_region()) {
+            (Some(f), _) => f.cameras(self.config.near),
+            (None, Some(region)) => {
+                let wide = |v: &crate::view::View| crate::view::View {
+                    fov: crate::view::inset::layer_fov(
+                        &v.fov,
+                        &region,
+                        self.extent.width,
+                        self.extent.height,
+                    ),
+                    ..*v
+                };
+                let left = &rig.views[0];
+                let right = rig.views.get(1).unwrap_or(left);
+                ([Some(wide(left)), Some(wide(right))], self.config.near)
+            }
+            (None, None) => ([None, None], self.config.near),
+        };
         let mut u = FrameUniforms::new(rig, self.config.near, far_views, far_near);
         if let Some(sun) = &self.sun {
             u.sun_dir = sun.direction.as_vec3().extend(0.0);
@@ -576,11 +637,22 @@ impl Renderer {
         u
     }
 
+    /// With `inset`'s four views: where the wide views lie in their layers
+    /// this frame (around the inset).
+    fn four_view_region(&self) -> Option<crate::view::inset::PixelRect> {
+        let inset = self.passes.inset.as_ref().filter(|i| i.four_view())?;
+        Some(inset.wide_region(&self.inset_rect, self.extent))
+    }
+
     /// With `inset` (CPU-culled or not culled), each eye's volume through
     /// this frame's inset rectangle: the inset views draw only what one of
     /// them keeps (the rectangle's pixels are all they rasterize).
     fn inset_volumes(&self, rig: &StereoRig) -> Option<[crate::view::frustum::PlaneSet; 2]> {
         self.config.inset?;
+        // Four views share one scope and so one list.
+        if self.four_view {
+            return None;
+        }
         let volume = |v: &crate::view::View| {
             let t = crate::view::inset::rect_tangents(
                 &v.fov,
@@ -1191,23 +1263,24 @@ impl Renderer {
             // With inset each view set is drawn twice: the wide view into
             // its own smaller targets, then the eye at full size inside the
             // inset only.
+            // With its four views in one scope (floor frames too: the
+            // targets are the four-layer ones), a single scope over the
+            // wide views' region and the inset together.
             let inset = passes.inset.as_ref().filter(|_| floor.is_none());
             let rect = self.inset_rect;
-            let inset_area = vk::Rect2D {
-                offset: vk::Offset2D {
-                    x: rect.x0 as i32,
-                    y: rect.y0 as i32,
-                },
-                extent: vk::Extent2D {
-                    width: rect.width(),
-                    height: rect.height(),
-                },
+            let four = self
+                .four_view_region()
+                .map(|region| pixel_area(&crate::view::inset::bounding(&region, &rect)));
+            let inset_area = four.unwrap_or_else(|| pixel_area(&rect));
+            let view_sets = match four {
+                Some(_) => [Some((&targets.sets[0], 0b1111, 0)), None],
+                None => view_sets,
             };
             let scopes = view_sets
                 .into_iter()
                 .flatten()
                 .flat_map(|(set, view_mask, eye)| {
-                    let wide = inset.map(|i| {
+                    let wide = inset.filter(|i| !i.four_view()).map(|i| {
                         let w = &i.wide.sets[eye as usize % i.wide.sets.len()];
                         (
                             w.views(),
@@ -1227,10 +1300,11 @@ impl Renderer {
                     let main = (
                         views,
                         extent,
-                        inset.map(|_| inset_area),
+                        (inset.is_some() || four.is_some()).then_some(inset_area),
                         view_mask,
                         eye,
                         match (inset, lms) {
+                            (Some(i), _) if i.four_view() => "forward-four-view",
                             (Some(_), _) => "forward-inset",
                             (None, Some(_)) => "forward-lms",
                             (None, None) => "forward",
@@ -1339,7 +1413,8 @@ impl Renderer {
         }
         if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
             // A dispatch per set, not a draw: not counted in draw_calls.
-            inset.record_composite(&rec, q, targets, self.extent, self.inset_rect);
+            let region = inset.wide_region(&self.inset_rect, self.extent);
+            inset.record_composite(&rec, q, targets, self.extent, (self.inset_rect, region));
         }
         q.end_stats(ctx, cmd);
         draw_calls

@@ -181,6 +181,10 @@ pub struct RenderStats {
     pub foveation: String,
     /// Per-view render areas: used, or why not ("not offered").
     pub per_view_render_areas: String,
+    /// With `inset`: how its four views were drawn, "four-view multiview"
+    /// or "two scopes (why)".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inset_path: Option<String>,
     /// With `lms`: the path that scaled w ("nv-clip-space-w-scaling" or
     /// "vertex-shader (why)"), the coefficients and the LMS image's size.
     #[serde(skip_serializing_if = "Option::is_none")]
@@ -621,6 +625,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         lod: renderer.lod.clone(),
         foveation: renderer.foveation_path.clone(),
         lms: renderer.lms_report(),
+        inset_path: renderer.inset_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
         timewarp: None,

@@ -164,6 +164,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     stats.scene = Some(SceneCounts::of(&scene));
     stats.config = frames.driver.renderer().config.clone();
     stats.foveation = frames.driver.renderer().foveation_path.clone();
+    stats.inset_path = frames.driver.renderer().inset_path.clone();
     stats.lms = frames.driver.renderer().lms_report();
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();

@@ -413,6 +413,10 @@ pub struct RunStats {
     pub cull: Option<CullStats>,
     /// Which foveation path ran.
     pub foveation: String,
+    /// With `inset`: how its four views were drawn, "four-view multiview"
+    /// or "two scopes (why)".
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub inset_path: Option<String>,
     /// With `lms`: its path, coefficients and image size.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub lms: Option<crate::render::passes::lms::LmsReport>,

@@ -314,6 +314,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         Renderer::with_output(ctx.clone(), &scene, &config, extent, Some(chains.output()))?;
     stats.config = renderer.config.clone();
     stats.foveation = renderer.foveation_path.clone();
+    stats.inset_path = renderer.inset_path.clone();
     stats.lms = renderer.lms_report();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
     let masks = if exts.khr_visibility_mask {
@@ -791,6 +792,7 @@ fn switch_config(
         }
     };
     stats.foveation = driver.renderer().foveation_path.clone();
+    stats.inset_path = driver.renderer().inset_path.clone();
     stats.lms = driver.renderer().lms_report();
     live.driver = Some(driver);
     st.opt = st.desk.live.config.opt_string();

@@ -110,6 +110,56 @@ pub fn rect_tangents(fov: &Fov, r: &PixelRect, width: u32, height: u32) -> [f64;
     [col(r.x0), col(r.x1), row(r.y0), row(r.y1)]
 }
 
+/// Four-view multiview (`inset` under multiview where the device draws
+/// four views in one scope): every view shares one render area and one
+/// viewport, so the wide view is drawn at its own size into a region of an
+/// eye-sized layer. The region is `wide` (width, height) pixels, centred
+/// on the inset `r` and kept inside the `width`×`height` image, so that
+/// when the inset fits in it the render area is the region alone.
+pub fn wide_region(r: &PixelRect, width: u32, height: u32, wide: (u32, u32)) -> PixelRect {
+    let place = |lo: u32, hi: u32, size: u32, span: u32| {
+        let span = span.clamp(1, size.max(1));
+        let centre = (lo + hi) / 2;
+        let start = centre.saturating_sub(span / 2).min(size.max(1) - span);
+        (start, start + span)
+    };
+    let (x0, x1) = place(r.x0, r.x1, width, wide.0);
+    let (y0, y1) = place(r.y0, r.y1, height, wide.1);
+    PixelRect { x0, y0, x1, y1 }
+}
+
+/// The smallest rectangle holding both `a` and `b` (four-view's render
+/// area: the wide region and the inset).
+pub fn bounding(a: &PixelRect, b: &PixelRect) -> PixelRect {
+    PixelRect {
+        x0: a.x0.min(b.x0),
+        y0: a.y0.min(b.y0),
+        x1: a.x1.max(b.x1),
+        y1: a.y1.max(b.y1),
+    }
+}
+
+/// The FOV of a `width`×`height` layer in which the eye `fov`, drawn at
+/// `region`'s size, fills exactly `region`'s pixels: the projection is
+/// linear in the tangents, so each pixel spans (tan_r − tan_l) / region
+/// width of tangent, and the layer's edges lie `x0` pixels before the
+/// region and `width − x1` after it at that step (rows likewise, top
+/// (`up`) to bottom). A view with this FOV and the eye's pose puts a point
+/// at the pixel the wide view alone would, moved by the region's origin.
+pub fn layer_fov(fov: &Fov, region: &PixelRect, width: u32, height: u32) -> Fov {
+    let [tl, tr, tu, td] = fov.tangents();
+    let sx = (tr - tl) / region.width().max(1) as f64;
+    let sy = (tu - td) / region.height().max(1) as f64;
+    let left = tl - region.x0 as f64 * sx;
+    let up = tu + region.y0 as f64 * sy;
+    Fov {
+        left: left.atan(),
+        right: (left + width as f64 * sx).atan(),
+        up: up.atan(),
+        down: (up - height as f64 * sy).atan(),
+    }
+}
+
 /// The inset's weight at the centre of pixel (x, y): 1 deeper than
 /// `feather` pixels inside the rectangle, falling linearly to 0 at its
 /// edge, 0 outside (what `shaders/inset_composite.comp` computes).
@@ -166,6 +216,58 @@ mod tests {
     }
 
     proptest! {
+        /// Against the projection: a direction in the eye lands, through
+        /// [`layer_fov`] in the whole layer, at the pixel the eye's own
+        /// projection gives it in an image of the region's size, moved by
+        /// the region's origin (brute force over directions).
+        #[test]
+        fn the_layer_fov_puts_the_wide_view_in_its_region(
+            l in 0.2..1.4f64, r in 0.2..1.4f64, u in 0.2..1.4f64, d in 0.2..1.4f64,
+            gx in -0.9..0.9f32, gy in -0.9..0.9f32, a in 1.0..40.0f64, scale in 0.2..0.9f64,
+            tx in -1.0..1.0f64, ty in -1.0..1.0f64,
+        ) {
+            let fov = Fov { left: -l, right: r, up: u, down: -d };
+            let (w, h) = (2016u32, 2240u32);
+            let wide = ((w as f64 * scale).round() as u32, (h as f64 * scale).round() as u32);
+            let rect = inset_rect(&[fov], [gx, gy], a, w, h);
+            let region = wide_region(&rect, w, h, wide);
+            let layer = layer_fov(&fov, &region, w, h);
+            let [el, er, eu, ed] = fov.tangents();
+            let x = el + (tx + 1.0) * 0.5 * (er - el);
+            let y = ed + (ty + 1.0) * 0.5 * (eu - ed);
+            let pixel = |f: &Fov, pw: u32, ph: u32| {
+                let p = crate::view::projection::reverse_z_infinite(f, 0.1)
+                    * glam::DVec4::new(x, y, -1.0, 1.0);
+                ((p.x / p.w + 1.0) * 0.5 * pw as f64, (p.y / p.w + 1.0) * 0.5 * ph as f64)
+            };
+            let (px, py) = pixel(&fov, wide.0, wide.1);
+            let (qx, qy) = pixel(&layer, w, h);
+            prop_assert!((qx - (region.x0 as f64 + px)).abs() < 1e-6, "{qx} vs {} + {px}", region.x0);
+            prop_assert!((qy - (region.y0 as f64 + py)).abs() < 1e-6, "{qy} vs {} + {py}", region.y0);
+        }
+
+        /// The region has the wide view's size, lies in the image, and
+        /// holds the inset whenever the inset is no larger (then the
+        /// render area, [`bounding`], is the region itself); otherwise
+        /// the bounding box holds both.
+        #[test]
+        fn the_wide_region_holds_the_inset_when_it_fits(
+            x0 in 0u32..300, y0 in 0u32..300, rw in 1u32..300, rh in 1u32..300,
+            ww in 1u32..300, wh in 1u32..300, w in 300u32..700, h in 300u32..700,
+        ) {
+            let rect = PixelRect { x0, y0, x1: (x0 + rw).min(w), y1: (y0 + rh).min(h) };
+            let region = wide_region(&rect, w, h, (ww, wh));
+            prop_assert_eq!((region.width(), region.height()), (ww, wh));
+            prop_assert!(region.x1 <= w && region.y1 <= h);
+            let area = bounding(&region, &rect);
+            if rect.width() <= ww && rect.height() <= wh {
+                prop_assert_eq!(area, region, "{:?} does not hold {:?}", region, rect);
+            }
+            for (x, y) in [(rect.x0, rect.y0), (rect.x1 - 1, rect.y1 - 1), (region.x0, region.y1 - 1)] {
+                prop_assert!(area.contains(x, y));
+            }
+        }
+
         /// Against the projection itself: a direction projects into the
         /// rectangle's pixels exactly when its tangents lie within
         /// [`rect_tangents`] (away from the edges by a millionth).

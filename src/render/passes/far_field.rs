@@ -124,6 +124,7 @@ impl FarField {
                     sampled: true,
                     storage_output: false,
                     occlusion: false,
+                    multiview_layers: 2,
                 },
             )?);
         }

@@ -17,6 +17,19 @@
 //! the full-resolution render's own; the wide view keeps the eye's
 //! projection with a smaller viewport, so it is the same image at a lower
 //! resolution.
+//!
+//! Under multiview, where the device draws four views in one scope
+//! (maxMultiviewViewCount ≥ 4; not with `inset-views=2`), all four go into
+//! one scope (`forward-four-view`) on 4-layer eye-sized targets: layers 0
+//! and 1 are the eyes as before, layers 2 and 3 the wide views. The views
+//! share one viewport and render area, so a wide view is drawn at its own
+//! size into a region of its layer ([`crate::view::inset::wide_region`],
+//! centred on the inset): its view has the eye's pose and the FOV that
+//! puts the eye's FOV exactly on the region's pixels
+//! ([`crate::view::inset::layer_fov`]); the render area is the region and
+//! the inset together. One scope, one draw list (the eye's) and one
+//! clear and resolve, for more pixels in the inset layers (the whole
+//! render area, not only the inset).
 
 use super::sampled::SampledSets;
 use super::{PipelineSetup, Recorder};
@@ -30,13 +43,23 @@ use crate::render::attachments::Attachments;
 use crate::view::inset::PixelRect;
 use ash::vk;
 
+/// The composite's push constants: the inset (2 words), the feather, the
+/// attachment set, the wide view's region (origin, size) and its first
+/// layer.
+const PUSH_BYTES: u32 = 7 * 4;
+
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
 pub struct InsetPass {
     /// The wide view's attachment sets at F × the eye size (as the eye's:
     /// one 2-layer set under multiview, one per eye in two-pass), resolved
-    /// images sampled.
+    /// images sampled; with four views none (only the sampler: the wide
+    /// views are layers 2 and 3 of the eye's set), `extent` still the wide
+    /// view's size.
     pub wide: SampledSets,
+    /// Four views in one multiview scope (the pipelines' view mask is
+    /// 0b1111).
+    four_view: bool,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -58,14 +81,19 @@ impl InsetPass {
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
         let wide_extent = crate::render::scaled(extent, scale);
-        let wide = SampledSets::new(
-            ctx,
-            wide_extent,
-            samples,
-            multiview,
-            setup.depth_format,
-            "inset composite",
-        )?;
+        let four_view = setup.view_mask == 0b1111;
+        let wide = if four_view {
+            SampledSets::sampler_only(ctx, wide_extent, "inset composite")?
+        } else {
+            SampledSets::new(
+                ctx,
+                wide_extent,
+                samples,
+                multiview,
+                setup.depth_format,
+                "inset composite",
+            )?
+        };
         let stage = vk::ShaderStageFlags::COMPUTE;
         let sets = match DescriptorSets::new(
             ctx,
@@ -75,7 +103,7 @@ impl InsetPass {
                 (vk::DescriptorType::STORAGE_IMAGE, 2, stage),
             ],
             stage,
-            16,
+            PUSH_BYTES,
             1,
             "inset composite",
         ) {
@@ -93,6 +121,7 @@ impl InsetPass {
         ) {
             Ok(composite) => Ok(InsetPass {
                 wide,
+                four_view,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -106,10 +135,17 @@ impl InsetPass {
         }
     }
 
+    /// Whether the four views are drawn in one multiview scope.
+    pub fn four_view(&self) -> bool {
+        self.four_view
+    }
+
     /// Writes the composite's descriptor set for the frame's `targets`:
     /// per attachment set the eye's resolved frame (binding 0), the wide
-    /// view's (binding 1) and the composed output's UNORM view (binding
-    /// 2), the second element repeating the first under multiview. Call
+    /// view's (binding 1; with four views the eye's frame again, whose
+    /// layers 2 and 3 hold it) and the composed output's UNORM view
+    /// (binding 2), the second element repeating the first under
+    /// multiview. Call
     /// once the targets exist, before the first frame. Fails when the
     /// targets lack the composed output or its storage view (made without
     /// `SetOptions::storage_output`).
@@ -124,8 +160,7 @@ impl InsetPass {
             .iter()
             .filter_map(|s| s.filled_storage)
             .collect();
-        let (Some(wide), Some(&e0), Some(&o0)) = (self.wide.infos(), eye.first(), out.first())
-        else {
+        let (Some(&e0), Some(&o0)) = (eye.first(), out.first()) else {
             return Err(crate::error::Error::Gpu(
                 "the inset composite's targets have no composed output with a storage view".into(),
             ));
@@ -133,6 +168,15 @@ impl InsetPass {
         let e1 = eye.get(1).copied().unwrap_or(e0);
         let o1 = out.get(1).copied().unwrap_or(o0);
         let frames = [self.wide.info(e0), self.wide.info(e1)];
+        let wide = match (self.wide.infos(), self.four_view) {
+            (Some(w), false) => w,
+            (None, true) => frames,
+            _ => {
+                return Err(crate::error::Error::Gpu(
+                    "the inset composite has no wide view to sample".into(),
+                ))
+            }
+        };
         let storage = [o0, o1].map(|v| vk::DescriptorImageInfo {
             sampler: vk::Sampler::null(),
             image_view: v,
@@ -196,21 +240,43 @@ impl InsetPass {
         Ok(())
     }
 
+    /// Where the wide view's pixels lie in its frame this frame: with four
+    /// views its region of the eye-sized layer around `rect`
+    /// ([`crate::view::inset::wide_region`]), else the whole wide image.
+    pub fn wide_region(&self, rect: &PixelRect, extent: vk::Extent2D) -> PixelRect {
+        let size = (self.wide.extent.width, self.wide.extent.height);
+        if self.four_view {
+            crate::view::inset::wide_region(rect, extent.width, extent.height, size)
+        } else {
+            PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: size.0,
+                y1: size.1,
+            }
+        }
+    }
+
     /// After both views of every set: their resolved frames are made
     /// readable, each set's output image is written from them by the
-    /// compute shader over `extent`, and handed on as a written colour
-    /// attachment (what the output copy and read-back expect).
+    /// compute shader over `extent` (the wide view read from `region` of
+    /// its frame, see [`InsetPass::wide_region`]), and handed on as a
+    /// written colour attachment (what the output copy and read-back
+    /// expect).
     pub fn record_composite(
         &self,
         rec: &Recorder,
         q: &mut Queries,
         targets: &Attachments,
         extent: vk::Extent2D,
-        rect: PixelRect,
+        (rect, region): (PixelRect, PixelRect),
     ) {
         let lo = rect.x0 | rect.y0 << 16;
         let hi = rect.x1 | rect.y1 << 16;
         let feather = crate::view::inset::FEATHER_PX.to_bits();
+        let wide_lo = region.x0 | region.y0 << 16;
+        let wide_size = region.width() | region.height() << 16;
+        let wide_layer = if self.four_view { 2 } else { 0 };
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
         rec.barriers(&self.before);
@@ -230,7 +296,7 @@ impl InsetPass {
                 let Some((out, _)) = &set.filled else {
                     continue;
                 };
-                let push = [lo, hi, feather, i as u32];
+                let push = [lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer];
                 d.cmd_push_constants(
                     rec.cmd,
                     self.sets.layout,

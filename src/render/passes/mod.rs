@@ -186,7 +186,8 @@ pub struct PipelineSetup<'a> {
     pub layout: vk::PipelineLayout,
     /// MSAA samples of the frame's attachments.
     pub samples: u32,
-    /// Multiview mask of the forward views (0 in two-pass).
+    /// Multiview mask of the forward views (0 in two-pass; 0b1111 for
+    /// `inset`'s four views in one scope, else 0b11).
     pub view_mask: u32,
     /// Whether draws test stencil (stencil mask or RDM on).
     pub stencil_test: bool,

@@ -86,7 +86,7 @@ impl OutputCopy {
         let mut before = Vec::new();
         let mut after = Vec::new();
         for (i, set) in targets.sets.iter().enumerate() {
-            let layers = set.resolve.layers;
+            let layers = set.output_image().layers;
             let c = vk::ImageAspectFlags::COLOR;
             before.push(barrier(set.output_image().image, c, layers, color_out, src));
             before.push(barrier(out.color[i], c, layers, color_out.discarded(), dst));
@@ -114,7 +114,7 @@ impl OutputCopy {
                 &vk::DependencyInfo::default().image_memory_barriers(&before),
             );
             for (i, set) in targets.sets.iter().enumerate() {
-                let layers = set.resolve.layers;
+                let layers = set.output_image().layers;
                 let sub = |aspect| vk::ImageSubresourceLayers {
                     aspect_mask: aspect,
                     mip_level: 0,
@@ -252,7 +252,7 @@ impl Readback {
         let mut back = Vec::new();
         let mut offset = 0u64;
         for (i, set) in targets.sets.iter().enumerate() {
-            let layers = set.resolve.layers;
+            let layers = set.output_image().layers;
             // The frame was last written by the output copy (swapchain
             // image) or by rendering (own image); both end in the colour
             // attachment layout.
@@ -312,7 +312,7 @@ impl Readback {
             for set in &targets.sets {
                 let img = set.depth_output().expect("checked above");
                 let ds = crate::gpu::depth_aspect(img.format);
-                let layers = set.resolve.layers;
+                let layers = set.output_image().layers;
                 to_src.push(barrier::image(img.image, ds, layers, rendered, read));
                 let done = Use {
                     access: vk::AccessFlags2::NONE,

@@ -38,9 +38,29 @@ impl SampledSets {
             sampled: true,
             storage_output: false,
             occlusion: false,
+            multiview_layers: 2,
         };
         let mut made = SampledSets {
             sets: Attachments::new(ctx, extent, samples, multiview, opts)?.sets,
+            extent,
+            views: Vec::new(),
+            sampler: vk::Sampler::null(),
+        };
+        match made.finish(ctx, what) {
+            Ok(()) => Ok(made),
+            Err(e) => {
+                made.destroy(ctx);
+                Err(e)
+            }
+        }
+    }
+
+    /// No sets, only the sampler: for a pass that samples images it does
+    /// not own (`inset`'s four views, whose wide view lies in the eye's
+    /// own layers).
+    pub fn sampler_only(ctx: &Context, extent: vk::Extent2D, what: &str) -> Result<SampledSets> {
+        let mut made = SampledSets {
+            sets: Vec::new(),
             extent,
             views: Vec::new(),
             sampler: vk::Sampler::null(),

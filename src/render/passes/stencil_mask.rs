@@ -26,6 +26,11 @@ use std::sync::Arc;
 /// Most hidden-area vertices per view (a triangle list).
 pub const MAX_HIDDEN_VERTICES: usize = 3 * 4096;
 
+/// Views the buffer holds: the eyes, then the eyes again for `inset`'s
+/// wide views in layers 2 and 3 (`shaders/hidden.vert` maps them with those
+/// views' FOV tangents, so the same mesh lands on the wide view's region).
+const VIEWS: usize = 4;
+
 /// One frame slot's hidden-area vertices.
 struct HiddenSlot {
     buffer: Buffer,
@@ -67,7 +72,7 @@ impl StencilMask {
                     setup.ctx,
                     &BufferDesc {
                         name: &format!("hidden area {i}"),
-                        size: (2 * MAX_HIDDEN_VERTICES * 8) as u64,
+                        size: (VIEWS * MAX_HIDDEN_VERTICES * 8) as u64,
                         usage: vk::BufferUsageFlags::STORAGE_BUFFER,
                         location: MemoryLocation::CpuToGpu,
                         category: "per-frame",
@@ -104,9 +109,9 @@ impl StencilMask {
         {
             return Ok(());
         }
-        let lists: Vec<Vec<[f32; 2]>> = (0..2)
+        let lists: Vec<Vec<[f32; 2]>> = (0..VIEWS)
             .map(|v| {
-                areas.get(v).map_or(Vec::new(), |a| {
+                areas.get(v % 2).map_or(Vec::new(), |a| {
                     a.indices
                         .chunks_exact(3)
                         .filter(|t| t.iter().all(|&i| (i as usize) < a.vertices.len()))
@@ -123,7 +128,7 @@ impl StencilMask {
                 format!("{per_view} vertices per view; at most {MAX_HIDDEN_VERTICES}"),
             ));
         }
-        let mut data = vec![[0.0f32; 2]; 2 * per_view];
+        let mut data = vec![[0.0f32; 2]; VIEWS * per_view];
         for (v, list) in lists.iter().enumerate() {
             data[v * per_view..v * per_view + list.len()].copy_from_slice(list);
         }
