@@ -77,13 +77,13 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let profile = HmdProfile::load("valve-index").unwrap();
     let pose = framing_pose(&scene, &profile);
     let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
-    // The two-scope path (what two-pass draws too); the four views in one
-    // scope are compared with it below.
+    // The two-scope path (the default, and what two-pass draws); the four
+    // views in one scope are compared with it below.
     let settings = Inset {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
         fov_given: true,
-        two_scopes: true,
+        four_views: false,
     };
     let full = render_config(
         &ctx,
@@ -222,7 +222,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     }
 }
 
-/// Under multiview the four views go into one scope (layers 2 and 3 the
+/// With `inset-views=4` the four views go into one scope (layers 2 and 3 the
 /// wide views, each drawn into a region of its layer through a widened
 /// FOV): the core is still the full render's pixels, the periphery the
 /// wide view upsampled, and the eye images equal the two-scope path's but
@@ -239,10 +239,10 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
         fov_given: true,
-        two_scopes: false,
+        four_views: true,
     };
     let two = Inset {
-        two_scopes: true,
+        four_views: false,
         ..four
     };
     let render = |inset: Option<Inset>, gaze: [f32; 2], w: u32, h: u32| {

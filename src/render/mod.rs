@@ -229,14 +229,14 @@ fn pixel_area(r: &crate::view::inset::PixelRect) -> vk::Rect2D {
 }
 
 /// How `inset`'s four views are drawn: in one multiview scope (true) when
-/// the frame is multiview, `inset-views=2` did not ask for two scopes and
-/// the device draws at least four views in a scope; else two scopes. The
-/// string says which, and why not four (for stats).
+/// `inset-views=4` asked for it, the frame is multiview and the device
+/// draws at least four views in a scope; else in two scopes. The string
+/// says which, and why two (for stats).
 fn inset_path(inset: crate::config::Inset, stereo: StereoMode, max_views: u32) -> (bool, String) {
-    let why = if stereo != StereoMode::Multiview {
+    let why = if !inset.four_views {
+        "the default; inset-views=4 draws all four in one"
+    } else if stereo != StereoMode::Multiview {
         "two-pass"
-    } else if inset.two_scopes {
-        "inset-views=2"
     } else if max_views < 4 {
         "the device's maxMultiviewViewCount is below 4"
     } else {

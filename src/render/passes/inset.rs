@@ -18,18 +18,20 @@
 //! projection with a smaller viewport, so it is the same image at a lower
 //! resolution.
 //!
-//! Under multiview, where the device draws four views in one scope
-//! (maxMultiviewViewCount ≥ 4; not with `inset-views=2`), all four go into
-//! one scope (`forward-four-view`) on 4-layer eye-sized targets: layers 0
-//! and 1 are the eyes as before, layers 2 and 3 the wide views. The views
-//! share one viewport and render area, so a wide view is drawn at its own
-//! size into a region of its layer ([`crate::view::inset::wide_region`],
-//! centred on the inset): its view has the eye's pose and the FOV that
-//! puts the eye's FOV exactly on the region's pixels
-//! ([`crate::view::inset::layer_fov`]); the render area is the region and
-//! the inset together. One scope, one draw list (the eye's) and one
-//! clear and resolve, for more pixels in the inset layers (the whole
-//! render area, not only the inset).
+//! With `inset-views=4` under multiview, where the device draws four views
+//! in one scope (maxMultiviewViewCount >= 4), all four go into one scope
+//! (`forward-four-view`) on 4-layer eye-sized targets: layers 0 and 1 are
+//! the eyes as before, layers 2 and 3 the wide views. The views share one
+//! viewport and render area, so a wide view is drawn at its own size into
+//! a region of its layer ([`crate::view::inset::wide_region`], centred on
+//! the inset): its view has the eye's pose and the FOV that puts the eye's
+//! FOV exactly on the region's pixels ([`crate::view::inset::layer_fov`]);
+//! the render area is the region and the inset together. One scope, one
+//! draw list (the eye's) and one clear and resolve, for more work: every
+//! view gets the whole render area and the whole list. On the H200 that
+//! is the slower path (factory:100000 12.43 against 8.46 ms,
+//! `bench/results/2026-12-03-h200-inset-four-view.md`: there the multiview
+//! views cost as separate views), so two scopes are the default.
 
 use super::sampled::SampledSets;
 use super::{PipelineSetup, Recorder};
