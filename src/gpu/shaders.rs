@@ -51,6 +51,8 @@ pub static SCENE_FRAG: Module = spirv!("scene.frag");
 pub static SCENE_EARLY_FRAG: Module = spirv!("scene_early.frag");
 /// The hidden-area (HMD stencil mask) vertex shader.
 pub static HIDDEN_VERT: Module = spirv!("hidden.vert");
+/// The hidden-area mask's colour where it is marked in depth.
+pub static HIDDEN_FRAG: Module = spirv!("hidden.frag");
 /// Radial density masking's checkerboard stencil.
 pub static RDM_FRAG: Module = spirv!("rdm.frag");
 /// Radial density masking's reconstruction.
@@ -122,7 +124,7 @@ pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 pub static MSAA_RESOLVE_COMP: Module = spirv!("msaa_resolve.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 41] = [
+pub static ALL: [&Module; 42] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -131,6 +133,7 @@ pub static ALL: [&Module; 41] = [
     &SCENE_SSBO_CLIP_VERT,
     &SCENE_FRAG,
     &SCENE_EARLY_FRAG,
+    &HIDDEN_FRAG,
     &HIDDEN_VERT,
     &RDM_FRAG,
     &RDM_FILL_FRAG,

@@ -196,6 +196,8 @@ pub struct Renderer {
     /// `inset`'s four views in one multiview scope (the eyes in layers 0
     /// and 1, the wide views in 2 and 3).
     four_view: bool,
+    /// The stencil mask marks the hidden area in depth ([`mask_in_depth`]).
+    mask_in_depth: bool,
     /// With `lod`: what building the chains made and cost.
     pub lod: Option<LodReport>,
     /// `--per-draw ubo|ssbo`: the per-draw records and their set 1.
@@ -208,10 +210,26 @@ pub struct Renderer {
     instance_count: usize,
 }
 
-/// Whether the frame's draws test stencil (the stencil mask or RDM's
-/// checkerboard writes it).
-fn tests_stencil(config: &RenderConfig) -> bool {
-    config.stencil_mask || config.rdm.is_some()
+/// Whether the stencil mask marks the hidden area in depth (at the near
+/// plane, its colour opaque black) rather than in stencil: always but with
+/// RDM (whose checkerboard shares the stencil test), when the frame's depth
+/// is handed on (to a depth swapchain, or to timewarp's depth variants,
+/// which would carry the near-plane mask across the image). Marked in
+/// depth, the frame needs neither a stencil aspect (0.86 ms a frame at 4×
+/// on the H200) nor a colour clear (2.56 ms): the mask writes the colour
+/// of the hidden samples and the sky the rest
+/// (`bench/results/2026-12-03-h200-raster-floors.md`).
+fn mask_in_depth(config: &RenderConfig, depth_out: bool) -> bool {
+    let timewarp_depth = config
+        .timewarp
+        .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation);
+    config.stencil_mask && config.rdm.is_none() && !depth_out && !timewarp_depth
+}
+
+/// Whether the frame's draws test stencil (RDM's checkerboard, or the
+/// stencil mask where it is not marked in depth, writes it).
+fn tests_stencil(config: &RenderConfig, mask_in_depth: bool) -> bool {
+    (config.stencil_mask && !mask_in_depth) || config.rdm.is_some()
 }
 
 /// The render area of pixel rectangle `r`.
@@ -348,7 +366,9 @@ impl Renderer {
             let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
             queries.push(Some(Queries::new(&ctx, 32, stats)?));
         }
-        let stencil = tests_stencil(config) || output.as_ref().is_some_and(|o| o.depth);
+        let depth_out = output.as_ref().is_some_and(|o| o.depth);
+        let mask_in_depth = mask_in_depth(config, depth_out);
+        let stencil = tests_stencil(config, mask_in_depth) || depth_out;
         let depth_format = match ctx.caps.depth_only_format {
             Some(f) if !stencil => f,
             _ => ctx.caps.depth_format,
@@ -401,6 +421,7 @@ impl Renderer {
             inset_path: config
                 .inset
                 .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).1),
+            mask_in_depth,
             four_view: config
                 .inset
                 .is_some_and(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).0),
@@ -536,7 +557,8 @@ impl Renderer {
             layout: self.descriptors.layout,
             samples: self.config.msaa,
             view_mask: self.view_mask(),
-            stencil_test: tests_stencil(&self.config),
+            stencil_test: tests_stencil(&self.config, self.mask_in_depth),
+            mask_in_depth: self.mask_in_depth,
             depth_format: self.depth_format,
             shading_rate: self.shading_rate.is_some(),
             scene: self.scene(),
@@ -1242,12 +1264,13 @@ impl Renderer {
         let resolved_sky = passes.resolved_sky.as_ref().filter(|_| floor.is_none());
         // Every colour sample is written when the sky is drawn inside the
         // scopes and no stencil (hidden-area mask, RDM's checkerboard)
-        // keeps draws out; the far field's composite is not counted on, nor
+        // keeps draws out (a hidden-area mask marked in depth writes its
+        // samples' colour itself); the far field's composite is not counted on, nor
         // LMS's quadrants (their resample filters across the quadrant
         // edges, past what the per-quadrant sky covers). Floor frames start
         // their colour the same way as the frame.
         let colour_covered = passes.resolved_sky.is_none()
-            && passes.stencil_mask.is_none()
+            && (passes.stencil_mask.is_none() || self.mask_in_depth)
             && passes.rdm.is_none()
             && passes.far.is_none()
             && passes.lms.is_none();

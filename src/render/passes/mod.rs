@@ -191,6 +191,9 @@ pub struct PipelineSetup<'a> {
     pub view_mask: u32,
     /// Whether draws test stencil (stencil mask or RDM on).
     pub stencil_test: bool,
+    /// The stencil mask marks the hidden area in depth at the near plane
+    /// and writes its colour (not stencil).
+    pub mask_in_depth: bool,
     /// The depth attachments' format (with a stencil aspect when
     /// `stencil_test` or the frame's depth output needs one).
     pub depth_format: vk::Format,

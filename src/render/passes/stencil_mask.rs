@@ -9,6 +9,14 @@
 //! Valve reports 17 % of the Vive's pixels hidden; the lens-ellipse default
 //! (`view::lens`) hides 1 − π/4 ≈ 21.5 %.
 //!
+//! Except with RDM, or where the frame's depth is handed on, the mask is
+//! marked in depth instead (`Renderer`'s `mask_in_depth`): the triangles
+//! are drawn at the near plane (reverse-Z depth 1, written always) in
+//! opaque black, so every later draw fails its GREATER or
+//! GREATER_OR_EQUAL depth test there just as it failed stencil = 0, the
+//! frame needs no stencil aspect, and with the sky writing every other
+//! sample it needs no colour clear either.
+//!
 //! Each frame slot has its own vertex buffer, rewritten only when the rig's
 //! meshes change (a runtime may send new ones).
 
@@ -50,20 +58,37 @@ impl StencilMask {
     /// Builds the pipeline and `slots` vertex buffers (room for
     /// [`MAX_HIDDEN_VERTICES`] per view).
     pub fn new(setup: &PipelineSetup, slots: usize) -> Result<StencilMask> {
-        let (vs, fs) = (shaders::HIDDEN_VERT.words(), shaders::FLAT_FRAG.words());
-        let pipeline = GraphicsPipelineDesc {
-            depth_test: false,
-            depth_write: false,
-            // With `resolved-sky` the hidden area is marked covered (alpha
-            // 1 over the transparent clear) so the sky added after the
-            // resolve leaves it black, as the sky in the scope does.
-            color_write: if setup.resolved_sky {
-                vk::ColorComponentFlags::A
-            } else {
-                vk::ColorComponentFlags::empty()
-            },
-            stencil: Some(stencil_write(1)),
-            ..setup.fullscreen_desc("hidden-area stencil", &vs, &fs)
+        let (vs, fs) = (shaders::HIDDEN_VERT.words(), shaders::HIDDEN_FRAG.words());
+        // With `resolved-sky` the hidden area is marked covered (alpha 1
+        // over the transparent clear) so the sky added after the resolve
+        // leaves it black, as the sky in the scope does.
+        let color_write = if setup.resolved_sky {
+            vk::ColorComponentFlags::A
+        } else if setup.mask_in_depth {
+            vk::ColorComponentFlags::RGBA
+        } else {
+            vk::ColorComponentFlags::empty()
+        };
+        let pipeline = if setup.mask_in_depth {
+            // At the near plane (reverse-Z depth 1), written always: every
+            // later draw tests GREATER or GREATER_OR_EQUAL against it and
+            // fails, as it would fail stencil = 0.
+            GraphicsPipelineDesc {
+                depth_test: true,
+                depth_write: true,
+                depth_compare: vk::CompareOp::ALWAYS,
+                color_write,
+                stencil: None,
+                ..setup.fullscreen_desc("hidden-area depth", &vs, &fs)
+            }
+        } else {
+            GraphicsPipelineDesc {
+                depth_test: false,
+                depth_write: false,
+                color_write,
+                stencil: Some(stencil_write(1)),
+                ..setup.fullscreen_desc("hidden-area stencil", &vs, &fs)
+            }
         };
         let mut buffers = Vec::new();
         for i in 0..slots {
