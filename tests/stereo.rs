@@ -149,6 +149,7 @@ fn frames_that_do_not_clear_colour_still_write_every_pixel() {
         "multiview,superfrustum,gpu-cull,occlusion",
         "multiview,superfrustum,stencil-mask",
         "multiview,superfrustum,gpu-cull,occlusion,stencil-mask",
+        "multiview,superfrustum,stencil-mask,mffr",
     ] {
         let mut config = vergence::config::RenderConfig::default();
         config

@@ -212,9 +212,11 @@ pub struct Renderer {
 
 /// Whether the stencil mask marks the hidden area in depth (at the near
 /// plane, its colour opaque black) rather than in stencil: always but with
-/// RDM (whose checkerboard shares the stencil test), when the frame's depth
-/// is handed on (to a depth swapchain, or to timewarp's depth variants,
-/// which would carry the near-plane mask across the image). Marked in
+/// RDM (whose checkerboard shares the stencil test), MFFR (its far-field
+/// composite is drawn untested before the near geometry and relies on the
+/// stencil test to stay out of the hidden area), and when the frame's
+/// depth is handed on (to a depth swapchain, or to timewarp's depth
+/// variants, which would carry the near-plane mask across the image). Marked in
 /// depth, the frame needs neither a stencil aspect (0.86 ms a frame at 4×
 /// on the H200) nor a colour clear (2.56 ms): the mask writes the colour
 /// of the hidden samples and the sky the rest
@@ -223,7 +225,11 @@ fn mask_in_depth(config: &RenderConfig, depth_out: bool) -> bool {
     let timewarp_depth = config
         .timewarp
         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation);
-    config.stencil_mask && config.rdm.is_none() && !depth_out && !timewarp_depth
+    config.stencil_mask
+        && config.rdm.is_none()
+        && config.mffr.is_none()
+        && !depth_out
+        && !timewarp_depth
 }
 
 /// Whether the frame's draws test stencil (RDM's checkerboard, or the

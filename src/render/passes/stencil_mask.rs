@@ -9,7 +9,7 @@
 //! Valve reports 17 % of the Vive's pixels hidden; the lens-ellipse default
 //! (`view::lens`) hides 1 − π/4 ≈ 21.5 %.
 //!
-//! Except with RDM, or where the frame's depth is handed on, the mask is
+//! Except with RDM, MFFR, or where the frame's depth is handed on, the mask is
 //! marked in depth instead (`Renderer`'s `mask_in_depth`): the triangles
 //! are drawn at the near plane (reverse-Z depth 1, written always) in
 //! opaque black, so every later draw fails its GREATER or
