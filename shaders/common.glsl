@@ -15,7 +15,7 @@ struct MaterialData {
 };
 
 layout(set = 0, binding = 0) uniform FrameData {
-    mat4 view_proj[4];     // per view; 2 and 3 are the MFFR far-field cameras
+    mat4 view_proj[4];     // per view; 2 and 3 are the MFFR far-field cameras or inset's wide views
     mat4 eye_rot[4];       // eye orientation (world from eye), rotation only
     vec4 tangents[4];      // tan(left), tan(right), tan(up), tan(down)
     vec4 eye_rel[4];       // eye position relative to the render origin

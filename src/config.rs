@@ -277,7 +277,8 @@ pub struct Inset {
     /// lenses derives it ([`RenderConfig::resolve_lens`]).
     #[serde(default)]
     pub fov_given: bool,
-    /// `inset-views=4`: under multiview, draw the four views (both eyes'
+    /// `inset-views=4` (which, like `inset-fov=`, turns `inset` on):
+    /// under multiview, draw the four views (both eyes'
     /// inset and wide views) in one multiview scope where the device's
     /// maxMultiviewViewCount is at least 4. The default, `inset-views=2`,
     /// draws the wide views and the insets in two scopes: on the H200 it

@@ -309,7 +309,8 @@ impl AttachmentSet {
 
 /// The attachments of one stereo frame.
 pub struct Attachments {
-    /// One 2-layer set (multiview) or one single-layer set per eye (two-pass).
+    /// One 2-layer set (multiview; 4 layers for `inset`'s four views) or
+    /// one single-layer set per eye (two-pass).
     pub sets: Vec<AttachmentSet>,
     /// Per-eye size.
     pub extent: vk::Extent2D,

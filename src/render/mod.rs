@@ -447,8 +447,12 @@ impl Renderer {
         }
         r.shading_rate = rates;
         r.foveation_path = path;
-        if let Some(path) = &r.inset_path {
-            tracing::info!("inset: {path}");
+        match (&r.inset_path, config.inset) {
+            (Some(path), Some(i)) if i.four_views && !r.four_view => {
+                tracing::warn!("inset-views=4 falls back: {path}")
+            }
+            (Some(path), _) => tracing::info!("inset: {path}"),
+            _ => {}
         }
         r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
         if let Some(cloud) = scene.points.as_ref() {
@@ -1297,9 +1301,19 @@ impl Renderer {
             // wide views' region and the inset together.
             let inset = passes.inset.as_ref().filter(|_| floor.is_none());
             let rect = self.inset_rect;
-            let four = self
-                .four_view_region()
-                .map(|region| pixel_area(&crate::view::inset::bounding(&region, &rect)));
+            // One pixel more around the region: the composite's bilinear
+            // reads at the region's edge texel centres, and the texel past
+            // it must be written too (it gets no weight, up to the
+            // sampler's precision).
+            let four = self.four_view_region().map(|region| {
+                let grown = crate::view::inset::PixelRect {
+                    x0: region.x0.saturating_sub(1),
+                    y0: region.y0.saturating_sub(1),
+                    x1: (region.x1 + 1).min(self.extent.width),
+                    y1: (region.y1 + 1).min(self.extent.height),
+                };
+                pixel_area(&crate::view::inset::bounding(&grown, &rect))
+            });
             let inset_area = four.unwrap_or_else(|| pixel_area(&rect));
             let view_sets = match four {
                 Some(_) => [Some((&targets.sets[0], 0b1111, 0)), None],

@@ -29,11 +29,15 @@ pub struct Floor {
 }
 
 impl Floor {
-    /// Builds the pipeline (depth test off, constant colour).
+    /// Builds the pipeline (constant colour; the depth test off, but on
+    /// where the stencil mask is marked in depth, so that the triangle
+    /// stays out of the hidden area as the stencil test keeps it out
+    /// otherwise: at depth 0 it passes against the clear and fails against
+    /// the mask).
     pub fn new(setup: &PipelineSetup) -> Result<Floor> {
         let (vs, fs) = (shaders::FLOOR_VERT.words(), shaders::FLAT_FRAG.words());
         let flat = GraphicsPipelineDesc {
-            depth_test: false,
+            depth_test: setup.mask_in_depth,
             ..setup.fullscreen_desc("raster floor", &vs, &fs)
         };
         Ok(Floor {

@@ -189,7 +189,8 @@ pub struct PipelineSetup<'a> {
     /// Multiview mask of the forward views (0 in two-pass; 0b1111 for
     /// `inset`'s four views in one scope, else 0b11).
     pub view_mask: u32,
-    /// Whether draws test stencil (stencil mask or RDM on).
+    /// Whether draws test stencil (RDM, or the stencil mask kept in
+    /// stencil).
     pub stencil_test: bool,
     /// The stencil mask marks the hidden area in depth at the near plane
     /// and writes its colour (not stencil).
@@ -224,8 +225,9 @@ pub struct PipelineSetup<'a> {
 impl PipelineSetup<'_> {
     /// The scene pipeline over the scene's vertex streams, drawn into the
     /// forward views: reverse-Z depth test and write, back faces culled,
-    /// and with the stencil mask (bit 0) or RDM (bit 1) on, passing only
-    /// where neither wrote stencil.
+    /// and with the stencil mask kept in stencil (bit 0) or RDM (bit 1)
+    /// on, passing only where neither wrote stencil (a mask marked in
+    /// depth needs no stencil test: depth 1 fails GREATER).
     pub fn scene_desc<'s>(
         &self,
         vertex: &'s [u32],

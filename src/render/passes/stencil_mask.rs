@@ -12,8 +12,10 @@
 //! Except with RDM, MFFR, or where the frame's depth is handed on, the mask is
 //! marked in depth instead (`Renderer`'s `mask_in_depth`): the triangles
 //! are drawn at the near plane (reverse-Z depth 1, written always) in
-//! opaque black, so every later draw fails its GREATER or
-//! GREATER_OR_EQUAL depth test there just as it failed stencil = 0, the
+//! opaque black, so every later draw fails its depth test there just as
+//! it failed stencil = 0 (the scene and overlay test GREATER, which depth
+//! 1 never passes; the sky and the floors test GREATER_OR_EQUAL at depth
+//! 0), the
 //! frame needs no stencil aspect, and with the sky writing every other
 //! sample it needs no colour clear either.
 //!
@@ -165,7 +167,7 @@ impl StencilMask {
         Ok(())
     }
 
-    /// Draws `slot`'s hidden area of view `eye` into stencil inside the open
+    /// Draws `slot`'s hidden area of view `eye` into stencil (or depth) inside the open
     /// scope (nothing when the meshes are empty). Returns the draw calls.
     pub fn record(&self, rec: &Recorder, slot: usize, eye: u32) -> u64 {
         let per_view = self.slots[slot].per_view;
