@@ -28,10 +28,12 @@ layout(push_constant) uniform Push {
     uint wide_lo;  // the wide view's region in its frame: x0 | y0 << 16
     uint wide_size; // and its width | height << 16
     uint wide_layer; // the wide frame's layer of eye layer 0
+    uint eye_size; // the eyes' drawn size, width | height << 16 (with aq
+                   // smaller than the images)
 } pc;
 
 vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
-    vec2 size = vec2(textureSize(inset_frame, 0).xy);
+    vec2 size = vec2(float(pc.eye_size & 0xffffu), float(pc.eye_size >> 16));
     vec2 at = vec2(p.xy) + 0.5;
     vec2 wsize = vec2(float(pc.wide_size & 0xffffu), float(pc.wide_size >> 16));
     vec2 worigin = vec2(float(pc.wide_lo & 0xffffu), float(pc.wide_lo >> 16));
@@ -53,7 +55,7 @@ vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
 void main() {
     ivec3 p = ivec3(gl_GlobalInvocationID);
     // Constant indices into the arrays (no dynamic indexing needed).
-    ivec2 size = pc.set == 0u ? imageSize(composed[0]).xy : imageSize(composed[1]).xy;
+    ivec2 size = ivec2(int(pc.eye_size & 0xffffu), int(pc.eye_size >> 16));
     if (p.x >= size.x || p.y >= size.y) {
         return;
     }

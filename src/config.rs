@@ -530,7 +530,6 @@ impl RenderConfig {
                     (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
                     (self.occlusion, "occlusion"),
-                    (self.aq, "aq"),
                     (self.timewarp.is_some(), "timewarp"),
                     (
                         self.record_threads.is_some() || self.per_draw != PerDraw::Push,

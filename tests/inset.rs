@@ -335,3 +335,93 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
         );
     }
 }
+
+/// With `aq` the eyes are drawn smaller than their images (the targets are
+/// made once at the largest scale): the inset follows the render scale, in
+/// two scopes and in four views. At scale 0.75 the core is the full render
+/// at that size pixel for pixel and the periphery that size's wide view
+/// upsampled; the images come back at the drawn size.
+#[test]
+fn with_aq_the_inset_follows_the_render_scale() {
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = framing_pose(&scene, &profile);
+    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    for four_views in [false, true] {
+        let inset = Inset {
+            wide_scale: 0.5,
+            half_angle_deg: 20.0,
+            fov_given: true,
+            four_views,
+        };
+        let config = RenderConfig {
+            aq: true,
+            ..config(StereoMode::Multiview, Some(inset), [0.2, -0.1])
+        };
+        let before = ctx.validation_messages();
+        let extent = ash::vk::Extent2D {
+            width: W,
+            height: H,
+        };
+        let mut r = vergence::render::Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
+        r.set_render_scale(0.75);
+        let (w, h) = (r.extent().width, r.extent().height);
+        assert!(w < W && h < H, "{w}x{h}");
+        r.render(&profile.rig(pose), None, true).unwrap();
+        let got = r.read_images().unwrap();
+        drop(r);
+        assert_eq!(
+            ctx.validation_messages(),
+            before,
+            "{:#?}",
+            ctx.validation_log()
+        );
+        let plain = |w, h| {
+            render_config(
+                &ctx,
+                &scene,
+                &profile,
+                pose,
+                &config_without_aq(None, [0.2, -0.1]),
+                w,
+                h,
+            )
+        };
+        let (full, wide) = (plain(w, h), plain(w / 2, h / 2));
+        let rect = inset_rect(&fovs, [0.2, -0.1], 20.0, w, h);
+        for (eye, img) in got.iter().enumerate() {
+            assert_eq!(img.dimensions(), (w, h));
+            let (mut inside, mut same, mut outside, mut close) = (0, 0, 0, 0);
+            for y in 0..h {
+                for x in 0..w {
+                    let p = img.get_pixel(x, y);
+                    let wt = weight(&rect, x, y, FEATHER_PX);
+                    if wt >= 1.0 {
+                        inside += 1;
+                        same += usize::from(p == full.images[eye].get_pixel(x, y));
+                    } else if wt == 0.0 {
+                        outside += 1;
+                        let ok = (0..3).all(|c| {
+                            (p[c] as f32 - bilinear(&wide.images[eye], x, y, w, h, c)).abs() <= 2.5
+                        });
+                        close += usize::from(ok);
+                    }
+                }
+            }
+            assert!(inside > 100, "{rect:?}");
+            assert_eq!(
+                same, inside,
+                "four views {four_views}, eye {eye}: the core is the full render's at the scaled size"
+            );
+            assert!(
+                close * 1000 >= outside * 995,
+                "four views {four_views}, eye {eye}: {close} of {outside} periphery pixels match the scaled wide view"
+            );
+        }
+    }
+}
+
+fn config_without_aq(inset: Option<Inset>, gaze: [f32; 2]) -> RenderConfig {
+    config(StereoMode::Multiview, inset, gaze)
+}

@@ -1327,7 +1327,7 @@ impl Renderer {
                         let w = &i.wide.sets[eye as usize % i.wide.sets.len()];
                         (
                             w.views(),
-                            i.wide.extent,
+                            i.wide_extent(self.extent),
                             None,
                             view_mask,
                             eye,

@@ -46,9 +46,9 @@ use crate::view::inset::PixelRect;
 use ash::vk;
 
 /// The composite's push constants: the inset (2 words), the feather, the
-/// attachment set, the wide view's region (origin, size) and its first
-/// layer.
-const PUSH_BYTES: u32 = 7 * 4;
+/// attachment set, the wide view's region (origin, size), its first layer
+/// and the eyes' drawn size.
+const PUSH_BYTES: u32 = 8 * 4;
 
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
@@ -62,6 +62,8 @@ pub struct InsetPass {
     /// Four views in one multiview scope (the pipelines' view mask is
     /// 0b1111).
     four_view: bool,
+    /// The wide view's scale per axis (`inset=F`).
+    scale: f64,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -124,6 +126,7 @@ impl InsetPass {
             Ok(composite) => Ok(InsetPass {
                 wide,
                 four_view,
+                scale,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -242,11 +245,23 @@ impl InsetPass {
         Ok(())
     }
 
-    /// Where the wide view's pixels lie in its frame this frame: with four
-    /// views its region of the eye-sized layer around `rect`
-    /// ([`crate::view::inset::wide_region`]), else the whole wide image.
+    /// The wide view's size for eyes of `extent` (F × `extent`, within the
+    /// targets: with `aq` the eyes are drawn smaller than allocated).
+    pub fn wide_extent(&self, extent: vk::Extent2D) -> vk::Extent2D {
+        let e = crate::render::scaled(extent, self.scale);
+        vk::Extent2D {
+            width: e.width.min(self.wide.extent.width),
+            height: e.height.min(self.wide.extent.height),
+        }
+    }
+
+    /// Where the wide view's pixels lie in its frame this frame, for eyes
+    /// of `extent`: with four views its region of the eye-sized layer
+    /// around `rect` ([`crate::view::inset::wide_region`]), else the top
+    /// left of the wide image ([`InsetPass::wide_extent`]).
     pub fn wide_region(&self, rect: &PixelRect, extent: vk::Extent2D) -> PixelRect {
-        let size = (self.wide.extent.width, self.wide.extent.height);
+        let w = self.wide_extent(extent);
+        let size = (w.width, w.height);
         if self.four_view {
             crate::view::inset::wide_region(rect, extent.width, extent.height, size)
         } else {
@@ -279,6 +294,7 @@ impl InsetPass {
         let wide_lo = region.x0 | region.y0 << 16;
         let wide_size = region.width() | region.height() << 16;
         let wide_layer = if self.four_view { 2 } else { 0 };
+        let eye_size = extent.width | extent.height << 16;
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
         rec.barriers(&self.before);
@@ -298,7 +314,9 @@ impl InsetPass {
                 let Some((out, _)) = &set.filled else {
                     continue;
                 };
-                let push = [lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer];
+                let push = [
+                    lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size,
+                ];
                 d.cmd_push_constants(
                     rec.cmd,
                     self.sets.layout,
