@@ -70,6 +70,34 @@ fn core_matches(got: &image::RgbaImage, full: &image::RgbaImage, r: &PixelRect) 
     (inside, same)
 }
 
+/// What a `w`×`h` eye image `got` holds around the inset `rect`: (core
+/// pixels, of them equal to `full`'s; periphery pixels beyond the feather,
+/// of them within 2.5 levels of `wide` upsampled bilinearly).
+fn regions(
+    got: &image::RgbaImage,
+    full: &image::RgbaImage,
+    wide: &image::RgbaImage,
+    rect: &PixelRect,
+    (w, h): (u32, u32),
+) -> (usize, usize, usize, usize) {
+    let (mut inside, mut same, mut outside, mut close) = (0, 0, 0, 0);
+    for y in 0..h {
+        for x in 0..w {
+            let p = got.get_pixel(x, y);
+            let wt = weight(rect, x, y, FEATHER_PX);
+            if wt >= 1.0 {
+                inside += 1;
+                same += usize::from(p == full.get_pixel(x, y));
+            } else if wt == 0.0 {
+                outside += 1;
+                let ok = (0..3).all(|c| (p[c] as f32 - bilinear(wide, x, y, w, h, c)).abs() <= 2.5);
+                close += usize::from(ok);
+            }
+        }
+    }
+    (inside, same, outside, close)
+}
+
 #[test]
 fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let ctx = context();
@@ -120,22 +148,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     assert!(rect.width() > 20 && rect.width() < W - 20, "{rect:?}");
     for eye in 0..2 {
         let (got, sharp, soft) = (&mv.images[eye], &full.images[eye], &wide.images[eye]);
-        let (mut inside, mut same) = (0, 0);
-        let (mut outside, mut close) = (0, 0);
-        for y in 0..H {
-            for x in 0..W {
-                let p = got.get_pixel(x, y);
-                if core(&rect, x, y) {
-                    inside += 1;
-                    same += usize::from(p == sharp.get_pixel(x, y));
-                } else if weight(&rect, x, y, FEATHER_PX) == 0.0 {
-                    outside += 1;
-                    let ok =
-                        (0..3).all(|c| (p[c] as f32 - bilinear(soft, x, y, W, H, c)).abs() <= 2.5);
-                    close += usize::from(ok);
-                }
-            }
-        }
+        let (inside, same, outside, close) = regions(got, sharp, soft, &rect, (W, H));
         assert_eq!(
             same, inside,
             "eye {eye}: the inset's core is the full render's pixels"
@@ -268,25 +281,18 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
         assert_eq!(one.stats.instances_drawn, full.stats.instances_drawn);
         let rect = inset_rect(&fovs, gaze, 15.0, W, H);
         for eye in 0..2 {
-            let (inside, same) = core_matches(&one.images[eye], &full.images[eye], &rect);
+            let (inside, same, outside, close) = regions(
+                &one.images[eye],
+                &full.images[eye],
+                &wide.images[eye],
+                &rect,
+                (W, H),
+            );
             assert!(inside > 100, "{rect:?}");
             assert_eq!(
                 same, inside,
                 "gaze {gaze:?}, eye {eye}: the core is the full render's"
             );
-            let (mut outside, mut close) = (0, 0);
-            for y in 0..H {
-                for x in 0..W {
-                    if weight(&rect, x, y, FEATHER_PX) == 0.0 {
-                        outside += 1;
-                        let p = one.images[eye].get_pixel(x, y);
-                        let ok = (0..3).all(|c| {
-                            (p[c] as f32 - bilinear(&wide.images[eye], x, y, W, H, c)).abs() <= 2.5
-                        });
-                        close += usize::from(ok);
-                    }
-                }
-            }
             assert!(
                 close * 1000 >= outside * 995,
                 "gaze {gaze:?}, eye {eye}: {close} of {outside} periphery pixels match the wide view upsampled"
@@ -392,23 +398,8 @@ fn with_aq_the_inset_follows_the_render_scale() {
         let rect = inset_rect(&fovs, [0.2, -0.1], 20.0, w, h);
         for (eye, img) in got.iter().enumerate() {
             assert_eq!(img.dimensions(), (w, h));
-            let (mut inside, mut same, mut outside, mut close) = (0, 0, 0, 0);
-            for y in 0..h {
-                for x in 0..w {
-                    let p = img.get_pixel(x, y);
-                    let wt = weight(&rect, x, y, FEATHER_PX);
-                    if wt >= 1.0 {
-                        inside += 1;
-                        same += usize::from(p == full.images[eye].get_pixel(x, y));
-                    } else if wt == 0.0 {
-                        outside += 1;
-                        let ok = (0..3).all(|c| {
-                            (p[c] as f32 - bilinear(&wide.images[eye], x, y, w, h, c)).abs() <= 2.5
-                        });
-                        close += usize::from(ok);
-                    }
-                }
-            }
+            let (inside, same, outside, close) =
+                regions(img, &full.images[eye], &wide.images[eye], &rect, (w, h));
             assert!(inside > 100, "{rect:?}");
             assert_eq!(
                 same, inside,

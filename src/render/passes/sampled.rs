@@ -40,27 +40,27 @@ impl SampledSets {
             occlusion: false,
             multiview_layers: 2,
         };
-        let mut made = SampledSets {
-            sets: Attachments::new(ctx, extent, samples, multiview, opts)?.sets,
-            extent,
-            views: Vec::new(),
-            sampler: vk::Sampler::null(),
-        };
-        match made.finish(ctx, what) {
-            Ok(()) => Ok(made),
-            Err(e) => {
-                made.destroy(ctx);
-                Err(e)
-            }
-        }
+        let sets = Attachments::new(ctx, extent, samples, multiview, opts)?.sets;
+        Self::with_sets(ctx, sets, extent, what)
     }
 
     /// No sets, only the sampler: for a pass that samples images it does
     /// not own (`inset`'s four views, whose wide view lies in the eye's
     /// own layers).
     pub fn sampler_only(ctx: &Context, extent: vk::Extent2D, what: &str) -> Result<SampledSets> {
+        Self::with_sets(ctx, Vec::new(), extent, what)
+    }
+
+    /// `sets` with their array views and the sampler; on failure, destroys
+    /// what it made and the sets.
+    fn with_sets(
+        ctx: &Context,
+        sets: Vec<AttachmentSet>,
+        extent: vk::Extent2D,
+        what: &str,
+    ) -> Result<SampledSets> {
         let mut made = SampledSets {
-            sets: Vec::new(),
+            sets,
             extent,
             views: Vec::new(),
             sampler: vk::Sampler::null(),
