@@ -143,6 +143,10 @@ pub struct Renderer {
     allocated: vk::Extent2D,
     /// With `inset`: this frame's inset rectangle (both eyes').
     inset_rect: crate::view::inset::PixelRect,
+    /// With `inset`: where this frame's wide view lies in its frame
+    /// ([`passes::inset::InsetPass::wide_region`]), found with the
+    /// rectangle once a frame.
+    wide_region: crate::view::inset::PixelRect,
     /// The depth attachments' format: the device's depth-stencil format
     /// when a pass uses stencil (stencil mask, RDM) or the frame's depth
     /// goes out to a depth swapchain, else a depth-only one where offered.
@@ -379,6 +383,9 @@ impl Renderer {
             Some(f) if !stencil => f,
             _ => ctx.caps.depth_format,
         };
+        let inset_choice = config
+            .inset
+            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views));
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
@@ -424,13 +431,15 @@ impl Renderer {
             mffr_fallbacks: 0,
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
-            inset_path: config
-                .inset
-                .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).1),
+            inset_path: inset_choice.as_ref().map(|c| c.1.clone()),
             mask_in_depth,
-            four_view: config
-                .inset
-                .is_some_and(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views).0),
+            four_view: inset_choice.is_some_and(|c| c.0),
+            wide_region: crate::view::inset::PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: 0,
+                y1: 0,
+            },
             lod: lod_report,
             draw_records,
             parallel: None,
@@ -672,8 +681,7 @@ impl Renderer {
     /// With `inset`'s four views: where the wide views lie in their layers
     /// this frame (around the inset).
     fn four_view_region(&self) -> Option<crate::view::inset::PixelRect> {
-        let inset = self.passes.inset.as_ref().filter(|i| i.four_view())?;
-        Some(inset.wide_region(&self.inset_rect, self.extent))
+        self.four_view.then_some(self.wide_region)
     }
 
     /// With `inset` (CPU-culled or not culled), each eye's volume through
@@ -927,6 +935,9 @@ impl Renderer {
                 self.extent.width,
                 self.extent.height,
             );
+            if let Some(pass) = &self.passes.inset {
+                self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
+            }
         }
         // The slot's previous frame must be done before its buffers are
         // written: with N frames in flight, this waits for frame n - N.
@@ -1456,8 +1467,13 @@ impl Renderer {
         }
         if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
             // A dispatch per set, not a draw: not counted in draw_calls.
-            let region = inset.wide_region(&self.inset_rect, self.extent);
-            inset.record_composite(&rec, q, targets, self.extent, (self.inset_rect, region));
+            inset.record_composite(
+                &rec,
+                q,
+                targets,
+                self.extent,
+                (self.inset_rect, self.wide_region),
+            );
         }
         q.end_stats(ctx, cmd);
         draw_calls
