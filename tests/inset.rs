@@ -112,6 +112,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         half_angle_deg: 15.0,
         fov_given: true,
         four_views: false,
+        wide_1x: false,
     };
     let full = render_config(
         &ctx,
@@ -253,6 +254,7 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
         half_angle_deg: 15.0,
         fov_given: true,
         four_views: true,
+        wide_1x: false,
     };
     let two = Inset {
         four_views: false,
@@ -360,6 +362,7 @@ fn with_aq_the_inset_follows_the_render_scale() {
             half_angle_deg: 20.0,
             fov_given: true,
             four_views,
+            wide_1x: false,
         };
         let config = RenderConfig {
             aq: true,
@@ -408,6 +411,73 @@ fn with_aq_the_inset_follows_the_render_scale() {
             assert!(
                 close * 1000 >= outside * 995,
                 "four views {four_views}, eye {eye}: {close} of {outside} periphery pixels match the scaled wide view"
+            );
+        }
+    }
+}
+
+/// With `inset-wide-1x` the wide views are drawn at one sample while the
+/// insets keep 4×: the core is still the 4× full render pixel for pixel,
+/// and the periphery is the one-sample half-size render upsampled, not the
+/// 4× one — in multiview and two-pass, and with the stencil mask (whose
+/// hidden-area pipeline has a one-sample twin for the wide scope).
+#[test]
+fn wide_views_at_one_sample_keep_the_inset_at_4x() {
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = framing_pose(&scene, &profile);
+    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let inset = Inset {
+        wide_scale: 0.5,
+        half_angle_deg: 15.0,
+        fov_given: true,
+        four_views: false,
+        wide_1x: true,
+    };
+    let gaze = [0.1, 0.2];
+    let rect = inset_rect(&fovs, gaze, 15.0, W, H);
+    let extent = ash::vk::Extent2D {
+        width: W,
+        height: H,
+    };
+    let c = config(StereoMode::Multiview, Some(inset), gaze);
+    let r = vergence::render::Renderer::new(ctx.clone(), &scene, &c, extent).unwrap();
+    let path = r.inset_path.clone().unwrap_or_default();
+    assert!(path.contains("wide views at 1 sample"), "{path}");
+    drop(r);
+    for (stereo, stencil_mask) in [
+        (StereoMode::Multiview, false),
+        (StereoMode::TwoPass, false),
+        (StereoMode::Multiview, true),
+    ] {
+        let with = |inset: Option<Inset>, msaa: u32, w: u32, h: u32| {
+            let c = RenderConfig {
+                msaa,
+                stencil_mask,
+                ..config(stereo, inset, gaze)
+            };
+            render_config(&ctx, &scene, &profile, pose, &c, w, h)
+        };
+        let got = with(Some(inset), 4, W, H);
+        let full = with(None, 4, W, H);
+        let (wide1, wide4) = (with(None, 1, W / 2, H / 2), with(None, 4, W / 2, H / 2));
+        for eye in 0..2 {
+            let img = &got.images[eye];
+            let (inside, same, outside, close) =
+                regions(img, &full.images[eye], &wide1.images[eye], &rect, (W, H));
+            let (_, _, _, close4) =
+                regions(img, &full.images[eye], &wide4.images[eye], &rect, (W, H));
+            let what = format!("{stereo:?}, stencil mask {stencil_mask}, eye {eye}");
+            assert!(inside > 100, "{rect:?}");
+            assert_eq!(same, inside, "{what}: the core is the 4× full render's");
+            assert!(
+                close * 1000 >= outside * 995,
+                "{what}: {close} of {outside} periphery pixels match the one-sample wide view"
+            );
+            assert!(
+                close4 < close,
+                "{what}: the periphery is not the 4× wide view ({close4} against {close} pixels match)"
             );
         }
     }

@@ -259,8 +259,19 @@ fn pixel_area(r: &crate::view::inset::PixelRect) -> vk::Rect2D {
 /// How `inset`'s four views are drawn: in one multiview scope (true) when
 /// `inset-views=4` asked for it, the frame is multiview and the device
 /// draws at least four views in a scope; else in two scopes. The string
-/// says which, and why two (for stats).
-fn inset_path(inset: crate::config::Inset, stereo: StereoMode, max_views: u32) -> (bool, String) {
+/// says which, and why two (for stats), and with `inset-wide-1x` over
+/// MSAA that the wide views have one sample.
+fn inset_path(
+    inset: crate::config::Inset,
+    stereo: StereoMode,
+    max_views: u32,
+    msaa: u32,
+) -> (bool, String) {
+    let one = if inset.wide_1x && msaa > 1 {
+        ", wide views at 1 sample"
+    } else {
+        ""
+    };
     let why = if !inset.four_views {
         "the default; inset-views=4 draws all four in one"
     } else if stereo != StereoMode::Multiview {
@@ -270,7 +281,7 @@ fn inset_path(inset: crate::config::Inset, stereo: StereoMode, max_views: u32) -
     } else {
         return (true, "four-view multiview".into());
     };
-    (false, format!("two scopes ({why})"))
+    (false, format!("two scopes ({why}){one}"))
 }
 
 impl Renderer {
@@ -385,7 +396,7 @@ impl Renderer {
         };
         let inset_choice = config
             .inset
-            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views));
+            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views, config.msaa));
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
@@ -891,6 +902,9 @@ impl Renderer {
         let mut passes = std::mem::take(&mut self.passes);
         let setup = self.pipeline_setup();
         let mut built = passes.forward.ensure_clipped(&setup);
+        if let (Ok(()), Some(wide)) = (&built, passes.inset_wide.as_mut()) {
+            built = wide.ensure_clipped(&setup);
+        }
         if let (Ok(()), Some(far)) = (&built, passes.far.as_mut()) {
             built = far.ensure_clipped(&setup);
         }
@@ -1343,6 +1357,7 @@ impl Renderer {
                             view_mask,
                             eye,
                             "forward-wide",
+                            true,
                         )
                     });
                     // With lms the eye is drawn into the LMS targets instead.
@@ -1363,11 +1378,17 @@ impl Renderer {
                             (None, Some(_)) => "forward-lms",
                             (None, None) => "forward",
                         },
+                        false,
                     );
                     wide.into_iter().chain(std::iter::once(main))
                 });
-            for (views, extent, area, view_mask, eye, name) in scopes {
+            for (views, extent, area, view_mask, eye, name, is_wide) in scopes {
                 let late = part == ScopePart::Second;
+                // The wide views at one sample (inset-wide-1x) draw with
+                // their own pipelines.
+                let one_sample = passes.inset_wide.as_ref().filter(|_| is_wide);
+                let forward = one_sample.map_or(&passes.forward, |w| &w.forward);
+                let overlay = one_sample.map_or(&passes.overlay, |w| &w.overlay);
                 q.begin_pass(ctx, cmd, if late { "forward-late" } else { name });
                 // The draws were recorded into secondaries by the threads.
                 let parallel = self.parallel.as_ref().filter(|_| floor.is_none());
@@ -1396,7 +1417,10 @@ impl Renderer {
                 }
                 if !late {
                     if let Some(mask) = &passes.stencil_mask {
-                        draw_calls += mask.record(&rec, self.slot, eye);
+                        draw_calls += match one_sample.and_then(|w| w.hidden) {
+                            Some(p) => mask.record_using(&rec, p, self.slot, eye),
+                            None => mask.record(&rec, self.slot, eye),
+                        };
                     }
                     if let Some(rdm) = &passes.rdm {
                         draw_calls += rdm.record(&rec, self.extent, eye);
@@ -1431,25 +1455,22 @@ impl Renderer {
                             draw_calls += far.record_composite(&rec, eye);
                             // The sky lies beyond the split: the far field has it.
                             draw_calls += match gpu_cull {
-                                Some(gpu) => passes
-                                    .forward
-                                    .record_gpu(&rec, gpu, eye, self.slot, false, false),
-                                None => passes.forward.record(&rec, near, eye, false),
+                                Some(gpu) => {
+                                    forward.record_gpu(&rec, gpu, eye, self.slot, false, false)
+                                }
+                                None => forward.record(&rec, near, eye, false),
                             };
                         }
                         (None, None) => match gpu_cull {
                             Some(gpu) => {
-                                draw_calls += passes
-                                    .forward
-                                    .record_gpu(&rec, gpu, eye, self.slot, sky, late)
+                                draw_calls +=
+                                    forward.record_gpu(&rec, gpu, eye, self.slot, sky, late)
                             }
-                            None => {
-                                draw_calls += passes.forward.record_from(&rec, near, base, eye, sky)
-                            }
+                            None => draw_calls += forward.record_from(&rec, near, base, eye, sky),
                         },
                     }
                     if floor.is_none() && part != ScopePart::First {
-                        draw_calls += passes.overlay.record(&rec, self.extras.overlay.len(), eye);
+                        draw_calls += overlay.record(&rec, self.extras.overlay.len(), eye);
                     }
                 }
                 rec.end_scope();

@@ -12,6 +12,7 @@ pub mod floor;
 pub mod forward;
 pub mod gpu_cull;
 pub mod inset;
+pub mod inset_wide;
 pub mod lms;
 pub mod output;
 pub mod overlay;
@@ -65,6 +66,8 @@ pub struct Passes {
     /// Multi-resolution foveated rendering (`inset`): the wide view's
     /// targets and the composite.
     pub inset: Option<inset::InsetPass>,
+    /// The wide views' one-sample pipelines (`inset-wide-1x` over MSAA).
+    pub inset_wide: Option<inset_wide::WidePipelines>,
     /// Lens-matched shading (`lms`): the LMS targets and the resample.
     pub lms: Option<lms::LmsPass>,
     /// The scene's point cloud (built by the renderer, which has the
@@ -116,13 +119,19 @@ impl Passes {
             self.far = Some(FarField::new(setup, m, extent)?);
         }
         if let Some(i) = config.inset {
+            // With inset-wide-1x over MSAA the wide views have one sample
+            // and their own pipelines.
+            let wide_1x = i.wide_1x && setup.samples > 1;
             self.inset = Some(inset::InsetPass::new(
                 setup,
                 extent,
                 i.wide_scale,
-                setup.samples,
+                if wide_1x { 1 } else { setup.samples },
                 config.stereo == crate::config::StereoMode::Multiview,
             )?);
+            if wide_1x {
+                self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
+            }
         }
         if let Some(l) = config.lms {
             let path = if setup.w_scaling {
@@ -166,6 +175,9 @@ impl Passes {
         if let Some(p) = self.inset {
             p.destroy(ctx);
         }
+        if let Some(p) = self.inset_wide {
+            p.destroy(ctx);
+        }
         if let Some(p) = self.lms {
             p.destroy(ctx);
         }
@@ -179,6 +191,7 @@ impl Passes {
 }
 
 /// What every pass pipeline shares, fixed at creation.
+#[derive(Clone, Copy)]
 pub struct PipelineSetup<'a> {
     /// The device.
     pub ctx: &'a Context,

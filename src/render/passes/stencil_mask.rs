@@ -57,9 +57,10 @@ pub struct StencilMask {
 }
 
 impl StencilMask {
-    /// Builds the pipeline and `slots` vertex buffers (room for
-    /// [`MAX_HIDDEN_VERTICES`] per view).
-    pub fn new(setup: &PipelineSetup, slots: usize) -> Result<StencilMask> {
+    /// The hidden-area pipeline for views drawn with `setup` (its samples,
+    /// views and depth format): marks in depth or in stencil as `setup`
+    /// says. The caller destroys it.
+    pub fn pipeline(setup: &PipelineSetup) -> Result<vk::Pipeline> {
         let (vs, fs) = (shaders::HIDDEN_VERT.words(), shaders::HIDDEN_FRAG.words());
         // With `resolved-sky` the hidden area is marked covered (alpha 1
         // over the transparent clear) so the sky added after the resolve
@@ -71,7 +72,7 @@ impl StencilMask {
         } else {
             vk::ColorComponentFlags::empty()
         };
-        let pipeline = if setup.mask_in_depth {
+        let desc = if setup.mask_in_depth {
             // At the near plane (reverse-Z depth 1), written always: every
             // later draw tests GREATER or GREATER_OR_EQUAL against it and
             // fails, as it would fail stencil = 0.
@@ -92,6 +93,13 @@ impl StencilMask {
                 ..setup.fullscreen_desc("hidden-area stencil", &vs, &fs)
             }
         };
+        desc.build(setup.ctx)
+    }
+
+    /// Builds the pipeline and `slots` vertex buffers (room for
+    /// [`MAX_HIDDEN_VERTICES`] per view).
+    pub fn new(setup: &PipelineSetup, slots: usize) -> Result<StencilMask> {
+        let pipeline = Self::pipeline(setup)?;
         let mut buffers = Vec::new();
         for i in 0..slots {
             buffers.push(HiddenSlot {
@@ -110,7 +118,7 @@ impl StencilMask {
             });
         }
         Ok(StencilMask {
-            pipeline: pipeline.build(setup.ctx)?,
+            pipeline,
             slots: buffers,
         })
     }
@@ -170,11 +178,23 @@ impl StencilMask {
     /// Draws `slot`'s hidden area of view `eye` into stencil (or depth) inside the open
     /// scope (nothing when the meshes are empty). Returns the draw calls.
     pub fn record(&self, rec: &Recorder, slot: usize, eye: u32) -> u64 {
+        self.record_using(rec, self.pipeline, slot, eye)
+    }
+
+    /// [`StencilMask::record`] with `pipeline`, one from
+    /// [`StencilMask::pipeline`] for views of another sample count.
+    pub fn record_using(
+        &self,
+        rec: &Recorder,
+        pipeline: vk::Pipeline,
+        slot: usize,
+        eye: u32,
+    ) -> u64 {
         let per_view = self.slots[slot].per_view;
         if per_view == 0 {
             return 0;
         }
-        rec.bind(self.pipeline);
+        rec.bind(pipeline);
         rec.push([0, eye, per_view, 0]);
         rec.draw(per_view);
         1
