@@ -57,6 +57,10 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "stencil-inset",
         "multiview,msaa4,superfrustum,stencil-mask,inset",
     ),
+    (
+        "inset-wide-1x",
+        "multiview,msaa4,superfrustum,inset,inset-wide-1x",
+    ),
 ];
 
 /// What to tune for. A candidate whose image error was not measured
