@@ -30,6 +30,15 @@
 //!   the level does not count as a change.
 //! - The count n starts at the first frame, as if a change had happened
 //!   just before it: the rules wait 3 to 5 frames of history.
+//! - **The inset's rung** (the optional "inset scale" rung; not in
+//!   The Lab, which has no inset): with `inset`, levels are added below the
+//!   lowest render scale that keep that scale and shrink the inset's wide
+//!   view instead, by factors on its scale F of c^-k, c = sqrt(1 + step/100),
+//!   k = K … 1, K the largest with c^-K ≥ [`MIN_WIDE_FACTOR`]. Each such
+//!   level draws step % fewer wide-view pixels than the one above it, the
+//!   gaze region keeps its size, and the controller's rules and their
+//!   order are unchanged: the rung acts only where the render scale can
+//!   fall no further, and going up it restores the periphery first.
 
 /// The smallest render scale (per axis) of `--opt aq`.
 pub const MIN_SCALE: f64 = 0.65;
@@ -37,6 +46,10 @@ pub const MIN_SCALE: f64 = 0.65;
 pub const MAX_SCALE: f64 = 1.4;
 /// Each level draws this many per cent more pixels than the one below.
 pub const STEP_PCT: f64 = 15.0;
+
+/// The smallest factor the inset's rung puts on the wide view's scale F
+/// (a quarter of its pixels).
+pub const MIN_WIDE_FACTOR: f64 = 0.5;
 
 /// Frames of GPU time the controller keeps.
 pub const HISTORY: usize = 12;
@@ -79,6 +92,7 @@ pub struct Change {
 #[derive(Clone, Debug)]
 pub struct AdaptiveQuality {
     scales: Vec<f64>,
+    wide: Vec<f64>,
     default: usize,
     level: usize,
     budget_ms: f64,
@@ -86,6 +100,28 @@ pub struct AdaptiveQuality {
     pos: usize,
     frame: u64,
     last_change: u64,
+}
+
+/// The inset rung's factors on the wide view's scale, smallest first:
+/// c^-K … c^-1 with c = sqrt(1 + `step_pct`/100) and K the largest with
+/// c^-K ≥ `min`; None when `min` is not in (0, 1] or the step is not
+/// usable. Empty when `min` is 1.
+pub fn wide_rung_factors(min: f64, step_pct: f64) -> Option<Vec<f64>> {
+    let usable = min.is_finite() && step_pct.is_finite();
+    if !usable || min <= 0.0 || min > 1.0 || step_pct <= 0.0 {
+        return None;
+    }
+    let shrink = 1.0 / (1.0 + step_pct / 100.0).sqrt();
+    let mut out = Vec::new();
+    let mut f = shrink;
+    // The same relative tolerance as `levels`: a factor landing on `min`
+    // up to rounding is kept.
+    while f >= min * (1.0 - 1e-9) {
+        out.push(f);
+        f *= shrink;
+    }
+    out.reverse();
+    Some(out)
 }
 
 /// The render scales from `min` to `max` (per axis), each drawing `step_pct`
@@ -118,6 +154,7 @@ impl AdaptiveQuality {
             .position(|&s| s >= 1.0)
             .unwrap_or(scales.len().checked_sub(1)?);
         Some(AdaptiveQuality {
+            wide: vec![1.0; scales.len()],
             scales,
             default,
             level: default,
@@ -129,9 +166,36 @@ impl AdaptiveQuality {
         })
     }
 
-    /// The render scales, lowest first.
+    /// Adds the inset's rung: a level below the lowest for each factor of
+    /// `factors` (increasing, each in (0, 1); see [`wide_rung_factors`]) at the
+    /// lowest render scale with that factor on the wide view's scale. The
+    /// default level keeps its scale; the current level moves with it.
+    pub fn with_wide_rungs(mut self, factors: &[f64]) -> AdaptiveQuality {
+        let lowest = self.scales[0];
+        let k = factors.len();
+        self.scales.splice(0..0, std::iter::repeat_n(lowest, k));
+        self.wide.splice(0..0, factors.iter().copied());
+        self.default += k;
+        self.level += k;
+        self
+    }
+
+    /// The render scales, lowest first (a scale repeats on the inset's
+    /// rung).
     pub fn scales(&self) -> &[f64] {
         &self.scales
+    }
+
+    /// The factors on the inset's wide-view scale per level (1 above the
+    /// inset's rung).
+    pub fn wide_factors(&self) -> &[f64] {
+        &self.wide
+    }
+
+    /// The current factor on the inset's wide-view scale (1 unless the
+    /// controller is on the inset's rung).
+    pub fn wide_factor(&self) -> f64 {
+        self.wide[self.level]
     }
 
     /// The starting level.
@@ -253,6 +317,80 @@ mod tests {
             (f64::NAN, 1.4, 15.0),
         ] {
             assert!(levels(bad.0, bad.1, bad.2).is_none(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn wide_rung_factors_shrink_by_the_pixel_step_down_to_the_minimum() {
+        let f = wide_rung_factors(MIN_WIDE_FACTOR, 15.0).unwrap();
+        assert_eq!(f.len(), 9, "{f:?}");
+        assert!((f[8] * f[8] * 1.15 - 1.0).abs() < 1e-12);
+        for w in f.windows(2) {
+            assert!((w[1] * w[1] / (w[0] * w[0]) - 1.15).abs() < 1e-9, "{w:?}");
+        }
+        assert!(f[0] >= MIN_WIDE_FACTOR && f[0] / 1.15f64.sqrt() < MIN_WIDE_FACTOR);
+        assert_eq!(wide_rung_factors(1.0, 15.0).unwrap(), Vec::<f64>::new());
+        for bad in [
+            (0.0, 15.0),
+            (1.5, 15.0),
+            (0.5, 0.0),
+            (f64::NAN, 15.0),
+            (0.5, f64::INFINITY),
+        ] {
+            assert!(wide_rung_factors(bad.0, bad.1).is_none(), "{bad:?}");
+        }
+    }
+
+    #[test]
+    fn the_inset_rung_sits_below_the_lowest_scale_and_is_left_first() {
+        let plain = controller();
+        let f = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
+        let mut aq = controller().with_wide_rungs(&f);
+        let k = f.len();
+        assert_eq!(aq.scales().len(), plain.scales().len() + k);
+        assert_eq!(
+            aq.scales()[aq.default_level()],
+            plain.scales()[plain.default_level()]
+        );
+        assert_eq!(aq.level(), aq.default_level());
+        assert_eq!(aq.wide_factor(), 1.0);
+        for (i, (&s, &w)) in aq.scales().iter().zip(aq.wide_factors()).enumerate() {
+            if i < k {
+                assert_eq!((s, w), (plain.scales()[0], f[i]));
+            } else {
+                assert_eq!((s, w), (plain.scales()[i - k], 1.0));
+            }
+        }
+        // Frames over budget: down two levels every three frames, through
+        // the render scales and then the rung, to its smallest factor.
+        run(&mut aq, &[B; 60]);
+        assert_eq!(aq.level(), 0);
+        assert_eq!(aq.wide_factor(), f[0]);
+        // Cheap frames: up one level every five, the periphery first.
+        let ups = run(&mut aq, &[0.1 * B; 5 * 9]);
+        assert_eq!(ups.len(), k, "{ups:?}");
+        assert_eq!(aq.scale(), plain.scales()[0]);
+        assert_eq!(aq.wide_factor(), 1.0);
+        run(&mut aq, &[0.1 * B; 5]);
+        assert!(aq.scale() > plain.scales()[0]);
+    }
+
+    proptest! {
+        #[test]
+        fn wide_rung_factors_match_the_count_from_logarithms(
+            min in 0.02f64..1.0,
+            step in 1.0f64..100.0,
+        ) {
+            let f = wide_rung_factors(min, step).unwrap();
+            let c = (1.0 + step / 100.0).sqrt();
+            // K = the largest k with c^-k ≥ min, i.e. k ≤ ln(1/min) / ln c.
+            let k = ((1.0 / min).ln() / c.ln() + 1e-9).floor() as usize;
+            prop_assert_eq!(f.len(), k);
+            for (i, &x) in f.iter().enumerate() {
+                let want = c.powi(-((k - i) as i32));
+                prop_assert!((x - want).abs() <= 1e-9 * want, "{} {}", x, want);
+                prop_assert!(x >= min * (1.0 - 1e-9) && x < 1.0);
+            }
         }
     }
 

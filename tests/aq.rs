@@ -153,3 +153,78 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
         "allocations changed: {allocated:?}"
     );
 }
+
+/// With `inset`, frames that even the lowest render scale cannot bring
+/// under the budget walk on down the inset's rung: the scale stays at the
+/// lowest, the wide view shrinks to its smallest factor, every frame is
+/// read back at its own size, nothing is allocated after the first frame,
+/// no validation message.
+#[test]
+fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
+    use vergence::adaptive::{wide_rung_factors, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT};
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let rig = profile.rig(framing_pose(&scene, &profile));
+    let extent = ash::vk::Extent2D {
+        width: SIZE,
+        height: SIZE,
+    };
+    let config = RenderConfig {
+        msaa: 4,
+        frames_in_flight: 1,
+        aq: true,
+        // No frame meets a microsecond.
+        budget_ms: Some(0.001),
+        inset: Some(vergence::config::Inset {
+            wide_scale: 0.5,
+            half_angle_deg: 20.0,
+            fov_given: true,
+            ..Default::default()
+        }),
+        ..RenderConfig::default()
+    };
+    let before = ctx.validation_messages();
+    let r = Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
+    let mut d = FrameDriver::new(r, &scene).unwrap();
+    let mut frames = Vec::new();
+    let mut allocated = Vec::new();
+    for i in 0..48 {
+        d.frame(&rig, i, true).unwrap();
+        d.finish().unwrap();
+        let images = d.read_images().unwrap();
+        let aq = d.take_completed().expect("the frame finished").aq.unwrap();
+        assert_eq!(
+            images[0].dimensions(),
+            (aq.size[0], aq.size[1]),
+            "frame {i}"
+        );
+        allocated.push(ctx.allocated_bytes());
+        frames.push(aq);
+    }
+    drop(d);
+    assert_eq!(
+        ctx.validation_messages(),
+        before,
+        "{:#?}",
+        ctx.validation_log()
+    );
+    let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
+    let seen: Vec<(f64, f64)> = frames.iter().map(|f| (f.scale, f.wide_factor)).collect();
+    eprintln!("(scale, wide factor) along the frames: {seen:?}");
+    let last = frames.last().unwrap();
+    assert_eq!(last.level, 0, "{seen:?}");
+    assert_eq!((last.scale, last.wide_factor), (MIN_SCALE, factors[0]));
+    // The rung is reached only at the lowest scale, and the wide factor
+    // never grows while the frames stay over budget.
+    for f in &frames {
+        assert!(f.wide_factor == 1.0 || f.scale == MIN_SCALE, "{seen:?}");
+    }
+    assert!(frames
+        .windows(2)
+        .all(|w| w[1].wide_factor <= w[0].wide_factor));
+    assert!(
+        allocated.windows(2).all(|w| w[0] == w[1]),
+        "allocations changed: {allocated:?}"
+    );
+}

@@ -379,6 +379,13 @@ fn with_aq_the_inset_follows_the_render_scale() {
         assert!(w < W && h < H, "{w}x{h}");
         r.render(&profile.rig(pose), None, true).unwrap();
         let got = r.read_images().unwrap();
+        // aq's inset rung: the wide view at half its scale, in the same
+        // targets.
+        let allocated = ctx.allocated_bytes();
+        r.set_inset_wide_factor(0.5);
+        r.render(&profile.rig(pose), None, true).unwrap();
+        let rung = r.read_images().unwrap();
+        assert_eq!(ctx.allocated_bytes(), allocated, "nothing reallocated");
         drop(r);
         assert_eq!(
             ctx.validation_messages(),
@@ -398,20 +405,31 @@ fn with_aq_the_inset_follows_the_render_scale() {
             )
         };
         let (full, wide) = (plain(w, h), plain(w / 2, h / 2));
+        let quarter = plain(w / 4, h / 4);
         let rect = inset_rect(&fovs, [0.2, -0.1], 20.0, w, h);
-        for (eye, img) in got.iter().enumerate() {
-            assert_eq!(img.dimensions(), (w, h));
-            let (inside, same, outside, close) =
-                regions(img, &full.images[eye], &wide.images[eye], &rect, (w, h));
-            assert!(inside > 100, "{rect:?}");
-            assert_eq!(
-                same, inside,
-                "four views {four_views}, eye {eye}: the core is the full render's at the scaled size"
-            );
-            assert!(
-                close * 1000 >= outside * 995,
-                "four views {four_views}, eye {eye}: {close} of {outside} periphery pixels match the scaled wide view"
-            );
+        for (images, want, what) in [(&got, &wide, "F"), (&rung, &quarter, "F / 2 (the rung)")] {
+            for (eye, img) in images.iter().enumerate() {
+                assert_eq!(img.dimensions(), (w, h));
+                let (inside, same, outside, close) =
+                    regions(img, &full.images[eye], &want.images[eye], &rect, (w, h));
+                let (_, _, _, close_half) =
+                    regions(img, &full.images[eye], &wide.images[eye], &rect, (w, h));
+                assert!(inside > 100, "{rect:?}");
+                assert_eq!(
+                    same, inside,
+                    "four views {four_views}, wide at {what}, eye {eye}: the core is the full render's at the scaled size"
+                );
+                assert!(
+                    close * 1000 >= outside * 995,
+                    "four views {four_views}, wide at {what}, eye {eye}: {close} of {outside} periphery pixels match the wide view at that scale"
+                );
+                if what != "F" {
+                    assert!(
+                        close_half < close,
+                        "four views {four_views}, eye {eye}: on the rung the periphery is not the F wide view ({close_half} against {close})"
+                    );
+                }
+            }
         }
     }
 }

@@ -180,6 +180,11 @@ pub fn markdown(results: &BenchResults) -> String {
                     format!("{:.3}", a.mean_scale),
                     format!("{:.3}–{:.3}", a.min_scale, a.max_scale),
                     a.level_changes.to_string(),
+                    if a.wide_rung_frames > 0 {
+                        format!("{} (×{:.3})", a.wide_rung_frames, a.min_wide_factor)
+                    } else {
+                        "0".into()
+                    },
                     format!("{:.2}", a.budget_ms),
                     format!("{} / {}", r.gpu_frames_over_budget, r.frames),
                 ])
@@ -195,6 +200,7 @@ pub fn markdown(results: &BenchResults) -> String {
                 "mean scale",
                 "range",
                 "level changes",
+                "inset rung frames (least wide factor)",
                 "budget ms",
                 "GPU over budget",
             ]

@@ -230,6 +230,12 @@ pub struct AqSummary {
     pub max_scale: f64,
     /// Frames whose level differs from the previous frame's.
     pub level_changes: u32,
+    /// Frames on the inset's rung (the wide view below its scale F).
+    #[serde(default)]
+    pub wide_rung_frames: u32,
+    /// Smallest factor on the inset's wide-view scale (1 off the rung).
+    #[serde(default = "one")]
+    pub min_wide_factor: f64,
     /// The budget the controller held frames to, milliseconds.
     pub budget_ms: f64,
 }
@@ -1077,6 +1083,10 @@ fn summarize(
     }
 }
 
+fn one() -> f64 {
+    1.0
+}
+
 /// The render scales of `frames` rendered with `aq` (None without).
 fn aq_summary(frames: &[FrameResult]) -> Option<AqSummary> {
     let a: Vec<crate::render::driver::AqFrame> = frames.iter().filter_map(|f| f.aq).collect();
@@ -1089,6 +1099,8 @@ fn aq_summary(frames: &[FrameResult]) -> Option<AqSummary> {
         min_scale: scales.iter().copied().fold(f64::INFINITY, f64::min),
         max_scale: scales.iter().copied().fold(0.0, f64::max),
         level_changes: a.windows(2).filter(|w| w[0].level != w[1].level).count() as u32,
+        wide_rung_frames: a.iter().filter(|x| x.wide_factor < 1.0).count() as u32,
+        min_wide_factor: a.iter().map(|x| x.wide_factor).fold(1.0, f64::min),
         budget_ms: a[0].budget_ms,
     })
 }

@@ -55,6 +55,9 @@ pub struct AqFrame {
     pub level: usize,
     /// Render scale per axis.
     pub scale: f64,
+    /// The factor on the inset's wide-view scale (1 unless the controller
+    /// is on the inset's rung, below the lowest render scale).
+    pub wide_factor: f64,
     /// The rendered size per eye, pixels.
     pub size: [u32; 2],
     /// The budget the controller held the frame to, milliseconds.
@@ -234,10 +237,12 @@ impl FrameDriver {
         self.renderer.wait_for_slot()?;
         let aq = self.aq.as_ref().map(|a| {
             self.renderer.set_render_scale(a.scale());
+            self.renderer.set_inset_wide_factor(a.wide_factor());
             let e = self.renderer.extent();
             AqFrame {
                 level: a.level(),
                 scale: a.scale(),
+                wide_factor: a.wide_factor(),
                 size: [e.width, e.height],
                 budget_ms: a.budget_ms(),
             }
@@ -376,14 +381,22 @@ impl FrameDriver {
 }
 
 /// The controller of `config`'s `aq`: The Lab's levels from
-/// [`crate::adaptive::MIN_SCALE`] to [`crate::adaptive::MAX_SCALE`].
+/// [`crate::adaptive::MIN_SCALE`] to [`crate::adaptive::MAX_SCALE`], with
+/// `inset` the inset's rung below them.
 fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive::AdaptiveQuality> {
-    use crate::adaptive::{levels, AdaptiveQuality, MAX_SCALE, MIN_SCALE, STEP_PCT};
+    use crate::adaptive::{
+        levels, wide_rung_factors, AdaptiveQuality, MAX_SCALE, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT,
+    };
     if !config.aq {
         return None;
     }
     let budget = config.budget_ms.unwrap_or(DEFAULT_BUDGET_MS);
-    AdaptiveQuality::new(budget, levels(MIN_SCALE, MAX_SCALE, STEP_PCT)?)
+    let aq = AdaptiveQuality::new(budget, levels(MIN_SCALE, MAX_SCALE, STEP_PCT)?)?;
+    if config.inset.is_none() {
+        return Some(aq);
+    }
+    let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT)?;
+    Some(aq.with_wide_rungs(&factors))
 }
 
 fn ms_between(a: Instant, b: Instant) -> f64 {

@@ -526,11 +526,15 @@ impl Renderer {
             )?;
             r.passes.gpu_cull = Some(gpu);
         }
+        // The list holds each visible instance once, and with the inset its
+        // own list after that (`Batches::inset_start`): room for both, so
+        // the first frames do not grow it.
+        let lists = if config.inset.is_some() { 2 } else { 1 };
         for i in 0..slots {
             if r.passes.gpu_cull.is_some() {
                 r.write_descriptors(i);
             } else {
-                r.ensure_visible_capacity(i, scene.instances.len().max(1))?;
+                r.ensure_visible_capacity(i, scene.instances.len().max(1) * lists)?;
             }
         }
         Ok(r)
@@ -562,6 +566,15 @@ impl Renderer {
             width: e.width.min(self.allocated.width),
             height: e.height.min(self.allocated.height),
         };
+    }
+
+    /// With `inset`, draws the following frames' wide views at `factor`
+    /// (clamped to (0, 1]) times the inset's scale F (`aq`'s inset rung):
+    /// inside the wide targets, nothing is reallocated.
+    pub fn set_inset_wide_factor(&mut self, factor: f64) {
+        if let Some(inset) = self.passes.inset.as_mut() {
+            inset.set_wide_factor(factor);
+        }
     }
 
     fn view_mask(&self) -> u32 {

@@ -64,6 +64,8 @@ pub struct InsetPass {
     four_view: bool,
     /// The wide view's scale per axis (`inset=F`).
     scale: f64,
+    /// The factor on `scale` this frame (`aq`'s inset rung; 1 otherwise).
+    factor: f64,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -127,6 +129,7 @@ impl InsetPass {
                 wide,
                 four_view,
                 scale,
+                factor: 1.0,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -245,10 +248,18 @@ impl InsetPass {
         Ok(())
     }
 
-    /// The wide view's size for eyes of `extent` (F × `extent`, within the
-    /// targets: with `aq` the eyes are drawn smaller than allocated).
+    /// Draws the following wide views at `factor` × F (clamped to (0, 1]:
+    /// the targets hold F × the largest eye; a factor that is not a
+    /// positive number is taken as 1).
+    pub fn set_wide_factor(&mut self, factor: f64) {
+        self.factor = if factor > 0.0 { factor.min(1.0) } else { 1.0 };
+    }
+
+    /// The wide view's size for eyes of `extent` (F × the factor ×
+    /// `extent`, within the targets: with `aq` the eyes are drawn smaller
+    /// than allocated, and on its inset rung the wide view smaller still).
     pub fn wide_extent(&self, extent: vk::Extent2D) -> vk::Extent2D {
-        let e = crate::render::scaled(extent, self.scale);
+        let e = crate::render::scaled(extent, self.scale * self.factor);
         vk::Extent2D {
             width: e.width.min(self.wide.extent.width),
             height: e.height.min(self.wide.extent.height),
