@@ -172,6 +172,11 @@ pub struct RenderConfig {
     /// and only the rendered area changes.
     #[serde(default)]
     pub aq: bool,
+    /// `aq-scale-only`: with `aq` and `inset`, the controller moves the
+    /// render scale only, without the inset's rung below the lowest scale
+    /// (`crate::adaptive::AdaptiveQuality::with_wide_rungs`).
+    #[serde(default)]
+    pub aq_scale_only: bool,
     /// The frame budget of `aq` in milliseconds (`--budget-ms`; None: the
     /// runtime's display period, or the HMD profile's refresh rate).
     #[serde(default)]
@@ -458,6 +463,7 @@ impl Default for RenderConfig {
             resolved_sky: false,
             lod: None,
             aq: false,
+            aq_scale_only: false,
             budget_ms: None,
             section: None,
             timewarp: None,
@@ -600,6 +606,12 @@ impl RenderConfig {
                 ],
             )?;
         }
+        if self.aq_scale_only && !(self.aq && self.inset.is_some()) {
+            return Err(Error::config(
+                "--opt",
+                "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
+            ));
+        }
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
@@ -680,6 +692,7 @@ impl RenderConfig {
                 "gpu-cull" => self.gpu_cull = true,
                 "occlusion" => self.occlusion = true,
                 "aq" => self.aq = true,
+                "aq-scale-only" => self.aq_scale_only = true,
                 "inset" => self.inset = Some(self.inset.unwrap_or_default()),
                 l if l.starts_with("inset=") => {
                     let v = opt_value(l, "inset=", (0.1, 1.0), "F", "the wide view's scale per axis")?;
@@ -870,7 +883,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1054,6 +1067,9 @@ impl RenderConfig {
         if self.aq {
             v.push("aq".into());
         }
+        if self.aq_scale_only {
+            v.push("aq-scale-only".into());
+        }
         if let Some(i) = self.inset {
             v.push(if i.wide_scale == crate::view::inset::DEFAULT_WIDE_SCALE {
                 "inset".into()
@@ -1208,6 +1224,7 @@ mod tests {
             "inset-views=4,inset-views=2",
             "inset-wide-1x",
             "two-pass,inset=0.4,inset-wide-1x",
+            "multiview,inset,aq,aq-scale-only",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",
         ] {

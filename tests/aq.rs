@@ -158,7 +158,8 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
 /// under the budget walk on down the inset's rung: the scale stays at the
 /// lowest, the wide view shrinks to its smallest factor, every frame is
 /// read back at its own size, nothing is allocated after the first frame,
-/// no validation message.
+/// no validation message; with `aq-scale-only` it stops at the lowest
+/// scale.
 #[test]
 fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
     use vergence::adaptive::{wide_rung_factors, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT};
@@ -184,6 +185,25 @@ fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
         }),
         ..RenderConfig::default()
     };
+    // With aq-scale-only the controller stops at the lowest scale.
+    let frames_of = |config: &RenderConfig| {
+        let r = Renderer::new(ctx.clone(), &scene, config, extent).unwrap();
+        let mut d = FrameDriver::new(r, &scene).unwrap();
+        (0..48)
+            .map(|i| {
+                d.frame(&rig, i, false).unwrap();
+                d.finish().unwrap();
+                d.take_completed().expect("the frame finished").aq.unwrap()
+            })
+            .collect::<Vec<_>>()
+    };
+    let scale_only = frames_of(&RenderConfig {
+        aq_scale_only: true,
+        ..config.clone()
+    });
+    let last = scale_only.last().unwrap();
+    assert_eq!((last.level, last.scale), (0, MIN_SCALE));
+    assert!(scale_only.iter().all(|f| f.wide_factor == 1.0));
     let before = ctx.validation_messages();
     let r = Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
     let mut d = FrameDriver::new(r, &scene).unwrap();

@@ -382,7 +382,7 @@ impl FrameDriver {
 
 /// The controller of `config`'s `aq`: The Lab's levels from
 /// [`crate::adaptive::MIN_SCALE`] to [`crate::adaptive::MAX_SCALE`], with
-/// `inset` the inset's rung below them.
+/// `inset` (unless `aq-scale-only`) the inset's rung below them.
 fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive::AdaptiveQuality> {
     use crate::adaptive::{
         levels, wide_rung_factors, AdaptiveQuality, MAX_SCALE, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT,
@@ -392,7 +392,7 @@ fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive
     }
     let budget = config.budget_ms.unwrap_or(DEFAULT_BUDGET_MS);
     let aq = AdaptiveQuality::new(budget, levels(MIN_SCALE, MAX_SCALE, STEP_PCT)?)?;
-    if config.inset.is_none() {
+    if config.inset.is_none() || config.aq_scale_only {
         return Some(aq);
     }
     let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT)?;
