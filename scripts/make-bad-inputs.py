@@ -608,6 +608,7 @@ cli("inset-scale-big", ["render", "--opt", "inset=5", "--out", "{out}"], ["inset
 cli("inset-fov-zero", ["render", "--opt", "inset-fov=0", "--out", "{out}"], ["inset-fov=0", "1 <= DEG <= 80"])
 cli("inset-views-three", ["render", "--opt", "inset-views=3", "--out", "{out}"], ["inset-views=3", "inset-views=2", "inset-views=4"])
 cli("inset-wide-1x-four-views", ["render", "--opt", "inset-wide-1x,inset-views=4", "--out", "{out}"], ["inset-wide-1x", "inset-views=4"])
+cli("inset-wide-1x-no-msaa", ["render", "--opt", "inset-wide-1x,no-msaa", "--out", "{out}"], ["inset-wide-1x", "no-msaa"])
 cli("aq-scale-only-without-inset", ["render", "--opt", "aq,aq-scale-only", "--out", "{out}"], ["aq-scale-only", "inset"])
 cli("aq-in-view", ["view", "--opt", "aq", "--frames", "1"], ["aq", "view"])
 cli("budget-ms-negative", ["render", "--opt", "aq", "--budget-ms=-3", "--out", "{out}"], ["--budget-ms", "-3"])

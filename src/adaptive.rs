@@ -1,5 +1,6 @@
 //! Adaptive quality: a controller that picks the render scale of the next
-//! frame from the GPU times of the last ones, so a frame stays inside the
+//! frame (and with the inset, below the lowest scale, the wide view's
+//! scale) from the GPU times of the last ones, so a frame stays inside the
 //! headset's display period. It follows the rules of Valve's The Lab
 //! renderer (`ValveSoftware/the_lab_renderer`,
 //! `Assets/TheLabRenderer/Scripts/ValveCamera.cs`,
@@ -171,6 +172,10 @@ impl AdaptiveQuality {
     /// lowest render scale with that factor on the wide view's scale. The
     /// default level keeps its scale; the current level moves with it.
     pub fn with_wide_rungs(mut self, factors: &[f64]) -> AdaptiveQuality {
+        debug_assert!(
+            factors.iter().all(|&f| f > 0.0 && f < 1.0) && factors.windows(2).all(|w| w[0] < w[1]),
+            "the inset rung's factors increase within (0, 1): {factors:?}"
+        );
         let lowest = self.scales[0];
         let k = factors.len();
         self.scales.splice(0..0, std::iter::repeat_n(lowest, k));

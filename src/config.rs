@@ -169,7 +169,8 @@ pub struct RenderConfig {
     /// Adaptive quality (`aq`): each frame's render scale follows the GPU
     /// times of the last ones against the frame budget (The Lab's rules,
     /// `crate::adaptive`); the targets are made once at the largest scale
-    /// and only the rendered area changes.
+    /// and only the rendered area changes; with `inset`, levels below the
+    /// lowest scale shrink the wide view (the inset's rung).
     #[serde(default)]
     pub aq: bool,
     /// `aq-scale-only`: with `aq` and `inset`, the controller moves the
@@ -557,6 +558,12 @@ impl RenderConfig {
             return Err(Error::config(
                 "--opt",
                 "inset-wide-1x draws the wide views in their own scope at one sample; inset-views=4 draws them in the eyes' scope at the eyes' samples: leave one out",
+            ));
+        }
+        if self.inset.is_some_and(|i| i.wide_1x) && self.msaa == 1 {
+            return Err(Error::config(
+                "--opt",
+                "inset-wide-1x draws the wide views at one sample while the insets keep the frame's MSAA; with no-msaa (--msaa 1) every view is at one sample already: leave one out",
             ));
         }
         if self.lms.is_some() {

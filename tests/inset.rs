@@ -405,7 +405,16 @@ fn with_aq_the_inset_follows_the_render_scale() {
             )
         };
         let (full, wide) = (plain(w, h), plain(w / 2, h / 2));
-        let quarter = plain(w / 4, h / 4);
+        // The rung's wide view: F × 0.5 of the drawn size, as
+        // `InsetPass::wide_extent` rounds it.
+        let q = vergence::render::scaled(
+            ash::vk::Extent2D {
+                width: w,
+                height: h,
+            },
+            0.25,
+        );
+        let quarter = plain(q.width, q.height);
         let rect = inset_rect(&fovs, [0.2, -0.1], 20.0, w, h);
         for (images, want, what) in [(&got, &wide, "F"), (&rung, &quarter, "F / 2 (the rung)")] {
             for (eye, img) in images.iter().enumerate() {

@@ -43,15 +43,16 @@ pub struct FrameResult {
     pub fov: [Fov; 2],
     /// The renderer's statistics (CPU phases, GPU passes, counts).
     pub stats: FrameStats,
-    /// With `aq`: the level and render scale (per axis) the frame was
-    /// rendered at, and the rendered size per eye.
+    /// With `aq`: the level, render scale (per axis) and inset wide factor
+    /// the frame was rendered at, and the rendered size per eye.
     pub aq: Option<AqFrame>,
 }
 
 /// Adaptive quality's part of a frame's record.
 #[derive(Clone, Copy, Debug, PartialEq, serde::Serialize)]
 pub struct AqFrame {
-    /// The controller's level (0: the smallest scale).
+    /// The controller's level (0: the smallest scale, and with the inset's
+    /// rung its smallest wide factor).
     pub level: usize,
     /// Render scale per axis.
     pub scale: f64,
@@ -342,7 +343,14 @@ impl FrameDriver {
                     result.stats = stats;
                     if let Some(a) = self.aq.as_mut() {
                         if let Some(c) = a.update(result.gpu_ms()) {
-                            tracing::debug!("aq: level {} → {} ({:?})", c.from, c.to, c.reason);
+                            tracing::debug!(
+                                "aq: level {} → {} (scale {:.3}, wide factor {:.3}; {:?})",
+                                c.from,
+                                c.to,
+                                c.scale,
+                                a.wide_factor(),
+                                c.reason
+                            );
                         }
                     }
                     self.done.push_back(result);

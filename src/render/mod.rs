@@ -396,7 +396,7 @@ impl Renderer {
         };
         let inset_choice = config
             .inset
-            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views, config.msaa));
+            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views, samples));
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
@@ -526,15 +526,19 @@ impl Renderer {
             )?;
             r.passes.gpu_cull = Some(gpu);
         }
-        // The list holds each visible instance once, and with the inset its
-        // own list after that (`Batches::inset_start`): room for both, so
-        // the first frames do not grow it.
+        // The list holds an id per (visible instance, primitive), and with
+        // the inset its own list after that (`Batches::inset_start`): room
+        // for an id per instance in each list, so that with one primitive
+        // per mesh the first frames do not grow it (more primitives grow it
+        // once, to what is visible: sizing for every primitive of every
+        // instance would reserve far more than a view sees on large scenes).
         let lists = if config.inset.is_some() { 2 } else { 1 };
+        let ids = scene.instances.len().max(1) * lists;
         for i in 0..slots {
             if r.passes.gpu_cull.is_some() {
                 r.write_descriptors(i);
             } else {
-                r.ensure_visible_capacity(i, scene.instances.len().max(1) * lists)?;
+                r.ensure_visible_capacity(i, ids)?;
             }
         }
         Ok(r)

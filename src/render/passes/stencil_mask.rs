@@ -99,28 +99,34 @@ impl StencilMask {
     /// Builds the pipeline and `slots` vertex buffers (room for
     /// [`MAX_HIDDEN_VERTICES`] per view).
     pub fn new(setup: &PipelineSetup, slots: usize) -> Result<StencilMask> {
-        let pipeline = Self::pipeline(setup)?;
-        let mut buffers = Vec::new();
+        let mut made = StencilMask {
+            pipeline: Self::pipeline(setup)?,
+            slots: Vec::new(),
+        };
         for i in 0..slots {
-            buffers.push(HiddenSlot {
-                buffer: Buffer::new(
-                    setup.ctx,
-                    &BufferDesc {
-                        name: &format!("hidden area {i}"),
-                        size: (VIEWS * MAX_HIDDEN_VERTICES * 8) as u64,
-                        usage: vk::BufferUsageFlags::STORAGE_BUFFER,
-                        location: MemoryLocation::CpuToGpu,
-                        category: "per-frame",
-                    },
-                )?,
-                source: None,
-                per_view: 0,
-            });
+            let buffer = Buffer::new(
+                setup.ctx,
+                &BufferDesc {
+                    name: &format!("hidden area {i}"),
+                    size: (VIEWS * MAX_HIDDEN_VERTICES * 8) as u64,
+                    usage: vk::BufferUsageFlags::STORAGE_BUFFER,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "per-frame",
+                },
+            );
+            match buffer {
+                Ok(buffer) => made.slots.push(HiddenSlot {
+                    buffer,
+                    source: None,
+                    per_view: 0,
+                }),
+                Err(e) => {
+                    made.destroy(setup.ctx);
+                    return Err(e);
+                }
+            }
         }
-        Ok(StencilMask {
-            pipeline,
-            slots: buffers,
-        })
+        Ok(made)
     }
 
     /// `slot`'s vertex buffer (for the descriptor set).
