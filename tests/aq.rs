@@ -155,13 +155,22 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
 }
 
 /// With `inset`, frames that even the lowest render scale cannot bring
-/// under the budget walk on down the inset's rung: the scale stays at the
-/// lowest, the wide view shrinks to its smallest factor, every frame is
+/// under the budget walk on down the inset's rungs: the scale stays at the
+/// lowest, the wide view goes to one sample, then shrinks to its smallest
+/// factor, every frame is
 /// read back at its own size, nothing is allocated after the first frame,
 /// no validation message; with `aq-scale-only` it stops at the lowest
 /// scale.
 #[test]
 fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
+    use vergence::config::StereoMode;
+    walk_down_the_rungs(StereoMode::Multiview, false);
+    // One wide set per eye, and the hidden-area mask's one-sample twin
+    // drawing into the one-sample depth.
+    walk_down_the_rungs(StereoMode::TwoPass, true);
+}
+
+fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool) {
     use vergence::adaptive::{wide_rung_factors, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT};
     let ctx = context();
     let scene = load("factory:2000");
@@ -183,6 +192,8 @@ fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
             fov_given: true,
             ..Default::default()
         }),
+        stereo,
+        stencil_mask,
         ..RenderConfig::default()
     };
     // With aq-scale-only the controller stops at the lowest scale.
@@ -203,7 +214,9 @@ fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
     });
     let last = scale_only.last().unwrap();
     assert_eq!((last.level, last.scale), (0, MIN_SCALE));
-    assert!(scale_only.iter().all(|f| f.wide_factor == 1.0));
+    assert!(scale_only
+        .iter()
+        .all(|f| f.wide_factor == 1.0 && !f.wide_one_sample));
     let before = ctx.validation_messages();
     let r = Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
     let mut d = FrameDriver::new(r, &scene).unwrap();
@@ -235,11 +248,22 @@ fn with_the_inset_the_rung_below_the_lowest_scale_shrinks_the_wide_view() {
     let last = frames.last().unwrap();
     assert_eq!(last.level, 0, "{seen:?}");
     assert_eq!((last.scale, last.wide_factor), (MIN_SCALE, factors[0]));
-    // The rung is reached only at the lowest scale, and the wide factor
-    // never grows while the frames stay over budget.
+    // The rungs are reached only at the lowest scale: first the wide view
+    // at one sample (the MSAA rung: multiview, two scopes, 4x), then its
+    // factors, which keep one sample; the wide factor never grows while
+    // the frames stay over budget.
     for f in &frames {
         assert!(f.wide_factor == 1.0 || f.scale == MIN_SCALE, "{seen:?}");
+        assert!(!f.wide_one_sample || f.scale == MIN_SCALE, "{seen:?}");
+        assert!(f.wide_factor == 1.0 || f.wide_one_sample, "{seen:?}");
     }
+    assert!(
+        frames
+            .iter()
+            .any(|f| f.wide_one_sample && f.wide_factor == 1.0),
+        "the MSAA rung was passed: {seen:?}"
+    );
+    assert!(last.wide_one_sample);
     assert!(frames
         .windows(2)
         .all(|w| w[1].wide_factor <= w[0].wide_factor));

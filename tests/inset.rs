@@ -385,6 +385,13 @@ fn with_aq_the_inset_follows_the_render_scale() {
         r.set_inset_wide_factor(0.5);
         r.render(&profile.rig(pose), None, true).unwrap();
         let rung = r.read_images().unwrap();
+        // aq's MSAA rung (two scopes only): the wide view at one sample
+        // into its resolve image, at F again.
+        assert_eq!(r.has_inset_msaa_rung(), !four_views);
+        r.set_inset_wide_factor(1.0);
+        r.set_inset_wide_one_sample(true);
+        r.render(&profile.rig(pose), None, true).unwrap();
+        let one_sample = r.read_images().unwrap();
         assert_eq!(ctx.allocated_bytes(), allocated, "nothing reallocated");
         drop(r);
         assert_eq!(
@@ -415,8 +422,24 @@ fn with_aq_the_inset_follows_the_render_scale() {
             0.25,
         );
         let quarter = plain(q.width, q.height);
+        let wide1 = render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &RenderConfig {
+                msaa: 1,
+                ..config_without_aq(None, [0.2, -0.1])
+            },
+            w / 2,
+            h / 2,
+        );
         let rect = inset_rect(&fovs, [0.2, -0.1], 20.0, w, h);
-        for (images, want, what) in [(&got, &wide, "F"), (&rung, &quarter, "F / 2 (the rung)")] {
+        let mut cases = vec![(&got, &wide, "F"), (&rung, &quarter, "F / 2 (the rung)")];
+        if !four_views {
+            cases.push((&one_sample, &wide1, "one sample (the MSAA rung)"));
+        }
+        for (images, want, what) in cases {
             for (eye, img) in images.iter().enumerate() {
                 assert_eq!(img.dimensions(), (w, h));
                 let (inside, same, outside, close) =

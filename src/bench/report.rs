@@ -180,6 +180,7 @@ pub fn markdown(results: &BenchResults) -> String {
                     format!("{:.3}", a.mean_scale),
                     format!("{:.3}–{:.3}", a.min_scale, a.max_scale),
                     a.level_changes.to_string(),
+                    a.wide_one_sample_frames.to_string(),
                     if a.wide_rung_frames > 0 {
                         format!("{} (×{:.3})", a.wide_rung_frames, a.min_wide_factor)
                     } else {
@@ -200,6 +201,7 @@ pub fn markdown(results: &BenchResults) -> String {
                 "mean scale",
                 "range",
                 "level changes",
+                "wide at 1 sample (MSAA rung)",
                 "inset rung frames (least wide factor)",
                 "budget ms",
                 "GPU over budget",

@@ -233,6 +233,10 @@ pub struct AqSummary {
     /// Frames on the inset's rung (the wide view below its scale F).
     #[serde(default)]
     pub wide_rung_frames: u32,
+    /// Frames with the inset's wide view at one sample (aq's MSAA rung
+    /// and the levels below it).
+    #[serde(default)]
+    pub wide_one_sample_frames: u32,
     /// Smallest factor on the inset's wide-view scale (1 off the rung).
     #[serde(default = "one")]
     pub min_wide_factor: f64,
@@ -1100,6 +1104,7 @@ fn aq_summary(frames: &[FrameResult]) -> Option<AqSummary> {
         max_scale: scales.iter().copied().fold(0.0, f64::max),
         level_changes: a.windows(2).filter(|w| w[0].level != w[1].level).count() as u32,
         wide_rung_frames: a.iter().filter(|x| x.wide_factor < 1.0).count() as u32,
+        wide_one_sample_frames: a.iter().filter(|x| x.wide_one_sample).count() as u32,
         min_wide_factor: a.iter().map(|x| x.wide_factor).fold(1.0, f64::min),
         budget_ms: a[0].budget_ms,
     })

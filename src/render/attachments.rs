@@ -51,6 +51,10 @@ pub struct AttachmentSet {
     /// A UNORM 2D-array view of the composed output for compute writes
     /// (with [`SetOptions::storage_output`]).
     pub filled_storage: Option<vk::ImageView>,
+    /// A one-sample depth image for drawing the set at one sample straight
+    /// into `resolve` (with [`SetOptions::one_sample_depth`] at more than
+    /// one sample; [`AttachmentSet::views_one_sample`]).
+    pub depth_one_sample: Option<Image>,
 }
 
 /// What a set's images must support beyond drawing and resolving.
@@ -80,6 +84,10 @@ pub struct SetOptions {
     /// four views (the eyes, then the wide views); the composed output
     /// keeps the eyes' 2.
     pub multiview_layers: u32,
+    /// Also a one-sample depth image, so that a frame may draw the set at
+    /// one sample into its resolve image instead (`aq`'s MSAA rung on the
+    /// inset's wide view).
+    pub one_sample_depth: bool,
 }
 
 impl AttachmentSet {
@@ -99,6 +107,7 @@ impl AttachmentSet {
             storage_output,
             occlusion,
             multiview_layers: _,
+            one_sample_depth,
         } = opts;
         // The frame the runtime gets: the eyes' layers.
         let output_layers = layers.min(2);
@@ -162,6 +171,20 @@ impl AttachmentSet {
                     depth_format,
                     vk::SampleCountFlags::TYPE_1,
                     depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
+                    ds,
+                ),
+            )?)
+        } else {
+            None
+        };
+        let depth_one_sample = if one_sample_depth && samples > 1 {
+            Some(Image::new(
+                ctx,
+                &desc(
+                    "depth-stencil one sample",
+                    depth_format,
+                    vk::SampleCountFlags::TYPE_1,
+                    depth_usage | transient,
                     ds,
                 ),
             )?)
@@ -245,6 +268,7 @@ impl AttachmentSet {
             keep_depth,
             filled,
             filled_storage,
+            depth_one_sample,
         })
     }
 
@@ -261,6 +285,20 @@ impl AttachmentSet {
             None if self.keep_depth => Some(&self.depth),
             None => None,
         }
+    }
+
+    /// The views for drawing this set at one sample straight into its
+    /// resolve image (None without a one-sample depth image).
+    pub fn views_one_sample(&self) -> Option<TargetViews> {
+        let depth = self.depth_one_sample.as_ref()?;
+        Some(TargetViews {
+            color: self.resolve.view,
+            depth: depth.view,
+            resolve: None,
+            depth_resolve: None,
+            store_depth: false,
+            stencil: crate::gpu::has_stencil(depth.format),
+        })
     }
 
     /// The views of this set.
@@ -293,6 +331,9 @@ impl AttachmentSet {
         self.depth.destroy(ctx);
         self.resolve.destroy(ctx);
         if let Some(d) = self.depth_resolve {
+            d.destroy(ctx);
+        }
+        if let Some(d) = self.depth_one_sample {
             d.destroy(ctx);
         }
         if let Some(view) = self.filled_storage {
@@ -414,7 +455,10 @@ pub fn begin_barriers(sets: &[AttachmentSet]) -> Vec<vk::ImageMemoryBarrier2<'st
             color_stage,
             color_access,
         );
-        for d in std::iter::once(&set.depth).chain(&set.depth_resolve) {
+        let depths = std::iter::once(&set.depth)
+            .chain(&set.depth_resolve)
+            .chain(&set.depth_one_sample);
+        for d in depths {
             add(
                 d,
                 crate::gpu::depth_aspect(d.format),

@@ -59,6 +59,9 @@ pub struct AqFrame {
     /// The factor on the inset's wide-view scale (1 unless the controller
     /// is on the inset's rung, below the lowest render scale).
     pub wide_factor: f64,
+    /// Whether the inset's wide view was drawn at one sample (`aq`'s MSAA
+    /// rung and the levels below it).
+    pub wide_one_sample: bool,
     /// The rendered size per eye, pixels.
     pub size: [u32; 2],
     /// The budget the controller held the frame to, milliseconds.
@@ -151,7 +154,7 @@ impl FrameDriver {
     pub fn new(renderer: Renderer, scene: &Scene) -> Result<FrameDriver> {
         let culling = CullState::new(&renderer.config, scene)?;
         let slots = renderer.frames_in_flight();
-        let aq = aq_controller(&renderer.config);
+        let aq = aq_controller(&renderer);
         let motion = (!scene.moving.is_empty()).then(|| MotionState {
             groups: scene.moving.clone(),
             mesh_bounds: (0..scene.meshes.len() as u32)
@@ -239,11 +242,13 @@ impl FrameDriver {
         let aq = self.aq.as_ref().map(|a| {
             self.renderer.set_render_scale(a.scale());
             self.renderer.set_inset_wide_factor(a.wide_factor());
+            self.renderer.set_inset_wide_one_sample(a.wide_one_sample());
             let e = self.renderer.extent();
             AqFrame {
                 level: a.level(),
                 scale: a.scale(),
                 wide_factor: a.wide_factor(),
+                wide_one_sample: a.wide_one_sample(),
                 size: [e.width, e.height],
                 budget_ms: a.budget_ms(),
             }
@@ -379,7 +384,7 @@ impl FrameDriver {
     /// the budget.
     pub fn reset_aq(&mut self) {
         if let Some(old) = self.aq.take() {
-            let mut fresh = aq_controller(&self.renderer.config);
+            let mut fresh = aq_controller(&self.renderer);
             if let Some(a) = fresh.as_mut() {
                 a.set_budget_ms(old.budget_ms());
             }
@@ -388,10 +393,13 @@ impl FrameDriver {
     }
 }
 
-/// The controller of `config`'s `aq`: The Lab's levels from
+/// The controller of `renderer`'s `aq`: The Lab's levels from
 /// [`crate::adaptive::MIN_SCALE`] to [`crate::adaptive::MAX_SCALE`], with
-/// `inset` (unless `aq-scale-only`) the inset's rung below them.
-fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive::AdaptiveQuality> {
+/// `inset` (unless `aq-scale-only`) the inset's rungs below them: the MSAA
+/// rung where the renderer made its wide targets for it, then the wide
+/// view's scale.
+fn aq_controller(renderer: &Renderer) -> Option<crate::adaptive::AdaptiveQuality> {
+    let config = &renderer.config;
     use crate::adaptive::{
         levels, wide_rung_factors, AdaptiveQuality, MAX_SCALE, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT,
     };
@@ -404,7 +412,7 @@ fn aq_controller(config: &crate::config::RenderConfig) -> Option<crate::adaptive
         return Some(aq);
     }
     let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT)?;
-    Some(aq.with_wide_rungs(&factors))
+    Some(aq.with_wide_rungs(&factors, renderer.has_inset_msaa_rung()))
 }
 
 fn ms_between(a: Instant, b: Instant) -> f64 {

@@ -507,6 +507,7 @@ impl Renderer {
                 storage_output: config.inset.is_some(),
                 occlusion: config.occlusion,
                 multiview_layers: if r.four_view { 4 } else { 2 },
+                one_sample_depth: false,
             },
         )?);
         if let (Some(inset), Some(targets)) = (r.passes.inset.as_mut(), r.targets.as_ref()) {
@@ -570,6 +571,24 @@ impl Renderer {
             width: e.width.min(self.allocated.width),
             height: e.height.min(self.allocated.height),
         };
+    }
+
+    /// With `inset` and `aq`'s MSAA rung (see
+    /// [`passes::inset::InsetPass::has_msaa_rung`]), draws the following
+    /// frames' wide views at one sample (`true`) or at the frame's MSAA.
+    pub fn set_inset_wide_one_sample(&mut self, one: bool) {
+        if let Some(inset) = self.passes.inset.as_mut() {
+            inset.set_one_sample(one);
+        }
+    }
+
+    /// Whether `aq` has the MSAA rung: the inset's wide targets can be
+    /// drawn at one sample frame by frame.
+    pub fn has_inset_msaa_rung(&self) -> bool {
+        self.passes
+            .inset
+            .as_ref()
+            .is_some_and(|i| i.has_msaa_rung())
     }
 
     /// With `inset`, draws the following frames' wide views at `factor`
@@ -1366,9 +1385,9 @@ impl Renderer {
                 .flatten()
                 .flat_map(|(set, view_mask, eye)| {
                     let wide = inset.filter(|i| !i.four_view()).map(|i| {
-                        let w = &i.wide.sets[eye as usize % i.wide.sets.len()];
+                        let (views, _) = i.wide_views(eye);
                         (
-                            w.views(),
+                            views,
                             i.wide_extent(self.extent),
                             None,
                             view_mask,
@@ -1401,9 +1420,14 @@ impl Renderer {
                 });
             for (views, extent, area, view_mask, eye, name, is_wide) in scopes {
                 let late = part == ScopePart::Second;
-                // The wide views at one sample (inset-wide-1x) draw with
-                // their own pipelines.
-                let one_sample = passes.inset_wide.as_ref().filter(|_| is_wide);
+                // The wide views at one sample (inset-wide-1x, or aq's MSAA
+                // rung this frame) draw with their own pipelines.
+                let wide_at_one = is_wide
+                    && passes.inset.as_ref().is_some_and(|i| {
+                        i.wide.sets.first().is_some_and(|s| s.color_msaa.is_none())
+                            || i.wide_views(eye).1
+                    });
+                let one_sample = passes.inset_wide.as_ref().filter(|_| wide_at_one);
                 let forward = one_sample.map_or(&passes.forward, |w| &w.forward);
                 let overlay = one_sample.map_or(&passes.overlay, |w| &w.overlay);
                 q.begin_pass(ctx, cmd, if late { "forward-late" } else { name });

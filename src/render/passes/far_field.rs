@@ -125,6 +125,7 @@ impl FarField {
                     storage_output: false,
                     occlusion: false,
                     multiview_layers: 2,
+                    one_sample_depth: false,
                 },
             )?);
         }

@@ -66,6 +66,10 @@ pub struct InsetPass {
     scale: f64,
     /// The factor on `scale` this frame (`aq`'s inset rung; 1 otherwise).
     factor: f64,
+    /// This frame's wide views are drawn at one sample into the resolve
+    /// images (`aq`'s MSAA rung; only where the sets have a one-sample
+    /// depth image).
+    one_sample: bool,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -76,13 +80,15 @@ pub struct InsetPass {
 }
 
 impl InsetPass {
-    /// The wide targets at `scale` × `extent` (`samples` per pixel) and the
-    /// composite; on failure, destroys what it made.
+    /// The wide targets at `scale` × `extent` (`samples` per pixel; with
+    /// `msaa_rung` over MSAA also drawable at one sample, see
+    /// [`InsetPass::set_one_sample`]) and the composite; on failure,
+    /// destroys what it made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         scale: f64,
-        samples: u32,
+        (samples, msaa_rung): (u32, bool),
         multiview: bool,
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
@@ -94,7 +100,7 @@ impl InsetPass {
             SampledSets::new(
                 ctx,
                 wide_extent,
-                samples,
+                (samples, msaa_rung),
                 multiview,
                 setup.depth_format,
                 "inset composite",
@@ -130,6 +136,7 @@ impl InsetPass {
                 four_view,
                 scale,
                 factor: 1.0,
+                one_sample: false,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -253,6 +260,29 @@ impl InsetPass {
     /// positive number is taken as 1).
     pub fn set_wide_factor(&mut self, factor: f64) {
         self.factor = if factor > 0.0 { factor.min(1.0) } else { 1.0 };
+    }
+
+    /// Draws the following frames' wide views at one sample into their
+    /// resolve images (`aq`'s MSAA rung), or again at the targets' samples;
+    /// ignored where the targets were not made for it.
+    pub fn set_one_sample(&mut self, one: bool) {
+        self.one_sample = one && self.has_msaa_rung();
+    }
+
+    /// Whether the wide targets can also be drawn at one sample (`aq`'s
+    /// MSAA rung).
+    pub fn has_msaa_rung(&self) -> bool {
+        self.wide.sets.iter().all(|s| s.depth_one_sample.is_some()) && !self.wide.sets.is_empty()
+    }
+
+    /// The views the wide scope of `eye` draws into this frame, and whether
+    /// at one sample while the targets have more (the pipelines' twins).
+    pub fn wide_views(&self, eye: u32) -> (crate::render::attachments::TargetViews, bool) {
+        let set = &self.wide.sets[eye as usize % self.wide.sets.len()];
+        match set.views_one_sample().filter(|_| self.one_sample) {
+            Some(v) => (v, true),
+            None => (set.views(), false),
+        }
     }
 
     /// The wide view's size for eyes of `extent` (F × the factor ×

@@ -122,14 +122,22 @@ impl Passes {
             // With inset-wide-1x over MSAA the wide views have one sample
             // and their own pipelines.
             let wide_1x = i.wide_1x && setup.samples > 1;
+            // aq's MSAA rung: the wide views' targets can also be drawn at
+            // one sample, frame by frame (two scopes, over MSAA, and the
+            // inset's rungs not left out).
+            let msaa_rung = config.aq
+                && !config.aq_scale_only
+                && !wide_1x
+                && setup.samples > 1
+                && setup.view_mask != 0b1111;
             self.inset = Some(inset::InsetPass::new(
                 setup,
                 extent,
                 i.wide_scale,
-                if wide_1x { 1 } else { setup.samples },
+                (if wide_1x { 1 } else { setup.samples }, msaa_rung),
                 config.stereo == crate::config::StereoMode::Multiview,
             )?);
-            if wide_1x {
+            if wide_1x || msaa_rung {
                 self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
             }
         }

@@ -20,13 +20,14 @@ pub struct SampledSets {
 }
 
 impl SampledSets {
-    /// Sets of `extent` with `samples` per pixel, their views and the
-    /// sampler (`what` names it in errors); on failure, destroys what it
-    /// made.
+    /// Sets of `extent` with `samples` per pixel (with `one_sample_depth`,
+    /// also drawable at one sample: [`SetOptions::one_sample_depth`]),
+    /// their views and the sampler (`what` names it in errors); on
+    /// failure, destroys what it made.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
-        samples: u32,
+        (samples, one_sample_depth): (u32, bool),
         multiview: bool,
         depth_format: vk::Format,
         what: &str,
@@ -39,6 +40,7 @@ impl SampledSets {
             storage_output: false,
             occlusion: false,
             multiview_layers: 2,
+            one_sample_depth,
         };
         let sets = Attachments::new(ctx, extent, samples, multiview, opts)?.sets;
         Self::with_sets(ctx, sets, extent, what)
