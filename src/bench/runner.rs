@@ -1113,6 +1113,10 @@ fn aq_summary(frames: &[FrameResult]) -> Option<AqSummary> {
 /// The floors on `renderer` (the baseline's: same resolution, stereo mode
 /// and MSAA).
 fn floors(renderer: &mut Renderer, plan: &Plan, rig: &StereoRig) -> Result<Floors> {
+    // At the full size, whatever scale a baseline with aq ended on.
+    renderer.set_render_scale(1.0);
+    renderer.set_inset_wide_factor(1.0);
+    renderer.set_inset_wide_one_sample(false);
     let n = plan.warmup + plan.frames;
     let mut empty = Vec::new();
     for i in 0..n {

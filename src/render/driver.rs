@@ -349,11 +349,12 @@ impl FrameDriver {
                     if let Some(a) = self.aq.as_mut() {
                         if let Some(c) = a.update(result.gpu_ms()) {
                             tracing::debug!(
-                                "aq: level {} → {} (scale {:.3}, wide factor {:.3}; {:?})",
+                                "aq: level {} → {} (scale {:.3}, wide factor {:.3}, wide at one sample {}; {:?})",
                                 c.from,
                                 c.to,
                                 c.scale,
                                 a.wide_factor(),
+                                a.wide_one_sample(),
                                 c.reason
                             );
                         }
