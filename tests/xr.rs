@@ -316,6 +316,55 @@ fn adaptive_quality_submits_each_frames_sub_image_clean_under_the_runtime() {
 }
 
 #[test]
+fn the_inset_and_its_aq_rungs_run_clean_under_the_runtime() {
+    let _g = lock();
+    let dir = out_dir("inset");
+    // inset-wide-1x: the wide views at one sample, the insets at 4x.
+    let s_path = dir.join("wide-1x.json");
+    let o = with_monado(false)
+        .args(["run", "--xr", "openxr", "--frames", "20"])
+        .args(["--scene", "factory:2000"])
+        .args(["--opt", "superfrustum,inset,inset-wide-1x"])
+        .args(["--width", "160", "--height", "128"])
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    let path = s["inset_path"].as_str().unwrap_or_default();
+    assert!(path.ends_with("wide views at 1 sample"), "{path}");
+    assert_no_validation(&o, &s);
+    // inset with aq under a budget every frame misses: the level falls
+    // through the render scales and on down the inset's rungs (the wide
+    // view at one sample, then smaller), each frame's sub-image submitted.
+    let s_path = dir.join("aq.json");
+    let o = with_monado(false)
+        .args(["run", "--xr", "openxr", "--frames", "60"])
+        .args(["--scene", "factory:2000", "--opt", "superfrustum,inset,aq"])
+        .args(["--budget-ms", "1", "--width", "160", "--height", "120"])
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    let aq: Vec<&Value> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|f| f.get("aq"))
+        .collect();
+    let last = aq.last().expect("frames with aq");
+    assert_eq!(last["level"], 0, "at the lowest level: {aq:?}");
+    assert_eq!(last["wide_one_sample"], true, "{last}");
+    let factor = last["wide_factor"].as_f64().unwrap();
+    assert!((factor - 1.15f64.powf(-4.5)).abs() < 1e-9, "{factor}");
+    assert_eq!(last["size"], serde_json::json!([104, 78]), "0.65 x 160x120");
+    assert_no_validation(&o, &s);
+}
+
+#[test]
 fn lens_matched_shading_runs_clean_under_the_runtime() {
     let _g = lock();
     let dir = out_dir("lms");
