@@ -15,6 +15,23 @@ use vergence::view::profile::HmdProfile;
 const W: u32 = 192;
 const H: u32 = 160;
 
+/// What every test here renders: factory:2000 on valve-index, framed, and
+/// the profile's FOVs.
+fn fixture() -> (
+    std::sync::Arc<vergence::gpu::Context>,
+    vergence::scene::Scene,
+    HmdProfile,
+    vergence::view::Pose,
+    Vec<vergence::view::Fov>,
+) {
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let pose = framing_pose(&scene, &profile);
+    let fovs = profile.views.iter().map(|v| v.fov).collect();
+    (ctx, scene, profile, pose, fovs)
+}
+
 fn srgb_to_linear(v: u8) -> f32 {
     common::srgb_to_linear(v) as f32
 }
@@ -100,11 +117,7 @@ fn regions(
 
 #[test]
 fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
-    let ctx = context();
-    let scene = load("factory:2000");
-    let profile = HmdProfile::load("valve-index").unwrap();
-    let pose = framing_pose(&scene, &profile);
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let (ctx, scene, profile, pose, fovs) = fixture();
     // The two-scope path (the default, and what two-pass draws); the four
     // views in one scope are compared with it below.
     let settings = Inset {
@@ -244,11 +257,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
 /// another matrix, equal up to rounding), at three gazes.
 #[test]
 fn four_views_in_one_scope_equal_the_two_scope_path() {
-    let ctx = context();
-    let scene = load("factory:2000");
-    let profile = HmdProfile::load("valve-index").unwrap();
-    let pose = framing_pose(&scene, &profile);
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let (ctx, scene, profile, pose, fovs) = fixture();
     let four = Inset {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
@@ -351,11 +360,7 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
 /// upsampled; the images come back at the drawn size.
 #[test]
 fn with_aq_the_inset_follows_the_render_scale() {
-    let ctx = context();
-    let scene = load("factory:2000");
-    let profile = HmdProfile::load("valve-index").unwrap();
-    let pose = framing_pose(&scene, &profile);
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let (ctx, scene, profile, pose, fovs) = fixture();
     for four_views in [false, true] {
         let inset = Inset {
             wide_scale: 0.5,
@@ -473,11 +478,7 @@ fn with_aq_the_inset_follows_the_render_scale() {
 /// hidden-area pipeline has a one-sample twin for the wide scope).
 #[test]
 fn wide_views_at_one_sample_keep_the_inset_at_4x() {
-    let ctx = context();
-    let scene = load("factory:2000");
-    let profile = HmdProfile::load("valve-index").unwrap();
-    let pose = framing_pose(&scene, &profile);
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let (ctx, scene, profile, pose, fovs) = fixture();
     let inset = Inset {
         wide_scale: 0.5,
         half_angle_deg: 15.0,
