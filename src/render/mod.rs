@@ -1384,8 +1384,10 @@ impl Renderer {
                 .into_iter()
                 .flatten()
                 .flat_map(|(set, view_mask, eye)| {
+                    // The wide views at one sample (inset-wide-1x, or aq's
+                    // MSAA rung this frame) draw with the one-sample twins.
                     let wide = inset.filter(|i| !i.four_view()).map(|i| {
-                        let (views, _) = i.wide_views(eye);
+                        let (views, one_sample) = i.wide_views(eye);
                         (
                             views,
                             i.wide_extent(self.extent),
@@ -1393,7 +1395,7 @@ impl Renderer {
                             view_mask,
                             eye,
                             "forward-wide",
-                            true,
+                            passes.inset_wide.as_ref().filter(|_| one_sample),
                         )
                     });
                     // With lms the eye is drawn into the LMS targets instead.
@@ -1414,20 +1416,12 @@ impl Renderer {
                             (None, Some(_)) => "forward-lms",
                             (None, None) => "forward",
                         },
-                        false,
+                        None,
                     );
                     wide.into_iter().chain(std::iter::once(main))
                 });
-            for (views, extent, area, view_mask, eye, name, is_wide) in scopes {
+            for (views, extent, area, view_mask, eye, name, one_sample) in scopes {
                 let late = part == ScopePart::Second;
-                // The wide views at one sample (inset-wide-1x, or aq's MSAA
-                // rung this frame) draw with their own pipelines.
-                let wide_at_one = is_wide
-                    && passes.inset.as_ref().is_some_and(|i| {
-                        i.wide.sets.first().is_some_and(|s| s.color_msaa.is_none())
-                            || i.wide_views(eye).1
-                    });
-                let one_sample = passes.inset_wide.as_ref().filter(|_| wide_at_one);
                 let forward = one_sample.map_or(&passes.forward, |w| &w.forward);
                 let overlay = one_sample.map_or(&passes.overlay, |w| &w.overlay);
                 q.begin_pass(ctx, cmd, if late { "forward-late" } else { name });

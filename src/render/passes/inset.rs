@@ -276,12 +276,14 @@ impl InsetPass {
     }
 
     /// The views the wide scope of `eye` draws into this frame, and whether
-    /// at one sample while the targets have more (the pipelines' twins).
+    /// they have one sample (`inset-wide-1x`'s targets, or the MSAA rung
+    /// this frame): over frame MSAA, the pipelines' one-sample twins draw
+    /// them.
     pub fn wide_views(&self, eye: u32) -> (crate::render::attachments::TargetViews, bool) {
         let set = &self.wide.sets[eye as usize % self.wide.sets.len()];
         match set.views_one_sample().filter(|_| self.one_sample) {
             Some(v) => (v, true),
-            None => (set.views(), false),
+            None => (set.views(), set.color_msaa.is_none()),
         }
     }
 
