@@ -102,12 +102,7 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
         frames.push(aq);
     }
     drop(d);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{:#?}",
-        ctx.validation_log()
-    );
+    common::assert_no_validation_since(&ctx, before);
     let levels: Vec<usize> = frames.iter().map(|f| f.level).collect();
     eprintln!("levels along the path: {levels:?}");
     let start = levels[0];
@@ -236,12 +231,7 @@ fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool)
         frames.push(aq);
     }
     drop(d);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{:#?}",
-        ctx.validation_log()
-    );
+    common::assert_no_validation_since(&ctx, before);
     let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
     let seen: Vec<(f64, f64)> = frames.iter().map(|f| (f.scale, f.wide_factor)).collect();
     eprintln!("(scale, wide factor) along the frames: {seen:?}");

@@ -42,12 +42,7 @@ fn preview(
     let out = d.run(eyes, 2).unwrap_or_else(|e| panic!("{e}"));
     assert_eq!(out.gpu_ms.len(), 2);
     drop(d);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{:#?}",
-        ctx.validation_log()
-    );
+    common::assert_no_validation_since(ctx, before);
     out.images
 }
 

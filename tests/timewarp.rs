@@ -73,12 +73,7 @@ fn warp(ctx: &Arc<Context>, from: &Frame, to: &StereoRig, variant: TimewarpVaria
         )
         .unwrap();
     drop(t);
-    assert_eq!(
-        ctx.validation_messages(),
-        before,
-        "{:#?}",
-        ctx.validation_log()
-    );
+    common::assert_no_validation_since(ctx, before);
     out
 }
 

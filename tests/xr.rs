@@ -58,6 +58,31 @@ fn with_monado(remote: bool) -> Command {
     c
 }
 
+/// `vergence run --xr openxr ARGS --stats-out S_PATH` under Monado (ARGS
+/// split at spaces), which must succeed; its output and stats.
+fn run_openxr(s_path: &Path, args: &str) -> (Output, Value) {
+    let o = with_monado(false)
+        .args(["run", "--xr", "openxr"])
+        .args(args.split_whitespace())
+        .arg("--stats-out")
+        .arg(s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(s_path);
+    (o, s)
+}
+
+/// The `aq` records of a run's frames.
+fn aq_frames(s: &Value) -> Vec<&Value> {
+    s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter_map(|f| f.get("aq"))
+        .collect()
+}
+
 fn stats(path: &Path) -> Value {
     let text = std::fs::read_to_string(path).unwrap_or_else(|e| panic!("{}: {e}", path.display()));
     serde_json::from_str(&text).expect("stats JSON")
@@ -278,23 +303,9 @@ fn adaptive_quality_submits_each_frames_sub_image_clean_under_the_runtime() {
     let s_path = dir.join("stats.json");
     // A budget every frame misses on lavapipe: the level falls to the
     // lowest and the sub-image shrinks, in swapchains made for 1.4x.
-    let o = with_monado(false)
-        .args(["run", "--xr", "openxr", "--frames", "40"])
-        .args(["--scene", "factory:2000", "--opt", "superfrustum,aq"])
-        .args(["--budget-ms", "1", "--width", "160", "--height", "120"])
-        .arg("--stats-out")
-        .arg(&s_path)
-        .output()
-        .expect("with-monado");
-    assert!(o.status.success(), "{}", text(&o));
-    let s = stats(&s_path);
+    let (o, s) = run_openxr(&s_path, "--frames 40 --scene factory:2000 --opt superfrustum,aq --budget-ms 1 --width 160 --height 120");
     assert_eq!(s["config"]["aq"], true);
-    let aq: Vec<&Value> = s["frames"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|f| f.get("aq"))
-        .collect();
+    let aq = aq_frames(&s);
     assert!(aq.len() >= 30, "{} frames with aq", aq.len());
     let size = |a: &Value| {
         [
@@ -321,17 +332,7 @@ fn the_inset_and_its_aq_rungs_run_clean_under_the_runtime() {
     let dir = out_dir("inset");
     // inset-wide-1x: the wide views at one sample, the insets at 4x.
     let s_path = dir.join("wide-1x.json");
-    let o = with_monado(false)
-        .args(["run", "--xr", "openxr", "--frames", "20"])
-        .args(["--scene", "factory:2000"])
-        .args(["--opt", "superfrustum,inset,inset-wide-1x"])
-        .args(["--width", "160", "--height", "128"])
-        .arg("--stats-out")
-        .arg(&s_path)
-        .output()
-        .expect("with-monado");
-    assert!(o.status.success(), "{}", text(&o));
-    let s = stats(&s_path);
+    let (o, s) = run_openxr(&s_path, "--frames 20 --scene factory:2000 --opt superfrustum,inset,inset-wide-1x --width 160 --height 128");
     let path = s["inset_path"].as_str().unwrap_or_default();
     assert!(path.ends_with("wide views at 1 sample"), "{path}");
     assert_no_validation(&o, &s);
@@ -339,22 +340,8 @@ fn the_inset_and_its_aq_rungs_run_clean_under_the_runtime() {
     // through the render scales and on down the inset's rungs (the wide
     // view at one sample, then smaller), each frame's sub-image submitted.
     let s_path = dir.join("aq.json");
-    let o = with_monado(false)
-        .args(["run", "--xr", "openxr", "--frames", "60"])
-        .args(["--scene", "factory:2000", "--opt", "superfrustum,inset,aq"])
-        .args(["--budget-ms", "1", "--width", "160", "--height", "120"])
-        .arg("--stats-out")
-        .arg(&s_path)
-        .output()
-        .expect("with-monado");
-    assert!(o.status.success(), "{}", text(&o));
-    let s = stats(&s_path);
-    let aq: Vec<&Value> = s["frames"]
-        .as_array()
-        .unwrap()
-        .iter()
-        .filter_map(|f| f.get("aq"))
-        .collect();
+    let (o, s) = run_openxr(&s_path, "--frames 60 --scene factory:2000 --opt superfrustum,inset,aq --budget-ms 1 --width 160 --height 120");
+    let aq = aq_frames(&s);
     let last = aq.last().expect("frames with aq");
     assert_eq!(last["level"], 0, "at the lowest level: {aq:?}");
     assert_eq!(last["wide_one_sample"], true, "{last}");
@@ -369,16 +356,10 @@ fn lens_matched_shading_runs_clean_under_the_runtime() {
     let _g = lock();
     let dir = out_dir("lms");
     let s_path = dir.join("stats.json");
-    let o = with_monado(false)
-        .args(["run", "--xr", "openxr", "--frames", "20"])
-        .args(["--scene", "factory:2000", "--opt", "superfrustum,lms"])
-        .args(["--width", "160", "--height", "128"])
-        .arg("--stats-out")
-        .arg(&s_path)
-        .output()
-        .expect("with-monado");
-    assert!(o.status.success(), "{}", text(&o));
-    let s = stats(&s_path);
+    let (o, s) = run_openxr(
+        &s_path,
+        "--frames 20 --scene factory:2000 --opt superfrustum,lms --width 160 --height 128",
+    );
     // The runtime's views carry no lens: the default coefficient, and on
     // lavapipe the vertex-shader path.
     let lms = &s["lms"];

@@ -144,14 +144,19 @@ pub fn render_config(
         .unwrap_or_else(|e| panic!("{e}"));
     let images = r.read_images().unwrap();
     drop(r);
-    let after = ctx.validation_messages();
+    assert_no_validation_since(ctx, before);
+    Frame { images, stats }
+}
+
+/// Fails, listing them, when validation messages came after `before` (a
+/// count from [`Context::validation_messages`]).
+pub fn assert_no_validation_since(ctx: &Context, before: usize) {
     assert_eq!(
-        after,
+        ctx.validation_messages(),
         before,
         "Vulkan validation messages: {:#?}",
         ctx.validation_log()
     );
-    Frame { images, stats }
 }
 
 /// Drives `config` over `rigs` at `size`×`size` per eye, one frame each
