@@ -302,6 +302,12 @@ pub struct Inset {
     /// at 4× and 3.4 ms at 1× on factory:100000). Two scopes only.
     #[serde(default)]
     pub wide_1x: bool,
+    /// `inset-composite` (which turns `inset` on): composite the eye image
+    /// here even where the runtime takes the four views itself
+    /// (`XR_VARJO_quad_views`; `run --xr openxr` submits them as they are
+    /// there by default).
+    #[serde(default)]
+    pub composite: bool,
 }
 
 impl Default for Inset {
@@ -312,6 +318,7 @@ impl Default for Inset {
             fov_given: false,
             four_views: false,
             wide_1x: false,
+            composite: false,
         }
     }
 }
@@ -764,6 +771,12 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                "inset-composite" => {
+                    self.inset = Some(Inset {
+                        composite: true,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 l if l.starts_with("inset-fov=") => {
                     let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
                     self.inset = Some(Inset {
@@ -890,7 +903,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1092,6 +1105,9 @@ impl RenderConfig {
             if i.wide_1x {
                 v.push("inset-wide-1x".into());
             }
+            if i.composite {
+                v.push("inset-composite".into());
+            }
         }
         if self.points_pipeline {
             v.push("points-pipeline".into());
@@ -1231,6 +1247,7 @@ mod tests {
             "inset-views=4,inset-views=2",
             "inset-wide-1x",
             "two-pass,inset=0.4,inset-wide-1x",
+            "inset,inset-composite",
             "multiview,inset,aq,aq-scale-only",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",

@@ -126,6 +126,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
         fov_given: true,
         four_views: false,
         wide_1x: false,
+        composite: false,
     };
     let full = render_config(
         &ctx,
@@ -264,6 +265,7 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
         fov_given: true,
         four_views: true,
         wide_1x: false,
+        composite: false,
     };
     let two = Inset {
         four_views: false,
@@ -368,6 +370,7 @@ fn with_aq_the_inset_follows_the_render_scale() {
             fov_given: true,
             four_views,
             wide_1x: false,
+            composite: false,
         };
         let config = RenderConfig {
             aq: true,
@@ -480,6 +483,7 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
         fov_given: true,
         four_views: false,
         wide_1x: true,
+        composite: false,
     };
     let gaze = [0.1, 0.2];
     let rect = inset_rect(&fovs, gaze, 15.0, W, H);
@@ -531,4 +535,173 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
 
 fn config_without_aq(inset: Option<Inset>, gaze: [f32; 2]) -> RenderConfig {
     config(StereoMode::Multiview, inset, gaze)
+}
+
+/// The focus views a quad-views runtime would give for `fovs`: `k` times
+/// each eye's tangents (what `examples/quad_views_layer.rs` offers).
+fn focus_of(fovs: &[vergence::view::Fov], k: f64) -> [vergence::view::Fov; 2] {
+    let f = |v: &vergence::view::Fov| {
+        let t = v.tangents();
+        vergence::view::Fov {
+            left: (t[0] * k).atan(),
+            right: (t[1] * k).atan(),
+            up: (t[2] * k).atan(),
+            down: (t[3] * k).atan(),
+        }
+    };
+    [f(&fovs[0]), f(&fovs[1])]
+}
+
+/// A quad output (`XR_VARJO_quad_views`): no composite; the wide views go
+/// out as the half-size render's own pixels and the insets as the full
+/// render's pixels inside the rectangle the runtime's focus views give,
+/// with nothing feathered, in multiview (copied) and two-pass (blitted
+/// into another format); the rectangle follows the focus views.
+#[test]
+fn a_quad_output_gives_the_wide_views_and_the_insets_as_they_are() {
+    use ash::vk;
+    use vergence::gpu::memory::{Image, ImageDesc};
+    use vergence::render::{FrameOutput, OutputSpec, Renderer};
+    let (ctx, scene, profile, pose, fovs) = fixture();
+    let settings = Inset {
+        wide_scale: 0.5,
+        half_angle_deg: 15.0,
+        fov_given: true,
+        four_views: false,
+        wide_1x: false,
+        composite: false,
+    };
+    let plain = |stereo, w, h| {
+        render_config(
+            &ctx,
+            &scene,
+            &profile,
+            pose,
+            &config(stereo, None, [0.0; 2]),
+            w,
+            h,
+        )
+    };
+    let full = plain(StereoMode::Multiview, W, H);
+    let wide = plain(StereoMode::Multiview, W / 2, H / 2);
+    for (stereo, format, k) in [
+        (
+            StereoMode::Multiview,
+            vergence::render::attachments::COLOR_FORMAT,
+            0.4,
+        ),
+        (StereoMode::TwoPass, vk::Format::B8G8R8A8_SRGB, 0.25),
+    ] {
+        let before = ctx.validation_messages();
+        let spec = OutputSpec {
+            color_format: format,
+            depth: false,
+            quad: true,
+        };
+        let extent = vk::Extent2D {
+            width: W,
+            height: H,
+        };
+        let mut r = Renderer::with_output(
+            ctx.clone(),
+            &scene,
+            &config(stereo, Some(settings), [0.0; 2]),
+            extent,
+            Some(spec),
+        )
+        .unwrap_or_else(|e| panic!("{e}"));
+        let (sets, layers) = match stereo {
+            StereoMode::Multiview => (1, 2),
+            StereoMode::TwoPass => (2, 1),
+        };
+        let half = vk::Extent2D {
+            width: W / 2,
+            height: H / 2,
+        };
+        let make = |e| {
+            (0..sets)
+                .map(|_| {
+                    Image::new(
+                        &ctx,
+                        &ImageDesc::eye_copy("quad", format, e, layers, "test"),
+                    )
+                    .unwrap()
+                })
+                .collect::<Vec<_>>()
+        };
+        let (wide_out, inset_out) = (make(half), make(extent));
+        let out = FrameOutput {
+            color: wide_out.iter().map(|i| i.image).collect(),
+            inset: inset_out.iter().map(|i| i.image).collect(),
+            ..FrameOutput::default()
+        };
+        let focus = focus_of(&fovs, k);
+        r.set_focus(Some(focus));
+        r.record_frame(&profile.rig(pose), None).unwrap();
+        r.submit_frame(Some(&out), true).unwrap();
+        let got = r.read_quad_images().unwrap();
+        let stats = r.take_completed().expect("the frame finished");
+        assert!(stats.gpu_ms.contains_key("forward-inset"));
+        assert!(
+            !stats.gpu_ms.contains_key("inset-composite"),
+            "the runtime composites: {:?}",
+            stats.gpu_ms.keys()
+        );
+        let rect = vergence::view::inset::focus_rect(&fovs, &focus, W, H);
+        assert_eq!(r.inset_rect(), rect);
+        assert_eq!(
+            (r.output_extent(), r.inset_extent()),
+            (
+                half,
+                vk::Extent2D {
+                    width: rect.width(),
+                    height: rect.height()
+                }
+            )
+        );
+        assert!(
+            rect.width() > 20 && rect.width() < W - 40,
+            "{stereo:?}: {rect:?}"
+        );
+        // BGRA blits hold the same colours: compare RGB channels.
+        let rgb = |p: &image::Rgba<u8>| {
+            if format == vk::Format::B8G8R8A8_SRGB {
+                [p[2], p[1], p[0]]
+            } else {
+                [p[0], p[1], p[2]]
+            }
+        };
+        for eye in 0..2 {
+            let (w_img, i_img) = (&got[eye], &got[2 + eye]);
+            assert_eq!(w_img.dimensions(), (W / 2, H / 2));
+            assert_eq!(i_img.dimensions(), (rect.width(), rect.height()));
+            let wide_diff = (0..H / 2)
+                .flat_map(|y| (0..W / 2).map(move |x| (x, y)))
+                .filter(|&(x, y)| {
+                    let p = wide.images[eye].get_pixel(x, y);
+                    rgb(w_img.get_pixel(x, y)) != [p[0], p[1], p[2]]
+                })
+                .count();
+            assert!(
+                wide_diff * 1000 <= (W * H / 4) as usize,
+                "{stereo:?} eye {eye}: {wide_diff} wide-view pixels differ from the half-size render"
+            );
+            let inset_diff = (0..rect.height())
+                .flat_map(|y| (0..rect.width()).map(move |x| (x, y)))
+                .filter(|&(x, y)| {
+                    let p = full.images[eye].get_pixel(rect.x0 + x, rect.y0 + y);
+                    rgb(i_img.get_pixel(x, y)) != [p[0], p[1], p[2]]
+                })
+                .count();
+            assert_eq!(
+                inset_diff, 0,
+                "{stereo:?} eye {eye}: the inset is the full render's pixels, seam included"
+            );
+        }
+        drop(r);
+        for i in wide_out.into_iter().chain(inset_out) {
+            i.destroy(&ctx);
+        }
+        common::assert_no_validation_since(&ctx, before);
+    }
 }

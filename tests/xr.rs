@@ -786,3 +786,284 @@ fn reconnect_survives_monado_restarting() {
         .count();
     assert!(focused_count >= 2, "{:?}", s["states"]);
 }
+
+/// The test layer offering XR_VARJO_quad_views
+/// (`examples/quad_views_layer.rs`, built by `cargo test --workspace`) and
+/// a manifest for it in `dir`.
+fn quad_views_layer(dir: &Path) -> PathBuf {
+    let exe = std::env::current_exe().expect("test binary");
+    let lib = exe
+        .parent()
+        .and_then(Path::parent)
+        .expect("target/debug")
+        .join("examples/libquad_views_layer.so");
+    assert!(
+        lib.is_file(),
+        "{} is missing: cargo build --example quad_views_layer (cargo xtask test builds it)",
+        lib.display()
+    );
+    let layers = dir.join("layers");
+    std::fs::create_dir_all(&layers).unwrap();
+    let manifest = serde_json::json!({
+        "file_format_version": "1.0.0",
+        "api_layer": {
+            "name": "XR_APILAYER_VERGENCE_quad_views",
+            "library_path": lib,
+            "api_version": "1.0",
+            "implementation_version": "1",
+            "description": "vergence test layer: XR_VARJO_quad_views over a stereo runtime",
+            "instance_extensions": [{"name": "XR_VARJO_quad_views", "extension_version": "2"}]
+        }
+    });
+    std::fs::write(layers.join("quad_views.json"), manifest.to_string()).unwrap();
+    layers
+}
+
+/// A mean absolute difference per channel between the wide view `wide`
+/// and the inset `inset` (at `scale` × its density) placed at `at` in the
+/// wide view, inset pixels averaged over the wide view's pixels.
+fn inset_against_wide(
+    wide: &image::RgbaImage,
+    inset: &image::RgbaImage,
+    at: (i64, i64),
+    ratio: u32,
+) -> f64 {
+    let (mut sum, mut n) = (0.0, 0u64);
+    for y in 0..inset.height() / ratio {
+        for x in 0..inset.width() / ratio {
+            let (wx, wy) = (at.0 + x as i64, at.1 + y as i64);
+            if wx < 0 || wy < 0 || wx >= wide.width() as i64 || wy >= wide.height() as i64 {
+                continue;
+            }
+            let w = wide.get_pixel(wx as u32, wy as u32);
+            for c in 0..3 {
+                let mut acc = 0.0;
+                for dy in 0..ratio {
+                    for dx in 0..ratio {
+                        acc += inset.get_pixel(x * ratio + dx, y * ratio + dy)[c] as f64;
+                    }
+                }
+                sum += (acc / (ratio * ratio) as f64 - w[c] as f64).abs();
+                n += 1;
+            }
+        }
+    }
+    sum / n.max(1) as f64
+}
+
+/// Where the runtime takes quad views (here the test layer over Monado,
+/// below the core validation layer), `inset` submits its four views as
+/// they are: the session begins with PRIMARY_QUAD_VARJO, every projection
+/// layer has four views, the wide views at F × the eye size and the focus
+/// views at the inset rectangle's size with a FOV holding the runtime's;
+/// the captured inset is the wide view's content at
+/// twice the density; multiview and two-pass; no validation message.
+#[test]
+fn the_inset_goes_out_as_quad_views_where_the_runtime_takes_them() {
+    let _g = lock();
+    let dir = out_dir("quad-views");
+    let layers = quad_views_layer(&dir);
+    for (name, stereo, chains) in [("multiview", "multiview", 2), ("two-pass", "two-pass", 4)] {
+        let log = dir.join(format!("{name}-layer.jsonl"));
+        let capture = dir.join(format!("{name}-capture"));
+        let s_path = dir.join(format!("{name}.json"));
+        let o = with_monado(false)
+            .env(
+                "XR_API_LAYER_PATH",
+                format!(
+                    "{}:/usr/share/openxr/1/api_layers/explicit.d",
+                    layers.display()
+                ),
+            )
+            .env(
+                "XR_ENABLE_API_LAYERS",
+                "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
+            )
+            .env("VERGENCE_QUAD_LAYER_LOG", &log)
+            .args([
+                "run",
+                "--xr",
+                "openxr",
+                "--frames",
+                "20",
+                "--scene",
+                "factory:2000",
+            ])
+            .args([
+                "--stereo",
+                stereo,
+                "--opt",
+                "superfrustum,inset",
+                "--width",
+                "160",
+                "--height",
+                "128",
+            ])
+            .arg("--capture")
+            .arg(&capture)
+            .arg("--stats-out")
+            .arg(&s_path)
+            .output()
+            .expect("with-monado");
+        assert!(o.status.success(), "{}", text(&o));
+        let s = stats(&s_path);
+        assert_no_validation(&o, &s);
+        assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO", "{name}");
+        assert!(
+            strings(&s["extensions_enabled"]).contains(&"XR_VARJO_quad_views"),
+            "{}",
+            s["extensions_enabled"]
+        );
+        let path = s["inset_path"].as_str().unwrap_or_default();
+        assert!(path.ends_with("submitted as four views"), "{path}");
+        let lines: Vec<Value> = std::fs::read_to_string(&log)
+            .unwrap_or_else(|e| panic!("{}: {e}", log.display()))
+            .lines()
+            .map(|l| serde_json::from_str(l).expect("layer log line"))
+            .collect();
+        assert_eq!(lines[0]["begin"], "XR_VARJO_quad_views", "{:?}", lines[0]);
+        let frames: Vec<&Value> = lines.iter().filter(|l| l.get("views").is_some()).collect();
+        assert!(frames.len() >= 15, "{} projection layers", frames.len());
+        for f in &frames {
+            assert_eq!(f["views"], 4, "{f}");
+            assert_eq!(f["swapchains"], chains, "{name}: {f}");
+            let rect = |i: usize| -> Vec<i64> {
+                f["rect"][i]
+                    .as_array()
+                    .unwrap()
+                    .iter()
+                    .map(|v| v.as_i64().unwrap())
+                    .collect()
+            };
+            // The wide views: half the eye per axis, from the top left.
+            assert_eq!(&rect(0)[..4], &[0, 0, 80, 64], "{f}");
+            assert_eq!(&rect(1)[..4], &[0, 0, 80, 64], "{f}");
+            for eye in 0..2 {
+                let (w, h) = (rect(2 + eye)[2], rect(2 + eye)[3]);
+                assert!(w > 20 && w < 160 && h > 16 && h < 128, "{f}");
+                // The focus view's FOV holds the runtime's (0.4 × the
+                // eye's tangents), within a pixel of it.
+                let fov = |i: usize| -> Vec<f64> {
+                    f["fov"][i]
+                        .as_array()
+                        .unwrap()
+                        .iter()
+                        .map(|v| v.as_f64().unwrap().tan())
+                        .collect()
+                };
+                let (e, got) = (fov(eye), fov(2 + eye));
+                let pixel = [(e[1] - e[0]) / 160.0, (e[2] - e[3]) / 128.0];
+                for side in 0..4 {
+                    let want = e[side] * 0.4;
+                    // Left and down are negative: outward is further down.
+                    let outward = if side == 0 || side == 3 {
+                        want - got[side]
+                    } else {
+                        got[side] - want
+                    };
+                    let pixel = pixel[side / 2];
+                    assert!(
+                        outward > -1e-5 && outward < 1.01 * pixel,
+                        "{name} view {}: side {side} {} against the runtime's {want}",
+                        2 + eye,
+                        got[side]
+                    );
+                }
+            }
+        }
+        // The capture holds the four views as submitted.
+        let img = |n: &str| image::open(capture.join(n)).unwrap().to_rgba8();
+        let (wide, inset) = (img("left.png"), img("inset-left.png"));
+        assert_eq!(wide.dimensions(), (80, 64));
+        let last = frames.last().unwrap();
+        let r = &last["rect"][2];
+        assert_eq!(
+            inset.dimensions(),
+            (r[2].as_u64().unwrap() as u32, r[3].as_u64().unwrap() as u32)
+        );
+        // The inset, halved, is the wide view's content where the focus
+        // FOV lies in the eye (and not a few pixels off it).
+        let tan = |v: &Value, i: usize| v[i].as_f64().unwrap().tan();
+        let (eye, foc) = (&last["fov"][0], &last["fov"][2]);
+        let x0 = ((tan(foc, 0) - tan(eye, 0)) / (tan(eye, 1) - tan(eye, 0)) * 80.0).round() as i64;
+        let y0 = ((tan(eye, 2) - tan(foc, 2)) / (tan(eye, 2) - tan(eye, 3)) * 64.0).round() as i64;
+        let here = inset_against_wide(&wide, &inset, (x0, y0), 2);
+        let off = inset_against_wide(&wide, &inset, (x0 + 6, y0 + 5), 2);
+        assert!(
+            here < 12.0 && here * 1.5 < off,
+            "{name}: {here} here, {off} off"
+        );
+    }
+    // With aq down its inset rungs, and with the four views in one scope:
+    // the sub-images follow the scale and the wide view's factor, clean.
+    // With inset-composite the session stays stereo and composites here.
+    let run = |name: &str, args: &str| {
+        let log = dir.join(format!("{name}-layer.jsonl"));
+        let s_path = dir.join(format!("{name}.json"));
+        let o = with_monado(false)
+            .env(
+                "XR_API_LAYER_PATH",
+                format!(
+                    "{}:/usr/share/openxr/1/api_layers/explicit.d",
+                    layers.display()
+                ),
+            )
+            .env(
+                "XR_ENABLE_API_LAYERS",
+                "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
+            )
+            .env("VERGENCE_QUAD_LAYER_LOG", &log)
+            .args([
+                "run",
+                "--xr",
+                "openxr",
+                "--frames",
+                "40",
+                "--scene",
+                "factory:2000",
+            ])
+            .args(args.split_whitespace())
+            .args(["--width", "160", "--height", "120"])
+            .arg("--stats-out")
+            .arg(&s_path)
+            .output()
+            .expect("with-monado");
+        assert!(o.status.success(), "{}", text(&o));
+        let s = stats(&s_path);
+        assert_no_validation(&o, &s);
+        let lines: Vec<Value> = std::fs::read_to_string(&log)
+            .unwrap()
+            .lines()
+            .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+            .filter(|l| l.get("views").is_some())
+            .collect();
+        (s, lines)
+    };
+    let (s, lines) = run("aq", "--opt superfrustum,inset,aq --budget-ms 1");
+    assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
+    let aq = aq_frames(&s);
+    let last = aq.last().expect("aq frames");
+    assert_eq!(last["level"], 0, "{aq:?}");
+    let wide_w = |l: &Value| l["rect"][0][2].as_i64().unwrap();
+    let (first, end) = (lines.first().unwrap(), lines.last().unwrap());
+    assert!(lines.iter().all(|l| l["views"] == 4));
+    // 0.65 x 160 = 104 wide eyes, the wide view at 0.5 x 0.533 of that.
+    assert!(wide_w(first) > wide_w(end), "{first} then {end}");
+    assert!(wide_w(end) <= 28 && wide_w(end) >= 26, "{end}");
+    let (s, lines) = run("four-view", "--opt superfrustum,inset,inset-views=4");
+    assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
+    assert!(
+        lines.iter().all(|l| l["views"] == 4 && wide_w(l) == 80),
+        "{:?}",
+        lines.last()
+    );
+    let (s, lines) = run("composite", "--opt superfrustum,inset,inset-composite");
+    assert_eq!(s["view_configuration"], "PRIMARY_STEREO");
+    let path = s["inset_path"].as_str().unwrap_or_default();
+    assert!(!path.contains("four views"), "{path}");
+    assert!(
+        lines.iter().all(|l| l["views"] == 2 && wide_w(l) == 160),
+        "{:?}",
+        lines.last()
+    );
+}

@@ -147,6 +147,11 @@ pub struct Renderer {
     /// ([`passes::inset::InsetPass::wide_region`]), found with the
     /// rectangle once a frame.
     wide_region: crate::view::inset::PixelRect,
+    /// With `inset` and a runtime's focus views: their FOVs, which place
+    /// the inset instead of the gaze and half-angle.
+    focus: Option<[crate::view::Fov; 2]>,
+    /// The output takes the four views as they are (no composite).
+    quad: bool,
     /// The depth attachments' format: the device's depth-stencil format
     /// when a pass uses stencil (stencil mask, RDM) or the frame's depth
     /// goes out to a depth swapchain, else a depth-only one where offered.
@@ -321,6 +326,12 @@ impl Renderer {
                 ),
             ));
         }
+        if output.is_some_and(|o| o.quad) && config.inset.is_none() {
+            return Err(Error::config(
+                "output",
+                "four views go out only with --opt inset (the runtime's view configuration is quad views)",
+            ));
+        }
         let samples = config.msaa.min(ctx.caps.max_samples);
         let slots = config.frames_in_flight as usize;
         // With aq every target is made once for the largest scale.
@@ -413,6 +424,8 @@ impl Renderer {
                 x1: nominal.width,
                 y1: nominal.height,
             },
+            focus: None,
+            quad: output.is_some_and(|o| o.quad),
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -442,7 +455,13 @@ impl Renderer {
             mffr_fallbacks: 0,
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
-            inset_path: inset_choice.as_ref().map(|c| c.1.clone()),
+            inset_path: inset_choice.as_ref().map(|c| {
+                if output.is_some_and(|o| o.quad) {
+                    format!("{}, submitted as four views", c.1)
+                } else {
+                    c.1.clone()
+                }
+            }),
             mask_in_depth,
             four_view: inset_choice.is_some_and(|c| c.0),
             wide_region: crate::view::inset::PixelRect {
@@ -978,13 +997,21 @@ impl Renderer {
         if let Some(i) = self.config.inset {
             // Two views (checked above): no allocation in the frame.
             let fovs = [rig.views[0].fov, rig.views[1].fov];
-            self.inset_rect = crate::view::inset::inset_rect(
-                &fovs,
-                self.config.gaze,
-                i.half_angle_deg,
-                self.extent.width,
-                self.extent.height,
-            );
+            self.inset_rect = match &self.focus {
+                Some(focus) => crate::view::inset::focus_rect(
+                    &fovs,
+                    focus,
+                    self.extent.width,
+                    self.extent.height,
+                ),
+                None => crate::view::inset::inset_rect(
+                    &fovs,
+                    self.config.gaze,
+                    i.half_angle_deg,
+                    self.extent.width,
+                    self.extent.height,
+                ),
+            };
             if let Some(pass) = &self.passes.inset {
                 self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
             }
@@ -1521,7 +1548,11 @@ impl Renderer {
         if let Some(lms) = &passes.lms {
             draw_calls += lms.record_resample(&rec, q, targets, self.extent, self.view_mask());
         }
-        if let Some(inset) = passes.inset.as_ref().filter(|_| floor.is_none()) {
+        if let Some(inset) = passes
+            .inset
+            .as_ref()
+            .filter(|_| floor.is_none() && !self.quad)
+        {
             // A dispatch per set, not a draw: not counted in draw_calls.
             inset.record_composite(
                 &rec,
@@ -1638,6 +1669,11 @@ impl Renderer {
         cmd: vk::CommandBuffer,
         output: Option<&FrameOutput>,
     ) -> Result<()> {
+        if let (true, Some(out)) = (self.quad, output) {
+            let sizes = (self.output_extent(), self.inset_extent());
+            let ring = self.ring.as_mut().expect("ring present until drop");
+            return self.readback.record_quad(&self.ctx, ring, cmd, out, sizes);
+        }
         let ring = self.ring.as_mut().expect("ring present until drop");
         let targets = self.targets.as_ref().expect("targets present until drop");
         self.readback.record(
@@ -1657,7 +1693,73 @@ impl Renderer {
             .output
             .as_ref()
             .ok_or_else(|| Error::Gpu("the renderer was created without an output".into()))?;
+        if self.quad {
+            let targets = self.targets();
+            let wide = match self.passes.inset.as_ref() {
+                Some(p) if p.four_view() => targets
+                    .sets
+                    .iter()
+                    .map(|s| (s.resolve.image, 2, s.resolve.layers))
+                    .collect(),
+                Some(p) => p
+                    .wide
+                    .sets
+                    .iter()
+                    .map(|s| (s.resolve.image, 0, s.resolve.layers))
+                    .collect(),
+                None => return Err(Error::Gpu("a quad output without the inset pass".into())),
+            };
+            let src = passes::output::QuadSource {
+                wide,
+                region: self.wide_region,
+                rect: self.inset_rect,
+            };
+            return copy.record_quad(&self.ctx, cmd, targets, &src, out);
+        }
         copy.record(&self.ctx, cmd, self.targets(), self.extent, out)
+    }
+
+    /// The size of the images this frame goes out as: with a quad output
+    /// the wide views' (the insets' is [`Renderer::inset_extent`]), else
+    /// the eyes' ([`Renderer::extent`]).
+    pub fn output_extent(&self) -> vk::Extent2D {
+        match (self.quad, self.passes.inset.as_ref()) {
+            (true, Some(_)) => vk::Extent2D {
+                width: self.wide_region.width(),
+                height: self.wide_region.height(),
+            },
+            _ => self.extent,
+        }
+    }
+
+    /// The last recorded frame's inset rectangle's size (the insets' images
+    /// of a quad output).
+    pub fn inset_extent(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.inset_rect.width(),
+            height: self.inset_rect.height(),
+        }
+    }
+
+    /// The last recorded frame's inset rectangle in the eye image (with
+    /// `inset`).
+    pub fn inset_rect(&self) -> crate::view::inset::PixelRect {
+        self.inset_rect
+    }
+
+    /// Places the following frames' inset on the runtime's focus views
+    /// (their FOVs, left and right, in the eyes' poses;
+    /// [`crate::view::inset::focus_rect`]) instead of around the gaze, or
+    /// again around the gaze with None.
+    pub fn set_focus(&mut self, focus: Option<[crate::view::Fov; 2]>) {
+        self.focus = focus;
+    }
+
+    /// The last read-back frame of a quad output: the wide views left and
+    /// right, then the insets (waits for the frames in flight first).
+    pub fn read_quad_images(&mut self) -> Result<[image::RgbaImage; 4]> {
+        self.finish()?;
+        self.readback.quad_images()
     }
 
     /// The last read-back frame as two RGBA8 (sRGB) images, left then right

@@ -367,6 +367,7 @@ impl HeadlessFrames {
             let spec = OutputSpec {
                 color_format: COLOR_FORMAT,
                 depth: false,
+                quad: false,
             };
             Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?
         } else {
@@ -411,6 +412,7 @@ impl HeadlessFrames {
             let spec = OutputSpec {
                 color_format: COLOR_FORMAT,
                 depth: false,
+                quad: false,
             };
             Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?
         } else {

@@ -352,6 +352,11 @@ pub struct RunStats {
     pub display_refresh_rates: Vec<f32>,
     /// Per view: recommended and max sizes and FOV.
     pub views: Vec<ViewInfo>,
+    /// The session's view configuration: `PRIMARY_STEREO`, or with the
+    /// inset on a runtime that takes quad views `PRIMARY_QUAD_VARJO` (the
+    /// four views then go out as they are).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub view_configuration: Option<String>,
     /// Per-eye image size rendered.
     pub image_size: [u32; 2],
     /// Reference space (STAGE or LOCAL).

@@ -128,7 +128,7 @@ impl EyeImages {
     pub(crate) fn output(&self, slot: usize) -> FrameOutput {
         FrameOutput {
             color: self.sets[slot].iter().map(|i| i.image).collect(),
-            depth: Vec::new(),
+            ..FrameOutput::default()
         }
     }
 
@@ -239,6 +239,7 @@ fn make_driver(
     let spec = OutputSpec {
         color_format: COLOR_FORMAT,
         depth: false,
+        quad: false,
     };
     if images.is_none() {
         let slots = config.frames_in_flight.max(1) as usize;

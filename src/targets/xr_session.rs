@@ -54,6 +54,8 @@ struct Live {
     controls: Option<Controls>,
     color: Vec<Chain>,
     depth: Vec<Chain>,
+    /// With quad views: the insets' colour swapchains (as `color`).
+    inset: Vec<Chain>,
     space: Option<xr::Space>,
     stream: Option<xr::FrameStream<xr::Vulkan>>,
     waiter: Option<xr::FrameWaiter>,
@@ -106,18 +108,43 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         sys_props.system_name
     );
 
-    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    // With the inset and a runtime that takes quad views
+    // (XR_VARJO_quad_views), the four views go out as they are (unless
+    // inset-composite asks for the composite here).
+    let quad = exts.varjo_quad_views
+        && desk.live.config.inset.is_some_and(|i| !i.composite)
+        && instance
+            .enumerate_view_configurations(system)
+            .call("xrEnumerateViewConfigurations")?
+            .contains(&xr::ViewConfigurationType::PRIMARY_QUAD_VARJO);
+    let view_type = if quad {
+        xr::ViewConfigurationType::PRIMARY_QUAD_VARJO
+    } else {
+        xr::ViewConfigurationType::PRIMARY_STEREO
+    };
     let config_views = instance
         .enumerate_view_configuration_views(system, view_type)
         .call("xrEnumerateViewConfigurationViews")?;
-    if config_views.len() != 2 {
+    let wanted = if quad { 4 } else { 2 };
+    if config_views.len() != wanted {
         return Err(Error::config(
             "view configuration",
             format!(
-                "PRIMARY_STEREO has {} views; the renderer needs 2",
+                "the view configuration has {} views; the renderer needs {wanted}",
                 config_views.len()
             ),
         ));
+    }
+    stats.view_configuration = Some(
+        if quad {
+            "PRIMARY_QUAD_VARJO"
+        } else {
+            "PRIMARY_STEREO"
+        }
+        .into(),
+    );
+    if quad {
+        tracing::info!("the runtime takes quad views: the inset goes out as four views");
     }
     stats.views = config_views
         .iter()
@@ -164,11 +191,13 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         None => vk::Extent2D {
             width: config_views
                 .iter()
+                .take(2)
                 .map(|v| v.recommended_image_rect_width)
                 .max()
                 .unwrap_or(1),
             height: config_views
                 .iter()
+                .take(2)
                 .map(|v| v.recommended_image_rect_height)
                 .max()
                 .unwrap_or(1),
@@ -214,6 +243,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         controls: None,
         color: Vec::new(),
         depth: Vec::new(),
+        inset: Vec::new(),
         space: None,
         stream: Some(stream),
         waiter: Some(waiter),
@@ -270,9 +300,9 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
             "the runtime offers no sRGB colour format vergence can fill (offered: {formats:?})"
         ))
     })?;
-    let depth_format = (exts.khr_composition_layer_depth
-        && formats.contains(&ctx.caps.depth_format))
-    .then_some(ctx.caps.depth_format);
+    let depth_format =
+        (exts.khr_composition_layer_depth && !quad && formats.contains(&ctx.caps.depth_format))
+            .then_some(ctx.caps.depth_format);
     stats.color_format = Some(format!("{color_format:?}"));
     stats.depth_format = depth_format.map(|f| format!("{f:?}"));
     stats.image_size = [extent.width, extent.height];
@@ -290,10 +320,11 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         extent,
         nominal: extent,
         max,
+        quad,
     };
     chains.extent = chains.images_for(desk.live.config.aq)?;
     let config = desk.live.config.clone();
-    chains.create(&session, &mut live, config.stereo)?;
+    chains.create(&session, &mut live, &config)?;
     live.space = Some(space);
     if args.interact.panel && stats.panel.is_none() {
         stats.panel = Some(super::xr_panel::PanelStats {
@@ -318,7 +349,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.lms = renderer.lms_report();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
     let masks = if exts.khr_visibility_mask {
-        Some(Arc::new(fetch_masks(&session, 2)?))
+        Some(Arc::new(fetch_masks(&session, view_type, 2)?))
     } else {
         None
     };
@@ -355,6 +386,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         overlay: Vec::new(),
         last_display_ns: None,
         blend,
+        view_type,
         with_depth: depth_format.is_some(),
         last_valid: Vec::new(),
         first_fov_recorded: false,
@@ -425,6 +457,9 @@ struct ChainSpec {
     nominal: vk::Extent2D,
     /// The runtime's largest image per view.
     max: (u32, u32),
+    /// The session takes quad views: the wide views and the insets get
+    /// swapchains of their own.
+    quad: bool,
 }
 
 impl ChainSpec {
@@ -459,32 +494,55 @@ impl ChainSpec {
         OutputSpec {
             color_format: self.color_format,
             depth: self.depth_format.is_some(),
+            quad: self.quad,
         }
     }
 
-    /// The colour (and depth) swapchains for `stereo`: one of two-layer
-    /// images under multiview, one per eye in two-pass.
+    /// The colour (and depth) swapchains for `config`'s stereo mode: one
+    /// of two-layer images under multiview, one per eye in two-pass. With
+    /// quad views the colour swapchains hold the wide views (F × the
+    /// images' size) and as many again the insets (up to the images' size).
     fn create(
         &self,
         session: &xr::Session<xr::Vulkan>,
         live: &mut Live,
-        stereo: crate::config::StereoMode,
+        config: &crate::config::RenderConfig,
     ) -> Result<()> {
-        let multiview = stereo == crate::config::StereoMode::Multiview;
+        let multiview = config.stereo == crate::config::StereoMode::Multiview;
         let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
         let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
             | xr::SwapchainUsageFlags::TRANSFER_DST
             | xr::SwapchainUsageFlags::TRANSFER_SRC;
+        let wide = match (self.quad, config.inset) {
+            (true, Some(i)) => crate::render::scaled(self.extent, i.wide_scale),
+            (true, None) => {
+                return Err(Error::config(
+                    "--opt",
+                    "the session takes quad views, which need inset: it cannot be turned off in this session",
+                ))
+            }
+            (false, _) => self.extent,
+        };
         live.color.clear();
         live.depth.clear();
+        live.inset.clear();
         for _ in 0..sets {
             live.color.push(Chain::new(
                 session,
                 self.color_format,
                 color_usage,
-                self.extent,
+                wide,
                 layers,
             )?);
+            if self.quad {
+                live.inset.push(Chain::new(
+                    session,
+                    self.color_format,
+                    color_usage,
+                    self.extent,
+                    layers,
+                )?);
+            }
             if let Some(df) = self.depth_format {
                 live.depth.push(Chain::new(
                     session,
@@ -523,6 +581,9 @@ struct LoopState<'a> {
     /// The previous rendered frame's predicted display time (for dt).
     last_display_ns: Option<i64>,
     blend: xr::EnvironmentBlendMode,
+    /// The session's view configuration (stereo, or quad views with the
+    /// inset).
+    view_type: xr::ViewConfigurationType,
     with_depth: bool,
     last_valid: Vec<Option<TrackedView>>,
     first_fov_recorded: bool,
@@ -565,7 +626,7 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     let args = st.args;
     let instance = live.instance.clone().expect("set");
     let session = live.session.clone().expect("set");
-    let view_type = xr::ViewConfigurationType::PRIMARY_STEREO;
+    let view_type = st.view_type;
     let mut machine = SessionMachine::default();
     let mut buf = xr::EventDataBuffer::new();
     // --seconds counts from the run's start, across reconnects.
@@ -684,7 +745,8 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                         e.lost_event_count()
                     );
                 }
-                xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, 2) {
+                xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, view_type, 2)
+                {
                     Ok(m) => {
                         st.masks = Some(Arc::new(m));
                         stats.visibility_mask_refreshes += 1;
@@ -773,9 +835,15 @@ fn switch_config(
                 c: &crate::config::RenderConfig|
      -> Result<FrameDriver> {
         let images = chains.images_for(c.aq)?;
-        if c.stereo != old.stereo || images != chains.extent || live.color.is_empty() {
+        let wide_changed =
+            chains.quad && c.inset.map(|i| i.wide_scale) != old.inset.map(|i| i.wide_scale);
+        if c.stereo != old.stereo
+            || images != chains.extent
+            || live.color.is_empty()
+            || wide_changed
+        {
             chains.extent = images;
-            chains.create(session, live, c.stereo)?;
+            chains.create(session, live, c)?;
         }
         let r =
             Renderer::with_output(ctx.clone(), scene, c, chains.nominal, Some(chains.output()))?;
@@ -788,6 +856,7 @@ fn switch_config(
             // The old configuration's swapchains, made again if they went.
             live.color.clear();
             live.depth.clear();
+            live.inset.clear();
             make(live, &mut st.chains, &old)?
         }
     };
@@ -842,7 +911,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             let _w = live.watchdog.watch("xrLocateViews");
             session
                 .locate_views(
-                    xr::ViewConfigurationType::PRIMARY_STEREO,
+                    st.view_type,
                     fs.predicted_display_time,
                     live.space.as_ref().expect("set"),
                 )
@@ -853,7 +922,14 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             stats.invalid_pose_frames += 1;
         }
         if let Some(sane) = sane {
-            let tracking: Vec<(Pose, Fov)> = sane.iter().map(|(p, f, _)| (*p, *f)).collect();
+            // The eyes (with quad views, the context views; the focus
+            // views place the inset).
+            let tracking: Vec<(Pose, Fov)> =
+                sane.iter().take(2).map(|(p, f, _)| (*p, *f)).collect();
+            let focus = match sane.get(2..4) {
+                Some([l, r]) => Some([l.1, r.1]),
+                _ => None,
+            };
             let now_ns = fs.predicted_display_time.as_nanos();
             let dt = st
                 .last_display_ns
@@ -941,6 +1017,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             }
             rec.fov = rig.views.iter().map(|v| v.fov).collect();
             let driver = live.driver.as_mut().expect("set");
+            driver.renderer_mut().set_focus(focus);
             driver.set_section(st.interaction.section);
             driver.set_overlay(&st.overlay);
             let shown_ns = fs.predicted_display_time.as_nanos();
@@ -962,6 +1039,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 .color
                 .iter_mut()
                 .chain(live.depth.iter_mut())
+                .chain(live.inset.iter_mut())
                 .enumerate()
             {
                 let _w = live.watchdog.watch("xrAcquireSwapchainImage");
@@ -976,12 +1054,14 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                     .call("xrWaitSwapchainImage")?;
                 images.push((ci, i));
             }
-            let ncolor = live.color.len();
+            let (ncolor, ndepth) = (live.color.len(), live.depth.len());
             for &(ci, i) in &images {
                 if ci < ncolor {
                     out.color.push(live.color[ci].images[i]);
-                } else {
+                } else if ci < ncolor + ndepth {
                     out.depth.push(live.depth[ci - ncolor].images[i]);
+                } else {
+                    out.inset.push(live.inset[ci - ncolor - ndepth].images[i]);
                 }
             }
             let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
@@ -999,8 +1079,9 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                         Source {
                             image,
                             layer,
-                            // The part rendered (smaller with aq).
-                            extent: driver.renderer().extent(),
+                            // The part rendered (smaller with aq; with
+                            // quad views the wide view).
+                            extent: driver.renderer().output_extent(),
                         }
                     })
                     .collect();
@@ -1010,7 +1091,12 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                     &rec.fov,
                 )?;
             }
-            for chain in live.color.iter_mut().chain(live.depth.iter_mut()) {
+            for chain in live
+                .color
+                .iter_mut()
+                .chain(live.depth.iter_mut())
+                .chain(live.inset.iter_mut())
+            {
                 let _w = live.watchdog.watch("xrReleaseSwapchainImage");
                 chain
                     .swapchain
@@ -1018,8 +1104,21 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                     .call("xrReleaseSwapchainImage")?;
             }
             if capture {
-                let imgs = driver.read_images()?;
-                write_capture(args.capture.as_deref().expect("checked"), &imgs, &rig)?;
+                let dir = args.capture.as_deref().expect("checked");
+                if st.chains.quad {
+                    // The four views as submitted: the wide views as the
+                    // eyes, the insets beside them.
+                    let [wl, wr, il, ir] = driver.renderer_mut().read_quad_images()?;
+                    write_capture(dir, &[wl, wr], &rig)?;
+                    let png = |img: &image::RgbaImage, side: &str| {
+                        super::headless::save_png(img, &dir.join(format!("inset-{side}.png")))
+                    };
+                    png(&il, "left")?;
+                    png(&ir, "right")?;
+                } else {
+                    let imgs = driver.read_images()?;
+                    write_capture(dir, &imgs, &rig)?;
+                }
             }
             layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
             draw_panel(live, stats, st, &pointers)?;
@@ -1095,22 +1194,21 @@ fn end_frame(
     views: Option<&[xr::View]>,
     st: &LoopState,
 ) -> Result<()> {
-    let extent = live
-        .driver
-        .as_ref()
-        .map(|d| d.renderer().extent())
-        .unwrap_or_default();
-    let rect = sys::Rect2Di {
+    let rect = |e: vk::Extent2D| sys::Rect2Di {
         offset: sys::Offset2Di { x: 0, y: 0 },
         extent: sys::Extent2Di {
-            width: extent.width as i32,
-            height: extent.height as i32,
+            width: e.width as i32,
+            height: e.height as i32,
         },
     };
+    let renderer = live.driver.as_ref().map(|d| d.renderer());
+    // The eyes' images (with quad views the wide views'), and the insets'.
+    let main_rect = rect(renderer.map(|r| r.output_extent()).unwrap_or_default());
+    let inset_rect = rect(renderer.map(|r| r.inset_extent()).unwrap_or_default());
     let multiview = live.color.len() == 1;
-    let sub = |chains: &[Chain], eye: usize| sys::SwapchainSubImage {
+    let sub = |chains: &[Chain], eye: usize, image_rect| sys::SwapchainSubImage {
         swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
-        image_rect: rect,
+        image_rect,
         image_array_index: if multiview { eye as u32 } else { 0 },
     };
     let mut depth_infos: Vec<sys::CompositionLayerDepthInfoKHR> = Vec::new();
@@ -1129,7 +1227,7 @@ fn end_frame(
                 depth_infos.push(sys::CompositionLayerDepthInfoKHR {
                     ty: sys::CompositionLayerDepthInfoKHR::TYPE,
                     next: std::ptr::null(),
-                    sub_image: sub(&live.depth, eye),
+                    sub_image: sub(&live.depth, eye, main_rect),
                     min_depth: 0.0,
                     max_depth: 1.0,
                     // Reverse-Z with an infinite far plane: depth 0 is at
@@ -1140,15 +1238,32 @@ fn end_frame(
                 });
             }
         }
-        for (eye, v) in views.iter().enumerate() {
+        for (i, v) in views.iter().enumerate() {
+            let eye = i % 2;
+            // Views 2 and 3 are the focus views: their images are the
+            // insets, whose FOV is the inset rectangle's (snapped outward
+            // to whole pixels around the runtime's).
+            let (fov, sub_image) = match (i >= 2, renderer) {
+                (true, Some(r)) => {
+                    let e = r.extent();
+                    let f = crate::view::inset::rect_fov(
+                        &crate::xr::fov_of(&views[eye].fov),
+                        &r.inset_rect(),
+                        e.width,
+                        e.height,
+                    );
+                    (fovf(&f), sub(&live.inset, eye, inset_rect))
+                }
+                _ => (v.fov, sub(&live.color, eye, main_rect)),
+            };
             proj.push(sys::CompositionLayerProjectionView {
                 ty: sys::CompositionLayerProjectionView::TYPE,
                 next: depth_infos
-                    .get(eye)
+                    .get(i)
                     .map_or(std::ptr::null(), |d| d as *const _ as *const _),
                 pose: v.pose,
-                fov: v.fov,
-                sub_image: sub(&live.color, eye),
+                fov,
+                sub_image,
             });
         }
         layer = Some(sys::CompositionLayerProjection {
@@ -1189,6 +1304,16 @@ fn end_frame(
         return Err(xr_err("xrEndFrame", r));
     }
     Ok(())
+}
+
+/// An OpenXR FOV from a [`Fov`].
+fn fovf(f: &Fov) -> sys::Fovf {
+    sys::Fovf {
+        angle_left: f.left as f32,
+        angle_right: f.right as f32,
+        angle_up: f.up as f32,
+        angle_down: f.down as f32,
+    }
 }
 
 /// A trigger press on the open panel: the button under the ray does its

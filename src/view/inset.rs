@@ -96,6 +96,57 @@ pub fn inset_rect(
     PixelRect { x0, y0, x1, y1 }
 }
 
+/// The inset of eyes with `fovs` whose full-density views the runtime
+/// gives (`focus`, one per eye: `XR_VARJO_quad_views`' focus views, in
+/// the eye's pose), in images of `width`×`height` pixels: per eye the
+/// pixels the focus tangents cover (the eye image is linear in the
+/// tangents, see [`rect_tangents`]), snapped outward to whole pixels and
+/// clipped to the image, and the union over the eyes (one rectangle for
+/// both, as [`inset_rect`]). At least one pixel.
+pub fn focus_rect(fovs: &[Fov], focus: &[Fov], width: u32, height: u32) -> PixelRect {
+    let (w, h) = (width.max(1), height.max(1));
+    let mut out: Option<PixelRect> = None;
+    for (eye, f) in fovs.iter().zip(focus) {
+        let [tl, tr, tu, td] = eye.tangents();
+        let [fl, fr, fu, fd] = f.tangents();
+        if tr - tl <= 0.0 || tu - td <= 0.0 {
+            continue;
+        }
+        let col = |t: f64| (t - tl) / (tr - tl) * w as f64;
+        let row = |t: f64| (tu - t) / (tu - td) * h as f64;
+        // Outward to whole pixels, inside the image, never empty.
+        let span = |a: f64, b: f64, size: u32| {
+            let s = size as f64;
+            let lo = a.min(b).floor().clamp(0.0, s - 1.0) as u32;
+            let hi = a.max(b).ceil().clamp(lo as f64 + 1.0, s) as u32;
+            (lo, hi)
+        };
+        let (x0, x1) = span(col(fl), col(fr), w);
+        let (y0, y1) = span(row(fu), row(fd), h);
+        let r = PixelRect { x0, y0, x1, y1 };
+        out = Some(out.map_or(r, |o| bounding(&o, &r)));
+    }
+    out.unwrap_or(PixelRect {
+        x0: 0,
+        y0: 0,
+        x1: w,
+        y1: h,
+    })
+}
+
+/// The FOV of the eye `fov`'s pixel rectangle `r` in a `width`×`height`
+/// image ([`rect_tangents`] as angles): what a focus view drawn as that
+/// part of the eye image is submitted with.
+pub fn rect_fov(fov: &Fov, r: &PixelRect, width: u32, height: u32) -> Fov {
+    let [l, r, u, d] = rect_tangents(fov, r, width, height);
+    Fov {
+        left: l.atan(),
+        right: r.atan(),
+        up: u.atan(),
+        down: d.atan(),
+    }
+}
+
 /// The signed tangents `[left, right, up, down]` of the eye `fov`'s
 /// pixel rectangle `r` in an image of `width`×`height` pixels: the
 /// projection is linear in the tangents, columns left to right and rows
@@ -265,6 +316,70 @@ mod tests {
             }
             for (x, y) in [(rect.x0, rect.y0), (rect.x1 - 1, rect.y1 - 1), (region.x0, region.y1 - 1)] {
                 prop_assert!(area.contains(x, y));
+            }
+        }
+
+        /// The focus rectangle holds every pixel whose centre lies in an
+        /// eye's focus tangents, and is the smallest such: each edge
+        /// pulled in by a pixel leaves out some eye's focus, unless the
+        /// edge is the image's own (brute force over pixel centres);
+        /// its tangents in each eye hold that eye's focus.
+        #[test]
+        fn the_focus_rectangle_is_the_least_holding_both_focus_views(
+            l in 0.3..1.5f64, r in 0.3..1.5f64, u in 0.3..1.5f64, d in 0.3..1.5f64,
+            sh in -0.1..0.1f64, k in 0.05..1.3f64, fx in -0.1..0.1f64, fy in -0.1..0.1f64,
+            w in 32u32..200, h in 32u32..200,
+        ) {
+            // Tangents of the eyes (the right one shifted by sh) and of
+            // their focus views (k times the eye's, moved by fx, fy): each
+            // focus overlaps its eye by more than a pixel.
+            let eye = |s: f64| [-l + s, r + s, u, -d];
+            let eyes_t = [eye(0.0), eye(sh)];
+            let focus_t: Vec<[f64; 4]> = eyes_t
+                .iter()
+                .map(|t| [t[0] * k + fx, t[1] * k + fx, t[2] * k + fy, t[3] * k + fy])
+                .collect();
+            let fov = |t: &[f64; 4]| Fov { left: t[0].atan(), right: t[1].atan(), up: t[2].atan(), down: t[3].atan() };
+            let fovs: Vec<Fov> = eyes_t.iter().map(fov).collect();
+            let focus: Vec<Fov> = focus_t.iter().map(fov).collect();
+            let rect = focus_rect(&fovs, &focus, w, h);
+            prop_assert!(rect.x0 < rect.x1 && rect.x1 <= w && rect.y0 < rect.y1 && rect.y1 <= h);
+            // Pixel centres in tangents, per eye.
+            let covered = |e: usize, x: u32, y: u32| {
+                let [tl, tr, tu, td] = eyes_t[e];
+                let [gl, gr, gu, gd] = focus_t[e];
+                let cx = tl + (x as f64 + 0.5) / w as f64 * (tr - tl);
+                let cy = tu - (y as f64 + 0.5) / h as f64 * (tu - td);
+                cx >= gl && cx <= gr && cy <= gu && cy >= gd
+            };
+            let mut any = PixelRect { x0: w, y0: h, x1: 0, y1: 0 };
+            for e in 0..2 {
+                for y in 0..h {
+                    for x in 0..w {
+                        if covered(e, x, y) {
+                            prop_assert!(rect.contains(x, y), "pixel {x},{y} of eye {e} outside {rect:?}");
+                            any = PixelRect { x0: any.x0.min(x), y0: any.y0.min(y), x1: any.x1.max(x + 1), y1: any.y1.max(y + 1) };
+                        }
+                    }
+                }
+            }
+            // Least: no more than a pixel beyond the covered centres on
+            // each side (a focus edge may cut a pixel short of its centre).
+            if any.x0 < any.x1 {
+                prop_assert!(rect.x0 + 1 >= any.x0 && rect.x1 <= any.x1 + 1, "{rect:?} wider than {any:?}");
+                prop_assert!(rect.y0 + 1 >= any.y0 && rect.y1 <= any.y1 + 1, "{rect:?} taller than {any:?}");
+            }
+            for e in 0..2 {
+                let t = rect_tangents(&fovs[e], &rect, w, h);
+                let [tl, tr, tu, td] = eyes_t[e];
+                let [gl, gr, gu, gd] = focus_t[e];
+                let eps = 1e-9;
+                prop_assert!(t[0] <= gl.max(tl) + eps && t[1] >= gr.min(tr) - eps, "{t:?} vs {:?}", focus_t[e]);
+                prop_assert!(t[2] >= gu.min(tu) - eps && t[3] <= gd.max(td) + eps, "{t:?} vs {:?}", focus_t[e]);
+                let back = rect_fov(&fovs[e], &rect, w, h).tangents();
+                for i in 0..4 {
+                    prop_assert!((back[i] - t[i]).abs() < 1e-9);
+                }
             }
         }
 

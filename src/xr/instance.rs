@@ -53,6 +53,8 @@ pub fn connect() -> Result<Connection> {
     exts.khr_composition_layer_depth = available.khr_composition_layer_depth;
     exts.ext_debug_utils = available.ext_debug_utils;
     exts.fb_display_refresh_rate = available.fb_display_refresh_rate;
+    // The inset goes out as four views where offered (quad views).
+    exts.varjo_quad_views = available.varjo_quad_views;
     let foveation = available.fb_foveation
         && available.fb_foveation_configuration
         && available.fb_swapchain_update_state;

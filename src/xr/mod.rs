@@ -270,7 +270,8 @@ fn pose_of(p: &xr::Posef) -> Pose {
     }
 }
 
-fn fov_of(f: &xr::Fovf) -> Fov {
+/// An OpenXR FOV in vergence's [`Fov`] (radians as f64).
+pub fn fov_of(f: &xr::Fovf) -> Fov {
     Fov {
         left: f.angle_left as f64,
         right: f.angle_right as f64,
@@ -353,13 +354,18 @@ pub fn world_rig(origin: &Origin, views: &[(Pose, Fov)]) -> StereoRig {
     }
 }
 
-/// The runtime's hidden-area meshes of the first `views` views.
-pub fn fetch_masks(session: &xr::Session<xr::Vulkan>, views: u32) -> Result<Vec<HiddenArea>> {
+/// The runtime's hidden-area meshes of the first `views` views of the
+/// session's view configuration `view_type`.
+pub fn fetch_masks(
+    session: &xr::Session<xr::Vulkan>,
+    view_type: xr::ViewConfigurationType,
+    views: u32,
+) -> Result<Vec<HiddenArea>> {
     (0..views)
         .map(|i| {
             let m = session
                 .get_visibility_mask_khr(
-                    xr::ViewConfigurationType::PRIMARY_STEREO,
+                    view_type,
                     i,
                     xr::VisibilityMaskTypeKHR::HIDDEN_TRIANGLE_MESH,
                 )

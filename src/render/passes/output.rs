@@ -11,6 +11,7 @@ use crate::gpu::memory::{Buffer, BufferDesc};
 use crate::gpu::ring::{FrameRing, Garbage};
 use crate::gpu::Context;
 use crate::render::attachments::{Attachments, COLOR_FORMAT};
+use crate::view::inset::PixelRect;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
@@ -24,6 +25,11 @@ pub struct OutputSpec {
     /// Whether depth images receive the frame's depth (same format as the
     /// renderer's depth).
     pub depth: bool,
+    /// With `inset`: the four views go out as they are, for a runtime that
+    /// composites them (`XR_VARJO_quad_views`): the wide views into
+    /// [`FrameOutput::color`], the insets into [`FrameOutput::inset`], and
+    /// the renderer does not composite.
+    pub quad: bool,
 }
 
 /// The images one frame is copied into: one per attachment set (a 2-layer
@@ -36,6 +42,21 @@ pub struct FrameOutput {
     pub color: Vec<vk::Image>,
     /// Depth images, per set (empty without a depth output).
     pub depth: Vec<vk::Image>,
+    /// With a quad output: the insets' images, per set (each inset at the
+    /// top left).
+    pub inset: Vec<vk::Image>,
+}
+
+/// Where a quad output's views lie in the renderer's images this frame.
+#[derive(Clone, Debug)]
+pub struct QuadSource {
+    /// Per attachment set: the image holding the wide views, the layer of
+    /// the first, and the image's layers.
+    pub wide: Vec<(vk::Image, u32, u32)>,
+    /// The wide views' region of that image.
+    pub region: PixelRect,
+    /// The inset rectangle of the eyes' resolve images.
+    pub rect: PixelRect,
 }
 
 /// The copy of each frame into an output's images.
@@ -185,6 +206,138 @@ impl OutputCopy {
     }
 }
 
+impl OutputCopy {
+    /// A quad output's copies: per set, the wide views from `src.region`
+    /// of their image into `out.color` and the insets from `src.rect` of
+    /// `targets`' resolve images into `out.inset`, each at the top left,
+    /// the output images left in the attachment layout the runtime
+    /// expects. `layers` is the eyes' layers per set (2 under multiview,
+    /// else 1). Recorded after the passes, instead of [`OutputCopy::record`].
+    pub fn record_quad(
+        &self,
+        ctx: &Context,
+        cmd: vk::CommandBuffer,
+        targets: &Attachments,
+        src: &QuadSource,
+        out: &FrameOutput,
+    ) -> Result<()> {
+        let n = targets.sets.len();
+        if out.color.len() != n || out.inset.len() != n || src.wide.len() != n {
+            return Err(Error::Gpu(format!(
+                "quad output has {} wide / {} inset images for {} attachment sets",
+                out.color.len(),
+                out.inset.len(),
+                n
+            )));
+        }
+        let c = vk::ImageAspectFlags::COLOR;
+        let (color_out, from, to) = (Use::COLOR_ATTACHMENT, Use::TRANSFER_SRC, Use::TRANSFER_DST);
+        // Each source image once (with four views the wide views are
+        // layers of the eyes' own image).
+        let mut sources: Vec<(vk::Image, u32)> = Vec::new();
+        for (set, &(wide, _, wide_layers)) in targets.sets.iter().zip(&src.wide) {
+            for img in [(set.resolve.image, set.resolve.layers), (wide, wide_layers)] {
+                if !sources.iter().any(|s| s.0 == img.0) {
+                    sources.push(img);
+                }
+            }
+        }
+        let mut before: Vec<_> = sources
+            .iter()
+            .map(|&(img, layers)| barrier::image(img, c, layers, color_out, from))
+            .collect();
+        let mut after = Vec::new();
+        let eyes = |i: usize| targets.sets[i].output_image().layers;
+        for i in 0..n {
+            for dst in [out.color[i], out.inset[i]] {
+                before.push(barrier::image(dst, c, eyes(i), color_out.discarded(), to));
+                after.push(barrier::image(dst, c, eyes(i), to, color_out));
+            }
+        }
+        let d = &ctx.device;
+        let format = self.spec.color_format;
+        let copy = |src_img: vk::Image, first: u32, layers: u32, r: &PixelRect, dst: vk::Image| {
+            let sub = |base| vk::ImageSubresourceLayers {
+                aspect_mask: c,
+                mip_level: 0,
+                base_array_layer: base,
+                layer_count: layers,
+            };
+            // SAFETY: recording into the open command buffer; both images
+            // are in the transfer layouts set by the barriers above and the
+            // region lies inside both.
+            unsafe {
+                if format == COLOR_FORMAT {
+                    let region = vk::ImageCopy::default()
+                        .src_subresource(sub(first))
+                        .src_offset(vk::Offset3D {
+                            x: r.x0 as i32,
+                            y: r.y0 as i32,
+                            z: 0,
+                        })
+                        .dst_subresource(sub(0))
+                        .extent(vk::Extent3D {
+                            width: r.width(),
+                            height: r.height(),
+                            depth: 1,
+                        });
+                    d.cmd_copy_image(cmd, src_img, from.layout, dst, to.layout, &[region]);
+                } else {
+                    let at = |x: u32, y: u32| vk::Offset3D {
+                        x: x as i32,
+                        y: y as i32,
+                        z: 1,
+                    };
+                    let origin = vk::Offset3D::default();
+                    let region = vk::ImageBlit::default()
+                        .src_subresource(sub(first))
+                        .dst_subresource(sub(0))
+                        .src_offsets([
+                            vk::Offset3D {
+                                x: r.x0 as i32,
+                                y: r.y0 as i32,
+                                z: 0,
+                            },
+                            at(r.x1, r.y1),
+                        ])
+                        .dst_offsets([origin, at(r.width(), r.height())]);
+                    d.cmd_blit_image(
+                        cmd,
+                        src_img,
+                        from.layout,
+                        dst,
+                        to.layout,
+                        &[region],
+                        vk::Filter::NEAREST,
+                    );
+                }
+            }
+        };
+        // SAFETY: recording after the rendering scopes into the open
+        // command buffer; the output images belong to the session and are
+        // acquired.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&before),
+            );
+        }
+        for (i, set) in targets.sets.iter().enumerate() {
+            let (wide, first, _) = src.wide[i];
+            copy(wide, first, eyes(i), &src.region, out.color[i]);
+            copy(set.resolve.image, 0, eyes(i), &src.rect, out.inset[i]);
+        }
+        // SAFETY: as above.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&after),
+            );
+        }
+        Ok(())
+    }
+}
+
 /// The host-visible buffer frames are read back into (grown on demand).
 #[derive(Default)]
 pub struct Readback {
@@ -193,6 +346,9 @@ pub struct Readback {
     depth: bool,
     /// The last read-back frame's size per eye.
     extent: vk::Extent2D,
+    /// With a quad output: the last read-back frame's wide view and inset
+    /// sizes.
+    quad: Option<(vk::Extent2D, vk::Extent2D)>,
 }
 
 impl Readback {
@@ -222,6 +378,7 @@ impl Readback {
     ) -> Result<()> {
         let (w, h) = (extent.width as u64, extent.height as u64);
         self.extent = extent;
+        self.quad = None;
         // Headless frames whose depth is kept also read it back, after the
         // colours (4 bytes a texel for both depth formats).
         let depth = output.is_none() && targets.sets.iter().all(|s| s.depth_output().is_some());
@@ -359,6 +516,130 @@ impl Readback {
             );
         }
         Ok(())
+    }
+
+    /// Copies a quad output's four views (RGBA8: the wide views, left then
+    /// right, at `wide` pixels, then the insets at `inset`) from `out`'s
+    /// images into the buffer, grown when they do not fit (the old one
+    /// handed to `ring`); the images are left as the output copy left them.
+    pub fn record_quad(
+        &mut self,
+        ctx: &Context,
+        ring: &mut FrameRing,
+        cmd: vk::CommandBuffer,
+        out: &FrameOutput,
+        (wide, inset): (vk::Extent2D, vk::Extent2D),
+    ) -> Result<()> {
+        let per_image = (2 / out.color.len().max(1)) as u32;
+        let texels = |e: vk::Extent2D| e.width as u64 * e.height as u64;
+        let size = (texels(wide) + texels(inset)) * 4 * 2;
+        if self.buffer.as_ref().is_none_or(|b| b.size < size) {
+            if let Some(old) = self.buffer.take() {
+                ring.defer(Garbage::Buffer(old));
+            }
+            self.buffer = Some(Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "readback",
+                    size,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "readback",
+                },
+            )?);
+        }
+        self.quad = Some((wide, inset));
+        self.depth = false;
+        let buf = self.buffer.as_ref().expect("created above").buffer;
+        let c = vk::ImageAspectFlags::COLOR;
+        let written = Use {
+            layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
+            stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+            access: vk::AccessFlags2::TRANSFER_WRITE,
+        };
+        let read = Use {
+            layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            stage: vk::PipelineStageFlags2::COPY,
+            access: vk::AccessFlags2::TRANSFER_READ,
+        };
+        let back_to = Use {
+            access: vk::AccessFlags2::NONE,
+            ..Use::COLOR_ATTACHMENT
+        };
+        let done = Use {
+            access: vk::AccessFlags2::NONE,
+            ..read
+        };
+        let mut to_src = Vec::new();
+        let mut back = Vec::new();
+        let mut copies = Vec::new();
+        let mut offset = 0u64;
+        for (images, e) in [(&out.color, wide), (&out.inset, inset)] {
+            for &img in images {
+                to_src.push(barrier::image(img, c, per_image, written, read));
+                back.push(barrier::image(img, c, per_image, done, back_to));
+                copies.push((
+                    img,
+                    barrier::color_copy(offset, per_image, e.width, e.height),
+                ));
+                offset += texels(e) * 4 * per_image as u64;
+            }
+        }
+        let to_host = [vk::BufferMemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COPY)
+            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+            .dst_access_mask(vk::AccessFlags2::HOST_READ)
+            .buffer(buf)
+            .size(vk::WHOLE_SIZE)];
+        let d = &ctx.device;
+        // SAFETY: recording after the output copy; the buffer holds every
+        // copy (sized above).
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
+            );
+            for (image, copy) in copies {
+                d.cmd_copy_image_to_buffer(
+                    cmd,
+                    image,
+                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                    buf,
+                    &[copy],
+                );
+            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default()
+                    .buffer_memory_barriers(&to_host)
+                    .image_memory_barriers(&back),
+            );
+        }
+        Ok(())
+    }
+
+    /// The last read-back quad frame as four RGBA8 (sRGB) images: the
+    /// wide views left and right, then the insets left and right.
+    pub fn quad_images(&mut self) -> Result<[image::RgbaImage; 4]> {
+        let (wide, inset) = self
+            .quad
+            .ok_or_else(|| Error::Gpu("no quad frame was read back".into()))?;
+        let data = self
+            .buffer
+            .as_mut()
+            .and_then(|b| b.mapped())
+            .ok_or_else(|| Error::Gpu("no frame was read back".into()))?;
+        let mut at = 0usize;
+        let mut take = |e: vk::Extent2D| {
+            let n = (e.width * e.height * 4) as usize;
+            let img = data
+                .get(at..at + n)
+                .and_then(|b| image::RgbaImage::from_raw(e.width, e.height, b.to_vec()));
+            at += n;
+            img.ok_or_else(|| Error::Gpu("readback buffer too small".into()))
+        };
+        Ok([take(wide)?, take(wide)?, take(inset)?, take(inset)?])
     }
 
     /// The last read-back frame of `extent` pixels per eye as two RGBA8
