@@ -8,7 +8,10 @@
 //! What it does, after the extension's specification
 //! (<https://registry.khronos.org/OpenXR/specs/1.1/html/xrspec.html#XR_VARJO_quad_views>):
 //! - lists `XR_VIEW_CONFIGURATION_TYPE_PRIMARY_QUAD_VARJO` after the
-//!   runtime's configurations, with four views: the runtime's two stereo
+//!   runtime's configurations when the application enabled the extension,
+//!   or asked for OpenXR 1.1 (whose core
+//!   `PRIMARY_STEREO_WITH_FOVEATED_INSET` is the same value: a manifest
+//!   without the extension tests that path), with four views: the runtime's two stereo
 //!   views (the context views) and two focus views with the same pose, a
 //!   FOV of [`FOCUS_TAN`] × the eye's tangents on each side, and a
 //!   recommended size of that fraction of the eye's (the same density);
@@ -52,6 +55,9 @@ struct Next {
     locate: sys::pfn::LocateViews,
     end: sys::pfn::EndFrame,
     mask: Option<sys::pfn::GetVisibilityMaskKHR>,
+    /// The application enabled the extension or asked for OpenXR 1.1,
+    /// whose core has the same view configuration.
+    offered: bool,
 }
 
 static NEXT: Mutex<Option<Next>> = Mutex::new(None);
@@ -78,7 +84,7 @@ pub unsafe extern "system" fn xrNegotiateLoaderApiLayerInterface(
         return sys::Result::ERROR_INITIALIZATION_FAILED;
     }
     request.layer_interface_version = 1;
-    request.layer_api_version = sys::Version::new(1, 0, 0);
+    request.layer_api_version = sys::Version::new(1, 1, 0);
     request.get_instance_proc_addr = Some(get_instance_proc_addr);
     request.create_api_layer_instance = Some(create_api_layer_instance);
     sys::Result::SUCCESS
@@ -121,8 +127,15 @@ unsafe extern "system" fn create_api_layer_instance(
         return sys::Result::ERROR_INITIALIZATION_FAILED;
     }
     // The layers below do not know the extension.
-    let names: Vec<*const c_char> = (0..info.enabled_extension_count as usize)
+    let asked: Vec<*const c_char> = (0..info.enabled_extension_count as usize)
         .map(|i| *info.enabled_extension_names.add(i))
+        .collect();
+    let offered = asked
+        .iter()
+        .any(|&n| CStr::from_ptr(n).to_bytes() == EXTENSION.as_bytes())
+        || info.application_info.api_version >= sys::Version::new(1, 1, 0);
+    let names: Vec<*const c_char> = asked
+        .into_iter()
         .filter(|&n| CStr::from_ptr(n).to_bytes() != EXTENSION.as_bytes())
         .collect();
     let mut below = *info;
@@ -167,6 +180,7 @@ unsafe extern "system" fn create_api_layer_instance(
         mask: lookup(gipa, inst, c"xrGetVisibilityMaskKHR").map(|f| {
             std::mem::transmute::<sys::pfn::VoidFunction, sys::pfn::GetVisibilityMaskKHR>(f)
         }),
+        offered,
     };
     *NEXT.lock().unwrap_or_else(|e| e.into_inner()) = Some(n);
     r
@@ -273,7 +287,7 @@ unsafe extern "system" fn enumerate_view_configurations(
         return r;
     }
     types.truncate(len as usize);
-    if types.contains(&STEREO) {
+    if n.offered && types.contains(&STEREO) {
         types.push(QUAD);
     }
     fill(&types, capacity, count, out)
@@ -385,7 +399,7 @@ unsafe extern "system" fn begin_session(
     let mut below = *info;
     if below.primary_view_configuration_type == QUAD {
         below.primary_view_configuration_type = STEREO;
-        log(&format!("{{\"begin\":\"{EXTENSION}\"}}"));
+        log("{\"begin\":\"foveated-inset\"}");
     }
     (n.begin)(session, &below)
 }

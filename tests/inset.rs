@@ -555,8 +555,9 @@ fn focus_of(fovs: &[vergence::view::Fov], k: f64) -> [vergence::view::Fov; 2] {
 /// A quad output (`XR_VARJO_quad_views`): no composite; the wide views go
 /// out as the half-size render's own pixels and the insets as the full
 /// render's pixels inside the rectangle the runtime's focus views give,
-/// with nothing feathered, in multiview (copied) and two-pass (blitted
-/// into another format); the rectangle follows the focus views.
+/// with nothing feathered, in multiview (copied), two-pass (blitted into
+/// another format) and with `inset-wide-1x` (the one-sample half-size
+/// render's pixels); the rectangle follows the focus views.
 #[test]
 fn a_quad_output_gives_the_wide_views_and_the_insets_as_they_are() {
     use ash::vk;
@@ -584,14 +585,39 @@ fn a_quad_output_gives_the_wide_views_and_the_insets_as_they_are() {
     };
     let full = plain(StereoMode::Multiview, W, H);
     let wide = plain(StereoMode::Multiview, W / 2, H / 2);
-    for (stereo, format, k) in [
+    // inset-wide-1x: the wide views at one sample.
+    let wide_1x = render_config(
+        &ctx,
+        &scene,
+        &profile,
+        pose,
+        &RenderConfig {
+            msaa: 1,
+            ..config(StereoMode::Multiview, None, [0.0; 2])
+        },
+        W / 2,
+        H / 2,
+    );
+    for (stereo, format, k, one) in [
         (
             StereoMode::Multiview,
             vergence::render::attachments::COLOR_FORMAT,
             0.4,
+            false,
         ),
-        (StereoMode::TwoPass, vk::Format::B8G8R8A8_SRGB, 0.25),
+        (StereoMode::TwoPass, vk::Format::B8G8R8A8_SRGB, 0.25, false),
+        (
+            StereoMode::Multiview,
+            vergence::render::attachments::COLOR_FORMAT,
+            0.3,
+            true,
+        ),
     ] {
+        let settings = Inset {
+            wide_1x: one,
+            ..settings
+        };
+        let wide = if one { &wide_1x } else { &wide };
         let before = ctx.validation_messages();
         let spec = OutputSpec {
             color_format: format,

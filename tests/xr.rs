@@ -790,7 +790,7 @@ fn reconnect_survives_monado_restarting() {
 /// The test layer offering XR_VARJO_quad_views
 /// (`examples/quad_views_layer.rs`, built by `cargo test --workspace`) and
 /// a manifest for it in `dir`.
-fn quad_views_layer(dir: &Path) -> PathBuf {
+fn quad_views_layer(dir: &Path, extension: bool) -> PathBuf {
     let exe = std::env::current_exe().expect("test binary");
     let lib = exe
         .parent()
@@ -802,7 +802,7 @@ fn quad_views_layer(dir: &Path) -> PathBuf {
         "{} is missing: cargo build --example quad_views_layer (cargo xtask test builds it)",
         lib.display()
     );
-    let layers = dir.join("layers");
+    let layers = dir.join(if extension { "layers" } else { "layers-core" });
     std::fs::create_dir_all(&layers).unwrap();
     let manifest = serde_json::json!({
         "file_format_version": "1.0.0",
@@ -812,9 +812,13 @@ fn quad_views_layer(dir: &Path) -> PathBuf {
             "api_version": "1.0",
             "implementation_version": "1",
             "description": "vergence test layer: XR_VARJO_quad_views over a stereo runtime",
-            "instance_extensions": [{"name": "XR_VARJO_quad_views", "extension_version": "2"}]
         }
     });
+    let mut manifest = manifest;
+    if extension {
+        manifest["api_layer"]["instance_extensions"] =
+            serde_json::json!([{"name": "XR_VARJO_quad_views", "extension_version": "2"}]);
+    }
     std::fs::write(layers.join("quad_views.json"), manifest.to_string()).unwrap();
     layers
 }
@@ -851,64 +855,119 @@ fn inset_against_wide(
     sum / n.max(1) as f64
 }
 
+/// `vergence run --xr openxr ARGS` (split at spaces) at 160×128 under
+/// Monado with the quad-views test layer of `layers` below the core
+/// validation layer, which must succeed cleanly: its stats and the
+/// layer's log of projection layers (JSON lines).
+fn run_with_layer(dir: &Path, layers: &Path, name: &str, args: &str) -> (Value, Vec<Value>) {
+    let log = dir.join(format!("{name}-layer.jsonl"));
+    let s_path = dir.join(format!("{name}.json"));
+    let o = with_monado(false)
+        .env(
+            "XR_API_LAYER_PATH",
+            format!(
+                "{}:/usr/share/openxr/1/api_layers/explicit.d",
+                layers.display()
+            ),
+        )
+        .env(
+            "XR_ENABLE_API_LAYERS",
+            "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
+        )
+        .env("VERGENCE_QUAD_LAYER_LOG", &log)
+        .args(["run", "--xr", "openxr", "--scene", "factory:2000"])
+        .args(["--width", "160", "--height", "128"])
+        .args(args.split_whitespace())
+        .arg("--stats-out")
+        .arg(&s_path)
+        .output()
+        .expect("with-monado");
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_no_validation(&o, &s);
+    let lines = std::fs::read_to_string(&log)
+        .unwrap_or_else(|e| panic!("{}: {e}", log.display()))
+        .lines()
+        .map(|l| serde_json::from_str(l).expect("layer log line"))
+        .collect();
+    (s, lines)
+}
+
+/// Checks a quad session's projection layers: four views each, `chains`
+/// swapchains, the wide views at 80×64 (half the eye) from the top left,
+/// the focus views smaller than the eye with a FOV holding the runtime's
+/// (0.4 × the eye's tangents) and no more than a pixel beyond it.
+fn assert_quad_layers(name: &str, lines: &[Value], chains: u64) {
+    assert_eq!(lines[0]["begin"], "foveated-inset", "{:?}", lines[0]);
+    let frames: Vec<&Value> = lines.iter().filter(|l| l.get("views").is_some()).collect();
+    assert!(frames.len() >= 15, "{} projection layers", frames.len());
+    for f in &frames {
+        assert_eq!(f["views"], 4, "{f}");
+        assert_eq!(f["swapchains"], chains, "{name}: {f}");
+        let rect = |i: usize| -> Vec<i64> {
+            f["rect"][i]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_i64().unwrap())
+                .collect()
+        };
+        assert_eq!(&rect(0)[..4], &[0, 0, 80, 64], "{f}");
+        assert_eq!(&rect(1)[..4], &[0, 0, 80, 64], "{f}");
+        let fov = |i: usize| -> Vec<f64> {
+            f["fov"][i]
+                .as_array()
+                .unwrap()
+                .iter()
+                .map(|v| v.as_f64().unwrap().tan())
+                .collect()
+        };
+        for eye in 0..2 {
+            let (w, h) = (rect(2 + eye)[2], rect(2 + eye)[3]);
+            assert!(w > 20 && w < 160 && h > 16 && h < 128, "{f}");
+            let (e, got) = (fov(eye), fov(2 + eye));
+            let pixel = [(e[1] - e[0]) / 160.0, (e[2] - e[3]) / 128.0];
+            for side in 0..4 {
+                let want = e[side] * 0.4;
+                // Left and down are negative: outward is further down.
+                let outward = if side == 0 || side == 3 {
+                    want - got[side]
+                } else {
+                    got[side] - want
+                };
+                assert!(
+                    outward > -1e-5 && outward < 1.01 * pixel[side / 2],
+                    "{name} view {}: side {side} {} against the runtime's {want}",
+                    2 + eye,
+                    got[side]
+                );
+            }
+        }
+    }
+}
+
 /// Where the runtime takes quad views (here the test layer over Monado,
 /// below the core validation layer), `inset` submits its four views as
 /// they are: the session begins with PRIMARY_QUAD_VARJO, every projection
 /// layer has four views, the wide views at F × the eye size and the focus
 /// views at the inset rectangle's size with a FOV holding the runtime's;
-/// the captured inset is the wide view's content at
-/// twice the density; multiview and two-pass; no validation message.
+/// the captured inset is the wide view's content at twice the density;
+/// multiview and two-pass; with aq and with four views in one scope; and
+/// with `inset-composite` the session stays stereo; no validation message.
 #[test]
 fn the_inset_goes_out_as_quad_views_where_the_runtime_takes_them() {
     let _g = lock();
     let dir = out_dir("quad-views");
-    let layers = quad_views_layer(&dir);
+    let layers = quad_views_layer(&dir, true);
     for (name, stereo, chains) in [("multiview", "multiview", 2), ("two-pass", "two-pass", 4)] {
-        let log = dir.join(format!("{name}-layer.jsonl"));
         let capture = dir.join(format!("{name}-capture"));
-        let s_path = dir.join(format!("{name}.json"));
-        let o = with_monado(false)
-            .env(
-                "XR_API_LAYER_PATH",
-                format!(
-                    "{}:/usr/share/openxr/1/api_layers/explicit.d",
-                    layers.display()
-                ),
-            )
-            .env(
-                "XR_ENABLE_API_LAYERS",
-                "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
-            )
-            .env("VERGENCE_QUAD_LAYER_LOG", &log)
-            .args([
-                "run",
-                "--xr",
-                "openxr",
-                "--frames",
-                "20",
-                "--scene",
-                "factory:2000",
-            ])
-            .args([
-                "--stereo",
-                stereo,
-                "--opt",
-                "superfrustum,inset",
-                "--width",
-                "160",
-                "--height",
-                "128",
-            ])
-            .arg("--capture")
-            .arg(&capture)
-            .arg("--stats-out")
-            .arg(&s_path)
-            .output()
-            .expect("with-monado");
-        assert!(o.status.success(), "{}", text(&o));
-        let s = stats(&s_path);
-        assert_no_validation(&o, &s);
+        let args = format!(
+            "--frames 20 --stereo {stereo} --opt superfrustum,inset --capture {}",
+            capture.display()
+        );
+        let (s, lines) = run_with_layer(&dir, &layers, name, &args);
         assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO", "{name}");
+        assert_eq!(s["api_version"], "1.1.0", "{name}");
         assert!(
             strings(&s["extensions_enabled"]).contains(&"XR_VARJO_quad_views"),
             "{}",
@@ -916,66 +975,12 @@ fn the_inset_goes_out_as_quad_views_where_the_runtime_takes_them() {
         );
         let path = s["inset_path"].as_str().unwrap_or_default();
         assert!(path.ends_with("submitted as four views"), "{path}");
-        let lines: Vec<Value> = std::fs::read_to_string(&log)
-            .unwrap_or_else(|e| panic!("{}: {e}", log.display()))
-            .lines()
-            .map(|l| serde_json::from_str(l).expect("layer log line"))
-            .collect();
-        assert_eq!(lines[0]["begin"], "XR_VARJO_quad_views", "{:?}", lines[0]);
-        let frames: Vec<&Value> = lines.iter().filter(|l| l.get("views").is_some()).collect();
-        assert!(frames.len() >= 15, "{} projection layers", frames.len());
-        for f in &frames {
-            assert_eq!(f["views"], 4, "{f}");
-            assert_eq!(f["swapchains"], chains, "{name}: {f}");
-            let rect = |i: usize| -> Vec<i64> {
-                f["rect"][i]
-                    .as_array()
-                    .unwrap()
-                    .iter()
-                    .map(|v| v.as_i64().unwrap())
-                    .collect()
-            };
-            // The wide views: half the eye per axis, from the top left.
-            assert_eq!(&rect(0)[..4], &[0, 0, 80, 64], "{f}");
-            assert_eq!(&rect(1)[..4], &[0, 0, 80, 64], "{f}");
-            for eye in 0..2 {
-                let (w, h) = (rect(2 + eye)[2], rect(2 + eye)[3]);
-                assert!(w > 20 && w < 160 && h > 16 && h < 128, "{f}");
-                // The focus view's FOV holds the runtime's (0.4 × the
-                // eye's tangents), within a pixel of it.
-                let fov = |i: usize| -> Vec<f64> {
-                    f["fov"][i]
-                        .as_array()
-                        .unwrap()
-                        .iter()
-                        .map(|v| v.as_f64().unwrap().tan())
-                        .collect()
-                };
-                let (e, got) = (fov(eye), fov(2 + eye));
-                let pixel = [(e[1] - e[0]) / 160.0, (e[2] - e[3]) / 128.0];
-                for side in 0..4 {
-                    let want = e[side] * 0.4;
-                    // Left and down are negative: outward is further down.
-                    let outward = if side == 0 || side == 3 {
-                        want - got[side]
-                    } else {
-                        got[side] - want
-                    };
-                    let pixel = pixel[side / 2];
-                    assert!(
-                        outward > -1e-5 && outward < 1.01 * pixel,
-                        "{name} view {}: side {side} {} against the runtime's {want}",
-                        2 + eye,
-                        got[side]
-                    );
-                }
-            }
-        }
+        assert_quad_layers(name, &lines, chains);
         // The capture holds the four views as submitted.
         let img = |n: &str| image::open(capture.join(n)).unwrap().to_rgba8();
         let (wide, inset) = (img("left.png"), img("inset-left.png"));
         assert_eq!(wide.dimensions(), (80, 64));
-        let last = frames.last().unwrap();
+        let last = lines.last().unwrap();
         let r = &last["rect"][2];
         assert_eq!(
             inset.dimensions(),
@@ -995,75 +1000,84 @@ fn the_inset_goes_out_as_quad_views_where_the_runtime_takes_them() {
         );
     }
     // With aq down its inset rungs, and with the four views in one scope:
-    // the sub-images follow the scale and the wide view's factor, clean.
-    // With inset-composite the session stays stereo and composites here.
-    let run = |name: &str, args: &str| {
-        let log = dir.join(format!("{name}-layer.jsonl"));
-        let s_path = dir.join(format!("{name}.json"));
-        let o = with_monado(false)
-            .env(
-                "XR_API_LAYER_PATH",
-                format!(
-                    "{}:/usr/share/openxr/1/api_layers/explicit.d",
-                    layers.display()
-                ),
-            )
-            .env(
-                "XR_ENABLE_API_LAYERS",
-                "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
-            )
-            .env("VERGENCE_QUAD_LAYER_LOG", &log)
-            .args([
-                "run",
-                "--xr",
-                "openxr",
-                "--frames",
-                "40",
-                "--scene",
-                "factory:2000",
-            ])
-            .args(args.split_whitespace())
-            .args(["--width", "160", "--height", "120"])
-            .arg("--stats-out")
-            .arg(&s_path)
-            .output()
-            .expect("with-monado");
-        assert!(o.status.success(), "{}", text(&o));
-        let s = stats(&s_path);
-        assert_no_validation(&o, &s);
-        let lines: Vec<Value> = std::fs::read_to_string(&log)
-            .unwrap()
-            .lines()
-            .filter_map(|l| serde_json::from_str::<Value>(l).ok())
+    // the sub-images follow the scale and the wide view's factor.
+    let wide_w = |l: &Value| l["rect"][0][2].as_i64().unwrap();
+    let views = |lines: &[Value]| -> Vec<Value> {
+        lines
+            .iter()
             .filter(|l| l.get("views").is_some())
-            .collect();
-        (s, lines)
+            .cloned()
+            .collect()
     };
-    let (s, lines) = run("aq", "--opt superfrustum,inset,aq --budget-ms 1");
+    let (s, lines) = run_with_layer(
+        &dir,
+        &layers,
+        "aq",
+        "--frames 40 --opt superfrustum,inset,aq --budget-ms 1",
+    );
     assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
     let aq = aq_frames(&s);
-    let last = aq.last().expect("aq frames");
-    assert_eq!(last["level"], 0, "{aq:?}");
-    let wide_w = |l: &Value| l["rect"][0][2].as_i64().unwrap();
+    assert_eq!(aq.last().expect("aq frames")["level"], 0, "{aq:?}");
+    let lines = views(&lines);
     let (first, end) = (lines.first().unwrap(), lines.last().unwrap());
     assert!(lines.iter().all(|l| l["views"] == 4));
-    // 0.65 x 160 = 104 wide eyes, the wide view at 0.5 x 0.533 of that.
+    // 0.65 × 160 = 104 wide eyes, the wide view at 0.5 × 0.533 of that.
     assert!(wide_w(first) > wide_w(end), "{first} then {end}");
     assert!(wide_w(end) <= 28 && wide_w(end) >= 26, "{end}");
-    let (s, lines) = run("four-view", "--opt superfrustum,inset,inset-views=4");
-    assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
-    assert!(
-        lines.iter().all(|l| l["views"] == 4 && wide_w(l) == 80),
-        "{:?}",
-        lines.last()
+    let (s, lines) = run_with_layer(
+        &dir,
+        &layers,
+        "four-view",
+        "--frames 20 --opt superfrustum,inset,inset-views=4",
     );
-    let (s, lines) = run("composite", "--opt superfrustum,inset,inset-composite");
+    assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
+    assert_quad_layers("four-view", &lines, 2);
+    // inset-composite: a stereo session, composited here.
+    let (s, lines) = run_with_layer(
+        &dir,
+        &layers,
+        "composite",
+        "--frames 20 --opt superfrustum,inset,inset-composite",
+    );
     assert_eq!(s["view_configuration"], "PRIMARY_STEREO");
+    assert_eq!(s["api_version"], "1.0.0");
     let path = s["inset_path"].as_str().unwrap_or_default();
     assert!(!path.contains("four views"), "{path}");
+    let lines = views(&lines);
     assert!(
-        lines.iter().all(|l| l["views"] == 2 && wide_w(l) == 160),
+        !lines.is_empty() && lines.iter().all(|l| l["views"] == 2 && wide_w(l) == 160),
         "{:?}",
         lines.last()
     );
+}
+
+/// OpenXR 1.1's core PRIMARY_STEREO_WITH_FOVEATED_INSET (the layer's
+/// manifest without XR_VARJO_quad_views: the configuration is offered to
+/// a 1.1 instance only): with `inset` vergence asks for 1.1 and submits
+/// the four views the same way; without the layer it composites.
+#[test]
+fn openxr_1_1s_foveated_inset_configuration_takes_the_four_views_too() {
+    let _g = lock();
+    let dir = out_dir("foveated-inset");
+    let layers = quad_views_layer(&dir, false);
+    let (s, lines) = run_with_layer(
+        &dir,
+        &layers,
+        "core",
+        "--frames 20 --opt superfrustum,inset",
+    );
+    assert_eq!(s["api_version"], "1.1.0");
+    assert_eq!(
+        s["view_configuration"],
+        "PRIMARY_STEREO_WITH_FOVEATED_INSET"
+    );
+    assert!(!strings(&s["extensions_enabled"]).contains(&"XR_VARJO_quad_views"));
+    assert_quad_layers("core", &lines, 2);
+    let s_path = dir.join("plain.json");
+    let (o, s) = run_openxr(
+        &s_path,
+        "--frames 10 --scene factory:2000 --opt superfrustum,inset --width 160 --height 128",
+    );
+    assert_no_validation(&o, &s);
+    assert_eq!(s["view_configuration"], "PRIMARY_STEREO");
 }

@@ -357,6 +357,10 @@ pub struct RunStats {
     /// four views then go out as they are).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub view_configuration: Option<String>,
+    /// The OpenXR API version of the instance (1.1 where offered with the
+    /// inset, for its foveated-inset views; else 1.0).
+    #[serde(skip_serializing_if = "Option::is_none")]
+    pub api_version: Option<String>,
     /// Per-eye image size rendered.
     pub image_size: [u32; 2],
     /// Reference space (STAGE or LOCAL).

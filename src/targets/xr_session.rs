@@ -87,7 +87,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         props,
         system_props: sys_props,
         api_version,
-    } = connect()?;
+    } = connect(desk.live.config.inset.is_some_and(|i| !i.composite))?;
     stats.mode = "openxr".into();
     stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
     stats.system = sys_props.system_name.clone();
@@ -111,14 +111,17 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     // With the inset and a runtime that takes quad views
     // (XR_VARJO_quad_views), the four views go out as they are (unless
     // inset-composite asks for the composite here).
-    let quad = exts.varjo_quad_views
+    // Both name one value: XR_VARJO_quad_views' PRIMARY_QUAD_VARJO is
+    // OpenXR 1.1's PRIMARY_STEREO_WITH_FOVEATED_INSET.
+    let foveated_inset = xr::ViewConfigurationType::PRIMARY_STEREO_WITH_FOVEATED_INSET;
+    let quad = (exts.varjo_quad_views || api_version >= xr::Version::new(1, 1, 0))
         && desk.live.config.inset.is_some_and(|i| !i.composite)
         && instance
             .enumerate_view_configurations(system)
             .call("xrEnumerateViewConfigurations")?
-            .contains(&xr::ViewConfigurationType::PRIMARY_QUAD_VARJO);
+            .contains(&foveated_inset);
     let view_type = if quad {
-        xr::ViewConfigurationType::PRIMARY_QUAD_VARJO
+        foveated_inset
     } else {
         xr::ViewConfigurationType::PRIMARY_STEREO
     };
@@ -136,13 +139,14 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         ));
     }
     stats.view_configuration = Some(
-        if quad {
-            "PRIMARY_QUAD_VARJO"
-        } else {
-            "PRIMARY_STEREO"
+        match (quad, exts.varjo_quad_views) {
+            (false, _) => "PRIMARY_STEREO",
+            (true, true) => "PRIMARY_QUAD_VARJO",
+            (true, false) => "PRIMARY_STEREO_WITH_FOVEATED_INSET",
         }
         .into(),
     );
+    stats.api_version = Some(api_version.to_string());
     if quad {
         tracing::info!("the runtime takes quad views: the inset goes out as four views");
     }

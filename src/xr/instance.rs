@@ -28,10 +28,11 @@ pub struct Connection {
     pub api_version: xr::Version,
 }
 
-/// Loads the OpenXR loader, creates the instance and finds the headset.
+/// Loads the OpenXR loader, creates the instance (for OpenXR 1.1 where
+/// offered when `prefer_1_1`, else 1.0) and finds the headset.
 /// No loader, runtime, Vulkan binding or headset is
 /// [`Error::XrUnavailable`], naming where the loader looked.
-pub fn connect() -> Result<Connection> {
+pub fn connect(prefer_1_1: bool) -> Result<Connection> {
     // SAFETY: loads the system's OpenXR loader, a conformant library.
     let entry = unsafe { xr::Entry::load(&()) }.map_err(|e| {
             Error::XrUnavailable(format!(
@@ -80,16 +81,39 @@ pub fn connect() -> Result<Connection> {
     } else {
         Vec::new()
     };
-    let app = xr::ApplicationInfo {
-        application_name: "vergence",
-        application_version: 1,
-        engine_name: "vergence",
-        engine_version: 1,
-        api_version: xr::Version::new(1, 0, 0),
+    // OpenXR 1.1 first when asked (its core foveated-inset view
+    // configuration), 1.0 where the loader or runtime has no 1.1.
+    let versions: &[xr::Version] = if prefer_1_1 {
+        &[xr::Version::new(1, 1, 0), xr::Version::new(1, 0, 0)]
+    } else {
+        &[xr::Version::new(1, 0, 0)]
     };
-    let instance = entry
-        .create_instance(&app, &exts, &layer_names, &())
-        .map_err(|r| unavailable("xrCreateInstance", r))?;
+    let mut made = None;
+    for (i, &api_version) in versions.iter().enumerate() {
+        let app = xr::ApplicationInfo {
+            application_name: "vergence",
+            application_version: 1,
+            engine_name: "vergence",
+            engine_version: 1,
+            api_version,
+        };
+        match entry.create_instance(&app, &exts, &layer_names, &()) {
+            Ok(instance) => {
+                made = Some((instance, api_version));
+                break;
+            }
+            Err(xr::sys::Result::ERROR_API_VERSION_UNSUPPORTED) if i + 1 < versions.len() => {
+                tracing::info!("OpenXR {api_version} is not offered; trying an older version");
+            }
+            Err(r) => return Err(unavailable("xrCreateInstance", r)),
+        }
+    }
+    let Some((instance, api_version)) = made else {
+        return Err(unavailable(
+            "xrCreateInstance",
+            xr::sys::Result::ERROR_API_VERSION_UNSUPPORTED,
+        ));
+    };
     let messenger = Messenger::new(&instance);
     let props = instance.properties().call("xrGetInstanceProperties")?;
     let system = instance
@@ -111,6 +135,6 @@ pub fn connect() -> Result<Connection> {
         messenger,
         props,
         system_props: sys_props,
-        api_version: app.api_version,
+        api_version,
     })
 }
