@@ -95,12 +95,24 @@ pub struct Change {
     pub reason: Reason,
 }
 
+/// What one level of the ladder renders.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct Level {
+    /// The render scale (per axis).
+    pub scale: f64,
+    /// The factor on the inset's wide-view scale (1 above the inset's
+    /// rung).
+    pub wide_factor: f64,
+    /// The inset's wide view is drawn at one sample (the MSAA rung and the
+    /// levels below it).
+    pub wide_one_sample: bool,
+}
+
 /// The controller's state.
 #[derive(Clone, Debug)]
 pub struct AdaptiveQuality {
-    scales: Vec<f64>,
-    wide: Vec<f64>,
-    wide_one_sample: Vec<bool>,
+    /// The ladder, lowest first.
+    ladder: Vec<Level>,
     default: usize,
     level: usize,
     budget_ms: f64,
@@ -162,9 +174,14 @@ impl AdaptiveQuality {
             .position(|&s| s >= 1.0)
             .unwrap_or(scales.len().checked_sub(1)?);
         Some(AdaptiveQuality {
-            wide: vec![1.0; scales.len()],
-            wide_one_sample: vec![false; scales.len()],
-            scales,
+            ladder: scales
+                .into_iter()
+                .map(|scale| Level {
+                    scale,
+                    wide_factor: 1.0,
+                    wide_one_sample: false,
+                })
+                .collect(),
             default,
             level: default,
             budget_ms,
@@ -186,43 +203,45 @@ impl AdaptiveQuality {
             factors.iter().all(|&f| f > 0.0 && f < 1.0) && factors.windows(2).all(|w| w[0] < w[1]),
             "the inset rung's factors increase within (0, 1): {factors:?}"
         );
-        let lowest = self.scales[0];
+        let scale = self.ladder[0].scale;
         let mut wide = factors.to_vec();
         if msaa_rung {
             wide.push(1.0);
         }
         let k = wide.len();
-        self.scales.splice(0..0, std::iter::repeat_n(lowest, k));
-        self.wide.splice(0..0, wide);
-        self.wide_one_sample
-            .splice(0..0, std::iter::repeat_n(msaa_rung, k));
+        self.ladder.splice(
+            0..0,
+            wide.into_iter().map(|wide_factor| Level {
+                scale,
+                wide_factor,
+                wide_one_sample: msaa_rung,
+            }),
+        );
         self.default += k;
         self.level += k;
         self
     }
 
-    /// The render scales, lowest first (a scale repeats on the inset's
-    /// rung).
-    pub fn scales(&self) -> &[f64] {
-        &self.scales
+    /// The ladder, lowest first (a scale repeats on the inset's rungs).
+    pub fn ladder(&self) -> &[Level] {
+        &self.ladder
     }
 
-    /// The factors on the inset's wide-view scale per level (1 above the
-    /// inset's rung).
-    pub fn wide_factors(&self) -> &[f64] {
-        &self.wide
+    /// What the current level renders.
+    pub fn current(&self) -> Level {
+        self.ladder[self.level]
     }
 
     /// The current factor on the inset's wide-view scale (1 unless the
     /// controller is on the inset's rung).
     pub fn wide_factor(&self) -> f64 {
-        self.wide[self.level]
+        self.current().wide_factor
     }
 
     /// Whether the current level draws the inset's wide view at one sample
     /// (the MSAA rung and the levels below it).
     pub fn wide_one_sample(&self) -> bool {
-        self.wide_one_sample[self.level]
+        self.current().wide_one_sample
     }
 
     /// The starting level.
@@ -247,7 +266,7 @@ impl AdaptiveQuality {
 
     /// The current render scale (per axis).
     pub fn scale(&self) -> f64 {
-        self.scales[self.level]
+        self.current().scale
     }
 
     /// The GPU time of frame `ago` frames back (0: the last one given).
@@ -288,7 +307,7 @@ impl AdaptiveQuality {
             None
         };
         let (to, reason) = rule?;
-        let to = to.min(self.scales.len() - 1);
+        let to = to.min(self.ladder.len() - 1);
         if to == self.level {
             return None;
         }
@@ -298,7 +317,7 @@ impl AdaptiveQuality {
         Some(Change {
             from,
             to,
-            scale: self.scales[to],
+            scale: self.ladder[to].scale,
             reason,
         })
     }
@@ -336,7 +355,7 @@ mod tests {
         assert!(s.last().unwrap() * 1.15f64.sqrt() > 1.4);
         let aq = controller();
         let d = aq.default_level();
-        assert!(aq.scales()[d] >= 1.0 && aq.scales()[d - 1] < 1.0);
+        assert!(aq.ladder()[d].scale >= 1.0 && aq.ladder()[d - 1].scale < 1.0);
         for bad in [
             (0.0, 1.4, 15.0),
             (1.5, 1.4, 15.0),
@@ -374,18 +393,19 @@ mod tests {
         let f = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
         let mut aq = controller().with_wide_rungs(&f, false);
         let k = f.len();
-        assert_eq!(aq.scales().len(), plain.scales().len() + k);
+        assert_eq!(aq.ladder().len(), plain.ladder().len() + k);
         assert_eq!(
-            aq.scales()[aq.default_level()],
-            plain.scales()[plain.default_level()]
+            aq.ladder()[aq.default_level()],
+            plain.ladder()[plain.default_level()]
         );
         assert_eq!(aq.level(), aq.default_level());
         assert_eq!(aq.wide_factor(), 1.0);
-        for (i, (&s, &w)) in aq.scales().iter().zip(aq.wide_factors()).enumerate() {
+        for (i, l) in aq.ladder().iter().enumerate() {
+            let (s, w) = (l.scale, l.wide_factor);
             if i < k {
-                assert_eq!((s, w), (plain.scales()[0], f[i]));
+                assert_eq!((s, w), (plain.ladder()[0].scale, f[i]));
             } else {
-                assert_eq!((s, w), (plain.scales()[i - k], 1.0));
+                assert_eq!((s, w), (plain.ladder()[i - k].scale, 1.0));
             }
         }
         // Frames over budget: down two levels every three frames, through
@@ -396,10 +416,10 @@ mod tests {
         // Cheap frames: up one level every five, the periphery first.
         let ups = run(&mut aq, &[0.1 * B; 5 * 9]);
         assert_eq!(ups.len(), k, "{ups:?}");
-        assert_eq!(aq.scale(), plain.scales()[0]);
+        assert_eq!(aq.scale(), plain.ladder()[0].scale);
         assert_eq!(aq.wide_factor(), 1.0);
         run(&mut aq, &[0.1 * B; 5]);
-        assert!(aq.scale() > plain.scales()[0]);
+        assert!(aq.scale() > plain.ladder()[0].scale);
     }
 
     #[test]
@@ -408,18 +428,22 @@ mod tests {
         let f = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
         let mut aq = controller().with_wide_rungs(&f, true);
         let k = f.len();
-        assert_eq!(aq.scales().len(), plain.scales().len() + k + 1);
+        assert_eq!(aq.ladder().len(), plain.ladder().len() + k + 1);
         assert_eq!(aq.default_level(), plain.default_level() + k + 1);
         assert!(!aq.wide_one_sample());
-        for i in 0..aq.scales().len() {
+        for i in 0..aq.ladder().len() {
             aq.level = i;
             let (s, w, one) = (aq.scale(), aq.wide_factor(), aq.wide_one_sample());
             match i {
-                i if i < k => assert_eq!((s, w, one), (plain.scales()[0], f[i], true)),
+                i if i < k => assert_eq!((s, w, one), (plain.ladder()[0].scale, f[i], true)),
                 i if i == k => {
-                    assert_eq!((s, w, one), (plain.scales()[0], 1.0, true), "the MSAA rung")
+                    assert_eq!(
+                        (s, w, one),
+                        (plain.ladder()[0].scale, 1.0, true),
+                        "the MSAA rung"
+                    )
                 }
-                i => assert_eq!((s, w, one), (plain.scales()[i - k - 1], 1.0, false)),
+                i => assert_eq!((s, w, one), (plain.ladder()[i - k - 1].scale, 1.0, false)),
             }
         }
     }
@@ -543,7 +567,7 @@ mod tests {
             let mut last: Option<usize> = None;
             for (i, &t) in times.iter().enumerate() {
                 if let Some(c) = aq.update(t) {
-                    prop_assert!(c.to < aq.scales().len());
+                    prop_assert!(c.to < aq.ladder().len());
                     prop_assert!(c.from != c.to);
                     // Frames since the last change, the start counting as one.
                     let gap = last.map_or(i + 1, |l| i - l);
@@ -558,7 +582,7 @@ mod tests {
                     }
                     last = Some(i);
                 }
-                prop_assert!(aq.level() < aq.scales().len());
+                prop_assert!(aq.level() < aq.ladder().len());
             }
         }
     }

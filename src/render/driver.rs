@@ -240,15 +240,14 @@ impl FrameDriver {
         // even culling, overlaps the previous frame's GPU work.
         self.renderer.wait_for_slot()?;
         let aq = self.aq.as_ref().map(|a| {
-            self.renderer.set_render_scale(a.scale());
-            self.renderer.set_inset_wide_factor(a.wide_factor());
-            self.renderer.set_inset_wide_one_sample(a.wide_one_sample());
+            let l = a.current();
+            self.renderer.set_aq_level(&l);
             let e = self.renderer.extent();
             AqFrame {
                 level: a.level(),
-                scale: a.scale(),
-                wide_factor: a.wide_factor(),
-                wide_one_sample: a.wide_one_sample(),
+                scale: l.scale,
+                wide_factor: l.wide_factor,
+                wide_one_sample: l.wide_one_sample,
                 size: [e.width, e.height],
                 budget_ms: a.budget_ms(),
             }

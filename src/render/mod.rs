@@ -581,6 +581,16 @@ impl Renderer {
         self.allocated
     }
 
+    /// Renders the following frames as `aq`'s ladder `level` says: its
+    /// render scale, and with `inset` its wide view's factor and samples
+    /// ([`Renderer::set_render_scale`], [`Renderer::set_inset_wide_factor`],
+    /// [`Renderer::set_inset_wide_one_sample`]).
+    pub fn set_aq_level(&mut self, level: &crate::adaptive::Level) {
+        self.set_render_scale(level.scale);
+        self.set_inset_wide_factor(level.wide_factor);
+        self.set_inset_wide_one_sample(level.wide_one_sample);
+    }
+
     /// Renders the following frames at `scale` times the nominal size per
     /// axis (within the targets; `aq`). Nothing is reallocated: only the
     /// viewport, scissor and render area change.
