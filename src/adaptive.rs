@@ -46,17 +46,6 @@
 //!   sample (on the H200 that pass costs 3.36 ms instead of 5.62 at 4× on
 //!   factory:100000, more than two 15 % steps), and the factor levels
 //!   below it keep one sample.
-//! - **The MSAA rung's step up is remembered** (not in The Lab, whose
-//!   threshold gap, 0.70 to 0.90 B, holds a step of up to 0.90 / 0.70 =
-//!   1.29× the frame: its levels are 1.15× apart). Leaving the MSAA rung
-//!   multiplies the wide pass's cost, up to 1.67× on the H200, so where that
-//!   pass is most of the frame the step up lands over the high threshold
-//!   and the critical rule drops two levels straight back. When a drop
-//!   comes within [`BOUNCE_FRAMES`] frames of such a step, the controller
-//!   keeps the ratio r = (the frame that dropped) / (the last frame before
-//!   the step), and from then on steps up off the MSAA rung only when
-//!   r · last < high (besides the headroom rule); each later bounce
-//!   replaces r. Every other step is The Lab's.
 
 /// The smallest render scale (per axis) of `--opt aq`.
 pub const MIN_SCALE: f64 = 0.65;
@@ -71,10 +60,6 @@ pub const MIN_WIDE_FACTOR: f64 = 0.5;
 
 /// Frames of GPU time the controller keeps.
 pub const HISTORY: usize = 12;
-/// A drop this many frames or fewer after the step up off the MSAA rung
-/// counts as that step's bounce (the critical rule waits 3; frames in
-/// flight report the old level's times for up to 2 more).
-pub const BOUNCE_FRAMES: u64 = 8;
 /// Share of the budget under which three frames in a row step up.
 pub const LOW: f64 = 0.70;
 /// Share of the budget over which the last frame is extrapolated.
@@ -135,11 +120,6 @@ pub struct AdaptiveQuality {
     pos: usize,
     frame: u64,
     last_change: u64,
-    /// The last step up off the MSAA rung: (the frame, the GPU time of the
-    /// last frame before it).
-    msaa_step: Option<(u64, f64)>,
-    /// The cost ratio of that step, learned from its last bounce.
-    msaa_ratio: Option<f64>,
 }
 
 /// The inset rung's factors on the wide view's scale, smallest first:
@@ -209,8 +189,6 @@ impl AdaptiveQuality {
             pos: 0,
             frame: 0,
             last_change: 0,
-            msaa_step: None,
-            msaa_ratio: None,
         })
     }
 
@@ -291,31 +269,6 @@ impl AdaptiveQuality {
         self.current().scale
     }
 
-    /// Whether the current level is the MSAA rung: the wide view at one
-    /// sample here and at the frame's MSAA on the level above.
-    fn on_msaa_rung(&self) -> bool {
-        let here = self.ladder[self.level];
-        self.ladder
-            .get(self.level + 1)
-            .is_some_and(|up| here.wide_one_sample && !up.wide_one_sample)
-    }
-
-    /// Whether a step up from here, after a last frame of `f0` ms, may be
-    /// taken: off the MSAA rung only when the learned ratio of that step
-    /// puts the frame under the high threshold.
-    fn may_leave_msaa_rung(&self, f0: f64) -> bool {
-        !self.on_msaa_rung()
-            || self
-                .msaa_ratio
-                .is_none_or(|r| r * f0 < HIGH * self.budget_ms)
-    }
-
-    /// The cost ratio of the step up off the MSAA rung, learned from its
-    /// last bounce (None before any).
-    pub fn msaa_step_ratio(&self) -> Option<f64> {
-        self.msaa_ratio
-    }
-
     /// The GPU time of frame `ago` frames back (0: the last one given).
     fn past(&self, ago: usize) -> f64 {
         self.history[(self.pos + HISTORY - ago) % HISTORY]
@@ -348,7 +301,7 @@ impl AdaptiveQuality {
             Some((down, Reason::Sustained))
         } else if since(4) && predicted() {
             Some((down, Reason::Predicted))
-        } else if since(5) && f0 < low && f1 < low && f2 < low && self.may_leave_msaa_rung(f0) {
+        } else if since(5) && f0 < low && f1 < low && f2 < low {
             Some((self.level + 1, Reason::Headroom))
         } else {
             None
@@ -359,13 +312,6 @@ impl AdaptiveQuality {
             return None;
         }
         let from = self.level;
-        if to > from && self.on_msaa_rung() {
-            self.msaa_step = Some((self.frame, f0));
-        } else if let Some((at, before)) = self.msaa_step.take() {
-            if to < from && self.frame <= at + BOUNCE_FRAMES && before > 0.0 {
-                self.msaa_ratio = Some(f0 / before);
-            }
-        }
         self.level = to;
         self.last_change = self.frame;
         Some(Change {
@@ -500,75 +446,6 @@ mod tests {
                 i => assert_eq!((s, w, one), (plain.ladder()[i - k - 1].scale, 1.0, false)),
             }
         }
-    }
-
-    /// A frame's cost on the ladder with the MSAA rung at `m`: the rung
-    /// at `at_rung`, each level below 15 % cheaper, the level above
-    /// `jump` times the rung, and each above that 15 % dearer.
-    fn cost(level: usize, m: usize, at_rung: f64, jump: f64) -> f64 {
-        let step = 1.15f64;
-        if level <= m {
-            at_rung * step.powi(level as i32 - m as i32)
-        } else {
-            at_rung * jump * step.powi((level - m - 1) as i32)
-        }
-    }
-
-    /// Runs `frames` frames whose GPU time follows the level (`cost` with
-    /// a rung at 0.6 B and the `jump` above it), each frame's time
-    /// arriving before the next is chosen; returns the changes.
-    fn on_ladder(
-        aq: &mut AdaptiveQuality,
-        m: usize,
-        at_rung: f64,
-        jump: f64,
-        frames: usize,
-    ) -> Vec<Change> {
-        (0..frames)
-            .filter_map(|_| {
-                let t = cost(aq.level(), m, at_rung, jump);
-                aq.update(t)
-            })
-            .collect()
-    }
-
-    #[test]
-    fn a_bounce_off_the_msaa_rung_is_remembered_and_the_rung_holds() {
-        let f = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT).unwrap();
-        let m = f.len();
-        // The Lab's rules alone, without the MSAA rung's memory: a step up
-        // that costs 1.67x from 0.6 B lands at 1.0 B and comes straight
-        // back, again and again (the factor rung's levels have no memory).
-        let mut plain = controller().with_wide_rungs(&f, false);
-        plain.level = m - 1;
-        let lab = on_ladder(&mut plain, m - 1, 0.6 * B, 1.67, 300);
-        assert!(lab.len() > 40, "{} changes", lab.len());
-        // With the MSAA rung: one bounce, then it stays on the rung.
-        let mut aq = controller().with_wide_rungs(&f, true);
-        aq.level = m;
-        assert!(aq.on_msaa_rung());
-        let changes = on_ladder(&mut aq, m, 0.6 * B, 1.67, 300);
-        assert_eq!(changes.len(), 3, "{changes:?}");
-        assert_eq!((changes[0].from, changes[0].to), (m, m + 1));
-        assert_eq!(changes[1].reason, Reason::Critical);
-        assert_eq!(changes[2].to, m, "back up to the rung, not past it");
-        let r = aq.msaa_step_ratio().expect("learned");
-        assert!((r - 1.67).abs() < 1e-9, "{r}");
-        assert_eq!(aq.level(), m);
-        // The scene gets cheaper: the rung is left once r · f0 fits.
-        let up = on_ladder(&mut aq, m, 0.3 * B, 1.67, 10);
-        assert_eq!(
-            up.first().map(|c| (c.from, c.to)),
-            Some((m, m + 1)),
-            "{up:?}"
-        );
-        // Where the step costs no more than The Lab allows, nothing bounces
-        // and nothing is learned.
-        let mut easy = controller().with_wide_rungs(&f, true);
-        easy.level = m;
-        let changes = on_ladder(&mut easy, m, 0.6 * B, 1.2, 300);
-        assert_eq!(changes.len(), 1, "{changes:?}");
-        assert_eq!(easy.msaa_step_ratio(), None);
     }
 
     proptest! {
