@@ -80,11 +80,17 @@ pub unsafe extern "system" fn xrNegotiateLoaderApiLayerInterface(
     let (Some(loader), Some(request)) = (loader.as_ref(), request.as_mut()) else {
         return sys::Result::ERROR_INITIALIZATION_FAILED;
     };
-    if loader.min_interface_version > 1 || loader.max_interface_version < 1 {
+    let ours = sys::Version::new(1, 1, 0);
+    if loader.struct_type != sys::NegotiateLoaderInfo::TYPE
+        || request.struct_type != sys::NegotiateApiLayerRequest::TYPE
+        || loader.min_interface_version > 1
+        || loader.max_interface_version < 1
+        || loader.min_api_version > ours
+    {
         return sys::Result::ERROR_INITIALIZATION_FAILED;
     }
     request.layer_interface_version = 1;
-    request.layer_api_version = sys::Version::new(1, 1, 0);
+    request.layer_api_version = ours;
     request.get_instance_proc_addr = Some(get_instance_proc_addr);
     request.create_api_layer_instance = Some(create_api_layer_instance);
     sys::Result::SUCCESS
@@ -503,6 +509,11 @@ unsafe extern "system" fn get_visibility_mask(
     }
 }
 
+/// Whether `VERGENCE_QUAD_LAYER_LOG` names a log file.
+fn logging() -> bool {
+    std::env::var_os("VERGENCE_QUAD_LAYER_LOG").is_some()
+}
+
 /// Appends `line` to the file `VERGENCE_QUAD_LAYER_LOG` names.
 fn log(line: &str) {
     let Some(path) = std::env::var_os("VERGENCE_QUAD_LAYER_LOG") else {
@@ -519,7 +530,11 @@ fn log(line: &str) {
 
 /// One JSON line for a projection layer's views.
 unsafe fn describe(p: &sys::CompositionLayerProjection) -> String {
-    let views = std::slice::from_raw_parts(p.views, p.view_count as usize);
+    let views = if p.views.is_null() {
+        &[][..]
+    } else {
+        std::slice::from_raw_parts(p.views, p.view_count as usize)
+    };
     let fov: Vec<String> = views
         .iter()
         .map(|v| {
@@ -577,7 +592,9 @@ unsafe extern "system" fn end_frame(
     for &l in layers {
         if !l.is_null() && (*l).ty == sys::CompositionLayerProjection::TYPE {
             let p = &*(l as *const sys::CompositionLayerProjection);
-            log(&describe(p));
+            if logging() {
+                log(&describe(p));
+            }
             if p.view_count == 4 {
                 stereo.push(sys::CompositionLayerProjection {
                     view_count: 2,

@@ -809,7 +809,7 @@ fn quad_views_layer(dir: &Path, extension: bool) -> PathBuf {
         "api_layer": {
             "name": "XR_APILAYER_VERGENCE_quad_views",
             "library_path": lib,
-            "api_version": "1.0",
+            "api_version": "1.1",
             "implementation_version": "1",
             "description": "vergence test layer: XR_VARJO_quad_views over a stereo runtime",
         }

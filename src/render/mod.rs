@@ -519,17 +519,21 @@ impl Renderer {
                     || config
                         .timewarp
                         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
+                // With a quad output the runtime composites the inset: no
+                // composed image.
                 composed: (config.rdm.is_some() && config.rdm_fill)
-                    || config.inset.is_some()
+                    || (config.inset.is_some() && !r.quad)
                     || config.lms.is_some(),
                 sampled: false,
-                storage_output: config.inset.is_some(),
+                storage_output: config.inset.is_some() && !r.quad,
                 occlusion: config.occlusion,
                 multiview_layers: if r.four_view { 4 } else { 2 },
                 one_sample_depth: false,
             },
         )?);
-        if let (Some(inset), Some(targets)) = (r.passes.inset.as_mut(), r.targets.as_ref()) {
+        if let (Some(inset), Some(targets), false) =
+            (r.passes.inset.as_mut(), r.targets.as_ref(), r.quad)
+        {
             inset.bind(&ctx, targets)?;
         }
         if config.gpu_cull {

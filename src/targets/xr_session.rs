@@ -312,12 +312,15 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.image_size = [extent.width, extent.height];
     // With aq the swapchain images hold the largest render scale; each
     // frame's sub-image is the part it rendered.
-    let max = config_views.iter().fold((u32::MAX, u32::MAX), |m, v| {
-        (
-            m.0.min(v.max_image_rect_width),
-            m.1.min(v.max_image_rect_height),
-        )
-    });
+    let max = config_views
+        .iter()
+        .take(2)
+        .fold((u32::MAX, u32::MAX), |m, v| {
+            (
+                m.0.min(v.max_image_rect_width),
+                m.1.min(v.max_image_rect_height),
+            )
+        });
     let mut chains = ChainSpec {
         color_format,
         depth_format,
@@ -838,6 +841,12 @@ fn switch_config(
                 chains: &mut ChainSpec,
                 c: &crate::config::RenderConfig|
      -> Result<FrameDriver> {
+        if chains.quad && c.inset.is_some_and(|i| i.composite) {
+            return Err(Error::config(
+                "--opt inset-composite",
+                "this session submits the four views (its view configuration is fixed): inset-composite applies from the next session",
+            ));
+        }
         let images = chains.images_for(c.aq)?;
         let wide_changed =
             chains.quad && c.inset.map(|i| i.wide_scale) != old.inset.map(|i| i.wide_scale);

@@ -102,8 +102,10 @@ pub fn connect(prefer_1_1: bool) -> Result<Connection> {
                 made = Some((instance, api_version));
                 break;
             }
-            Err(xr::sys::Result::ERROR_API_VERSION_UNSUPPORTED) if i + 1 < versions.len() => {
-                tracing::info!("OpenXR {api_version} is not offered; trying an older version");
+            // Any refusal of 1.1 falls back (some loaders and runtimes
+            // answer other than ERROR_API_VERSION_UNSUPPORTED).
+            Err(r) if i + 1 < versions.len() => {
+                tracing::info!("OpenXR {api_version} refused ({r}); trying an older version");
             }
             Err(r) => return Err(unavailable("xrCreateInstance", r)),
         }

@@ -247,7 +247,9 @@ impl OutputCopy {
             .map(|&(img, layers)| barrier::image(img, c, layers, color_out, from))
             .collect();
         let mut after = Vec::new();
-        let eyes = |i: usize| targets.sets[i].output_image().layers;
+        // The eyes' layers (with four views the resolve has 4: the wide
+        // views are layers 2 and 3).
+        let eyes = |i: usize| targets.sets[i].resolve.layers.min(2);
         for i in 0..n {
             for dst in [out.color[i], out.inset[i]] {
                 before.push(barrier::image(dst, c, eyes(i), color_out.discarded(), to));
@@ -552,9 +554,12 @@ impl Readback {
         self.depth = false;
         let buf = self.buffer.as_ref().expect("created above").buffer;
         let c = vk::ImageAspectFlags::COLOR;
+        // Written by the output copy, whose last barrier handed the image
+        // on to the colour-attachment stage: the chain continues there.
         let written = Use {
             layout: vk::ImageLayout::COLOR_ATTACHMENT_OPTIMAL,
-            stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+            stage: vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT
+                | vk::PipelineStageFlags2::ALL_TRANSFER,
             access: vk::AccessFlags2::TRANSFER_WRITE,
         };
         let read = Use {
