@@ -976,6 +976,11 @@ fn the_inset_goes_out_as_quad_views_where_the_runtime_takes_them() {
         let path = s["inset_path"].as_str().unwrap_or_default();
         assert!(path.ends_with("submitted as four views"), "{path}");
         assert_quad_layers(name, &lines, chains);
+        let views = s["views"].as_array().unwrap();
+        assert_eq!(views.len(), 4);
+        let tan = |v: &Value, k: &str| v["fov"][k].as_f64().unwrap().tan();
+        let ratio = tan(&views[2], "left") / tan(&views[0], "left");
+        assert!((ratio - 0.4).abs() < 1e-4, "focus view 2: {}", views[2]);
         // The capture holds the four views as submitted.
         let img = |n: &str| image::open(capture.join(n)).unwrap().to_rgba8();
         let (wide, inset) = (img("left.png"), img("inset-left.png"));

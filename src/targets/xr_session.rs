@@ -1023,8 +1023,14 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 None => Some(st.lens_default(&rig)),
             };
             if !st.first_fov_recorded {
-                for (v, info) in rig.views.iter().zip(stats.views.iter_mut()) {
-                    info.fov = Some(v.fov);
+                // The eyes', then (quad views) the focus views' as located.
+                let located = rig
+                    .views
+                    .iter()
+                    .map(|v| v.fov)
+                    .chain(focus.iter().flatten().copied());
+                for (fov, info) in located.zip(stats.views.iter_mut()) {
+                    info.fov = Some(fov);
                 }
                 st.first_fov_recorded = true;
             }
