@@ -50,6 +50,15 @@ fn alloc_err(what: &str, e: gpu_allocator::AllocationError) -> Error {
 impl Buffer {
     /// Creates a buffer as described.
     pub fn new(ctx: &Context, desc: &BufferDesc) -> Result<Buffer> {
+        if crate::gpu::fault::buffer_fails() {
+            return Err(Error::Vulkan {
+                context: format!(
+                    "creating buffer '{}' (injected by VERGENCE_INJECT_FAULT)",
+                    desc.name
+                ),
+                result: vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+            });
+        }
         let d = &ctx.device;
         let info = vk::BufferCreateInfo::default()
             .size(desc.size.max(4))
@@ -234,6 +243,15 @@ impl<'a> ImageDesc<'a> {
 impl Image {
     /// Creates an image and a 2D-array view over all its layers and mips.
     pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image> {
+        if crate::gpu::fault::image_fails() {
+            return Err(Error::Vulkan {
+                context: format!(
+                    "creating image '{}' (injected by VERGENCE_INJECT_FAULT)",
+                    desc.name
+                ),
+                result: vk::Result::ERROR_OUT_OF_DEVICE_MEMORY,
+            });
+        }
         let d = &ctx.device;
         let info = vk::ImageCreateInfo::default()
             .flags(desc.flags)

@@ -129,85 +129,84 @@ impl AttachmentSet {
             category: "render target",
             flags: vk::ImageCreateFlags::empty(),
         };
-        let color_msaa = if samples > 1 {
-            let d = desc(
-                "colour msaa",
-                COLOR_FORMAT,
-                s,
-                vk::ImageUsageFlags::COLOR_ATTACHMENT | transient,
-                vk::ImageAspectFlags::COLOR,
-            );
-            Some(Image::new(ctx, &d)?)
-        } else {
-            None
-        };
-        let ds = crate::gpu::depth_aspect(depth_format);
-        let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
-        let stored_depth = keep_depth && samples == 1;
-        let depth_sampled = if occlusion {
-            vk::ImageUsageFlags::SAMPLED
-        } else {
-            vk::ImageUsageFlags::empty()
-        };
-        let depth = Image::new(
-            ctx,
-            &desc(
-                "depth-stencil",
-                depth_format,
-                s,
-                if stored_depth {
-                    depth_usage | depth_sampled | vk::ImageUsageFlags::TRANSFER_SRC
-                } else {
-                    depth_usage | depth_sampled | transient
-                },
-                ds,
-            ),
-        )?;
-        let depth_resolve = if keep_depth && samples > 1 {
-            Some(Image::new(
+        // What is made so far: destroyed if a later image fails.
+        let mut p = Parts::default();
+        let made = (|| -> Result<()> {
+            if samples > 1 {
+                let d = desc(
+                    "colour msaa",
+                    COLOR_FORMAT,
+                    s,
+                    vk::ImageUsageFlags::COLOR_ATTACHMENT | transient,
+                    vk::ImageAspectFlags::COLOR,
+                );
+                p.color_msaa = Some(Image::new(ctx, &d)?);
+            }
+            let ds = crate::gpu::depth_aspect(depth_format);
+            let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+            let stored_depth = keep_depth && samples == 1;
+            let depth_sampled = if occlusion {
+                vk::ImageUsageFlags::SAMPLED
+            } else {
+                vk::ImageUsageFlags::empty()
+            };
+            p.depth = Some(Image::new(
                 ctx,
                 &desc(
-                    "depth resolve",
+                    "depth-stencil",
                     depth_format,
-                    vk::SampleCountFlags::TYPE_1,
-                    depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
+                    s,
+                    if stored_depth {
+                        depth_usage | depth_sampled | vk::ImageUsageFlags::TRANSFER_SRC
+                    } else {
+                        depth_usage | depth_sampled | transient
+                    },
                     ds,
                 ),
-            )?)
-        } else {
-            None
-        };
-        let depth_one_sample = if one_sample_depth && samples > 1 {
-            Some(Image::new(
+            )?);
+            if keep_depth && samples > 1 {
+                p.depth_resolve = Some(Image::new(
+                    ctx,
+                    &desc(
+                        "depth resolve",
+                        depth_format,
+                        vk::SampleCountFlags::TYPE_1,
+                        depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
+                        ds,
+                    ),
+                )?);
+            }
+            if one_sample_depth && samples > 1 {
+                p.depth_one_sample = Some(Image::new(
+                    ctx,
+                    &desc(
+                        "depth-stencil one sample",
+                        depth_format,
+                        vk::SampleCountFlags::TYPE_1,
+                        depth_usage | transient,
+                        ds,
+                    ),
+                )?);
+            }
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+            let sampled = if composed || sampled {
+                vk::ImageUsageFlags::SAMPLED
+            } else {
+                vk::ImageUsageFlags::empty()
+            };
+            let resolve = p.resolve.insert(Image::new(
                 ctx,
                 &desc(
-                    "depth-stencil one sample",
-                    depth_format,
+                    "colour resolve",
+                    COLOR_FORMAT,
                     vk::SampleCountFlags::TYPE_1,
-                    depth_usage | transient,
-                    ds,
+                    usage | sampled,
+                    vk::ImageAspectFlags::COLOR,
                 ),
-            )?)
-        } else {
-            None
-        };
-        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-        let sampled = if composed || sampled {
-            vk::ImageUsageFlags::SAMPLED
-        } else {
-            vk::ImageUsageFlags::empty()
-        };
-        let resolve = Image::new(
-            ctx,
-            &desc(
-                "colour resolve",
-                COLOR_FORMAT,
-                vk::SampleCountFlags::TYPE_1,
-                usage | sampled,
-                vk::ImageAspectFlags::COLOR,
-            ),
-        )?;
-        let filled = if composed {
+            )?);
+            if !composed {
+                return Ok(());
+            }
             let plain = ImageDesc {
                 layers: output_layers,
                 ..desc(
@@ -218,9 +217,10 @@ impl AttachmentSet {
                     vk::ImageAspectFlags::COLOR,
                 )
             };
+            let resolve_image = resolve.image;
             // sRGB has no storage use: the image is made mutable with
             // extended usage and written through a UNORM view.
-            let img = Image::new(
+            let filled = p.filled.insert(Image::new(
                 ctx,
                 &if storage_output {
                     ImageDesc {
@@ -232,44 +232,62 @@ impl AttachmentSet {
                 } else {
                     plain
                 },
-            )?;
-            let view = Image::make_view(
+            )?);
+            let filled_image = filled.image;
+            p.filled_view = Some(Image::make_view(
                 ctx,
-                resolve.image,
+                resolve_image,
                 COLOR_FORMAT,
                 vk::ImageAspectFlags::COLOR,
                 vk::ImageViewType::TYPE_2D_ARRAY,
                 0,
                 layers,
                 1,
-            )?;
-            Some((img, view))
-        } else {
-            None
-        };
-        let filled_storage = match (&filled, storage_output) {
-            (Some((img, _)), true) => Some(Image::view_for(
-                ctx,
-                img.image,
-                vk::Format::R8G8B8A8_UNORM,
-                vk::ImageAspectFlags::COLOR,
-                vk::ImageViewType::TYPE_2D_ARRAY,
-                (0, output_layers),
-                1,
-                Some(vk::ImageUsageFlags::STORAGE),
-            )?),
-            _ => None,
-        };
-        Ok(AttachmentSet {
-            color_msaa,
-            depth,
-            resolve,
-            depth_resolve,
-            keep_depth,
-            filled,
-            filled_storage,
-            depth_one_sample,
-        })
+            )?);
+            if storage_output {
+                p.filled_storage = Some(Image::view_for(
+                    ctx,
+                    filled_image,
+                    vk::Format::R8G8B8A8_UNORM,
+                    vk::ImageAspectFlags::COLOR,
+                    vk::ImageViewType::TYPE_2D_ARRAY,
+                    (0, output_layers),
+                    1,
+                    Some(vk::ImageUsageFlags::STORAGE),
+                )?);
+            }
+            Ok(())
+        })();
+        match (made, p) {
+            (
+                Ok(()),
+                Parts {
+                    color_msaa,
+                    depth: Some(depth),
+                    resolve: Some(resolve),
+                    depth_resolve,
+                    depth_one_sample,
+                    filled,
+                    filled_view,
+                    filled_storage,
+                },
+            ) => Ok(AttachmentSet {
+                color_msaa,
+                depth,
+                resolve,
+                depth_resolve,
+                keep_depth,
+                filled: filled.zip(filled_view),
+                filled_storage,
+                depth_one_sample,
+            }),
+            (made, p) => {
+                p.destroy(ctx);
+                Err(made.err().unwrap_or_else(|| {
+                    crate::error::Error::Gpu("an attachment set was left unmade".into())
+                }))
+            }
+        }
     }
 
     /// The image holding the finished frame: the RDM-filled image when
@@ -325,24 +343,54 @@ impl AttachmentSet {
 
     /// Destroys its images.
     pub fn destroy(self, ctx: &Context) {
-        if let Some(c) = self.color_msaa {
-            c.destroy(ctx);
+        let (filled, filled_view) = self.filled.unzip();
+        Parts {
+            color_msaa: self.color_msaa,
+            depth: Some(self.depth),
+            resolve: Some(self.resolve),
+            depth_resolve: self.depth_resolve,
+            depth_one_sample: self.depth_one_sample,
+            filled,
+            filled_view,
+            filled_storage: self.filled_storage,
         }
-        self.depth.destroy(ctx);
-        self.resolve.destroy(ctx);
-        if let Some(d) = self.depth_resolve {
-            d.destroy(ctx);
-        }
-        if let Some(d) = self.depth_one_sample {
-            d.destroy(ctx);
-        }
-        if let Some(view) = self.filled_storage {
+        .destroy(ctx);
+    }
+}
+
+/// An attachment set's images and views as they are made (all optional
+/// until the set is whole), so that a set left half made is destroyed.
+#[derive(Default)]
+struct Parts {
+    color_msaa: Option<Image>,
+    depth: Option<Image>,
+    resolve: Option<Image>,
+    depth_resolve: Option<Image>,
+    depth_one_sample: Option<Image>,
+    filled: Option<Image>,
+    filled_view: Option<vk::ImageView>,
+    filled_storage: Option<vk::ImageView>,
+}
+
+impl Parts {
+    /// Destroys the views, then the images; the device must be idle.
+    fn destroy(self, ctx: &Context) {
+        for view in [self.filled_storage, self.filled_view]
+            .into_iter()
+            .flatten()
+        {
             // SAFETY: the GPU is idle when attachments are destroyed.
             unsafe { ctx.device.destroy_image_view(view, None) };
         }
-        if let Some((img, view)) = self.filled {
-            // SAFETY: the GPU is idle when attachments are destroyed.
-            unsafe { ctx.device.destroy_image_view(view, None) };
+        let images = [
+            self.color_msaa,
+            self.depth,
+            self.resolve,
+            self.depth_resolve,
+            self.depth_one_sample,
+            self.filled,
+        ];
+        for img in images.into_iter().flatten() {
             img.destroy(ctx);
         }
     }
@@ -367,20 +415,24 @@ impl Attachments {
         multiview: bool,
         opts: SetOptions,
     ) -> Result<Attachments> {
-        let sets = if multiview {
-            vec![AttachmentSet::new(
-                ctx,
-                extent,
-                samples,
-                opts.multiview_layers,
-                opts,
-            )?]
+        let (count, layers) = if multiview {
+            (1, opts.multiview_layers)
         } else {
-            vec![
-                AttachmentSet::new(ctx, extent, samples, 1, opts)?,
-                AttachmentSet::new(ctx, extent, samples, 1, opts)?,
-            ]
+            (2, 1)
         };
+        let mut sets = Vec::with_capacity(count);
+        for _ in 0..count {
+            match AttachmentSet::new(ctx, extent, samples, layers, opts) {
+                Ok(set) => sets.push(set),
+                Err(e) => {
+                    // The sets made before go too.
+                    for set in sets {
+                        set.destroy(ctx);
+                    }
+                    return Err(e);
+                }
+            }
+        }
         Ok(Attachments { sets, extent })
     }
 

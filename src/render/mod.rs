@@ -377,27 +377,6 @@ impl Renderer {
                     return Err(e);
                 }
             };
-        let mut ubos = Vec::new();
-        for i in 0..slots {
-            ubos.push(Buffer::new(
-                &ctx,
-                &BufferDesc {
-                    name: &format!("frame data {i}"),
-                    size: UBO_SIZE,
-                    usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
-                    location: MemoryLocation::CpuToGpu,
-                    category: "per-frame",
-                },
-            )?);
-        }
-        let ring = FrameRing::new(&ctx, slots)?;
-        let mut queries = Vec::new();
-        for _ in 0..slots {
-            // Secondary command buffers may run inside the frame's
-            // statistics query only with inheritedQueries.
-            let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
-            queries.push(Some(Queries::new(&ctx, 32, stats)?));
-        }
         let depth_out = output.as_ref().is_some_and(|o| o.depth);
         let mask_in_depth = mask_in_depth(config, depth_out);
         let stencil = tests_stencil(config, mask_in_depth) || depth_out;
@@ -430,10 +409,10 @@ impl Renderer {
             scene: Some(scene_gpu),
             targets: None,
             descriptors,
-            ubos,
+            ubos: Vec::new(),
             visible: (0..slots).map(|_| None).collect(),
-            ring: Some(ring),
-            queries,
+            ring: None,
+            queries: Vec::new(),
             slot: 0,
             slots,
             in_flight: (0..slots).map(|_| None).collect(),
@@ -476,6 +455,27 @@ impl Renderer {
             updates: instance_updates::InstanceUpdates::new(slots),
             instance_count: scene.instances.len(),
         };
+        // Made into the renderer, so a failure from here on drops it and
+        // with it everything made so far.
+        for i in 0..slots {
+            r.ubos.push(Buffer::new(
+                &ctx,
+                &BufferDesc {
+                    name: &format!("frame data {i}"),
+                    size: UBO_SIZE,
+                    usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "per-frame",
+                },
+            )?);
+        }
+        r.ring = Some(FrameRing::new(&ctx, slots)?);
+        for _ in 0..slots {
+            // Secondary command buffers may run inside the frame's
+            // statistics query only with inheritedQueries.
+            let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
+            r.queries.push(Some(Queries::new(&ctx, 32, stats)?));
+        }
         if let Some(n) = config.record_threads {
             r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
         }

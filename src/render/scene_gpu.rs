@@ -133,11 +133,16 @@ pub fn upload(
             location: MemoryLocation::GpuOnly,
             category,
         },
-    )?;
-    let r = copy_now(ctx, &staging, &dst, 0, size);
+    );
+    let copied = dst.and_then(|dst| match copy_now(ctx, &staging, &dst, 0, size) {
+        Ok(()) => Ok(dst),
+        Err(e) => {
+            dst.destroy(ctx);
+            Err(e)
+        }
+    });
     staging.destroy(ctx);
-    r?;
-    Ok(dst)
+    copied
 }
 
 /// Copies the first `size` bytes of `src` to `dst` at `dst_offset` in a
@@ -228,163 +233,218 @@ impl SceneGpu {
                 vertex_count
             ),
         )?;
-        let mut streams: [Option<Buffer>; 6] = Default::default();
-        for (i, (name, _)) in STREAMS.iter().enumerate() {
-            if used[i] {
-                streams[i] = Some(upload(
-                    ctx,
-                    &format!("vertex {name}"),
-                    vk::BufferUsageFlags::VERTEX_BUFFER,
-                    "vertex",
-                    bytes_of(&data[i]),
-                )?);
-            }
-        }
-        // Defaults read at stride 0: tangent +X, uv 0, colour white.
-        let defaults_data: [f32; 16] = [
-            1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
-        ];
-        let defaults = upload(
-            ctx,
-            "vertex defaults",
-            vk::BufferUsageFlags::VERTEX_BUFFER,
-            "vertex",
-            bytes_of(&defaults_data),
-        )?;
+        // What is uploaded so far: destroyed if a later upload fails.
+        let mut u = Uploaded::default();
         let mut lod_ranges = vec![Vec::new(); scene.primitives.len()];
-        if let Some(chains) = lod {
-            for (p, levels) in chains.levels.iter().enumerate() {
-                for l in levels {
-                    let range = DrawRange {
-                        first_index: indices.len() as u32,
-                        index_count: l.indices.len() as u32,
-                        ..ranges[p]
-                    };
-                    indices.extend_from_slice(&l.indices);
-                    lod_ranges[p].push((range, l.error));
+        let mut fullscreen_first_index = 0;
+        let made = (|| -> Result<()> {
+            for (i, (name, _)) in STREAMS.iter().enumerate() {
+                if used[i] {
+                    u.streams[i] = Some(upload(
+                        ctx,
+                        &format!("vertex {name}"),
+                        vk::BufferUsageFlags::VERTEX_BUFFER,
+                        "vertex",
+                        bytes_of(&data[i]),
+                    )?);
                 }
             }
-        }
-        // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
-        // drops non-indexed draws from every view but the first under multiview.
-        let fullscreen_first_index = indices.len() as u32;
-        indices.extend_from_slice(&[0, 1, 2]);
-        let indices = upload(
-            ctx,
-            "indices",
-            vk::BufferUsageFlags::INDEX_BUFFER,
-            "index",
-            bytes_of(&indices),
-        )?;
-
-        let mut inst: Vec<f32> = Vec::with_capacity(scene.instances.len() * 16);
-        for i in &scene.instances {
-            inst.extend_from_slice(&instance_record(&i.transform));
-        }
-        let instances = upload(
-            ctx,
-            "instances",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            "instance",
-            bytes_of(&inst),
-        )?;
-
-        let mut mats: Vec<u32> = Vec::new();
-        for m in &scene.materials {
-            let f = |v: f32| v.to_bits();
-            let t = |r: Option<u32>| r.map_or(-1i32, |x| x as i32) as u32;
-            mats.extend(m.base_color.map(f));
-            mats.extend([
-                f(m.emissive[0]),
-                f(m.emissive[1]),
-                f(m.emissive[2]),
-                f(m.alpha_cutoff),
-            ]);
-            let ns = m.normal_tex.map_or(1.0, |(_, s)| s);
-            let os = m.occlusion_tex.map_or(1.0, |(_, s)| s);
-            mats.extend([f(m.metallic), f(m.roughness), f(ns), f(os)]);
-            let slots = [
-                m.base_color_tex,
-                m.metallic_roughness_tex,
-                m.normal_tex.map(|x| x.0),
-                m.occlusion_tex.map(|x| x.0),
-                m.emissive_tex,
+            // Defaults read at stride 0: tangent +X, uv 0, colour white.
+            let defaults_data: [f32; 16] = [
+                1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
             ];
-            let uv_mask = slots.iter().enumerate().fold(0u32, |acc, (i, s)| {
-                acc | (s.is_some_and(|s| s.tex_coord == 1) as u32) << i
-            });
-            let flags = (m.unlit as u32)
-                | (m.double_sided as u32) << 1
-                | ((m.alpha_mode == AlphaMode::Mask) as u32) << 2;
-            mats.extend(slots[..4].iter().map(|s| t(s.map(|s| s.texture))));
-            mats.extend([t(slots[4].map(|s| s.texture)), uv_mask, flags, 0]);
-        }
-        let materials = upload(
-            ctx,
-            "materials",
-            vk::BufferUsageFlags::STORAGE_BUFFER,
-            "material",
-            bytes_of(&mats),
-        )?;
-
-        let mut samplers = Vec::new();
-        for (repeat, linear) in [(false, false), (false, true), (true, false), (true, true)] {
-            let address = if repeat {
-                vk::SamplerAddressMode::REPEAT
-            } else {
-                vk::SamplerAddressMode::CLAMP_TO_EDGE
-            };
-            let filter = if linear {
-                vk::Filter::LINEAR
-            } else {
-                vk::Filter::NEAREST
-            };
-            let info = vk::SamplerCreateInfo::default()
-                .mag_filter(filter)
-                .min_filter(filter)
-                .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                .address_mode_u(address)
-                .address_mode_v(address)
-                .address_mode_w(address)
-                .max_lod(vk::LOD_CLAMP_NONE);
-            // SAFETY: valid sampler create info.
-            samplers
-                .push(unsafe { ctx.device.create_sampler(&info, None) }.vk("creating a sampler")?);
-        }
-        let mut textures = Vec::new();
-        let mut texture_samplers = Vec::new();
-        if scene.textures.is_empty() {
-            textures.push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
-            texture_samplers.push(samplers[0]);
-        }
-        for t in &scene.textures {
-            textures.push(upload_texture(
-                ctx, &t.name, t.width, t.height, t.srgb, &t.rgba8,
+            u.defaults = Some(upload(
+                ctx,
+                "vertex defaults",
+                vk::BufferUsageFlags::VERTEX_BUFFER,
+                "vertex",
+                bytes_of(&defaults_data),
             )?);
-            texture_samplers.push(samplers[(t.repeat as usize) * 2 + t.linear as usize]);
+            if let Some(chains) = lod {
+                for (p, levels) in chains.levels.iter().enumerate() {
+                    for l in levels {
+                        let range = DrawRange {
+                            first_index: indices.len() as u32,
+                            index_count: l.indices.len() as u32,
+                            ..ranges[p]
+                        };
+                        indices.extend_from_slice(&l.indices);
+                        lod_ranges[p].push((range, l.error));
+                    }
+                }
+            }
+            // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
+            // drops non-indexed draws from every view but the first under multiview.
+            fullscreen_first_index = indices.len() as u32;
+            indices.extend_from_slice(&[0, 1, 2]);
+            u.indices = Some(upload(
+                ctx,
+                "indices",
+                vk::BufferUsageFlags::INDEX_BUFFER,
+                "index",
+                bytes_of(&indices),
+            )?);
+
+            let mut inst: Vec<f32> = Vec::with_capacity(scene.instances.len() * 16);
+            for i in &scene.instances {
+                inst.extend_from_slice(&instance_record(&i.transform));
+            }
+            u.instances = Some(upload(
+                ctx,
+                "instances",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                "instance",
+                bytes_of(&inst),
+            )?);
+
+            let mut mats: Vec<u32> = Vec::new();
+            for m in &scene.materials {
+                let f = |v: f32| v.to_bits();
+                let t = |r: Option<u32>| r.map_or(-1i32, |x| x as i32) as u32;
+                mats.extend(m.base_color.map(f));
+                mats.extend([
+                    f(m.emissive[0]),
+                    f(m.emissive[1]),
+                    f(m.emissive[2]),
+                    f(m.alpha_cutoff),
+                ]);
+                let ns = m.normal_tex.map_or(1.0, |(_, s)| s);
+                let os = m.occlusion_tex.map_or(1.0, |(_, s)| s);
+                mats.extend([f(m.metallic), f(m.roughness), f(ns), f(os)]);
+                let slots = [
+                    m.base_color_tex,
+                    m.metallic_roughness_tex,
+                    m.normal_tex.map(|x| x.0),
+                    m.occlusion_tex.map(|x| x.0),
+                    m.emissive_tex,
+                ];
+                let uv_mask = slots.iter().enumerate().fold(0u32, |acc, (i, s)| {
+                    acc | (s.is_some_and(|s| s.tex_coord == 1) as u32) << i
+                });
+                let flags = (m.unlit as u32)
+                    | (m.double_sided as u32) << 1
+                    | ((m.alpha_mode == AlphaMode::Mask) as u32) << 2;
+                mats.extend(slots[..4].iter().map(|s| t(s.map(|s| s.texture))));
+                mats.extend([t(slots[4].map(|s| s.texture)), uv_mask, flags, 0]);
+            }
+            u.materials = Some(upload(
+                ctx,
+                "materials",
+                vk::BufferUsageFlags::STORAGE_BUFFER,
+                "material",
+                bytes_of(&mats),
+            )?);
+
+            for (repeat, linear) in [(false, false), (false, true), (true, false), (true, true)] {
+                let address = if repeat {
+                    vk::SamplerAddressMode::REPEAT
+                } else {
+                    vk::SamplerAddressMode::CLAMP_TO_EDGE
+                };
+                let filter = if linear {
+                    vk::Filter::LINEAR
+                } else {
+                    vk::Filter::NEAREST
+                };
+                let info = vk::SamplerCreateInfo::default()
+                    .mag_filter(filter)
+                    .min_filter(filter)
+                    .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+                    .address_mode_u(address)
+                    .address_mode_v(address)
+                    .address_mode_w(address)
+                    .max_lod(vk::LOD_CLAMP_NONE);
+                // SAFETY: valid sampler create info.
+                u.samplers.push(
+                    unsafe { ctx.device.create_sampler(&info, None) }.vk("creating a sampler")?,
+                );
+            }
+            if scene.textures.is_empty() {
+                u.textures
+                    .push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
+                u.texture_samplers.push(u.samplers[0]);
+            }
+            for t in &scene.textures {
+                u.textures.push(upload_texture(
+                    ctx, &t.name, t.width, t.height, t.srgb, &t.rgba8,
+                )?);
+                u.texture_samplers
+                    .push(u.samplers[(t.repeat as usize) * 2 + t.linear as usize]);
+            }
+            Ok(())
+        })();
+        match (made, u) {
+            (
+                Ok(()),
+                Uploaded {
+                    streams,
+                    defaults: Some(defaults),
+                    indices: Some(indices),
+                    instances: Some(instances),
+                    materials: Some(materials),
+                    textures,
+                    texture_samplers,
+                    samplers,
+                },
+            ) => Ok(SceneGpu {
+                streams,
+                defaults,
+                indices,
+                instances,
+                materials,
+                textures,
+                texture_samplers,
+                samplers,
+                ranges,
+                lod_ranges,
+                features,
+                fullscreen_first_index,
+            }),
+            (made, u) => {
+                u.destroy(ctx);
+                Err(made.err().unwrap_or_else(|| {
+                    crate::error::Error::Gpu("a scene upload was left unfinished".into())
+                }))
+            }
         }
-        Ok(SceneGpu {
-            streams,
-            defaults,
-            indices,
-            instances,
-            materials,
-            textures,
-            texture_samplers,
-            samplers,
-            ranges,
-            lod_ranges,
-            features,
-            fullscreen_first_index,
-        })
     }
 
     /// Destroys every resource (device must be idle).
     pub fn destroy(self, ctx: &Context) {
-        for b in self.streams.into_iter().flatten() {
-            b.destroy(ctx);
+        Uploaded {
+            streams: self.streams,
+            defaults: Some(self.defaults),
+            indices: Some(self.indices),
+            instances: Some(self.instances),
+            materials: Some(self.materials),
+            textures: self.textures,
+            texture_samplers: self.texture_samplers,
+            samplers: self.samplers,
         }
-        for b in [self.defaults, self.indices, self.instances, self.materials] {
+        .destroy(ctx);
+    }
+}
+
+/// A scene's GPU objects as they are uploaded (the buffers optional until
+/// the upload is whole), so that an upload left half done is destroyed.
+#[derive(Default)]
+struct Uploaded {
+    streams: [Option<Buffer>; 6],
+    defaults: Option<Buffer>,
+    indices: Option<Buffer>,
+    instances: Option<Buffer>,
+    materials: Option<Buffer>,
+    textures: Vec<Image>,
+    /// Copies of `samplers`' handles, per texture.
+    texture_samplers: Vec<vk::Sampler>,
+    samplers: Vec<vk::Sampler>,
+}
+
+impl Uploaded {
+    /// Destroys what was uploaded; the device must be idle.
+    fn destroy(self, ctx: &Context) {
+        let buffers = [self.defaults, self.indices, self.instances, self.materials];
+        for b in self.streams.into_iter().chain(buffers).flatten() {
             b.destroy(ctx);
         }
         for t in self.textures {
@@ -459,7 +519,7 @@ fn upload_texture(
             flags: vk::ImageCreateFlags::empty(),
         },
     )?;
-    let staging = Buffer::with_data(
+    let staging = match Buffer::with_data(
         ctx,
         &BufferDesc {
             name: "texture staging",
@@ -469,7 +529,13 @@ fn upload_texture(
             category: "staging",
         },
         rgba,
-    )?;
+    ) {
+        Ok(b) => b,
+        Err(e) => {
+            image.destroy(ctx);
+            return Err(e);
+        }
+    };
     let d = &ctx.device;
     let barrier = |level: u32, from: Use, to: Use| {
         barrier::image_level(image.image, vk::ImageAspectFlags::COLOR, level, 1, from, to)
@@ -541,6 +607,11 @@ fn upload_texture(
         }
     });
     staging.destroy(ctx);
-    r?;
-    Ok(image)
+    match r {
+        Ok(()) => Ok(image),
+        Err(e) => {
+            image.destroy(ctx);
+            Err(e)
+        }
+    }
 }

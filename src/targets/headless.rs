@@ -358,7 +358,7 @@ pub fn new_renderer(
         let per_pixel = 8 * config.msaa as u64 + 4;
         let need = extent.width as u64 * extent.height as u64 * 2 * per_pixel;
         Error::Gpu(format!(
-            "cannot allocate the render targets for {}x{} px per eye at {}x MSAA (about {:.1} MiB of colour, depth and resolve images for 2 views, before the scene): {e}; try a smaller --width/--height or --msaa 1",
+            "out of GPU memory making the renderer for {}x{} px per eye at {}x MSAA (its colour, depth and resolve images take about {:.1} MiB for 2 views, besides the scene): {e}; try a smaller --width/--height or --msaa 1",
             extent.width,
             extent.height,
             config.msaa,
