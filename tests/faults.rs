@@ -123,12 +123,16 @@ fn every_allocation_failure_is_one_error_and_leaves_nothing_behind() {
         ] {
             let mut n = 1;
             loop {
-                assert!(n <= 80, "{kind}@{n} with {opt}: still failing");
+                assert!(n <= 150, "{kind}@{n} with {opt}: still failing");
                 let o = Command::new(env!("CARGO_BIN_EXE_vergence"))
                     .args(["render", "--scene", "factory:200", "--hmd", "monado-sim"])
                     .args(["--width", "64", "--height", "48", "--opt", opt, "--out"])
                     .arg(&out)
                     .env("VERGENCE_INJECT_FAULT", format!("{kind}@{n}"))
+                    // The leak report is a warning; objects left at device
+                    // destruction are validation errors.
+                    .env("RUST_LOG", "warn")
+                    .env("VERGENCE_VALIDATION", "required")
                     .output()
                     .expect("vergence runs");
                 let stderr = String::from_utf8_lossy(&o.stderr);

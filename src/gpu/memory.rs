@@ -112,8 +112,13 @@ impl Buffer {
                 ..*desc
             },
         )?;
-        b.write(0, data)?;
-        Ok(b)
+        match b.write(0, data) {
+            Ok(()) => Ok(b),
+            Err(e) => {
+                b.destroy(ctx);
+                Err(e)
+            }
+        }
     }
 
     /// The mapped bytes of a host-visible buffer.
@@ -281,17 +286,26 @@ impl Image {
         } else {
             None
         };
+        // From here a failure destroys the image (and frees its memory).
+        let drop_image = || {
+            // SAFETY: the image was never used.
+            unsafe { d.destroy_image(image, None) }
+        };
         let memory = match lazy_type {
             Some(t) => {
                 let ai = vk::MemoryAllocateInfo::default()
                     .allocation_size(req.size)
                     .memory_type_index(t);
                 // SAFETY: a memory type the image accepts.
-                let m = unsafe { d.allocate_memory(&ai, None) }
-                    .vk("allocating lazily allocated memory")?;
-                // SAFETY: fresh memory of sufficient size.
-                unsafe { d.bind_image_memory(image, m, 0) }.vk("binding image memory")?;
-                Memory::Lazy(m)
+                match unsafe { d.allocate_memory(&ai, None) }
+                    .vk("allocating lazily allocated memory")
+                {
+                    Ok(m) => Memory::Lazy(m),
+                    Err(e) => {
+                        drop_image();
+                        return Err(e);
+                    }
+                }
             }
             None => {
                 let alloc = ctx
@@ -309,19 +323,36 @@ impl Image {
                             })
                         })
                     })
-                    .ok_or_else(|| Error::Gpu("allocator unavailable".into()))?
-                    .map_err(|e| {
-                        // SAFETY: the image is unused.
-                        unsafe { d.destroy_image(image, None) };
-                        alloc_err(desc.name, e)
-                    })?;
-                // SAFETY: allocator memory for this image's requirements.
-                unsafe { d.bind_image_memory(image, alloc.memory(), alloc.offset()) }
-                    .vk("binding image memory")?;
-                ctx.track_memory(desc.category, alloc.size() as i64);
-                Memory::Allocator(alloc)
+                    .ok_or_else(|| Error::Gpu("allocator unavailable".into()))
+                    .and_then(|r| r.map_err(|e| alloc_err(desc.name, e)));
+                match alloc {
+                    Ok(alloc) => {
+                        ctx.track_memory(desc.category, alloc.size() as i64);
+                        Memory::Allocator(alloc)
+                    }
+                    Err(e) => {
+                        drop_image();
+                        return Err(e);
+                    }
+                }
             }
         };
+        let (mem, offset) = match &memory {
+            Memory::Lazy(m) => (*m, 0),
+            Memory::Allocator(a) => (
+                // SAFETY: the allocation's block outlives the image.
+                unsafe { a.memory() },
+                a.offset(),
+            ),
+        };
+        // SAFETY: memory for this image's requirements.
+        if let Err(e) =
+            unsafe { d.bind_image_memory(image, mem, offset) }.vk("binding image memory")
+        {
+            drop_image();
+            free(ctx, memory, desc.category);
+            return Err(e);
+        }
         let view_type = if desc.layers == 1 {
             vk::ImageViewType::TYPE_2D
         } else {
@@ -333,7 +364,7 @@ impl Image {
             .flags
             .contains(vk::ImageCreateFlags::EXTENDED_USAGE)
             .then(|| desc.usage & !vk::ImageUsageFlags::STORAGE);
-        let view = Self::view_for(
+        let view = match Self::view_for(
             ctx,
             image,
             desc.format,
@@ -342,7 +373,14 @@ impl Image {
             (0, desc.layers),
             desc.mips,
             view_usage,
-        )?;
+        ) {
+            Ok(v) => v,
+            Err(e) => {
+                drop_image();
+                free(ctx, memory, desc.category);
+                return Err(e);
+            }
+        };
         ctx.set_name(image, desc.name);
         Ok(Image {
             image,

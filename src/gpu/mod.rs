@@ -518,17 +518,29 @@ impl Context {
         // this device; everything is destroyed before returning.
         unsafe {
             let (pool, cb) = self.command_pool("upload")?;
-            d.begin_command_buffer(
-                cb,
-                &vk::CommandBufferBeginInfo::default()
-                    .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
-            )
-            .vk("beginning an upload")?;
-            record(cb);
-            d.end_command_buffer(cb).vk("ending an upload")?;
-            let fence = d
-                .create_fence(&vk::FenceCreateInfo::default(), None)
-                .vk("creating a fence")?;
+            let recorded = d
+                .begin_command_buffer(
+                    cb,
+                    &vk::CommandBufferBeginInfo::default()
+                        .flags(vk::CommandBufferUsageFlags::ONE_TIME_SUBMIT),
+                )
+                .vk("beginning an upload")
+                .and_then(|()| {
+                    record(cb);
+                    d.end_command_buffer(cb).vk("ending an upload")
+                });
+            let fence = recorded.and_then(|()| {
+                d.create_fence(&vk::FenceCreateInfo::default(), None)
+                    .vk("creating a fence")
+            });
+            let fence = match fence {
+                Ok(f) => f,
+                Err(e) => {
+                    // Never submitted: the pool goes at once.
+                    d.destroy_command_pool(pool, None);
+                    return Err(e);
+                }
+            };
             let cbs = [cb];
             let submit = vk::SubmitInfo::default().command_buffers(&cbs);
             let r = d

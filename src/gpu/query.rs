@@ -62,7 +62,16 @@ impl Queries {
                 .query_count(1)
                 .pipeline_statistics(STATS);
             // SAFETY: the feature was enabled at device creation.
-            Some(unsafe { d.create_query_pool(&info, None) }.vk("creating a statistics pool")?)
+            match unsafe { d.create_query_pool(&info, None) }.vk("creating a statistics pool") {
+                Ok(p) => Some(p),
+                Err(e) => {
+                    if let Some(t) = timestamps {
+                        // SAFETY: just made, never used.
+                        unsafe { d.destroy_query_pool(t, None) };
+                    }
+                    return Err(e);
+                }
+            }
         } else {
             None
         };

@@ -42,12 +42,28 @@ impl FrameRing {
         let d = &ctx.device;
         let mut frames = Vec::new();
         for i in 0..count.max(1) {
-            // SAFETY: creating per-frame objects on a live device.
+            // SAFETY: creating per-frame objects on a live device; on a
+            // failure what was made, never used, is destroyed.
             unsafe {
-                let (pool, cmd) = ctx.command_pool("frame")?;
-                let fence = d
-                    .create_fence(&vk::FenceCreateInfo::default(), None)
-                    .vk("creating a frame fence")?;
+                let made = ctx.command_pool("frame").and_then(|(pool, cmd)| {
+                    match d
+                        .create_fence(&vk::FenceCreateInfo::default(), None)
+                        .vk("creating a frame fence")
+                    {
+                        Ok(fence) => Ok((pool, cmd, fence)),
+                        Err(e) => {
+                            d.destroy_command_pool(pool, None);
+                            Err(e)
+                        }
+                    }
+                });
+                let (pool, cmd, fence) = match made {
+                    Ok(m) => m,
+                    Err(e) => {
+                        FrameRing { frames, current: 0 }.destroy(ctx);
+                        return Err(e);
+                    }
+                };
                 ctx.set_name(cmd, &format!("frame {i} commands"));
                 frames.push(Frame {
                     fence,
