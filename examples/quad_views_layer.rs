@@ -14,7 +14,9 @@
 //!   without the extension tests that path), with four views: the runtime's two stereo
 //!   views (the context views) and two focus views with the same pose, a
 //!   FOV of [`FOCUS_TAN`] × the eye's tangents on each side, and a
-//!   recommended size of that fraction of the eye's (the same density);
+//!   recommended size of that fraction of the eye's (the same density;
+//!   `VERGENCE_QUAD_LAYER_CONTEXT_SCALE` recommends the context views at a
+//!   lower density, as Varjo's are);
 //! - begins the runtime's session as stereo, locates the four views from
 //!   the runtime's two, and answers blend modes, properties and visibility
 //!   masks of the quad configuration with the stereo one's (the focus
@@ -357,7 +359,29 @@ unsafe extern "system" fn enumerate_view_configuration_views(
             .max(1),
         ..v
     };
-    let views = [stereo[0], stereo[1], focus(stereo[0]), focus(stereo[1])];
+    // VERGENCE_QUAD_LAYER_CONTEXT_SCALE recommends the context views at
+    // that fraction of the runtime's size, a lower density than the focus
+    // views' (as Varjo's do).
+    let scale: f32 = std::env::var("VERGENCE_QUAD_LAYER_CONTEXT_SCALE")
+        .ok()
+        .and_then(|v| v.parse().ok())
+        .filter(|s: &f32| *s > 0.0 && *s <= 1.0)
+        .unwrap_or(1.0);
+    let context = |v: sys::ViewConfigurationView| sys::ViewConfigurationView {
+        recommended_image_rect_width: ((v.recommended_image_rect_width as f32 * scale).ceil()
+            as u32)
+            .max(1),
+        recommended_image_rect_height: ((v.recommended_image_rect_height as f32 * scale).ceil()
+            as u32)
+            .max(1),
+        ..v
+    };
+    let views = [
+        context(stereo[0]),
+        context(stereo[1]),
+        focus(stereo[0]),
+        focus(stereo[1]),
+    ];
     if count.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }

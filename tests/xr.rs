@@ -860,6 +860,18 @@ fn inset_against_wide(
 /// validation layer, which must succeed cleanly: its stats and the
 /// layer's log of projection layers (JSON lines).
 fn run_with_layer(dir: &Path, layers: &Path, name: &str, args: &str) -> (Value, Vec<Value>) {
+    run_with_layer_env(dir, layers, name, args, &[])
+}
+
+/// [`run_with_layer`] with `env` set for the layer too, and the size left
+/// to the runtime when `args` has no `--width`.
+fn run_with_layer_env(
+    dir: &Path,
+    layers: &Path,
+    name: &str,
+    args: &str,
+    env: &[(&str, &str)],
+) -> (Value, Vec<Value>) {
     let log = dir.join(format!("{name}-layer.jsonl"));
     let s_path = dir.join(format!("{name}.json"));
     let o = with_monado(false)
@@ -875,8 +887,13 @@ fn run_with_layer(dir: &Path, layers: &Path, name: &str, args: &str) -> (Value, 
             "XR_APILAYER_LUNARG_core_validation:XR_APILAYER_VERGENCE_quad_views",
         )
         .env("VERGENCE_QUAD_LAYER_LOG", &log)
+        .envs(env.iter().copied())
         .args(["run", "--xr", "openxr", "--scene", "factory:2000"])
-        .args(["--width", "160", "--height", "128"])
+        .args(if env.is_empty() {
+            &["--width", "160", "--height", "128"][..]
+        } else {
+            &[][..]
+        })
         .args(args.split_whitespace())
         .arg("--stats-out")
         .arg(&s_path)
@@ -1085,4 +1102,43 @@ fn openxr_1_1s_foveated_inset_configuration_takes_the_four_views_too() {
     );
     assert_no_validation(&o, &s);
     assert_eq!(s["view_configuration"], "PRIMARY_STEREO");
+}
+
+/// Context views recommended at half the focus views' density (as
+/// Varjo's are; the test layer's VERGENCE_QUAD_LAYER_CONTEXT_SCALE=0.5):
+/// the first frame goes out at the context views' 160×120, then the eyes
+/// grow to 320×240 so that each inset has at least the focus view's
+/// recommended 128×96 pixels (0.4 of Monado's 320×240), and every later
+/// frame submits insets of that size.
+#[test]
+fn the_insets_get_the_focus_views_density_when_the_context_views_have_less() {
+    let _g = lock();
+    let dir = out_dir("quad-density");
+    let layers = quad_views_layer(&dir, true);
+    let (s, lines) = run_with_layer_env(
+        &dir,
+        &layers,
+        "density",
+        "--frames 12 --opt superfrustum,inset",
+        &[("VERGENCE_QUAD_LAYER_CONTEXT_SCALE", "0.5")],
+    );
+    assert_eq!(s["view_configuration"], "PRIMARY_QUAD_VARJO");
+    assert_eq!(s["views"][0]["recommended"], serde_json::json!([160, 120]));
+    assert_eq!(s["views"][2]["recommended"], serde_json::json!([128, 96]));
+    assert_eq!(s["image_size"], serde_json::json!([320, 240]));
+    let frames: Vec<&Value> = lines.iter().filter(|l| l.get("views").is_some()).collect();
+    let size = |f: &Value, i: usize| {
+        (
+            f["rect"][i][2].as_i64().unwrap(),
+            f["rect"][i][3].as_i64().unwrap(),
+        )
+    };
+    // The first frame at the context views' size: the wide view is 80×60.
+    assert_eq!(size(frames[0], 0), (80, 60), "{}", frames[0]);
+    let last = frames.last().unwrap();
+    assert_eq!(size(last, 0), (160, 120), "{last}");
+    for eye in 2..4 {
+        let (w, h) = size(last, eye);
+        assert!((128..=131).contains(&w) && (96..=99).contains(&h), "{last}");
+    }
 }

@@ -400,6 +400,17 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         motion_origin_ns: None,
         lens: None,
         pending_toggle: None,
+        // With --width/--height the eye size is the user's.
+        focus_px: (quad && args.size.is_none()).then(|| {
+            let px = |v: &xr::ViewConfigurationView| {
+                (
+                    v.recommended_image_rect_width,
+                    v.recommended_image_rect_height,
+                )
+            };
+            [px(&config_views[2]), px(&config_views[3])]
+        }),
+        pending_resize: None,
         last_times: None,
         panel_drawn: false,
         last_shown: None,
@@ -600,6 +611,12 @@ struct LoopState<'a> {
     lens: Option<(Vec<Fov>, Arc<Vec<HiddenArea>>)>,
     /// A panel button's toggle, switched at the top of the next frame.
     pending_toggle: Option<super::toggles::Toggle>,
+    /// With quad views: the focus views' recommended sizes (left, right),
+    /// until the first located frame has set the eye size from them.
+    focus_px: Option<[(u32, u32); 2]>,
+    /// A larger eye size for the focus views' density, applied at the top
+    /// of the next frame.
+    pending_resize: Option<vk::Extent2D>,
     /// The last finished frame's GPU and CPU ms and the budget (the
     /// panel's status line).
     last_times: Option<(f64, f64, f64)>,
@@ -662,6 +679,11 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
                 if let Err(e) = switch_config(live, stats, st, &session, new) {
                     break 'main Err(e);
                 }
+            }
+        }
+        if let Some(nominal) = st.pending_resize.take() {
+            if let Err(e) = resize_eyes(live, stats, st, &session, nominal) {
+                break 'main Err(e);
             }
         }
         if let Some(t) = st.pending_toggle.take() {
@@ -884,6 +906,86 @@ fn switch_config(
     Ok(())
 }
 
+/// The eye size at which the focus views (FOVs `focus`, recommended
+/// `px`) get their own density ([`crate::view::inset::focus_density_size`],
+/// the larger over the eyes), when it is larger than the current one and
+/// the runtime's images (and with aq the largest scale) allow it; else
+/// None (the eyes keep their size).
+fn focus_density_extent(
+    chains: &ChainSpec,
+    eyes: &[(Pose, Fov)],
+    focus: &[Fov; 2],
+    px: [(u32, u32); 2],
+) -> Option<vk::Extent2D> {
+    let mut need = chains.nominal;
+    for ((_, eye), (f, p)) in eyes.iter().zip(focus.iter().zip(px)) {
+        let (w, h) = crate::view::inset::focus_density_size(eye, f, p)?;
+        need.width = need.width.max(w);
+        need.height = need.height.max(h);
+    }
+    if need == chains.nominal {
+        return None;
+    }
+    let aq = chains.extent != chains.nominal;
+    let fits = ChainSpec {
+        nominal: need,
+        ..*chains
+    }
+    .images_for(aq);
+    match fits {
+        Ok(_) => {
+            tracing::info!(
+                "quad views: the eyes go from {}x{} to {}x{} so that the insets have the focus views' density",
+                chains.nominal.width,
+                chains.nominal.height,
+                need.width,
+                need.height
+            );
+            Some(need)
+        }
+        Err(e) => {
+            tracing::warn!("quad views: the eyes keep their size ({e})");
+            None
+        }
+    }
+}
+
+/// Renders from the next frame on at `nominal` pixels per eye: the frames
+/// in flight finish (their records join the log), the swapchains and the
+/// renderer are made again for the size; the session, the space, the
+/// actions and the window stay.
+fn resize_eyes(
+    live: &mut Live,
+    stats: &mut RunStats,
+    st: &mut LoopState,
+    session: &xr::Session<xr::Vulkan>,
+    nominal: vk::Extent2D,
+) -> Result<()> {
+    let Some(mut driver) = live.driver.take() else {
+        return Ok(());
+    };
+    let finished = driver.finish();
+    while let Some(r) = driver.take_completed() {
+        st.records.complete(&r, stats);
+    }
+    finished?;
+    st.records.flush(stats)?;
+    if let Some(m) = live.mirror.as_mut() {
+        m.finish()?;
+    }
+    let ctx = driver.renderer().context().clone();
+    // The old renderer goes first (it waits for the device).
+    drop(driver);
+    let config = st.desk.live.config.clone();
+    st.chains.nominal = nominal;
+    st.chains.extent = st.chains.images_for(config.aq)?;
+    st.chains.create(session, live, &config)?;
+    let r = Renderer::with_output(ctx, st.scene, &config, nominal, Some(st.chains.output()))?;
+    live.driver = Some(FrameDriver::new(r, st.scene)?);
+    stats.image_size = [nominal.width, nominal.height];
+    Ok(())
+}
+
 fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
     let args = st.args;
     let session = live.session.clone().expect("set");
@@ -943,6 +1045,9 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
                 Some([l, r]) => Some([l.1, r.1]),
                 _ => None,
             };
+            if let (Some(px), Some(f)) = (st.focus_px.take(), focus) {
+                st.pending_resize = focus_density_extent(&st.chains, &tracking, &f, px);
+            }
             let now_ns = fs.predicted_display_time.as_nanos();
             let dt = st
                 .last_display_ns

@@ -134,6 +134,33 @@ pub fn focus_rect(fovs: &[Fov], focus: &[Fov], width: u32, height: u32) -> Pixel
     })
 }
 
+/// The eye image size at which the focus view `focus` (in the eye `eye`,
+/// same pose) covers at least its recommended `focus_px` (width, height)
+/// pixels: the eye image is linear in the tangents, so a focus view
+/// spanning a fraction f of the eye's tangent range per axis needs
+/// ceil(focus_px / f) pixels on that axis. A runtime whose context views
+/// are recommended at a lower density than its focus views (Varjo's) gets
+/// its insets at the focus views' density from an eye this size. None
+/// when either FOV is empty or the focus view lies outside the eye.
+pub fn focus_density_size(eye: &Fov, focus: &Fov, focus_px: (u32, u32)) -> Option<(u32, u32)> {
+    let [el, er, eu, ed] = eye.tangents();
+    let [fl, fr, fu, fd] = focus.tangents();
+    let (ew, eh) = (er - el, eu - ed);
+    // The part of the focus view inside the eye.
+    let (fw, fh) = (fr.min(er) - fl.max(el), fu.min(eu) - fd.max(ed));
+    if !(ew > 0.0 && eh > 0.0 && fw > 0.0 && fh > 0.0) {
+        return None;
+    }
+    // Up to the rounding of FOVs that went through f32 (OpenXR's): a size
+    // a hundred-thousandth over a whole number is that number.
+    let axis = |px: u32, part: f64, whole: f64| {
+        (px as f64 * whole / part * (1.0 - 1e-5))
+            .ceil()
+            .min(65536.0) as u32
+    };
+    Some((axis(focus_px.0, fw, ew), axis(focus_px.1, fh, eh)))
+}
+
 /// The FOV of the eye `fov`'s pixel rectangle `r` in a `width`×`height`
 /// image ([`rect_tangents`] as angles): what a focus view drawn as that
 /// part of the eye image is submitted with.
@@ -381,6 +408,28 @@ mod tests {
                     prop_assert!((back[i] - t[i]).abs() < 1e-9);
                 }
             }
+        }
+
+        /// At the size [`focus_density_size`] gives, the focus rectangle
+        /// holds at least the focus view's recommended pixels on each axis
+        /// and at most a pixel more than the eye's pixels per focus pixel
+        /// allow (brute force through [`focus_rect`]).
+        #[test]
+        fn an_eye_of_the_focus_density_size_gives_the_focus_its_pixels(
+            l in 0.3..1.5f64, r in 0.3..1.5f64, u in 0.3..1.5f64, d in 0.3..1.5f64,
+            k in 0.1..0.9f64, fx in -0.1..0.1f64, pw in 16u32..400, ph in 16u32..400,
+        ) {
+            let eye = Fov { left: -l.atan(), right: r.atan(), up: u.atan(), down: -d.atan() };
+            let t = [-l * k + fx, r * k + fx, u * k, -d * k];
+            let focus = Fov { left: t[0].atan(), right: t[1].atan(), up: t[2].atan(), down: t[3].atan() };
+            let (w, h) = focus_density_size(&eye, &focus, (pw, ph)).unwrap();
+            let rect = focus_rect(&[eye], &[focus], w, h);
+            // At least the focus pixels (up to the f32 rounding allowance).
+            prop_assert!(rect.width() + 1 >= pw && rect.height() + 1 >= ph, "{rect:?} for {pw}x{ph} in {w}x{h}");
+            prop_assert!(rect.width() <= pw + 3 && rect.height() <= ph + 3, "{rect:?} for {pw}x{ph} in {w}x{h}");
+            // Empty or outside: none.
+            let outside = Fov { left: 1.4, right: 1.45, up: 0.1, down: -0.1 };
+            prop_assert!(focus_density_size(&eye, &outside, (pw, ph)).is_none() || r.atan() > 1.4);
         }
 
         /// Against the projection itself: a direction projects into the
