@@ -202,44 +202,38 @@ unsafe extern "system" fn get_instance_proc_addr(
     if name.is_null() || function.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
-    let hooked: Option<sys::pfn::VoidFunction> = match CStr::from_ptr(name).to_bytes() {
-        b"xrGetInstanceProcAddr" => Some(std::mem::transmute::<
-            sys::pfn::GetInstanceProcAddr,
-            sys::pfn::VoidFunction,
-        >(get_instance_proc_addr)),
-        b"xrEnumerateViewConfigurations" => Some(std::mem::transmute::<
-            sys::pfn::EnumerateViewConfigurations,
-            sys::pfn::VoidFunction,
-        >(enumerate_view_configurations)),
-        b"xrGetViewConfigurationProperties" => Some(std::mem::transmute::<
-            sys::pfn::GetViewConfigurationProperties,
-            sys::pfn::VoidFunction,
-        >(get_view_configuration_properties)),
-        b"xrEnumerateViewConfigurationViews" => Some(std::mem::transmute::<
-            sys::pfn::EnumerateViewConfigurationViews,
-            sys::pfn::VoidFunction,
-        >(enumerate_view_configuration_views)),
-        b"xrEnumerateEnvironmentBlendModes" => Some(std::mem::transmute::<
-            sys::pfn::EnumerateEnvironmentBlendModes,
-            sys::pfn::VoidFunction,
-        >(enumerate_environment_blend_modes)),
-        b"xrBeginSession" => Some(std::mem::transmute::<
-            sys::pfn::BeginSession,
-            sys::pfn::VoidFunction,
-        >(begin_session)),
-        b"xrLocateViews" => Some(std::mem::transmute::<
-            sys::pfn::LocateViews,
-            sys::pfn::VoidFunction,
-        >(locate_views)),
-        b"xrEndFrame" => Some(std::mem::transmute::<
-            sys::pfn::EndFrame,
-            sys::pfn::VoidFunction,
-        >(end_frame)),
+    // A hook as the loader's untyped function pointer.
+    macro_rules! hook {
+        ($ty:ty, $f:expr) => {
+            Some(std::mem::transmute::<$ty, sys::pfn::VoidFunction>($f))
+        };
+    }
+    use sys::pfn;
+    let hooked: Option<pfn::VoidFunction> = match CStr::from_ptr(name).to_bytes() {
+        b"xrGetInstanceProcAddr" => hook!(pfn::GetInstanceProcAddr, get_instance_proc_addr),
+        b"xrEnumerateViewConfigurations" => {
+            hook!(
+                pfn::EnumerateViewConfigurations,
+                enumerate_view_configurations
+            )
+        }
+        b"xrGetViewConfigurationProperties" => hook!(
+            pfn::GetViewConfigurationProperties,
+            get_view_configuration_properties
+        ),
+        b"xrEnumerateViewConfigurationViews" => hook!(
+            pfn::EnumerateViewConfigurationViews,
+            enumerate_view_configuration_views
+        ),
+        b"xrEnumerateEnvironmentBlendModes" => hook!(
+            pfn::EnumerateEnvironmentBlendModes,
+            enumerate_environment_blend_modes
+        ),
+        b"xrBeginSession" => hook!(pfn::BeginSession, begin_session),
+        b"xrLocateViews" => hook!(pfn::LocateViews, locate_views),
+        b"xrEndFrame" => hook!(pfn::EndFrame, end_frame),
         b"xrGetVisibilityMaskKHR" if next().is_some_and(|n| n.mask.is_some()) => {
-            Some(std::mem::transmute::<
-                sys::pfn::GetVisibilityMaskKHR,
-                sys::pfn::VoidFunction,
-            >(get_visibility_mask))
+            hook!(pfn::GetVisibilityMaskKHR, get_visibility_mask)
         }
         _ => None,
     };
@@ -256,8 +250,16 @@ unsafe extern "system" fn get_instance_proc_addr(
     }
 }
 
-/// Writes `items` through the two-call idiom.
-unsafe fn fill<T: Copy>(items: &[T], capacity: u32, count: *mut u32, out: *mut T) -> sys::Result {
+/// Writes `items` through the two-call idiom, each into its output
+/// element by `put` (which keeps what the application's structure must
+/// keep: its type and chain).
+unsafe fn fill_with<T, U>(
+    items: &[T],
+    capacity: u32,
+    count: *mut u32,
+    out: *mut U,
+    put: impl Fn(&mut U, &T),
+) -> sys::Result {
     if count.is_null() {
         return sys::Result::ERROR_VALIDATION_FAILURE;
     }
@@ -269,7 +271,7 @@ unsafe fn fill<T: Copy>(items: &[T], capacity: u32, count: *mut u32, out: *mut T
         return sys::Result::ERROR_SIZE_INSUFFICIENT;
     }
     for (i, item) in items.iter().enumerate() {
-        *out.add(i) = *item;
+        put(&mut *out.add(i), item);
     }
     sys::Result::SUCCESS
 }
@@ -298,7 +300,7 @@ unsafe extern "system" fn enumerate_view_configurations(
     if n.offered && types.contains(&STEREO) {
         types.push(QUAD);
     }
-    fill(&types, capacity, count, out)
+    fill_with(&types, capacity, count, out, |o, t| *o = *t)
 }
 
 unsafe extern "system" fn get_view_configuration_properties(
@@ -382,26 +384,13 @@ unsafe extern "system" fn enumerate_view_configuration_views(
         focus(stereo[0]),
         focus(stereo[1]),
     ];
-    if count.is_null() {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    }
-    *count = 4;
-    if capacity == 0 {
-        return sys::Result::SUCCESS;
-    }
-    if capacity < 4 || out.is_null() {
-        return sys::Result::ERROR_SIZE_INSUFFICIENT;
-    }
-    // The application's structures keep their type and chain.
-    for (i, v) in views.iter().enumerate() {
-        let o = &mut *out.add(i);
+    fill_with(&views, capacity, count, out, |o, v| {
         *o = sys::ViewConfigurationView {
             ty: o.ty,
             next: o.next,
             ..*v
-        };
-    }
-    sys::Result::SUCCESS
+        }
+    })
 }
 
 unsafe extern "system" fn enumerate_environment_blend_modes(
@@ -489,22 +478,10 @@ unsafe extern "system" fn locate_views(
             ..eyes[1]
         },
     ];
-    if count.is_null() {
-        return sys::Result::ERROR_VALIDATION_FAILURE;
-    }
-    *count = 4;
-    if capacity == 0 {
-        return sys::Result::SUCCESS;
-    }
-    if capacity < 4 || out.is_null() {
-        return sys::Result::ERROR_SIZE_INSUFFICIENT;
-    }
-    for (i, v) in views.iter().enumerate() {
-        let o = &mut *out.add(i);
+    fill_with(&views, capacity, count, out, |o, v| {
         o.pose = v.pose;
         o.fov = v.fov;
-    }
-    sys::Result::SUCCESS
+    })
 }
 
 unsafe extern "system" fn get_visibility_mask(

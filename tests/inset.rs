@@ -32,6 +32,17 @@ fn fixture() -> (
     (ctx, scene, profile, pose, fovs)
 }
 
+/// The inset most tests draw: the wide view at half size, ±15°, two
+/// scopes at the frame's MSAA.
+const SETTINGS: Inset = Inset {
+    wide_scale: 0.5,
+    half_angle_deg: 15.0,
+    fov_given: true,
+    four_views: false,
+    wide_1x: false,
+    composite: false,
+};
+
 fn srgb_to_linear(v: u8) -> f32 {
     common::srgb_to_linear(v) as f32
 }
@@ -120,14 +131,7 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
     let (ctx, scene, profile, pose, fovs) = fixture();
     // The two-scope path (the default, and what two-pass draws); the four
     // views in one scope are compared with it below.
-    let settings = Inset {
-        wide_scale: 0.5,
-        half_angle_deg: 15.0,
-        fov_given: true,
-        four_views: false,
-        wide_1x: false,
-        composite: false,
-    };
+    let settings = SETTINGS;
     let full = render_config(
         &ctx,
         &scene,
@@ -260,17 +264,10 @@ fn the_inset_is_the_full_render_and_the_rest_the_wide_view_upsampled() {
 fn four_views_in_one_scope_equal_the_two_scope_path() {
     let (ctx, scene, profile, pose, fovs) = fixture();
     let four = Inset {
-        wide_scale: 0.5,
-        half_angle_deg: 15.0,
-        fov_given: true,
         four_views: true,
-        wide_1x: false,
-        composite: false,
+        ..SETTINGS
     };
-    let two = Inset {
-        four_views: false,
-        ..four
-    };
+    let two = SETTINGS;
     let render = |inset: Option<Inset>, gaze: [f32; 2], w: u32, h: u32| {
         render_config(
             &ctx,
@@ -365,12 +362,9 @@ fn with_aq_the_inset_follows_the_render_scale() {
     let (ctx, scene, profile, pose, fovs) = fixture();
     for four_views in [false, true] {
         let inset = Inset {
-            wide_scale: 0.5,
             half_angle_deg: 20.0,
-            fov_given: true,
             four_views,
-            wide_1x: false,
-            composite: false,
+            ..SETTINGS
         };
         let config = RenderConfig {
             aq: true,
@@ -478,12 +472,8 @@ fn with_aq_the_inset_follows_the_render_scale() {
 fn wide_views_at_one_sample_keep_the_inset_at_4x() {
     let (ctx, scene, profile, pose, fovs) = fixture();
     let inset = Inset {
-        wide_scale: 0.5,
-        half_angle_deg: 15.0,
-        fov_given: true,
-        four_views: false,
         wide_1x: true,
-        composite: false,
+        ..SETTINGS
     };
     let gaze = [0.1, 0.2];
     let rect = inset_rect(&fovs, gaze, 15.0, W, H);
@@ -564,14 +554,7 @@ fn a_quad_output_gives_the_wide_views_and_the_insets_as_they_are() {
     use vergence::gpu::memory::{Image, ImageDesc};
     use vergence::render::{FrameOutput, OutputSpec, Renderer};
     let (ctx, scene, profile, pose, fovs) = fixture();
-    let settings = Inset {
-        wide_scale: 0.5,
-        half_angle_deg: 15.0,
-        fov_given: true,
-        four_views: false,
-        wide_1x: false,
-        composite: false,
-    };
+    let settings = SETTINGS;
     let plain = |stereo, w, h| {
         render_config(
             &ctx,

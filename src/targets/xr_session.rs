@@ -828,20 +828,17 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
     }
 }
 
-/// Renders from the next frame on with `config` (a live toggle): the frames
-/// in flight finish (their records join the log), the renderer is made
-/// again, and the swapchains too when the stereo mode changed; the session,
-/// the space, the actions and the window stay. A renderer that cannot be
-/// made with `config` is reported on one line and the old one comes back.
-fn switch_config(
+/// Takes the renderer out of the session before it is made again: its
+/// frames in flight finish (their records join the log), the mirror's
+/// copies too, and it is destroyed (waiting for the device). Its device
+/// context and configuration, or None without a renderer.
+fn retire_driver(
     live: &mut Live,
     stats: &mut RunStats,
     st: &mut LoopState,
-    session: &xr::Session<xr::Vulkan>,
-    config: crate::config::RenderConfig,
-) -> Result<()> {
+) -> Result<Option<(Arc<Context>, crate::config::RenderConfig)>> {
     let Some(mut driver) = live.driver.take() else {
-        return Ok(());
+        return Ok(None);
     };
     let finished = driver.finish();
     while let Some(r) = driver.take_completed() {
@@ -854,8 +851,24 @@ fn switch_config(
     }
     let old = driver.renderer().config.clone();
     let ctx = driver.renderer().context().clone();
-    // The old renderer goes first (it waits for the device).
-    drop(driver);
+    Ok(Some((ctx, old)))
+}
+
+/// Renders from the next frame on with `config` (a live toggle): the frames
+/// in flight finish (their records join the log), the renderer is made
+/// again, and the swapchains too when the stereo mode changed; the session,
+/// the space, the actions and the window stay. A renderer that cannot be
+/// made with `config` is reported on one line and the old one comes back.
+fn switch_config(
+    live: &mut Live,
+    stats: &mut RunStats,
+    st: &mut LoopState,
+    session: &xr::Session<xr::Vulkan>,
+    config: crate::config::RenderConfig,
+) -> Result<()> {
+    let Some((ctx, old)) = retire_driver(live, stats, st)? else {
+        return Ok(());
+    };
     let scene = st.scene;
     // New swapchains when the stereo mode changed or aq needs larger (or
     // no longer larger) images.
@@ -961,21 +974,9 @@ fn resize_eyes(
     session: &xr::Session<xr::Vulkan>,
     nominal: vk::Extent2D,
 ) -> Result<()> {
-    let Some(mut driver) = live.driver.take() else {
+    let Some((ctx, _)) = retire_driver(live, stats, st)? else {
         return Ok(());
     };
-    let finished = driver.finish();
-    while let Some(r) = driver.take_completed() {
-        st.records.complete(&r, stats);
-    }
-    finished?;
-    st.records.flush(stats)?;
-    if let Some(m) = live.mirror.as_mut() {
-        m.finish()?;
-    }
-    let ctx = driver.renderer().context().clone();
-    // The old renderer goes first (it waits for the device).
-    drop(driver);
     let config = st.desk.live.config.clone();
     st.chains.nominal = nominal;
     st.chains.extent = st.chains.images_for(config.aq)?;

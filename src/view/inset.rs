@@ -58,6 +58,16 @@ impl PixelRect {
     }
 }
 
+/// The whole pixels of an axis of `size` pixels that cover the span
+/// between pixel coordinates `a` and `b` (in either order): snapped
+/// outward, clipped to the image, never empty.
+fn outward(a: f64, b: f64, size: u32) -> (u32, u32) {
+    let s = size as f64;
+    let lo = a.min(b).floor().clamp(0.0, s - 1.0) as u32;
+    let hi = a.max(b).ceil().clamp(lo as f64 + 1.0, s) as u32;
+    (lo, hi)
+}
+
 /// The inset of eyes with `fovs` in images of `width`×`height` pixels
 /// around `gaze` (NDC, clamped to the image) at half-angle
 /// `half_angle_deg`. At least one pixel; the whole image when the angle
@@ -86,10 +96,8 @@ pub fn inset_rect(
     ];
     // NDC −1..1 over 0..size pixels; outward to whole pixels.
     let span = |c: f64, h: f64, size: u32| {
-        let s = size as f64;
-        let lo = (((c - h + 1.0) * 0.5 * s).floor()).clamp(0.0, s - 1.0) as u32;
-        let hi = (((c + h + 1.0) * 0.5 * s).ceil()).clamp(lo as f64 + 1.0, s) as u32;
-        (lo, hi)
+        let px = |n: f64| (n + 1.0) * 0.5 * size as f64;
+        outward(px(c - h), px(c + h), size)
     };
     let (x0, x1) = span(g[0], hx, width.max(1));
     let (y0, y1) = span(g[1], hy, height.max(1));
@@ -114,15 +122,8 @@ pub fn focus_rect(fovs: &[Fov], focus: &[Fov], width: u32, height: u32) -> Pixel
         }
         let col = |t: f64| (t - tl) / (tr - tl) * w as f64;
         let row = |t: f64| (tu - t) / (tu - td) * h as f64;
-        // Outward to whole pixels, inside the image, never empty.
-        let span = |a: f64, b: f64, size: u32| {
-            let s = size as f64;
-            let lo = a.min(b).floor().clamp(0.0, s - 1.0) as u32;
-            let hi = a.max(b).ceil().clamp(lo as f64 + 1.0, s) as u32;
-            (lo, hi)
-        };
-        let (x0, x1) = span(col(fl), col(fr), w);
-        let (y0, y1) = span(row(fu), row(fd), h);
+        let (x0, x1) = outward(col(fl), col(fr), w);
+        let (y0, y1) = outward(row(fu), row(fd), h);
         let r = PixelRect { x0, y0, x1, y1 };
         out = Some(out.map_or(r, |o| bounding(&o, &r)));
     }

@@ -147,41 +147,14 @@ impl OutputCopy {
                     height: h,
                     depth: 1,
                 };
-                let c = vk::ImageAspectFlags::COLOR;
-                if spec.color_format == COLOR_FORMAT {
-                    let region = vk::ImageCopy::default()
-                        .src_subresource(sub(c))
-                        .dst_subresource(sub(c))
-                        .extent(extent);
-                    d.cmd_copy_image(
-                        cmd,
-                        set.output_image().image,
-                        src.layout,
-                        out.color[i],
-                        dst.layout,
-                        &[region],
-                    );
-                } else {
-                    let corner = vk::Offset3D {
-                        x: w as i32,
-                        y: h as i32,
-                        z: 1,
-                    };
-                    let region = vk::ImageBlit::default()
-                        .src_subresource(sub(c))
-                        .dst_subresource(sub(c))
-                        .src_offsets([vk::Offset3D::default(), corner])
-                        .dst_offsets([vk::Offset3D::default(), corner]);
-                    d.cmd_blit_image(
-                        cmd,
-                        set.output_image().image,
-                        src.layout,
-                        out.color[i],
-                        dst.layout,
-                        &[region],
-                        vk::Filter::NEAREST,
-                    );
-                }
+                let whole = PixelRect {
+                    x0: 0,
+                    y0: 0,
+                    x1: w,
+                    y1: h,
+                };
+                let source = (set.output_image().image, 0, layers);
+                self.copy_color(d, cmd, source, &whole, out.color[i]);
                 if let (true, Some(depth)) = (spec.depth, set.depth_output()) {
                     let region = vk::ImageCopy::default()
                         .src_subresource(sub(vk::ImageAspectFlags::DEPTH))
@@ -207,6 +180,56 @@ impl OutputCopy {
 }
 
 impl OutputCopy {
+    /// Copies (in the renderer's own format) or blits (into another)
+    /// `layers` layers of `src` from its layer `first`, rectangle `r`, to
+    /// the top left of `dst`'s first layers; both images in the transfer
+    /// layouts.
+    fn copy_color(
+        &self,
+        d: &ash::Device,
+        cmd: vk::CommandBuffer,
+        (src, first, layers): (vk::Image, u32, u32),
+        r: &PixelRect,
+        dst: vk::Image,
+    ) {
+        let sub = |base| vk::ImageSubresourceLayers {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            mip_level: 0,
+            base_array_layer: base,
+            layer_count: layers,
+        };
+        let at = |x: u32, y: u32, z: i32| vk::Offset3D {
+            x: x as i32,
+            y: y as i32,
+            z,
+        };
+        let (from, to) = (Use::TRANSFER_SRC.layout, Use::TRANSFER_DST.layout);
+        // SAFETY: recording into the open command buffer; both images are
+        // in the transfer layouts (the caller's barriers) and the region
+        // lies inside both.
+        unsafe {
+            if self.spec.color_format == COLOR_FORMAT {
+                let region = vk::ImageCopy::default()
+                    .src_subresource(sub(first))
+                    .src_offset(at(r.x0, r.y0, 0))
+                    .dst_subresource(sub(0))
+                    .extent(vk::Extent3D {
+                        width: r.width(),
+                        height: r.height(),
+                        depth: 1,
+                    });
+                d.cmd_copy_image(cmd, src, from, dst, to, &[region]);
+            } else {
+                let region = vk::ImageBlit::default()
+                    .src_subresource(sub(first))
+                    .dst_subresource(sub(0))
+                    .src_offsets([at(r.x0, r.y0, 0), at(r.x1, r.y1, 1)])
+                    .dst_offsets([at(0, 0, 0), at(r.width(), r.height(), 1)]);
+                d.cmd_blit_image(cmd, src, from, dst, to, &[region], vk::Filter::NEAREST);
+            }
+        }
+    }
+
     /// A quad output's copies: per set, the wide views from `src.region`
     /// of their image into `out.color` and the insets from `src.rect` of
     /// `targets`' resolve images into `out.inset`, each at the top left,
@@ -257,64 +280,6 @@ impl OutputCopy {
             }
         }
         let d = &ctx.device;
-        let format = self.spec.color_format;
-        let copy = |src_img: vk::Image, first: u32, layers: u32, r: &PixelRect, dst: vk::Image| {
-            let sub = |base| vk::ImageSubresourceLayers {
-                aspect_mask: c,
-                mip_level: 0,
-                base_array_layer: base,
-                layer_count: layers,
-            };
-            // SAFETY: recording into the open command buffer; both images
-            // are in the transfer layouts set by the barriers above and the
-            // region lies inside both.
-            unsafe {
-                if format == COLOR_FORMAT {
-                    let region = vk::ImageCopy::default()
-                        .src_subresource(sub(first))
-                        .src_offset(vk::Offset3D {
-                            x: r.x0 as i32,
-                            y: r.y0 as i32,
-                            z: 0,
-                        })
-                        .dst_subresource(sub(0))
-                        .extent(vk::Extent3D {
-                            width: r.width(),
-                            height: r.height(),
-                            depth: 1,
-                        });
-                    d.cmd_copy_image(cmd, src_img, from.layout, dst, to.layout, &[region]);
-                } else {
-                    let at = |x: u32, y: u32| vk::Offset3D {
-                        x: x as i32,
-                        y: y as i32,
-                        z: 1,
-                    };
-                    let origin = vk::Offset3D::default();
-                    let region = vk::ImageBlit::default()
-                        .src_subresource(sub(first))
-                        .dst_subresource(sub(0))
-                        .src_offsets([
-                            vk::Offset3D {
-                                x: r.x0 as i32,
-                                y: r.y0 as i32,
-                                z: 0,
-                            },
-                            at(r.x1, r.y1),
-                        ])
-                        .dst_offsets([origin, at(r.width(), r.height())]);
-                    d.cmd_blit_image(
-                        cmd,
-                        src_img,
-                        from.layout,
-                        dst,
-                        to.layout,
-                        &[region],
-                        vk::Filter::NEAREST,
-                    );
-                }
-            }
-        };
         // SAFETY: recording after the rendering scopes into the open
         // command buffer; the output images belong to the session and are
         // acquired.
@@ -326,8 +291,14 @@ impl OutputCopy {
         }
         for (i, set) in targets.sets.iter().enumerate() {
             let (wide, first, _) = src.wide[i];
-            copy(wide, first, eyes(i), &src.region, out.color[i]);
-            copy(set.resolve.image, 0, eyes(i), &src.rect, out.inset[i]);
+            self.copy_color(d, cmd, (wide, first, eyes(i)), &src.region, out.color[i]);
+            self.copy_color(
+                d,
+                cmd,
+                (set.resolve.image, 0, eyes(i)),
+                &src.rect,
+                out.inset[i],
+            );
         }
         // SAFETY: as above.
         unsafe {
@@ -364,6 +335,27 @@ impl Readback {
         self.extent
     }
 
+    /// The buffer, grown to `size` bytes when smaller (the old one handed
+    /// to `ring` for deferred destruction).
+    fn ensure(&mut self, ctx: &Context, ring: &mut FrameRing, size: u64) -> Result<vk::Buffer> {
+        if self.buffer.as_ref().is_none_or(|b| b.size < size) {
+            if let Some(old) = self.buffer.take() {
+                ring.defer(Garbage::Buffer(old));
+            }
+            self.buffer = Some(Buffer::new(
+                ctx,
+                &BufferDesc {
+                    name: "readback",
+                    size,
+                    usage: vk::BufferUsageFlags::TRANSFER_DST,
+                    location: MemoryLocation::GpuToCpu,
+                    category: "readback",
+                },
+            )?);
+        }
+        Ok(self.buffer.as_ref().expect("made above").buffer)
+    }
+
     /// Copies the frame (both eyes, RGBA8, left then right, `extent` per
     /// eye) into the buffer, from `output`'s colour images when given, else
     /// from `targets`' own. The buffer is sized for `capacity` per eye (the
@@ -389,23 +381,7 @@ impl Readback {
             capacity.height.max(extent.height) as u64,
         );
         let size = cw * ch * 4 * 2 * if depth { 2 } else { 1 };
-        if self.buffer.as_ref().is_none_or(|b| b.size < size) {
-            if let Some(old) = self.buffer.take() {
-                ring.defer(Garbage::Buffer(old));
-            }
-            self.buffer = Some(Buffer::new(
-                ctx,
-                &BufferDesc {
-                    name: "readback",
-                    size,
-                    usage: vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuToCpu,
-                    category: "readback",
-                },
-            )?);
-        }
-        let buf = self.buffer.as_ref().expect("created above").buffer;
-        let d = &ctx.device;
+        let buf = self.ensure(ctx, ring, size)?;
         let mut to_src = Vec::new();
         let mut copies = Vec::new();
         let mut back = Vec::new();
@@ -488,35 +464,7 @@ impl Readback {
                 offset += w * h * 4 * layers as u64;
             }
         }
-        let to_host = [vk::BufferMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ)
-            .buffer(buf)
-            .size(vk::WHOLE_SIZE)];
-        // SAFETY: recording after the rendering scopes; buffer large enough for both layers.
-        unsafe {
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
-            );
-            for (image, copy) in copies {
-                d.cmd_copy_image_to_buffer(
-                    cmd,
-                    image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    buf,
-                    &[copy],
-                );
-            }
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default()
-                    .buffer_memory_barriers(&to_host)
-                    .image_memory_barriers(&back),
-            );
-        }
+        record_copies(&ctx.device, cmd, buf, (&to_src, &back), copies);
         Ok(())
     }
 
@@ -535,24 +483,9 @@ impl Readback {
         let per_image = (2 / out.color.len().max(1)) as u32;
         let texels = |e: vk::Extent2D| e.width as u64 * e.height as u64;
         let size = (texels(wide) + texels(inset)) * 4 * 2;
-        if self.buffer.as_ref().is_none_or(|b| b.size < size) {
-            if let Some(old) = self.buffer.take() {
-                ring.defer(Garbage::Buffer(old));
-            }
-            self.buffer = Some(Buffer::new(
-                ctx,
-                &BufferDesc {
-                    name: "readback",
-                    size,
-                    usage: vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuToCpu,
-                    category: "readback",
-                },
-            )?);
-        }
+        let buf = self.ensure(ctx, ring, size)?;
         self.quad = Some((wide, inset));
         self.depth = false;
-        let buf = self.buffer.as_ref().expect("created above").buffer;
         let c = vk::ImageAspectFlags::COLOR;
         // Written by the output copy, whose last barrier handed the image
         // on to the colour-attachment stage: the chain continues there.
@@ -590,37 +523,7 @@ impl Readback {
                 offset += texels(e) * 4 * per_image as u64;
             }
         }
-        let to_host = [vk::BufferMemoryBarrier2::default()
-            .src_stage_mask(vk::PipelineStageFlags2::COPY)
-            .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-            .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-            .dst_access_mask(vk::AccessFlags2::HOST_READ)
-            .buffer(buf)
-            .size(vk::WHOLE_SIZE)];
-        let d = &ctx.device;
-        // SAFETY: recording after the output copy; the buffer holds every
-        // copy (sized above).
-        unsafe {
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&to_src),
-            );
-            for (image, copy) in copies {
-                d.cmd_copy_image_to_buffer(
-                    cmd,
-                    image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    buf,
-                    &[copy],
-                );
-            }
-            d.cmd_pipeline_barrier2(
-                cmd,
-                &vk::DependencyInfo::default()
-                    .buffer_memory_barriers(&to_host)
-                    .image_memory_barriers(&back),
-            );
-        }
+        record_copies(&ctx.device, cmd, buf, (&to_src, &back), copies);
         Ok(())
     }
 
@@ -707,5 +610,47 @@ impl Readback {
         if let Some(b) = self.buffer {
             b.destroy(ctx);
         }
+    }
+}
+
+/// Records a read-back's copies into `buf`: the images' barriers to
+/// transfer source (`to_src`), the copies, then the buffer made readable
+/// by the host and the images handed back (`back`).
+fn record_copies(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    buf: vk::Buffer,
+    (to_src, back): (&[vk::ImageMemoryBarrier2], &[vk::ImageMemoryBarrier2]),
+    copies: Vec<(vk::Image, vk::BufferImageCopy)>,
+) {
+    let to_host = [vk::BufferMemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)
+        .buffer(buf)
+        .size(vk::WHOLE_SIZE)];
+    // SAFETY: recording into the open command buffer after the images were
+    // written; the caller sized `buf` for every copy.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(to_src),
+        );
+        for (image, copy) in copies {
+            d.cmd_copy_image_to_buffer(
+                cmd,
+                image,
+                vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+                buf,
+                &[copy],
+            );
+        }
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default()
+                .buffer_memory_barriers(&to_host)
+                .image_memory_barriers(back),
+        );
     }
 }
