@@ -308,6 +308,13 @@ pub struct Inset {
     /// there by default).
     #[serde(default)]
     pub composite: bool,
+    /// `inset-wide-all` (which turns `inset` on): the wide views draw every
+    /// visible instance, also those wholly under the inset's core, which
+    /// the composite never shows (by default they are skipped: the wide
+    /// views' hole, [`crate::view::inset_hole`]). The eye image is the
+    /// same; what it is for is measuring what the hole saves.
+    #[serde(default)]
+    pub wide_all: bool,
 }
 
 impl Default for Inset {
@@ -319,6 +326,7 @@ impl Default for Inset {
             four_views: false,
             wide_1x: false,
             composite: false,
+            wide_all: false,
         }
     }
 }
@@ -777,6 +785,12 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                "inset-wide-all" => {
+                    self.inset = Some(Inset {
+                        wide_all: true,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 l if l.starts_with("inset-fov=") => {
                     let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
                     self.inset = Some(Inset {
@@ -903,7 +917,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1108,6 +1122,9 @@ impl RenderConfig {
             if i.composite {
                 v.push("inset-composite".into());
             }
+            if i.wide_all {
+                v.push("inset-wide-all".into());
+            }
         }
         if self.points_pipeline {
             v.push("points-pipeline".into());
@@ -1248,6 +1265,7 @@ mod tests {
             "inset-wide-1x",
             "two-pass,inset=0.4,inset-wide-1x",
             "inset,inset-composite",
+            "inset,inset-wide-all,inset-wide-1x",
             "multiview,inset,aq,aq-scale-only",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",

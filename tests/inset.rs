@@ -41,6 +41,7 @@ const SETTINGS: Inset = Inset {
     four_views: false,
     wide_1x: false,
     composite: false,
+    wide_all: false,
 };
 
 fn srgb_to_linear(v: u8) -> f32 {
@@ -520,6 +521,61 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
                 "{what}: the periphery is not the 4× wide view ({close4} against {close} pixels match)"
             );
         }
+    }
+}
+
+/// The wide views' hole (`view::inset_hole`): the wide views skip what
+/// lies wholly under the inset's core in both eyes, and the eye images are
+/// bit for bit those of `inset-wide-all`, which draws it, in multiview and
+/// two-pass, at 4× and with one-sample wide views, at two gazes.
+#[test]
+fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
+    let (ctx, scene, profile, pose, _) = fixture();
+    let base = Inset {
+        half_angle_deg: 30.0,
+        ..SETTINGS
+    };
+    for (stereo, wide_1x, gaze) in [
+        (StereoMode::Multiview, false, [0.0, 0.0]),
+        (StereoMode::TwoPass, false, [0.3, -0.2]),
+        (StereoMode::Multiview, true, [-0.2, 0.1]),
+    ] {
+        let run = |wide_all: bool| {
+            let inset = Inset {
+                wide_1x,
+                wide_all,
+                ..base
+            };
+            render_config(
+                &ctx,
+                &scene,
+                &profile,
+                pose,
+                &config(stereo, Some(inset), gaze),
+                W,
+                H,
+            )
+        };
+        let (hole, all) = (run(false), run(true));
+        let what = format!("{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}");
+        assert!(
+            hole.stats.instances_drawn < all.stats.instances_drawn,
+            "{what}: the hole skips nothing ({} instances drawn, {} without it)",
+            hole.stats.instances_drawn,
+            all.stats.instances_drawn
+        );
+        assert!(hole.stats.triangles < all.stats.triangles, "{what}");
+        for eye in 0..2 {
+            let diff = common::pixels_differing(&hole.images[eye], &all.images[eye]);
+            assert_eq!(diff, 0, "{what}, eye {eye}: {diff} pixels differ");
+        }
+        eprintln!(
+            "{what}: {} of {} instances drawn, {} of {} triangles",
+            hole.stats.instances_drawn,
+            all.stats.instances_drawn,
+            hole.stats.triangles,
+            all.stats.triangles
+        );
     }
 }
 

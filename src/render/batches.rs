@@ -191,18 +191,20 @@ impl Batcher {
         out.far_start = Some(self.build_pair(visible, eye, Some(near), far, out));
     }
 
-    /// Like [`Batcher::build`] for `inset`: the wide views' draws get every
-    /// visible instance, the inset's (after `inset_start`) those whose
-    /// bounding sphere `keep(centre, radius)` keeps (its narrower volume).
+    /// Like [`Batcher::build`] for `inset`: the wide views' draws get the
+    /// visible instances whose bounding sphere `wide(centre, radius)` keeps
+    /// (None: every one; the wide views' hole leaves out what lies wholly
+    /// under the inset's core), the inset's (after `inset_start`) those
+    /// `keep` keeps (its narrower volume).
     pub fn build_inset(
         &mut self,
         visible: Option<&[u32]>,
         eye: DVec3,
+        wide: Option<impl Fn(DVec3, f64) -> bool>,
         keep: impl Fn(DVec3, f64) -> bool,
         out: &mut Batches,
     ) {
-        let every: Option<fn(DVec3, f64) -> bool> = None;
-        out.inset_start = Some(self.build_pair(visible, eye, every, keep, out));
+        out.inset_start = Some(self.build_pair(visible, eye, wide, keep, out));
     }
 
     /// Two lists in one: the visible instances `first` keeps (None: all of

@@ -131,6 +131,16 @@ struct Pending {
     cmd: vk::CommandBuffer,
 }
 
+/// With `inset`'s own lists, this frame's culling volumes per eye (see
+/// `Renderer::inset_volumes`).
+struct InsetVolumes {
+    /// Through the inset rectangle: what the inset views draw.
+    inset: [crate::view::frustum::PlaneSet; 2],
+    /// Through the inset's core, where the wide views have a hole: what
+    /// the wide views skip when both contain it.
+    core: Option<[crate::view::frustum::PlaneSet; 2]>,
+}
+
 /// The stereo renderer.
 pub struct Renderer {
     ctx: Arc<Context>,
@@ -766,30 +776,46 @@ impl Renderer {
 
     /// With `inset` (CPU-culled or not culled), each eye's volume through
     /// this frame's inset rectangle: the inset views draw only what one of
-    /// them keeps (the rectangle's pixels are all they rasterize).
-    fn inset_volumes(&self, rig: &StereoRig) -> Option<[crate::view::frustum::PlaneSet; 2]> {
-        self.config.inset?;
+    /// them keeps (the rectangle's pixels are all they rasterize); and,
+    /// where this renderer composites, each eye's volume through the
+    /// inset's core: the wide views skip what both contain (the wide
+    /// views' hole, [`crate::view::inset_hole`]).
+    fn inset_volumes(&self, rig: &StereoRig) -> Option<InsetVolumes> {
+        let inset = self.config.inset?;
         // Four views share one scope and so one list.
         if self.four_view {
             return None;
         }
+        let (w, h) = (self.extent.width, self.extent.height);
+        let (near, far) = (self.config.near, self.config.draw_distance);
         let volume = |v: &crate::view::View| {
-            let t = crate::view::inset::rect_tangents(
-                &v.fov,
-                &self.inset_rect,
-                self.extent.width,
-                self.extent.height,
-            );
-            crate::view::frustum::Frustum::from_tangents(
-                &v.pose,
-                t,
-                self.config.near,
-                self.config.draw_distance,
-            )
-            .ok()
-            .map(|f| f.planes)
+            let t = crate::view::inset::rect_tangents(&v.fov, &self.inset_rect, w, h);
+            crate::view::frustum::Frustum::from_tangents(&v.pose, t, near, far)
+                .ok()
+                .map(|f| f.planes)
         };
-        Some([volume(rig.views.first()?)?, volume(rig.views.get(1)?)?])
+        let (left, right) = (rig.views.first()?, rig.views.get(1)?);
+        // The runtime shows submitted wide views as it likes: no hole then.
+        let core = match (&self.passes.inset, self.quad || inset.wide_all) {
+            (Some(pass), false) => {
+                let wide = pass.wide_extent(self.extent);
+                crate::view::inset_hole::core_rect(
+                    &self.inset_rect,
+                    (w, h),
+                    (wide.width, wide.height),
+                    crate::view::inset::FEATHER_PX,
+                )
+                .and_then(|c| {
+                    let vol = |v| crate::view::inset_hole::core_volume(v, &c, w, h, near, far);
+                    Some([vol(left)?, vol(right)?])
+                })
+            }
+            _ => None,
+        };
+        Some(InsetVolumes {
+            inset: [volume(left)?, volume(right)?],
+            core,
+        })
     }
 
     /// Renders one stereo frame of `rig` drawing the instances in `visible`
@@ -1085,11 +1111,14 @@ impl Renderer {
                 );
             }
             None => match self.inset_volumes(rig) {
-                // The inset views draw what their narrower volumes keep.
+                // The inset views draw what their narrower volumes keep;
+                // the wide views all but what both cores contain.
                 Some(v) => self.batcher.build_inset(
                     visible,
                     rig.head.position,
-                    |c, r| v.iter().any(|p| p.keeps_sphere(c, r)),
+                    v.core
+                        .map(|core| move |c, r| !core.iter().all(|p| p.contains_sphere(c, r))),
+                    |c, r| v.inset.iter().any(|p| p.keeps_sphere(c, r)),
                     &mut batches,
                 ),
                 None => self.batcher.build(visible, rig.head.position, &mut batches),

@@ -109,6 +109,15 @@ impl PlaneSet {
         let c = centre - self.origin;
         self.planes().iter().all(|p| p.distance(c) >= -radius)
     }
+
+    /// Whether a world-space sphere lies wholly inside every plane (its
+    /// centre at least its radius inside each): the opposite end of
+    /// [`PlaneSet::keeps_sphere`], for what a volume certainly holds.
+    #[inline]
+    pub fn contains_sphere(&self, centre: DVec3, radius: f64) -> bool {
+        let c = centre - self.origin;
+        self.planes().iter().all(|p| p.distance(c) >= radius)
+    }
 }
 
 /// Validates near and optional far distances shared by all volumes.

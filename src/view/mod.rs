@@ -8,6 +8,7 @@ pub mod distortion;
 pub mod foveation;
 pub mod frustum;
 pub mod inset;
+pub mod inset_hole;
 pub mod lens;
 pub mod lms;
 pub mod lod;
