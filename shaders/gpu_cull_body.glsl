@@ -23,6 +23,11 @@
 // far pass's: an instance whose bounding sphere reaches nearer than the
 // split goes to the near views' set, one reaching beyond it to the far
 // set (a straddling one to both), as the CPU batcher splits.
+//
+// With `inset` (no occlusion) the second set is the inset views': an
+// instance whose box one eye's volume through the inset keeps goes to it,
+// and every instance but those whose box both eyes' volumes through the
+// inset's core contain (the wide views' hole) to the wide views' first set.
 
 // Included by gpu_cull.comp (SUBGROUP 1: appends and counters aggregated
 // per subgroup with ballots, one atomic per subgroup and command instead of
@@ -57,6 +62,8 @@ layout(std140, set = 0, binding = 0) uniform Volumes {
     uvec4 counts;        // instances, threads per dispatch row
     vec4 split_axes[8];  // mffr: eye 0, eye 1, far 0, far 1: position (w 1: used), forward
     vec4 split;          // mffr: near threshold, far threshold
+    uvec4 inset_info;    // inset lists: x 1 split, 2 every instance in both; y 1 with the hole
+    vec4 inset_planes[16]; // side planes: inset eye 0, eye 1, core eye 0, eye 1 (4 each)
 } vol;
 
 layout(std430, set = 0, binding = 1) readonly buffer Instances { CullInstance instances[]; };
@@ -99,7 +106,7 @@ layout(push_constant) uniform Push {
     float lod_k;      // pixel density over the error bound
     float eye_slack;  // the eyes' largest distance from the render origin
     uint far_mode;    // mffr: 0 all near, 1 split (vol.split_axes), 2 all in both
-    uint unused;
+    float lod_k_wide; // inset's wide views: lod_k at their density (lod_k x their scale)
 } pc;
 
 const float PIXEL_SLACK = 0.5;
@@ -211,12 +218,12 @@ float lod_distance(vec3 c, vec3 e) {
 
 // src/view/lod.rs `select` (the drop test is in main): the coarsest level
 // of primitive p whose world error projects to at most the bound.
-uint lod_command(uint p, float scale, float dist) {
+uint lod_command(uint p, float scale, float dist, float k) {
     uvec4 l = lod_level[p];
     uint level = 0u;
     if (pc.lod != 0u) {
         for (uint j = 1u; j < l.y; ++j) {
-            if (lod_error[l.x + j] * scale * pc.lod_k <= dist) {
+            if (lod_error[l.x + j] * scale * k <= dist) {
                 level = j;
             } else {
                 break;
@@ -227,14 +234,14 @@ uint lod_command(uint p, float scale, float dist) {
 }
 
 // Appends instance `i` to the visible list of each of its primitives (at
-// the level LOD picks) and counts it in their draws at command offset
-// `base` (0 early, the command count late).
-void append(uint i, CullInstance inst, vec3 c, uint base) {
+// the level LOD picks for views of density `lod_k`) and counts it in their
+// draws at command offset `base` (0 early, the command count late).
+void append_at(uint i, CullInstance inst, vec3 c, uint base, float lod_k) {
     uint first = floatBitsToUint(inst.center_hi.w);
     uint n = floatBitsToUint(inst.center_lo.w);
     float dist = lod_distance(c, inst.extent.xyz);
     for (uint k = 0u; k < n; ++k) {
-        uint p = base + lod_command(prim_of_slot[first + k], inst.extent.w, dist);
+        uint p = base + lod_command(prim_of_slot[first + k], inst.extent.w, dist, lod_k);
 #if SUBGROUP
         // The lanes appending to the same command take consecutive slots
         // after one atomic by the first of them; the others loop.
@@ -262,6 +269,11 @@ void append(uint i, CullInstance inst, vec3 c, uint base) {
         }
 #endif
     }
+}
+
+// append_at for the views of the frame's density.
+void append(uint i, CullInstance inst, vec3 c, uint base) {
+    append_at(i, inst, c, base, pc.lod_k);
 }
 
 // Phase 2: appends visible instance `i` to the next frame's early list and
@@ -308,6 +320,50 @@ void count(bvec4 v, bool dropped) {
     if (v.w) atomicAdd(group_hidden, 1u);
     if (dropped) atomicAdd(group_dropped, 1u);
 #endif
+}
+
+// src/cull/gpu.rs `box_reach`: the signed distance of the box to plane p
+// at its farthest (toward) or nearest point, and the magnitude its
+// rounding scales with.
+float box_reach(vec4 p, vec3 c, vec3 e, bool toward, out float scale) {
+    float spread = dot(abs(p.xyz), e);
+    scale = dot(abs(p.xyz), abs(c)) + spread + abs(p.w) + 1.0;
+    return dot(p.xyz, c) + (toward ? spread : -spread) + p.w;
+}
+
+// src/cull/gpu.rs `inset_keeps`: some eye's volume through the inset keeps
+// the box (widened by the slack).
+bool inset_keeps(vec3 c, vec3 e) {
+    float slack = vol.cone_sin.z;
+    for (uint eye = 0u; eye < 2u; ++eye) {
+        bool kept = true;
+        for (uint k = 0u; k < 4u; ++k) {
+            float scale;
+            float at = box_reach(vol.inset_planes[4u * eye + k], c, e, true, scale);
+            kept = kept && at >= -slack * scale;
+        }
+        if (kept) {
+            return true;
+        }
+    }
+    return false;
+}
+
+// src/cull/gpu.rs `core_contains`: both eyes' volumes through the inset's
+// core contain the box (narrowed by the slack), and the frame has a hole.
+bool core_contains(vec3 c, vec3 e) {
+    if (vol.inset_info.y == 0u) {
+        return false;
+    }
+    float slack = vol.cone_sin.z;
+    for (uint k = 0u; k < 8u; ++k) {
+        float scale;
+        float at = box_reach(vol.inset_planes[8u + k], c, e, false, scale);
+        if (at < slack * scale) {
+            return false;
+        }
+    }
+    return true;
 }
 
 void main() {
@@ -379,6 +435,21 @@ void main() {
                         append(i, inst, c, 0u);
                     }
                     if (far) {
+                        append(i, inst, c, pc.primitives);
+                    }
+                } else if (vol.inset_info.x != 0u) {
+                    // src/cull/gpu.rs `InsetLists`: the wide views' list
+                    // (first set) and the inset's (second).
+                    bool both = vol.inset_info.x == 2u;
+                    flags.z = true;
+                    // The wide views select LOD levels, and drop what
+                    // projects under the bound, at their own density.
+                    bool wide_dropped = pc.lod != 0u
+                        && 2.0 * length(inst.extent.xyz) * pc.lod_k_wide <= lod_distance(c, inst.extent.xyz);
+                    if (both || (!wide_dropped && !core_contains(c, inst.extent.xyz))) {
+                        append_at(i, inst, c, 0u, pc.lod_k_wide);
+                    }
+                    if (both || inset_keeps(c, inst.extent.xyz)) {
                         append(i, inst, c, pc.primitives);
                     }
                 } else {

@@ -524,6 +524,12 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
     }
 }
 
+/// An inset wide enough at this size for a core with instances in it.
+const WIDE: Inset = Inset {
+    half_angle_deg: 30.0,
+    ..SETTINGS
+};
+
 /// The wide views' hole (`view::inset_hole`): the wide views skip what
 /// lies wholly under the inset's core in both eyes, and the eye images are
 /// bit for bit those of `inset-wide-all`, which draws it, in multiview and
@@ -531,10 +537,7 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
 #[test]
 fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
     let (ctx, scene, profile, pose, _) = fixture();
-    let base = Inset {
-        half_angle_deg: 30.0,
-        ..SETTINGS
-    };
+    let base = WIDE;
     for (stereo, wide_1x, gaze) in [
         (StereoMode::Multiview, false, [0.0, 0.0]),
         (StereoMode::TwoPass, false, [0.3, -0.2]),
@@ -575,6 +578,103 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
             all.stats.instances_drawn,
             hole.stats.triangles,
             all.stats.triangles
+        );
+    }
+}
+
+/// With `gpu-cull` the cull makes the inset's two lists (the wide views'
+/// with the hole, the inset's own): the eye images equal the CPU-built
+/// lists' bit for bit, and so do those of `inset-wide-all`, which draws
+/// more instances; with `lod` the wide views' levels follow their density.
+#[test]
+fn with_gpu_cull_the_cull_makes_the_inset_lists() {
+    let (ctx, scene, profile, pose, fovs) = fixture();
+    let base = WIDE;
+    for (stereo, gaze) in [
+        (StereoMode::Multiview, [0.0, 0.0]),
+        (StereoMode::TwoPass, [0.3, -0.2]),
+    ] {
+        let run = |gpu_cull: bool, wide_all: bool| {
+            let mut c = config(stereo, Some(Inset { wide_all, ..base }), gaze);
+            if gpu_cull {
+                c.apply_opts(
+                    "superfrustum,gpu-cull",
+                    &vergence::bench::plan::cull_names(),
+                )
+                .unwrap();
+            }
+            render_config(&ctx, &scene, &profile, pose, &c, W, H)
+        };
+        let (cpu, gpu, gpu_all) = (run(false, false), run(true, false), run(true, true));
+        let what = format!("{stereo:?}, gaze {gaze:?}");
+        let drawn = |f: &common::Frame| f.stats.instances_drawn;
+        assert!(
+            drawn(&gpu) < drawn(&gpu_all),
+            "{what}: the hole skips nothing on the GPU ({} against {})",
+            drawn(&gpu),
+            drawn(&gpu_all)
+        );
+        let culled = gpu
+            .stats
+            .gpu_cull
+            .expect("GPU culling stats")
+            .passed_frustum;
+        // Both lists: every kept instance is in the wide list or the
+        // inset's, and the inset's is not all of them.
+        assert!(
+            drawn(&gpu_all) > culled && drawn(&gpu_all) < 2 * culled,
+            "{what}: {} drawn for {culled} kept",
+            drawn(&gpu_all)
+        );
+        for eye in 0..2 {
+            for (name, other) in [("CPU lists", &cpu), ("inset-wide-all", &gpu_all)] {
+                let diff = common::pixels_differing(&gpu.images[eye], &other.images[eye]);
+                assert_eq!(
+                    diff, 0,
+                    "{what}, eye {eye}: {diff} pixels differ from {name}"
+                );
+            }
+        }
+        eprintln!(
+            "{what}: GPU lists {} (wide-all {}) of {culled} kept",
+            drawn(&gpu),
+            drawn(&gpu_all)
+        );
+    }
+    // With lod the wide views select their levels at their own density:
+    // at F = 0.5 they draw fewer triangles than at F = 1 (the inset's list,
+    // at the eyes' density, is the same), and the core is still the full
+    // render's (the inset's levels are the eyes').
+    let lod = |inset: Option<Inset>| {
+        let mut c = config(StereoMode::Multiview, inset, [0.0; 2]);
+        c.apply_opts(
+            "superfrustum,gpu-cull,lod",
+            &vergence::bench::plan::cull_names(),
+        )
+        .unwrap();
+        render_config(&ctx, &scene, &profile, pose, &c, W, H)
+    };
+    let at = |wide_scale: f64| {
+        lod(Some(Inset {
+            wide_scale,
+            wide_all: true,
+            ..base
+        }))
+    };
+    let (half, whole, full) = (at(0.5), at(1.0), lod(None));
+    assert!(
+        half.stats.triangles < whole.stats.triangles,
+        "the wide views' levels do not follow their density: {} triangles at F = 0.5, {} at 1",
+        half.stats.triangles,
+        whole.stats.triangles
+    );
+    let rect = inset_rect(&fovs, [0.0; 2], 30.0, W, H);
+    for eye in 0..2 {
+        let (inside, same) = core_matches(&half.images[eye], &full.images[eye], &rect);
+        assert!(inside > 100, "{rect:?}");
+        assert_eq!(
+            same, inside,
+            "lod, eye {eye}: the core is the full render's"
         );
     }
 }

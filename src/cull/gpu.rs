@@ -15,6 +15,7 @@
 use glam::DVec3;
 
 use super::{volumes, CullError, CullParams, Strategy, Volumes};
+use crate::view::frustum::Frustum;
 use crate::view::StereoRig;
 
 /// Relative slack of the GPU tests: a few f32 ulps (2⁻²⁴ ≈ 6e-8) of the
@@ -64,10 +65,98 @@ pub struct VolumeData {
     /// x: the near test's threshold (split + margin); y: the far test's
     /// (split − margin); z, w: unused.
     pub split: [f32; 4],
+    /// The inset's lists (see [`InsetLists`]): x 1 when this frame
+    /// divides its instances between the wide views (first command set)
+    /// and the inset (second); y 1 when the wide views have a hole; z, w
+    /// unused.
+    pub inset_info: [u32; 4],
+    /// Side planes relative to the render origin (normal, offset): each
+    /// eye's volume through the inset at 0..4 and 4..8, through the core
+    /// at 8..12 and 12..16.
+    pub inset_planes: [[f32; 4]; 16],
 }
 
-/// Bytes of [`VolumeData`]: 2 uvec4 and 30 vec4, no padding.
-pub const VOLUME_DATA_SIZE: usize = 32 * 16;
+/// Bytes of [`VolumeData`]: 3 uvec4 and 46 vec4, no padding.
+pub const VOLUME_DATA_SIZE: usize = 49 * 16;
+
+/// The inset's two lists with `gpu-cull`, as the CPU batcher makes them
+/// (`Batcher::build_inset`): the inset views draw what one eye's volume
+/// through the inset rectangle keeps, the wide views all but what both
+/// eyes' volumes through the inset's core contain (the wide views' hole,
+/// [`crate::view::inset_hole`]). Only the four side planes of each volume
+/// go to the GPU: the cull's own volumes hold the near and far planes, and
+/// a box inside all four side planes of a pyramid from the eye projects
+/// inside its rectangle wherever it lies in depth.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct InsetLists {
+    /// Each eye's frustum through the inset rectangle.
+    pub inset: [Frustum; 2],
+    /// Each eye's frustum through the inset's core (None: no hole).
+    pub core: Option<[Frustum; 2]>,
+}
+
+impl InsetLists {
+    /// Writes the side planes relative to the render origin `origin` into
+    /// `data`.
+    pub fn write(&self, origin: DVec3, data: &mut VolumeData) {
+        let mut put = |at: usize, f: &Frustum| {
+            // n · (p - o_eye) + d = n · (p - O) + d + n · (O - o_eye).
+            let shift = origin - f.planes.origin;
+            for (i, p) in f.side_planes().iter().enumerate() {
+                data.inset_planes[at + i] = v4(p.normal, p.d + p.normal.dot(shift));
+            }
+        };
+        put(0, &self.inset[0]);
+        put(4, &self.inset[1]);
+        if let Some(core) = &self.core {
+            put(8, &core[0]);
+            put(12, &core[1]);
+        }
+        data.inset_info = [1, u32::from(self.core.is_some()), 0, 0];
+    }
+}
+
+/// The signed distance of the box (centre `c` relative to the render
+/// origin, half-extents `e`) to `plane`, at its nearest (`toward` false:
+/// the n-vertex) or farthest point (true: the p-vertex), in f32 as
+/// gpu_cull.comp evaluates it, and the magnitude its rounding scales with.
+fn box_reach(plane: [f32; 4], c: [f32; 3], e: [f32; 3], toward: bool) -> (f32, f32) {
+    let dot = |a: [f32; 3], b: [f32; 3]| a[0] * b[0] + a[1] * b[1] + a[2] * b[2];
+    let abs = |a: [f32; 3]| [a[0].abs(), a[1].abs(), a[2].abs()];
+    let n = [plane[0], plane[1], plane[2]];
+    let spread = dot(abs(n), e);
+    let at = dot(n, c) + if toward { spread } else { -spread };
+    let scale = dot(abs(n), abs(c)) + spread + plane[3].abs() + 1.0;
+    (at + plane[3], scale)
+}
+
+/// Whether the inset views draw the box (centre `c` relative to the render
+/// origin, half-extents `e`), in f32 as gpu_cull.comp tests it: some eye's
+/// inset volume keeps it, widened by the slack (it never drops what the
+/// CPU's f64 test keeps).
+pub fn inset_keeps(v: &VolumeData, c: [f32; 3], e: [f32; 3]) -> bool {
+    let slack = v.cone_sin[2];
+    (0..2).any(|eye| {
+        (0..4).all(|i| {
+            let (at, scale) = box_reach(v.inset_planes[4 * eye + i], c, e, true);
+            at >= -slack * scale
+        })
+    })
+}
+
+/// Whether the wide views skip the box: both eyes' core volumes contain
+/// it, narrowed by the slack (it never skips what the CPU's f64 test
+/// draws), and the frame has a hole.
+pub fn core_contains(v: &VolumeData, c: [f32; 3], e: [f32; 3]) -> bool {
+    let slack = v.cone_sin[2];
+    v.inset_info[1] != 0
+        && (0..2).all(|eye| {
+            (0..4).all(|i| {
+                let (at, scale) = box_reach(v.inset_planes[8 + 4 * eye + i], c, e, false);
+                at >= slack * scale
+            })
+        })
+}
 
 /// The near/far split of a monoscopic far field (`mffr`), as both the CPU
 /// batcher and the GPU cull test it: an instance (bounding sphere centre
@@ -257,17 +346,22 @@ mod tests {
         StereoRig::from_head(head, &[eye(-0.032), eye(0.032)])
     }
 
-    /// Every strategy: the f32 GPU test keeps every box the CPU keeps, and
-    /// keeps nothing the CPU drops except boxes within the slack.
-    #[test]
-    fn gpu_test_keeps_what_the_cpu_keeps() {
-        let mut seed = 7u64;
-        let mut rnd = || {
+    /// A seeded generator of uniform numbers in [0, 1) (a 64-bit LCG's
+    /// top 53 bits).
+    fn uniform(mut seed: u64) -> impl FnMut() -> f64 {
+        move || {
             seed = seed
                 .wrapping_mul(6364136223846793005)
                 .wrapping_add(1442695040888963407);
             (seed >> 11) as f64 / (1u64 << 53) as f64
-        };
+        }
+    }
+
+    /// Every strategy: the f32 GPU test keeps every box the CPU keeps, and
+    /// keeps nothing the CPU drops except boxes within the slack.
+    #[test]
+    fn gpu_test_keeps_what_the_cpu_keeps() {
+        let mut rnd = uniform(7);
         let origin = DVec3::new(1.0e4, 3.0, -2.0e4);
         let boxes: Vec<(DVec3, DVec3)> = (0..4000)
             .map(|_| {
@@ -298,5 +392,78 @@ mod tests {
                 assert_eq!(gpu, cpu, "{strategy}, draw distance {draw_distance:?}");
             }
         }
+    }
+
+    /// The inset's lists: over random boxes around a far-off render origin,
+    /// the f32 GPU tests keep every box an eye's inset volume keeps in f64
+    /// (side planes, p-vertex) and skip only boxes both core volumes
+    /// contain in f64 (n-vertex); they disagree only within the slack.
+    #[test]
+    fn the_inset_lists_f32_tests_hold_the_f64_ones() {
+        let mut rnd = uniform(11);
+        let origin = DVec3::new(-3.0e4, 2.0, 1.5e4);
+        let r = rig(origin, 0.4);
+        let frusta = |t: [f64; 4]| {
+            [0, 1].map(|e| Frustum::from_tangents(&r.views[e].pose, t, 0.05, None).unwrap())
+        };
+        let lists = InsetLists {
+            inset: frusta([-0.4, 0.35, 0.3, -0.45]),
+            core: Some(frusta([-0.3, 0.25, 0.2, -0.35])),
+        };
+        let mut data = VolumeData {
+            cone_sin: [0.0, 0.0, GPU_SLACK, 0.0],
+            ..VolumeData::default()
+        };
+        lists.write(r.head.position, &mut data);
+        assert_eq!(data.inset_info, [1, 1, 0, 0]);
+        let (mut kept, mut contained, mut differ) = (0, 0, 0);
+        for _ in 0..20_000 {
+            let dir = DVec3::new(rnd() - 0.5, rnd() - 0.5, -1.0);
+            let c = origin + r.head.orientation * dir * (0.2 + rnd() * 60.0);
+            let half = DVec3::new(rnd(), rnd(), rnd()) * 1.5;
+            let (lo, hi) = (c - half, c + half);
+            let cpu_keeps = lists.inset.iter().any(|f| {
+                let (a, b) = (lo - f.planes.origin, hi - f.planes.origin);
+                f.side_planes().iter().all(|p| p.max_over_box(a, b) >= 0.0)
+            });
+            let cpu_contains = lists.core.unwrap().iter().all(|f| {
+                let (a, b) = (lo - f.planes.origin, hi - f.planes.origin);
+                f.side_planes().iter().all(|p| p.min_over_box(a, b) >= 0.0)
+            });
+            let cf = (c - r.head.position).as_vec3().to_array();
+            let e = (half * (1.0 + 1e-6)).as_vec3().to_array();
+            let (gk, gc) = (inset_keeps(&data, cf, e), core_contains(&data, cf, e));
+            assert!(
+                !cpu_keeps || gk,
+                "a box the inset keeps was dropped: {c} ± {half}"
+            );
+            assert!(
+                !gc || cpu_contains,
+                "a box the core does not contain was skipped: {c} ± {half}"
+            );
+            kept += usize::from(cpu_keeps);
+            contained += usize::from(cpu_contains);
+            differ += usize::from(gk != cpu_keeps) + usize::from(gc != cpu_contains);
+        }
+        assert!(
+            kept > 1000 && contained > 300,
+            "{kept} kept, {contained} contained"
+        );
+        assert!(differ * 1000 < 20_000, "{differ} answers differ from f64");
+        // Without a hole nothing is skipped.
+        let mut plain = data;
+        InsetLists {
+            core: None,
+            ..lists
+        }
+        .write(r.head.position, &mut plain);
+        assert!(!core_contains(&plain, [0.0, 0.0, -10.0], [0.1; 3]));
+        assert!(core_contains(
+            &data,
+            (r.head.orientation * DVec3::new(0.0, 0.0, -10.0))
+                .as_vec3()
+                .to_array(),
+            [0.1; 3]
+        ));
     }
 }

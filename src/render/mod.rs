@@ -135,10 +135,10 @@ struct Pending {
 /// `Renderer::inset_volumes`).
 struct InsetVolumes {
     /// Through the inset rectangle: what the inset views draw.
-    inset: [crate::view::frustum::PlaneSet; 2],
+    inset: [crate::view::frustum::Frustum; 2],
     /// Through the inset's core, where the wide views have a hole: what
     /// the wide views skip when both contain it.
-    core: Option<[crate::view::frustum::PlaneSet; 2]>,
+    core: Option<[crate::view::frustum::Frustum; 2]>,
 }
 
 /// The stereo renderer.
@@ -557,6 +557,7 @@ impl Renderer {
                 occlusion,
                 config.lod.is_some(),
                 config.mffr.is_some(),
+                config.inset.is_some() && !r.four_view,
             )?;
             r.passes.gpu_cull = Some(gpu);
         }
@@ -774,12 +775,13 @@ impl Renderer {
         self.four_view.then_some(self.wide_region)
     }
 
-    /// With `inset` (CPU-culled or not culled), each eye's volume through
-    /// this frame's inset rectangle: the inset views draw only what one of
-    /// them keeps (the rectangle's pixels are all they rasterize); and,
-    /// where this renderer composites, each eye's volume through the
-    /// inset's core: the wide views skip what both contain (the wide
-    /// views' hole, [`crate::view::inset_hole`]).
+    /// With `inset` (two scopes), each eye's volume through this frame's
+    /// inset rectangle: the inset views draw only what one of them keeps
+    /// (the rectangle's pixels are all they rasterize); and, where this
+    /// renderer composites, each eye's volume through the inset's core:
+    /// the wide views skip what both contain (the wide views' hole,
+    /// [`crate::view::inset_hole`]). The CPU batcher tests spheres against
+    /// them, `gpu-cull` boxes.
     fn inset_volumes(&self, rig: &StereoRig) -> Option<InsetVolumes> {
         let inset = self.config.inset?;
         // Four views share one scope and so one list.
@@ -790,9 +792,7 @@ impl Renderer {
         let (near, far) = (self.config.near, self.config.draw_distance);
         let volume = |v: &crate::view::View| {
             let t = crate::view::inset::rect_tangents(&v.fov, &self.inset_rect, w, h);
-            crate::view::frustum::Frustum::from_tangents(&v.pose, t, near, far)
-                .ok()
-                .map(|f| f.planes)
+            crate::view::frustum::Frustum::from_tangents(&v.pose, t, near, far).ok()
         };
         let (left, right) = (rig.views.first()?, rig.views.get(1)?);
         // The runtime shows submitted wide views as it likes: no hole then.
@@ -1097,7 +1097,26 @@ impl Renderer {
                     gpu.set_far_split(split);
                 }
             }
-            _ if gpu_cull => batches = Batches::default(),
+            _ if gpu_cull => {
+                batches = Batches::default();
+                // The cull divides the instances between the wide views and
+                // the inset as the batcher would.
+                let lists = self
+                    .inset_volumes(rig)
+                    .map(|v| crate::cull::gpu::InsetLists {
+                        inset: v.inset,
+                        core: v.core,
+                    });
+                // The wide views' density: the larger of their axes' scales.
+                let scale = self.passes.inset.as_ref().map_or(1.0, |pass| {
+                    let w = pass.wide_extent(self.extent);
+                    let (e, f) = (self.extent, |a: u32, b: u32| a as f64 / b.max(1) as f64);
+                    f(w.width, e.width).max(f(w.height, e.height))
+                });
+                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+                    gpu.set_inset_lists(lists, scale);
+                }
+            }
             Some(far) => {
                 if !far.plan(rig, self.extent.width, self.frame_index) {
                     self.mffr_fallbacks += 1;
@@ -1116,9 +1135,10 @@ impl Renderer {
                 Some(v) => self.batcher.build_inset(
                     visible,
                     rig.head.position,
-                    v.core
-                        .map(|core| move |c, r| !core.iter().all(|p| p.contains_sphere(c, r))),
-                    |c, r| v.inset.iter().any(|p| p.keeps_sphere(c, r)),
+                    v.core.map(|core| {
+                        move |c, r| !core.iter().all(|f| f.planes.contains_sphere(c, r))
+                    }),
+                    |c, r| v.inset.iter().any(|f| f.planes.keeps_sphere(c, r)),
                     &mut batches,
                 ),
                 None => self.batcher.build(visible, rig.head.position, &mut batches),
@@ -1568,8 +1588,11 @@ impl Renderer {
                         }
                         (None, None) => match gpu_cull {
                             Some(gpu) => {
+                                // The inset scope draws the second set
+                                // where the cull made the inset's lists.
+                                let second = late || (area.is_some() && gpu.inset_lists());
                                 draw_calls +=
-                                    forward.record_gpu(&rec, gpu, eye, self.slot, sky, late)
+                                    forward.record_gpu(&rec, gpu, eye, self.slot, sky, second)
                             }
                             None => draw_calls += forward.record_from(&rec, near, base, eye, sky),
                         },

@@ -234,6 +234,12 @@ impl Frustum {
         })
     }
 
+    /// The four side planes (left, right, top, bottom; through the apex,
+    /// relative to it): without the near and far planes.
+    pub fn side_planes(&self) -> &[Plane] {
+        &self.planes.planes[1..5]
+    }
+
     /// Eye position in world space (the apex).
     pub fn apex(&self) -> DVec3 {
         self.planes.origin

@@ -23,7 +23,8 @@
 //! tan_l·s ≤ x ≤ tan_r·s at depth s, which needs s ≥ 0). A triangle
 //! covers only samples inside its projection, so an instance whose
 //! bounding sphere lies inside both eyes' pyramids
-//! ([`crate::view::frustum::PlaneSet::contains_sphere`], [`core_volume`])
+//! ([`crate::view::frustum::PlaneSet::contains_sphere`], [`core_volume`];
+//! with `gpu-cull` the cull shader tests the boxes against the side planes)
 //! covers no wide sample the composite reads, and the wide views skip it:
 //! the eye image is the same, and the wide views' vertex and raster work
 //! for everything wholly under the inset is saved. The inset views still
@@ -31,7 +32,7 @@
 //! the runtime (`XR_VARJO_quad_views`) the runtime shows the wide views
 //! as it likes, so they keep everything.
 
-use super::frustum::{Frustum, PlaneSet};
+use super::frustum::Frustum;
 use super::inset::{rect_tangents, PixelRect};
 use super::View;
 
@@ -61,8 +62,10 @@ pub fn core_rect(
 
 /// The volume of `view` through the pixels of `core` in its
 /// `width`×`height` image, between `near` and the draw distance `far`
-/// (when given): a sphere that [`PlaneSet::contains_sphere`] holds projects
-/// inside `core`. None for a view whose pose or FOV cannot make a volume.
+/// (when given): a sphere that its planes'
+/// [`crate::view::frustum::PlaneSet::contains_sphere`] holds projects
+/// inside `core` (and so does a box inside its four side planes alone).
+/// None for a view whose pose or FOV cannot make a volume.
 pub fn core_volume(
     view: &View,
     core: &PixelRect,
@@ -70,11 +73,9 @@ pub fn core_volume(
     height: u32,
     near: f64,
     far: Option<f64>,
-) -> Option<PlaneSet> {
+) -> Option<Frustum> {
     let t = rect_tangents(&view.fov, core, width, height);
-    Frustum::from_tangents(&view.pose, t, near, far)
-        .ok()
-        .map(|f| f.planes)
+    Frustum::from_tangents(&view.pose, t, near, far).ok()
 }
 
 #[cfg(test)]
@@ -158,7 +159,7 @@ mod tests {
             let view = View { pose, fov };
             let core = PixelRect { x0: cx0, y0: cy0, x1: (cx0 + cw).min(w), y1: (cy0 + ch).min(h) };
             let near = 0.05;
-            let vol = core_volume(&view, &core, w, h, near, Some(100.0)).unwrap();
+            let vol = core_volume(&view, &core, w, h, near, Some(100.0)).unwrap().planes;
             let m = reverse_z_infinite(&fov, near) * view_relative(&pose, pose.position);
             let pixel = |p: DVec3| {
                 let c = m * (p - pose.position).extend(1.0);
@@ -237,7 +238,9 @@ mod tests {
             x1: 300,
             y1: 300,
         };
-        let vol = core_volume(&view, &core, 400, 400, 0.1, None).unwrap();
+        let vol = core_volume(&view, &core, 400, 400, 0.1, None)
+            .unwrap()
+            .planes;
         assert!(vol.contains_sphere(DVec3::new(0.0, 0.0, -10.0), 1.0));
         // At 10 m the core's edge is at x = 5: a sphere reaching past it.
         assert!(!vol.contains_sphere(DVec3::new(4.5, 0.0, -10.0), 1.0));

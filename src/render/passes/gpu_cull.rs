@@ -25,7 +25,7 @@
 
 use super::depth_pyramid::DepthPyramid;
 use super::{PipelineSetup, Recorder};
-use crate::cull::gpu::{FarSplitAxes, VolumeData, VOLUME_DATA_SIZE};
+use crate::cull::gpu::{FarSplitAxes, InsetLists, VolumeData, VOLUME_DATA_SIZE};
 use crate::error::{Error, Result};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc, Pod};
 use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
@@ -254,6 +254,14 @@ pub struct GpuCull {
     /// stereo), 1 split by `split_axes`, 2 every instance in both.
     far_mode: u32,
     split_axes: Option<FarSplitAxes>,
+    /// With `inset` (two scopes): the second command set holds the inset
+    /// views' draws, the first the wide views'.
+    inset: bool,
+    /// This frame's inset lists (None: every instance in both sets).
+    inset_lists: Option<InsetLists>,
+    /// The wide views' scale this frame (their pixel density over the
+    /// eyes'): with `lod` their list selects levels at that density.
+    wide_scale: f32,
 }
 
 /// How the coming frame's visible instances divide between the near views
@@ -279,6 +287,9 @@ impl GpuCull {
     /// primitives is an error (they need a back-to-front sort the GPU path
     /// does not do). With `occlusion` (the frame's attachments, created with
     /// sampleable depth, and the near plane), the two-phase scheme runs.
+    /// With `far_field` the second command set is the far pass's, with
+    /// `inset` the inset views' (at most one of the three).
+    #[allow(clippy::too_many_arguments)]
     pub fn new(
         setup: &PipelineSetup,
         scene: &Scene,
@@ -287,6 +298,7 @@ impl GpuCull {
         occlusion: Option<(&Attachments, f32)>,
         lod: bool,
         far_field: bool,
+        inset: bool,
     ) -> Result<GpuCull> {
         let slots = frame_ubos.len();
         let ctx = setup.ctx;
@@ -348,9 +360,15 @@ impl GpuCull {
                 "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth",
             ));
         }
-        // A second command set: the late phase's (occlusion) or the far
-        // pass's (mffr).
-        let phases = if occlusion.is_some() || far_field {
+        if inset && (far_field || occlusion.is_some()) {
+            return Err(Error::config(
+                "--opt",
+                "inset's own lists with gpu-cull take the second command set, which mffr and occlusion use: leave them out with inset",
+            ));
+        }
+        // A second command set: the late phase's (occlusion), the far
+        // pass's (mffr) or the inset views' (inset).
+        let phases = if occlusion.is_some() || far_field || inset {
             2
         } else {
             1
@@ -531,6 +549,9 @@ impl GpuCull {
             order: order.to_vec(),
             slices,
             far_field,
+            inset,
+            inset_lists: None,
+            wide_scale: 1.0,
             far_mode: 0,
             split_axes: None,
         };
@@ -727,6 +748,12 @@ impl GpuCull {
         if let Some(axes) = &self.split_axes {
             axes.write(origin, &mut data);
         }
+        if self.inset {
+            match &self.inset_lists {
+                Some(lists) => lists.write(origin, &mut data),
+                None => data.inset_info = [2, 0, 0, 0],
+            }
+        }
         self.lod_k = lod.k as f32;
         self.eye_slack = lod.eye_slack as f32;
         let groups = self.instance_count.div_ceil(GROUP).max(1);
@@ -744,7 +771,7 @@ impl GpuCull {
     /// Command sets per frame: two with occlusion (early, late) or a far
     /// field (near, far), else one.
     fn sets(&self) -> usize {
-        if self.occlusion() || self.far_field {
+        if self.occlusion() || self.far_field || self.inset {
             2
         } else {
             1
@@ -759,6 +786,25 @@ impl GpuCull {
             FarSplit::AllNear => (0, None),
             FarSplit::At(axes) => (1, Some(axes)),
             FarSplit::Both => (2, None),
+        };
+    }
+
+    /// Whether the inset views draw the second command set (`inset`).
+    pub fn inset_lists(&self) -> bool {
+        self.inset
+    }
+
+    /// Sets the coming frame's inset lists (only with `inset`; None: every
+    /// instance in both sets) and the wide views' `scale` (their pixel
+    /// density over the eyes', in (0, 1]): with `lod` the wide views' list
+    /// selects its levels, and drops what projects under the bound, at that
+    /// density (`view::lod` with the wide view's pixels).
+    pub fn set_inset_lists(&mut self, lists: Option<InsetLists>, scale: f64) {
+        self.inset_lists = lists.filter(|_| self.inset);
+        self.wide_scale = if scale > 0.0 && scale.is_finite() {
+            scale.min(1.0) as f32
+        } else {
+            1.0
         };
     }
 
@@ -781,7 +827,7 @@ impl GpuCull {
             self.lod_k.to_bits(),
             self.eye_slack.to_bits(),
             self.far_mode,
-            0,
+            (self.lod_k * self.wide_scale).to_bits(),
         ];
         let to_draw = [vk::MemoryBarrier2::default()
             .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
