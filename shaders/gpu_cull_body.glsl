@@ -441,15 +441,19 @@ void main() {
                     // src/cull/gpu.rs `InsetLists`: the wide views' list
                     // (first set) and the inset's (second).
                     bool both = vol.inset_info.x == 2u;
-                    flags.z = true;
                     // The wide views select LOD levels, and drop what
                     // projects under the bound, at their own density.
                     bool wide_dropped = pc.lod != 0u
                         && 2.0 * length(inst.extent.xyz) * pc.lod_k_wide <= lod_distance(c, inst.extent.xyz);
-                    if (both || (!wide_dropped && !core_contains(c, inst.extent.xyz))) {
+                    bool to_wide = both || (!wide_dropped && !core_contains(c, inst.extent.xyz));
+                    bool to_inset = both || inset_keeps(c, inst.extent.xyz);
+                    // Drawn: in either list (one dropped from the wide list
+                    // at its density and outside both insets is in none).
+                    flags.z = to_wide || to_inset;
+                    if (to_wide) {
                         append_at(i, inst, c, 0u, pc.lod_k_wide);
                     }
-                    if (both || inset_keeps(c, inst.extent.xyz)) {
+                    if (to_inset) {
                         append(i, inst, c, pc.primitives);
                     }
                 } else {

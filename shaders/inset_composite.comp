@@ -49,7 +49,10 @@ vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     if (w <= 0.0) {
         return wide;
     }
-    return mix(wide, texelFetch(inset_frame, p, 0), w);
+    // Deep inside, the inset alone (a select, not mix's arithmetic: the
+    // wide views' hole, src/view/inset_hole.rs, relies on it).
+    vec4 inset = texelFetch(inset_frame, p, 0);
+    return w >= 1.0 ? inset : mix(wide, inset, w);
 }
 
 void main() {

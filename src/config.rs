@@ -308,10 +308,11 @@ pub struct Inset {
     /// there by default).
     #[serde(default)]
     pub composite: bool,
-    /// `inset-wide-all` (which turns `inset` on): the wide views draw every
-    /// visible instance, also those wholly under the inset's core, which
-    /// the composite never shows (by default they are skipped: the wide
-    /// views' hole, [`crate::view::inset_hole`]). The eye image is the
+    /// `inset-wide-all` (which turns `inset` on): the wide views also draw
+    /// the instances wholly under the inset's core, which the composite
+    /// never shows (by default they are skipped: the wide views' hole,
+    /// [`crate::view::inset_hole`]; with `gpu-cull,lod` the wide views'
+    /// levels stay at their own density either way). The eye image is the
     /// same; what it is for is measuring what the hole saves.
     #[serde(default)]
     pub wide_all: bool,

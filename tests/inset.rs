@@ -533,7 +533,7 @@ const WIDE: Inset = Inset {
 /// The wide views' hole (`view::inset_hole`): the wide views skip what
 /// lies wholly under the inset's core in both eyes, and the eye images are
 /// bit for bit those of `inset-wide-all`, which draws it, in multiview and
-/// two-pass, at 4× and with one-sample wide views, at two gazes.
+/// two-pass, at 4× and with one-sample wide views, at three gazes.
 #[test]
 fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
     let (ctx, scene, profile, pose, _) = fixture();

@@ -61,6 +61,14 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "inset-wide-1x",
         "multiview,msaa4,superfrustum,inset,inset-wide-1x",
     ),
+    (
+        "inset-gpu-cull-lod",
+        "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
+    ),
+    (
+        "inset-gpu-cull-lod-wide-1x",
+        "multiview,msaa4,superfrustum,gpu-cull,lod,inset,inset-wide-1x",
+    ),
 ];
 
 /// What to tune for. A candidate whose image error was not measured

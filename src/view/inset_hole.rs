@@ -4,7 +4,7 @@
 //! The composite (`shaders/inset_composite.comp`, the weight of
 //! [`super::inset::weight`]) gives an eye pixel whose centre lies at least
 //! `feather` pixels inside the inset rectangle the inset alone: the weight
-//! is 1 and `mix(wide, inset, 1)` is the inset exactly. Every other pixel
+//! is 1 and the shader then selects the inset (no blend arithmetic). Every other pixel
 //! reads the wide view bilinearly at its centre scaled by s = wide size /
 //! eye size per axis: the (up to) four texels whose centres lie within one
 //! texel of that point, whose areas lie within 1.5 texels of it, that is

@@ -768,8 +768,8 @@ impl GpuCull {
         self.pyramid.is_some()
     }
 
-    /// Command sets per frame: two with occlusion (early, late) or a far
-    /// field (near, far), else one.
+    /// Command sets per frame: two with occlusion (early, late), a far
+    /// field (near, far) or the inset's lists (wide, inset), else one.
     fn sets(&self) -> usize {
         if self.occlusion() || self.far_field || self.inset {
             2
@@ -1016,7 +1016,7 @@ impl GpuCull {
     /// Draws every non-blended primitive for view `eye` inside the open
     /// scope with one indirect-count draw each (the count the cull wrote;
     /// the second set's with `late`: the late phase's with occlusion, the
-    /// far pass's with a far field), then the sky when given. Returns the
+    /// far pass's with a far field, the inset views' with the inset's lists), then the sky when given. Returns the
     /// draw calls recorded outside the indirect ones (the sky);
     /// [`GpuCull::read`] counts the rest.
     pub fn record_draws(
