@@ -876,7 +876,7 @@ fn bench(
                     .map_or("ref".into(), |e| format!("{:.4}", e.flip_mean))
             );
         }
-        if let Some(t) = vergence::bench::tables::target_line(g) {
+        for t in vergence::bench::tables::target_lines(g) {
             println!("  {t}");
         }
     }

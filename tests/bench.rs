@@ -631,3 +631,51 @@ fn raster_floors_times_every_route_without_validation_messages() {
         assert!(min > 0.0 && min <= p50 && p50.is_finite(), "{t}");
     }
 }
+
+/// With `inset` the bench measures FLIP inside the inset rectangle
+/// (`flip_inset_mean`): far below the whole image's there (the inset is
+/// the full-density render; the error lies in the magnified periphery),
+/// wherever the gaze puts it; absent for configurations without an inset;
+/// in the CSV's last column, the report's table and the target line.
+#[test]
+fn the_inset_error_is_measured_inside_the_inset() {
+    let dir = common::scratch("bench", "inset-error");
+    let plan = dir.join("inset.toml");
+    let body = "name = \"inset-error\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.2]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 0\nspin_up_ms = 0\nreference = \"two-pass\"\nbaseline = \"two-pass-per-eye\"\n\n[[configs]]\nname = \"two-pass-per-eye\"\nopt = \"two-pass,per-eye\"\n\n[[configs]]\nname = \"inset\"\nopt = \"multiview,superfrustum,inset\"\n\n[[configs]]\nname = \"inset-up-left\"\nopt = \"multiview,superfrustum,inset,gaze=-0.4:-0.3\"\n";
+    std::fs::write(&plan, body).unwrap();
+    let out = dir.join("out");
+    let results = run_plan(&plan, &out);
+    let base = get(&results, "two-pass-per-eye")
+        .error
+        .expect("error measured");
+    assert_eq!(base.flip_inset_mean, None);
+    for name in ["inset", "inset-up-left"] {
+        let e = get(&results, name).error.expect("error measured");
+        let inside = e.flip_inset_mean.expect("inset error measured");
+        assert!(e.flip_mean > 0.0, "{name}: {e:?}");
+        assert!(
+            inside < 0.5 * e.flip_mean,
+            "{name}: inside {inside} vs overall {}",
+            e.flip_mean
+        );
+    }
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("Inside the inset"), "{md}");
+    assert!(md.contains("Target (inset vs two-pass-per-eye"), "{md}");
+    let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
+    let head = csv_fields(csv.lines().next().unwrap());
+    let col = head.iter().position(|h| h == "flip_inset_mean").unwrap();
+    let rows: Vec<Vec<String>> = csv.lines().skip(1).map(csv_fields).collect();
+    let cell = |name: &str| {
+        rows.iter()
+            .find(|r| r[6] == name)
+            .map(|r| r[col].clone())
+            .unwrap()
+    };
+    assert_eq!(cell("two-pass-per-eye"), "");
+    let inside: f64 = cell("inset").parse().unwrap();
+    assert_eq!(
+        Some(inside),
+        get(&results, "inset").error.unwrap().flip_inset_mean
+    );
+}

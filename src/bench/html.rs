@@ -3,7 +3,7 @@
 //! histograms and the scaling curve (cost against instance count).
 
 use super::runner::{BenchResults, Group};
-use super::tables::{facts, group_rows, group_title, pass_rows, target_line};
+use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows, target_lines};
 use crate::stats::histogram;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -265,7 +265,7 @@ pub fn html(results: &BenchResults) -> String {
                 f.fullscreen_triangle.p50
             );
         }
-        if let Some(t) = target_line(g) {
+        for t in target_lines(g) {
             let _ = write!(s, "<p><b>{}</b></p>", esc(&t));
         }
         let (head, rows) = group_rows(g);
@@ -277,6 +277,12 @@ pub fn html(results: &BenchResults) -> String {
             .chain(passes)
             .collect();
         table(&mut s, &head, &rows);
+        let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
+        if !inset.is_empty() {
+            s.push_str("<h3>Inside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle)</h3>");
+            let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
+            table(&mut s, &head, &inset);
+        }
         s.push_str("<h3>Speed against accuracy</h3>");
         s.push_str(&pareto_svg(g));
         s.push_str("<h3>Frame-time histograms (ms; red: refresh budget)</h3><div class=\"grid\">");

@@ -2,7 +2,7 @@
 //! report with plots is in [`super::html`]).
 
 use super::runner::{BenchResults, ConfigResult};
-use super::tables::{facts, group_rows, group_title, pass_rows, target_line};
+use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows, target_lines};
 use crate::error::Result;
 use std::fmt::Write as _;
 use std::path::Path;
@@ -25,7 +25,7 @@ pub const CSV_HEADER: &str = "scene,instances,hmd,scale,width,height,config,opt,
 gpu_p50_ms,gpu_p95_ms,gpu_p99_ms,gpu_max_ms,gpu_std_ms,frames_in_flight,wall_frame_p50_ms,wall_frame_p95_ms,wall_frame_p99_ms,wall_frame_max_ms,wall_frame_std_ms,\
 model_frame_p50_ms,cpu_cull_ms,cpu_batch_ms,cpu_record_ms,cpu_submit_ms,cpu_frame_p50_ms,frames,frames_over_budget,frames_over_2x_budget,\
 draw_calls,instances_drawn,triangles,fragment_invocations,gpu_allocated_bytes,gpu_usage_bytes,gpu_budget_bytes,rss_bytes,\
-flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup";
+flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup,flip_inset_mean";
 
 fn quote(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -96,6 +96,7 @@ pub fn csv(results: &BenchResults) -> String {
                 opt_num(a.map(|a| a.false_negatives)),
                 opt_num(r.gpu_speedup),
                 opt_num(r.frame_speedup),
+                opt_num(e.and_then(|e| e.flip_inset_mean)),
             ];
             s.push_str(&fields.join(","));
             s.push('\n');
@@ -137,7 +138,7 @@ pub fn markdown(results: &BenchResults) -> String {
                 g.baseline, f.empty_frame.p50, f.clear.p50, f.fullscreen_triangle.p50
             );
         }
-        if let Some(t) = target_line(g) {
+        for t in target_lines(g) {
             let _ = writeln!(s, "**{t}**\n");
         }
         let (head, rows) = group_rows(g);
@@ -149,6 +150,15 @@ pub fn markdown(results: &BenchResults) -> String {
             .chain(passes)
             .collect();
         md_table(&mut s, &head, &rows);
+        let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
+        if !inset.is_empty() {
+            let _ = writeln!(
+                s,
+                "\nInside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle around the gaze, where the eye looks; both eyes and the compared frames averaged):\n"
+            );
+            let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
+            md_table(&mut s, &head, &inset);
+        }
         let flicker: Vec<Vec<String>> = g
             .results
             .iter()

@@ -15,6 +15,7 @@ use crate::rss::process_rss_bytes;
 use crate::scene::Scene;
 use crate::stats::Summary;
 use crate::targets::headless::load_scene;
+use crate::view::inset::{inset_rect, PixelRect};
 use crate::view::lens::mask_image_until;
 use crate::view::profile::HmdProfile;
 use crate::view::StereoRig;
@@ -31,6 +32,12 @@ use std::sync::Arc;
 pub struct ImageError {
     /// Mean FLIP over visible pixels.
     pub flip_mean: f64,
+    /// With `inset`: mean FLIP over the visible pixels inside the inset
+    /// rectangle (the full-density region around the gaze, where the eye
+    /// looks), averaged over eyes and compared frames. None without an
+    /// inset.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flip_inset_mean: Option<f64>,
     /// 99th percentile of per-pixel FLIP over one eye's visible pixels,
     /// averaged over eyes and compared frames.
     pub flip_p99: f64,
@@ -670,8 +677,8 @@ pub fn stereo_error(
         .map(|v| v.fov)
         .ok_or_else(|| crate::error::Error::config("image error", "the rig has no views"))?;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
-    let (left, flip) = eye_error(&reference[0], &test[0], &masks[0], ppd)?;
-    let (right, _) = eye_error(&reference[1], &test[1], &masks[1], ppd)?;
+    let (left, flip) = eye_error(&reference[0], &test[0], &masks[0], ppd, None)?;
+    let (right, _) = eye_error(&reference[1], &test[1], &masks[1], ppd, None)?;
     Ok(((left.flip_mean + right.flip_mean) / 2.0, flip.heatmap()))
 }
 
@@ -809,7 +816,8 @@ fn measure(
                 .map(|img| crate::targets::headless::to_size(img, extent));
             if let Some(cmp) = compare {
                 if let Some(reference) = cmp.reference.get(images.len()) {
-                    errors.push(image_error(reference, &pair, cmp)?);
+                    let inset = config_inset_rect(config, &rigs[i], extent);
+                    errors.push(image_error(reference, &pair, cmp, inset.as_ref())?);
                 }
             }
             images.push(pair);
@@ -828,8 +836,11 @@ fn average_errors(errors: &[ImageError]) -> Option<ImageError> {
     }
     let n = errors.len() as f64;
     let avg = |get: fn(&ImageError) -> f64| errors.iter().map(get).sum::<f64>() / n;
+    // The inset's mean where every compared frame has one.
+    let inset: Option<f64> = errors.iter().map(|e| e.flip_inset_mean).sum();
     Some(ImageError {
         flip_mean: avg(|e| e.flip_mean),
+        flip_inset_mean: inset.map(|s| s / n),
         flip_p99: avg(|e| e.flip_p99),
         psnr_db: avg(|e| e.psnr_db),
         ssim: avg(|e| e.ssim),
@@ -857,6 +868,7 @@ fn warped_errors(
     compare: Option<&Comparison>,
 ) -> Result<(Vec<ImageError>, TimewarpResult)> {
     let near = driver.renderer().config.near;
+    let config = driver.renderer().config.clone();
     let mut warp = crate::render::timewarp::Timewarp::new(ctx, extent, tw.variant)?;
     let (mut errors, mut own, mut warp_ms) = (Vec::new(), Vec::new(), Vec::new());
     let render = |driver: &mut FrameDriver, i: usize| -> Result<_> {
@@ -893,10 +905,11 @@ fn warped_errors(
                 // Against the same configuration's frame i, over the
                 // pixels the lens shows (as the error against the
                 // reference).
-                let own_error = image_error(&truth, &out.images, cmp)?;
+                let inset = config_inset_rect(&config, new, extent);
+                let own_error = image_error(&truth, &out.images, cmp, inset.as_ref())?;
                 own.push(own_error.flip_mean);
                 if let Some(reference) = cmp.reference.get(n) {
-                    errors.push(image_error(reference, &out.images, cmp)?);
+                    errors.push(image_error(reference, &out.images, cmp, inset.as_ref())?);
                 }
             }
             if oldest.is_none() {
@@ -919,16 +932,22 @@ fn warped_errors(
 /// Error of one stereo pair against the reference, over visible pixels:
 /// hidden pixels are blacked out in both images first and left out of the
 /// FLIP statistics.
+/// With `inset`, also the FLIP mean inside that rectangle.
 fn image_error(
     reference: &[image::RgbaImage; 2],
     test: &[image::RgbaImage; 2],
     cmp: &Comparison,
+    inset: Option<&PixelRect>,
 ) -> Result<ImageError> {
-    let [l, r] =
-        [0usize, 1].map(|eye| eye_error(&reference[eye], &test[eye], &cmp.masks[eye], cmp.ppd));
+    let [l, r] = [0usize, 1]
+        .map(|eye| eye_error(&reference[eye], &test[eye], &cmp.masks[eye], cmp.ppd, inset));
     let ((l, _), (r, _)) = (l?, r?);
     Ok(ImageError {
         flip_mean: (l.flip_mean + r.flip_mean) / 2.0,
+        flip_inset_mean: l
+            .flip_inset_mean
+            .zip(r.flip_inset_mean)
+            .map(|(a, b)| (a + b) / 2.0),
         flip_p99: (l.flip_p99 + r.flip_p99) / 2.0,
         psnr_db: (l.psnr_db + r.psnr_db) / 2.0,
         ssim: (l.ssim + r.ssim) / 2.0,
@@ -939,12 +958,14 @@ fn image_error(
 
 /// One eye's error against its reference over the pixels `mask` does not
 /// hide (blacked out in both images first and left out of the FLIP
-/// statistics), with the FLIP result itself (for its heat map).
+/// statistics), with the FLIP result itself (for its heat map). With
+/// `inset`, also the FLIP mean over the visible pixels inside it.
 fn eye_error(
     reference: &image::RgbaImage,
     test: &image::RgbaImage,
     mask: &[bool],
     ppd: f64,
+    inset: Option<&PixelRect>,
 ) -> Result<(ImageError, metrics::FlipResult)> {
     let (a, b) = (blackout(reference, mask), blackout(test, mask));
     let f = metrics::flip(&a, &b, ppd as f32)?;
@@ -952,6 +973,7 @@ fn eye_error(
     Ok((
         ImageError {
             flip_mean: mean,
+            flip_inset_mean: inset.map(|r| rect_mean(&f.errors, a.width(), r, mask)),
             flip_p99: p99,
             psnr_db: metrics::psnr(&a, &b).min(100.0),
             ssim: metrics::ssim(&a, &b),
@@ -971,6 +993,47 @@ fn blackout(img: &image::RgbaImage, hidden: &[bool]) -> image::RgbaImage {
         }
     }
     out
+}
+
+/// The inset rectangle `config` renders at full density in eye images of
+/// `extent` for `rig` (the renderer's own choice, [`inset_rect`] around
+/// the configured gaze), or None without `inset`.
+fn config_inset_rect(
+    config: &RenderConfig,
+    rig: &StereoRig,
+    extent: vk::Extent2D,
+) -> Option<PixelRect> {
+    let i = config.inset?;
+    let fovs: Vec<_> = rig.views.iter().take(2).map(|v| v.fov).collect();
+    Some(inset_rect(
+        &fovs,
+        config.gaze,
+        i.half_angle_deg,
+        extent.width,
+        extent.height,
+    ))
+}
+
+/// Mean of per-pixel `errors` (rows of `width`) over the pixels of `rect`
+/// that `hidden` does not mark (0 when none is left).
+pub fn rect_mean(errors: &[f32], width: u32, rect: &PixelRect, hidden: &[bool]) -> f64 {
+    let (mut sum, mut n) = (0.0f64, 0u64);
+    for y in rect.y0..rect.y1 {
+        for x in rect.x0..rect.x1 {
+            let i = (y as usize) * width as usize + x as usize;
+            if let Some(&e) = errors.get(i) {
+                if !hidden.get(i).copied().unwrap_or(false) {
+                    sum += e as f64;
+                    n += 1;
+                }
+            }
+        }
+    }
+    if n == 0 {
+        0.0
+    } else {
+        sum / n as f64
+    }
 }
 
 /// Mean and 99th percentile of `errors` over the pixels `hidden` does not
@@ -1219,6 +1282,41 @@ mod tests {
                 let d = rig.head.position.distance((lo + hi) * 0.5);
                 assert!(d < 1.2 * diag, "{path}: head {d} m from the cloud's centre");
             }
+        }
+    }
+
+    proptest::proptest! {
+        /// `rect_mean` is the brute-force mean of the visible errors whose
+        /// pixel lies inside the rectangle (0 when there are none).
+        #[test]
+        fn rect_mean_is_the_mean_of_the_visible_pixels_inside(
+            w in 1u32..12,
+            h in 1u32..12,
+            corners in (0u32..12, 0u32..12, 0u32..12, 0u32..12),
+            seed in 0u64..1000,
+        ) {
+            let (a, b, c, d) = corners;
+            let rect = PixelRect {
+                x0: a.min(b).min(w - 1),
+                x1: (a.max(b) + 1).min(w),
+                y0: c.min(d).min(h - 1),
+                y1: (c.max(d) + 1).min(h),
+            };
+            let n = (w * h) as usize;
+            let errors: Vec<f32> =
+                (0..n).map(|i| ((i as u64 * 7919 + seed) % 101) as f32 / 100.0).collect();
+            let hidden: Vec<bool> = (0..n).map(|i| (i as u64 + seed).is_multiple_of(3)).collect();
+            let inside: Vec<f64> = (0..n)
+                .filter(|&i| rect.contains(i as u32 % w, i as u32 / w) && !hidden[i])
+                .map(|i| errors[i] as f64)
+                .collect();
+            let want = if inside.is_empty() {
+                0.0
+            } else {
+                inside.iter().sum::<f64>() / inside.len() as f64
+            };
+            let got = rect_mean(&errors, w, &rect, &hidden);
+            proptest::prop_assert!((got - want).abs() < 1e-12, "{got} vs {want}");
         }
     }
 }

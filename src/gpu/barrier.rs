@@ -171,3 +171,15 @@ pub fn copies_to_host() -> vk::MemoryBarrier2<'static> {
         .dst_stage_mask(vk::PipelineStageFlags2::HOST)
         .dst_access_mask(vk::AccessFlags2::HOST_READ)
 }
+
+/// The barrier that makes copies into `buf` (all of it) readable by the
+/// host once the submission's fence has signalled.
+pub fn buffer_to_host(buf: vk::Buffer) -> vk::BufferMemoryBarrier2<'static> {
+    vk::BufferMemoryBarrier2::default()
+        .src_stage_mask(vk::PipelineStageFlags2::COPY)
+        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
+        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
+        .dst_access_mask(vk::AccessFlags2::HOST_READ)
+        .buffer(buf)
+        .size(vk::WHOLE_SIZE)
+}

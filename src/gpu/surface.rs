@@ -806,13 +806,7 @@ impl Presenter {
                     let copy = barrier::color_copy(0, 1, self.extent.width, self.extent.height);
                     d.cmd_copy_image_to_buffer(cmd, target, Use::TRANSFER_SRC.layout, buf, &[copy]);
                     after.push(barrier::image(target, c, 1, Use::TRANSFER_SRC, presented));
-                    let to_host = [vk::BufferMemoryBarrier2::default()
-                        .src_stage_mask(vk::PipelineStageFlags2::COPY)
-                        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-                        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-                        .dst_access_mask(vk::AccessFlags2::HOST_READ)
-                        .buffer(buf)
-                        .size(vk::WHOLE_SIZE)];
+                    let to_host = [barrier::buffer_to_host(buf)];
                     d.cmd_pipeline_barrier2(
                         cmd,
                         &vk::DependencyInfo::default()

@@ -623,13 +623,7 @@ fn record_copies(
     (to_src, back): (&[vk::ImageMemoryBarrier2], &[vk::ImageMemoryBarrier2]),
     copies: Vec<(vk::Image, vk::BufferImageCopy)>,
 ) {
-    let to_host = [vk::BufferMemoryBarrier2::default()
-        .src_stage_mask(vk::PipelineStageFlags2::COPY)
-        .src_access_mask(vk::AccessFlags2::TRANSFER_WRITE)
-        .dst_stage_mask(vk::PipelineStageFlags2::HOST)
-        .dst_access_mask(vk::AccessFlags2::HOST_READ)
-        .buffer(buf)
-        .size(vk::WHOLE_SIZE)];
+    let to_host = [crate::gpu::barrier::buffer_to_host(buf)];
     // SAFETY: recording into the open command buffer after the images were
     // written; the caller sized `buf` for every copy.
     unsafe {
