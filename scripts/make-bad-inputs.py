@@ -396,6 +396,10 @@ case("plans/bad-opt.toml", "plan", ["hyperdrive"], PLAN.format(frames=2, opt="hy
 case("plans/zero-frames.toml", "plan", ["frames = 0"], PLAN.format(frames=0, opt="two-pass"))
 case("plans/one-flicker-frame.toml", "plan", ["flicker_frames = 1", "0 (off) or 2 to 120"],
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nflicker_frames = 1\n", 1))
+case("plans/reference-supersample-5.toml", "plan", ["reference_supersample = 5", "1 to 4"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nreference_supersample = 5\n", 1))
+case("plans/reference-supersample-aq.toml", "plan", ["reference_supersample = 2", "leave aq out"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nreference_supersample = 2\nreference = \"multiview,aq\"\n", 1))
 case("plans/duplicate-names.toml", "plan", ["appears twice"],
      PLAN.format(frames=2, opt="two-pass") + '[[configs]]\nname = "a"\nopt = "multiview"\n')
 case("configs/unknown-key.toml", "config", ["colour"], 'opt = "multiview"\ncolour = 3\n')
@@ -443,6 +447,8 @@ cli("cli-render-width", ["render", "--width", "100000", "--height", "10", "--out
 cli("cli-render-pose", ["render", "--pose", "1e300,0,0,0,0,0", "--out", "{out}"], ["--pose", "within"], exit=2)
 cli("cli-render-section", ["render", "--section", "0,0,0,0,0,0", "--out", "{out}"], ["--section", "no direction"], exit=2)
 cli("cli-tune-budget", ["tune", "--budget-ms", "inf"], ["--budget-ms"], exit=2)
+cli("cli-tune-flicker-cap", ["tune", "--budget-ms", "10", "--max-flicker", "base"], ["--max-flicker", "or baseline"], exit=2)
+cli("cli-tune-reference-supersample", ["tune", "--budget-ms", "10", "--reference-supersample", "5"], ["--reference-supersample"], exit=2)
 cli("cli-compare-ppd", ["compare", "a.png", "b.png", "--ppd", "1e9"], ["--ppd"], exit=2)
 # Class 5, dead or silently ignored options: used, or refused.
 cli("cli-lens-nan", ["cull-bench", "--lens-half-angle", "NaN"], ["--lens-half-angle", "(0, π/2)"], exit=2)

@@ -69,9 +69,16 @@ enum Command {
         max_flip: Option<f64>,
         /// Largest acceptable temporal error (flicker: per-pixel
         /// frame-to-frame change beyond the reference's along a slowly
-        /// turning view); candidates above it, or unmeasured, are left out.
-        #[arg(long, value_parser = vergence::cli::parse_non_negative)]
-        max_flicker: Option<f64>,
+        /// turning view), or `baseline`: what the baseline candidate
+        /// measured; candidates above it, or unmeasured, are left out.
+        #[arg(long, value_parser = vergence::bench::tune::parse_flicker_cap)]
+        max_flicker: Option<vergence::bench::tune::FlickerCap>,
+        /// Render the reference at this many times the eye size per axis
+        /// (1 to 4) and reduce it by a box filter in linear light: a
+        /// converged reference, against which the baseline's aliasing
+        /// counts too.
+        #[arg(long, default_value_t = 1, value_parser = clap::value_parser!(u32).range(1..=4))]
+        reference_supersample: u32,
         /// factory[:N], cad:N, a .gltf/.glb file or a scene manifest (.toml).
         #[arg(long, default_value = "factory")]
         scene: String,
@@ -656,6 +663,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             budget_ms,
             max_flip,
             max_flicker,
+            reference_supersample,
             scene,
             hmd,
             scale,
@@ -669,7 +677,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             },
             &scene,
             &hmd,
-            scale,
+            (scale, reference_supersample),
             frames,
             &out,
         )?,
@@ -891,7 +899,7 @@ fn tune(
     goal: vergence::bench::tune::TuneGoal,
     scene: &str,
     hmd: &str,
-    scale: f64,
+    scale: (f64, u32),
     frames: u32,
     out: &std::path::Path,
 ) -> anyhow::Result<()> {

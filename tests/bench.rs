@@ -679,3 +679,36 @@ fn the_inset_error_is_measured_inside_the_inset() {
         get(&results, "inset").error.unwrap().flip_inset_mean
     );
 }
+
+/// `reference_supersample = 2`: the reference is rendered at twice the
+/// eye size and box-filtered down, so the configuration that renders as
+/// the plain reference would (`two-pass,msaa4`) now has an image and a
+/// temporal error of its own (its aliasing against a converged image),
+/// and 1× MSAA still flickers more; the report says how the reference was
+/// made.
+#[test]
+fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
+    let dir = common::scratch("bench", "supersample");
+    let plan = dir.join("ss.toml");
+    let body = "name = \"ss\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.12]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 6\nspin_up_ms = 0\nreference = \"two-pass,msaa4\"\nreference_supersample = 2\nbaseline = \"same\"\n\n[[configs]]\nname = \"same\"\nopt = \"two-pass,msaa4\"\n\n[[configs]]\nname = \"mv1\"\nopt = \"multiview,no-msaa\"\n";
+    std::fs::write(&plan, body).unwrap();
+    let out = dir.join("out");
+    let results = run_plan(&plan, &out);
+    let same = get(&results, "same");
+    let flip = same.error.expect("error measured").flip_mean;
+    let flicker = same.flicker.expect("flicker measured");
+    assert!(flip > 0.0 && flip < 0.1, "FLIP {flip}");
+    assert!(flicker > 0.0, "flicker {flicker}");
+    let mv1 = get(&results, "mv1");
+    assert!(
+        mv1.flicker.unwrap() > flicker,
+        "{:?} vs {flicker}",
+        mv1.flicker
+    );
+    assert!(mv1.error.unwrap().flip_mean > flip);
+    let md = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(md.contains("rendered at 2× the eye size"), "{md}");
+    let image = image::open(out.join(get(&results, "reference").image.as_ref().unwrap())).unwrap();
+    let same_image = image::open(out.join(same.image.as_ref().unwrap())).unwrap();
+    assert_eq!(image.width(), same_image.width());
+}

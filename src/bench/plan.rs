@@ -81,6 +81,13 @@ pub struct Plan {
     /// optimization off.
     #[serde(default = "default_reference")]
     pub reference: String,
+    /// The reference rendered at this many times the eye size per axis
+    /// (1 to 4) and reduced to it by a box filter in linear light
+    /// (`targets::downsample`): a converged image for the error and the
+    /// temporal error to be measured against, so that the baseline's own
+    /// aliasing counts too. 1 (the default): at the eye size.
+    #[serde(default = "one")]
+    pub reference_supersample: u32,
     /// Name of the configuration speed-ups are relative to (default: the
     /// first).
     #[serde(default)]
@@ -95,6 +102,9 @@ pub struct Plan {
 
 fn one_scale() -> Vec<f64> {
     vec![1.0]
+}
+fn one() -> u32 {
+    1
 }
 fn default_warmup() -> u32 {
     5
@@ -229,6 +239,12 @@ impl Plan {
         if self.frames == 0 || self.frames > 100_000 {
             return Err(format!("frames = {} must be in 1..=100000", self.frames));
         }
+        if !(1..=4).contains(&self.reference_supersample) {
+            return Err(format!(
+                "reference_supersample = {} must be 1 to 4",
+                self.reference_supersample
+            ));
+        }
         if self.flicker_frames == 1 || self.flicker_frames > 120 {
             return Err(format!(
                 "flicker_frames = {} must be 0 (off) or 2 to 120",
@@ -308,8 +324,15 @@ impl Plan {
                 }
             }
         }
-        self.reference_config()
+        let reference = self
+            .reference_config()
             .map_err(|e| format!("reference: {e}"))?;
+        if self.reference_supersample > 1 && reference.aq {
+            return Err(format!(
+                "reference_supersample = {} renders the reference at a fixed size, which aq in the reference would change: leave aq out of it",
+                self.reference_supersample
+            ));
+        }
         if let Some(b) = &self.baseline {
             if !names.contains(b.as_str()) {
                 return Err(format!("baseline '{b}' is not a config name"));

@@ -500,13 +500,14 @@ fn run_group(
     );
     let mut reference_config = plan.reference_config()?;
     reference_config.resolve_lens(Some(profile))?;
+    let ss = plan.reference_supersample;
     let mut reference_images: RefImages = Vec::new();
     let Some(mut reference) = measure(
         ctx,
         plan,
         scene,
         &rigs,
-        extent,
+        (extent, ss),
         ("reference", &plan.reference, &reference_config),
         plan.refresh_hz(profile),
         Some(&mut reference_images),
@@ -529,7 +530,7 @@ fn run_group(
             scene,
             &reference_config,
             &flicker_rigs,
-            extent,
+            (extent, ss),
             0.0,
         )?,
     };
@@ -551,7 +552,7 @@ fn run_group(
             plan,
             scene,
             &rigs,
-            extent,
+            (extent, 1),
             (&c.name, &c.opt, &config),
             plan.refresh_hz(profile),
             Some(&mut images),
@@ -569,7 +570,7 @@ fn run_group(
                 scene,
                 &config,
                 &flicker_rigs,
-                extent,
+                (extent, 1),
                 0.0,
             )?;
             r.flicker = Some(sequence_flicker(&test, &reference_sequence, &masks)?);
@@ -702,22 +703,25 @@ fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> Option<[Vec<bool>; 2]
 /// Renders `config` along `rigs`: warm-up, measured frames, then the
 /// compared frames (each preceded by its predecessor on the path, so
 /// history-dependent techniques see a realistic previous frame), read back
-/// into `images` and compared when `compare` is given. None when a quit
-/// was requested before it finished.
+/// into `images` and compared when `compare` is given. With `supersample`
+/// k > 1 (the reference's) it renders at k × `extent` per axis and the
+/// images are reduced to `extent`. None when a quit was requested before
+/// it finished.
 #[allow(clippy::too_many_arguments)]
 fn measure(
     ctx: &Arc<Context>,
     plan: &Plan,
     scene: &Scene,
     rigs: &[StereoRig],
-    extent: vk::Extent2D,
+    (extent, supersample): (vk::Extent2D, u32),
     (name, opt, config): (&str, &str, &RenderConfig),
     refresh_hz: f64,
     mut images: Option<&mut RefImages>,
     compare: Option<&Comparison>,
     floors_out: Option<&mut Option<Floors>>,
 ) -> Result<Option<ConfigResult>> {
-    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, extent)?;
+    let render_extent = crate::targets::headless::supersampled(extent, supersample);
+    let renderer = crate::targets::headless::new_renderer(ctx, scene, config, render_extent)?;
     let mut driver = FrameDriver::new(renderer, scene)?;
     driver.set_display_budget(1000.0 / refresh_hz);
     let mut frames: Vec<FrameResult> = Vec::new();

@@ -201,8 +201,20 @@ pub fn facts(results: &BenchResults) -> Vec<(String, String)> {
             "Frames".into(),
             plan.map_or("?".into(), |p| {
                 format!(
-                    "{} warm-up + {} measured per configuration along head path seed {}; {} compared with the reference (`{}`)",
-                    p.warmup, p.frames, p.path_seed, p.error_frames, p.reference
+                    "{} warm-up + {} measured per configuration along head path seed {}; {} compared with the reference (`{}`{})",
+                    p.warmup,
+                    p.frames,
+                    p.path_seed,
+                    p.error_frames,
+                    p.reference,
+                    if p.reference_supersample > 1 {
+                        format!(
+                            ", rendered at {k}× the eye size per axis and box-filtered down in linear light",
+                            k = p.reference_supersample
+                        )
+                    } else {
+                        String::new()
+                    }
                 )
             }),
         ),

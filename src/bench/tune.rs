@@ -83,12 +83,63 @@ pub struct TuneGoal {
     pub max_flip: Option<f64>,
     /// Temporal error cap (`--max-flicker`): a candidate whose flicker
     /// (`bench::flicker`) exceeds it, or was not measured, is left out.
-    pub max_flicker: Option<f64>,
+    pub max_flicker: Option<FlickerCap>,
+}
+
+/// A temporal error cap: a number, or whatever the `baseline` candidate
+/// measured (`--max-flicker baseline`: no worse than the baseline, which
+/// means something against a supersampled reference, where the baseline's
+/// own aliasing counts; against a reference that renders the baseline's
+/// pixels, the baseline scores 0).
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub enum FlickerCap {
+    /// At most this flicker.
+    Value(f64),
+    /// At most the `baseline` candidate's measured flicker.
+    Baseline,
+}
+
+/// `--max-flicker`: `baseline` or a number in [0, 1e6].
+pub fn parse_flicker_cap(s: &str) -> std::result::Result<FlickerCap, String> {
+    if s == "baseline" {
+        return Ok(FlickerCap::Baseline);
+    }
+    crate::cli::parse_non_negative(s)
+        .map(FlickerCap::Value)
+        .map_err(|e| format!("{e}, or baseline"))
+}
+
+/// The cap in numbers: `baseline` resolved against the measured
+/// candidates (an error when the baseline's flicker was not measured).
+fn flicker_cap(cap: Option<FlickerCap>, cands: &[&ConfigResult]) -> Result<Option<f64>> {
+    match cap {
+        None => Ok(None),
+        Some(FlickerCap::Value(v)) => Ok(Some(v)),
+        Some(FlickerCap::Baseline) => cands
+            .iter()
+            .find(|r| r.name == "baseline")
+            .and_then(|r| r.flicker)
+            .map(Some)
+            .ok_or_else(|| {
+                Error::config(
+                    "--max-flicker",
+                    "baseline: the baseline candidate's flicker was not measured",
+                )
+            }),
+    }
 }
 
 /// The bench plan `tune` measures; `budget_ms` is the budget `aq`
 /// candidates hold their frames to (None: the profile's refresh period).
-pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32, budget_ms: Option<f64>) -> Plan {
+/// `reference_supersample` renders the reference at that many times the
+/// eye size per axis (the plan field of that name).
+pub fn plan(
+    scene: &str,
+    hmd: &str,
+    (scale, reference_supersample): (f64, u32),
+    frames: u32,
+    budget_ms: Option<f64>,
+) -> Plan {
     Plan {
         name: "tune".into(),
         scenes: vec![scene.to_string()],
@@ -105,6 +156,7 @@ pub fn plan(scene: &str, hmd: &str, scale: f64, frames: u32, budget_ms: Option<f
         path_seed: 1,
         path: super::plan::PathKind::Walk,
         reference: "two-pass,msaa4".into(),
+        reference_supersample,
         baseline: Some("baseline".into()),
         frames_in_flight: crate::config::RenderConfig::default().frames_in_flight,
         configs: CANDIDATES
@@ -156,6 +208,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     // The measured wall-clock interval of the loop `run` uses (frames in
     // flight included) is what `run` sustains.
     let fits = |r: &ConfigResult| r.wall_frame_ms.p95 <= goal.budget_ms;
+    let max_flicker = flicker_cap(goal.max_flicker, &cands)?;
     let mut why = Vec::new();
     for r in &cands {
         why.push(format!(
@@ -169,7 +222,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                 (None, _) => ", so it is left out".to_string(),
                 (Some(f), Some(m)) if f > m => format!(" over the cap {m}"),
                 _ => String::new(),
-            } + &match (r.flicker, goal.max_flicker) {
+            } + &match (r.flicker, max_flicker) {
                 (_, None) => String::new(),
                 (None, Some(_)) => "; flicker not measured, so it is left out".to_string(),
                 (Some(f), Some(m)) if f > m => format!("; flicker {f:.5} over the cap {m}"),
@@ -184,10 +237,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
         .filter(|r| fits(r))
         .filter_map(|r| Some((r, flip(r)?)))
         .filter(|&(_, f)| goal.max_flip.is_none_or(|m| f <= m))
-        .filter(|&(r, _)| {
-            goal.max_flicker
-                .is_none_or(|m| r.flicker.is_some_and(|f| f <= m))
-        })
+        .filter(|&(r, _)| max_flicker.is_none_or(|m| r.flicker.is_some_and(|f| f <= m)))
         .collect();
     let faster =
         |a: &ConfigResult, b: &ConfigResult| a.wall_frame_ms.p95.total_cmp(&b.wall_frame_ms.p95);
@@ -223,8 +273,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                     goal.max_flip
                         .map(|m| format!(" with FLIP mean ≤ {m}"))
                         .unwrap_or_default()
-                        + &goal
-                            .max_flicker
+                        + &max_flicker
                             .map(|m| format!(" and flicker ≤ {m}"))
                             .unwrap_or_default(),
                     why.join("\n")
@@ -404,18 +453,67 @@ mod tests {
         let goal = TuneGoal {
             budget_ms: 10.0,
             max_flip: Some(0.05),
-            max_flicker: Some(0.01),
+            max_flicker: Some(FlickerCap::Value(0.01)),
         };
         let c = choose(&r, &goal).unwrap();
         assert_eq!(c.chosen.name, "mid");
         let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
         assert!(line.contains("flicker 0.02000 over the cap 0.01"), "{line}");
         let capped = TuneGoal {
-            max_flicker: Some(0.001),
+            max_flicker: Some(FlickerCap::Value(0.001)),
             ..goal
         };
         let e = choose(&r, &capped).unwrap_err().to_string();
         assert!(e.contains("and flicker ≤ 0.001"), "{e}");
+    }
+
+    #[test]
+    fn a_baseline_flicker_cap_is_the_baseline_candidates_measure() {
+        // Candidates as results() gives them, with a "baseline" among
+        // them: under the FLIP cap "fast" (flicker above the baseline's)
+        // is left out and "mid" (equal to it) qualifies.
+        let mut r = results();
+        r.groups[0]
+            .results
+            .push(result("baseline", 20.0, Some(0.0)));
+        for c in &mut r.groups[0].results {
+            c.flicker = match c.name.as_str() {
+                "fast" => Some(0.0031),
+                "mid" | "baseline" => Some(0.003),
+                "fastest" => Some(0.0),
+                _ => None,
+            };
+        }
+        let goal = TuneGoal {
+            budget_ms: 10.0,
+            max_flip: Some(0.05),
+            max_flicker: Some(FlickerCap::Baseline),
+        };
+        let c = choose(&r, &goal).unwrap();
+        assert_eq!(c.chosen.name, "mid");
+        let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
+        assert!(line.contains("over the cap 0.003"), "{line}");
+        // Unmeasured baseline flicker: an error, not a silent 0.
+        for c in &mut r.groups[0].results {
+            if c.name == "baseline" {
+                c.flicker = None;
+            }
+        }
+        let e = choose(&r, &goal).unwrap_err().to_string();
+        assert!(
+            e.contains("baseline candidate's flicker was not measured"),
+            "{e}"
+        );
+    }
+
+    #[test]
+    fn flicker_caps_parse() {
+        assert_eq!(parse_flicker_cap("baseline"), Ok(FlickerCap::Baseline));
+        assert_eq!(parse_flicker_cap("0.002"), Ok(FlickerCap::Value(0.002)));
+        for bad in ["-1", "nan", "base", ""] {
+            let e = parse_flicker_cap(bad).unwrap_err();
+            assert!(e.contains("or baseline"), "{bad}: {e}");
+        }
     }
 
     #[test]

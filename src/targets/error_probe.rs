@@ -51,7 +51,7 @@ fn render(
         scene,
         config,
         std::slice::from_ref(rig),
-        extent,
+        (extent, 1),
         time,
     )?;
     frames

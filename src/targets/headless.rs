@@ -296,16 +296,17 @@ pub fn load_stereo_profile(name: &str) -> Result<HmdProfile> {
 /// scene time `start_time + j / DEFAULT_FRAME_RATE` (where moving
 /// instances stand), each frame read back: what an image comparison
 /// outside the timed loops renders (the bench's temporal-error sequence,
-/// `view`'s on-demand error).
+/// `view`'s on-demand error). With `supersample` k > 1 the frames are
+/// rendered at k × `extent` per axis and reduced to `extent` ([`to_size`]).
 pub fn render_sequence(
     ctx: &Arc<Context>,
     scene: &Scene,
     config: &RenderConfig,
     rigs: &[crate::view::StereoRig],
-    extent: vk::Extent2D,
+    (extent, supersample): (vk::Extent2D, u32),
     start_time: f64,
 ) -> Result<Vec<[image::RgbaImage; 2]>> {
-    let renderer = new_renderer(ctx, scene, config, extent)?;
+    let renderer = new_renderer(ctx, scene, config, supersampled(extent, supersample))?;
     let mut driver = FrameDriver::new(renderer, scene)?;
     let mut out = Vec::with_capacity(rigs.len());
     for (j, rig) in rigs.iter().enumerate() {
@@ -317,12 +318,31 @@ pub fn render_sequence(
     Ok(out)
 }
 
-/// `img` at `extent`: unchanged when it already is, else resampled
-/// bilinearly (a frame `aq` rendered smaller or larger, as a compositor
-/// scales the sub-image to the eye).
+/// `extent` times `k` per axis (at least 1): where a supersampled
+/// reference renders before [`to_size`] brings it back.
+pub fn supersampled(extent: vk::Extent2D, k: u32) -> vk::Extent2D {
+    let k = k.max(1);
+    vk::Extent2D {
+        width: extent.width * k,
+        height: extent.height * k,
+    }
+}
+
+/// `img` at `extent`: unchanged when it already is; a whole multiple k of
+/// it (a supersampled reference, [`render_sequence`]'s `supersample`)
+/// reduced by the k × k box filter in linear light
+/// ([`super::downsample::box_linear`]); else resampled bilinearly (a frame
+/// `aq` rendered smaller or larger, as a compositor scales the sub-image
+/// to the eye).
 pub fn to_size(img: image::RgbaImage, extent: vk::Extent2D) -> image::RgbaImage {
     if img.dimensions() == (extent.width, extent.height) {
         return img;
+    }
+    if extent.width > 0 && img.width().is_multiple_of(extent.width) {
+        let k = img.width() / extent.width;
+        if k >= 2 && img.height() == k * extent.height {
+            return super::downsample::box_linear(&img, k);
+        }
     }
     image::imageops::resize(
         &img,
