@@ -712,3 +712,52 @@ fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
     let same_image = image::open(out.join(same.image.as_ref().unwrap())).unwrap();
     assert_eq!(image.width(), same_image.width());
 }
+
+/// `tune --reference-supersample 2 --max-flicker baseline`: the reference
+/// is rendered at twice the eye size, the baseline candidate measures a
+/// flicker of its own against it, and the stack tune writes flickers no
+/// more than that (the rule's own tests are in src/bench/tune.rs).
+#[test]
+fn tune_caps_flicker_at_the_baselines_against_a_supersampled_reference() {
+    let dir = common::scratch("bench", "tune-ss");
+    let file = dir.join("tuned.toml");
+    let stdout = ok(&[
+        "tune",
+        "--budget-ms",
+        "10000",
+        "--max-flicker",
+        "baseline",
+        "--reference-supersample",
+        "2",
+        "--scene",
+        "factory:300",
+        "--hmd",
+        "monado-sim",
+        "--scale",
+        "0.2",
+        "--frames",
+        "2",
+        "--out",
+        file.to_str().unwrap(),
+    ]);
+    let results: BenchResults = serde_json::from_str(
+        &std::fs::read_to_string(file.with_extension("bench").join("results.json")).unwrap(),
+    )
+    .unwrap();
+    assert_eq!(results.plan.as_ref().unwrap().reference_supersample, 2);
+    let base = get(&results, "baseline").flicker.expect("baseline flicker");
+    assert!(base > 0.0, "the baseline against a 2x reference: {base}");
+    let text = std::fs::read_to_string(&file).unwrap();
+    let opt_line = text.lines().find(|l| l.starts_with("opt = ")).unwrap();
+    let chosen = results.groups[0]
+        .results
+        .iter()
+        .find(|r| opt_line == format!("opt = {:?}", r.opt))
+        .expect("the written stack was measured");
+    assert!(chosen.flicker.unwrap() <= base, "{stdout}");
+    // Some candidate flickers more than the baseline and says so.
+    assert!(
+        stdout.contains(&format!("over the cap {base:.5} (the baseline's)")),
+        "{stdout}"
+    );
+}

@@ -209,6 +209,11 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     // flight included) is what `run` sustains.
     let fits = |r: &ConfigResult| r.wall_frame_ms.p95 <= goal.budget_ms;
     let max_flicker = flicker_cap(goal.max_flicker, &cands)?;
+    // The cap as the user reads it.
+    let cap_text = |m: f64| match goal.max_flicker {
+        Some(FlickerCap::Baseline) => format!("{m:.5} (the baseline's)"),
+        _ => format!("{m}"),
+    };
     let mut why = Vec::new();
     for r in &cands {
         why.push(format!(
@@ -225,7 +230,9 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
             } + &match (r.flicker, max_flicker) {
                 (_, None) => String::new(),
                 (None, Some(_)) => "; flicker not measured, so it is left out".to_string(),
-                (Some(f), Some(m)) if f > m => format!("; flicker {f:.5} over the cap {m}"),
+                (Some(f), Some(m)) if f > m => {
+                    format!("; flicker {f:.5} over the cap {}", cap_text(m))
+                }
                 (Some(f), Some(_)) => format!("; flicker {f:.5}"),
             }
         ));
@@ -274,7 +281,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                         .map(|m| format!(" with FLIP mean ≤ {m}"))
                         .unwrap_or_default()
                         + &max_flicker
-                            .map(|m| format!(" and flicker ≤ {m}"))
+                            .map(|m| format!(" and flicker ≤ {}", cap_text(m)))
                             .unwrap_or_default(),
                     why.join("\n")
                 ),
@@ -492,7 +499,10 @@ mod tests {
         let c = choose(&r, &goal).unwrap();
         assert_eq!(c.chosen.name, "mid");
         let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
-        assert!(line.contains("over the cap 0.003"), "{line}");
+        assert!(
+            line.contains("over the cap 0.00300 (the baseline's)"),
+            "{line}"
+        );
         // Unmeasured baseline flicker: an error, not a silent 0.
         for c in &mut r.groups[0].results {
             if c.name == "baseline" {
