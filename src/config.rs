@@ -316,6 +316,23 @@ pub struct Inset {
     /// same; what it is for is measuring what the hole saves.
     #[serde(default)]
     pub wide_all: bool,
+    /// `inset-taa[=A]` (which turns `inset` on): temporal anti-aliasing of
+    /// the wide views with weight A (0.01 to 1, default
+    /// [`crate::view::taa::DEFAULT_ALPHA`]) on each new frame: a compute
+    /// pass blends each frame into a history reprojected with the wide
+    /// views' depth and clamped to the current neighbourhood
+    /// ([`crate::view::taa`]); the composite reads the history. Two scopes
+    /// only, and not with `aq` (its changing sizes would restart the
+    /// history).
+    #[serde(default)]
+    pub taa: Option<f64>,
+    /// `inset-taa-jitter` (which turns `inset-taa` on): the wide viewport
+    /// also moves by a sub-pixel Halton offset each frame, so a still view
+    /// is supersampled over frames too. Off by default: on lavapipe's
+    /// bench frames it cost FLIP and flicker against the unjittered
+    /// accumulation (README, "Wide views accumulated over frames").
+    #[serde(default)]
+    pub taa_jitter: bool,
 }
 
 impl Default for Inset {
@@ -328,6 +345,8 @@ impl Default for Inset {
             wide_1x: false,
             composite: false,
             wide_all: false,
+            taa: None,
+            taa_jitter: false,
         }
     }
 }
@@ -576,6 +595,18 @@ impl RenderConfig {
                 "inset-wide-1x draws the wide views in their own scope at one sample; inset-views=4 draws them in the eyes' scope at the eyes' samples: leave one out",
             ));
         }
+        if self.inset.is_some_and(|i| i.taa.is_some() && i.four_views) {
+            return Err(Error::config(
+                "--opt",
+                "inset-taa jitters and accumulates the wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
+            ));
+        }
+        if self.inset.is_some_and(|i| i.taa.is_some()) && self.aq {
+            return Err(Error::config(
+                "--opt",
+                "inset-taa accumulates the wide views over frames at one size; aq changes their size from frame to frame, which would restart the history: leave one out",
+            ));
+        }
         if self.inset.is_some_and(|i| i.wide_1x) && self.msaa == 1 {
             return Err(Error::config(
                 "--opt",
@@ -786,6 +817,34 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                "inset-taa" => {
+                    let i = self.inset.unwrap_or_default();
+                    self.inset = Some(Inset {
+                        taa: Some(i.taa.unwrap_or(crate::view::taa::DEFAULT_ALPHA)),
+                        ..i
+                    })
+                }
+                "inset-taa-jitter" => {
+                    let i = self.inset.unwrap_or_default();
+                    self.inset = Some(Inset {
+                        taa: Some(i.taa.unwrap_or(crate::view::taa::DEFAULT_ALPHA)),
+                        taa_jitter: true,
+                        ..i
+                    })
+                }
+                l if l.starts_with("inset-taa=") => {
+                    let v = opt_value(
+                        l,
+                        "inset-taa=",
+                        (0.01, 1.0),
+                        "A",
+                        "the weight of each new frame in the wide views' temporal average",
+                    )?;
+                    self.inset = Some(Inset {
+                        taa: Some(v),
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 "inset-wide-all" => {
                     self.inset = Some(Inset {
                         wide_all: true,
@@ -918,7 +977,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1047,6 +1106,17 @@ impl RenderConfig {
         l.resolved = Some(fitted.unwrap_or_else(|| l.coefficients()));
     }
 
+    /// Frames this configuration must draw before its image stops
+    /// depending on where it started: with `inset-taa` the history's
+    /// [`crate::view::taa::SETTLE_FRAMES`], else 0 (every frame stands
+    /// alone).
+    pub fn settle_frames(&self) -> usize {
+        match self.inset.and_then(|i| i.taa) {
+            Some(_) => crate::view::taa::SETTLE_FRAMES,
+            None => 0,
+        }
+    }
+
     /// One error when this configuration has a technique a scene with a
     /// point cloud cannot draw with yet (the points are rasterized into the
     /// eye images at full size, once per frame).
@@ -1125,6 +1195,14 @@ impl RenderConfig {
             }
             if i.wide_all {
                 v.push("inset-wide-all".into());
+            }
+            match i.taa {
+                Some(a) if a == crate::view::taa::DEFAULT_ALPHA => v.push("inset-taa".into()),
+                Some(a) => v.push(format!("inset-taa={a}")),
+                None => {}
+            }
+            if i.taa_jitter {
+                v.push("inset-taa-jitter".into());
             }
         }
         if self.points_pipeline {
@@ -1268,6 +1346,10 @@ mod tests {
             "inset,inset-composite",
             "inset,inset-wide-all,inset-wide-1x",
             "multiview,inset,aq,aq-scale-only",
+            "inset-taa",
+            "two-pass,inset=0.7,inset-wide-1x,inset-taa=0.25",
+            "inset-taa-jitter",
+            "inset-taa=0.2,inset-taa-jitter",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",
         ] {

@@ -42,6 +42,8 @@ const SETTINGS: Inset = Inset {
     wide_1x: false,
     composite: false,
     wide_all: false,
+    taa: None,
+    taa_jitter: false,
 };
 
 fn srgb_to_linear(v: u8) -> f32 {

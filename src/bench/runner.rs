@@ -522,14 +522,14 @@ fn run_group(
     tick("reference");
     // The temporal-error sequence: the first measured view turning by a
     // third of a pixel a frame.
-    let flicker_rigs = flicker_rigs(plan, &rigs, profile, ppd);
-    let reference_sequence = match flicker_rigs.is_empty() {
+    let sequence = flicker_rigs(plan, &rigs, profile, ppd, 0);
+    let reference_sequence = match sequence.is_empty() {
         true => Vec::new(),
         false => crate::targets::headless::render_sequence(
             ctx,
             scene,
             &reference_config,
-            &flicker_rigs,
+            &sequence,
             (extent, ss),
             0.0,
         )?,
@@ -565,14 +565,19 @@ fn run_group(
         };
         r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
         if !reference_sequence.is_empty() && config.timewarp.is_none() {
-            let test = crate::targets::headless::render_sequence(
+            // A configuration with a history (inset-taa) runs into the
+            // sequence from further back, so what is measured is its
+            // settled image; the lead frames are not compared.
+            let lead = config.settle_frames();
+            let mut test = crate::targets::headless::render_sequence(
                 ctx,
                 scene,
                 &config,
-                &flicker_rigs,
+                &flicker_rigs(plan, &rigs, profile, ppd, lead),
                 (extent, 1),
                 0.0,
             )?;
+            test.drain(..lead.min(test.len()));
             r.flicker = Some(sequence_flicker(&test, &reference_sequence, &masks)?);
         }
         if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
@@ -591,18 +596,21 @@ fn run_group(
 /// The temporal-error sequence of a group: `plan.flicker_frames` views
 /// from the first measured one, turning right by a third of a pixel
 /// (at `ppd` pixels per degree) a frame — sub-pixel motion, where aliasing
-/// shows as shimmer.
+/// shows as shimmer — after `lead` views of the same turn leading up to
+/// it (for a configuration whose image settles over frames).
 fn flicker_rigs(
     plan: &Plan,
     rigs: &[StereoRig],
     profile: &crate::view::profile::HmdProfile,
     ppd: f64,
+    lead: usize,
 ) -> Vec<StereoRig> {
     let Some(first) = rigs.get((plan.warmup as usize).min(rigs.len().saturating_sub(1))) else {
         return Vec::new();
     };
     let step_deg = 1.0 / (3.0 * ppd.max(1.0));
-    (0..plan.flicker_frames)
+    let lead = lead as i64;
+    (-lead..plan.flicker_frames as i64)
         .map(|j| {
             let turn = crate::view::Pose::from_euler_deg(
                 glam::DVec3::ZERO,
@@ -807,11 +815,15 @@ fn measure(
         result.error = average_errors(&errors);
     } else if let Some(images) = images {
         let mut errors = Vec::new();
+        // Each compared frame is rendered again after the frame before it
+        // (frames in flight as measured); a configuration with a history
+        // (inset-taa) runs the path from its settle frames before, so the
+        // compared image is the settled one it showed in the timed loop.
+        let lead = config.settle_frames().max(1);
         for k in plan.error_frame_indices() {
             let i = (plan.warmup + k) as usize;
-            let prev = i.saturating_sub(1);
-            for (j, readback) in [(prev, false), (i, true)] {
-                driver.frame(&rigs[j], j as u64, readback)?;
+            for j in i.saturating_sub(lead)..=i {
+                driver.frame(&rigs[j], j as u64, j == i)?;
             }
             // With aq, what the compositor would show: the rendered size
             // scaled to the eye image.

@@ -13,7 +13,10 @@ use std::fmt::Write as _;
 /// The inset comes at the default wide-view scale (0.5 per axis) and at
 /// 0.7, between it and the full resolution: twice the wide view's pixels
 /// for less of its blur, for scenes whose fine detail puts the default
-/// over an error cap over the whole image.
+/// over an error cap over the whole image. The `-taa` stacks accumulate
+/// the wide views over frames (`inset-taa`): the one-sample wide views
+/// shimmer less than the plain inset's and cost one compute pass more.
+/// The last adds the CPU-free culling with LOD at the 0.7 scale.
 pub const CANDIDATES: &[(&str, &str)] = &[
     ("baseline", "two-pass,msaa4,per-eye"),
     ("multiview", "multiview,msaa4,superfrustum"),
@@ -70,6 +73,15 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "inset-0.7-wide-1x",
         "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x",
     ),
+    ("inset-taa", "multiview,msaa4,superfrustum,inset,inset-taa"),
+    (
+        "inset-wide-1x-taa",
+        "multiview,msaa4,superfrustum,inset,inset-wide-1x,inset-taa",
+    ),
+    (
+        "inset-0.7-wide-1x-taa",
+        "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-taa",
+    ),
     (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
@@ -77,6 +89,10 @@ pub const CANDIDATES: &[(&str, &str)] = &[
     (
         "inset-gpu-cull-lod-wide-1x",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset,inset-wide-1x",
+    ),
+    (
+        "inset-0.7-gpu-cull-lod-wide-1x-taa",
+        "multiview,msaa4,superfrustum,gpu-cull,lod,inset=0.7,inset-wide-1x,inset-taa",
     ),
 ];
 

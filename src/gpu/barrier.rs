@@ -66,6 +66,19 @@ impl Use {
                 | vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw(),
         ),
     };
+    /// A scope's finished depth: written as the attachment, or by its
+    /// resolve (which runs in the colour-attachment-output stage).
+    pub const DEPTH_OUTPUT: Use = Use {
+        layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
+        stage: vk::PipelineStageFlags2::from_raw(
+            vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS.as_raw()
+                | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT.as_raw(),
+        ),
+        access: vk::AccessFlags2::from_raw(
+            vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE.as_raw()
+                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw(),
+        ),
+    };
     /// Depth-stencil read by compute shaders (the depth pyramid).
     pub const DEPTH_COMPUTE_READ: Use = Use {
         layout: vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,

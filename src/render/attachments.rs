@@ -70,7 +70,8 @@ pub struct SetOptions {
     /// scene from the sampled resolve image: radial density masking's
     /// reconstruction, or the inset composite.
     pub composed: bool,
-    /// Make the resolve image sampleable.
+    /// Make the resolve image sampleable (and the kept depth, with
+    /// `keep_depth`).
     pub sampled: bool,
     /// The composed output image is written by a compute shader (the
     /// inset composite): it gets storage use and a UNORM view
@@ -145,7 +146,10 @@ impl AttachmentSet {
             let ds = crate::gpu::depth_aspect(depth_format);
             let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
             let stored_depth = keep_depth && samples == 1;
-            let depth_sampled = if occlusion {
+            // Sampled: the depth pyramid reads the multisampled depth; a
+            // sampled set that keeps its depth (the inset's wide views
+            // under inset-taa) has its kept depth read.
+            let depth_sampled = if occlusion || (sampled && stored_depth) {
                 vk::ImageUsageFlags::SAMPLED
             } else {
                 vk::ImageUsageFlags::empty()
@@ -171,7 +175,13 @@ impl AttachmentSet {
                         "depth resolve",
                         depth_format,
                         vk::SampleCountFlags::TYPE_1,
-                        depth_usage | vk::ImageUsageFlags::TRANSFER_SRC,
+                        depth_usage
+                            | vk::ImageUsageFlags::TRANSFER_SRC
+                            | if sampled {
+                                vk::ImageUsageFlags::SAMPLED
+                            } else {
+                                vk::ImageUsageFlags::empty()
+                            },
                         ds,
                     ),
                 )?);

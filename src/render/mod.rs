@@ -1052,8 +1052,9 @@ impl Renderer {
                     self.extent.height,
                 ),
             };
-            if let Some(pass) = &self.passes.inset {
+            if let Some(pass) = self.passes.inset.as_mut() {
                 self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
+                pass.begin_frame([rig.views[0], rig.views[1]], self.config.near, self.extent);
             }
         }
         // The slot's previous frame must be done before its buffers are
@@ -1486,6 +1487,9 @@ impl Renderer {
                             eye,
                             "forward-wide",
                             passes.inset_wide.as_ref().filter(|_| one_sample),
+                            // A quad output hands the wide views to the
+                            // runtime as drawn: no jitter, no history.
+                            if self.quad { [0.0; 2] } else { i.jitter() },
                         )
                     });
                     // With lms the eye is drawn into the LMS targets instead.
@@ -1507,10 +1511,11 @@ impl Renderer {
                             (None, None) => "forward",
                         },
                         None,
+                        [0.0; 2],
                     );
                     wide.into_iter().chain(std::iter::once(main))
                 });
-            for (views, extent, area, view_mask, eye, name, one_sample) in scopes {
+            for (views, extent, area, view_mask, eye, name, one_sample, jitter) in scopes {
                 let late = part == ScopePart::Second;
                 let forward = one_sample.map_or(&passes.forward, |w| &w.forward);
                 let overlay = one_sample.map_or(&passes.overlay, |w| &w.overlay);
@@ -1528,6 +1533,7 @@ impl Renderer {
                     secondaries: parallel.is_some(),
                     sky_after_resolve: resolved_sky.is_some(),
                     colour_covered,
+                    jitter,
                 });
                 if let Some(par) = parallel {
                     // SAFETY: inside a scope begun for secondary contents;

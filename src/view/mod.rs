@@ -18,6 +18,7 @@ pub mod projection;
 pub mod reproject;
 pub(crate) mod strict;
 pub mod superfrustum;
+pub mod taa;
 
 use glam::{DQuat, DVec3};
 

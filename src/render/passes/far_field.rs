@@ -339,6 +339,7 @@ impl FarField {
                 depth_clear: 0.0,
                 shading_rate: None,
                 secondaries: false,
+                jitter: [0.0; 2],
             });
             draws += draw(2 + i as u32);
             rec.end_scope();

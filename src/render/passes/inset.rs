@@ -33,6 +33,7 @@
 //! `bench/results/2026-12-03-h200-inset-four-view.md`: there the multiview
 //! views cost as separate views), so two scopes are the default.
 
+use super::inset_taa::InsetTaa;
 use super::sampled::SampledSets;
 use super::{PipelineSetup, Recorder};
 use crate::error::Result;
@@ -70,6 +71,9 @@ pub struct InsetPass {
     /// images (`aq`'s MSAA rung; only where the sets have a one-sample
     /// depth image).
     one_sample: bool,
+    /// `inset-taa`: the wide views' temporal anti-aliasing, whose history
+    /// the composite reads as the wide view.
+    taa: Option<InsetTaa>,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -82,7 +86,8 @@ pub struct InsetPass {
 impl InsetPass {
     /// The wide targets at `scale` × `extent` (`samples` per pixel; with
     /// `msaa_rung` over MSAA also drawable at one sample, see
-    /// [`InsetPass::set_one_sample`]) and the composite; on failure,
+    /// [`InsetPass::set_one_sample`]), with `taa` (`inset-taa`'s weight
+    /// and jitter) their temporal anti-aliasing, and the composite; on failure,
     /// destroys what it made.
     pub fn new(
         setup: &PipelineSetup,
@@ -90,6 +95,7 @@ impl InsetPass {
         scale: f64,
         (samples, msaa_rung): (u32, bool),
         multiview: bool,
+        taa: Option<(f64, bool)>,
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
         let wide_extent = crate::render::scaled(extent, scale);
@@ -100,11 +106,22 @@ impl InsetPass {
             SampledSets::new(
                 ctx,
                 wide_extent,
-                (samples, msaa_rung),
+                (samples, msaa_rung, taa.is_some()),
                 multiview,
                 setup.depth_format,
                 "inset composite",
             )?
+        };
+        let taa = match taa
+            .filter(|_| !four_view)
+            .map(|a| InsetTaa::new(ctx, &wide, a))
+        {
+            Some(Ok(t)) => Some(t),
+            Some(Err(e)) => {
+                wide.destroy(ctx);
+                return Err(e);
+            }
+            None => None,
         };
         let stage = vk::ShaderStageFlags::COMPUTE;
         let sets = match DescriptorSets::new(
@@ -121,6 +138,9 @@ impl InsetPass {
         ) {
             Ok(s) => s,
             Err(e) => {
+                if let Some(t) = taa {
+                    t.destroy(ctx);
+                }
                 wide.destroy(ctx);
                 return Err(e);
             }
@@ -137,6 +157,7 @@ impl InsetPass {
                 scale,
                 factor: 1.0,
                 one_sample: false,
+                taa,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -144,6 +165,9 @@ impl InsetPass {
             }),
             Err(e) => {
                 sets.destroy(ctx);
+                if let Some(t) = taa {
+                    t.destroy(ctx);
+                }
                 wide.destroy(ctx);
                 Err(e)
             }
@@ -184,6 +208,10 @@ impl InsetPass {
         let o1 = out.get(1).copied().unwrap_or(o0);
         let frames = [self.wide.info(e0), self.wide.info(e1)];
         let wide = match (self.wide.infos(), self.four_view) {
+            // With inset-taa the composite reads the wide views' history.
+            (Some(_), false) if self.taa.is_some() => {
+                self.taa.as_ref().map(InsetTaa::infos).expect("checked")
+            }
             (Some(w), false) => w,
             (None, true) => frames,
             _ => {
@@ -217,10 +245,15 @@ impl InsetPass {
             .sets
             .iter()
             .filter_map(|s| s.filled.as_ref().map(|f| &f.0));
+        // With inset-taa its pass has made the wide views readable.
+        let wide_sets = match self.taa {
+            Some(_) => &[][..],
+            None => &self.wide.sets[..],
+        };
         self.before = targets
             .sets
             .iter()
-            .chain(&self.wide.sets)
+            .chain(wide_sets)
             .map(|s| {
                 let r = &s.resolve;
                 barrier::image(
@@ -253,6 +286,22 @@ impl InsetPass {
             })
             .collect();
         Ok(())
+    }
+
+    /// With `inset-taa`, starts a frame whose eyes are `views` (eyes of
+    /// `extent`, `near` the projection's near plane): see
+    /// [`InsetTaa::begin_frame`]. Nothing without it.
+    pub fn begin_frame(&mut self, views: [crate::view::View; 2], near: f64, extent: vk::Extent2D) {
+        let size = self.wide_extent(extent);
+        if let Some(t) = self.taa.as_mut() {
+            t.begin_frame(views, near, size);
+        }
+    }
+
+    /// This frame's sub-pixel offset of the wide views' viewport
+    /// (`inset-taa`'s jitter; zero without it).
+    pub fn jitter(&self) -> [f32; 2] {
+        self.taa.as_ref().map_or([0.0; 2], InsetTaa::jitter)
     }
 
     /// Draws the following wide views at `factor` × F (clamped to (0, 1]:
@@ -336,8 +385,15 @@ impl InsetPass {
         let feather = crate::view::inset::FEATHER_PX.to_bits();
         let wide_lo = region.x0 | region.y0 << 16;
         let wide_size = region.width() | region.height() << 16;
-        let wide_layer = if self.four_view { 2 } else { 0 };
+        let wide_layer = match (&self.taa, self.four_view) {
+            (Some(t), _) => t.history_layer(),
+            (None, true) => 2,
+            (None, false) => 0,
+        };
         let eye_size = extent.width | extent.height << 16;
+        if let Some(t) = &self.taa {
+            t.record(rec, q, &self.wide);
+        }
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
         rec.barriers(&self.before);
@@ -384,6 +440,9 @@ impl InsetPass {
         // SAFETY: the device is idle; the pipeline belongs to `self`.
         unsafe { ctx.device.destroy_pipeline(self.composite, None) };
         self.sets.destroy(ctx);
+        if let Some(t) = self.taa {
+            t.destroy(ctx);
+        }
         self.wide.destroy(ctx);
     }
 }

@@ -72,7 +72,7 @@ impl LmsPass {
         let targets = SampledSets::new(
             ctx,
             size,
-            (samples, false),
+            (samples, false, false),
             multiview,
             setup.depth_format,
             "LMS resample",

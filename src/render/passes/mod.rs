@@ -12,6 +12,7 @@ pub mod floor;
 pub mod forward;
 pub mod gpu_cull;
 pub mod inset;
+pub mod inset_taa;
 pub mod inset_wide;
 pub mod lms;
 pub mod output;
@@ -136,6 +137,7 @@ impl Passes {
                 i.wide_scale,
                 (if wide_1x { 1 } else { setup.samples }, msaa_rung),
                 config.stereo == crate::config::StereoMode::Multiview,
+                i.taa.map(|a| (a, i.taa_jitter)),
             )?);
             if wide_1x || msaa_rung {
                 self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
@@ -659,6 +661,10 @@ pub struct Scope {
     /// 2.56 ms of an empty frame's 6.68
     /// (`bench/results/2026-12-03-h200-raster-floors.md`).
     pub colour_covered: bool,
+    /// The viewport's sub-pixel offset, pixels (`inset-taa`'s jitter of
+    /// the wide views; zero otherwise). The render area and scissor stay
+    /// on whole pixels.
+    pub jitter: [f32; 2],
 }
 
 /// Records a frame's commands: the command buffer, the device, this frame
@@ -816,6 +822,13 @@ impl Recorder<'_> {
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
         if !scope.secondaries {
             self.set_state(scope.extent);
+            if scope.jitter != [0.0; 2] {
+                let (mut viewport, _) = whole(scope.extent);
+                viewport.x = scope.jitter[0];
+                viewport.y = scope.jitter[1];
+                // SAFETY: inside the scope just begun.
+                unsafe { self.ctx.device.cmd_set_viewport(self.cmd, 0, &[viewport]) };
+            }
             if let Some(a) = scope.area {
                 // SAFETY: inside the scope just begun; the rectangle lies in
                 // its render area.

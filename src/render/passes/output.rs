@@ -96,13 +96,7 @@ impl OutputCopy {
         let (w, h) = (extent.width, extent.height);
         let barrier = barrier::image;
         let color_out = Use::COLOR_ATTACHMENT;
-        let depth_out = Use {
-            layout: vk::ImageLayout::DEPTH_STENCIL_ATTACHMENT_OPTIMAL,
-            stage: vk::PipelineStageFlags2::LATE_FRAGMENT_TESTS
-                | vk::PipelineStageFlags2::COLOR_ATTACHMENT_OUTPUT,
-            access: vk::AccessFlags2::DEPTH_STENCIL_ATTACHMENT_WRITE
-                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-        };
+        let depth_out = Use::DEPTH_OUTPUT;
         let (src, dst) = (Use::TRANSFER_SRC, Use::TRANSFER_DST);
         let mut before = Vec::new();
         let mut after = Vec::new();

@@ -21,20 +21,21 @@ pub struct SampledSets {
 
 impl SampledSets {
     /// Sets of `extent` with `samples` per pixel (with `one_sample_depth`,
-    /// also drawable at one sample: [`SetOptions::one_sample_depth`]),
-    /// their views and the sampler (`what` names it in errors); on
-    /// failure, destroys what it made.
+    /// also drawable at one sample: [`SetOptions::one_sample_depth`]; with
+    /// `keep_depth`, their depth kept and sampleable:
+    /// [`AttachmentSet::depth_output`]), their views and the sampler
+    /// (`what` names it in errors); on failure, destroys what it made.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
-        (samples, one_sample_depth): (u32, bool),
+        (samples, one_sample_depth, keep_depth): (u32, bool, bool),
         multiview: bool,
         depth_format: vk::Format,
         what: &str,
     ) -> Result<SampledSets> {
         let opts = SetOptions {
             depth_format,
-            keep_depth: false,
+            keep_depth,
             composed: false,
             sampled: true,
             storage_output: false,
@@ -99,6 +100,11 @@ impl SampledSets {
         self.sampler = unsafe { ctx.device.create_sampler(&info, None) }
             .vk(&format!("creating the {what}'s sampler"))?;
         Ok(())
+    }
+
+    /// The linear, clamp-to-edge sampler the sets' views are read with.
+    pub fn sampler(&self) -> vk::Sampler {
+        self.sampler
     }
 
     /// The sampler and view of `view` as a descriptor (shader-read layout).
