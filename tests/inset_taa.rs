@@ -216,7 +216,7 @@ fn accumulation_cuts_the_shimmer_of_a_slow_turn() {
             accumulated < 0.8 * plain,
             "{name}: inset-taa flickers {accumulated:.6}, the plain inset {plain:.6}"
         );
-        // Measured here: 0.00049 and 0.00055 against the full-size 4x
+        // Measured here: 0.00037 and 0.00041 against the full-size 4x
         // render's 0.00136.
         assert!(
             accumulated < full,

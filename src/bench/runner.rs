@@ -822,8 +822,9 @@ fn measure(
         let lead = config.settle_frames().max(1);
         for k in plan.error_frame_indices() {
             let i = (plan.warmup + k) as usize;
-            for j in i.saturating_sub(lead)..=i {
-                driver.frame(&rigs[j], j as u64, j == i)?;
+            let first = i.saturating_sub(lead);
+            for (j, rig) in rigs.iter().enumerate().take(i + 1).skip(first) {
+                driver.frame(rig, j as u64, j == i)?;
             }
             // With aq, what the compositor would show: the rendered size
             // scaled to the eye image.
