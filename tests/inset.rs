@@ -32,19 +32,7 @@ fn fixture() -> (
     (ctx, scene, profile, pose, fovs)
 }
 
-/// The inset most tests draw: the wide view at half size, ±15°, two
-/// scopes at the frame's MSAA.
-const SETTINGS: Inset = Inset {
-    wide_scale: 0.5,
-    half_angle_deg: 15.0,
-    fov_given: true,
-    four_views: false,
-    wide_1x: false,
-    composite: false,
-    wide_all: false,
-    taa: None,
-    taa_jitter: false,
-};
+const SETTINGS: Inset = common::INSET_SETTINGS;
 
 fn srgb_to_linear(v: u8) -> f32 {
     common::srgb_to_linear(v) as f32

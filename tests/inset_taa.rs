@@ -20,17 +20,7 @@ use vergence::view::{Pose, StereoRig};
 const W: u32 = 192;
 const H: u32 = 160;
 
-const SETTINGS: Inset = Inset {
-    wide_scale: 0.5,
-    half_angle_deg: 15.0,
-    fov_given: true,
-    four_views: false,
-    wide_1x: false,
-    composite: false,
-    wide_all: false,
-    taa: None,
-    taa_jitter: false,
-};
+const SETTINGS: Inset = common::INSET_SETTINGS;
 
 fn config(stereo: StereoMode, inset: Option<Inset>) -> RenderConfig {
     RenderConfig {

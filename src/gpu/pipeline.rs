@@ -393,6 +393,30 @@ impl DescriptorSets {
         }
     }
 
+    /// Writes image descriptors into set `index`: per entry a binding, its
+    /// type and its array elements. Only before a frame uses the set.
+    pub fn write_images(
+        &self,
+        ctx: &Context,
+        index: usize,
+        bindings: &[(u32, vk::DescriptorType, &[vk::DescriptorImageInfo])],
+    ) {
+        let set = self.sets[index];
+        let writes: Vec<vk::WriteDescriptorSet> = bindings
+            .iter()
+            .map(|&(binding, ty, infos)| {
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(binding)
+                    .descriptor_type(ty)
+                    .image_info(infos)
+            })
+            .collect();
+        // SAFETY: the caller writes the set before any frame uses it; the
+        // views and samplers are live.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
     /// Destroys the pool (and its sets) and the layouts; the device must be
     /// done with them. Null handles are skipped by Vulkan.
     pub fn destroy(&self, ctx: &Context) {

@@ -226,3 +226,17 @@ pub fn linear_to_srgb(l: f64) -> f64 {
     };
     c * 255.0
 }
+
+/// The inset the inset tests draw: the wide view at half size, ±15°, two
+/// scopes at the frame's MSAA, no accumulation.
+pub const INSET_SETTINGS: vergence::config::Inset = vergence::config::Inset {
+    wide_scale: 0.5,
+    half_angle_deg: 15.0,
+    fov_given: true,
+    four_views: false,
+    wide_1x: false,
+    composite: false,
+    wide_all: false,
+    taa: None,
+    taa_jitter: false,
+};

@@ -199,13 +199,12 @@ impl InsetPass {
             .iter()
             .filter_map(|s| s.filled_storage)
             .collect();
-        let (Some(&e0), Some(&o0)) = (eye.first(), out.first()) else {
+        let (Some(&e0), Some(_)) = (eye.first(), out.first()) else {
             return Err(crate::error::Error::Gpu(
                 "the inset composite's targets have no composed output with a storage view".into(),
             ));
         };
         let e1 = eye.get(1).copied().unwrap_or(e0);
-        let o1 = out.get(1).copied().unwrap_or(o0);
         let frames = [self.wide.info(e0), self.wide.info(e1)];
         let wide = match (self.wide.infos(), self.four_view) {
             // With inset-taa the composite reads the wide views' history.
@@ -220,26 +219,18 @@ impl InsetPass {
                 ))
             }
         };
-        let storage = [o0, o1].map(|v| vk::DescriptorImageInfo {
-            sampler: vk::Sampler::null(),
-            image_view: v,
-            image_layout: vk::ImageLayout::GENERAL,
-        });
-        let set = self.sets.sets[0];
-        let write = |binding, ty| {
-            vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(binding)
-                .descriptor_type(ty)
-        };
+        let storage = super::sampled::pair(&out, vk::Sampler::null(), vk::ImageLayout::GENERAL);
         let sampler = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
-        let writes = [
-            write(0, sampler).image_info(&frames),
-            write(1, sampler).image_info(&wide),
-            write(2, vk::DescriptorType::STORAGE_IMAGE).image_info(&storage),
-        ];
-        // SAFETY: no frame has used the set yet; the views are live.
-        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        // No frame has used the set yet.
+        self.sets.write_images(
+            ctx,
+            0,
+            &[
+                (0, sampler, &frames),
+                (1, sampler, &wide),
+                (2, vk::DescriptorType::STORAGE_IMAGE, &storage),
+            ],
+        );
         let colour = vk::ImageAspectFlags::COLOR;
         let outputs = targets
             .sets
@@ -392,7 +383,7 @@ impl InsetPass {
         };
         let eye_size = extent.width | extent.height << 16;
         if let Some(t) = &self.taa {
-            t.record(rec, q, &self.wide);
+            t.record(rec, q);
         }
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");

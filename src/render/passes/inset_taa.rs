@@ -19,7 +19,7 @@
 //! each frame's dispatch order it after the previous frame's writes and
 //! reads of the same image, whatever the number of frames in flight.
 
-use super::sampled::SampledSets;
+use super::sampled::{pair, SampledSets};
 use super::Recorder;
 use crate::error::{Result, VkContext};
 use crate::gpu::barrier::{self, Use};
@@ -79,6 +79,10 @@ pub struct InsetTaa {
     jitter: bool,
     sets: DescriptorSets,
     pipeline: vk::Pipeline,
+    /// The pass's barriers before its dispatches, in steady state and on
+    /// the first frame (the history's contents discarded), and after.
+    before: [Vec<vk::ImageMemoryBarrier2<'static>>; 2],
+    after: Vec<vk::ImageMemoryBarrier2<'static>>,
     /// Frames begun so far (the jitter phase and the history parity).
     frame: u64,
     /// The previous frame's eye views and wide size.
@@ -125,6 +129,8 @@ impl InsetTaa {
             jitter,
             sets,
             pipeline: vk::Pipeline::null(),
+            before: [Vec::new(), Vec::new()],
+            after: Vec::new(),
             frame: 0,
             previous: None,
             written: AtomicU64::new(0),
@@ -200,7 +206,66 @@ impl InsetTaa {
             ));
         };
         self.write_set(ctx, colour);
+        self.make_barriers(wide);
         Ok(())
+    }
+
+    /// The barriers of every frame: the wide sets' resolved colour and
+    /// kept depth to compute reads; the history to read and write (the
+    /// previous frame wrote one half and the one before the other: this
+    /// frame reads the first and overwrites the second), and after the
+    /// dispatches to the composite's reads.
+    fn make_barriers(&mut self, wide: &SampledSets) {
+        let colour = vk::ImageAspectFlags::COLOR;
+        let written = Use {
+            layout: vk::ImageLayout::GENERAL,
+            stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+            access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
+        };
+        let read_write = Use {
+            access: vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_SAMPLED_READ,
+            ..written
+        };
+        for (first, before) in self.before.iter_mut().enumerate() {
+            for (set, history) in wide.sets.iter().zip(&self.history) {
+                before.push(barrier::image(
+                    set.resolve.image,
+                    colour,
+                    set.resolve.layers,
+                    Use::COLOR_ATTACHMENT,
+                    Use::COMPUTE_SAMPLED,
+                ));
+                if let Some(depth) = set.depth_output() {
+                    before.push(barrier::image(
+                        depth.image,
+                        crate::gpu::depth_aspect(depth.format),
+                        depth.layers,
+                        Use::DEPTH_OUTPUT,
+                        Use::DEPTH_COMPUTE_READ,
+                    ));
+                }
+                let from = match first {
+                    1 => written.discarded(),
+                    _ => written,
+                };
+                before.push(barrier::image(
+                    history.image,
+                    colour,
+                    history.layers,
+                    from,
+                    read_write,
+                ));
+            }
+        }
+        let sampled = Use {
+            layout: vk::ImageLayout::GENERAL,
+            ..Use::COMPUTE_SAMPLED
+        };
+        self.after = self
+            .history
+            .iter()
+            .map(|h| barrier::image(h.image, colour, h.layers, written, sampled))
+            .collect();
     }
 
     /// Writes the one descriptor set: per wide set its colour (`colour`,
@@ -208,43 +273,26 @@ impl InsetTaa {
     /// history (linear, for reading) and the same history as storage; the
     /// second element repeats the first under multiview.
     fn write_set(&self, ctx: &Context, colour: [vk::DescriptorImageInfo; 2]) {
-        let two = |v: &[vk::ImageView], sampler, layout| {
-            let v0 = v[0];
-            let v1 = v.get(1).copied().unwrap_or(v0);
-            [v0, v1].map(|image_view| vk::DescriptorImageInfo {
-                sampler,
-                image_view,
-                image_layout: layout,
-            })
-        };
-        let depth = two(
+        let general = vk::ImageLayout::GENERAL;
+        let depth = pair(
             &self.depth_views,
             self.nearest,
             vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL,
         );
         let history_views: Vec<vk::ImageView> = self.history.iter().map(|h| h.view).collect();
-        let history = two(&history_views, self.linear, vk::ImageLayout::GENERAL);
-        let storage = two(
-            &history_views,
-            vk::Sampler::null(),
-            vk::ImageLayout::GENERAL,
-        );
-        let set = self.sets.sets[0];
-        let write = |binding, ty| {
-            vk::WriteDescriptorSet::default()
-                .dst_set(set)
-                .dst_binding(binding)
-                .descriptor_type(ty)
-        };
+        let storage = pair(&history_views, vk::Sampler::null(), general);
         let sampler = vk::DescriptorType::COMBINED_IMAGE_SAMPLER;
-        let writes = [
-            write(0, sampler).image_info(&colour),
-            write(1, sampler).image_info(&depth),
-            write(2, sampler).image_info(&history),
-            write(3, vk::DescriptorType::STORAGE_IMAGE).image_info(&storage),
-        ];
-        // SAFETY: no frame has used the set yet; the views are live.
-        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        // No frame has used the set yet.
+        self.sets.write_images(
+            ctx,
+            0,
+            &[
+                (0, sampler, &colour),
+                (1, sampler, &depth),
+                (2, sampler, &self.infos()),
+                (3, vk::DescriptorType::STORAGE_IMAGE, &storage),
+            ],
+        );
     }
 
     /// Starts a frame whose eyes are `views` (unjittered) with the wide
@@ -298,82 +346,19 @@ impl InsetTaa {
     /// general layout), one per attachment set, the second repeating the
     /// first under multiview.
     pub fn infos(&self) -> [vk::DescriptorImageInfo; 2] {
-        let v0 = self.history[0].view;
-        let v1 = self.history.get(1).map_or(v0, |h| h.view);
-        [v0, v1].map(|image_view| vk::DescriptorImageInfo {
-            sampler: self.linear,
-            image_view,
-            image_layout: vk::ImageLayout::GENERAL,
-        })
+        let views: Vec<vk::ImageView> = self.history.iter().map(|h| h.view).collect();
+        pair(&views, self.linear, vk::ImageLayout::GENERAL)
     }
 
-    /// After the wide scopes: makes `wide`'s resolved colour and kept
-    /// depth readable, writes this frame's history for every set and
-    /// layer, and makes it readable by the composite.
-    pub fn record(&self, rec: &Recorder, q: &mut Queries, wide: &SampledSets) {
+    /// After the wide scopes: makes the wide sets' resolved colour and
+    /// kept depth readable, writes this frame's history for every set and
+    /// layer, and makes it readable by the composite (the barriers made
+    /// once by [`InsetTaa::new`]).
+    pub fn record(&self, rec: &Recorder, q: &mut Queries) {
         let s = &self.state;
-        let colour = vk::ImageAspectFlags::COLOR;
-        let history_use = Use {
-            layout: vk::ImageLayout::GENERAL,
-            stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
-            access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
-        };
-        let history_rw = Use {
-            access: vk::AccessFlags2::SHADER_STORAGE_WRITE | vk::AccessFlags2::SHADER_SAMPLED_READ,
-            ..history_use
-        };
-        let mut before = Vec::with_capacity(3 * wide.sets.len());
-        for (set, history) in wide.sets.iter().zip(&self.history) {
-            before.push(barrier::image(
-                set.resolve.image,
-                colour,
-                set.resolve.layers,
-                Use::COLOR_ATTACHMENT,
-                Use::COMPUTE_SAMPLED,
-            ));
-            if let Some(depth) = set.depth_output() {
-                before.push(barrier::image(
-                    depth.image,
-                    crate::gpu::depth_aspect(depth.format),
-                    depth.layers,
-                    Use::DEPTH_OUTPUT,
-                    Use::DEPTH_COMPUTE_READ,
-                ));
-            }
-            // The previous frame wrote one half and the one before the
-            // other: this frame reads the first and overwrites the second.
-            let from = if s.first {
-                history_use.discarded()
-            } else {
-                history_use
-            };
-            before.push(barrier::image(
-                history.image,
-                colour,
-                history.layers,
-                from,
-                history_rw,
-            ));
-        }
-        let after: Vec<_> = self
-            .history
-            .iter()
-            .map(|h| {
-                barrier::image(
-                    h.image,
-                    colour,
-                    h.layers,
-                    history_use,
-                    Use {
-                        layout: vk::ImageLayout::GENERAL,
-                        ..Use::COMPUTE_SAMPLED
-                    },
-                )
-            })
-            .collect();
         let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-taa");
-        rec.barriers(&before);
+        rec.barriers(&self.before[usize::from(s.first)]);
         // SAFETY: recording outside any rendering scope into the frame's
         // command buffer; the set was written for these images.
         unsafe {
@@ -422,7 +407,7 @@ impl InsetTaa {
                 }
             }
         }
-        rec.barriers(&after);
+        rec.barriers(&self.after);
         q.end_pass(rec.ctx, rec.cmd);
         self.written.store(self.frame, Ordering::Relaxed);
     }

@@ -120,9 +120,13 @@ impl SampledSets {
     /// set: the sets' views, the second repeating the first under
     /// multiview (None before any view exists).
     pub fn infos(&self) -> Option<[vk::DescriptorImageInfo; 2]> {
-        let v0 = *self.views.first()?;
-        let v1 = self.views.get(1).copied().unwrap_or(v0);
-        Some([self.info(v0), self.info(v1)])
+        (!self.views.is_empty()).then(|| {
+            pair(
+                &self.views,
+                self.sampler,
+                vk::ImageLayout::SHADER_READ_ONLY_OPTIMAL,
+            )
+        })
     }
 
     /// Destroys the sampler, views and sets; the device must be idle.
@@ -139,4 +143,21 @@ impl SampledSets {
             s.destroy(ctx);
         }
     }
+}
+
+/// The two array elements a shader indexes by attachment set, from one
+/// view per set (`views`, at least one): the second repeats the first
+/// when there is one set (multiview).
+pub fn pair(
+    views: &[vk::ImageView],
+    sampler: vk::Sampler,
+    layout: vk::ImageLayout,
+) -> [vk::DescriptorImageInfo; 2] {
+    let v0 = views[0];
+    let v1 = views.get(1).copied().unwrap_or(v0);
+    [v0, v1].map(|image_view| vk::DescriptorImageInfo {
+        sampler,
+        image_view,
+        image_layout: layout,
+    })
 }
