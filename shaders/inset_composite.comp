@@ -2,9 +2,11 @@
 #extension GL_GOOGLE_include_directive : require
 #include "srgb.glsl"
 // Multi-resolution foveated rendering's composite (src/view/inset.rs), in
-// compute: the eye pixel takes the wide view, bilinearly upsampled from
-// its lower resolution at the same image position (the sampler decodes
-// sRGB before filtering; the wide view lies in a region of its frame,
+// compute: the eye pixel takes the wide view, upsampled from its lower
+// resolution at the same image position, bilinearly or (pc.filter_, the
+// option inset-catmull-rom) through the Catmull-Rom filter (the sampler
+// and texelFetch decode sRGB before filtering; the wide view lies in a
+// region of its frame,
 // the whole of a frame of its own or, with four views, a region of
 // layers 2 and 3 of the eye's frame, read clamped to the region's edge
 // texel centres as clamp-to-edge reads a whole image), and inside the
@@ -30,7 +32,42 @@ layout(push_constant) uniform Push {
     uint wide_layer; // the wide frame's layer of eye layer 0
     uint eye_size; // the eyes' drawn size, width | height << 16 (with aq
                    // smaller than the images)
+    uint filter_;  // the wide view's upsampling: 0 bilinear, 1 Catmull-Rom
 } pc;
+
+// The wide view at `q` (pixels of its region, centres at + 0.5) through
+// the Catmull-Rom filter (Keys 1981, a = -1/2; weights as
+// view::taa::catmull_rom_weights) over the 4x4 texels around it, clamped
+// to the region: sharper than the bilinear read, whose ramp spreads an
+// edge over 2 / s eye pixels, and interpolating (texel centres keep
+// their values). Negative lobes can overshoot at an edge: the result is
+// clamped to the 2x2 texels nearest q (the bilinear read's range), so no
+// ringing outside what the texels hold.
+vec4 catmull_rom(sampler2DArray frame, vec2 q, ivec2 origin, ivec2 size, int layer) {
+    vec2 t = q - 0.5;
+    vec2 f = fract(t);
+    ivec2 base = ivec2(floor(t)) - 1;
+    vec2 w[4];
+    w[0] = f * (-0.5 + f * (1.0 - 0.5 * f));
+    w[1] = 1.0 + f * f * (-2.5 + 1.5 * f);
+    w[2] = f * (0.5 + f * (2.0 - 1.5 * f));
+    w[3] = f * f * (-0.5 + 0.5 * f);
+    vec4 sum = vec4(0.0);
+    vec4 lo = vec4(1e30);
+    vec4 hi = vec4(-1e30);
+    for (int j = 0; j < 4; j++) {
+        for (int i = 0; i < 4; i++) {
+            ivec2 k = clamp(base + ivec2(i, j), ivec2(0), size - 1);
+            vec4 c = texelFetch(frame, ivec3(origin + k, layer), 0);
+            sum += w[i].x * w[j].y * c;
+            if ((i == 1 || i == 2) && (j == 1 || j == 2)) {
+                lo = min(lo, c);
+                hi = max(hi, c);
+            }
+        }
+    }
+    return clamp(sum, lo, hi);
+}
 
 vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     vec2 size = vec2(float(pc.eye_size & 0xffffu), float(pc.eye_size >> 16));
@@ -38,8 +75,14 @@ vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     vec2 wsize = vec2(float(pc.wide_size & 0xffffu), float(pc.wide_size >> 16));
     vec2 worigin = vec2(float(pc.wide_lo & 0xffffu), float(pc.wide_lo >> 16));
     vec2 q = clamp(at / size * wsize, vec2(0.5), wsize - 0.5);
-    vec2 uv = (worigin + q) / vec2(textureSize(wide_frame, 0).xy);
-    vec4 wide = texture(wide_frame, vec3(uv, float(p.z + int(pc.wide_layer))));
+    int layer = p.z + int(pc.wide_layer);
+    vec4 wide;
+    if (pc.filter_ == 0u) {
+        vec2 uv = (worigin + q) / vec2(textureSize(wide_frame, 0).xy);
+        wide = texture(wide_frame, vec3(uv, float(layer)));
+    } else {
+        wide = catmull_rom(wide_frame, q, ivec2(worigin), ivec2(wsize), layer);
+    }
     vec2 lo = vec2(float(pc.lo & 0xffffu), float(pc.lo >> 16));
     vec2 hi = vec2(float(pc.hi & 0xffffu), float(pc.hi >> 16));
     float d = min(min(at.x - lo.x, hi.x - at.x), min(at.y - lo.y, hi.y - at.y));

@@ -333,6 +333,14 @@ pub struct Inset {
     /// accumulation (README, "Wide views accumulated over frames").
     #[serde(default)]
     pub taa_jitter: bool,
+    /// `inset-catmull-rom` (which turns `inset` on): the composite reads
+    /// the wide view through a Catmull-Rom filter (4×4 texels, clamped to
+    /// the nearest 2×2's range) instead of bilinearly. Sharper: less FLIP
+    /// over the periphery; but it shows the wide view's own aliasing more,
+    /// so a moving periphery flickers more (README, "The wide view's
+    /// upsampling"). Off by default.
+    #[serde(default)]
+    pub catmull_rom: bool,
 }
 
 impl Default for Inset {
@@ -347,6 +355,7 @@ impl Default for Inset {
             wide_all: false,
             taa: None,
             taa_jitter: false,
+            catmull_rom: false,
         }
     }
 }
@@ -851,6 +860,12 @@ impl RenderConfig {
                         ..self.inset.unwrap_or_default()
                     })
                 }
+                "inset-catmull-rom" => {
+                    self.inset = Some(Inset {
+                        catmull_rom: true,
+                        ..self.inset.unwrap_or_default()
+                    })
+                }
                 l if l.starts_with("inset-fov=") => {
                     let v = opt_value(l, "inset-fov=", (1.0, 80.0), "DEG", "the inset's half-angle")?;
                     self.inset = Some(Inset {
@@ -977,7 +992,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1203,6 +1218,9 @@ impl RenderConfig {
             }
             if i.taa_jitter {
                 v.push("inset-taa-jitter".into());
+            }
+            if i.catmull_rom {
+                v.push("inset-catmull-rom".into());
             }
         }
         if self.points_pipeline {

@@ -690,7 +690,7 @@ fn the_inset_error_is_measured_inside_the_inset() {
 fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
     let dir = common::scratch("bench", "supersample");
     let plan = dir.join("ss.toml");
-    let body = "name = \"ss\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.12]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 6\nspin_up_ms = 0\nreference = \"two-pass,msaa4\"\nreference_supersample = 2\nbaseline = \"same\"\n\n[[configs]]\nname = \"same\"\nopt = \"two-pass,msaa4\"\n\n[[configs]]\nname = \"mv1\"\nopt = \"multiview,no-msaa\"\n";
+    let body = "name = \"ss\"\nscenes = [\"factory:2000\"]\nhmds = [\"valve-index\"]\nscales = [0.12]\nwarmup = 1\nframes = 2\nerror_frames = 1\nflicker_frames = 6\nspin_up_ms = 0\nreference = \"two-pass,msaa4\"\nreference_supersample = 2\nbaseline = \"same\"\n\n[[configs]]\nname = \"same\"\nopt = \"two-pass,msaa4\"\n\n[[configs]]\nname = \"mv1\"\nopt = \"multiview,no-msaa\"\n\n[[configs]]\nname = \"inset\"\nopt = \"multiview,superfrustum,inset,inset-wide-1x\"\n";
     std::fs::write(&plan, body).unwrap();
     let out = dir.join("out");
     let results = run_plan(&plan, &out);
@@ -706,8 +706,42 @@ fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
         mv1.flicker
     );
     assert!(mv1.error.unwrap().flip_mean > flip);
+    // The inset's flicker split by region: the shares cover the visible
+    // pixels, weight the means into the whole, and the one-sample
+    // half-size wide view shimmers more than the 4x inset.
+    assert!(same.flicker_regions.is_none());
+    let inset = get(&results, "inset");
+    let r = inset.flicker_regions.expect("regions measured");
+    let parts = [r.inset, r.seam, r.periphery];
+    let share: f64 = parts.iter().map(|p| p.share).sum();
+    let whole: f64 = parts.iter().map(|p| p.mean * p.share).sum();
+    assert!((share - 1.0).abs() < 1e-9, "{r:?}");
+    let total = inset.flicker.unwrap();
+    assert!(
+        (whole - total).abs() < 1e-6 * total.max(1e-3),
+        "{whole} vs {total}"
+    );
+    assert!(parts.iter().all(|p| p.share > 0.0), "{r:?}");
+    assert!(r.periphery.mean > r.inset.mean, "{r:?}");
+    // A perfect wide view of that size flickers less than the one-sample
+    // render, and not at all like the reference.
+    let floor = inset.flicker_floor.expect("floor measured");
+    assert!(
+        floor > 0.0 && floor < total,
+        "floor {floor}, flicker {total}"
+    );
+    assert!(same.flicker_floor.is_none());
+    let map = image::open(out.join(inset.flicker_heatmap.as_ref().unwrap())).unwrap();
+    assert_eq!(
+        map.width(),
+        image::open(out.join(same.image.as_ref().unwrap()))
+            .unwrap()
+            .width()
+    );
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("rendered at 2× the eye size"), "{md}");
+    assert!(md.contains("| feathered seam |"), "{md}");
+    assert!(md.contains("floor (perfect wide view)"), "{md}");
     let image = image::open(out.join(get(&results, "reference").image.as_ref().unwrap())).unwrap();
     let same_image = image::open(out.join(same.image.as_ref().unwrap())).unwrap();
     assert_eq!(image.width(), same_image.width());

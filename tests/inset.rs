@@ -61,6 +61,43 @@ fn bilinear(img: &image::RgbaImage, x: u32, y: u32, w: u32, h: u32, ch: usize) -
     linear_to_srgb(top * (1.0 - fy) + bottom * fy)
 }
 
+/// `img` read at the centre of pixel (x, y) of a `w`×`h` image the way
+/// `inset-catmull-rom`'s composite reads it: the Catmull-Rom filter
+/// (Keys, a = −1/2) over the 4×4 texels around the point in linear light,
+/// clamped to the range of the nearest 2×2, for one channel.
+fn catmull_rom(img: &image::RgbaImage, x: u32, y: u32, w: u32, h: u32, ch: usize) -> f32 {
+    let (sw, sh) = img.dimensions();
+    let u = ((x as f32 + 0.5) / w as f32 * sw as f32).clamp(0.5, sw as f32 - 0.5) - 0.5;
+    let v = ((y as f32 + 0.5) / h as f32 * sh as f32).clamp(0.5, sh as f32 - 0.5) - 0.5;
+    let (x0, y0) = (u.floor() as i64, v.floor() as i64);
+    let weights = |f: f32| {
+        [
+            f * (-0.5 + f * (1.0 - 0.5 * f)),
+            1.0 + f * f * (-2.5 + 1.5 * f),
+            f * (0.5 + f * (2.0 - 1.5 * f)),
+            f * f * (-0.5 + 0.5 * f),
+        ]
+    };
+    let (wx, wy) = (weights(u - u.floor()), weights(v - v.floor()));
+    let at = |xi: i64, yi: i64| {
+        let xi = xi.clamp(0, sw as i64 - 1) as u32;
+        let yi = yi.clamp(0, sh as i64 - 1) as u32;
+        srgb_to_linear(img.get_pixel(xi, yi)[ch])
+    };
+    let (mut sum, mut lo, mut hi) = (0.0f32, f32::MAX, f32::MIN);
+    for (j, wj) in wy.iter().enumerate() {
+        for (i, wi) in wx.iter().enumerate() {
+            let c = at(x0 - 1 + i as i64, y0 - 1 + j as i64);
+            sum += wi * wj * c;
+            if (1..=2).contains(&i) && (1..=2).contains(&j) {
+                lo = lo.min(c);
+                hi = hi.max(c);
+            }
+        }
+    }
+    linear_to_srgb(sum.clamp(lo, hi))
+}
+
 fn config(stereo: StereoMode, inset: Option<Inset>, gaze: [f32; 2]) -> RenderConfig {
     RenderConfig {
         stereo,
@@ -115,6 +152,50 @@ fn regions(
         }
     }
     (inside, same, outside, close)
+}
+
+/// `inset-catmull-rom`: the inset's core is still the full render's
+/// pixels, and the periphery the wide view read through the Catmull-Rom
+/// filter (not bilinearly: the two differ there).
+#[test]
+fn with_catmull_rom_the_periphery_is_the_wide_view_through_its_filter() {
+    let (ctx, scene, profile, pose, fovs) = fixture();
+    let render = |c: &RenderConfig, w, h| render_config(&ctx, &scene, &profile, pose, c, w, h);
+    let full = render(&config(StereoMode::Multiview, None, [0.0; 2]), W, H);
+    let wide = render(&config(StereoMode::Multiview, None, [0.0; 2]), W / 2, H / 2);
+    let inset = Inset {
+        catmull_rom: true,
+        ..SETTINGS
+    };
+    let got = render(&config(StereoMode::Multiview, Some(inset), [0.0; 2]), W, H);
+    let rect = inset_rect(&fovs, [0.0, 0.0], 15.0, W, H);
+    for eye in 0..2 {
+        let (img, sharp, soft) = (&got.images[eye], &full.images[eye], &wide.images[eye]);
+        let (inside, same) = core_matches(img, sharp, &rect);
+        assert_eq!(same, inside, "eye {eye}: the core is the full render's");
+        let (mut outside, mut close, mut unlike_bilinear) = (0, 0, 0);
+        for y in 0..H {
+            for x in 0..W {
+                if weight(&rect, x, y, FEATHER_PX) > 0.0 {
+                    continue;
+                }
+                outside += 1;
+                let p = img.get_pixel(x, y);
+                let near =
+                    |f: &dyn Fn(usize) -> f32| (0..3).all(|c| (p[c] as f32 - f(c)).abs() <= 2.5);
+                close += usize::from(near(&|c| catmull_rom(soft, x, y, W, H, c)));
+                unlike_bilinear += usize::from(!near(&|c| bilinear(soft, x, y, W, H, c)));
+            }
+        }
+        assert!(
+            close * 1000 >= outside * 995,
+            "eye {eye}: {close} of {outside} periphery pixels match the Catmull-Rom read"
+        );
+        assert!(
+            unlike_bilinear > 50,
+            "eye {eye}: {unlike_bilinear} pixels unlike the bilinear read"
+        );
+    }
 }
 
 #[test]
@@ -528,15 +609,21 @@ const WIDE: Inset = Inset {
 fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
     let (ctx, scene, profile, pose, _) = fixture();
     let base = WIDE;
-    for (stereo, wide_1x, gaze) in [
-        (StereoMode::Multiview, false, [0.0, 0.0]),
-        (StereoMode::TwoPass, false, [0.3, -0.2]),
-        (StereoMode::Multiview, true, [-0.2, 0.1]),
+    // (stereo, wide 1x, gaze, Catmull-Rom reads, inset-taa): the hole's
+    // margin follows the reads' reach (view::inset_hole::read_reach).
+    for (stereo, wide_1x, gaze, catmull_rom, taa) in [
+        (StereoMode::Multiview, false, [0.0, 0.0], false, None),
+        (StereoMode::TwoPass, false, [0.3, -0.2], false, None),
+        (StereoMode::Multiview, true, [-0.2, 0.1], false, None),
+        (StereoMode::Multiview, false, [0.1, 0.0], true, None),
+        (StereoMode::TwoPass, true, [0.0, 0.1], true, Some(0.1)),
     ] {
         let run = |wide_all: bool| {
             let inset = Inset {
                 wide_1x,
                 wide_all,
+                catmull_rom,
+                taa,
                 ..base
             };
             render_config(
@@ -550,7 +637,9 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
             )
         };
         let (hole, all) = (run(false), run(true));
-        let what = format!("{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}");
+        let what = format!(
+            "{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}, Catmull-Rom {catmull_rom}, taa {taa:?}"
+        );
         assert!(
             hole.stats.instances_drawn < all.stats.instances_drawn,
             "{what}: the hole skips nothing ({} instances drawn, {} without it)",

@@ -25,14 +25,11 @@ fn luma(p: &image::Rgba<u8>) -> f32 {
     (0.2126 * p[0] as f32 + 0.7152 * p[1] as f32 + 0.0722 * p[2] as f32) / 255.0
 }
 
-/// The flicker of `test` against `reference` (equal-length sequences of
-/// equal-size frames, at least two), over the pixels `hidden` does not
-/// mark (all when it is empty).
-pub fn flicker(
-    test: &[image::RgbaImage],
-    reference: &[image::RgbaImage],
-    hidden: &[bool],
-) -> Result<f64> {
+/// Each pixel's mean excess change of `test` over `reference`
+/// (equal-length sequences of equal-size frames, at least two): the
+/// summand of [`flicker`] averaged over frames, in rows of the frames'
+/// width. Its mean over a set of pixels is that set's flicker.
+pub fn per_pixel(test: &[image::RgbaImage], reference: &[image::RgbaImage]) -> Result<Vec<f32>> {
     if test.len() != reference.len() || test.len() < 2 {
         return Err(Error::config(
             "flicker",
@@ -47,26 +44,60 @@ pub fn flicker(
     if test.iter().chain(reference).any(|f| f.dimensions() != dims) {
         return Err(Error::config("flicker", "frames of different sizes"));
     }
-    let n = (dims.0 * dims.1) as usize;
-    let shown = |i: usize| !hidden.get(i).copied().unwrap_or(false);
-    let mut sum = 0.0f64;
-    let mut count = 0u64;
+    let mut sums = vec![0.0f64; (dims.0 * dims.1) as usize];
     for t in 1..test.len() {
         let pairs = test[t]
             .pixels()
             .zip(test[t - 1].pixels())
             .zip(reference[t].pixels().zip(reference[t - 1].pixels()));
-        for (i, ((a, a0), (r, r0))) in pairs.enumerate().take(n) {
-            if !shown(i) {
-                continue;
-            }
+        for (sum, ((a, a0), (r, r0))) in sums.iter_mut().zip(pairs) {
             let dt = (luma(a) - luma(a0)).abs();
             let dr = (luma(r) - luma(r0)).abs();
-            sum += (dt - dr).max(0.0) as f64;
-            count += 1;
+            *sum += (dt - dr).max(0.0) as f64;
         }
     }
-    Ok(if count == 0 { 0.0 } else { sum / count as f64 })
+    let frames = (test.len() - 1) as f64;
+    Ok(sums.into_iter().map(|s| (s / frames) as f32).collect())
+}
+
+/// Mean of a [`per_pixel`] map over the pixels `hidden` does not mark (all
+/// when it is empty) and `keep` accepts by index; 0 when none is left.
+pub fn masked_mean(map: &[f32], hidden: &[bool], keep: impl Fn(usize) -> bool) -> f64 {
+    let (mut sum, mut count) = (0.0f64, 0u64);
+    for (i, &v) in map.iter().enumerate() {
+        if hidden.get(i).copied().unwrap_or(false) || !keep(i) {
+            continue;
+        }
+        sum += v as f64;
+        count += 1;
+    }
+    if count == 0 {
+        0.0
+    } else {
+        sum / count as f64
+    }
+}
+
+/// The flicker of `test` against `reference` (equal-length sequences of
+/// equal-size frames, at least two), over the pixels `hidden` does not
+/// mark (all when it is empty).
+pub fn flicker(
+    test: &[image::RgbaImage],
+    reference: &[image::RgbaImage],
+    hidden: &[bool],
+) -> Result<f64> {
+    Ok(masked_mean(&per_pixel(test, reference)?, hidden, |_| true))
+}
+
+/// A [`per_pixel`] map as an image: black where a pixel is as stable as
+/// the reference, through the magma colour map to white at `full` (and
+/// above), on a square-root scale so faint shimmer still shows.
+pub fn heatmap(map: &[f32], width: u32, height: u32, full: f32) -> image::RgbaImage {
+    let scaled: Vec<f32> = map
+        .iter()
+        .map(|v| (v / full.max(1e-9)).clamp(0.0, 1.0).sqrt())
+        .collect();
+    super::metrics::magma(width, height, &scaled)
 }
 
 #[cfg(test)]
@@ -119,6 +150,16 @@ mod tests {
         let all_hidden = vec![true; 32 * 8];
         assert_eq!(flicker(&test, &reference, &all_hidden).unwrap(), 0.0);
         assert!(flicker(&test[..1], &reference[..1], &[]).is_err());
+        // Left of the edge's path nothing changes; the columns it slides
+        // over carry all of it.
+        let map = per_pixel(&test, &reference).unwrap();
+        let total = flicker(&test, &reference, &[]).unwrap();
+        let left = masked_mean(&map, &[], |i| i % 32 < 8);
+        let path = masked_mean(&map, &[], |i| (10..16).contains(&(i % 32)));
+        assert_eq!(left, 0.0);
+        assert!(path > total && total > 0.0, "{path} {total}");
+        let split = (8.0 * left + 24.0 * masked_mean(&map, &[], |i| i % 32 >= 8)) / 32.0;
+        assert!((split - total).abs() < 1e-6, "{split} {total}");
         assert!(flicker(&test, &reference[..3], &[]).is_err());
         let mut odd = test.clone();
         odd[2] = image::RgbaImage::new(4, 4);

@@ -301,9 +301,13 @@ pub fn html(results: &BenchResults) -> String {
         for r in &g.results {
             s.push_str(&histogram_svg(&r.name, &r.frame_times_ms, lo, hi, budget));
         }
-        s.push_str("</div><h3>Images (left eye, last compared frame) and FLIP heat maps</h3><div class=\"grid\">");
+        s.push_str("</div><h3>Images (left eye, last compared frame), FLIP heat maps and flicker maps (white at 0.05)</h3><div class=\"grid\">");
         for r in &g.results {
-            for (path, what) in [(&r.image, ""), (&r.heatmap, " FLIP")] {
+            for (path, what) in [
+                (&r.image, ""),
+                (&r.heatmap, " FLIP"),
+                (&r.flicker_heatmap, " flicker"),
+            ] {
                 if let Some(p) = path {
                     let _ = write!(
                         s,

@@ -115,23 +115,24 @@ pub fn percentile_99(values: &[f32]) -> f32 {
 impl FlipResult {
     /// The error map as a heat-map image (magma colour map).
     pub fn heatmap(&self) -> image::RgbaImage {
-        let map = flip_rs::ErrorMap::new(
-            self.width as usize,
-            self.height as usize,
-            self.errors.clone(),
-        );
-        let colors = map
-            .and_then(|m| m.colorize())
-            .map(|c| c.into_pixels())
-            .unwrap_or_default();
-        image::RgbaImage::from_fn(self.width, self.height, |x, y| {
-            let i = 3 * (y * self.width + x) as usize;
-            let c = |k: usize| {
-                (colors.get(i + k).copied().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8
-            };
-            image::Rgba([c(0), c(1), c(2), 255])
-        })
+        magma(self.width, self.height, &self.errors)
     }
+}
+
+/// `values` in [0, 1] (rows of `width`) through the magma colour map.
+pub fn magma(width: u32, height: u32, values: &[f32]) -> image::RgbaImage {
+    let map = flip_rs::ErrorMap::new(width as usize, height as usize, values.to_vec());
+    let colors = map
+        .and_then(|m| m.colorize())
+        .map(|c| c.into_pixels())
+        .unwrap_or_default();
+    image::RgbaImage::from_fn(width, height, |x, y| {
+        let i = 3 * (y * width + x) as usize;
+        let c = |k: usize| {
+            (colors.get(i + k).copied().unwrap_or(0.0).clamp(0.0, 1.0) * 255.0).round() as u8
+        };
+        image::Rgba([c(0), c(1), c(2), 255])
+    })
 }
 
 /// Peak signal-to-noise ratio in dB over RGB (infinite for identical images).

@@ -3,6 +3,7 @@
 
 pub mod cull;
 pub mod flicker;
+pub mod flicker_floor;
 pub mod html;
 pub mod lens;
 pub mod metrics;

@@ -159,17 +159,29 @@ pub fn markdown(results: &BenchResults) -> String {
             let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
             md_table(&mut s, &head, &inset);
         }
+        let split = g.results.iter().any(|r| r.flicker_regions.is_some());
+        let region = |f: &crate::bench::runner::RegionFlicker| {
+            format!("{:.5} ({:.0} %)", f.mean, 100.0 * f.share)
+        };
         let flicker: Vec<Vec<String>> = g
             .results
             .iter()
             .filter_map(|r| {
-                Some(vec![
+                let mut row = vec![
                     r.name.clone(),
                     format!("{:.5}", r.flicker?),
                     r.error
                         .as_ref()
                         .map_or(String::new(), |e| format!("{:.4}", e.flip_mean)),
-                ])
+                ];
+                if split {
+                    row.extend(match &r.flicker_regions {
+                        Some(f) => [region(&f.inset), region(&f.seam), region(&f.periphery)],
+                        None => Default::default(),
+                    });
+                    row.push(r.flicker_floor.map_or(String::new(), |v| format!("{v:.5}")));
+                }
+                Some(row)
             })
             .collect();
         if !flicker.is_empty() {
@@ -177,7 +189,24 @@ pub fn markdown(results: &BenchResults) -> String {
                 s,
                 "\nTemporal error (flicker: mean per-pixel frame-to-frame luma change beyond the reference's, along the first view turning a third of a pixel a frame; 0 = as stable as the reference):\n"
             );
-            let head = ["config", "flicker", "FLIP mean"].map(String::from);
+            let mut head: Vec<String> = ["config", "flicker", "FLIP mean"]
+                .map(String::from)
+                .to_vec();
+            if split {
+                let _ = writeln!(
+                    s,
+                    "With an inset, its flicker split by where the composite takes each pixel from: mean over the region (its share of the visible pixels); the shares weight the means into the whole. Floor: the flicker of the reference sequence put through a perfect wide view of the configuration's size and filter (each wide pixel the reference's mean over its area, read back as the composite reads it), the least any wide view of that size could add.\n"
+                );
+                head.extend(
+                    [
+                        "inside the inset",
+                        "feathered seam",
+                        "wide view alone",
+                        "floor (perfect wide view)",
+                    ]
+                    .map(String::from),
+                );
+            }
             md_table(&mut s, &head, &flicker);
         }
         let aq: Vec<Vec<String>> = g

@@ -213,6 +213,21 @@ pub struct ConfigResult {
     /// the reference itself and for timewarp configurations).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker: Option<f64>,
+    /// With `inset` and a flicker sequence: the flicker split by where the
+    /// composite takes each pixel from (inside the inset, the feathered
+    /// seam, the wide view alone), both eyes averaged.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker_regions: Option<FlickerRegions>,
+    /// Left-eye map of the per-pixel flicker, relative to the output
+    /// folder (magma on a square-root scale, white at 0.05).
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker_heatmap: Option<String>,
+    /// With `inset` and a flicker sequence: the flicker of the reference
+    /// sequence put through a perfect wide view of this configuration's
+    /// scale and filter (`bench::flicker_floor`) — the least any wide view
+    /// of that size could add.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker_floor: Option<f64>,
     /// With `timewarp=K`: the warped frames (its `error` is theirs).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub timewarp: Option<TimewarpResult>,
@@ -224,6 +239,29 @@ pub struct ConfigResult {
     /// With `aq`: the render scales the controller chose.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub aq: Option<AqSummary>,
+}
+
+/// The flicker of one region of the eye image.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RegionFlicker {
+    /// Mean flicker over the region's lens-visible pixels.
+    pub mean: f64,
+    /// The region's share of the lens-visible pixels (so `mean × share`
+    /// summed over the regions is the whole image's flicker).
+    pub share: f64,
+}
+
+/// A configuration's flicker by the composite's regions
+/// ([`crate::view::inset::weight`]): where the inset's weight is 1, where
+/// it falls through the feather, and where it is 0.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct FlickerRegions {
+    /// Inside the inset, deeper than the feather.
+    pub inset: RegionFlicker,
+    /// The feathered seam (weight strictly between 0 and 1).
+    pub seam: RegionFlicker,
+    /// The wide view alone (outside the inset rectangle).
+    pub periphery: RegionFlicker,
 }
 
 /// What adaptive quality did over a configuration's measured frames.
@@ -534,6 +572,8 @@ fn run_group(
             0.0,
         )?,
     };
+    // Flicker floors computed so far, by wide size, filter and inset.
+    let mut floors: Vec<(String, f64)> = Vec::new();
     for c in &plan.configs {
         if crate::quit::requested() {
             fill_speedups(group);
@@ -578,7 +618,44 @@ fn run_group(
                 0.0,
             )?;
             test.drain(..lead.min(test.len()));
-            r.flicker = Some(sequence_flicker(&test, &reference_sequence, &masks)?);
+            let inset = sequence
+                .first()
+                .and_then(|rig| config_inset_rect(&config, rig, extent));
+            let f = sequence_flicker(&test, &reference_sequence, &masks, inset.as_ref(), extent)?;
+            r.flicker = Some(f.mean);
+            r.flicker_regions = f.regions;
+            if let Some(i) = config.inset {
+                let wide = crate::render::scaled(extent, i.wide_scale);
+                let key = format!("{:?} {} {inset:?}", wide, i.catmull_rom);
+                let floor = match floors.iter().find(|(k, _)| *k == key) {
+                    Some(&(_, v)) => v,
+                    None => {
+                        let through: Vec<[image::RgbaImage; 2]> = reference_sequence
+                            .iter()
+                            .map(|pair| {
+                                pair.clone().map(|f| {
+                                    super::flicker_floor::through_wide_view(
+                                        &f,
+                                        (wide.width, wide.height),
+                                        inset.as_ref(),
+                                        i.catmull_rom,
+                                    )
+                                })
+                            })
+                            .collect();
+                        let v =
+                            sequence_flicker(&through, &reference_sequence, &masks, None, extent)?
+                                .mean;
+                        floors.push((key, v));
+                        v
+                    }
+                };
+                r.flicker_floor = Some(floor);
+            }
+            let rel = format!("{group_dir}/{}.flicker.png", sanitize(&c.name));
+            let map = super::flicker::heatmap(&f.left_map, extent.width, extent.height, 0.05);
+            crate::targets::headless::save_png(&map, &out.join(&rel))?;
+            r.flicker_heatmap = Some(rel);
         }
         if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
             let flip = metrics::flip(&reference[0], &last[0], ppd as f32)?;
@@ -623,20 +700,67 @@ fn flicker_rigs(
         .collect()
 }
 
-/// The flicker of `test` against `reference`, both eyes averaged, over the
-/// pixels the lens shows.
+/// A sequence's flicker: both eyes averaged, split by region with an
+/// inset, and the left eye's per-pixel map.
+struct SequenceFlicker {
+    mean: f64,
+    regions: Option<FlickerRegions>,
+    left_map: Vec<f32>,
+}
+
+/// The flicker of `test` against `reference` over the pixels the lens
+/// shows, both eyes averaged; with `inset` (the rectangle in eye images of
+/// `extent`) also by region.
 fn sequence_flicker(
     test: &[[image::RgbaImage; 2]],
     reference: &[[image::RgbaImage; 2]],
     masks: &[Vec<bool>; 2],
-) -> Result<f64> {
-    let mut sum = 0.0;
+    inset: Option<&PixelRect>,
+    extent: vk::Extent2D,
+) -> Result<SequenceFlicker> {
+    use super::flicker::{masked_mean, per_pixel};
+    let width = extent.width.max(1) as usize;
+    let weight = |i: usize| {
+        inset.map_or(0.0, |r| {
+            let (x, y) = ((i % width) as u32, (i / width) as u32);
+            crate::view::inset::weight(r, x, y, crate::view::inset::FEATHER_PX)
+        })
+    };
+    let in_inset = |i: usize| weight(i) >= 1.0;
+    let in_seam = |i: usize| {
+        let w = weight(i);
+        w > 0.0 && w < 1.0
+    };
+    let in_periphery = |i: usize| weight(i) <= 0.0;
+    let mut out = SequenceFlicker {
+        mean: 0.0,
+        regions: inset.map(|_| FlickerRegions::default()),
+        left_map: Vec::new(),
+    };
     for eye in 0..2 {
         let t: Vec<image::RgbaImage> = test.iter().map(|p| p[eye].clone()).collect();
         let r: Vec<image::RgbaImage> = reference.iter().map(|p| p[eye].clone()).collect();
-        sum += super::flicker::flicker(&t, &r, &masks[eye])?;
+        let map = per_pixel(&t, &r)?;
+        let hidden = &masks[eye];
+        out.mean += masked_mean(&map, hidden, |_| true) / 2.0;
+        if let Some(regions) = out.regions.as_mut() {
+            let shown = |i: usize| !hidden.get(i).copied().unwrap_or(false);
+            let total = (0..map.len()).filter(|&i| shown(i)).count().max(1) as f64;
+            for (region, keep) in [
+                (&mut regions.inset, &in_inset as &dyn Fn(usize) -> bool),
+                (&mut regions.seam, &in_seam),
+                (&mut regions.periphery, &in_periphery),
+            ] {
+                let n = (0..map.len()).filter(|&i| shown(i) && keep(i)).count() as f64;
+                region.mean += masked_mean(&map, hidden, keep) / 2.0;
+                region.share += n / total / 2.0;
+            }
+        }
+        if eye == 0 {
+            out.left_map = map;
+        }
     }
-    Ok(sum / 2.0)
+    Ok(out)
 }
 
 /// Speed-ups against the group's baseline, when it was measured (also for

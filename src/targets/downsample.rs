@@ -8,7 +8,7 @@
 //! averaged as stored.
 
 /// sRGB-encoded 8-bit value to linear light (IEC 61966-2-1).
-fn to_linear(v: u8) -> f64 {
+pub(crate) fn to_linear(v: u8) -> f64 {
     let c = v as f64 / 255.0;
     if c <= 0.040_45 {
         c / 12.92
@@ -18,7 +18,7 @@ fn to_linear(v: u8) -> f64 {
 }
 
 /// Linear light to the nearest sRGB-encoded 8-bit value.
-fn to_srgb8(l: f64) -> u8 {
+pub(crate) fn to_srgb8(l: f64) -> u8 {
     let l = l.clamp(0.0, 1.0);
     let c = if l <= 0.003_130_8 {
         l * 12.92

@@ -4,15 +4,19 @@
 //! The composite (`shaders/inset_composite.comp`, the weight of
 //! [`super::inset::weight`]) gives an eye pixel whose centre lies at least
 //! `feather` pixels inside the inset rectangle the inset alone: the weight
-//! is 1 and the shader then selects the inset (no blend arithmetic). Every other pixel
-//! reads the wide view bilinearly at its centre scaled by s = wide size /
-//! eye size per axis: the (up to) four texels whose centres lie within one
-//! texel of that point, whose areas lie within 1.5 texels of it, that is
-//! within 1.5 / s eye pixels. A pixel that reads the wide view has its
-//! centre less than `feather` pixels inside the rectangle, so nothing of
-//! the wide view it reads lies deeper than feather + 1.5 / s. The
-//! rectangle shrunk by that, rounded up, and by one pixel more for the
-//! rasterizer's fixed-point rounding, is the **core** ([`core_rect`]): a
+//! is 1 and the shader then selects the inset (no blend arithmetic). Every
+//! other pixel reads the wide view at its centre scaled by s = wide size /
+//! eye size per axis, from the texels whose centres lie within the read's
+//! **reach** k of that point ([`read_reach`]: k = 1 for the bilinear read,
+//! 2 for the Catmull-Rom read's 4×4 texels; `inset-taa` adds the reach of
+//! the pass that made those texels, 2.5: its Catmull-Rom read of the
+//! current frame at a jittered centre, and its 3×3 box), whose areas lie
+//! within k + 0.5 texels of it, that is within (k + 0.5) / s eye pixels.
+//! A pixel that reads the wide view has its centre less than `feather`
+//! pixels inside the rectangle, so nothing of the wide view it reads lies
+//! deeper than feather + (k + 0.5) / s. The rectangle shrunk by that,
+//! rounded up, and by one pixel more for the rasterizer's fixed-point
+//! rounding, is the **core** ([`core_rect`]): a
 //! sample of the wide view inside it (at any MSAA position: samples lie in
 //! their pixel's area) never reaches the eye image.
 //!
@@ -36,22 +40,35 @@ use super::frustum::Frustum;
 use super::inset::{rect_tangents, PixelRect};
 use super::View;
 
+/// How far, in wide texels, from the point the composite reads the centres
+/// of the texels that can reach its pixel lie: 1 for the bilinear read, 2
+/// for the Catmull-Rom read (`catmull_rom`), and with `taa` 2.5 more (the
+/// accumulation pass reads the current frame's 4×4 texels around a centre
+/// moved by a jitter of at most half a texel, and its 3×3 neighbourhood).
+pub fn read_reach(catmull_rom: bool, taa: bool) -> f64 {
+    let composite = if catmull_rom { 2.0 } else { 1.0 };
+    composite + if taa { 2.5 } else { 0.0 }
+}
+
 /// The part of the inset `r` (pixels of `eye` = (width, height) eye
 /// images) where the composite reads no wide-view sample, for wide views of
-/// `wide` = (width, height) pixels and a seam `feather` pixels wide: `r`
-/// shrunk by ceil(feather + 1.5 × eye / wide) + 1 pixels on each side
-/// (see the module). None when nothing is left, or a size is zero.
+/// `wide` = (width, height) pixels, a seam `feather` pixels wide and reads
+/// of `reach` texels ([`read_reach`]): `r` shrunk by
+/// ceil(feather + (reach + 0.5) × eye / wide) + 1 pixels on each side (see
+/// the module). None when nothing is left, or a size is zero.
 pub fn core_rect(
     r: &PixelRect,
     eye: (u32, u32),
     wide: (u32, u32),
     feather: f32,
+    reach: f64,
 ) -> Option<PixelRect> {
     let margin = |e: u32, w: u32| -> Option<u32> {
-        if e == 0 || w == 0 || !feather.is_finite() {
+        if e == 0 || w == 0 || !feather.is_finite() || !reach.is_finite() {
             return None;
         }
-        let m = (feather.max(0.0) as f64 + 1.5 * e as f64 / w as f64).ceil() + 1.0;
+        let m =
+            (feather.max(0.0) as f64 + (reach.max(0.0) + 0.5) * e as f64 / w as f64).ceil() + 1.0;
         (m < u32::MAX as f64).then_some(m as u32)
     };
     let (mx, my) = (margin(eye.0, wide.0)?, margin(eye.1, wide.1)?);
@@ -87,14 +104,21 @@ mod tests {
     use glam::{DQuat, DVec3};
     use proptest::prelude::*;
 
-    /// The wide texels (column or row indices) the composite's bilinear
-    /// read at eye pixel `p` touches on one axis, as the shader computes
-    /// them: q = clamp((p + 0.5) / eye × wide, 0.5, wide − 0.5), texels
-    /// floor(q − 0.5) and the next (clamped to the image: clamp-to-edge).
-    fn taps(p: u32, eye: u32, wide: u32) -> [u32; 2] {
+    /// The wide texels (column or row indices) whose values can reach eye
+    /// pixel `p` on one axis through reads of `reach` texels: the centre
+    /// the composite reads at is q = clamp((p + 0.5) / eye × wide, 0.5,
+    /// wide − 0.5) (as the shader computes it), and every texel whose
+    /// centre lies within `reach` of q (clamped to the image: clamp to
+    /// edge) — for the bilinear read (reach 1) floor(q − 0.5) and the
+    /// next, for Catmull-Rom (reach 2) the four around it.
+    fn taps(p: u32, eye: u32, wide: u32, reach: f64) -> Vec<u32> {
         let q = ((p as f64 + 0.5) / eye as f64 * wide as f64).clamp(0.5, wide as f64 - 0.5);
-        let i = (q - 0.5).floor() as u32;
-        [i.min(wide - 1), (i + 1).min(wide - 1)]
+        let lo = (q - 0.5 - reach).floor().max(0.0) as u32;
+        let hi = (q - 0.5 + reach).ceil() as u32;
+        (lo..=hi)
+            .filter(|&i| (i as f64 + 0.5 - q).abs() <= reach)
+            .map(|i| i.min(wide - 1))
+            .collect()
     }
 
     proptest! {
@@ -105,8 +129,9 @@ mod tests {
         fn no_pixel_that_reads_the_wide_view_reads_under_the_core(
             ew in 8u32..160, eh in 8u32..160, sx in 0.1f64..1.0, sy in 0.1f64..1.0,
             fx in 0.0f64..1.0, fy in 0.0f64..1.0, fw in 0.0f64..1.0, fh in 0.0f64..1.0,
-            feather in 0.0f32..12.0,
+            feather in 0.0f32..12.0, catmull_rom: bool, taa: bool,
         ) {
+            let reach = read_reach(catmull_rom, taa);
             let wide = (((ew as f64 * sx).round() as u32).max(1), ((eh as f64 * sy).round() as u32).max(1));
             let x0 = (fx * ew as f64) as u32 % ew;
             let y0 = (fy * eh as f64) as u32 % eh;
@@ -115,7 +140,7 @@ mod tests {
                 x1: x0 + 1 + ((ew - x0 - 1) as f64 * fw) as u32,
                 y1: y0 + 1 + ((eh - y0 - 1) as f64 * fh) as u32,
             };
-            let Some(core) = core_rect(&r, (ew, eh), wide, feather) else {
+            let Some(core) = core_rect(&r, (ew, eh), wide, feather, reach) else {
                 return Ok(());
             };
             prop_assert!(r.x0 < core.x0 && core.x1 < r.x1 && r.y0 < core.y0 && core.y1 < r.y1);
@@ -126,8 +151,8 @@ mod tests {
                     if weight(&r, x, y, feather) >= 1.0 {
                         continue;
                     }
-                    for tx in taps(x, ew, wide.0) {
-                        for ty in taps(y, eh, wide.1) {
+                    for &tx in &taps(x, ew, wide.0, reach) {
+                        for &ty in &taps(y, eh, wide.1, reach) {
                             let (ax0, ax1) = area(tx, ew, wide.0);
                             let (ay0, ay1) = area(ty, eh, wide.1);
                             let overlaps = ax1 > core.x0 as f64 && ax0 < core.x1 as f64
@@ -189,15 +214,16 @@ mod tests {
     }
 
     #[test]
-    fn the_core_shrinks_by_the_feather_and_one_and_a_half_wide_texels() {
+    fn the_core_shrinks_by_the_feather_and_the_reads_reach() {
         let r = PixelRect {
             x0: 100,
             y0: 50,
             x1: 300,
             y1: 250,
         };
-        // F = 0.5: 8 + 3 = 11, + 1.
-        let c = core_rect(&r, (1000, 1000), (500, 500), FEATHER_PX).unwrap();
+        // F = 0.5, bilinear: 8 + 1.5 x 2 = 11, + 1.
+        let bilinear = read_reach(false, false);
+        let c = core_rect(&r, (1000, 1000), (500, 500), FEATHER_PX, bilinear).unwrap();
         assert_eq!(
             c,
             PixelRect {
@@ -208,8 +234,25 @@ mod tests {
             }
         );
         // F = 0.25 horizontally: 8 + 6 + 1.
-        let c = core_rect(&r, (1000, 1000), (250, 500), FEATHER_PX).unwrap();
+        let c = core_rect(&r, (1000, 1000), (250, 500), FEATHER_PX, bilinear).unwrap();
         assert_eq!((c.x0, c.x1, c.y0, c.y1), (115, 285, 62, 238));
+        // Catmull-Rom: 8 + 2.5 x 2 + 1 = 14; with inset-taa 8 + 5 x 2 + 1.
+        let c = core_rect(
+            &r,
+            (1000, 1000),
+            (500, 500),
+            FEATHER_PX,
+            read_reach(true, false),
+        );
+        assert_eq!(c.map(|c| (c.x0, c.x1)), Some((114, 286)));
+        let c = core_rect(
+            &r,
+            (1000, 1000),
+            (500, 500),
+            FEATHER_PX,
+            read_reach(true, true),
+        );
+        assert_eq!(c.map(|c| (c.x0, c.x1)), Some((119, 281)));
         // Too small an inset leaves no core; zero sizes none either.
         let small = PixelRect {
             x0: 10,
@@ -218,11 +261,21 @@ mod tests {
             y1: 30,
         };
         assert_eq!(
-            core_rect(&small, (1000, 1000), (500, 500), FEATHER_PX),
+            core_rect(&small, (1000, 1000), (500, 500), FEATHER_PX, bilinear),
             None
         );
-        assert_eq!(core_rect(&r, (1000, 1000), (0, 500), FEATHER_PX), None);
-        assert_eq!(core_rect(&r, (1000, 1000), (500, 500), f32::NAN), None);
+        assert_eq!(
+            core_rect(&r, (1000, 1000), (0, 500), FEATHER_PX, bilinear),
+            None
+        );
+        assert_eq!(
+            core_rect(&r, (1000, 1000), (500, 500), f32::NAN, bilinear),
+            None
+        );
+        assert_eq!(
+            core_rect(&r, (1000, 1000), (500, 500), FEATHER_PX, f64::NAN),
+            None
+        );
     }
 
     #[test]

@@ -239,4 +239,5 @@ pub const INSET_SETTINGS: vergence::config::Inset = vergence::config::Inset {
     wide_all: false,
     taa: None,
     taa_jitter: false,
+    catmull_rom: false,
 };

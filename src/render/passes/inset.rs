@@ -47,9 +47,9 @@ use crate::view::inset::PixelRect;
 use ash::vk;
 
 /// The composite's push constants: the inset (2 words), the feather, the
-/// attachment set, the wide view's region (origin, size), its first layer
-/// and the eyes' drawn size.
-const PUSH_BYTES: u32 = 8 * 4;
+/// attachment set, the wide view's region (origin, size), its first layer,
+/// the eyes' drawn size and the wide view's upsampling filter.
+const PUSH_BYTES: u32 = 9 * 4;
 
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
@@ -74,6 +74,9 @@ pub struct InsetPass {
     /// `inset-taa`: the wide views' temporal anti-aliasing, whose history
     /// the composite reads as the wide view.
     taa: Option<InsetTaa>,
+    /// `inset-catmull-rom`: the composite reads the wide view through the
+    /// Catmull-Rom filter (false: bilinearly).
+    pub catmull_rom: bool,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -158,6 +161,7 @@ impl InsetPass {
                 factor: 1.0,
                 one_sample: false,
                 taa,
+                catmull_rom: false,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -405,7 +409,15 @@ impl InsetPass {
                     continue;
                 };
                 let push = [
-                    lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size,
+                    lo,
+                    hi,
+                    feather,
+                    i as u32,
+                    wide_lo,
+                    wide_size,
+                    wide_layer,
+                    eye_size,
+                    u32::from(self.catmull_rom),
                 ];
                 d.cmd_push_constants(
                     rec.cmd,

@@ -131,14 +131,16 @@ impl Passes {
                 && !wide_1x
                 && setup.samples > 1
                 && setup.view_mask != 0b1111;
-            self.inset = Some(inset::InsetPass::new(
+            let mut pass = inset::InsetPass::new(
                 setup,
                 extent,
                 i.wide_scale,
                 (if wide_1x { 1 } else { setup.samples }, msaa_rung),
                 config.stereo == crate::config::StereoMode::Multiview,
                 i.taa.map(|a| (a, i.taa_jitter)),
-            )?);
+            )?;
+            pass.catmull_rom = i.catmull_rom;
+            self.inset = Some(pass);
             if wide_1x || msaa_rung {
                 self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
             }
