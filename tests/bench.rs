@@ -635,8 +635,9 @@ fn raster_floors_times_every_route_without_validation_messages() {
 /// With `inset` the bench measures FLIP inside the inset rectangle
 /// (`flip_inset_mean`): far below the whole image's there (the inset is
 /// the full-density render; the error lies in the magnified periphery),
-/// wherever the gaze puts it; absent for configurations without an inset;
-/// in the CSV's last column, the report's table and the target line.
+/// wherever the gaze puts it; a configuration without an inset is
+/// measured over the plan's first inset's rectangle (the same pixels); in
+/// the CSV's last column, the report's table and the target line.
 #[test]
 fn the_inset_error_is_measured_inside_the_inset() {
     let dir = common::scratch("bench", "inset-error");
@@ -648,7 +649,10 @@ fn the_inset_error_is_measured_inside_the_inset() {
     let base = get(&results, "two-pass-per-eye")
         .error
         .expect("error measured");
-    assert_eq!(base.flip_inset_mean, None);
+    let base_inside = base
+        .flip_inset_mean
+        .expect("measured over the inset's pixels");
+    assert!(base_inside >= 0.0 && base_inside.is_finite());
     for name in ["inset", "inset-up-left"] {
         let e = get(&results, name).error.expect("error measured");
         let inside = e.flip_inset_mean.expect("inset error measured");
@@ -672,7 +676,8 @@ fn the_inset_error_is_measured_inside_the_inset() {
             .map(|r| r[col].clone())
             .unwrap()
     };
-    assert_eq!(cell("two-pass-per-eye"), "");
+    let base_cell: f64 = cell("two-pass-per-eye").parse().unwrap();
+    assert_eq!(base_cell, base_inside);
     let inside: f64 = cell("inset").parse().unwrap();
     assert_eq!(
         Some(inside),
@@ -709,7 +714,6 @@ fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
     // The inset's flicker split by region: the shares cover the visible
     // pixels, weight the means into the whole, and the one-sample
     // half-size wide view shimmers more than the 4x inset.
-    assert!(same.flicker_regions.is_none());
     let inset = get(&results, "inset");
     let r = inset.flicker_regions.expect("regions measured");
     let parts = [r.inset, r.seam, r.periphery];
@@ -723,6 +727,16 @@ fn a_supersampled_reference_gives_the_baseline_an_error_of_its_own() {
     );
     assert!(parts.iter().all(|p| p.share > 0.0), "{r:?}");
     assert!(r.periphery.mean > r.inset.mean, "{r:?}");
+    // Without an inset, over the same pixels as the plan's inset: the
+    // baseline's regions compare with the inset's.
+    let base = same
+        .flicker_regions
+        .expect("baseline regions over the inset's pixels");
+    assert!(
+        (base.inset.share - r.inset.share).abs() < 1e-9,
+        "{base:?} {r:?}"
+    );
+    assert!(same.error.unwrap().flip_inset_mean.is_some());
     // A perfect wide view of that size flickers less than the one-sample
     // render, and not at all like the reference.
     let floor = inset.flicker_floor.expect("floor measured");

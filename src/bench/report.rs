@@ -154,7 +154,7 @@ pub fn markdown(results: &BenchResults) -> String {
         if !inset.is_empty() {
             let _ = writeln!(
                 s,
-                "\nInside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle around the gaze, where the eye looks; both eyes and the compared frames averaged):\n"
+                "\nInside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle around the gaze, where the eye looks; both eyes and the compared frames averaged; a configuration without an inset over the plan's first inset configuration's rectangle):\n"
             );
             let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
             md_table(&mut s, &head, &inset);
@@ -195,7 +195,7 @@ pub fn markdown(results: &BenchResults) -> String {
             if split {
                 let _ = writeln!(
                     s,
-                    "With an inset, its flicker split by where the composite takes each pixel from: mean over the region (its share of the visible pixels); the shares weight the means into the whole. Floor: the flicker of the reference sequence put through a perfect wide view of the configuration's size and filter (each wide pixel the reference's mean over its area, read back as the composite reads it), the least any wide view of that size could add.\n"
+                    "With an inset, its flicker split by where the composite takes each pixel from: mean over the region (its share of the visible pixels); the shares weight the means into the whole (a configuration without an inset over the plan's first inset configuration's regions). Floor: the flicker of the reference sequence put through a perfect wide view of the configuration's size and filter (each wide pixel the reference's mean over its area, read back as the composite reads it), the least any wide view of that size could add.\n"
                 );
                 head.extend(
                     [

@@ -572,6 +572,17 @@ fn run_group(
             0.0,
         )?,
     };
+    // The rectangle the regions of configurations without an inset are
+    // measured over.
+    let inset_config = plan
+        .configs
+        .iter()
+        .filter_map(|c| {
+            let mut config = plan.config_for(c).ok()?;
+            config.resolve_lens(Some(profile)).ok()?;
+            config.inset.is_some().then_some(config)
+        })
+        .next();
     // Flicker floors computed so far, by wide size, filter and inset.
     let mut floors: Vec<(String, f64)> = Vec::new();
     for c in &plan.configs {
@@ -585,6 +596,7 @@ fn run_group(
             reference: &reference_images,
             masks: &masks,
             ppd,
+            inset_config: inset_config.as_ref(),
         };
         let mut images = Vec::new();
         let Some(mut r) = measure(
@@ -620,7 +632,7 @@ fn run_group(
             test.drain(..lead.min(test.len()));
             let inset = sequence
                 .first()
-                .and_then(|rig| config_inset_rect(&config, rig, extent));
+                .and_then(|rig| config_inset_rect(&config, inset_config.as_ref(), rig, extent));
             let f = sequence_flicker(&test, &reference_sequence, &masks, inset.as_ref(), extent)?;
             r.flicker = Some(f.mean);
             r.flicker_regions = f.regions;
@@ -785,6 +797,10 @@ struct Comparison<'a> {
     /// Per eye: pixels the lens hides (excluded from the error).
     masks: &'a [Vec<bool>; 2],
     ppd: f64,
+    /// The plan's first configuration with `inset` (lens resolved): a
+    /// configuration without one has its error and flicker measured over
+    /// that one's inset rectangle too, so the regions compare.
+    inset_config: Option<&'a RenderConfig>,
 }
 
 /// The error of `test` against `reference` (both rendered for `rig`) as
@@ -957,7 +973,7 @@ fn measure(
                 .map(|img| crate::targets::headless::to_size(img, extent));
             if let Some(cmp) = compare {
                 if let Some(reference) = cmp.reference.get(images.len()) {
-                    let inset = config_inset_rect(config, &rigs[i], extent);
+                    let inset = config_inset_rect(config, cmp.inset_config, &rigs[i], extent);
                     errors.push(image_error(reference, &pair, cmp, inset.as_ref())?);
                 }
             }
@@ -1046,7 +1062,7 @@ fn warped_errors(
                 // Against the same configuration's frame i, over the
                 // pixels the lens shows (as the error against the
                 // reference).
-                let inset = config_inset_rect(&config, new, extent);
+                let inset = config_inset_rect(&config, cmp.inset_config, new, extent);
                 let own_error = image_error(&truth, &out.images, cmp, inset.as_ref())?;
                 own.push(own_error.flip_mean);
                 if let Some(reference) = cmp.reference.get(n) {
@@ -1138,12 +1154,18 @@ fn blackout(img: &image::RgbaImage, hidden: &[bool]) -> image::RgbaImage {
 
 /// The inset rectangle `config` renders at full density in eye images of
 /// `extent` for `rig` (the renderer's own choice, [`inset_rect`] around
-/// the configured gaze), or None without `inset`.
+/// the configured gaze); without `inset`, `fallback`'s (the same pixels,
+/// for comparing regions), or None.
 fn config_inset_rect(
     config: &RenderConfig,
+    fallback: Option<&RenderConfig>,
     rig: &StereoRig,
     extent: vk::Extent2D,
 ) -> Option<PixelRect> {
+    let config = match config.inset {
+        Some(_) => config,
+        None => fallback?,
+    };
     let i = config.inset?;
     let fovs: Vec<_> = rig.views.iter().take(2).map(|v| v.fov).collect();
     Some(inset_rect(
