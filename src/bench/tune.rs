@@ -83,6 +83,10 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-taa",
     ),
     (
+        "inset-1.0-wide-1x-taa",
+        "multiview,msaa4,superfrustum,inset=1.0,inset-wide-1x,inset-taa",
+    ),
+    (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
     ),
