@@ -69,33 +69,29 @@ fn area_weights(n: u32, m: u32) -> Vec<Vec<(u32, f64)>> {
 }
 
 /// `img` integrated over the pixels of a `w`×`h` image covering it (see
-/// [`area_weights`]; separable).
+/// [`area_weights`]; separable: rows, then columns).
 fn area_resample(img: &Linear, w: u32, h: u32) -> Linear {
-    let (wx, wy) = (area_weights(img.w, w), area_weights(img.h, h));
-    let mut rows = Vec::with_capacity((w * img.h) as usize);
-    for y in 0..img.h {
-        for ws in &wx {
-            let mut c = [0.0; 3];
-            for &(k, v) in ws {
-                let p = img.at(k as i64, y as i64);
-                for j in 0..3 {
-                    c[j] += v * p[j];
-                }
-            }
-            rows.push(c);
-        }
-    }
-    let rows = Linear {
-        w,
-        h: img.h,
-        px: rows,
+    let rows = along(img, &area_weights(img.w, w), true);
+    along(&rows, &area_weights(img.h, h), false)
+}
+
+/// `img` filtered along one axis (`horizontal`, else vertical) by
+/// `weights`, one list of (source index, weight) per output index.
+fn along(img: &Linear, weights: &[Vec<(u32, f64)>], horizontal: bool) -> Linear {
+    let (w, h) = match horizontal {
+        true => (weights.len() as u32, img.h),
+        false => (img.w, weights.len() as u32),
     };
     let mut px = Vec::with_capacity((w * h) as usize);
-    for ws in &wy {
+    for y in 0..h {
         for x in 0..w {
+            let (out, other) = if horizontal { (x, y) } else { (y, x) };
             let mut c = [0.0; 3];
-            for &(k, v) in ws {
-                let p = rows.at(x as i64, k as i64);
+            for &(k, v) in &weights[out as usize] {
+                let p = match horizontal {
+                    true => img.at(k as i64, other as i64),
+                    false => img.at(other as i64, k as i64),
+                };
                 for j in 0..3 {
                     c[j] += v * p[j];
                 }

@@ -1180,23 +1180,10 @@ fn config_inset_rect(
 /// Mean of per-pixel `errors` (rows of `width`) over the pixels of `rect`
 /// that `hidden` does not mark (0 when none is left).
 pub fn rect_mean(errors: &[f32], width: u32, rect: &PixelRect, hidden: &[bool]) -> f64 {
-    let (mut sum, mut n) = (0.0f64, 0u64);
-    for y in rect.y0..rect.y1 {
-        for x in rect.x0..rect.x1 {
-            let i = (y as usize) * width as usize + x as usize;
-            if let Some(&e) = errors.get(i) {
-                if !hidden.get(i).copied().unwrap_or(false) {
-                    sum += e as f64;
-                    n += 1;
-                }
-            }
-        }
-    }
-    if n == 0 {
-        0.0
-    } else {
-        sum / n as f64
-    }
+    let width = width.max(1) as usize;
+    super::flicker::masked_mean(errors, hidden, |i| {
+        rect.contains((i % width) as u32, (i / width) as u32)
+    })
 }
 
 /// Mean and 99th percentile of `errors` over the pixels `hidden` does not
