@@ -34,8 +34,9 @@ pub struct ImageError {
     pub flip_mean: f64,
     /// With `inset`: mean FLIP over the visible pixels inside the inset
     /// rectangle (the full-density region around the gaze, where the eye
-    /// looks), averaged over eyes and compared frames. None without an
-    /// inset.
+    /// looks), averaged over eyes and compared frames; without one, over
+    /// the plan's first inset configuration's rectangle. None when the
+    /// plan has no inset.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flip_inset_mean: Option<f64>,
     /// 99th percentile of per-pixel FLIP over one eye's visible pixels,
@@ -213,9 +214,10 @@ pub struct ConfigResult {
     /// the reference itself and for timewarp configurations).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker: Option<f64>,
-    /// With `inset` and a flicker sequence: the flicker split by where the
-    /// composite takes each pixel from (inside the inset, the feathered
-    /// seam, the wide view alone), both eyes averaged.
+    /// With a flicker sequence and `inset` in this configuration or, over
+    /// the same pixels, in another of the plan: the flicker split by where
+    /// the composite takes each pixel from (inside the inset, the
+    /// feathered seam, the wide view alone), both eyes averaged.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker_regions: Option<FlickerRegions>,
     /// Left-eye map of the per-pixel flicker, relative to the output
