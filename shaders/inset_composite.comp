@@ -32,7 +32,10 @@ layout(push_constant) uniform Push {
     uint wide_layer; // the wide frame's layer of eye layer 0
     uint eye_size; // the eyes' drawn size, width | height << 16 (with aq
                    // smaller than the images)
-    uint filter_;  // the wide view's upsampling: 0 bilinear, 1 Catmull-Rom
+    uint filter_;  // the wide view's upsampling: 0 bilinear, 1 Catmull-Rom,
+                   // 2 none (inset-taau: the wide view is the eye-sized
+                   // history, read at the pixel; its alpha is a weight, the
+                   // output opaque)
 } pc;
 
 // The wide view at `q` (pixels of its region, centres at + 0.5) through
@@ -77,7 +80,9 @@ vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     vec2 q = clamp(at / size * wsize, vec2(0.5), wsize - 0.5);
     int layer = p.z + int(pc.wide_layer);
     vec4 wide;
-    if (pc.filter_ == 0u) {
+    if (pc.filter_ == 2u) {
+        wide = vec4(texelFetch(wide_frame, ivec3(p.xy, layer), 0).rgb, 1.0);
+    } else if (pc.filter_ == 0u) {
         vec2 uv = (worigin + q) / vec2(textureSize(wide_frame, 0).xy);
         wide = texture(wide_frame, vec3(uv, float(layer)));
     } else {

@@ -333,6 +333,14 @@ pub struct Inset {
     /// accumulation (README, "Wide views accumulated over frames").
     #[serde(default)]
     pub taa_jitter: bool,
+    /// `inset-taau` (which turns `inset-taa` and its jitter on): temporal
+    /// upsampling, the history kept at the eye's resolution, each frame's
+    /// jittered wide samples accumulated where they lie in it
+    /// ([`crate::view::taau`]); the composite reads the history pixel for
+    /// pixel. Not with `inset-catmull-rom` (nothing is upsampled in the
+    /// composite then).
+    #[serde(default)]
+    pub taau: bool,
     /// `inset-catmull-rom` (which turns `inset` on): the composite reads
     /// the wide view through a Catmull-Rom filter (4×4 texels, clamped to
     /// the nearest 2×2's range) instead of bilinearly. Sharper: less FLIP
@@ -355,6 +363,7 @@ impl Default for Inset {
             wide_all: false,
             taa: None,
             taa_jitter: false,
+            taau: false,
             catmull_rom: false,
         }
     }
@@ -610,6 +619,12 @@ impl RenderConfig {
                 "inset-taa jitters and accumulates the wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
             ));
         }
+        if self.inset.is_some_and(|i| i.taau && i.catmull_rom) {
+            return Err(Error::config(
+                "--opt",
+                "inset-taau accumulates the wide views at the eye's resolution and the composite reads them pixel for pixel; inset-catmull-rom chooses the composite's upsampling filter, which it then no longer uses: leave one out",
+            ));
+        }
         if self.inset.is_some_and(|i| i.taa.is_some()) && self.aq {
             return Err(Error::config(
                 "--opt",
@@ -841,6 +856,15 @@ impl RenderConfig {
                         ..i
                     })
                 }
+                "inset-taau" => {
+                    let i = self.inset.unwrap_or_default();
+                    self.inset = Some(Inset {
+                        taa: Some(i.taa.unwrap_or(crate::view::taa::DEFAULT_ALPHA)),
+                        taa_jitter: true,
+                        taau: true,
+                        ..i
+                    })
+                }
                 l if l.starts_with("inset-taa=") => {
                     let v = opt_value(
                         l,
@@ -992,7 +1016,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1211,12 +1235,16 @@ impl RenderConfig {
             if i.wide_all {
                 v.push("inset-wide-all".into());
             }
+            // inset-taau turns inset-taa and its jitter on.
             match i.taa {
+                Some(a) if a == crate::view::taa::DEFAULT_ALPHA && i.taau => {}
                 Some(a) if a == crate::view::taa::DEFAULT_ALPHA => v.push("inset-taa".into()),
                 Some(a) => v.push(format!("inset-taa={a}")),
                 None => {}
             }
-            if i.taa_jitter {
+            if i.taau {
+                v.push("inset-taau".into());
+            } else if i.taa_jitter {
                 v.push("inset-taa-jitter".into());
             }
             if i.catmull_rom {
@@ -1368,6 +1396,8 @@ mod tests {
             "two-pass,inset=0.7,inset-wide-1x,inset-taa=0.25",
             "inset-taa-jitter",
             "inset-taa=0.2,inset-taa-jitter",
+            "inset-taau",
+            "inset=0.7,inset-wide-1x,inset-taa=0.2,inset-taau",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",
         ] {

@@ -61,6 +61,9 @@ pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
 pub static INSET_COMPOSITE_COMP: Module = spirv!("inset_composite.comp");
 /// Temporal anti-aliasing of the inset's wide views (`inset-taa`).
 pub static INSET_TAA_COMP: Module = spirv!("inset_taa.comp");
+/// Temporal upsampling of the inset's wide views to the eye's resolution
+/// (`inset-taau`).
+pub static INSET_TAAU_COMP: Module = spirv!("inset_taau.comp");
 /// Point clouds: the compute rasterizer (64-bit atomic max per pixel).
 pub static POINTS_RASTER_COMP: Module = spirv!("points_raster.comp");
 /// Point clouds: the keys into the forward scope, with depth.
@@ -126,7 +129,7 @@ pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 pub static MSAA_RESOLVE_COMP: Module = spirv!("msaa_resolve.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 43] = [
+pub static ALL: [&Module; 44] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -141,6 +144,7 @@ pub static ALL: [&Module; 43] = [
     &RDM_FILL_FRAG,
     &INSET_COMPOSITE_COMP,
     &INSET_TAA_COMP,
+    &INSET_TAAU_COMP,
     &LMS_RESAMPLE_FRAG,
     &POINTS_RASTER_COMP,
     &POINTS_COMPOSITE_FRAG,

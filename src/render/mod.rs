@@ -804,7 +804,13 @@ impl Renderer {
                     (w, h),
                     (wide.width, wide.height),
                     crate::view::inset::FEATHER_PX,
-                    crate::view::inset_hole::read_reach(inset.catmull_rom, inset.taa.is_some()),
+                    match inset.taau {
+                        true => crate::view::taau::READ_REACH,
+                        false => crate::view::inset_hole::read_reach(
+                            inset.catmull_rom,
+                            inset.taa.is_some(),
+                        ),
+                    },
                 )
                 .and_then(|c| {
                     let vol = |v| crate::view::inset_hole::core_volume(v, &c, w, h, near, far);

@@ -19,6 +19,7 @@ pub mod reproject;
 pub(crate) mod strict;
 pub mod superfrustum;
 pub mod taa;
+pub mod taau;
 
 use glam::{DQuat, DVec3};
 

@@ -239,5 +239,6 @@ pub const INSET_SETTINGS: vergence::config::Inset = vergence::config::Inset {
     wide_all: false,
     taa: None,
     taa_jitter: false,
+    taau: false,
     catmull_rom: false,
 };

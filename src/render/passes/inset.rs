@@ -89,16 +89,17 @@ pub struct InsetPass {
 impl InsetPass {
     /// The wide targets at `scale` × `extent` (`samples` per pixel; with
     /// `msaa_rung` over MSAA also drawable at one sample, see
-    /// [`InsetPass::set_one_sample`]), with `taa` (`inset-taa`'s weight
-    /// and jitter) their temporal anti-aliasing, and the composite; on failure,
-    /// destroys what it made.
+    /// [`InsetPass::set_one_sample`]), with `taa` (`inset-taa`'s weight,
+    /// jitter and whether `inset-taau` upsamples to `extent`) their
+    /// temporal anti-aliasing, and the composite; on failure, destroys
+    /// what it made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         scale: f64,
         (samples, msaa_rung): (u32, bool),
         multiview: bool,
-        taa: Option<(f64, bool)>,
+        taa: Option<(f64, bool, bool)>,
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
         let wide_extent = crate::render::scaled(extent, scale);
@@ -117,7 +118,7 @@ impl InsetPass {
         };
         let taa = match taa
             .filter(|_| !four_view)
-            .map(|a| InsetTaa::new(ctx, &wide, a))
+            .map(|(a, j, up)| InsetTaa::new(ctx, &wide, (a, j, up.then_some(extent))))
         {
             Some(Ok(t)) => Some(t),
             Some(Err(e)) => {
@@ -378,14 +379,25 @@ impl InsetPass {
         let lo = rect.x0 | rect.y0 << 16;
         let hi = rect.x1 | rect.y1 << 16;
         let feather = crate::view::inset::FEATHER_PX.to_bits();
-        let wide_lo = region.x0 | region.y0 << 16;
-        let wide_size = region.width() | region.height() << 16;
+        let eye_size = extent.width | extent.height << 16;
+        // With inset-taau the wide view is the eye-sized history.
+        let upsampled = self.taa.as_ref().is_some_and(InsetTaa::upsamples);
+        let (wide_lo, wide_size) = match upsampled {
+            true => (0, eye_size),
+            false => (
+                region.x0 | region.y0 << 16,
+                region.width() | region.height() << 16,
+            ),
+        };
+        let filter = match (upsampled, self.catmull_rom) {
+            (true, _) => 2,
+            (false, c) => u32::from(c),
+        };
         let wide_layer = match (&self.taa, self.four_view) {
             (Some(t), _) => t.history_layer(),
             (None, true) => 2,
             (None, false) => 0,
         };
-        let eye_size = extent.width | extent.height << 16;
         if let Some(t) = &self.taa {
             t.record(rec, q);
         }
@@ -409,15 +421,7 @@ impl InsetPass {
                     continue;
                 };
                 let push = [
-                    lo,
-                    hi,
-                    feather,
-                    i as u32,
-                    wide_lo,
-                    wide_size,
-                    wide_layer,
-                    eye_size,
-                    u32::from(self.catmull_rom),
+                    lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size, filter,
                 ];
                 d.cmd_push_constants(
                     rec.cmd,

@@ -12,6 +12,13 @@
 //! the result is this frame's history and what the composite reads as the
 //! wide view ([`InsetTaa::infos`], layer [`InsetTaa::history_layer`]).
 //!
+//! With `inset-taau` (upsampling, [`crate::view::taau`],
+//! `shaders/inset_taau.comp`) the history is at the eye's size instead,
+//! the dispatch runs over eye pixels, and the jitter is always on: each
+//! frame's wide samples are accumulated where they lie at the eye's
+//! resolution, with the weight of the samples behind each pixel kept in
+//! the history's alpha; the composite reads the history pixel for pixel.
+//!
 //! The history lives across frames, not per frame slot: one RGBA16F image
 //! per wide set with two layers per eye, ping-ponged by frame parity
 //! (read the previous frame's, write this frame's). Frames are recorded
@@ -36,10 +43,10 @@ use std::sync::atomic::{AtomicU64, Ordering};
 /// stall an exponential average with α = 0.1 short of its target).
 const HISTORY_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
 
-/// The shader's push constants: the reprojection matrix (16 floats), then
-/// size, set, layer, read layer, write layer, validity, α and the jitter
-/// (2 floats).
-const PUSH_WORDS: usize = 16 + 9;
+/// The shaders' push constants: the reprojection matrix (16 floats), then
+/// size, set, layer, read layer, write layer, validity, α, the jitter (2
+/// floats) and the eye size (read by the upsampling shader only).
+const PUSH_WORDS: usize = 16 + 10;
 
 /// What one frame's dispatch needs, set by [`InsetTaa::begin_frame`].
 #[derive(Clone, Copy, Debug)]
@@ -77,6 +84,9 @@ pub struct InsetTaa {
     /// `inset-taa-jitter`: move the wide viewport by a sub-pixel offset
     /// each frame.
     jitter: bool,
+    /// `inset-taau`: the eyes' size, at which the history is kept and
+    /// written (None: at the wide view's).
+    upsample: Option<vk::Extent2D>,
     sets: DescriptorSets,
     pipeline: vk::Pipeline,
     /// The pass's barriers before its dispatches, in steady state and on
@@ -97,12 +107,14 @@ pub struct InsetTaa {
 
 impl InsetTaa {
     /// The pass for `wide`'s sets (made with their depth kept), blend
-    /// weight `alpha` and, with `jitter`, a sub-pixel jitter of the wide
-    /// views; on failure, destroys what it made.
+    /// weight `alpha`, with `jitter` a sub-pixel jitter of the wide views,
+    /// and with `upsample` (the eyes' size; `inset-taau`, which jitters
+    /// whatever `jitter` says) the history at the eyes' size; on failure,
+    /// destroys what it made.
     pub fn new(
         ctx: &Context,
         wide: &SampledSets,
-        (alpha, jitter): (f64, bool),
+        (alpha, jitter, upsample): (f64, bool, Option<vk::Extent2D>),
     ) -> Result<InsetTaa> {
         let layers = wide.sets.first().map_or(1, |s| s.resolve.layers);
         let stage = vk::ShaderStageFlags::COMPUTE;
@@ -126,7 +138,8 @@ impl InsetTaa {
             linear: wide.sampler(),
             layers,
             alpha: alpha as f32,
-            jitter,
+            jitter: jitter || upsample.is_some(),
+            upsample,
             sets,
             pipeline: vk::Pipeline::null(),
             before: [Vec::new(), Vec::new()],
@@ -174,7 +187,7 @@ impl InsetTaa {
                 &ImageDesc {
                     name: "inset TAA history",
                     format: HISTORY_FORMAT,
-                    extent: wide.extent,
+                    extent: self.upsample.unwrap_or(wide.extent),
                     layers: 2 * set.resolve.layers,
                     mips: 1,
                     samples: vk::SampleCountFlags::TYPE_1,
@@ -194,12 +207,11 @@ impl InsetTaa {
         // SAFETY: plain object creation; destroyed by `destroy`.
         self.nearest = unsafe { ctx.device.create_sampler(&info, None) }
             .vk("creating the inset TAA's sampler")?;
-        self.pipeline = compute_pipeline(
-            ctx,
-            self.sets.layout,
-            &shaders::INSET_TAA_COMP.words(),
-            "inset TAA",
-        )?;
+        let module = match self.upsample {
+            Some(_) => &shaders::INSET_TAAU_COMP,
+            None => &shaders::INSET_TAA_COMP,
+        };
+        self.pipeline = compute_pipeline(ctx, self.sets.layout, &module.words(), "inset TAA")?;
         let Some(colour) = wide.infos() else {
             return Err(crate::error::Error::Gpu(
                 "inset-taa has no wide view to accumulate".into(),
@@ -331,6 +343,12 @@ impl InsetTaa {
         self.frame += 1;
     }
 
+    /// Whether the history is at the eyes' size (`inset-taau`): the
+    /// composite reads it pixel for pixel.
+    pub fn upsamples(&self) -> bool {
+        self.upsample.is_some()
+    }
+
     /// This frame's sub-pixel offset of the wide views' viewport.
     pub fn jitter(&self) -> [f32; 2] {
         self.state.jitter
@@ -380,6 +398,7 @@ impl InsetTaa {
                         *w = v.to_bits();
                     }
                     let parity_layer = |p: u32| p * self.layers + layer;
+                    let out = self.upsample.unwrap_or(s.size);
                     push[16..].copy_from_slice(&[
                         s.size.width | s.size.height << 16,
                         set,
@@ -390,6 +409,7 @@ impl InsetTaa {
                         self.alpha.to_bits(),
                         s.jitter[0].to_bits(),
                         s.jitter[1].to_bits(),
+                        out.width | out.height << 16,
                     ]);
                     d.cmd_push_constants(
                         rec.cmd,
@@ -398,12 +418,7 @@ impl InsetTaa {
                         0,
                         crate::gpu::memory::as_bytes(&push),
                     );
-                    d.cmd_dispatch(
-                        rec.cmd,
-                        s.size.width.div_ceil(8),
-                        s.size.height.div_ceil(8),
-                        1,
-                    );
+                    d.cmd_dispatch(rec.cmd, out.width.div_ceil(8), out.height.div_ceil(8), 1);
                 }
             }
         }

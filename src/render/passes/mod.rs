@@ -137,7 +137,7 @@ impl Passes {
                 i.wide_scale,
                 (if wide_1x { 1 } else { setup.samples }, msaa_rung),
                 config.stereo == crate::config::StereoMode::Multiview,
-                i.taa.map(|a| (a, i.taa_jitter)),
+                i.taa.map(|a| (a, i.taa_jitter, i.taau)),
             )?;
             pass.catmull_rom = i.catmull_rom;
             self.inset = Some(pass);
