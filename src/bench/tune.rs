@@ -87,6 +87,14 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,inset=1.0,inset-wide-1x,inset-taa",
     ),
     (
+        "inset-wide-1x-taau",
+        "multiview,msaa4,superfrustum,inset,inset-wide-1x,inset-taau",
+    ),
+    (
+        "inset-0.7-wide-1x-taau",
+        "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-taau",
+    ),
+    (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
     ),
