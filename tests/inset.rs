@@ -609,14 +609,30 @@ const WIDE: Inset = Inset {
 fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
     let (ctx, scene, profile, pose, _) = fixture();
     let base = WIDE;
-    // (stereo, wide 1x, gaze, Catmull-Rom reads, inset-taa): the hole's
-    // margin follows the reads' reach (view::inset_hole::read_reach).
-    for (stereo, wide_1x, gaze, catmull_rom, taa) in [
-        (StereoMode::Multiview, false, [0.0, 0.0], false, None),
-        (StereoMode::TwoPass, false, [0.3, -0.2], false, None),
-        (StereoMode::Multiview, true, [-0.2, 0.1], false, None),
-        (StereoMode::Multiview, false, [0.1, 0.0], true, None),
-        (StereoMode::TwoPass, true, [0.0, 0.1], true, Some(0.1)),
+    // (stereo, wide 1x, gaze, Catmull-Rom reads, inset-taa, inset-taau):
+    // the hole's margin follows the reads' reach
+    // (view::inset_hole::read_reach, view::taau::READ_REACH).
+    for (stereo, wide_1x, gaze, catmull_rom, taa, taau) in [
+        (StereoMode::Multiview, false, [0.0, 0.0], false, None, false),
+        (StereoMode::TwoPass, false, [0.3, -0.2], false, None, false),
+        (StereoMode::Multiview, true, [-0.2, 0.1], false, None, false),
+        (StereoMode::Multiview, false, [0.1, 0.0], true, None, false),
+        (
+            StereoMode::TwoPass,
+            true,
+            [0.0, 0.1],
+            true,
+            Some(0.1),
+            false,
+        ),
+        (
+            StereoMode::Multiview,
+            true,
+            [0.2, 0.0],
+            false,
+            Some(0.1),
+            true,
+        ),
     ] {
         let run = |wide_all: bool| {
             let inset = Inset {
@@ -624,6 +640,8 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
                 wide_all,
                 catmull_rom,
                 taa,
+                taa_jitter: taau,
+                taau,
                 ..base
             };
             render_config(
@@ -638,7 +656,7 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
         };
         let (hole, all) = (run(false), run(true));
         let what = format!(
-            "{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}, Catmull-Rom {catmull_rom}, taa {taa:?}"
+            "{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}, Catmull-Rom {catmull_rom}, taa {taa:?}, taau {taau}"
         );
         assert!(
             hole.stats.instances_drawn < all.stats.instances_drawn,

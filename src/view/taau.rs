@@ -229,8 +229,8 @@ mod tests {
             for _ in 0..1000 {
                 s = accumulate(Some(s), x, w, cap);
             }
-            for i in 0..3 {
-                prop_assert!((s.0[i] - x[i]).abs() < 1e-3);
+            for (got, want) in s.0.iter().zip(x) {
+                prop_assert!((got - want).abs() < 1e-3);
             }
         }
     }
