@@ -10,12 +10,12 @@
 
 mod common;
 
+use common::sequence::{diff, third_of_a_pixel, turning};
 use common::{context, framing_pose, load};
 use vergence::config::{Inset, RenderConfig, StereoMode};
-use vergence::targets::headless::render_sequence;
 use vergence::view::inset::{inset_rect, weight, PixelRect, FEATHER_PX};
 use vergence::view::profile::HmdProfile;
-use vergence::view::{Pose, StereoRig};
+use vergence::view::StereoRig;
 
 const W: u32 = 192;
 const H: u32 = 160;
@@ -45,17 +45,7 @@ fn taa_jittered(alpha: f64) -> Option<Inset> {
     })
 }
 
-/// `n` rigs from `pose`, turning right by `step_deg` a frame.
-fn turning(profile: &HmdProfile, pose: Pose, step_deg: f64, n: usize) -> Vec<StereoRig> {
-    (0..n)
-        .map(|j| {
-            let turn = Pose::from_euler_deg(glam::DVec3::ZERO, -step_deg * j as f64, 0.0, 0.0);
-            profile.rig(pose.compose(&turn))
-        })
-        .collect()
-}
-
-/// The frames of `config` along `rigs`, with no validation message.
+/// The frames of `config` along `rigs` at the tests' size.
 fn frames(
     ctx: &std::sync::Arc<vergence::gpu::Context>,
     scene: &vergence::scene::Scene,
@@ -63,46 +53,12 @@ fn frames(
     rigs: &[StereoRig],
     supersample: u32,
 ) -> Vec<[image::RgbaImage; 2]> {
-    let before = ctx.validation_messages();
-    let extent = ash::vk::Extent2D {
-        width: W,
-        height: H,
-    };
-    let out = render_sequence(ctx, scene, config, rigs, (extent, supersample), 0.0)
-        .unwrap_or_else(|e| panic!("{}: {e}", config.opt_string()));
-    common::assert_no_validation_since(ctx, before);
-    out
+    common::sequence::frames(ctx, scene, config, rigs, (W, H), supersample)
 }
 
 fn rect(profile: &HmdProfile) -> PixelRect {
     let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
     inset_rect(&fovs, [0.0, 0.0], SETTINGS.half_angle_deg, W, H)
-}
-
-/// Mean absolute difference per channel (0..255) of `a` and `b` over the
-/// pixels `keep` selects, and how many differ at all.
-fn diff(
-    a: &image::RgbaImage,
-    b: &image::RgbaImage,
-    keep: impl Fn(u32, u32) -> bool,
-) -> (f64, usize) {
-    let (mut sum, mut n, mut differ) = (0.0, 0usize, 0usize);
-    for y in 0..H {
-        for x in 0..W {
-            if !keep(x, y) {
-                continue;
-            }
-            let (p, q) = (a.get_pixel(x, y), b.get_pixel(x, y));
-            let d: f64 = (0..3)
-                .map(|c| (p[c] as f64 - q[c] as f64).abs())
-                .sum::<f64>()
-                / 3.0;
-            sum += d;
-            n += 1;
-            differ += usize::from(d > 0.0);
-        }
-    }
-    (sum / n.max(1) as f64, differ)
 }
 
 #[test]
@@ -157,9 +113,7 @@ fn accumulation_cuts_the_shimmer_of_a_slow_turn() {
     let pose = framing_pose(&scene, &profile);
     // A third of a pixel a frame at this size (the bench's sequence);
     // the first 16 frames warm the history, the last 8 are measured.
-    let ppd = W as f64
-        / (profile.views[0].fov.right.atan() - profile.views[0].fov.left.atan()).to_degrees();
-    let rigs = turning(&profile, pose, 1.0 / (3.0 * ppd), 24);
+    let rigs = turning(&profile, pose, third_of_a_pixel(&profile, W), 24);
     let measured = |f: Vec<[image::RgbaImage; 2]>| f[16..].to_vec();
     let reference_config = config(StereoMode::Multiview, None);
     let reference = measured(frames(&ctx, &scene, &reference_config, &rigs, 2));

@@ -3,6 +3,7 @@
 
 #![allow(dead_code)]
 
+pub mod sequence;
 pub mod xvfb;
 
 use std::path::PathBuf;
