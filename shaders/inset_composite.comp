@@ -1,6 +1,7 @@
 #version 450
 #extension GL_GOOGLE_include_directive : require
 #include "srgb.glsl"
+#include "taa.glsl"
 // Multi-resolution foveated rendering's composite (src/view/inset.rs), in
 // compute: the eye pixel takes the wide view, upsampled from its lower
 // resolution at the same image position, bilinearly or (pc.filter_, the
@@ -51,10 +52,7 @@ vec4 catmull_rom(sampler2DArray frame, vec2 q, ivec2 origin, ivec2 size, int lay
     vec2 f = fract(t);
     ivec2 base = ivec2(floor(t)) - 1;
     vec2 w[4];
-    w[0] = f * (-0.5 + f * (1.0 - 0.5 * f));
-    w[1] = 1.0 + f * f * (-2.5 + 1.5 * f);
-    w[2] = f * (0.5 + f * (2.0 - 1.5 * f));
-    w[3] = f * f * (-0.5 + 0.5 * f);
+    catmull_rom_weights(f, w);
     vec4 sum = vec4(0.0);
     vec4 lo = vec4(1e30);
     vec4 hi = vec4(-1e30);

@@ -1,4 +1,6 @@
 #version 450
+#extension GL_GOOGLE_include_directive : require
+#include "taa.glsl"
 // Temporal anti-aliasing of the inset's wide views (src/view/taa.rs has
 // the derivation and the CPU model this follows;
 // src/render/passes/inset_taa.rs records it). One invocation per pixel of
@@ -35,16 +37,6 @@ layout(push_constant) uniform Push {
 // (view::taa::VARIANCE_GAMMA).
 const float GAMMA = 1.25;
 
-vec3 to_ycocg(vec3 c) {
-    return vec3(0.25 * c.r + 0.5 * c.g + 0.25 * c.b,
-                0.5 * c.r - 0.5 * c.b,
-                -0.25 * c.r + 0.5 * c.g - 0.25 * c.b);
-}
-
-vec3 from_ycocg(vec3 c) {
-    return vec3(c.x + c.y - c.z, c.x + c.z, c.x - c.y - c.z);
-}
-
 // The image at pixel position `at` (pixel units, centres at + 0.5) of
 // layer `layer`, Catmull-Rom filtered over the 4x4 texels around it
 // (weights as view::taa::catmull_rom_weights; texels clamped to the
@@ -56,10 +48,7 @@ vec3 filtered(sampler2DArray hist, vec2 at, ivec2 size, int layer) {
     vec2 f = fract(t);
     ivec2 base = ivec2(floor(t)) - 1;
     vec2 w[4];
-    w[0] = f * (-0.5 + f * (1.0 - 0.5 * f));
-    w[1] = 1.0 + f * f * (-2.5 + 1.5 * f);
-    w[2] = f * (0.5 + f * (2.0 - 1.5 * f));
-    w[3] = f * f * (-0.5 + 0.5 * f);
+    catmull_rom_weights(f, w);
     vec3 sum = vec3(0.0);
     for (int j = 0; j < 4; j++) {
         for (int i = 0; i < 4; i++) {
