@@ -351,6 +351,20 @@ pub struct Inset {
     pub catmull_rom: bool,
 }
 
+impl Inset {
+    /// How far, in wide texels, the passes that read the wide views reach
+    /// from a pixel's position: [`crate::view::taau::READ_REACH`] with
+    /// `inset-taau`, else [`crate::view::inset_hole::read_reach`] of the
+    /// composite's filter and `inset-taa`. The wide views' hole keeps that
+    /// margin drawn.
+    pub fn read_reach(&self) -> f64 {
+        match self.taau {
+            true => crate::view::taau::READ_REACH,
+            false => crate::view::inset_hole::read_reach(self.catmull_rom, self.taa.is_some()),
+        }
+    }
+}
+
 impl Default for Inset {
     fn default() -> Self {
         Inset {

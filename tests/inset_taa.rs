@@ -10,26 +10,13 @@
 
 mod common;
 
-use common::sequence::{diff, third_of_a_pixel, turning};
+use common::sequence::{config, diff, frames, rect, third_of_a_pixel, turning, W};
 use common::{context, framing_pose, load};
-use vergence::config::{Inset, RenderConfig, StereoMode};
-use vergence::view::inset::{inset_rect, weight, PixelRect, FEATHER_PX};
+use vergence::config::{Inset, StereoMode};
+use vergence::view::inset::{weight, FEATHER_PX};
 use vergence::view::profile::HmdProfile;
-use vergence::view::StereoRig;
-
-const W: u32 = 192;
-const H: u32 = 160;
 
 const SETTINGS: Inset = common::INSET_SETTINGS;
-
-fn config(stereo: StereoMode, inset: Option<Inset>) -> RenderConfig {
-    RenderConfig {
-        stereo,
-        msaa: 4,
-        inset,
-        ..RenderConfig::default()
-    }
-}
 
 fn taa(alpha: f64) -> Option<Inset> {
     Some(Inset {
@@ -43,22 +30,6 @@ fn taa_jittered(alpha: f64) -> Option<Inset> {
         taa_jitter: true,
         ..taa(alpha).unwrap()
     })
-}
-
-/// The frames of `config` along `rigs` at the tests' size.
-fn frames(
-    ctx: &std::sync::Arc<vergence::gpu::Context>,
-    scene: &vergence::scene::Scene,
-    config: &RenderConfig,
-    rigs: &[StereoRig],
-    supersample: u32,
-) -> Vec<[image::RgbaImage; 2]> {
-    common::sequence::frames(ctx, scene, config, rigs, (W, H), supersample)
-}
-
-fn rect(profile: &HmdProfile) -> PixelRect {
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
-    inset_rect(&fovs, [0.0, 0.0], SETTINGS.half_angle_deg, W, H)
 }
 
 #[test]

@@ -9,15 +9,11 @@
 
 mod common;
 
-use common::sequence::{diff, third_of_a_pixel, turning};
+use common::sequence::{config, diff, frames, rect, third_of_a_pixel, turning, W};
 use common::{context, framing_pose, load};
-use vergence::config::{Inset, RenderConfig, StereoMode};
-use vergence::view::inset::{inset_rect, weight, PixelRect, FEATHER_PX};
+use vergence::config::{Inset, StereoMode};
+use vergence::view::inset::{weight, PixelRect, FEATHER_PX};
 use vergence::view::profile::HmdProfile;
-use vergence::view::StereoRig;
-
-const W: u32 = 192;
-const H: u32 = 160;
 
 /// One-sample wide views at half size: the samples the upsampling takes
 /// are point samples.
@@ -32,31 +28,6 @@ const TAAU: Inset = Inset {
     taau: true,
     ..PLAIN
 };
-
-fn config(stereo: StereoMode, inset: Option<Inset>) -> RenderConfig {
-    RenderConfig {
-        stereo,
-        msaa: 4,
-        inset,
-        ..RenderConfig::default()
-    }
-}
-
-/// The frames of `config` along `rigs` at the tests' size.
-fn frames(
-    ctx: &std::sync::Arc<vergence::gpu::Context>,
-    scene: &vergence::scene::Scene,
-    config: &RenderConfig,
-    rigs: &[StereoRig],
-    supersample: u32,
-) -> Vec<[image::RgbaImage; 2]> {
-    common::sequence::frames(ctx, scene, config, rigs, (W, H), supersample)
-}
-
-fn rect(profile: &HmdProfile) -> PixelRect {
-    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
-    inset_rect(&fovs, [0.0, 0.0], PLAIN.half_angle_deg, W, H)
-}
 
 /// The context, factory:2000 framed for the valve-index profile, and the
 /// inset's rectangle.

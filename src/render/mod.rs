@@ -804,13 +804,7 @@ impl Renderer {
                     (w, h),
                     (wide.width, wide.height),
                     crate::view::inset::FEATHER_PX,
-                    match inset.taau {
-                        true => crate::view::taau::READ_REACH,
-                        false => crate::view::inset_hole::read_reach(
-                            inset.catmull_rom,
-                            inset.taa.is_some(),
-                        ),
-                    },
+                    inset.read_reach(),
                 )
                 .and_then(|c| {
                     let vol = |v| crate::view::inset_hole::core_volume(v, &c, w, h, near, far);

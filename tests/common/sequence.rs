@@ -1,15 +1,40 @@
 //! Frame sequences along a head path, for the tests of techniques that
 //! carry state from frame to frame (the inset's accumulation and
-//! upsampling): the rigs of a steady turn, the frames with no validation
-//! message, and a per-pixel difference over a region.
+//! upsampling): their size, configuration and inset rectangle, the rigs
+//! of a steady turn, the frames with no validation message, and a
+//! per-pixel difference over a region.
 
 use std::sync::Arc;
-use vergence::config::RenderConfig;
+use vergence::config::{Inset, RenderConfig, StereoMode};
 use vergence::gpu::Context;
 use vergence::scene::Scene;
 use vergence::targets::headless::render_sequence;
+use vergence::view::inset::PixelRect;
 use vergence::view::profile::HmdProfile;
 use vergence::view::{Pose, StereoRig};
+
+/// The sequences' eye size.
+pub const W: u32 = 192;
+/// The sequences' eye height.
+pub const H: u32 = 160;
+
+/// `stereo` at 4× MSAA with `inset`.
+pub fn config(stereo: StereoMode, inset: Option<Inset>) -> RenderConfig {
+    RenderConfig {
+        stereo,
+        msaa: 4,
+        inset,
+        ..RenderConfig::default()
+    }
+}
+
+/// The rectangle of [`super::INSET_SETTINGS`]' inset at the centre, at
+/// the sequences' size.
+pub fn rect(profile: &HmdProfile) -> PixelRect {
+    let fovs: Vec<_> = profile.views.iter().map(|v| v.fov).collect();
+    let half_angle = super::INSET_SETTINGS.half_angle_deg;
+    vergence::view::inset::inset_rect(&fovs, [0.0, 0.0], half_angle, W, H)
+}
 
 /// `n` rigs from `pose`, turning right by `step_deg` a frame.
 pub fn turning(profile: &HmdProfile, pose: Pose, step_deg: f64, n: usize) -> Vec<StereoRig> {
@@ -21,20 +46,19 @@ pub fn turning(profile: &HmdProfile, pose: Pose, step_deg: f64, n: usize) -> Vec
         .collect()
 }
 
-/// The frames of `config` along `rigs` at `size` (`supersample` × it),
-/// failing on any validation message.
+/// The frames of `config` along `rigs` at the sequences' size
+/// (`supersample` × it), failing on any validation message.
 pub fn frames(
     ctx: &Arc<Context>,
     scene: &Scene,
     config: &RenderConfig,
     rigs: &[StereoRig],
-    size: (u32, u32),
     supersample: u32,
 ) -> Vec<[image::RgbaImage; 2]> {
     let before = ctx.validation_messages();
     let extent = ash::vk::Extent2D {
-        width: size.0,
-        height: size.1,
+        width: W,
+        height: H,
     };
     let out = render_sequence(ctx, scene, config, rigs, (extent, supersample), 0.0)
         .unwrap_or_else(|e| panic!("{}: {e}", config.opt_string()));
