@@ -37,6 +37,7 @@ layout(push_constant) uniform Push {
                    // 2 none (inset-taau: the wide view is the eye-sized
                    // history, read at the pixel; its alpha is a weight, the
                    // output opaque)
+    float sharpen; // inset-sharpen's strength with filter 2 (0: off)
 } pc;
 
 // The wide view at `q` (pixels of its region, centres at + 0.5) through
@@ -70,6 +71,25 @@ vec4 catmull_rom(sampler2DArray frame, vec2 q, ivec2 origin, ivec2 size, int lay
     return clamp(sum, lo, hi);
 }
 
+// The eye-sized history at `p` sharpened against its four edge
+// neighbours with strength `s`, clamped to their and its range per
+// channel (inset-sharpen; view::sharpen::sharpen, which has the
+// derivation; neighbours past the border clamped to it).
+vec3 sharpened(sampler2DArray hist, ivec2 p, int layer, ivec2 size, float s) {
+    vec3 c = texelFetch(hist, ivec3(p, layer), 0).rgb;
+    if (s <= 0.0) {
+        return c;
+    }
+    ivec2 last = size - 1;
+    vec3 l = texelFetch(hist, ivec3(clamp(p - ivec2(1, 0), ivec2(0), last), layer), 0).rgb;
+    vec3 r = texelFetch(hist, ivec3(clamp(p + ivec2(1, 0), ivec2(0), last), layer), 0).rgb;
+    vec3 u = texelFetch(hist, ivec3(clamp(p - ivec2(0, 1), ivec2(0), last), layer), 0).rgb;
+    vec3 d = texelFetch(hist, ivec3(clamp(p + ivec2(0, 1), ivec2(0), last), layer), 0).rgb;
+    vec3 lo = min(c, min(min(l, r), min(u, d)));
+    vec3 hi = max(c, max(max(l, r), max(u, d)));
+    return clamp(c + s * (c - 0.25 * (l + r + u + d)), lo, hi);
+}
+
 vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     vec2 size = vec2(float(pc.eye_size & 0xffffu), float(pc.eye_size >> 16));
     vec2 at = vec2(p.xy) + 0.5;
@@ -79,7 +99,7 @@ vec4 composite(sampler2DArray inset_frame, sampler2DArray wide_frame, ivec3 p) {
     int layer = p.z + int(pc.wide_layer);
     vec4 wide;
     if (pc.filter_ == 2u) {
-        wide = vec4(texelFetch(wide_frame, ivec3(p.xy, layer), 0).rgb, 1.0);
+        wide = vec4(sharpened(wide_frame, p.xy, layer, ivec2(size), pc.sharpen), 1.0);
     } else if (pc.filter_ == 0u) {
         vec2 uv = (worigin + q) / vec2(textureSize(wide_frame, 0).xy);
         wide = texture(wide_frame, vec3(uv, float(layer)));

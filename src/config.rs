@@ -349,9 +349,27 @@ pub struct Inset {
     /// upsampling"). Off by default.
     #[serde(default)]
     pub catmull_rom: bool,
+    /// `inset-sharpen[=S]` (which turns `inset-taau` on): the composite
+    /// sharpens the upsampled periphery with strength S (0.1 to 2, default
+    /// [`crate::view::sharpen::DEFAULT_STRENGTH`]), clamped to each
+    /// pixel's cross of neighbours ([`crate::view::sharpen`]); the history
+    /// itself stays as accumulated. Off by default.
+    #[serde(default)]
+    pub sharpen: Option<f64>,
 }
 
 impl Inset {
+    /// These settings with `inset-taau` on (and with it `inset-taa`, at
+    /// its weight if given, and its jitter).
+    fn with_taau(self) -> Inset {
+        Inset {
+            taa: Some(self.taa.unwrap_or(crate::view::taa::DEFAULT_ALPHA)),
+            taa_jitter: true,
+            taau: true,
+            ..self
+        }
+    }
+
     /// How far, in wide texels, the passes that read the wide views reach
     /// from a pixel's position: [`crate::view::taau::READ_REACH`] with
     /// `inset-taau`, else [`crate::view::inset_hole::read_reach`] of the
@@ -359,6 +377,12 @@ impl Inset {
     /// margin drawn.
     pub fn read_reach(&self) -> f64 {
         match self.taau {
+            // The sharpening reads the history one eye pixel (the wide
+            // scale's share of a wide texel) beyond the pixel.
+            true if self.sharpen.is_some() => {
+                crate::view::taau::READ_REACH
+                    + crate::view::sharpen::READ_REACH_EYE_PX * self.wide_scale
+            }
             true => crate::view::taau::READ_REACH,
             false => crate::view::inset_hole::read_reach(self.catmull_rom, self.taa.is_some()),
         }
@@ -379,6 +403,7 @@ impl Default for Inset {
             taa_jitter: false,
             taau: false,
             catmull_rom: false,
+            sharpen: None,
         }
     }
 }
@@ -870,12 +895,25 @@ impl RenderConfig {
                         ..i
                     })
                 }
-                "inset-taau" => {
-                    let i = self.inset.unwrap_or_default();
+                "inset-taau" => self.inset = Some(self.inset.unwrap_or_default().with_taau()),
+                "inset-sharpen" => {
+                    let i = self.inset.unwrap_or_default().with_taau();
                     self.inset = Some(Inset {
-                        taa: Some(i.taa.unwrap_or(crate::view::taa::DEFAULT_ALPHA)),
-                        taa_jitter: true,
-                        taau: true,
+                        sharpen: Some(crate::view::sharpen::DEFAULT_STRENGTH),
+                        ..i
+                    })
+                }
+                l if l.starts_with("inset-sharpen=") => {
+                    let v = opt_value(
+                        l,
+                        "inset-sharpen=",
+                        crate::view::sharpen::STRENGTH_RANGE,
+                        "S",
+                        "the strength of the upsampled periphery's sharpening",
+                    )?;
+                    let i = self.inset.unwrap_or_default().with_taau();
+                    self.inset = Some(Inset {
+                        sharpen: Some(v),
                         ..i
                     })
                 }
@@ -1030,7 +1068,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-sharpen[=S], inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1256,9 +1294,16 @@ impl RenderConfig {
                 Some(a) => v.push(format!("inset-taa={a}")),
                 None => {}
             }
-            if i.taau {
-                v.push("inset-taau".into());
-            } else if i.taa_jitter {
+            // inset-sharpen turns inset-taau on.
+            match (i.sharpen, i.taau) {
+                (Some(s), _) if s == crate::view::sharpen::DEFAULT_STRENGTH => {
+                    v.push("inset-sharpen".into())
+                }
+                (Some(s), _) => v.push(format!("inset-sharpen={s}")),
+                (None, true) => v.push("inset-taau".into()),
+                (None, false) => {}
+            }
+            if i.taa_jitter && !i.taau {
                 v.push("inset-taa-jitter".into());
             }
             if i.catmull_rom {
@@ -1412,6 +1457,9 @@ mod tests {
             "inset-taa=0.2,inset-taa-jitter",
             "inset-taau",
             "inset=0.7,inset-wide-1x,inset-taa=0.2,inset-taau",
+            "inset-sharpen",
+            "inset=0.7,inset-wide-1x,inset-taa=0.05,inset-sharpen=0.5",
+            "inset-taau,inset-sharpen=1.5",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",
         ] {

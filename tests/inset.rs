@@ -609,14 +609,47 @@ const WIDE: Inset = Inset {
 fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
     let (ctx, scene, profile, pose, _) = fixture();
     let base = WIDE;
-    // (stereo, wide 1x, gaze, Catmull-Rom reads, inset-taa, inset-taau):
-    // the hole's margin follows the reads' reach
-    // (view::inset_hole::read_reach, view::taau::READ_REACH).
-    for (stereo, wide_1x, gaze, catmull_rom, taa, taau) in [
-        (StereoMode::Multiview, false, [0.0, 0.0], false, None, false),
-        (StereoMode::TwoPass, false, [0.3, -0.2], false, None, false),
-        (StereoMode::Multiview, true, [-0.2, 0.1], false, None, false),
-        (StereoMode::Multiview, false, [0.1, 0.0], true, None, false),
+    // (stereo, wide 1x, gaze, Catmull-Rom reads, inset-taa, inset-taau,
+    // inset-sharpen): the hole's margin follows the reads' reach
+    // (view::inset_hole::read_reach, view::taau::READ_REACH and the
+    // sharpening's pixel beyond it).
+    for (stereo, wide_1x, gaze, catmull_rom, taa, taau, sharpen) in [
+        (
+            StereoMode::Multiview,
+            false,
+            [0.0, 0.0],
+            false,
+            None,
+            false,
+            None,
+        ),
+        (
+            StereoMode::TwoPass,
+            false,
+            [0.3, -0.2],
+            false,
+            None,
+            false,
+            None,
+        ),
+        (
+            StereoMode::Multiview,
+            true,
+            [-0.2, 0.1],
+            false,
+            None,
+            false,
+            None,
+        ),
+        (
+            StereoMode::Multiview,
+            false,
+            [0.1, 0.0],
+            true,
+            None,
+            false,
+            None,
+        ),
         (
             StereoMode::TwoPass,
             true,
@@ -624,6 +657,7 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
             true,
             Some(0.1),
             false,
+            None,
         ),
         (
             StereoMode::Multiview,
@@ -632,6 +666,16 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
             false,
             Some(0.1),
             true,
+            None,
+        ),
+        (
+            StereoMode::TwoPass,
+            true,
+            [-0.1, 0.2],
+            false,
+            Some(0.1),
+            true,
+            Some(2.0),
         ),
     ] {
         let run = |wide_all: bool| {
@@ -642,6 +686,7 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
                 taa,
                 taa_jitter: taau,
                 taau,
+                sharpen,
                 ..base
             };
             render_config(
@@ -656,7 +701,7 @@ fn the_wide_views_hole_leaves_the_eye_images_as_they_were() {
         };
         let (hole, all) = (run(false), run(true));
         let what = format!(
-            "{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}, Catmull-Rom {catmull_rom}, taa {taa:?}, taau {taau}"
+            "{stereo:?}, wide 1× {wide_1x}, gaze {gaze:?}, Catmull-Rom {catmull_rom}, taa {taa:?}, taau {taau}, sharpen {sharpen:?}"
         );
         assert!(
             hole.stats.instances_drawn < all.stats.instances_drawn,

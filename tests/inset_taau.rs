@@ -29,6 +29,12 @@ const TAAU: Inset = Inset {
     ..PLAIN
 };
 
+/// `inset-sharpen` at its default strength.
+const SHARPENED: Inset = Inset {
+    sharpen: Some(vergence::view::sharpen::DEFAULT_STRENGTH),
+    ..TAAU
+};
+
 /// The context, factory:2000 framed for the valve-index profile, and the
 /// inset's rectangle.
 fn fixture() -> (
@@ -126,15 +132,23 @@ fn upsampling_cuts_the_shimmer_of_a_slow_turn() {
         ..PLAIN
     });
     let up = score(TAAU);
+    let sharp = score(SHARPENED);
     // Measured here: plain 0.00180, inset-taa 0.00041, inset-taau 0.00062
     // (the jitter's own frame-to-frame change: each frame's samples land
-    // elsewhere in the pixel).
+    // elsewhere in the pixel), inset-sharpen 0.00080: on this small,
+    // detailed frame the sharpening also steepens what the wide views
+    // alias, the opposite of the garage at the bench's size (README,
+    // "Sharpening the upsampled periphery").
     println!(
-        "one-sample wide views: flicker plain {plain:.6}, inset-taa {taa:.6}, inset-taau {up:.6}"
+        "one-sample wide views: flicker plain {plain:.6}, inset-taa {taa:.6}, inset-taau {up:.6}, inset-sharpen {sharp:.6}"
     );
     assert!(
         up < 0.8 * plain,
         "inset-taau flickers {up:.6}, the plain inset {plain:.6}"
+    );
+    assert!(
+        sharp < 0.8 * plain,
+        "inset-sharpen flickers {sharp:.6}, the plain inset {plain:.6}"
     );
 }
 
@@ -178,4 +192,96 @@ fn the_upsampled_history_follows_a_turning_head() {
             "eye {eye}: inset-taau {up_err:.3} levels from the full render, the plain inset {plain_err:.3}"
         );
     }
+}
+
+/// `inset-sharpen` is the composite's sharpening of the same history: the
+/// eye images equal `view::sharpen` applied to the unsharpened images'
+/// periphery (in linear light), within the 8-bit rounding of the images
+/// it starts from; the inset is untouched.
+#[test]
+fn the_composite_sharpens_as_the_model_does() {
+    let (ctx, scene, profile, pose, r) = fixture();
+    let rigs = turning(&profile, pose, third_of_a_pixel(&profile, W), 12);
+    let up = frames(
+        &ctx,
+        &scene,
+        &config(StereoMode::Multiview, Some(TAAU)),
+        &rigs,
+        1,
+    );
+    let sharp = frames(
+        &ctx,
+        &scene,
+        &config(StereoMode::Multiview, Some(SHARPENED)),
+        &rigs,
+        1,
+    );
+    // Pixels whose cross lies wholly in the wide view alone.
+    let wide_alone = |x: u32, y: u32| {
+        [(0, 0), (-1, 0), (1, 0), (0, -1), (0, 1)]
+            .iter()
+            .all(|&(dx, dy)| {
+                let (px, py) = (x as i64 + dx, y as i64 + dy);
+                px >= 0
+                    && py >= 0
+                    && px < W as i64
+                    && py < common::sequence::H as i64
+                    && weight(&r, px as u32, py as u32, FEATHER_PX) == 0.0
+            })
+    };
+    let core = |x, y| weight(&r, x, y, FEATHER_PX) >= 1.0;
+    let decode = |v: u8| {
+        let c = v as f64 / 255.0;
+        if c <= 0.04045 {
+            c / 12.92
+        } else {
+            ((c + 0.055) / 1.055).powf(2.4)
+        }
+    };
+    let encode = |l: f64| {
+        let l = l.clamp(0.0, 1.0);
+        let c = if l <= 0.0031308 {
+            12.92 * l
+        } else {
+            1.055 * l.powf(1.0 / 2.4) - 0.055
+        };
+        c * 255.0
+    };
+    let (mut worst, mut sum, mut n, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
+    for eye in 0..2 {
+        let (a, b) = (&up[11][eye], &sharp[11][eye]);
+        let (w, h) = a.dimensions();
+        for c in 0..3 {
+            let plane: Vec<f64> = a.pixels().map(|p| decode(p[c])).collect();
+            let model = vergence::view::sharpen::sharpen_image(
+                &plane,
+                w as usize,
+                vergence::view::sharpen::DEFAULT_STRENGTH,
+            );
+            for y in 0..h {
+                for x in 0..w {
+                    if !wide_alone(x, y) {
+                        continue;
+                    }
+                    let i = (y * w + x) as usize;
+                    let got = b.get_pixel(x, y)[c] as f64;
+                    let d = (got - encode(model[i])).abs();
+                    worst = worst.max(d);
+                    sum += d;
+                    n += 1;
+                    changed += usize::from(got != a.get_pixel(x, y)[c] as f64);
+                }
+            }
+        }
+        let (_, core_differ) = diff(&up[11][eye], &sharp[11][eye], core);
+        assert_eq!(core_differ, 0, "eye {eye}: the inset changed");
+    }
+    let mean = sum / n.max(1) as f64;
+    println!("sharpened against the model: mean {mean:.3}, worst {worst:.2} levels; {changed} channel values changed by it of {n}");
+    assert!(
+        changed > n / 100,
+        "the sharpening changed only {changed} of {n} values"
+    );
+    assert!(mean < 0.3, "mean {mean:.3} levels from the model");
+    assert!(worst < 4.0, "worst {worst:.2} levels from the model");
 }

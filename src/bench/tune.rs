@@ -95,6 +95,14 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-taau",
     ),
     (
+        "inset-wide-1x-sharpen",
+        "multiview,msaa4,superfrustum,inset,inset-wide-1x,inset-sharpen",
+    ),
+    (
+        "inset-0.7-wide-1x-sharpen",
+        "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-sharpen",
+    ),
+    (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
     ),

@@ -16,6 +16,7 @@ pub mod mffr;
 pub mod profile;
 pub mod projection;
 pub mod reproject;
+pub mod sharpen;
 pub(crate) mod strict;
 pub mod superfrustum;
 pub mod taa;

@@ -242,4 +242,5 @@ pub const INSET_SETTINGS: vergence::config::Inset = vergence::config::Inset {
     taa_jitter: false,
     taau: false,
     catmull_rom: false,
+    sharpen: None,
 };

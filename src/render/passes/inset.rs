@@ -48,8 +48,9 @@ use ash::vk;
 
 /// The composite's push constants: the inset (2 words), the feather, the
 /// attachment set, the wide view's region (origin, size), its first layer,
-/// the eyes' drawn size and the wide view's upsampling filter.
-const PUSH_BYTES: u32 = 9 * 4;
+/// the eyes' drawn size, the wide view's upsampling filter and the
+/// sharpening's strength.
+const PUSH_BYTES: u32 = 10 * 4;
 
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
@@ -77,6 +78,9 @@ pub struct InsetPass {
     /// `inset-catmull-rom`: the composite reads the wide view through the
     /// Catmull-Rom filter (false: bilinearly).
     pub catmull_rom: bool,
+    /// `inset-sharpen`: the strength with which the composite sharpens the
+    /// upsampled history (0: not at all; only with `inset-taau`).
+    pub sharpen: f32,
     sets: DescriptorSets,
     composite: vk::Pipeline,
     /// The composite's barriers for the bound targets, made once by
@@ -163,6 +167,7 @@ impl InsetPass {
                 one_sample: false,
                 taa,
                 catmull_rom: false,
+                sharpen: 0.0,
                 sets,
                 composite,
                 before: Vec::new(),
@@ -393,6 +398,7 @@ impl InsetPass {
             (true, _) => 2,
             (false, c) => u32::from(c),
         };
+        let sharpen = if upsampled { self.sharpen } else { 0.0 }.to_bits();
         let wide_layer = match (&self.taa, self.four_view) {
             (Some(t), _) => t.history_layer(),
             (None, true) => 2,
@@ -422,6 +428,7 @@ impl InsetPass {
                 };
                 let push = [
                     lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size, filter,
+                    sharpen,
                 ];
                 d.cmd_push_constants(
                     rec.cmd,

@@ -140,6 +140,7 @@ impl Passes {
                 i.taa.map(|a| (a, i.taa_jitter, i.taau)),
             )?;
             pass.catmull_rom = i.catmull_rom;
+            pass.sharpen = i.sharpen.unwrap_or(0.0) as f32;
             self.inset = Some(pass);
             if wide_1x || msaa_rung {
                 self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
