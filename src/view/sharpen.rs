@@ -31,10 +31,10 @@
 //! position, sharpened with S ≤ 1 stays monotone and is no farther from
 //! the area-sampled step than before (1 + S at Nyquist
 //! overshoots sharper edges, which is why the default is 1). The bench on
-//! lavapipe chose the default: S = 0.5, 1, 2, 4 gave the garage's flicker
-//! 0.000131, 0.000123, 0.000125, 0.000149 at inset=0.7 (taau alone
-//! 0.000143, the baseline 0.000113; README, "Sharpening the upsampled
-//! periphery").
+//! lavapipe chose the default: on the garage at inset=0.7, S = 0.5 and 1
+//! gave flicker 0.000131 and 0.000121 (inset-taau alone 0.000144, the
+//! baseline 0.000113), and S = 2 and 4 gave 0.000125 and 0.000149 in a
+//! trial build (README, "Sharpening the upsampled periphery").
 
 /// The default strength S.
 pub const DEFAULT_STRENGTH: f64 = 1.0;
