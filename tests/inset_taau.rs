@@ -230,29 +230,12 @@ fn the_composite_sharpens_as_the_model_does() {
             })
     };
     let core = |x, y| weight(&r, x, y, FEATHER_PX) >= 1.0;
-    let decode = |v: u8| {
-        let c = v as f64 / 255.0;
-        if c <= 0.04045 {
-            c / 12.92
-        } else {
-            ((c + 0.055) / 1.055).powf(2.4)
-        }
-    };
-    let encode = |l: f64| {
-        let l = l.clamp(0.0, 1.0);
-        let c = if l <= 0.0031308 {
-            12.92 * l
-        } else {
-            1.055 * l.powf(1.0 / 2.4) - 0.055
-        };
-        c * 255.0
-    };
     let (mut worst, mut sum, mut n, mut changed) = (0.0f64, 0.0f64, 0usize, 0usize);
     for eye in 0..2 {
         let (a, b) = (&up[11][eye], &sharp[11][eye]);
         let (w, h) = a.dimensions();
         for c in 0..3 {
-            let plane: Vec<f64> = a.pixels().map(|p| decode(p[c])).collect();
+            let plane: Vec<f64> = a.pixels().map(|p| common::srgb_to_linear(p[c])).collect();
             let model = vergence::view::sharpen::sharpen_image(
                 &plane,
                 w as usize,
@@ -265,7 +248,7 @@ fn the_composite_sharpens_as_the_model_does() {
                     }
                     let i = (y * w + x) as usize;
                     let got = b.get_pixel(x, y)[c] as f64;
-                    let d = (got - encode(model[i])).abs();
+                    let d = (got - common::linear_to_srgb(model[i].clamp(0.0, 1.0))).abs();
                     worst = worst.max(d);
                     sum += d;
                     n += 1;
