@@ -896,25 +896,20 @@ impl RenderConfig {
                     })
                 }
                 "inset-taau" => self.inset = Some(self.inset.unwrap_or_default().with_taau()),
-                "inset-sharpen" => {
-                    let i = self.inset.unwrap_or_default().with_taau();
+                l if l == "inset-sharpen" || l.starts_with("inset-sharpen=") => {
+                    let strength = match l {
+                        "inset-sharpen" => crate::view::sharpen::DEFAULT_STRENGTH,
+                        _ => opt_value(
+                            l,
+                            "inset-sharpen=",
+                            crate::view::sharpen::STRENGTH_RANGE,
+                            "S",
+                            "the strength of the upsampled periphery's sharpening",
+                        )?,
+                    };
                     self.inset = Some(Inset {
-                        sharpen: Some(crate::view::sharpen::DEFAULT_STRENGTH),
-                        ..i
-                    })
-                }
-                l if l.starts_with("inset-sharpen=") => {
-                    let v = opt_value(
-                        l,
-                        "inset-sharpen=",
-                        crate::view::sharpen::STRENGTH_RANGE,
-                        "S",
-                        "the strength of the upsampled periphery's sharpening",
-                    )?;
-                    let i = self.inset.unwrap_or_default().with_taau();
-                    self.inset = Some(Inset {
-                        sharpen: Some(v),
-                        ..i
+                        sharpen: Some(strength),
+                        ..self.inset.unwrap_or_default().with_taau()
                     })
                 }
                 l if l.starts_with("inset-taa=") => {
