@@ -32,6 +32,7 @@ layout(push_constant) uniform Push {
     float jitter_x;   // this frame's viewport offset, wide pixels
     float jitter_y;
     uint eye_size;    // the eyes' size (the history's), width | height << 16
+    uint lanczos;     // 1: read the history through Lanczos-3, else Catmull-Rom
 } pc;
 
 // view::taa::VARIANCE_GAMMA and view::taau::GAUSSIAN_K.
@@ -55,6 +56,49 @@ vec4 filtered(sampler2DArray hist, vec2 at, ivec2 size, int layer) {
         }
     }
     return max(sum, vec4(0.0));
+}
+
+// The Lanczos window of three lobes at x texels (view::lanczos::lanczos3),
+// per axis.
+vec2 lanczos3(vec2 x) {
+    vec2 px = 3.14159265 * x;
+    vec2 l = 3.0 * sin(px) * sin(px / 3.0) / max(px * px, vec2(1e-12));
+    l = mix(l, vec2(1.0), lessThan(abs(x), vec2(1e-5)));
+    return mix(l, vec2(0.0), greaterThanEqual(abs(x), vec2(3.0)));
+}
+
+// The history at eye position `at` through the renormalized Lanczos-3
+// filter over the 6x6 texels around it (weights as view::lanczos::weights;
+// texels clamped to `size`, as the sampler's clamp to edge does), in
+// 5x5 bilinear reads: along each axis the two middle texels, whose
+// weights are both positive, are read as one at their weighted position
+// (view::lanczos::merged; the usual trick for Catmull-Rom, Jimenez,
+// "Filmic SMAA", SIGGRAPH 2016).
+vec4 filtered_lanczos(sampler2DArray hist, vec2 at, ivec2 size, int layer) {
+    vec2 t = at - 0.5;
+    vec2 f = fract(t);
+    vec2 base = floor(t) - 2.0;
+    vec2 w[6];
+    vec2 total = vec2(0.0);
+    for (int i = 0; i < 6; i++) {
+        w[i] = lanczos3(f + float(2 - i));
+        total += w[i];
+    }
+    // The five reads per axis: texel centres (+ 0.5) and weights.
+    vec2 mid = w[2] + w[3];
+    vec2 pos[5] = vec2[5](base + 0.5, base + 1.5, base + 2.5 + w[3] / mid, base + 4.5, base + 5.5);
+    vec2 wt[5] = vec2[5](w[0], w[1], mid, w[4], w[5]);
+    vec2 inv = 1.0 / vec2(size);
+    vec4 sum = vec4(0.0);
+    for (int j = 0; j < 5; j++) {
+        vec4 row = vec4(0.0);
+        for (int i = 0; i < 5; i++) {
+            vec2 uv = vec2(pos[i].x, pos[j].y) * inv;
+            row += wt[i].x * textureLod(hist, vec3(uv, float(layer)), 0.0);
+        }
+        sum += wt[j].y * row;
+    }
+    return max(sum / (total.x * total.y), vec4(0.0));
 }
 
 vec4 resolve(sampler2DArray cur, sampler2DArray dep, sampler2DArray hist, ivec2 p,
@@ -118,7 +162,8 @@ vec4 resolve(sampler2DArray cur, sampler2DArray dep, sampler2DArray hist, ivec2 
     if (any(lessThan(at, vec2(0.0))) || any(greaterThan(at, fsize))) {
         return vec4(x, min(total, cap));
     }
-    vec4 h = filtered(hist, at, esize, int(pc.read_layer));
+    vec4 h = pc.lanczos == 1u ? filtered_lanczos(hist, at, esize, int(pc.read_layer))
+                              : filtered(hist, at, esize, int(pc.read_layer));
     vec3 hc = from_ycocg(clamp(to_ycocg(h.rgb), lo, hi));
     // view::taau::accumulate.
     float n = clamp(h.a, 0.0, cap);

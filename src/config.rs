@@ -356,6 +356,13 @@ pub struct Inset {
     /// itself stays as accumulated. Off by default.
     #[serde(default)]
     pub sharpen: Option<f64>,
+    /// `inset-taau-lanczos` (which turns `inset-taau` on): the upsampling
+    /// reads the previous frame's history through the Lanczos-3 filter
+    /// (6×6 texels, [`crate::view::lanczos`]) instead of Catmull-Rom
+    /// (4×4), so the edges it carries soften less each frame the head
+    /// turns. Off by default.
+    #[serde(default)]
+    pub taau_lanczos: bool,
 }
 
 impl Inset {
@@ -404,6 +411,7 @@ impl Default for Inset {
             taau: false,
             catmull_rom: false,
             sharpen: None,
+            taau_lanczos: false,
         }
     }
 }
@@ -896,6 +904,12 @@ impl RenderConfig {
                     })
                 }
                 "inset-taau" => self.inset = Some(self.inset.unwrap_or_default().with_taau()),
+                "inset-taau-lanczos" => {
+                    self.inset = Some(Inset {
+                        taau_lanczos: true,
+                        ..self.inset.unwrap_or_default().with_taau()
+                    })
+                }
                 l if l == "inset-sharpen" || l.starts_with("inset-sharpen=") => {
                     let strength = match l {
                         "inset-sharpen" => crate::view::sharpen::DEFAULT_STRENGTH,
@@ -1063,7 +1077,7 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-sharpen[=S], inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-taau-lanczos, inset-sharpen[=S], inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
                     ))
                 }
             }
@@ -1295,8 +1309,12 @@ impl RenderConfig {
                     v.push("inset-sharpen".into())
                 }
                 (Some(s), _) => v.push(format!("inset-sharpen={s}")),
-                (None, true) => v.push("inset-taau".into()),
-                (None, false) => {}
+                (None, true) if !i.taau_lanczos => v.push("inset-taau".into()),
+                (None, _) => {}
+            }
+            // inset-taau-lanczos turns inset-taau on.
+            if i.taau_lanczos {
+                v.push("inset-taau-lanczos".into());
             }
             if i.taa_jitter && !i.taau {
                 v.push("inset-taa-jitter".into());
@@ -1455,6 +1473,9 @@ mod tests {
             "inset-sharpen",
             "inset=0.7,inset-wide-1x,inset-taa=0.05,inset-sharpen=0.5",
             "inset-taau,inset-sharpen=1.5",
+            "inset-taau-lanczos",
+            "inset=0.7,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
+            "inset-taau-lanczos,inset-taa=0.05,inset-sharpen=0.5",
             "point-size=3,edl",
             "edl=1.5,points-budget=5000",
         ] {

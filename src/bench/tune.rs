@@ -103,6 +103,14 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-sharpen",
     ),
     (
+        "inset-wide-1x-sharpen-lanczos",
+        "multiview,msaa4,superfrustum,inset,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
+    ),
+    (
+        "inset-0.7-wide-1x-sharpen-lanczos",
+        "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
+    ),
+    (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
     ),

@@ -9,6 +9,7 @@ pub mod foveation;
 pub mod frustum;
 pub mod inset;
 pub mod inset_hole;
+pub mod lanczos;
 pub mod lens;
 pub mod lms;
 pub mod lod;

@@ -243,4 +243,5 @@ pub const INSET_SETTINGS: vergence::config::Inset = vergence::config::Inset {
     taau: false,
     catmull_rom: false,
     sharpen: None,
+    taau_lanczos: false,
 };

@@ -33,7 +33,7 @@
 //! `bench/results/2026-12-03-h200-inset-four-view.md`: there the multiview
 //! views cost as separate views), so two scopes are the default.
 
-use super::inset_taa::InsetTaa;
+use super::inset_taa::{InsetTaa, TaaSettings};
 use super::sampled::SampledSets;
 use super::{PipelineSetup, Recorder};
 use crate::error::Result;
@@ -93,17 +93,16 @@ pub struct InsetPass {
 impl InsetPass {
     /// The wide targets at `scale` × `extent` (`samples` per pixel; with
     /// `msaa_rung` over MSAA also drawable at one sample, see
-    /// [`InsetPass::set_one_sample`]), with `taa` (`inset-taa`'s weight,
-    /// jitter and whether `inset-taau` upsamples to `extent`) their
-    /// temporal anti-aliasing, and the composite; on failure, destroys
-    /// what it made.
+    /// [`InsetPass::set_one_sample`]), with `taa` their temporal
+    /// anti-aliasing (upsampling to `extent` with `inset-taau`), and the
+    /// composite; on failure, destroys what it made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         scale: f64,
         (samples, msaa_rung): (u32, bool),
         multiview: bool,
-        taa: Option<(f64, bool, bool)>,
+        taa: Option<TaaSettings>,
     ) -> Result<InsetPass> {
         let ctx = setup.ctx;
         let wide_extent = crate::render::scaled(extent, scale);
@@ -122,7 +121,7 @@ impl InsetPass {
         };
         let taa = match taa
             .filter(|_| !four_view)
-            .map(|(a, j, up)| InsetTaa::new(ctx, &wide, (a, j, up.then_some(extent))))
+            .map(|settings| InsetTaa::new(ctx, &wide, settings, extent))
         {
             Some(Ok(t)) => Some(t),
             Some(Err(e)) => {

@@ -45,8 +45,24 @@ const HISTORY_FORMAT: vk::Format = vk::Format::R16G16B16A16_SFLOAT;
 
 /// The shaders' push constants: the reprojection matrix (16 floats), then
 /// size, set, layer, read layer, write layer, validity, α, the jitter (2
-/// floats) and the eye size (read by the upsampling shader only).
-const PUSH_WORDS: usize = 16 + 10;
+/// floats), and the eye size and the history filter (read by the
+/// upsampling shader only).
+const PUSH_WORDS: usize = 16 + 11;
+
+/// What `inset-taa` and its variants ask of the pass.
+#[derive(Clone, Copy, Debug, PartialEq)]
+pub struct TaaSettings {
+    /// The blend weight α (`inset-taa=A`).
+    pub alpha: f64,
+    /// `inset-taa-jitter`: move the wide viewport by a sub-pixel offset
+    /// each frame (`inset-taau` jitters whatever this says).
+    pub jitter: bool,
+    /// `inset-taau`: keep the history at the eyes' size.
+    pub upsample: bool,
+    /// `inset-taau-lanczos`: read the upsampled history through Lanczos-3
+    /// ([`crate::view::lanczos`]) instead of Catmull-Rom.
+    pub lanczos: bool,
+}
 
 /// What one frame's dispatch needs, set by [`InsetTaa::begin_frame`].
 #[derive(Clone, Copy, Debug)]
@@ -87,6 +103,9 @@ pub struct InsetTaa {
     /// `inset-taau`: the eyes' size, at which the history is kept and
     /// written (None: at the wide view's).
     upsample: Option<vk::Extent2D>,
+    /// `inset-taau-lanczos`: the upsampling shader reads the history
+    /// through Lanczos-3.
+    lanczos: bool,
     sets: DescriptorSets,
     pipeline: vk::Pipeline,
     /// The pass's barriers before its dispatches, in steady state and on
@@ -106,16 +125,16 @@ pub struct InsetTaa {
 }
 
 impl InsetTaa {
-    /// The pass for `wide`'s sets (made with their depth kept), blend
-    /// weight `alpha`, with `jitter` a sub-pixel jitter of the wide views,
-    /// and with `upsample` (the eyes' size; `inset-taau`, which jitters
-    /// whatever `jitter` says) the history at the eyes' size; on failure,
-    /// destroys what it made.
+    /// The pass for `wide`'s sets (made with their depth kept) with
+    /// `settings`; with `settings.upsample` the history is kept at `eyes`,
+    /// the eyes' size. On failure, destroys what it made.
     pub fn new(
         ctx: &Context,
         wide: &SampledSets,
-        (alpha, jitter, upsample): (f64, bool, Option<vk::Extent2D>),
+        settings: TaaSettings,
+        eyes: vk::Extent2D,
     ) -> Result<InsetTaa> {
+        let upsample = settings.upsample.then_some(eyes);
         let layers = wide.sets.first().map_or(1, |s| s.resolve.layers);
         let stage = vk::ShaderStageFlags::COMPUTE;
         let sets = DescriptorSets::new(
@@ -137,9 +156,10 @@ impl InsetTaa {
             nearest: vk::Sampler::null(),
             linear: wide.sampler(),
             layers,
-            alpha: alpha as f32,
-            jitter: jitter || upsample.is_some(),
+            alpha: settings.alpha as f32,
+            jitter: settings.jitter || settings.upsample,
             upsample,
+            lanczos: settings.lanczos,
             sets,
             pipeline: vk::Pipeline::null(),
             before: [Vec::new(), Vec::new()],
@@ -410,6 +430,7 @@ impl InsetTaa {
                         s.jitter[0].to_bits(),
                         s.jitter[1].to_bits(),
                         out.width | out.height << 16,
+                        self.lanczos as u32,
                     ]);
                     d.cmd_push_constants(
                         rec.cmd,

@@ -137,7 +137,12 @@ impl Passes {
                 i.wide_scale,
                 (if wide_1x { 1 } else { setup.samples }, msaa_rung),
                 config.stereo == crate::config::StereoMode::Multiview,
-                i.taa.map(|a| (a, i.taa_jitter, i.taau)),
+                i.taa.map(|alpha| inset_taa::TaaSettings {
+                    alpha,
+                    jitter: i.taa_jitter,
+                    upsample: i.taau,
+                    lanczos: i.taau_lanczos,
+                }),
             )?;
             pass.catmull_rom = i.catmull_rom;
             pass.sharpen = i.sharpen.unwrap_or(0.0) as f32;
