@@ -111,6 +111,14 @@ pub const CANDIDATES: &[(&str, &str)] = &[
         "multiview,msaa4,superfrustum,inset=0.7,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
     ),
     (
+        "inset-0.65-wide-1x-sharpen-lanczos",
+        "multiview,msaa4,superfrustum,inset=0.65,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
+    ),
+    (
+        "inset-0.6-wide-1x-sharpen-lanczos",
+        "multiview,msaa4,superfrustum,inset=0.6,inset-wide-1x,inset-sharpen,inset-taau-lanczos",
+    ),
+    (
         "inset-gpu-cull-lod",
         "multiview,msaa4,superfrustum,gpu-cull,lod,inset",
     ),
