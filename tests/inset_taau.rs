@@ -35,6 +35,12 @@ const SHARPENED: Inset = Inset {
     ..TAAU
 };
 
+/// `inset-taau-lanczos`: the history read through Lanczos-3.
+const LANCZOS: Inset = Inset {
+    taau_lanczos: true,
+    ..TAAU
+};
+
 /// The context, factory:2000 framed for the valve-index profile, and the
 /// inset's rectangle.
 fn fixture() -> (
@@ -133,14 +139,17 @@ fn upsampling_cuts_the_shimmer_of_a_slow_turn() {
     });
     let up = score(TAAU);
     let sharp = score(SHARPENED);
+    let lanczos = score(LANCZOS);
     // Measured here: plain 0.00180, inset-taa 0.00041, inset-taau 0.00062
     // (the jitter's own frame-to-frame change: each frame's samples land
-    // elsewhere in the pixel), inset-sharpen 0.00080: on this small,
-    // detailed frame the sharpening also steepens what the wide views
-    // alias, the opposite of the garage at the bench's size (README,
-    // "Sharpening the upsampled periphery").
+    // elsewhere in the pixel), inset-sharpen 0.00080, inset-taau-lanczos
+    // 0.00065: on this small, detailed frame the sharpening and the
+    // sharper history read also keep more of what the wide views alias,
+    // the opposite of the garage at the bench's size (README,
+    // "Sharpening the upsampled periphery", "The history read through
+    // Lanczos-3").
     println!(
-        "one-sample wide views: flicker plain {plain:.6}, inset-taa {taa:.6}, inset-taau {up:.6}, inset-sharpen {sharp:.6}"
+        "one-sample wide views: flicker plain {plain:.6}, inset-taa {taa:.6}, inset-taau {up:.6}, inset-sharpen {sharp:.6}, inset-taau-lanczos {lanczos:.6}"
     );
     assert!(
         up < 0.8 * plain,
@@ -149,6 +158,10 @@ fn upsampling_cuts_the_shimmer_of_a_slow_turn() {
     assert!(
         sharp < 0.8 * plain,
         "inset-sharpen flickers {sharp:.6}, the plain inset {plain:.6}"
+    );
+    assert!(
+        lanczos < 0.8 * plain,
+        "inset-taau-lanczos flickers {lanczos:.6}, the plain inset {plain:.6}"
     );
 }
 
@@ -160,7 +173,9 @@ fn the_upsampled_history_follows_a_turning_head() {
     // scene, and the last frame's periphery is nearer the full render at
     // that pose than the plain inset's (measured here: 1.15 levels against
     // 1.60; read where the pixel is now, it would trail the scene by
-    // degrees).
+    // degrees). Read through Lanczos-3 instead of Catmull-Rom, the history
+    // softens less with each frame's fractional move and comes nearer
+    // still (1.11 against 1.15 levels, eye 0; 1.07 against 1.11, eye 1).
     let turn = turning(&profile, pose, 1.0, 12);
     let plain = frames(
         &ctx,
@@ -176,6 +191,13 @@ fn the_upsampled_history_follows_a_turning_head() {
         &turn,
         1,
     );
+    let lanczos = frames(
+        &ctx,
+        &scene,
+        &config(StereoMode::TwoPass, Some(LANCZOS)),
+        &turn,
+        1,
+    );
     let full = frames(
         &ctx,
         &scene,
@@ -186,10 +208,15 @@ fn the_upsampled_history_follows_a_turning_head() {
     for eye in 0..2 {
         let (plain_err, _) = diff(&plain[11][eye], &full[0][eye], periphery);
         let (up_err, _) = diff(&up[11][eye], &full[0][eye], periphery);
-        println!("eye {eye}: turning, periphery against the full render: plain {plain_err:.3}, inset-taau {up_err:.3} levels");
+        let (lanczos_err, _) = diff(&lanczos[11][eye], &full[0][eye], periphery);
+        println!("eye {eye}: turning, periphery against the full render: plain {plain_err:.3}, inset-taau {up_err:.3}, inset-taau-lanczos {lanczos_err:.3} levels");
         assert!(
             up_err < plain_err,
             "eye {eye}: inset-taau {up_err:.3} levels from the full render, the plain inset {plain_err:.3}"
+        );
+        assert!(
+            lanczos_err < up_err,
+            "eye {eye}: inset-taau-lanczos {lanczos_err:.3} levels from the full render, inset-taau {up_err:.3}"
         );
     }
 }

@@ -270,9 +270,10 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     // flight included) is what `run` sustains.
     let fits = |r: &ConfigResult| r.wall_frame_ms.p95 <= goal.budget_ms;
     let max_flicker = flicker_cap(goal.max_flicker, &cands)?;
-    // The cap as the user reads it.
+    // The cap as the user reads it, to a millionth: flicker near the
+    // baseline's differs in its third significant digit.
     let cap_text = |m: f64| match goal.max_flicker {
-        Some(FlickerCap::Baseline) => format!("{m:.5} (the baseline's)"),
+        Some(FlickerCap::Baseline) => format!("{m:.6} (the baseline's)"),
         _ => format!("{m}"),
     };
     let mut why = Vec::new();
@@ -292,9 +293,9 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
                 (_, None) => String::new(),
                 (None, Some(_)) => "; flicker not measured, so it is left out".to_string(),
                 (Some(f), Some(m)) if f > m => {
-                    format!("; flicker {f:.5} over the cap {}", cap_text(m))
+                    format!("; flicker {f:.6} over the cap {}", cap_text(m))
                 }
-                (Some(f), Some(_)) => format!("; flicker {f:.5}"),
+                (Some(f), Some(_)) => format!("; flicker {f:.6}"),
             }
         ));
     }
@@ -526,7 +527,10 @@ mod tests {
         let c = choose(&r, &goal).unwrap();
         assert_eq!(c.chosen.name, "mid");
         let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
-        assert!(line.contains("flicker 0.02000 over the cap 0.01"), "{line}");
+        assert!(
+            line.contains("flicker 0.020000 over the cap 0.01"),
+            "{line}"
+        );
         let capped = TuneGoal {
             max_flicker: Some(FlickerCap::Value(0.001)),
             ..goal
@@ -561,7 +565,7 @@ mod tests {
         assert_eq!(c.chosen.name, "mid");
         let line = c.why.iter().find(|l| l.starts_with("fast ")).unwrap();
         assert!(
-            line.contains("over the cap 0.00300 (the baseline's)"),
+            line.contains("flicker 0.003100 over the cap 0.003000 (the baseline's)"),
             "{line}"
         );
         // Unmeasured baseline flicker: an error, not a silent 0.
