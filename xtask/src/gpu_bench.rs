@@ -3,7 +3,7 @@
 //! (stripped), the loader package and the run script. One command there
 //! (`bash target/gpu-bench/run.sh default`) writes the report.
 
-use super::{repo, run};
+use super::{apt_install, repo, run};
 use std::path::Path;
 use std::process::Command;
 
@@ -19,9 +19,14 @@ const LOADER_DEBS: &[&str] = &[
     "libopengl0",
 ];
 
+/// Builds the release binary (installing `glslc` first where it is
+/// missing), strips it and puts it, the loader packages and the run script
+/// into `target/gpu-bench/`; `args` may name the plan the hint prints.
 pub fn gpu_bench(args: &[String]) -> Result<(), String> {
     let dir = repo().join("target/gpu-bench");
     std::fs::create_dir_all(&dir).map_err(|e| format!("{}: {e}", dir.display()))?;
+    // The build compiles the shaders with glslc.
+    apt_install(&["glslc"], "the shader compiler glslc is missing")?;
     run(Command::new(env!("CARGO")).current_dir(repo()).args([
         "build",
         "--release",
