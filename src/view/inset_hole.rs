@@ -108,15 +108,17 @@ mod tests {
     /// pixel `p` on one axis through reads of `reach` texels: the centre
     /// the composite reads at is q = clamp((p + 0.5) / eye × wide, 0.5,
     /// wide − 0.5) (as the shader computes it), and every texel whose
-    /// centre lies within `reach` of q (clamped to the image: clamp to
-    /// edge) — for the bilinear read (reach 1) floor(q − 0.5) and the
-    /// next, for Catmull-Rom (reach 2) the four around it.
+    /// centre lies less than `reach` from q (clamped to the image: clamp
+    /// to edge) — the taps of nonzero weight: the bilinear and
+    /// Catmull-Rom weights vanish at distance 1 and 2, so at a q on a
+    /// texel centre (as the clamp puts it at the image's edge) the read
+    /// is that texel alone.
     fn taps(p: u32, eye: u32, wide: u32, reach: f64) -> Vec<u32> {
         let q = ((p as f64 + 0.5) / eye as f64 * wide as f64).clamp(0.5, wide as f64 - 0.5);
         let lo = (q - 0.5 - reach).floor().max(0.0) as u32;
         let hi = (q - 0.5 + reach).ceil() as u32;
         (lo..=hi)
-            .filter(|&i| (i as f64 + 0.5 - q).abs() <= reach)
+            .filter(|&i| (i as f64 + 0.5 - q).abs() < reach)
             .map(|i| i.min(wide - 1))
             .collect()
     }
