@@ -83,6 +83,13 @@ pub fn parse_non_negative(s: &str) -> Result<f64, String> {
     ranged(s, 0.0, 1e6, false)
 }
 
+/// `scan --noise`: the range noise's standard deviation in metres, in
+/// [0, 10] (a scanner's noise is millimetres; larger values would only
+/// throw points past what a point file's coordinates hold).
+pub fn parse_scan_noise(s: &str) -> Result<f64, String> {
+    ranged(s, 0.0, 10.0, false)
+}
+
 /// `--ppd`: pixels per degree in [0.01, 1000) (a positive f32 after
 /// narrowing; found by the property test: a tiny f64 rounds to 0).
 pub fn parse_ppd(s: &str) -> Result<f32, String> {

@@ -172,3 +172,18 @@ impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
         })
     }
 }
+
+/// `text` as one line safe to print on a terminal: line breaks become
+/// spaces and every other control character (an escape sequence from a
+/// file's text or a path) is written escaped (`\u{1b}`).
+pub fn one_safe_line(text: &str) -> String {
+    let mut out = String::with_capacity(text.len());
+    for c in text.chars() {
+        match c {
+            '\n' | '\r' => out.push(' '),
+            c if c.is_control() => out.extend(c.escape_default()),
+            c => out.push(c),
+        }
+    }
+    out
+}

@@ -61,17 +61,6 @@ fn remember_input(path: &Path, meta: &std::fs::Metadata) {
     }
 }
 
-/// Stops treating `path` as an input: for a file vergence derives and
-/// owns (the LOD cache), read and then replaced when stale.
-pub fn forget_input(path: &Path) {
-    let Ok(meta) = std::fs::symlink_metadata(path) else {
-        return;
-    };
-    if let (Some(id), Ok(mut inputs)) = (file_id(path, &meta), INPUTS.lock()) {
-        inputs.retain(|i| *i != id);
-    }
-}
-
 /// Whether `path` (not following a final symbolic link, which an output
 /// replaces rather than writes through) is a file this process read as an
 /// input.
@@ -114,28 +103,22 @@ fn refused(message: String) -> io::Error {
     io::Error::new(io::ErrorKind::InvalidInput, message)
 }
 
-/// Reads the regular file at `path`, at most `limit` bytes. The error says
-/// why it was refused (not a regular file, over the limit) or what the OS
-/// said; the caller names the path.
-pub fn read_bounded(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
+/// Opens `path` for reading without blocking (a FIFO must not hang the
+/// open, a terminal must not become the controlling one), then checks the
+/// open file itself: a regular file of at most `limit` bytes. The file is
+/// switched back to blocking reads before it is returned.
+fn open_checked(path: &Path, limit: u64) -> io::Result<(File, std::fs::Metadata)> {
     let mut opts = std::fs::OpenOptions::new();
     opts.read(true);
     #[cfg(unix)]
     {
         use std::os::unix::fs::OpenOptionsExt as _;
-        // A FIFO opened for reading blocks until a writer comes; a terminal
-        // must not become the controlling one.
         opts.custom_flags(libc::O_NONBLOCK | libc::O_NOCTTY);
     }
     let file = opts.open(path)?;
     let meta = file.metadata()?;
     if !meta.is_file() {
-        let k = kind(&meta);
-        return Err(refused(if k == "not a regular file" {
-            k.to_string()
-        } else {
-            format!("{k}, not a regular file")
-        }));
+        return Err(refused(not_regular(&meta)));
     }
     if meta.len() > limit {
         return Err(refused(format!(
@@ -143,11 +126,72 @@ pub fn read_bounded(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
             meta.len()
         )));
     }
+    #[cfg(unix)]
+    {
+        use std::os::unix::io::AsRawFd as _;
+        let fd = file.as_raw_fd();
+        // SAFETY: fcntl on a descriptor this function owns; F_GETFL and
+        // F_SETFL take and return plain integers.
+        let flags = unsafe { libc::fcntl(fd, libc::F_GETFL) };
+        // SAFETY: as above.
+        if flags < 0 || unsafe { libc::fcntl(fd, libc::F_SETFL, flags & !libc::O_NONBLOCK) } < 0 {
+            return Err(io::Error::last_os_error());
+        }
+    }
+    Ok((file, meta))
+}
+
+/// The refusal of a file that is not a regular one, naming its kind.
+fn not_regular(meta: &std::fs::Metadata) -> String {
+    let k = kind(meta);
+    if k == "not a regular file" {
+        k.to_string()
+    } else {
+        format!("{k}, not a regular file")
+    }
+}
+
+/// Opens the regular file at `path` (at most `limit` bytes) for streaming
+/// reads, as [`read_bounded`] checks it, and remembers it as an input;
+/// returns the file and its size.
+pub fn open_read(path: &Path, limit: u64) -> io::Result<(File, u64)> {
+    let (file, meta) = open_checked(path, limit)?;
     remember_input(path, &meta);
+    Ok((file, meta.len()))
+}
+
+/// Reads the regular file at `path`, at most `limit` bytes. The error says
+/// why it was refused (not a regular file, over the limit) or what the OS
+/// said; the caller names the path.
+pub fn read_bounded(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
+    let (file, meta) = open_checked(path, limit)?;
+    remember_input(path, &meta);
+    read_all(file, meta.len(), limit)
+}
+
+/// Reads a file vergence derives and owns (a cache) as [`read_bounded`]
+/// does, without making it an input: the cache may be replaced later,
+/// while a file some other part of the command reads (a glTF buffer or a
+/// point file that happens to share the cache's name) stays protected.
+pub fn read_cache(path: &Path, limit: u64) -> io::Result<Vec<u8>> {
+    let (file, meta) = open_checked(path, limit)?;
+    read_all(file, meta.len(), limit)
+}
+
+/// The first `n` bytes (fewer when the file is shorter) of the regular
+/// file at `path`, without making it an input.
+pub fn read_prefix(path: &Path, n: usize) -> io::Result<Vec<u8>> {
+    let (file, _) = open_checked(path, u64::MAX)?;
+    let mut bytes = Vec::with_capacity(n);
+    file.take(n as u64).read_to_end(&mut bytes)?;
+    Ok(bytes)
+}
+
+fn read_all(file: File, len: u64, limit: u64) -> io::Result<Vec<u8>> {
     let mut bytes = Vec::new();
     bytes
-        .try_reserve_exact(meta.len() as usize)
-        .map_err(|e| refused(format!("cannot allocate {} bytes: {e}", meta.len())))?;
+        .try_reserve_exact(len as usize)
+        .map_err(|e| refused(format!("cannot allocate {len} bytes: {e}")))?;
     file.take(limit + 1).read_to_end(&mut bytes)?;
     if bytes.len() as u64 > limit {
         return Err(refused(format!(
@@ -252,6 +296,19 @@ pub fn prepare_output(path: &Path) -> Result<()> {
         if meta.is_dir() {
             return Err(out("is a directory".into()));
         }
+        // A device, FIFO or socket is never replaced by a file; nor is a
+        // link to one (`/dev/stdout`), which the rename would remove.
+        let resolved = if meta.file_type().is_symlink() {
+            std::fs::metadata(path).ok()
+        } else {
+            Some(meta)
+        };
+        if let Some(m) = resolved.filter(|m| !m.is_file() && !m.is_dir()) {
+            return Err(out(format!(
+                "is {}; vergence writes outputs only as regular files",
+                kind(&m)
+            )));
+        }
     }
     if is_input(path) {
         return Err(out(
@@ -293,9 +350,53 @@ pub fn write_bytes(path: &Path, bytes: &[u8]) -> Result<()> {
     write_output(path, |w| w.write_all(bytes))
 }
 
+/// Opens `path` to append to (a log vergence keeps), creating it when
+/// missing: never through a link (`O_NOFOLLOW`), never blocking on a FIFO,
+/// and refused unless the open file is a regular one that is not one of
+/// this process's inputs.
+pub fn open_append(path: &Path) -> Result<File> {
+    let out = |message: String| Error::Output {
+        path: path.to_path_buf(),
+        message,
+    };
+    prepare_output(path)?;
+    let mut opts = std::fs::OpenOptions::new();
+    opts.create(true).append(true);
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::OpenOptionsExt as _;
+        opts.custom_flags(libc::O_NOFOLLOW | libc::O_NONBLOCK | libc::O_NOCTTY)
+            .mode(0o644);
+    }
+    let file = opts.open(path).map_err(|e| {
+        out(if is_link(path) {
+            "is a symbolic link; vergence does not write through one".into()
+        } else {
+            e.to_string()
+        })
+    })?;
+    let meta = file.metadata().map_err(|e| out(e.to_string()))?;
+    if !meta.is_file() {
+        return Err(out(not_regular(&meta)));
+    }
+    if file_id(path, &meta).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id))) {
+        return Err(out(
+            "is one of this command's inputs; vergence never writes over an input".into(),
+        ));
+    }
+    Ok(file)
+}
+
+/// Whether `path` itself is a symbolic link.
+pub fn is_link(path: &Path) -> bool {
+    std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
+    #[cfg(unix)]
+    use std::os::unix::fs::FileTypeExt as _;
 
     fn scratch(name: &str) -> PathBuf {
         let d = std::env::temp_dir().join(format!("vergence-fsio-{}-{name}", std::process::id()));
@@ -327,6 +428,34 @@ mod tests {
             let e = read_bounded(&fifo, 100).unwrap_err().to_string();
             assert!(e.contains("a FIFO"), "{e}");
         }
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn outputs_never_replace_fifos_devices_or_links_to_them() {
+        let d = scratch("special");
+        let fifo = d.join("fifo");
+        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        let e = write_bytes(&fifo, b"x").unwrap_err().to_string();
+        assert!(e.contains("is a FIFO"), "{e}");
+        assert!(std::fs::symlink_metadata(&fifo)
+            .unwrap()
+            .file_type()
+            .is_fifo());
+        // A link to a device (as /dev/stdout is): the rename would remove
+        // the link, so it is refused as the device is.
+        let null = d.join("null");
+        std::os::unix::fs::symlink("/dev/null", &null).unwrap();
+        let e = write_bytes(&null, b"x").unwrap_err().to_string();
+        assert!(e.contains("a character device"), "{e}");
+        assert!(std::fs::symlink_metadata(&null)
+            .unwrap()
+            .file_type()
+            .is_symlink());
+        let e = open_append(&fifo).unwrap_err().to_string();
+        assert!(e.contains("is a FIFO"), "{e}");
     }
 
     #[cfg(unix)]

@@ -150,7 +150,7 @@ enum Command {
         #[arg(long, default_value_t = 250_000, value_parser = clap::value_parser!(u32).range(1..=100_000_000))]
         rays: u32,
         /// Range noise (one standard deviation), metres.
-        #[arg(long, default_value_t = 0.003, value_parser = vergence::cli::parse_non_negative)]
+        #[arg(long, default_value_t = 0.003, value_parser = vergence::cli::parse_scan_noise)]
         noise: f64,
         /// Seed of the noise.
         #[arg(long, default_value_t = 1)]
@@ -160,6 +160,29 @@ enum Command {
         out: PathBuf,
     },
 }
+
+/// `inspect --write-octree`'s outcome: an error unless the octree cache
+/// was written.
+fn octree_written(spec: &str, s: &vergence::scene::Scene) -> anyhow::Result<()> {
+    use vergence::scene::octree_cache::CacheUse;
+    let cache = s
+        .points
+        .as_ref()
+        .and_then(|c| c.octree.as_ref())
+        .and_then(|t| t.cache.as_ref());
+    match cache {
+        Some(CacheUse::Written(path)) => {
+            println!("wrote the octree cache {}", path.display());
+            Ok(())
+        }
+        Some(CacheUse::NotUsed(why)) => anyhow::bail!("--write-octree: {why}"),
+        _ => anyhow::bail!("--write-octree: {spec} has no point cloud"),
+    }
+}
+
+/// The most rays one `scan` casts (stations × rays per station): each hit
+/// is a point of 17 bytes in memory, so this bounds a scan near 1.7 GB.
+const MAX_SCAN_RAYS: u64 = 100_000_000;
 
 #[derive(clap::Args)]
 struct RenderArgs {
@@ -543,6 +566,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 .transpose()?;
             let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
             let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
+            if let (Some(k), Some(path)) = (&kiosk, a.kiosk.as_deref()) {
+                k.check_scenes(path)?;
+            }
             if let Some(k) = &kiosk {
                 config.apply_opts(&k.opt, &cull_names())?;
                 config.validate()?;
@@ -694,6 +720,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         } => {
             let (s, ms) = headless::load_scene_with(&scene, write_octree)?;
             inspect(&s, ms);
+            if write_octree {
+                octree_written(&scene, &s)?;
+            }
         }
         Command::Scan {
             scene,
@@ -709,7 +738,16 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                     out.display()
                 );
             }
+            let total = u64::from(stations) * u64::from(rays);
+            if total > MAX_SCAN_RAYS {
+                anyhow::bail!(
+                    "--stations {stations} × --rays {rays} = {total} rays, over the {MAX_SCAN_RAYS}-ray limit of one scan"
+                );
+            }
             let (s, _) = headless::load_scene(&scene)?;
+            // Refused before scanning: a folder, a device, or the scene
+            // itself (a point file read as this scene's input).
+            vergence::fsio::prepare_output(&out)?;
             let settings = vergence::interact::scan::ScanSettings {
                 stations,
                 rays_per_station: rays,
@@ -720,6 +758,13 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             let started = std::time::Instant::now();
             let cloud = vergence::interact::scan::scan(&s, &settings);
             let scanned = started.elapsed().as_secs_f64();
+            if cloud.is_empty() {
+                anyhow::bail!(
+                    "scan of {}: no ray hit the scene; nothing written to {}",
+                    s.name,
+                    out.display()
+                );
+            }
             vergence::scene::point_files::write_file(&out, &cloud)?;
             println!(
                 "scanned {} from {stations} stations × {rays} rays: {} points in {scanned:.2} s; wrote {}",
@@ -1130,7 +1175,9 @@ impl RootChain for anyhow::Error {
     /// The causes after the top-level context, joined with ": ", each
     /// left out when the one before already ends with its text (an error
     /// whose message includes its source: "Is a directory (os error 21)"
-    /// once, not twice). Line breaks become spaces: one error, one line.
+    /// once, not twice). Line breaks become spaces: one error, one line;
+    /// other control characters (from a file's text or a path) are
+    /// escaped, so an error cannot drive the terminal.
     fn root_cause_chain(&self) -> String {
         let mut parts: Vec<String> = Vec::new();
         for e in self.chain().skip(1) {
@@ -1140,6 +1187,6 @@ impl RootChain for anyhow::Error {
             }
             parts.push(text);
         }
-        parts.join(": ").replace(['\n', '\r'], " ")
+        vergence::error::one_safe_line(&parts.join(": "))
     }
 }

@@ -40,6 +40,21 @@ pub struct Derived {
 /// Panel and eye pixels sampled per axis step (every pixel is 1).
 pub const STRIDE: u32 = 2;
 
+/// The most samples the report takes per view: a profile may declare a
+/// panel and eye image of up to the largest sizes it allows, and the
+/// report's figures (means, rings, radii) need no more than this.
+pub const MAX_SAMPLES: u64 = 1 << 20;
+
+/// The sampling stride for a view whose panel and eye image have `panel`
+/// and `eye` pixels: [`STRIDE`], or coarser so neither is sampled more
+/// than [`MAX_SAMPLES`] times.
+pub fn sample_stride(panel: [u32; 2], eye: [u32; 2]) -> u32 {
+    let area = |p: [u32; 2]| p[0] as u64 * p[1] as u64;
+    let most = area(panel).max(area(eye));
+    let need = (most as f64 / MAX_SAMPLES as f64).sqrt().ceil() as u32;
+    need.max(STRIDE)
+}
+
 /// The report for `profile`; one error naming it when a view has no lens.
 pub fn report(profile: &HmdProfile) -> Result<LensReport> {
     let mut views = Vec::new();
@@ -50,7 +65,12 @@ pub fn report(profile: &HmdProfile) -> Result<LensReport> {
             message: format!("views[{i}] has no [views.lens] table"),
         })?;
         model.push(lens.radial.name().to_string());
-        views.push(density(lens, &v.fov, v.resolution, STRIDE));
+        views.push(density(
+            lens,
+            &v.fov,
+            v.resolution,
+            sample_stride(lens.panel, v.resolution),
+        ));
     }
     let wide = crate::view::inset::DEFAULT_WIDE_SCALE;
     let lenses: Vec<_> = profile
@@ -60,10 +80,18 @@ pub fn report(profile: &HmdProfile) -> Result<LensReport> {
         .collect();
     let inset = lenses
         .iter()
-        .map(|&(l, f, e)| crate::view::distortion::density::inset_half_angle_deg(l, f, e, wide, 4))
+        .map(|&(l, f, e)| {
+            let stride = sample_stride(l.panel, e).max(4);
+            crate::view::distortion::density::inset_half_angle_deg(l, f, e, wide, stride)
+        })
         .fold(0.0f64, f64::max)
         .clamp(1.0, 80.0);
-    let lms = crate::view::lms::fit(&lenses, 4);
+    let lms_stride = lenses
+        .iter()
+        .map(|&(l, _, e)| sample_stride(l.panel, e).max(4))
+        .max()
+        .unwrap_or(4);
+    let lms = crate::view::lms::fit(&lenses, lms_stride);
     let first = profile.views.first().map_or([1, 1], |v| v.resolution);
     Ok(LensReport {
         profile: profile.name.clone(),

@@ -52,6 +52,17 @@ fn read_from<R: std::io::Read + std::io::Seek>(
     let mut reader = e57::E57Reader::new(read)
         .map_err(|e| bad(path, format!("not a readable E57 file: {e}")))?;
     let scans = reader.pointclouds();
+    for (k, scan) in scans.iter().enumerate() {
+        if scan.records > 0 && record_bits(&scan.prototype) == 0 {
+            return Err(bad(
+                path,
+                format!(
+                    "scan {k}: every field of its prototype takes no bits (integer fields with minimum == maximum), so the file cannot bound its {} points",
+                    scan.records
+                ),
+            ));
+        }
+    }
     let total: u64 = scans.iter().map(|s| s.records).sum();
     if total > MAX_POINTS {
         return Err(bad(
@@ -90,6 +101,27 @@ fn read_from<R: std::io::Read + std::io::Seek>(
     })?;
     survey.check_extent(path)?;
     Ok(cloud)
+}
+
+/// The bits one record of `prototype` takes in the file's byte streams
+/// (ASTM E57 §8.4.19: an integer field of range [min, max] packs into
+/// ⌈log2(max − min + 1)⌉ bits, none when min == max; floats take 32 or
+/// 64). The `e57` crate fills a zero-bit field's queue up to its other
+/// fields' lengths, without limit when no field takes a bit.
+pub fn record_bits(prototype: &[Record]) -> u64 {
+    let int_bits = |min: i64, max: i64| -> u64 {
+        let range = (i128::from(max) - i128::from(min)).max(0) as u128;
+        u64::from(128 - range.leading_zeros())
+    };
+    prototype
+        .iter()
+        .map(|r| match r.data_type {
+            RecordDataType::Single { .. } => 32,
+            RecordDataType::Double { .. } => 64,
+            RecordDataType::ScaledInteger { min, max, .. } => int_bits(min, max),
+            RecordDataType::Integer { min, max } => int_bits(min, max),
+        })
+        .sum()
 }
 
 /// One pass over every scan's points (the crate's simple reader: the scan's
@@ -187,4 +219,101 @@ fn write_points(file: &std::fs::File, guid: &str, cloud: &PointCloud) -> e57::Re
         scan.finalize()?;
     }
     writer.finalize()
+}
+
+#[cfg(test)]
+mod tests {
+    use super::*;
+
+    /// An E57 file of `n` points whose coordinate fields are
+    /// ScaledIntegers of range [`lo`, `hi`] (the crate writes the values).
+    fn scaled_file(n: usize, lo: i64, hi: i64) -> Vec<u8> {
+        let field = |name| Record {
+            name,
+            data_type: RecordDataType::ScaledInteger {
+                min: lo,
+                max: hi,
+                scale: 0.001,
+                offset: 0.0,
+            },
+        };
+        let prototype = vec![
+            field(RecordName::CartesianX),
+            field(RecordName::CartesianY),
+            field(RecordName::CartesianZ),
+        ];
+        let mut out = std::io::Cursor::new(Vec::new());
+        {
+            let mut w = e57::E57Writer::new(&mut out, "zero-bits").unwrap();
+            let mut scan = w.add_pointcloud("scan", prototype).unwrap();
+            for _ in 0..n {
+                let v = RecordValue::ScaledInteger(lo);
+                scan.add_point(vec![v.clone(), v.clone(), v]).unwrap();
+            }
+            scan.finalize().unwrap();
+            w.finalize().unwrap();
+        }
+        out.into_inner()
+    }
+
+    /// CRC-32C (Castagnoli), as E57 pages carry it (big-endian).
+    fn crc32c(data: &[u8]) -> u32 {
+        !data.iter().fold(!0u32, |mut c, &b| {
+            c ^= u32::from(b);
+            for _ in 0..8 {
+                c = if c & 1 == 1 {
+                    (c >> 1) ^ 0x82F6_3B78
+                } else {
+                    c >> 1
+                };
+            }
+            c
+        })
+    }
+
+    /// `bytes` with every `from` replaced by `to` (same length) and the
+    /// CRCs of the 1024-byte pages touched written again.
+    fn patch(mut bytes: Vec<u8>, from: &[u8], to: &[u8]) -> Vec<u8> {
+        let mut at = 0;
+        while let Some(k) = bytes[at..].windows(from.len()).position(|w| w == from) {
+            let i = at + k;
+            bytes[i..i + to.len()].copy_from_slice(to);
+            for page in [i / 1024, (i + to.len()) / 1024] {
+                let p = page * 1024;
+                let crc = crc32c(&bytes[p..p + 1020]).to_be_bytes();
+                bytes[p + 1020..p + 1024].copy_from_slice(&crc);
+            }
+            at = i + to.len();
+        }
+        bytes
+    }
+
+    #[test]
+    fn a_prototype_of_zero_bit_fields_is_refused_before_reading() {
+        // The crate will not write zero-bit fields; a one-bit file's
+        // prototype is edited to range [5, 5].
+        let one = scaled_file(100, 5, 6);
+        let bytes = patch(one, b"maximum=\"6\"", b"maximum=\"5\"");
+        let e = read_e57_bytes(Path::new("zero.e57"), &bytes)
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("takes no bits"), "{e}");
+        // One bit a field reads as before.
+        let ok = read_e57_bytes(Path::new("one.e57"), &scaled_file(100, 5, 6)).unwrap();
+        assert_eq!(ok.len(), 100);
+    }
+
+    #[test]
+    fn record_bits_follow_the_integer_range() {
+        let int = |min, max| Record {
+            name: RecordName::Intensity,
+            data_type: RecordDataType::Integer { min, max },
+        };
+        assert_eq!(record_bits(&[int(3, 3)]), 0);
+        assert_eq!(record_bits(&[int(0, 1)]), 1);
+        assert_eq!(record_bits(&[int(0, 255)]), 8);
+        assert_eq!(record_bits(&[int(0, 256)]), 9);
+        assert_eq!(record_bits(&[int(i64::MIN, i64::MAX)]), 64);
+        assert_eq!(record_bits(&[int(4, 2)]), 0);
+    }
 }

@@ -775,6 +775,7 @@ fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, Decod
     wanted.dedup();
     let images: Vec<gltf::Image> = doc.images().collect();
     let mut sources = Vec::with_capacity(wanted.len());
+    let mut free = super::image_decode::FREE_DECODE_BYTES;
     for &i in &wanted {
         let img = &images[i];
         let (name, bytes, mime) = match img.source() {
@@ -789,14 +790,20 @@ fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, Decod
                 Some(mime_type.to_string()),
             ),
         };
-        sources.push((i, name, bytes, mime));
+        let ktx2 = mime.as_deref() == Some("image/ktx2")
+            || bytes.starts_with(&super::image_decode::KTX2_MAGIC);
+        // Charged before any image is decoded (they decode in parallel).
+        let size = super::image_decode::decoded_bytes(&bytes, ktx2).map_err(|e| {
+            ctx_err_path(ctx.path, format!("image '{name}' cannot be decoded: {e}"))
+        })?;
+        free = decode_ratio_check(ctx, &name, size, bytes.len() as u64, free)?;
+        ctx.spend(size, &format!("image '{name}'"))?;
+        sources.push((i, name, bytes, ktx2));
     }
     use rayon::prelude::*;
     let decoded: Vec<Result<(usize, String, image::RgbaImage)>> = sources
         .into_par_iter()
-        .map(|(i, name, bytes, mime)| {
-            let ktx2 = mime.as_deref() == Some("image/ktx2")
-                || bytes.starts_with(&super::image_decode::KTX2_MAGIC);
+        .map(|(i, name, bytes, ktx2)| {
             let img = if ktx2 {
                 super::image_decode::decode_ktx2_rgba8(&bytes)
             } else {
@@ -809,12 +816,34 @@ fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, Decod
         .collect();
     let mut out = HashMap::new();
     for d in decoded {
-        let (i, name, img) = d?;
-        ctx.spend(img.as_raw().len() as u64, &format!("image '{name}'"))?;
+        let (i, _, img) = d?;
         let (w, h) = img.dimensions();
         out.insert(i, (w, h, std::sync::Arc::new(img.into_raw())));
     }
     Ok(out)
+}
+
+/// An image that would decode to more than [`MAX_DECODE_RATIO`] times
+/// its encoded size is refused unless the scene's shared allowance
+/// (`free`, what is left of [`FREE_DECODE_BYTES`]) covers it; returns
+/// what is left of the allowance.
+///
+/// [`MAX_DECODE_RATIO`]: super::image_decode::MAX_DECODE_RATIO
+/// [`FREE_DECODE_BYTES`]: super::image_decode::FREE_DECODE_BYTES
+fn decode_ratio_check(ctx: &Ctx, name: &str, size: u64, encoded: u64, free: u64) -> Result<u64> {
+    let ratio = super::image_decode::MAX_DECODE_RATIO;
+    if size <= encoded.saturating_mul(ratio) {
+        return Ok(free);
+    }
+    if size <= free {
+        return Ok(free - size);
+    }
+    Err(ctx_err_path(
+        ctx.path,
+        format!(
+            "image '{name}': {encoded} encoded bytes claim {size} decoded bytes, over {ratio}:1 (a decompression bomb?)"
+        ),
+    ))
 }
 
 /// A scene error for `path` (usable from threads without the context).

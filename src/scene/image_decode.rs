@@ -12,6 +12,44 @@ pub const MAX_TEXTURE_PIXELS: u64 = 64 << 20;
 /// Largest allocation the decoder may make.
 pub const MAX_DECODE_ALLOC: u64 = 1 << 30;
 
+/// The most RGBA8 bytes an image may decode to per encoded byte, beyond
+/// [`FREE_DECODE_BYTES`]: Deflate (PNG) cannot exceed about 1032:1, and
+/// JPEG of a flat image stays below that; only a crafted lossless WebP
+/// goes far beyond (a few kilobytes claiming a gigabyte).
+pub const MAX_DECODE_RATIO: u64 = 1100;
+/// Decoded bytes a scene's images may take together beyond their ratio:
+/// small, flat textures compress further than [`MAX_DECODE_RATIO`].
+pub const FREE_DECODE_BYTES: u64 = 64 << 20;
+
+/// The decoded size (RGBA8 bytes) of an encoded image, read from its
+/// header only (PNG, JPEG, WebP, or KTX2 when `ktx2`), with the texture
+/// limits checked; nothing is decoded.
+pub fn decoded_bytes(bytes: &[u8], ktx2: bool) -> Result<u64, String> {
+    let (w, h) = if ktx2 {
+        // The `ktx2` crate's descriptor parser overflows on some block
+        // dimensions; they are checked first, as decoding does.
+        check_dfd_block_dimensions(bytes)?;
+        let r = ktx2::Reader::new(bytes).map_err(|e| format!("invalid KTX2 container: {e}"))?;
+        let h = r.header();
+        (h.pixel_width, h.pixel_height.max(1))
+    } else {
+        image::ImageReader::new(Cursor::new(bytes))
+            .with_guessed_format()
+            .map_err(|e| e.to_string())?
+            .into_dimensions()
+            .map_err(|e| e.to_string())?
+    };
+    if w == 0 || h == 0 {
+        return Err(format!("image is {w}x{h}"));
+    }
+    if w > MAX_TEXTURE_SIDE || h > MAX_TEXTURE_SIDE || w as u64 * h as u64 > MAX_TEXTURE_PIXELS {
+        return Err(format!(
+            "image is {w}x{h}, over the limits ({MAX_TEXTURE_SIDE} per side, {MAX_TEXTURE_PIXELS} pixels)"
+        ));
+    }
+    Ok(w as u64 * h as u64 * 4)
+}
+
 /// Decodes PNG, JPEG or WebP `bytes` into RGBA8, refusing images over the
 /// limits.
 pub fn decode_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {

@@ -205,7 +205,7 @@ pub fn load_or_build(scene: &Scene, source: &Path) -> (Chains, CacheUse) {
     let t = std::time::Instant::now();
     let file = path_for(source);
     let hash = content_hash(scene);
-    match crate::fsio::read_bounded(&file, crate::fsio::MAX_SCENE_FILE_BYTES) {
+    match crate::fsio::read_cache(&file, crate::fsio::MAX_SCENE_FILE_BYTES) {
         Ok(bytes) => match decode(&bytes, hash, scene) {
             Ok(mut chains) => {
                 chains.build_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -223,8 +223,8 @@ pub fn load_or_build(scene: &Scene, source: &Path) -> (Chains, CacheUse) {
         ),
     }
     let mut chains = super::lod::build(scene);
-    // A stale cache was read as an input; it is ours to replace.
-    crate::fsio::forget_input(&file);
+    // The cache was read as a cache, not an input: a file this command
+    // did read as an input (a glTF buffer of the same name) stays refused.
     let written = crate::fsio::write_bytes(&file, &encode(hash, &chains));
     chains.build_ms = t.elapsed().as_secs_f64() * 1e3;
     match written {

@@ -211,7 +211,10 @@ pub fn load_or_build(
     let started = std::time::Instant::now();
     let path = path_for(source);
     let hash = content_hash(origin, positions);
-    let why = match std::fs::read(&path) {
+    // The largest cache of this many points: the header, a node per
+    // point at most, and the order.
+    let limit = 28 + (NODE_BYTES as u64 + 4) * (positions.len() as u64).max(1);
+    let why = match crate::fsio::read_cache(&path, limit) {
         Ok(bytes) if !write => match decode(&bytes, hash, positions.len()) {
             Ok((mut tree, order)) => {
                 tree.build_ms = started.elapsed().as_secs_f64() * 1e3;
@@ -227,21 +230,21 @@ pub fn load_or_build(
             }
         },
         Ok(_) => "rewritten".into(),
-        Err(_) => "no cache file".into(),
+        Err(e) if e.kind() == std::io::ErrorKind::NotFound => "no cache file".into(),
+        Err(e) => {
+            tracing::warn!("octree cache {}: {e}; building the octree", path.display());
+            format!("{}: {e}", path.display())
+        }
     };
     let (tree, order) = super::octree::build(positions);
     if !write {
         return (tree, order, CacheUse::NotUsed(why));
     }
-    let tmp = path.with_extension("octree.tmp");
-    let written = std::fs::write(&tmp, encode(hash, &tree, &order))
-        .and_then(|_| std::fs::rename(&tmp, &path));
-    let used = match written {
+    // Through the file layer: a fresh temporary file renamed over the
+    // cache, never over one of this command's inputs.
+    let used = match crate::fsio::write_bytes(&path, &encode(hash, &tree, &order)) {
         Ok(()) => CacheUse::Written(path),
-        Err(e) => {
-            let _ = std::fs::remove_file(&tmp);
-            CacheUse::NotUsed(format!("{}: cannot write: {e}", path.display()))
-        }
+        Err(e) => CacheUse::NotUsed(format!("cannot write: {e}")),
     };
     (tree, order, used)
 }

@@ -31,6 +31,12 @@ pub fn writes(path: &Path) -> bool {
 /// Writes a point file by its extension: E57 ([`super::e57::write_e57`]),
 /// else LAS or LAZ ([`write_las`] at [`LAS_SCALE_M`]).
 pub fn write_file(path: &Path, cloud: &PointCloud) -> Result<()> {
+    if cloud.is_empty() {
+        return Err(crate::error::Error::Output {
+            path: path.to_path_buf(),
+            message: "no points to write (a point file without points is not readable)".into(),
+        });
+    }
     if super::e57::is_e57(path) {
         super::e57::write_e57(path, cloud)
     } else {

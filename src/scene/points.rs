@@ -23,6 +23,8 @@ pub const MAX_FILE_BYTES: u64 = 64 << 30;
 /// Points read per chunk (the reader streams; memory holds one chunk of
 /// decoded records besides the cloud).
 const CHUNK: u64 = 1 << 20;
+/// The most bytes of raw records decoded at once.
+const FILL_BYTES: u64 = 64 << 20;
 
 /// A point cloud: an f64 origin and per point an f32 offset, a colour and
 /// a classification.
@@ -209,6 +211,7 @@ fn header_guard<R: std::io::Read + std::io::Seek>(
             "the header says {count} points, over the {MAX_POINTS}-point limit"
         ));
     }
+    vlr_guard(r, &head[..got], size, record)?;
     if head[104] & 0x80 == 0 {
         r.seek(SeekFrom::Start(0)).map_err(eof)?;
         return Ok(());
@@ -240,6 +243,126 @@ fn header_guard<R: std::io::Read + std::io::Seek>(
     Ok(())
 }
 
+/// The most bytes of LAZ "extra bytes" items per point vergence decodes:
+/// the `laz` decoder builds arithmetic models for each such byte before it
+/// reads a point (several kilobytes each), so a few hundred bytes of VLR
+/// could otherwise ask for gigabytes.
+const MAX_LAZ_EXTRA_BYTES: u64 = 1024;
+/// The most items a laszip VLR may list (a point format has at most five).
+const MAX_LAZ_ITEMS: u64 = 32;
+
+/// Checks the variable-length records the `las` crate sizes memory by
+/// before reading them (LAS 1.4 R15 §2.5 and §2.6): each VLR header and its
+/// 16-bit length lie inside the file; the extended VLR at the header's
+/// `start_of_first_evlr` (the one the crate reads) and any after it, with
+/// their 64-bit lengths, lie inside the file; a laszip VLR's items sum to
+/// the header's record length, are few, and carry at most
+/// [`MAX_LAZ_EXTRA_BYTES`] extra bytes.
+fn vlr_guard<R: std::io::Read + std::io::Seek>(
+    r: &mut R,
+    head: &[u8],
+    size: u64,
+    record: u64,
+) -> std::result::Result<(), String> {
+    use std::io::SeekFrom;
+    let eof = |e: std::io::Error| format!("the file ends early ({e})");
+    let u16_at = |b: &[u8], o: usize| u16::from_le_bytes([b[o], b[o + 1]]) as u64;
+    let u32_at = |b: &[u8], o: usize| u32::from_le_bytes(b[o..o + 4].try_into().expect("4")) as u64;
+    let u64_at = |b: &[u8], o: usize| u64::from_le_bytes(b[o..o + 8].try_into().expect("8"));
+    let count = u32_at(head, 100);
+    if count > size / 54 {
+        return Err(format!(
+            "the header lists {count} VLRs, more than the file's {size} bytes hold"
+        ));
+    }
+    let mut pos = u16_at(head, 94);
+    let mut vlr = [0u8; 54];
+    for k in 0..count {
+        if pos + 54 > size {
+            return Err(format!(
+                "VLR {k} starts at byte {pos}, past the file's end ({size} bytes)"
+            ));
+        }
+        r.seek(SeekFrom::Start(pos)).map_err(eof)?;
+        r.read_exact(&mut vlr).map_err(eof)?;
+        let len = u16_at(&vlr, 20);
+        if pos + 54 + len > size {
+            return Err(format!(
+                "VLR {k} claims {len} bytes past the file's end ({size} bytes)"
+            ));
+        }
+        if vlr[2..16] == *b"laszip encoded" && u16_at(&vlr, 18) == 22204 {
+            let mut data = vec![0u8; len as usize];
+            r.read_exact(&mut data).map_err(eof)?;
+            laszip_items_guard(&data, record)?;
+        }
+        pos += 54 + len;
+    }
+    if head.len() >= 247 && head[25] >= 4 && u32_at(head, 243) > 0 {
+        let evlrs = u32_at(head, 243);
+        let mut pos = u64_at(head, 235);
+        for k in 0..evlrs.min(size / 60 + 1) {
+            if pos.saturating_add(60) > size {
+                return Err(format!(
+                    "extended VLR {k} starts at byte {pos}, past the file's end ({size} bytes)"
+                ));
+            }
+            r.seek(SeekFrom::Start(pos + 20)).map_err(eof)?;
+            let mut word = [0u8; 8];
+            r.read_exact(&mut word).map_err(eof)?;
+            let len = u64::from_le_bytes(word);
+            if len > size - pos - 60 {
+                return Err(format!(
+                    "extended VLR {k} claims {len} bytes, more than the file's {size} bytes hold"
+                ));
+            }
+            pos += 60 + len;
+        }
+    }
+    Ok(())
+}
+
+/// A laszip VLR's item list (LASzip's specification: 34 bytes of settings,
+/// the item count at byte 32, then per item its type, size and version as
+/// 16-bit words): at most [`MAX_LAZ_ITEMS`] items whose sizes sum to the
+/// point record length, extra-byte items (types 0 and 14) within
+/// [`MAX_LAZ_EXTRA_BYTES`].
+fn laszip_items_guard(data: &[u8], record: u64) -> std::result::Result<(), String> {
+    let u16_at = |o: usize| u16::from_le_bytes([data[o], data[o + 1]]) as u64;
+    if data.len() < 34 {
+        return Err(format!(
+            "the laszip VLR is {} bytes, under the 34 its settings take",
+            data.len()
+        ));
+    }
+    let items = u16_at(32);
+    if items > MAX_LAZ_ITEMS || 34 + 6 * items as usize > data.len() {
+        return Err(format!(
+            "the laszip VLR lists {items} items in {} bytes",
+            data.len()
+        ));
+    }
+    let (mut total, mut extra) = (0u64, 0u64);
+    for i in 0..items as usize {
+        let (kind, bytes) = (u16_at(34 + 6 * i), u16_at(36 + 6 * i));
+        total += bytes;
+        if kind == 0 || kind == 14 {
+            extra += bytes;
+        }
+    }
+    if total != record {
+        return Err(format!(
+            "the laszip VLR's items take {total} bytes a point, the header's records {record}"
+        ));
+    }
+    if extra > MAX_LAZ_EXTRA_BYTES {
+        return Err(format!(
+            "the laszip VLR lists {extra} extra bytes a point, over the {MAX_LAZ_EXTRA_BYTES} vergence decodes"
+        ));
+    }
+    Ok(())
+}
+
 /// Reads into `buf` until it is full or the source ends; the bytes read.
 fn read_up_to<R: std::io::Read>(r: &mut R, buf: &mut [u8]) -> std::io::Result<usize> {
     let mut n = 0;
@@ -263,21 +386,16 @@ pub fn read_las(path: &Path) -> Result<PointCloud> {
     read_las_from(path, file, size)
 }
 
-/// Opens a point file for buffered reading and returns its size; one
-/// error when it cannot be read or is over [`MAX_FILE_BYTES`].
+/// Opens a point file for buffered reading through the file layer
+/// ([`crate::fsio::open_read`]: a regular file only, never blocking on a
+/// FIFO, at most [`MAX_FILE_BYTES`], remembered as an input so no output
+/// or cache of this command replaces it) and returns its size.
 pub(crate) fn open_point_file(path: &Path) -> Result<(std::io::BufReader<std::fs::File>, u64)> {
-    let io = |source: std::io::Error| Error::Io {
-        path: path.to_path_buf(),
-        source,
-    };
-    let size = std::fs::metadata(path).map_err(io)?.len();
-    if size > MAX_FILE_BYTES {
-        return Err(bad(
-            path,
-            format!("{size} bytes, over the {MAX_FILE_BYTES}-byte limit for point files"),
-        ));
-    }
-    let file = std::fs::File::open(path).map_err(io)?;
+    let (file, size) =
+        crate::fsio::open_read(path, MAX_FILE_BYTES).map_err(|source| Error::Io {
+            path: path.to_path_buf(),
+            source,
+        })?;
     Ok((std::io::BufReader::new(file), size))
 }
 
@@ -475,6 +593,9 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
         octree: None,
     };
     let mut data = las::PointDataBuilder::new().for_header(&header).build();
+    // The decoder's buffer holds a fill's records: at most FILL_BYTES,
+    // however long a record the header claims.
+    let per_fill = (FILL_BYTES / record).clamp(1, CHUNK);
     let slack = (hi - lo).max_element() * 1e-6 + 1e-3;
     // Whether the file's colours are 8-bit values in LAS's 16-bit fields
     // (older writers), decided on the first chunk.
@@ -482,7 +603,7 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
     let mut chunk: Vec<[u16; 3]> = Vec::new();
     loop {
         let got = reader
-            .fill_points(CHUNK, &mut data)
+            .fill_points(per_fill, &mut data)
             .map_err(|e| bad(path, format!("point {}: {}", cloud.len(), las_message(&e))))?;
         if got == 0 {
             break;
@@ -546,6 +667,10 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
 /// with y up goes out as LAS's (x, −z, y) with z up.
 pub fn write_las(path: &Path, cloud: &PointCloud, scale: f64) -> Result<()> {
     let err = |e: las::Error| bad(path, e.to_string());
+    check_writable(cloud, scale).map_err(|m| Error::Output {
+        path: path.to_path_buf(),
+        message: m,
+    })?;
     let mut builder = las::Builder::from((1, 4));
     builder.point_format = las::point::Format::new(7).map_err(err)?;
     builder.generating_software = "vergence scan".into();
@@ -561,26 +686,49 @@ pub fn write_las(path: &Path, cloud: &PointCloud, scale: f64) -> Result<()> {
         .and_then(|e| e.to_str())
         .is_some_and(|e| e.eq_ignore_ascii_case("laz"));
     let header = builder.into_header().map_err(err)?;
-    // Written beside the target, renamed over it when complete.
+    // Written to a fresh temporary file beside the target, renamed over
+    // it when complete.
     crate::fsio::prepare_output(path)?;
-    let mut tmp = path.as_os_str().to_owned();
-    tmp.push(".partial");
-    let tmp = PathBuf::from(tmp);
     let out = |e: std::io::Error| Error::Output {
         path: path.to_path_buf(),
         message: e.to_string(),
     };
-    let file = std::fs::File::create(&tmp).map_err(out)?;
-    let result = write_points(
+    let tmp = crate::fsio::TempFile::beside(path).map_err(out)?;
+    let file = tmp.file().try_clone().map_err(out)?;
+    write_points(
         las::Writer::new(std::io::BufWriter::new(file), header),
         cloud,
     )
-    .map_err(err)
-    .and_then(|()| std::fs::rename(&tmp, path).map_err(out));
-    if result.is_err() {
-        let _ = std::fs::remove_file(&tmp);
+    .map_err(err)?;
+    tmp.persist(path).map_err(out)
+}
+
+/// Why `cloud` cannot be written as LAS at coordinate quantum `scale`
+/// (the `las` writer panics on what it cannot encode, so it is checked
+/// first): no points (a LAS without points is a file vergence refuses to
+/// read), or a point whose offset from the origin (the file's coordinate
+/// offset) is more quanta than LAS's 32-bit integers hold.
+pub fn check_writable(cloud: &PointCloud, scale: f64) -> std::result::Result<(), String> {
+    if cloud.is_empty() {
+        return Err("no points to write".into());
     }
-    result
+    if !(scale.is_finite() && scale > 0.0) {
+        return Err(format!(
+            "the coordinate quantum {scale} is not a positive number"
+        ));
+    }
+    let reach = cloud
+        .positions
+        .iter()
+        .flatten()
+        .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
+    let most = f64::from(i32::MAX) * scale;
+    if reach.is_nan() || reach > most {
+        return Err(format!(
+            "the points reach {reach:.3e} m from their origin; LAS at {scale} m a step holds {most:.3e} m"
+        ));
+    }
+    Ok(())
 }
 
 fn write_points(

@@ -157,6 +157,28 @@ impl Kiosk {
         Kiosk::parse(&text, dir).map_err(err)
     }
 
+    /// Loads every scene once, in order, so a scene that cannot be shown
+    /// stops the kiosk at its start (naming the kiosk file, the scene's
+    /// key and the problem) rather than when a visitor reaches it. Their
+    /// files become this command's inputs, so no log or output replaces
+    /// them.
+    pub fn check_scenes(&self, path: &Path) -> Result<()> {
+        for (i, s) in self.scenes.iter().enumerate() {
+            crate::scene::Scene::load(&s.scene).map_err(|e| {
+                Error::config(
+                    "--kiosk",
+                    format!(
+                        "{}: scenes[{i}] ({}): scene {}: {e}",
+                        path.display(),
+                        s.name,
+                        s.scene
+                    ),
+                )
+            })?;
+        }
+        Ok(())
+    }
+
     /// Parses kiosk text; relative paths resolve against `dir`.
     pub fn parse(text: &str, dir: &Path) -> std::result::Result<Kiosk, String> {
         let raw: RawKiosk = toml::from_str(text).map_err(|e| e.message().to_string())?;
@@ -323,26 +345,34 @@ pub struct RotatingLog {
     size: u64,
 }
 
+/// The first line of every log file vergence creates: rotation renames
+/// and removes only files that begin with it.
+const LOG_MARK: &[u8] = b"# vergence kiosk log\n";
+
 impl RotatingLog {
-    /// Opens (appends to) `settings.file`.
+    /// Opens (appends to) `settings.file` through the file layer (never
+    /// through a link, never a FIFO or device, never one of this command's
+    /// inputs such as the kiosk file or a scene); a file that exists but
+    /// is not a vergence log is refused rather than appended to.
     pub fn open(settings: &KioskLog) -> Result<RotatingLog> {
         let path = settings.file.clone();
-        let err = |e: std::io::Error| Error::Output {
+        let err = |message: String| Error::Output {
             path: path.clone(),
-            message: format!("cannot open the kiosk log: {e}"),
+            message,
         };
-        if path.is_dir() {
-            return Err(Error::Output {
-                path: path.clone(),
-                message: "the kiosk log is a directory".into(),
-            });
+        let mut file = crate::fsio::open_append(&path)?;
+        let mut size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        if size > 0 && !is_ours(&path) {
+            return Err(err(format!(
+                "exists and is not a vergence kiosk log (it does not begin with {:?}); name another file",
+                String::from_utf8_lossy(LOG_MARK).trim_end()
+            )));
         }
-        let file = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&path)
-            .map_err(err)?;
-        let size = file.metadata().map(|m| m.len()).unwrap_or(0);
+        if size == 0 {
+            file.write_all(LOG_MARK)
+                .map_err(|e| err(format!("cannot write the kiosk log: {e}")))?;
+            size = LOG_MARK.len() as u64;
+        }
         Ok(RotatingLog {
             path,
             max_bytes: settings.max_bytes,
@@ -358,7 +388,19 @@ impl RotatingLog {
         PathBuf::from(s)
     }
 
+    /// Shifts FILE.k to FILE.k+1 (dropping FILE.keep) and FILE to FILE.1,
+    /// then starts a new FILE; refused, touching nothing, when any of
+    /// those files exists and is not a log vergence made.
     fn rotate(&mut self) -> std::io::Result<()> {
+        for k in 1..=self.keep {
+            let f = self.rotated(k);
+            if std::fs::symlink_metadata(&f).is_ok() && !is_ours(&f) {
+                return Err(std::io::Error::other(format!(
+                    "{} is not a vergence kiosk log; the log is not rotated over it",
+                    f.display()
+                )));
+            }
+        }
         let _ = std::fs::remove_file(self.rotated(self.keep));
         for k in (1..self.keep).rev() {
             let from = self.rotated(k);
@@ -367,24 +409,33 @@ impl RotatingLog {
             }
         }
         std::fs::rename(&self.path, self.rotated(1))?;
-        self.file = std::fs::OpenOptions::new()
-            .create(true)
-            .append(true)
-            .open(&self.path)?;
-        self.size = 0;
+        let mut file = crate::fsio::open_append(&self.path)
+            .map_err(|e| std::io::Error::other(e.to_string()))?;
+        file.write_all(LOG_MARK)?;
+        self.file = file;
+        self.size = LOG_MARK.len() as u64;
         Ok(())
     }
 
     /// Appends `bytes` (one or more whole lines), rotating first when they
     /// would take the file past its size.
     pub fn write_lines(&mut self, bytes: &[u8]) -> std::io::Result<()> {
-        if self.size > 0 && self.size + bytes.len() as u64 > self.max_bytes {
-            self.rotate()?;
-        }
+        let full =
+            self.size > LOG_MARK.len() as u64 && self.size + bytes.len() as u64 > self.max_bytes;
+        // When rotation is refused the lines still go to the log (longer
+        // than its size) and the refusal is returned.
+        let rotated = if full { self.rotate() } else { Ok(()) };
         self.file.write_all(bytes)?;
         self.size += bytes.len() as u64;
-        Ok(())
+        rotated
     }
+}
+
+/// Whether `path` is a regular file (not a link) that begins with
+/// [`LOG_MARK`].
+fn is_ours(path: &Path) -> bool {
+    !crate::fsio::is_link(path)
+        && crate::fsio::read_prefix(path, LOG_MARK.len()).is_ok_and(|b| b == LOG_MARK)
 }
 
 static LOG: OnceLock<Mutex<RotatingLog>> = OnceLock::new();
@@ -518,7 +569,47 @@ mod tests {
         assert!(!dir.join("k.log.3").exists(), "keeps 2");
         for f in ["k.log", "k.log.1", "k.log.2"] {
             assert!(read(f).len() <= 100, "{f}");
+            assert!(read(f).starts_with("# vergence kiosk log\n"), "{f}");
         }
+        let _ = std::fs::remove_dir_all(&dir);
+    }
+
+    #[cfg(unix)]
+    #[test]
+    fn the_log_refuses_links_fifos_and_files_it_did_not_make() {
+        let dir = std::env::temp_dir().join(format!("vergence-kiosk-bad-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let at = |name: &str| KioskLog {
+            file: dir.join(name),
+            max_bytes: 60,
+            keep: 2,
+        };
+        let victim = dir.join("victim.txt");
+        std::fs::write(&victim, "keep me").unwrap();
+        std::os::unix::fs::symlink(&victim, dir.join("link.log")).unwrap();
+        let e = RotatingLog::open(&at("link.log")).unwrap_err().to_string();
+        assert!(e.contains("symbolic link"), "{e}");
+        let fifo = std::ffi::CString::new(dir.join("fifo.log").to_str().unwrap()).unwrap();
+        // SAFETY: a valid NUL-terminated path.
+        assert_eq!(unsafe { libc::mkfifo(fifo.as_ptr(), 0o600) }, 0);
+        let e = RotatingLog::open(&at("fifo.log")).unwrap_err().to_string();
+        assert!(e.contains("FIFO"), "{e}");
+        let e = RotatingLog::open(&at("victim.txt"))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("not a vergence kiosk log"), "{e}");
+        // A user's own FILE.2 is never removed or overwritten by rotation.
+        std::fs::write(dir.join("k.log.2"), "the user's notes").unwrap();
+        let mut log = RotatingLog::open(&at("k.log")).unwrap();
+        for i in 0..10 {
+            let _ = log.write_lines(format!("line {i:02} of the kiosk log\n").as_bytes());
+        }
+        assert_eq!(
+            std::fs::read_to_string(dir.join("k.log.2")).unwrap(),
+            "the user's notes"
+        );
+        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep me");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
