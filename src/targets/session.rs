@@ -10,7 +10,7 @@ use crate::gpu::Context;
 use crate::interact::locomotion::Origin;
 use crate::interact::{Event, Settings};
 use crate::render::driver::FrameResult;
-use crate::stats::LogHistogram;
+use crate::stats::FrameHistogram;
 use crate::view::{Fov, Pose, PoseFile, RigFile, StereoRig};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -469,9 +469,9 @@ impl From<&Origin> for OriginFile {
 /// Constant-memory summaries of the frame series.
 #[derive(Clone, Debug, Default)]
 struct Series {
-    wait: LogHistogram,
-    cpu: LogHistogram,
-    gpu: LogHistogram,
+    wait: FrameHistogram,
+    cpu: FrameHistogram,
+    gpu: FrameHistogram,
     last_display_time_ns: Option<i64>,
 }
 
@@ -645,7 +645,7 @@ impl RunStats {
 
     /// Fills the summary from the frames.
     pub fn summarize(&mut self) {
-        let p = |h: &LogHistogram| Percentiles {
+        let p = |h: &FrameHistogram| Percentiles {
             median: h.quantile(0.5),
             p95: h.quantile(0.95),
         };
