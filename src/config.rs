@@ -330,7 +330,7 @@ pub struct Inset {
     /// also moves by a sub-pixel Halton offset each frame, so a still view
     /// is supersampled over frames too. Off by default: on lavapipe's
     /// bench frames it cost FLIP and flicker against the unjittered
-    /// accumulation (README, "Wide views accumulated over frames").
+    /// accumulation (docs/techniques/inset.md, "Wide views accumulated over frames").
     #[serde(default)]
     pub taa_jitter: bool,
     /// `inset-taau` (which turns `inset-taa` and its jitter on): temporal
@@ -345,7 +345,7 @@ pub struct Inset {
     /// the wide view through a Catmull-Rom filter (4×4 texels, clamped to
     /// the nearest 2×2's range) instead of bilinearly. Sharper: less FLIP
     /// over the periphery; but it shows the wide view's own aliasing more,
-    /// so a moving periphery flickers more (README, "The wide view's
+    /// so a moving periphery flickers more (docs/techniques/inset.md, "The wide view's
     /// upsampling"). Off by default.
     #[serde(default)]
     pub catmull_rom: bool,
@@ -447,7 +447,7 @@ impl Lms {
 
 /// The default point budget per frame (Potree's VR examples draw a few
 /// million per eye; the H200 rasterizes 88 M points for both eyes in
-/// 0.55 ms, see README "Point clouds").
+/// 0.55 ms, see docs/techniques/points.md, "Measured").
 pub const DEFAULT_POINTS_BUDGET: u64 = 20_000_000;
 /// Eye-dome lighting's strength without a value (`edl`): Potree's default
 /// (k = 300 × 0.4 in `shaders/points_composite.frag`).

@@ -145,7 +145,7 @@ fn upsampling_cuts_the_shimmer_of_a_slow_turn() {
     // elsewhere in the pixel), inset-sharpen 0.00080, inset-taau-lanczos
     // 0.00065: on this small, detailed frame the sharpening and the
     // sharper history read also keep more of what the wide views alias,
-    // the opposite of the garage at the bench's size (README,
+    // the opposite of the garage at the bench's size (docs/techniques/inset.md,
     // "Sharpening the upsampled periphery", "The history read through
     // Lanczos-3").
     println!(

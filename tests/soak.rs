@@ -1,4 +1,4 @@
-//! Shortened soaks (the long runs' figures are in the README): memory stays
+//! Shortened soaks (the long runs' figures are in docs/testing.md): memory stays
 //! flat over a headless run, and a Monado session stays free of validation
 //! messages over many frames.
 

@@ -270,7 +270,7 @@ pub fn action(key: KeyCode) -> Option<KeyAction> {
     }
 }
 
-/// The key listing (printed on F1/H, and in the README).
+/// The key listing (printed on F1/H, and in docs/guide.md).
 pub fn help(allowed: &[Toggle], save_to: &Path) -> String {
     let mut s = String::from("keys:\n");
     for t in Toggle::ALL.iter() {

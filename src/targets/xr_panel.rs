@@ -203,7 +203,7 @@ impl XrPanel {
 
 /// Draws `frame` (a panel frame of [`SIZE_PX`]) as [`XrPanel::draw`] does,
 /// into an offscreen R8G8B8A8_SRGB image, and reads it back: what the quad
-/// layer shows, for tests and the README's picture (alpha premultiplied).
+/// layer shows, for tests and docs/headset.md's picture (alpha premultiplied).
 pub fn snapshot(ctx: &Context, frame: &UiFrame) -> Result<image::RgbaImage> {
     use crate::gpu::memory::{Buffer, BufferDesc, ImageDesc};
     let extent = vk::Extent2D {

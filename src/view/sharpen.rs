@@ -34,7 +34,7 @@
 //! lavapipe chose the default: on the garage at inset=0.7, S = 0.5 and 1
 //! gave flicker 0.000131 and 0.000121 (inset-taau alone 0.000144, the
 //! baseline 0.000113), and S = 2 and 4 gave 0.000125 and 0.000149 in a
-//! trial build (README, "Sharpening the upsampled periphery").
+//! trial build (docs/techniques/inset.md, "Sharpening the upsampled periphery").
 
 /// The default strength S.
 pub const DEFAULT_STRENGTH: f64 = 1.0;
