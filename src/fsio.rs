@@ -387,6 +387,14 @@ pub fn open_append(path: &Path) -> Result<File> {
     Ok(file)
 }
 
+/// Whether `a` and `b` name the same existing file (links followed).
+pub fn same_file(a: &Path, b: &Path) -> bool {
+    match (std::fs::metadata(a), std::fs::metadata(b)) {
+        (Ok(ma), Ok(mb)) => file_id(a, &ma).is_some() && file_id(a, &ma) == file_id(b, &mb),
+        _ => false,
+    }
+}
+
 /// Whether `path` itself is a symbolic link.
 pub fn is_link(path: &Path) -> bool {
     std::fs::symlink_metadata(path).is_ok_and(|m| m.file_type().is_symlink())

@@ -191,3 +191,26 @@ pub fn point_file(data: &[u8]) {
         check(c);
     }
 }
+
+/// Bytes → a kiosk file's parser (`run --kiosk`): an accepted kiosk has
+/// one to [`crate::targets::kiosk::MAX_SCENES`] scenes with unique names,
+/// each at most [`crate::targets::kiosk::MAX_VIEWPOINTS`] viewpoints, and
+/// a log that keeps at least one rotated file.
+pub fn kiosk(data: &[u8]) {
+    use crate::targets::kiosk::{Kiosk, MAX_SCENES, MAX_VIEWPOINTS};
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(k) = Kiosk::parse(text, std::path::Path::new(".")) else {
+        return;
+    };
+    assert!((1..=MAX_SCENES).contains(&k.scenes.len()));
+    for (i, s) in k.scenes.iter().enumerate() {
+        assert!(s.viewpoints.len() <= MAX_VIEWPOINTS);
+        assert!(k.scenes[..i].iter().all(|o| o.name != s.name));
+        assert!(!s.name.chars().any(char::is_control));
+    }
+    if let Some(log) = &k.log {
+        assert!(log.keep >= 1 && log.max_bytes > 0);
+    }
+}

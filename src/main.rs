@@ -964,6 +964,12 @@ fn tune(
         );
     }
     vergence::fsio::prepare_output(out)?;
+    if vergence::fsio::same_file(out, std::path::Path::new(scene)) {
+        anyhow::bail!(
+            "invalid --out: {} is the scene being tuned; vergence never writes over an input",
+            out.display()
+        );
+    }
     if dir.is_file() {
         anyhow::bail!(
             "invalid --out: the measurement folder {} of {} is a file",

@@ -333,6 +333,14 @@ fn hmd_profiles_with_lenses() {
 
 #[test]
 #[ignore]
+fn kiosk_files() {
+    let mut seeds = files("manifests/kiosk", &["toml"]);
+    seeds.extend(files("tests/bad_inputs/kiosk", &["toml"]));
+    fuzz("kiosk_files", 5, seeds, vergence::fuzz_checks::kiosk);
+}
+
+#[test]
+#[ignore]
 fn draco_and_basis_decoders() {
     use vergence::scene::draco::{decode, DracoExt, Expected};
     let mut seeds = Vec::new();

@@ -255,6 +255,11 @@ pub fn run(ctx: &Context, args: &RasterFloorsArgs) -> Result<Report> {
             args.samples, ctx.caps.max_samples
         )));
     }
+    if args.views == 2 && ctx.driver_id == vk::DriverId::MESA_LLVMPIPE {
+        return Err(Error::Gpu(
+            "--views 2: lavapipe crashes executing an empty multiview scope; use --views 1 on this driver".into(),
+        ));
+    }
     if ctx.caps.timestamp_period_ns == 0.0 {
         return Err(Error::Gpu(
             "the device has no timestamps on its graphics queue".into(),

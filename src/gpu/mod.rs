@@ -176,6 +176,8 @@ pub struct Context {
     pub device_name: String,
     /// Driver name and version info.
     pub driver: String,
+    /// The driver's Vulkan driver ID (lavapipe: `MESA_LLVMPIPE`).
+    pub driver_id: vk::DriverId,
     /// Optional capabilities.
     pub caps: Capabilities,
     /// The memory allocator (behind a mutex: allocation happens at init only).
@@ -889,6 +891,7 @@ impl PartialInstance {
             queue_family,
             device_name,
             driver,
+            driver_id: driver_props.driver_id,
             caps,
             allocator: Mutex::new(Some(allocator)),
             memory_by_category: Mutex::new(BTreeMap::new()),

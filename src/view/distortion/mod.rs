@@ -25,6 +25,7 @@
 
 pub mod density;
 pub mod dpoly3;
+pub mod fold;
 pub mod inverse;
 pub mod mesh;
 pub mod panotools;
@@ -318,6 +319,19 @@ impl Lens {
         finite("unit", &self.unit)?;
         finite("tangent", &self.tangent)?;
         finite("axis", &self.axis)?;
+        if self.centre.iter().any(|&c| !(-1.0..=2.0).contains(&c)) {
+            return Err(format!(
+                "lens: `centre` = {:?} must lie within one panel of the panel (each in [-1, 2])",
+                self.centre
+            ));
+        }
+        let big = |v: &[f64]| v.iter().any(|x| x.abs() > 1e3);
+        if big(&self.unit) || big(&self.tangent) || big(&self.axis) {
+            return Err(format!(
+                "lens: `unit` {:?}, `tangent` {:?} and `axis` {:?} must be within ±1000",
+                self.unit, self.tangent, self.axis
+            ));
+        }
         if self.unit.iter().any(|&u| u <= 0.0) || self.tangent.iter().any(|&t| t <= 0.0) {
             return Err(format!(
                 "lens: `unit` {:?} and `tangent` {:?} must be positive",
@@ -335,6 +349,7 @@ impl Lens {
         if w == 0 || h == 0 || w > 16384 || h > 16384 {
             return Err(format!("lens: panel {w}x{h} must be within 1..=16384"));
         }
+        self.exact_fold_check()?;
         let steps = ((CHECK_STEPS as f64 * self.r_max.max(1.0)).ceil() as usize).min(1 << 20);
         for (channel, name) in ["red", "green", "blue"].iter().enumerate() {
             let mut last = 0.0;
@@ -350,6 +365,39 @@ impl Lens {
                     ));
                 }
                 last = g;
+            }
+        }
+        Ok(())
+    }
+}
+
+impl Lens {
+    /// [`fold`]'s exact checks on [0, r_max]: PanoTools' g' positive,
+    /// DPOLY3's denominator without a root (a pole).
+    fn exact_fold_check(&self) -> Result<(), String> {
+        let r = self.r_max;
+        for (channel, name) in ["red", "green", "blue"].iter().enumerate() {
+            match &self.radial {
+                Radial::Panotools(p) => {
+                    let [a, b, c, d] = p.k;
+                    let s = p.chroma[channel];
+                    let slope = [s * d, s * 2.0 * c, s * 3.0 * b, s * 4.0 * a];
+                    if fold::cubic_min(slope, 0.0, r) <= 0.0 {
+                        return Err(format!(
+                            "lens: the {name} channel's undistorted radius r·D(r) does not increase everywhere inside the visible radius {r:.4} \
+                             (the lens folds over; lower `r_max` or fix the coefficients)"
+                        ));
+                    }
+                }
+                Radial::Dpoly3(p) => {
+                    let [k1, k2, k3, _] = p.k[channel];
+                    if fold::cubic_min([1.0, k1, k2, k3], 0.0, r * r) <= 0.0 {
+                        return Err(format!(
+                            "lens: the {name} channel's DPOLY3 denominator 1 + k1·r² + k2·r⁴ + k3·r⁶ reaches zero inside the visible radius {r:.4} \
+                             (a pole); lower `r_max` or fix the coefficients"
+                        ));
+                    }
+                }
             }
         }
         Ok(())

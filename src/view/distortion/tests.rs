@@ -169,3 +169,31 @@ proptest! {
         prop_assert!((best.1[0] - u).abs() <= 2.0 / n as f64 && (best.1[1] - v).abs() <= 2.0 / n as f64);
     }
 }
+
+/// A DPOLY3 profile whose three channels use `k` (k1, k2, k3, k4).
+fn dpoly3_table(k: [f64; 4], extra: &str) -> String {
+    let k = format!("[{}, {}, {}, {}]", k[0], k[1], k[2], k[3]);
+    format!(
+        "name = \"t\"\nrefresh_hz = 60.0\n[[views]]\nposition = [0.0, 0.0, 0.0]\norientation = [0.0, 0.0, 0.0, 1.0]\n\
+         fov = {{ left = -1.0, right = 1.0, up = 1.0, down = -1.0 }}\nresolution = [64, 64]\n\
+         [views.lens]\nmodel = \"dpoly3\"\nred = {k}\ngreen = {k}\nblue = {k}\n\
+         centre = [0.5, 0.5]\nunit = [0.5, 0.5]\ntangent = [1.0, 1.0]\nr_max = 1.0\n{extra}"
+    )
+}
+
+#[test]
+fn a_pole_between_samples_and_a_far_centre_are_refused() {
+    let err = |text: String| HmdProfile::parse("t", &text).unwrap_err().to_string();
+    // 1 + k1 q + k2 q² + k3 q³ = ((q − m)²(q + 1) − δ) / (m² − δ): zero
+    // only within about 1e-5 of q = m, between any two checked samples.
+    let (m, delta) = (0.50037f64, 1e-10);
+    let c = m * m - delta;
+    let k = [(m * m - 2.0 * m) / c, (1.0 - 2.0 * m) / c, 1.0 / c, 0.0];
+    let e = err(dpoly3_table(k, ""));
+    assert!(e.contains("pole"), "{e}");
+    // The same cubic lifted clear of zero is a lens.
+    HmdProfile::parse("t", &dpoly3_table([-0.2, -0.03, -0.04, 0.0], "")).unwrap();
+    let e = err(dk1_table("[0.0, 0.0, 0.0, 1.0]", "")
+        .replace("centre = [0.5, 0.5]", "centre = [1e300, 0.5]"));
+    assert!(e.contains("centre"), "{e}");
+}
