@@ -112,10 +112,16 @@ pub fn lod_cache(data: &[u8]) {
 /// whose cache the seeds are: an accepted file must give an octree and
 /// order [`check_octree`] accepts.
 pub fn octree_cache(data: &[u8]) {
-    let positions = octree_cache_cloud();
-    let hash = crate::scene::octree_cache::content_hash(glam::DVec3::ZERO, &positions);
-    if let Ok((tree, order)) = crate::scene::octree_cache::decode(data, hash, positions.len()) {
-        check_octree(&tree, &order, positions.len());
+    // The cloud and its hash once per process: building and hashing them
+    // for every input took most of each run.
+    static CLOUD: std::sync::OnceLock<(usize, u64)> = std::sync::OnceLock::new();
+    let &(points, hash) = CLOUD.get_or_init(|| {
+        let positions = octree_cache_cloud();
+        let hash = crate::scene::octree_cache::content_hash(glam::DVec3::ZERO, &positions);
+        (positions.len(), hash)
+    });
+    if let Ok((tree, order)) = crate::scene::octree_cache::decode(data, hash, points) {
+        check_octree(&tree, &order, points);
     }
 }
 
