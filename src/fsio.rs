@@ -316,6 +316,12 @@ pub fn prepare_output(path: &Path) -> Result<()> {
         ));
     }
     if let Some(dir) = path.parent().filter(|d| !d.as_os_str().is_empty()) {
+        if std::fs::metadata(dir).is_ok_and(|m| !m.is_dir()) {
+            return Err(Error::Output {
+                path: dir.to_path_buf(),
+                message: "is a file, not a folder to write into".into(),
+            });
+        }
         std::fs::create_dir_all(dir).map_err(|e| Error::Output {
             path: dir.to_path_buf(),
             message: e.to_string(),
@@ -332,6 +338,18 @@ pub fn write_output(
     path: &Path,
     write: impl FnOnce(&mut dyn io::Write) -> io::Result<()>,
 ) -> Result<()> {
+    let tmp = filled_temp(path, write)?;
+    tmp.persist(path).map_err(|e| Error::Output {
+        path: path.to_path_buf(),
+        message: e.to_string(),
+    })
+}
+
+/// A checked output's temporary file beside `path`, filled by `write`.
+fn filled_temp(
+    path: &Path,
+    write: impl FnOnce(&mut dyn io::Write) -> io::Result<()>,
+) -> Result<TempFile> {
     let out = |e: io::Error| Error::Output {
         path: path.to_path_buf(),
         message: e.to_string(),
@@ -342,7 +360,42 @@ pub fn write_output(
     write(&mut w).map_err(out)?;
     w.flush().map_err(out)?;
     drop(w);
-    tmp.persist(path).map_err(out)
+    Ok(tmp)
+}
+
+/// Outputs written as a set (a render's images and statistics): each file
+/// is filled in a fresh temporary file beside its target, and only
+/// [`OutputSet::commit`] renames them all into place. Dropped without a
+/// commit (a later write failed), every temporary file is removed and no
+/// target has changed.
+#[derive(Debug, Default)]
+pub struct OutputSet {
+    pending: Vec<(PathBuf, TempFile)>,
+}
+
+impl OutputSet {
+    /// Fills `path`'s temporary file with `write`, as [`write_output`]
+    /// checks and writes it, without renaming it yet.
+    pub fn write(
+        &mut self,
+        path: &Path,
+        write: impl FnOnce(&mut dyn io::Write) -> io::Result<()>,
+    ) -> Result<()> {
+        let tmp = filled_temp(path, write)?;
+        self.pending.push((path.to_path_buf(), tmp));
+        Ok(())
+    }
+
+    /// Renames every file of the set into place, in the order written.
+    pub fn commit(self) -> Result<()> {
+        for (path, tmp) in self.pending {
+            tmp.persist(&path).map_err(|e| Error::Output {
+                path: path.clone(),
+                message: e.to_string(),
+            })?;
+        }
+        Ok(())
+    }
 }
 
 /// [`write_output`] of a byte string.
@@ -464,6 +517,42 @@ mod tests {
             .is_symlink());
         let e = open_append(&fifo).unwrap_err().to_string();
         assert!(e.contains("is a FIFO"), "{e}");
+    }
+
+    #[test]
+    fn an_output_set_lands_whole_or_not_at_all() {
+        let d = scratch("set");
+        std::fs::write(d.join("a.txt"), b"old a").unwrap();
+        let mut set = OutputSet::default();
+        set.write(&d.join("a.txt"), |w| w.write_all(b"new a"))
+            .unwrap();
+        let e = set
+            .write(&d.join("b.txt"), |_| Err(io::Error::other("disk full")))
+            .unwrap_err()
+            .to_string();
+        assert!(e.contains("disk full"), "{e}");
+        drop(set);
+        assert_eq!(std::fs::read(d.join("a.txt")).unwrap(), b"old a");
+        assert!(!d.join("b.txt").exists());
+        let mut set = OutputSet::default();
+        set.write(&d.join("a.txt"), |w| w.write_all(b"new a"))
+            .unwrap();
+        set.write(&d.join("b.txt"), |w| w.write_all(b"b")).unwrap();
+        assert_eq!(std::fs::read(d.join("a.txt")).unwrap(), b"old a");
+        set.commit().unwrap();
+        assert_eq!(std::fs::read(d.join("a.txt")).unwrap(), b"new a");
+        assert_eq!(std::fs::read(d.join("b.txt")).unwrap(), b"b");
+        let tmp = std::fs::read_dir(&d)
+            .unwrap()
+            .filter(|e| {
+                e.as_ref()
+                    .unwrap()
+                    .file_name()
+                    .to_string_lossy()
+                    .ends_with(".tmp")
+            })
+            .count();
+        assert_eq!(tmp, 0);
     }
 
     #[cfg(unix)]

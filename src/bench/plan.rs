@@ -299,11 +299,21 @@ impl Plan {
             if !names.insert(c.name.as_str()) {
                 return Err(format!("config name '{}' appears twice", c.name));
             }
-            if !files.insert(sanitize(&c.name)) {
-                return Err(format!(
-                    "config name '{}' gives the same image file name as another",
-                    c.name
-                ));
+            // Each configuration writes NAME.png, NAME.flip.png and
+            // NAME.flicker.png: a name ending in .flip must not land on
+            // another's heat map (nor the reference's image).
+            let stem = sanitize(&c.name);
+            for file in [
+                stem.clone(),
+                format!("{stem}.flip"),
+                format!("{stem}.flicker"),
+            ] {
+                if file == "reference" || !files.insert(file.clone()) {
+                    return Err(format!(
+                        "config name '{}' gives the image file name {file}.png, which another configuration or the reference also writes",
+                        c.name
+                    ));
+                }
             }
             let config = self
                 .config_for(c)
@@ -547,7 +557,12 @@ opt = "two-pass"
             (
                 "opt = \"two-pass\"",
                 "opt = \"two-pass\"\n[[configs]]\nname = \"a b\"\n[[configs]]\nname = \"a_b\"",
-                "same image file name",
+                "which another configuration or the reference also writes",
+            ),
+            (
+                "opt = \"two-pass\"",
+                "opt = \"two-pass\"\n[[configs]]\nname = \"x\"\n[[configs]]\nname = \"x.flip\"",
+                "x.flip.png, which another configuration",
             ),
         ] {
             let text = MIN.replace(edit, want);

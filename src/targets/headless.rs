@@ -481,6 +481,10 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         None => None,
     };
     let (scene, load_ms) = load_scene(&job.scene)?;
+    // The images and statistics land together or not at all; the folder
+    // is checked before anything is rendered.
+    crate::fsio::prepare_output(&job.out.join("stats.json"))?;
+    let mut outputs = crate::fsio::OutputSet::default();
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
     let renderer = new_renderer(&ctx, &scene, &config, extent)?;
@@ -577,8 +581,12 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
                 &ctx, lenses, fovs, extent, method,
             )?;
             let out = p.run(&[left.clone(), right.clone()], frames)?;
-            save_png(&out.images[0], &job.out.join("left_distorted.png"))?;
-            save_png(&out.images[1], &job.out.join("right_distorted.png"))?;
+            outputs.write(&job.out.join("left_distorted.png"), |w| {
+                png_to(w, &out.images[0])
+            })?;
+            outputs.write(&job.out.join("right_distorted.png"), |w| {
+                png_to(w, &out.images[1])
+            })?;
             Some(PreviewStats {
                 mode: "distorted",
                 method,
@@ -588,7 +596,8 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         }
         _ => None,
     };
-    save_pair(&job.out, &[left, right])?;
+    outputs.write(&job.out.join("left.png"), |w| png_to(w, &left))?;
+    outputs.write(&job.out.join("right.png"), |w| png_to(w, &right))?;
     let mut cpu_ms = BTreeMap::new();
     cpu_ms.insert("load".to_string(), load_ms);
     if let Some(build_ms) = build_ms {
@@ -657,7 +666,8 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     drop(driver);
     // Teardown may speak too.
     stats.validation_messages = ctx.validation_messages();
-    write_json(&job.out.join("stats.json"), &stats)?;
+    outputs.write(&job.out.join("stats.json"), |w| json_to(w, &stats))?;
+    outputs.commit()?;
     Ok((
         stats,
         Loaded {
@@ -696,22 +706,28 @@ pub fn save_pair(dir: &Path, images: &[image::RgbaImage; 2]) -> Result<()> {
 /// whole-document string in memory, no half-written file on failure, no
 /// planted link followed).
 pub fn write_json(path: &Path, value: &impl serde::Serialize) -> Result<()> {
-    crate::fsio::write_output(path, |w| {
-        serde_json::to_writer_pretty(w, value).map_err(std::io::Error::from)
-    })
+    crate::fsio::write_output(path, |w| json_to(w, value))
+}
+
+/// `value` as pretty-printed JSON into `w`.
+fn json_to(w: &mut dyn std::io::Write, value: &impl serde::Serialize) -> std::io::Result<()> {
+    serde_json::to_writer_pretty(w, value).map_err(std::io::Error::from)
+}
+
+/// `img` as PNG into `w`.
+fn png_to(w: &mut dyn std::io::Write, img: &image::RgbaImage) -> std::io::Result<()> {
+    use image::ImageEncoder as _;
+    image::codecs::png::PngEncoder::new(w)
+        .write_image(
+            img.as_raw(),
+            img.width(),
+            img.height(),
+            image::ExtendedColorType::Rgba8,
+        )
+        .map_err(std::io::Error::other)
 }
 
 /// Writes an RGBA image as PNG ([`crate::fsio::write_output`]).
 pub fn save_png(img: &image::RgbaImage, path: &Path) -> Result<()> {
-    use image::ImageEncoder as _;
-    crate::fsio::write_output(path, |w| {
-        image::codecs::png::PngEncoder::new(w)
-            .write_image(
-                img.as_raw(),
-                img.width(),
-                img.height(),
-                image::ExtendedColorType::Rgba8,
-            )
-            .map_err(std::io::Error::other)
-    })
+    crate::fsio::write_output(path, |w| png_to(w, img))
 }
