@@ -772,6 +772,13 @@ struct.pack_into("<HHH", extra, VLR + 54 + 34 + 6, 14, 4000, 3)
 bin_file("points/laz-extra-bytes.laz", bytes(extra))
 cli("laz-extra-bytes", ["inspect", "{dir}/points/laz-extra-bytes.laz"],
     ["laz-extra-bytes.laz", "4000 extra bytes a point"], memory=True)
+# The same with a header-size field of 0: the reader still finds the VLRs
+# after the version's whole header, and so does the check.
+short_header = bytearray(extra)
+struct.pack_into("<H", short_header, 94, 0)
+bin_file("points/laz-header-size-zero.laz", bytes(short_header))
+cli("laz-header-size-zero", ["inspect", "{dir}/points/laz-header-size-zero.laz"],
+    ["laz-header-size-zero.laz", "4000 extra bytes a point"], memory=True)
 # A record length the laszip items do not add up to (65535 bytes a point).
 long_record = bytearray(TINY_LAZ)
 struct.pack_into("<H", long_record, 105, 65535)

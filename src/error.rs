@@ -173,15 +173,22 @@ impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
     }
 }
 
+/// Unicode's bidirectional embedding, override and isolate controls
+/// (U+202A–U+202E, U+2066–U+2069), which reorder what a terminal shows.
+fn is_bidi_control(c: char) -> bool {
+    matches!(c, '\u{202a}'..='\u{202e}' | '\u{2066}'..='\u{2069}')
+}
+
 /// `text` as one line safe to print on a terminal: line breaks become
 /// spaces and every other control character (an escape sequence from a
-/// file's text or a path) is written escaped (`\u{1b}`).
+/// file's text or a path, a bidirectional override) is written escaped
+/// (`\u{1b}`).
 pub fn one_safe_line(text: &str) -> String {
     let mut out = String::with_capacity(text.len());
     for c in text.chars() {
         match c {
             '\n' | '\r' => out.push(' '),
-            c if c.is_control() => out.extend(c.escape_default()),
+            c if c.is_control() || is_bidi_control(c) => out.extend(c.escape_default()),
             c => out.push(c),
         }
     }

@@ -260,16 +260,8 @@ struct FrameOpts {
     #[arg(long, requires = "width",
           value_parser = clap::value_parser!(u32).range(1..=vergence::cli::MAX_EYE_PIXELS as i64))]
     height: Option<u32>,
-    /// Comma-separated optimizations: multiview, two-pass, msaa4, no-msaa,
-    /// stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R],
-    /// rdm=auto (the radius from the profile's lens), rdm-nofill, mffr[=D],
-    /// mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull,
-    /// occlusion and lod[=PX] (both with gpu-cull), aq (adaptive quality:
-    /// the render scale follows the GPU time against the budget), timewarp=K,
-    /// timewarp-rotation, timewarp-fill (render --frames and bench plans)
-    /// and a culling strategy (per-eye, superfrustum, conical, conical-superfrustum,
-    /// round-robin, round-robin-conical, per-eye-brute; default none).
-    #[arg(long, default_value = "")]
+    /// Comma-separated optimizations (`--help` lists them by technique).
+    #[arg(long, default_value = "", long_help = vergence::config::options::help(&cull_names()))]
     opt: String,
     /// A config file (as `vergence tune` writes it) whose `opt` list is
     /// applied before --opt.

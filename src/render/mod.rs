@@ -25,6 +25,8 @@ pub mod distortion;
 pub mod driver;
 pub mod instance_updates;
 pub mod passes;
+pub mod plan;
+mod record;
 pub mod scene_gpu;
 pub mod shading_rate;
 pub mod submission;
@@ -54,7 +56,7 @@ use passes::far_field::FarField;
 pub use passes::gpu_cull::GpuCullStats;
 use passes::gpu_cull::{FarSplit, GpuCull, LodFrame};
 use passes::output::{OutputCopy, Readback};
-use passes::{Passes, PipelineSetup, Recorder, Scope, ScopePart, VertexBindings};
+use passes::{Passes, PipelineSetup, Recorder, VertexBindings};
 use scene_gpu::SceneGpu;
 use shading_rate::ShadingRate;
 use std::collections::{BTreeMap, VecDeque};
@@ -141,6 +143,19 @@ struct InsetVolumes {
     core: Option<[crate::view::frustum::Frustum; 2]>,
 }
 
+/// What one frame slot (of the frames in flight) owns.
+struct Slot {
+    /// The frame's uniform block.
+    ubo: Buffer,
+    /// The visible-instance list of the CPU's culling (grown on demand).
+    visible: Option<Buffer>,
+    /// Its timestamp and statistics queries (taken out while recording).
+    queries: Option<Queries>,
+    /// The statistics of the frame submitted from it whose fence has not
+    /// been waited on yet (its GPU times are still to be read).
+    in_flight: Option<FrameStats>,
+}
+
 /// The stereo renderer.
 pub struct Renderer {
     ctx: Arc<Context>,
@@ -169,16 +184,12 @@ pub struct Renderer {
     scene: Option<SceneGpu>,
     targets: Option<Attachments>,
     descriptors: Descriptors,
-    ubos: Vec<Buffer>,
-    visible: Vec<Option<Buffer>>,
+    /// What each frame slot owns.
+    per_slot: Vec<Slot>,
     ring: Option<FrameRing>,
-    queries: Vec<Option<Queries>>,
     slot: usize,
     /// Frame slots (frames in flight), from the configuration.
     slots: usize,
-    /// Per slot: the statistics of the frame submitted from it whose fence
-    /// has not been waited on yet (its GPU times are still to be read).
-    in_flight: Vec<Option<FrameStats>>,
     /// Frames whose fence has signalled, oldest first, until taken.
     completed: VecDeque<FrameStats>,
     /// Milliseconds [`Renderer::wait_for_slot`] waited before this frame's
@@ -419,13 +430,10 @@ impl Renderer {
             scene: Some(scene_gpu),
             targets: None,
             descriptors,
-            ubos: Vec::new(),
-            visible: (0..slots).map(|_| None).collect(),
+            per_slot: Vec::with_capacity(slots),
             ring: None,
-            queries: Vec::new(),
             slot: 0,
             slots,
-            in_flight: (0..slots).map(|_| None).collect(),
             completed: VecDeque::with_capacity(slots + 1),
             slot_wait_ms: 0.0,
             batcher: Batcher::new(scene),
@@ -468,7 +476,7 @@ impl Renderer {
         // Made into the renderer, so a failure from here on drops it and
         // with it everything made so far.
         for i in 0..slots {
-            r.ubos.push(Buffer::new(
+            let ubo = Buffer::new(
                 &ctx,
                 &BufferDesc {
                     name: &format!("frame data {i}"),
@@ -477,15 +485,22 @@ impl Renderer {
                     location: MemoryLocation::CpuToGpu,
                     category: "per-frame",
                 },
-            )?);
-        }
-        r.ring = Some(FrameRing::new(&ctx, slots)?);
-        for _ in 0..slots {
+            )?;
             // Secondary command buffers may run inside the frame's
             // statistics query only with inheritedQueries.
             let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
-            r.queries.push(Some(Queries::new(&ctx, 32, stats)?));
+            let queries = Queries::new(&ctx, 32, stats);
+            // The buffer joins the renderer before the queries' result is
+            // looked at, so a failure drops (and destroys) it with the rest.
+            r.per_slot.push(Slot {
+                ubo,
+                visible: None,
+                queries: None,
+                in_flight: None,
+            });
+            r.per_slot[i].queries = Some(queries?);
         }
+        r.ring = Some(FrameRing::new(&ctx, slots)?);
         if let Some(n) = config.record_threads {
             r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
         }
@@ -510,7 +525,7 @@ impl Renderer {
                 &r.pipeline_setup(),
                 cloud,
                 extent,
-                &r.ubos,
+                &r.ubos(),
                 config.point_size as f32,
                 config.points_pipeline,
                 config.edl,
@@ -553,7 +568,7 @@ impl Renderer {
                 &r.pipeline_setup(),
                 scene,
                 &order,
-                &r.ubos,
+                &r.ubos(),
                 occlusion,
                 config.lod.is_some(),
                 config.mffr.is_some(),
@@ -684,9 +699,19 @@ impl Renderer {
         }
     }
 
+    /// Every slot's uniform buffer, in slot order (what the passes that
+    /// read the frame's view-projections bind).
+    fn ubos(&self) -> Vec<&Buffer> {
+        self.per_slot.iter().map(|s| &s.ubo).collect()
+    }
+
     fn ensure_visible_capacity(&mut self, slot: usize, ids: usize) -> Result<()> {
         let need = (ids.max(1) * 4) as u64;
-        if self.visible[slot].as_ref().is_some_and(|b| b.size >= need) {
+        if self.per_slot[slot]
+            .visible
+            .as_ref()
+            .is_some_and(|b| b.size >= need)
+        {
             return Ok(());
         }
         let size = need.next_power_of_two().max(1024);
@@ -700,7 +725,7 @@ impl Renderer {
                 category: "per-frame",
             },
         )?;
-        if let Some(old) = self.visible[slot].replace(buf) {
+        if let Some(old) = self.per_slot[slot].visible.replace(buf) {
             match self.ring.as_mut() {
                 Some(r) => r.defer(Garbage::Buffer(old)),
                 None => old.destroy(&self.ctx),
@@ -711,13 +736,13 @@ impl Renderer {
     }
 
     fn write_descriptors(&self, slot: usize) {
-        let visible = match (&self.passes.gpu_cull, &self.visible[slot]) {
+        let visible = match (&self.passes.gpu_cull, &self.per_slot[slot].visible) {
             (Some(gpu), _) => gpu.visible(slot),
             (None, Some(v)) => v,
             (None, None) => return,
         };
         let contents = SetContents {
-            frame: &self.ubos[slot],
+            frame: &self.per_slot[slot].ubo,
             scene: self.scene(),
             visible,
             hidden: self.passes.stencil_mask.as_ref().map(|m| m.buffer(slot)),
@@ -858,7 +883,7 @@ impl Renderer {
     pub fn take_completed(&mut self) -> Option<FrameStats> {
         for k in 0..self.slots {
             let s = (self.slot + k) % self.slots;
-            if self.in_flight[s].is_none() {
+            if self.per_slot[s].in_flight.is_none() {
                 continue;
             }
             let ring = self.ring.as_ref().expect("ring present until drop");
@@ -878,7 +903,8 @@ impl Renderer {
     pub fn wait_for_slot(&mut self) -> Result<()> {
         let t = Instant::now();
         let slot = self.slot;
-        let pass = self.queries[slot]
+        let pass = self.per_slot[slot]
+            .queries
             .as_ref()
             .map_or("none", |q| q.last_pass());
         self.ring
@@ -895,7 +921,8 @@ impl Renderer {
     /// join [`Renderer::take_completed`] in submission order.
     pub fn finish(&mut self) -> Result<()> {
         let newest = (self.slot + self.slots - 1) % self.slots;
-        let pass = self.queries[newest]
+        let pass = self.per_slot[newest]
+            .queries
             .as_ref()
             .map_or("none", |q| q.last_pass());
         self.ring
@@ -913,7 +940,8 @@ impl Renderer {
     /// frame's statistics with its GPU times to the completed queue, and
     /// begins the slot's command buffer.
     fn begin_slot(&mut self, slot: usize) -> Result<vk::CommandBuffer> {
-        let pass = self.queries[slot]
+        let pass = self.per_slot[slot]
+            .queries
             .as_ref()
             .map_or("none", |q| q.last_pass());
         let cmd = self
@@ -929,10 +957,11 @@ impl Renderer {
     /// After `slot`'s fence has signalled: reads its timestamps and
     /// statistics into the frame submitted from it.
     fn collect(&mut self, slot: usize) -> Result<()> {
-        let Some(mut stats) = self.in_flight[slot].take() else {
+        let Some(mut stats) = self.per_slot[slot].in_flight.take() else {
             return Ok(());
         };
-        let queries = self.queries[slot]
+        let queries = self.per_slot[slot]
+            .queries
             .as_ref()
             .expect("queries present until drop");
         let (passes, pipeline) = queries.read(&self.ctx)?;
@@ -1207,14 +1236,17 @@ impl Renderer {
         } else {
             self.ensure_visible_capacity(slot, batches.ids.len())?;
             let ids: &[u8] = as_bytes(&batches.ids);
-            self.visible[slot]
+            self.per_slot[slot]
+                .visible
                 .as_mut()
                 .expect("allocated above")
                 .write(0, ids)?;
         }
         self.frame_index += 1;
         let data = self.frame_data(rig);
-        self.ubos[slot].write(0, as_bytes(std::slice::from_ref(&data)))?;
+        self.per_slot[slot]
+            .ubo
+            .write(0, as_bytes(std::slice::from_ref(&data)))?;
         if let Some(mask) = self.passes.stencil_mask.as_mut() {
             mask.upload(slot, rig)?;
         }
@@ -1225,7 +1257,8 @@ impl Renderer {
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);
 
-        let mut queries = self.queries[slot]
+        let mut queries = self.per_slot[slot]
+            .queries
             .take()
             .expect("queries present until drop");
         // The per-draw records are written by whoever records the draws:
@@ -1265,7 +1298,7 @@ impl Renderer {
                 n
             }
             Err(e) => {
-                self.queries[slot] = Some(queries);
+                self.per_slot[slot].queries = Some(queries);
                 self.batches = batches;
                 return Err(e);
             }
@@ -1299,7 +1332,7 @@ impl Renderer {
         };
         let t1 = Instant::now();
         let slot = self.slot;
-        self.queries[slot] = Some(queries);
+        self.per_slot[slot].queries = Some(queries);
         self.batches = batches;
         if let Some(out) = output {
             self.record_output(cmd, out)?;
@@ -1316,7 +1349,8 @@ impl Renderer {
             .submit(&self.ctx);
         let t3 = Instant::now();
         stats.cpu_ms.submit = ms(t2, t3);
-        let last_pass = self.queries[slot]
+        let last_pass = self.per_slot[slot]
+            .queries
             .as_ref()
             .map_or("none", |q| q.last_pass());
         submit.map_err(|e| device_lost(e, "submitting a frame", last_pass))?;
@@ -1334,7 +1368,7 @@ impl Renderer {
             ));
         }
         stats.frame = self.frame_index;
-        self.in_flight[slot] = Some(stats);
+        self.per_slot[slot].in_flight = Some(stats);
         Ok(self.frame_index)
     }
 
@@ -1344,7 +1378,8 @@ impl Renderer {
         self.finish()?;
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
-        let mut queries = self.queries[slot]
+        let mut queries = self.per_slot[slot]
+            .queries
             .take()
             .expect("queries present until drop");
         queries.reset(&self.ctx, cmd);
@@ -1358,285 +1393,9 @@ impl Renderer {
             .expect("ring present until drop")
             .wait_all(&self.ctx)?;
         let (passes, _) = queries.read(&self.ctx)?;
-        self.queries[slot] = Some(queries);
+        self.per_slot[slot].queries = Some(queries);
         self.slot = (slot + 1) % self.slots;
         Ok(passes.iter().map(|p| p.1).sum())
-    }
-
-    /// Records one frame's passes into `cmd`, top to bottom in the order the
-    /// GPU runs them; with `floor`, a floor frame instead of the scene.
-    /// Returns the draw calls.
-    fn record(
-        &self,
-        cmd: vk::CommandBuffer,
-        batches: &Batches,
-        q: &mut Queries,
-        floor: Option<FloorKind>,
-    ) -> u64 {
-        let ctx = &self.ctx;
-        let targets = self.targets();
-        let rec = self.recorder(cmd);
-        let passes = &self.passes;
-        // The far field planned for this frame (floor frames draw none).
-        let far = passes
-            .far
-            .as_ref()
-            .filter(|f| floor.is_none() && f.frame().is_some());
-        let mut draw_calls = 0u64;
-        let gpu_cull = passes.gpu_cull.as_ref().filter(|_| floor.is_none());
-        if let Some(gpu) = gpu_cull {
-            gpu.record(ctx, cmd, q, self.slot);
-        }
-        let points = passes.points.as_ref().filter(|_| floor.is_none());
-        if let Some(p) = points.filter(|p| p.computes()) {
-            p.record_raster(ctx, cmd, q, (self.slot, 2));
-        }
-        rec.barriers(&targets.begin_barriers());
-        if let Some(inset) = &passes.inset {
-            rec.barriers(&attachments::begin_barriers(&inset.wide.sets));
-        }
-        if let Some(lms) = &passes.lms {
-            rec.barriers(&attachments::begin_barriers(&lms.targets.sets));
-        }
-        q.begin_stats(ctx, cmd);
-        if let Some(far) = far {
-            draw_calls += match gpu_cull {
-                Some(gpu) => far.record_gpu(&rec, q, gpu, self.slot),
-                None => far.record(&rec, q, batches),
-            };
-        }
-        // With a monoscopic far field, the near field's depth starts at the
-        // split plane (reverse-Z: near / D), so only geometry nearer than D
-        // passes the depth test.
-        let depth_clear = far.map_or(0.0, |f| f.depth_clear(self.config.near));
-        // (attachment set, view mask, eye); an array, not a Vec: no
-        // allocation while recording.
-        let view_sets = match self.config.stereo {
-            StereoMode::Multiview => [Some((&targets.sets[0], 0b11, 0)), None],
-            StereoMode::TwoPass => [
-                Some((&targets.sets[0], 0, 0)),
-                Some((&targets.sets[1], 0, 1)),
-            ],
-        };
-        // With occlusion the frame is drawn in two scopes per view set: the
-        // early draws, then (after the depth pyramid and the late cull) the
-        // late draws and the sky.
-        let occlusion = gpu_cull.filter(|g| g.occlusion());
-        // With `resolved-sky` the sky is drawn after the resolve, not in
-        // the scopes (floor frames draw no sky either way).
-        let resolved_sky = passes.resolved_sky.as_ref().filter(|_| floor.is_none());
-        // Every colour sample is written when the sky is drawn inside the
-        // scopes and no stencil (hidden-area mask, RDM's checkerboard)
-        // keeps draws out (a hidden-area mask marked in depth writes its
-        // samples' colour itself); the far field's composite is not counted on, nor
-        // LMS's quadrants (their resample filters across the quadrant
-        // edges, past what the per-quadrant sky covers). Floor frames start
-        // their colour the same way as the frame.
-        let colour_covered = passes.resolved_sky.is_none()
-            && (passes.stencil_mask.is_none() || self.mask_in_depth)
-            && passes.rdm.is_none()
-            && passes.far.is_none()
-            && passes.lms.is_none();
-        let parts: &[ScopePart] = match occlusion {
-            Some(_) => &[ScopePart::First, ScopePart::Second],
-            None => &[ScopePart::Whole],
-        };
-        for &part in parts {
-            if let (ScopePart::Second, Some(gpu)) = (part, occlusion) {
-                gpu.record_late(ctx, cmd, q, self.slot);
-                rec.memory_barriers(&[attachments::between_scopes()]);
-            }
-            // With inset each view set is drawn twice: the wide view into
-            // its own smaller targets, then the eye at full size inside the
-            // inset only.
-            // With its four views in one scope (floor frames too: the
-            // targets are the four-layer ones), a single scope over the
-            // wide views' region and the inset together.
-            let inset = passes.inset.as_ref().filter(|_| floor.is_none());
-            let rect = self.inset_rect;
-            // One pixel more around the region: the composite's bilinear
-            // reads at the region's edge texel centres, and the texel past
-            // it must be written too (it gets no weight, up to the
-            // sampler's precision).
-            let four = self.four_view_region().map(|region| {
-                let grown = crate::view::inset::PixelRect {
-                    x0: region.x0.saturating_sub(1),
-                    y0: region.y0.saturating_sub(1),
-                    x1: (region.x1 + 1).min(self.extent.width),
-                    y1: (region.y1 + 1).min(self.extent.height),
-                };
-                pixel_area(&crate::view::inset::bounding(&grown, &rect))
-            });
-            let inset_area = four.unwrap_or_else(|| pixel_area(&rect));
-            let view_sets = match four {
-                Some(_) => [Some((&targets.sets[0], 0b1111, 0)), None],
-                None => view_sets,
-            };
-            let scopes = view_sets
-                .into_iter()
-                .flatten()
-                .flat_map(|(set, view_mask, eye)| {
-                    // The wide views at one sample (inset-wide-1x, or aq's
-                    // MSAA rung this frame) draw with the one-sample twins.
-                    let wide = inset.filter(|i| !i.four_view()).map(|i| {
-                        let (views, one_sample) = i.wide_views(eye);
-                        (
-                            views,
-                            i.wide_extent(self.extent),
-                            None,
-                            view_mask,
-                            eye,
-                            "forward-wide",
-                            passes.inset_wide.as_ref().filter(|_| one_sample),
-                            // A quad output hands the wide views to the
-                            // runtime as drawn: no jitter, no history.
-                            if self.quad { [0.0; 2] } else { i.jitter() },
-                        )
-                    });
-                    // With lms the eye is drawn into the LMS targets instead.
-                    let lms = passes.lms.as_ref().map(|l| {
-                        let t = &l.targets;
-                        (t.sets[eye as usize % t.sets.len()].views(), t.extent)
-                    });
-                    let (views, extent) = lms.unwrap_or((set.views(), self.extent));
-                    let main = (
-                        views,
-                        extent,
-                        (inset.is_some() || four.is_some()).then_some(inset_area),
-                        view_mask,
-                        eye,
-                        match (inset, lms) {
-                            (Some(i), _) if i.four_view() => "forward-four-view",
-                            (Some(_), _) => "forward-inset",
-                            (None, Some(_)) => "forward-lms",
-                            (None, None) => "forward",
-                        },
-                        None,
-                        [0.0; 2],
-                    );
-                    wide.into_iter().chain(std::iter::once(main))
-                });
-            for (views, extent, area, view_mask, eye, name, one_sample, jitter) in scopes {
-                let late = part == ScopePart::Second;
-                let forward = one_sample.map_or(&passes.forward, |w| &w.forward);
-                let overlay = one_sample.map_or(&passes.overlay, |w| &w.overlay);
-                q.begin_pass(ctx, cmd, if late { "forward-late" } else { name });
-                // The draws were recorded into secondaries by the threads.
-                let parallel = self.parallel.as_ref().filter(|_| floor.is_none());
-                rec.begin_scope(&Scope {
-                    part,
-                    views,
-                    area,
-                    extent,
-                    view_mask,
-                    depth_clear,
-                    shading_rate: self.shading_rate.as_ref().and_then(|s| s.attachment(eye)),
-                    secondaries: parallel.is_some(),
-                    sky_after_resolve: resolved_sky.is_some(),
-                    colour_covered,
-                    jitter,
-                });
-                if let Some(par) = parallel {
-                    // SAFETY: inside a scope begun for secondary contents;
-                    // the secondaries were recorded for it this frame.
-                    unsafe {
-                        ctx.device
-                            .cmd_execute_commands(cmd, par.commands(self.slot, eye as usize))
-                    };
-                    rec.end_scope();
-                    q.end_pass(ctx, cmd);
-                    continue;
-                }
-                if !late {
-                    if let Some(mask) = &passes.stencil_mask {
-                        draw_calls += match one_sample.and_then(|w| w.hidden) {
-                            Some(p) => mask.record_using(&rec, p, self.slot, eye),
-                            None => mask.record(&rec, self.slot, eye),
-                        };
-                    }
-                    if let Some(rdm) = &passes.rdm {
-                        draw_calls += rdm.record(&rec, self.extent, eye);
-                    }
-                    if let Some(p) = points {
-                        draw_calls += p.record_in_scope(&rec, eye, extent);
-                    }
-                }
-                // The inset scope (the one with a render area) draws the
-                // inset's own list.
-                let (near, base) = match area {
-                    Some(_) => (
-                        batches.inset_draws(),
-                        batches.inset_start.unwrap_or(0) as u32,
-                    ),
-                    None => (batches.near_draws(), 0),
-                };
-                let sky = part != ScopePart::First && resolved_sky.is_none();
-                // With lms the scope's contents are drawn once per quadrant
-                // (floor frames once, unscaled).
-                let quadrants: &[Option<u32>] = match (&passes.lms, floor) {
-                    (Some(_), None) => &[Some(0), Some(1), Some(2), Some(3)],
-                    _ => &[None],
-                };
-                for &quadrant in quadrants {
-                    if let Some(l) = &passes.lms {
-                        l.set_quadrant(&rec, quadrant);
-                    }
-                    match (floor, far) {
-                        (Some(kind), _) => draw_calls += passes.floor.record(&rec, kind, eye),
-                        (None, Some(far)) => {
-                            draw_calls += far.record_composite(&rec, eye);
-                            // The sky lies beyond the split: the far field has it.
-                            draw_calls += match gpu_cull {
-                                Some(gpu) => {
-                                    forward.record_gpu(&rec, gpu, eye, self.slot, false, false)
-                                }
-                                None => forward.record(&rec, near, eye, false),
-                            };
-                        }
-                        (None, None) => match gpu_cull {
-                            Some(gpu) => {
-                                // The inset scope draws the second set
-                                // where the cull made the inset's lists.
-                                let second = late || (area.is_some() && gpu.inset_lists());
-                                draw_calls +=
-                                    forward.record_gpu(&rec, gpu, eye, self.slot, sky, second)
-                            }
-                            None => draw_calls += forward.record_from(&rec, near, base, eye, sky),
-                        },
-                    }
-                    if floor.is_none() && part != ScopePart::First {
-                        draw_calls += overlay.record(&rec, self.extras.overlay.len(), eye);
-                    }
-                }
-                rec.end_scope();
-                q.end_pass(ctx, cmd);
-            }
-        }
-        if let Some(s) = resolved_sky {
-            draw_calls += s.record(&rec, q, targets, self.extent, self.view_mask());
-        }
-        if let Some(rdm) = &passes.rdm {
-            draw_calls += rdm.record_fill(&rec, q, targets, self.extent, self.view_mask());
-        }
-        if let Some(lms) = &passes.lms {
-            draw_calls += lms.record_resample(&rec, q, targets, self.extent, self.view_mask());
-        }
-        if let Some(inset) = passes
-            .inset
-            .as_ref()
-            .filter(|_| floor.is_none() && !self.quad)
-        {
-            // A dispatch per set, not a draw: not counted in draw_calls.
-            inset.record_composite(
-                &rec,
-                q,
-                targets,
-                self.extent,
-                (self.inset_rect, self.wide_region),
-            );
-        }
-        q.end_stats(ctx, cmd);
-        draw_calls
     }
 
     /// A recorder of this frame slot's draws into `cmd`.
@@ -1935,13 +1694,15 @@ impl Drop for Renderer {
         if let Some(r) = self.ring.take() {
             r.destroy(&ctx);
         }
-        for q in self.queries.drain(..).flatten() {
+        for q in self.per_slot.iter_mut().filter_map(|s| s.queries.take()) {
             q.destroy(&ctx);
         }
         std::mem::take(&mut self.passes).destroy(&ctx);
         self.descriptors.destroy(&ctx);
-        for b in self.visible.drain(..).flatten().chain(self.ubos.drain(..)) {
-            b.destroy(&ctx);
+        for slot in self.per_slot.drain(..) {
+            for b in slot.visible.into_iter().chain([slot.ubo]) {
+                b.destroy(&ctx);
+            }
         }
         std::mem::take(&mut self.readback).destroy(&ctx);
         if let Some(t) = self.targets.take() {

@@ -796,7 +796,7 @@ fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, Decod
         let size = super::image_decode::decoded_bytes(&bytes, ktx2).map_err(|e| {
             ctx_err_path(ctx.path, format!("image '{name}' cannot be decoded: {e}"))
         })?;
-        free = decode_ratio_check(ctx, &name, size, bytes.len() as u64, free)?;
+        free = decode_ratio_check(ctx, &name, size, &bytes, free)?;
         ctx.spend(size, &format!("image '{name}'"))?;
         sources.push((i, name, bytes, ktx2));
     }
@@ -824,15 +824,17 @@ fn decode_images(ctx: &Ctx, doc: &gltf::Document) -> Result<HashMap<usize, Decod
 }
 
 /// An image that would decode to more than [`MAX_DECODE_RATIO`] times
-/// its encoded size is refused unless the scene's shared allowance
+/// its encoded size (in its own pixel format for PNG,
+/// [`super::image_decode::ratio_limit`]) is refused unless the scene's shared allowance
 /// (`free`, what is left of [`FREE_DECODE_BYTES`]) covers it; returns
 /// what is left of the allowance.
 ///
 /// [`MAX_DECODE_RATIO`]: super::image_decode::MAX_DECODE_RATIO
 /// [`FREE_DECODE_BYTES`]: super::image_decode::FREE_DECODE_BYTES
-fn decode_ratio_check(ctx: &Ctx, name: &str, size: u64, encoded: u64, free: u64) -> Result<u64> {
+fn decode_ratio_check(ctx: &Ctx, name: &str, size: u64, bytes: &[u8], free: u64) -> Result<u64> {
     let ratio = super::image_decode::MAX_DECODE_RATIO;
-    if size <= encoded.saturating_mul(ratio) {
+    let encoded = bytes.len() as u64;
+    if size <= super::image_decode::ratio_limit(bytes) {
         return Ok(free);
     }
     if size <= free {

@@ -12,14 +12,37 @@ pub const MAX_TEXTURE_PIXELS: u64 = 64 << 20;
 /// Largest allocation the decoder may make.
 pub const MAX_DECODE_ALLOC: u64 = 1 << 30;
 
-/// The most RGBA8 bytes an image may decode to per encoded byte, beyond
-/// [`FREE_DECODE_BYTES`]: Deflate (PNG) cannot exceed about 1032:1, and
-/// JPEG of a flat image stays below that; only a crafted lossless WebP
-/// goes far beyond (a few kilobytes claiming a gigabyte).
+/// The most raw sample bytes an image may decode to per encoded byte,
+/// beyond [`FREE_DECODE_BYTES`]: Deflate (PNG) cannot exceed about
+/// 1032:1, and JPEG of a flat image stays below that; a crafted lossless
+/// WebP goes far beyond (a few kilobytes claiming a gigabyte). For PNG the
+/// raw samples are the file's own pixel format (a flat 1-bit grey image
+/// is fine at 32 times the ratio of its RGBA8 output); for other formats
+/// they are taken as RGBA8.
 pub const MAX_DECODE_RATIO: u64 = 1100;
 /// Decoded bytes a scene's images may take together beyond their ratio:
-/// small, flat textures compress further than [`MAX_DECODE_RATIO`].
-pub const FREE_DECODE_BYTES: u64 = 64 << 20;
+/// flat textures (placeholder roughness or occlusion maps, flat lossy
+/// WebP) compress further than [`MAX_DECODE_RATIO`].
+pub const FREE_DECODE_BYTES: u64 = 256 << 20;
+
+/// The most RGBA8 bytes `encoded` bytes of this image may decode to under
+/// [`MAX_DECODE_RATIO`]: scaled by 32 over the PNG's bits per pixel (from
+/// its IHDR: bit depth × channels of its colour type).
+pub fn ratio_limit(bytes: &[u8]) -> u64 {
+    let encoded = bytes.len() as u64;
+    let png_bits = (bytes.len() >= 29 && bytes.starts_with(b"\x89PNG\r\n\x1a\n")).then(|| {
+        let depth = u64::from(bytes[24]);
+        let channels = match bytes[25] {
+            2 => 3,
+            4 => 2,
+            6 => 4,
+            _ => 1,
+        };
+        (depth * channels).clamp(1, 64)
+    });
+    let scale = png_bits.map_or(1.0, |bits| 32.0 / bits as f64);
+    (encoded as f64 * MAX_DECODE_RATIO as f64 * scale) as u64
+}
 
 /// The decoded size (RGBA8 bytes) of an encoded image, read from its
 /// header only (PNG, JPEG, WebP, or KTX2 when `ktx2`), with the texture
@@ -278,6 +301,30 @@ mod tests {
         assert!(e.contains("texel block dimension"), "{e}");
         let e = decode_ktx2_rgba8(&file[..100]).unwrap_err();
         assert!(e.contains("invalid KTX2"), "{e}");
+    }
+
+    #[test]
+    fn a_png_is_held_to_the_ratio_of_its_own_samples() {
+        // A 4000-byte 8-bit grey PNG (its IHDR's depth and colour type
+        // are what count) may claim 2048² pixels: 1024:1 of its grey
+        // samples, 4096:1 of the RGBA8 they become.
+        let mut png = vec![0u8; 4000];
+        png[..8].copy_from_slice(b"\x89PNG\r\n\x1a\n");
+        png[24] = 8;
+        png[25] = 0;
+        let rgba = 2048u64 * 2048 * 4;
+        assert!(rgba > png.len() as u64 * MAX_DECODE_RATIO);
+        assert!(rgba <= ratio_limit(&png));
+        // As RGBA (colour type 6), or not a PNG, the same bytes may not.
+        png[25] = 6;
+        assert!(rgba > ratio_limit(&png));
+        png[0] = 0;
+        assert!(rgba > ratio_limit(&png));
+        // 1-bit grey: 32 times the ratio of its RGBA8 output.
+        png[..8].copy_from_slice(b"\x89PNG\r\n\x1a\n");
+        png[24] = 1;
+        png[25] = 0;
+        assert_eq!(ratio_limit(&png), 4000 * MAX_DECODE_RATIO * 32);
     }
 
     #[test]

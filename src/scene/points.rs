@@ -275,7 +275,16 @@ fn vlr_guard<R: std::io::Read + std::io::Seek>(
             "the header lists {count} VLRs, more than the file's {size} bytes hold"
         ));
     }
-    let mut pos = u16_at(head, 94);
+    // The `las` crate reads the whole header of the file's version (227,
+    // 235 or 375 bytes) whatever its header-size field says, then skips
+    // to that field when it is larger: the VLRs start at the larger one.
+    let version_header = match head[25] {
+        0..=2 => 227,
+        3 => 235,
+        _ => 375,
+    };
+    let mut pos = u16_at(head, 94).max(version_header);
+    let compressed = head[104] & 0x80 != 0;
     let mut vlr = [0u8; 54];
     for k in 0..count {
         if pos + 54 > size {
@@ -291,32 +300,30 @@ fn vlr_guard<R: std::io::Read + std::io::Seek>(
                 "VLR {k} claims {len} bytes past the file's end ({size} bytes)"
             ));
         }
-        if vlr[2..16] == *b"laszip encoded" && u16_at(&vlr, 18) == 22204 {
+        if compressed && vlr[2..16] == *b"laszip encoded" && u16_at(&vlr, 18) == 22204 {
             let mut data = vec![0u8; len as usize];
             r.read_exact(&mut data).map_err(eof)?;
             laszip_items_guard(&data, record)?;
         }
         pos += 54 + len;
     }
-    if head.len() >= 247 && head[25] >= 4 && u32_at(head, 243) > 0 {
-        let evlrs = u32_at(head, 243);
-        let mut pos = u64_at(head, 235);
-        for k in 0..evlrs.min(size / 60 + 1) {
-            if pos.saturating_add(60) > size {
-                return Err(format!(
-                    "extended VLR {k} starts at byte {pos}, past the file's end ({size} bytes)"
-                ));
-            }
-            r.seek(SeekFrom::Start(pos + 20)).map_err(eof)?;
-            let mut word = [0u8; 8];
-            r.read_exact(&mut word).map_err(eof)?;
-            let len = u64::from_le_bytes(word);
-            if len > size - pos - 60 {
-                return Err(format!(
-                    "extended VLR {k} claims {len} bytes, more than the file's {size} bytes hold"
-                ));
-            }
-            pos += 60 + len;
+    // The crate reads the first extended VLR (LAS 1.4, a count and a
+    // start both set), whose 64-bit length it allocates.
+    if head.len() >= 247 && head[25] >= 4 && u32_at(head, 243) > 0 && u64_at(head, 235) > 0 {
+        let pos = u64_at(head, 235);
+        if pos.saturating_add(60) > size {
+            return Err(format!(
+                "the extended VLR starts at byte {pos}, past the file's end ({size} bytes)"
+            ));
+        }
+        r.seek(SeekFrom::Start(pos + 20)).map_err(eof)?;
+        let mut word = [0u8; 8];
+        r.read_exact(&mut word).map_err(eof)?;
+        let len = u64::from_le_bytes(word);
+        if len > size - pos - 60 {
+            return Err(format!(
+                "extended VLR 0 claims {len} bytes, more than the file's {size} bytes hold"
+            ));
         }
     }
     Ok(())
@@ -704,10 +711,10 @@ pub fn write_las(path: &Path, cloud: &PointCloud, scale: f64) -> Result<()> {
 }
 
 /// Why `cloud` cannot be written as LAS at coordinate quantum `scale`
-/// (the `las` writer panics on what it cannot encode, so it is checked
-/// first): no points (a LAS without points is a file vergence refuses to
+/// (checked before the `las` writer starts, whose drop panics when its
+/// header cannot be finished): no points (a LAS without points is a file vergence refuses to
 /// read), or a point whose offset from the origin (the file's coordinate
-/// offset) is more quanta than LAS's 32-bit integers hold.
+/// offset) is not finite or more quanta than LAS's 32-bit integers hold.
 pub fn check_writable(cloud: &PointCloud, scale: f64) -> std::result::Result<(), String> {
     if cloud.is_empty() {
         return Err("no points to write".into());
@@ -717,13 +724,20 @@ pub fn check_writable(cloud: &PointCloud, scale: f64) -> std::result::Result<(),
             "the coordinate quantum {scale} is not a positive number"
         ));
     }
+    if let Some(i) = cloud
+        .positions
+        .iter()
+        .position(|p| !p.iter().all(|v| v.is_finite()))
+    {
+        return Err(format!("point {i} is not finite"));
+    }
     let reach = cloud
         .positions
         .iter()
         .flatten()
         .fold(0.0f64, |m, &v| m.max(f64::from(v).abs()));
     let most = f64::from(i32::MAX) * scale;
-    if reach.is_nan() || reach > most {
+    if reach > most {
         return Err(format!(
             "the points reach {reach:.3e} m from their origin; LAS at {scale} m a step holds {most:.3e} m"
         ));

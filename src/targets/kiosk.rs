@@ -343,6 +343,8 @@ pub struct RotatingLog {
     keep: u32,
     file: std::fs::File,
     size: u64,
+    /// Why rotation stopped (reported once; the log then only grows).
+    stuck: Option<String>,
 }
 
 /// The first line of every log file vergence creates: rotation renames
@@ -364,7 +366,7 @@ impl RotatingLog {
         let mut size = file.metadata().map(|m| m.len()).unwrap_or(0);
         if size > 0 && !is_ours(&path) {
             return Err(err(format!(
-                "exists and is not a vergence kiosk log (it does not begin with {:?}); name another file",
+                "exists and is not a vergence kiosk log (it does not begin with {:?}; logs of older vergence versions do not either: move them aside); name another file",
                 String::from_utf8_lossy(LOG_MARK).trim_end()
             )));
         }
@@ -379,6 +381,7 @@ impl RotatingLog {
             keep: settings.keep,
             file,
             size,
+            stuck: None,
         })
     }
 
@@ -392,6 +395,17 @@ impl RotatingLog {
     /// then starts a new FILE; refused, touching nothing, when any of
     /// those files exists and is not a log vergence made.
     fn rotate(&mut self) -> std::io::Result<()> {
+        // The file at the path must still be the one being written.
+        let same = match (self.file.metadata(), std::fs::symlink_metadata(&self.path)) {
+            (Ok(a), Ok(b)) => same_inode(&a, &b),
+            _ => false,
+        };
+        if !same {
+            return Err(std::io::Error::other(format!(
+                "{} is no longer the log being written; the log is not rotated",
+                self.path.display()
+            )));
+        }
         for k in 1..=self.keep {
             let f = self.rotated(k);
             if std::fs::symlink_metadata(&f).is_ok() && !is_ours(&f) {
@@ -422,12 +436,33 @@ impl RotatingLog {
     pub fn write_lines(&mut self, bytes: &[u8]) -> std::io::Result<()> {
         let full =
             self.size > LOG_MARK.len() as u64 && self.size + bytes.len() as u64 > self.max_bytes;
-        // When rotation is refused the lines still go to the log (longer
-        // than its size) and the refusal is returned.
-        let rotated = if full { self.rotate() } else { Ok(()) };
+        // When rotation fails or is refused, the lines still go to the log
+        // (longer than its size), the reason is returned once and rotation
+        // is not tried again: a half-done rotation retried could remove
+        // the file being written.
+        let mut rotated = Ok(());
+        if full && self.stuck.is_none() {
+            if let Err(e) = self.rotate() {
+                self.stuck = Some(e.to_string());
+                rotated = Err(e);
+            }
+        }
         self.file.write_all(bytes)?;
         self.size += bytes.len() as u64;
         rotated
+    }
+}
+
+/// Whether two files' metadata name the same file.
+fn same_inode(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
+    #[cfg(unix)]
+    {
+        use std::os::unix::fs::MetadataExt as _;
+        a.dev() == b.dev() && a.ino() == b.ino()
+    }
+    #[cfg(not(unix))]
+    {
+        a.len() == b.len() && a.modified().ok() == b.modified().ok()
     }
 }
 
@@ -479,7 +514,11 @@ impl Drop for LogWriter {
         if let Some(log) = LOG.get() {
             if let Ok(mut l) = log.lock() {
                 // A full disk must not end the demo: the line is dropped.
-                let _ = l.write_lines(&self.buf);
+                // A refused rotation is said once on stderr (not through
+                // tracing, which would come back here).
+                if let Err(e) = l.write_lines(&self.buf) {
+                    eprintln!("vergence: kiosk log: {e}");
+                }
             }
         }
     }

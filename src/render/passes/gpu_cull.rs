@@ -294,7 +294,7 @@ impl GpuCull {
         setup: &PipelineSetup,
         scene: &Scene,
         order: &[u32],
-        frame_ubos: &[Buffer],
+        frame_ubos: &[&Buffer],
         occlusion: Option<(&Attachments, f32)>,
         lod: bool,
         far_field: bool,
@@ -578,7 +578,7 @@ impl GpuCull {
         ctx: &Context,
         n_cmds: usize,
         total: u64,
-        frame_ubos: &[Buffer],
+        frame_ubos: &[&Buffer],
     ) -> Result<()> {
         let slots = frame_ubos.len();
         for i in 0..slots {
@@ -686,7 +686,7 @@ impl GpuCull {
                 info(&slot.commands),
                 info(&slot.counts),
                 info(&slot.visible),
-                info(&frame_ubos[i]),
+                info(frame_ubos[i]),
                 info(
                     self.pyramid
                         .as_ref()

@@ -624,17 +624,7 @@ impl VertexBindings {
     }
 }
 
-/// Which part of a frame's drawing a rendering scope holds.
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
-pub enum ScopePart {
-    /// All of it: clear, draw, resolve.
-    Whole,
-    /// The first of two (occlusion's early views): clear, draw, store
-    /// colour and depth unresolved.
-    First,
-    /// The second of two (the late views): load, draw, resolve.
-    Second,
-}
+pub use super::plan::ScopePart;
 
 /// One rendering scope: where it draws and how it starts.
 pub struct Scope {

@@ -90,7 +90,7 @@ impl PointsPass {
         setup: &PipelineSetup,
         cloud: &PointCloud,
         extent: vk::Extent2D,
-        frames: &[Buffer],
+        frames: &[&Buffer],
         point_size: f32,
         force_list: bool,
         edl: Option<f64>,
@@ -158,7 +158,7 @@ impl PointsPass {
         }
     }
 
-    fn build(&mut self, setup: &PipelineSetup, frames: &[Buffer]) -> Result<()> {
+    fn build(&mut self, setup: &PipelineSetup, frames: &[&Buffer]) -> Result<()> {
         let ctx = setup.ctx;
         let pixels = 2 * self.extent.width as u64 * self.extent.height as u64;
         for i in 0..frames.len() {

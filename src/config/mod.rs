@@ -1,5 +1,8 @@
 //! `RenderConfig`: one field per optimization, parsed from the CLI (`--stereo`,
-//! `--msaa`, `--opt LIST`) and from config files.
+//! `--msaa`, `--opt LIST`) and from config files. The `--opt` names are
+//! declared as data in [`options`].
+
+pub mod options;
 
 use crate::cull::Strategy;
 use crate::error::{Error, Result};
@@ -1077,7 +1080,10 @@ impl RenderConfig {
                 other => {
                     return Err(Error::config(
                         "--opt",
-                        format!("unknown optimization '{other}' (known: multiview, two-pass, msaa4, no-msaa, stencil-mask, foveation[=off|low|medium|high|auto], gaze=X:Y, rdm[=R|auto], rdm-nofill, mffr[=D], mffr-depth-shift, mffr-alternate-eye, mffr-no-split, gpu-cull, occlusion, lod[=PX], lod-cache, aq, aq-scale-only, inset[=F], inset-fov=DEG, inset-views=2|4, inset-wide-1x, inset-composite, inset-wide-all, inset-taa[=A], inset-taa-jitter, inset-taau, inset-taau-lanczos, inset-sharpen[=S], inset-catmull-rom, lms[=K], lms-emulated, points-budget=N, point-size=PX, points-pipeline, edl[=S], resolved-sky, timewarp=K, timewarp-rotation, timewarp-fill, {})", cull_names.join(", ")),
+                        format!(
+                            "unknown optimization '{other}' (known: {})",
+                            options::known_list(cull_names)
+                        ),
                     ))
                 }
             }
