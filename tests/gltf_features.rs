@@ -695,3 +695,26 @@ fn run_starts_at_a_camera_and_offers_the_cameras() {
         "{err}"
     );
 }
+
+#[test]
+fn a_camera_with_a_degenerate_transform_is_named_not_dropped_unseen() {
+    let dir = common::scratch("gltf", "degenerate-camera");
+    let path = dir.join("cam.gltf");
+    std::fs::write(
+        &path,
+        r#"{"asset":{"version":"2.0"},"scene":0,"scenes":[{"nodes":[0]}],
+            "nodes":[{"camera":0,"scale":[0,0,0]}],
+            "cameras":[{"type":"perspective","perspective":{"yfov":0.8,"znear":0.1}}]}"#,
+    )
+    .unwrap();
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(["inspect", path.to_str().unwrap()])
+        .output()
+        .unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(
+        stderr.contains("node 0 places camera 0 with a degenerate transform"),
+        "{stderr}"
+    );
+}

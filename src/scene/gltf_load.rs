@@ -1701,7 +1701,18 @@ fn place_nodes(
             return Err(ctx.err(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(cam) = node.camera() {
-            if let Some(pose) = camera_pose(&world) {
+            let pose = camera_pose(&world);
+            if pose.is_none() {
+                // A camera whose node scales an axis to zero has no
+                // orientation: said, not dropped unseen.
+                tracing::warn!(
+                    "{}: node {} places camera {} with a degenerate transform (an axis scaled to zero); it is not offered as a viewpoint",
+                    ctx.path.display(),
+                    node.index(),
+                    cam.index()
+                );
+            }
+            if let Some(pose) = pose {
                 let yfov = match cam.projection() {
                     gltf::camera::Projection::Perspective(p) => Some(p.yfov() as f64),
                     gltf::camera::Projection::Orthographic(_) => None,

@@ -1,0 +1,289 @@
+//! Creating a `Renderer`: the targets, descriptors, per-slot buffers and
+//! queries, the passes the configuration asks for, and the output copy.
+
+use super::*;
+
+impl Renderer {
+    /// Creates a renderer for `scene` at `extent` pixels per eye.
+    pub fn new(
+        ctx: Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+    ) -> Result<Renderer> {
+        Renderer::with_output(ctx, scene, config, extent, None)
+    }
+
+    /// Creates a renderer whose frames are also copied into images of
+    /// `output` (see [`Renderer::submit_frame`]).
+    pub fn with_output(
+        ctx: Arc<Context>,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        output: Option<OutputSpec>,
+    ) -> Result<Renderer> {
+        config.validate()?;
+        if config.rdm_auto || config.foveation == crate::view::foveation::Level::Lens(0) {
+            return Err(Error::config(
+                "--opt",
+                "rdm=auto and foveation=auto need an HMD profile with a lens to derive their radii from (this path does not resolve them); give rdm=R or a foveation level",
+            ));
+        }
+        if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384
+        {
+            return Err(Error::config(
+                "image size",
+                format!(
+                    "{}x{} must be within 1..=16384",
+                    extent.width, extent.height
+                ),
+            ));
+        }
+        if output.is_some_and(|o| o.quad) && config.inset.is_none() {
+            return Err(Error::config(
+                "output",
+                "four views go out only with --opt inset (the runtime's view configuration is quad views)",
+            ));
+        }
+        let samples = config.msaa.min(ctx.caps.max_samples);
+        let slots = config.frames_in_flight as usize;
+        // With aq every target is made once for the largest scale.
+        let nominal = extent;
+        let allocated = if config.aq {
+            scaled(extent, crate::adaptive::MAX_SCALE)
+        } else {
+            extent
+        };
+        let extent = allocated;
+        let (chains, cache) = match (config.lod, &scene.source) {
+            (None, _) => (None, None),
+            (Some(_), Some(source)) if config.lod_cache => {
+                let (c, used) = crate::scene::lod_cache::load_or_build(scene, source);
+                (Some(c), Some(used))
+            }
+            (Some(_), _) => (Some(crate::scene::lod::build(scene)), None),
+        };
+        let lod_report = chains.as_ref().map(|c| LodReport {
+            levels: c.level_count(),
+            index_bytes: c.index_bytes(),
+            build_ms: c.build_ms,
+            cache,
+        });
+        let scene_gpu = SceneGpu::new(&ctx, scene, chains.as_ref())?;
+        drop(chains);
+        let draw_records = match DrawRecords::new(&ctx, config.per_draw, slots) {
+            Ok(r) => r,
+            Err(e) => {
+                scene_gpu.destroy(&ctx);
+                return Err(e);
+            }
+        };
+        let extra_set = draw_records.as_ref().map(DrawRecords::set_layout);
+        let descriptors =
+            match Descriptors::new(&ctx, scene_gpu.textures.len() as u32, slots, extra_set) {
+                Ok(d) => d,
+                Err(e) => {
+                    if let Some(r) = draw_records {
+                        r.destroy(&ctx);
+                    }
+                    scene_gpu.destroy(&ctx);
+                    return Err(e);
+                }
+            };
+        let depth_out = output.as_ref().is_some_and(|o| o.depth);
+        let mask_in_depth = mask_in_depth(config, depth_out);
+        let stencil = tests_stencil(config, mask_in_depth) || depth_out;
+        let depth_format = match ctx.caps.depth_only_format {
+            Some(f) if !stencil => f,
+            _ => ctx.caps.depth_format,
+        };
+        let inset_choice = config
+            .inset
+            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views, samples));
+        let mut r = Renderer {
+            ctx: ctx.clone(),
+            depth_format,
+            config: RenderConfig {
+                msaa: samples,
+                ..config.clone()
+            },
+            extent: nominal,
+            nominal,
+            allocated,
+            inset_rect: crate::view::inset::PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: nominal.width,
+                y1: nominal.height,
+            },
+            focus: None,
+            quad: output.is_some_and(|o| o.quad),
+            vertices: VertexBindings::new(&scene_gpu),
+            scene: Some(scene_gpu),
+            targets: None,
+            descriptors,
+            per_slot: Vec::with_capacity(slots),
+            ring: None,
+            slot: 0,
+            slots,
+            completed: VecDeque::with_capacity(slots + 1),
+            slot_wait_ms: 0.0,
+            batcher: Batcher::new(scene),
+            sun: scene.sun,
+            extras: uniforms::FrameExtras {
+                section: config.section.map(culling::plane_of),
+                overlay: Vec::new(),
+            },
+            batches: Batches::default(),
+            pending: None,
+            shading_rate: None,
+            passes: Passes::default(),
+            output: output.map(OutputCopy::new),
+            readback: Readback::new(),
+            frame_index: 0,
+            mffr_fallbacks: 0,
+            mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
+            foveation_path: "off".into(),
+            inset_path: inset_choice.as_ref().map(|c| {
+                if output.is_some_and(|o| o.quad) {
+                    format!("{}, submitted as four views", c.1)
+                } else {
+                    c.1.clone()
+                }
+            }),
+            mask_in_depth,
+            four_view: inset_choice.is_some_and(|c| c.0),
+            wide_region: crate::view::inset::PixelRect {
+                x0: 0,
+                y0: 0,
+                x1: 0,
+                y1: 0,
+            },
+            lod: lod_report,
+            draw_records,
+            parallel: None,
+            updates: instance_updates::InstanceUpdates::new(slots),
+            instance_count: scene.instances.len(),
+        };
+        // Made into the renderer, so a failure from here on drops it and
+        // with it everything made so far.
+        for i in 0..slots {
+            let ubo = Buffer::new(
+                &ctx,
+                &BufferDesc {
+                    name: &format!("frame data {i}"),
+                    size: UBO_SIZE,
+                    usage: vk::BufferUsageFlags::UNIFORM_BUFFER,
+                    location: MemoryLocation::CpuToGpu,
+                    category: "per-frame",
+                },
+            )?;
+            // Secondary command buffers may run inside the frame's
+            // statistics query only with inheritedQueries.
+            let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
+            let queries = Queries::new(&ctx, 32, stats);
+            // The buffer joins the renderer before the queries' result is
+            // looked at, so a failure drops (and destroys) it with the rest.
+            r.per_slot.push(Slot {
+                ubo,
+                visible: None,
+                queries: None,
+                in_flight: None,
+            });
+            r.per_slot[i].queries = Some(queries?);
+        }
+        r.ring = Some(FrameRing::new(&ctx, slots)?);
+        if let Some(n) = config.record_threads {
+            r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
+        }
+        // Pipelines depend on the shading-rate attachment: foveation first.
+        let (rates, path) = ShadingRate::new(&ctx, &r.config, extent)?;
+        if rates.is_none() {
+            r.config.foveation = Level::Off;
+        }
+        r.shading_rate = rates;
+        r.foveation_path = path;
+        match (&r.inset_path, config.inset) {
+            (Some(path), Some(i)) if i.four_views && !r.four_view => {
+                tracing::warn!("inset-views=4 falls back: {path}")
+            }
+            (Some(path), _) => tracing::info!("inset: {path}"),
+            _ => {}
+        }
+        r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
+        if let Some(cloud) = scene.points.as_ref() {
+            config.refuse_for_points()?;
+            r.passes.points = Some(passes::points::PointsPass::new(
+                &r.pipeline_setup(),
+                cloud,
+                extent,
+                &r.ubos(),
+                config.point_size as f32,
+                config.points_pipeline,
+                config.edl,
+            )?);
+        }
+        r.targets = Some(Attachments::new(
+            &ctx,
+            extent,
+            samples,
+            config.stereo == StereoMode::Multiview,
+            SetOptions {
+                depth_format,
+                // The depth variants of the timewarp read the frame's depth;
+                // the rotation-only one does not.
+                keep_depth: output.is_some_and(|o| o.depth)
+                    || config
+                        .timewarp
+                        .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
+                // With a quad output the runtime composites the inset: no
+                // composed image.
+                composed: (config.rdm.is_some() && config.rdm_fill)
+                    || (config.inset.is_some() && !r.quad)
+                    || config.lms.is_some(),
+                sampled: false,
+                storage_output: config.inset.is_some() && !r.quad,
+                occlusion: config.occlusion,
+                multiview_layers: if r.four_view { 4 } else { 2 },
+                one_sample_depth: false,
+            },
+        )?);
+        if let (Some(inset), Some(targets), false) =
+            (r.passes.inset.as_mut(), r.targets.as_ref(), r.quad)
+        {
+            inset.bind(&ctx, targets)?;
+        }
+        if config.gpu_cull {
+            let order = r.batcher.order().to_vec();
+            let occlusion = config.occlusion.then(|| (r.targets(), config.near as f32));
+            let gpu = GpuCull::new(
+                &r.pipeline_setup(),
+                scene,
+                &order,
+                &r.ubos(),
+                occlusion,
+                config.lod.is_some(),
+                config.mffr.is_some(),
+                config.inset.is_some() && !r.four_view,
+            )?;
+            r.passes.gpu_cull = Some(gpu);
+        }
+        // The list holds an id per (visible instance, primitive), and with
+        // the inset its own list after that (`Batches::inset_start`): room
+        // for an id per instance in each list, so that with one primitive
+        // per mesh the first frames do not grow it (more primitives grow it
+        // once, to what is visible: sizing for every primitive of every
+        // instance would reserve far more than a view sees on large scenes).
+        let lists = if config.inset.is_some() { 2 } else { 1 };
+        let ids = scene.instances.len().max(1) * lists;
+        for i in 0..slots {
+            if r.passes.gpu_cull.is_some() {
+                r.write_descriptors(i);
+            } else {
+                r.ensure_visible_capacity(i, ids)?;
+            }
+        }
+        Ok(r)
+    }
+}
