@@ -197,6 +197,9 @@ case("gltf/meshopt-unknown-mode.gltf", "scene", ["unknown mode 'STRIPS'"], mesho
 case("gltf/meshopt-garbage-stream.gltf", "scene", ["bufferView 0", "does not decode"], meshopt({}))
 case("gltf/meshopt-missing-count.gltf", "scene", ["meshopt compression has no count"],
      meshopt({}, drop=["count"]))
+# A 41-byte stream claiming 100 M vertices of 12 bytes (1.2 GB decoded).
+case("gltf/meshopt-count-bomb.gltf", "scene", ["bufferView 0", "more than 64 per stream byte"],
+     meshopt({"count": 100_000_000}))
 doc = json.loads(meshopt({}))
 del doc["bufferViews"][0]["extensions"]
 case("gltf/meshopt-plain-view-in-fallback.gltf", "scene", ["bufferView 0", "fallback buffer, but is not compressed"],

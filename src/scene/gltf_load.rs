@@ -589,7 +589,23 @@ fn decode_meshopt_view(
         )));
     }
     m.validate().map_err(&fail)?;
-    ctx.spend(decoded.unwrap_or(0) as u64, label)?;
+    // Before anything is reserved: meshopt's densest code (a vertex
+    // group's 2-bit header for 16 zero deltas of a byte) packs 64 decoded
+    // bytes into one, and the index codecs pack less; a stream that claims
+    // more is refused rather than trusted with memory.
+    let most = (stream.len() as u64)
+        .saturating_mul(64)
+        .saturating_add(64 << 10);
+    let want = decoded.unwrap_or(0) as u64;
+    if want > most {
+        return Err(fail(format!(
+            "stream of {} bytes claims {} × {} = {want} decoded bytes, more than 64 per stream byte",
+            stream.len(),
+            m.count,
+            m.byte_stride
+        )));
+    }
+    ctx.spend(want, label)?;
     let (words, _) = m.decode(stream).map_err(fail)?;
     Ok(ViewData::Decoded {
         words,

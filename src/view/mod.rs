@@ -392,6 +392,11 @@ impl StereoRig {
     }
 }
 
+/// The least gap [`frame_bounds`] leaves between the eye and the framed
+/// sphere, metres: five times the default near plane (0.05 m), so a small
+/// scene is drawn whole rather than clipped away.
+pub const MIN_FRAMING_CLEARANCE_M: f64 = 0.25;
+
 /// A head pose that frames an axis-aligned box: looking down -Z (pitched
 /// down by `pitch_deg`) from far enough that a sphere around the box fits in
 /// the narrower half-angle of `fov`.
@@ -402,11 +407,42 @@ pub fn frame_bounds(lo: DVec3, hi: DVec3, fov: &Fov, pitch_deg: f64) -> Pose {
         .into_iter()
         .fold(f64::INFINITY, f64::min)
         .max(0.05);
-    let distance = radius / half.sin() * 1.05;
+    // The sphere fits the narrower half-angle at r / sin(half) (5 %
+    // margin); a small scene (a scan a few centimetres across) would sit
+    // that close, inside the near plane: it stays at least
+    // MIN_FRAMING_CLEARANCE_M beyond its own radius.
+    let distance = (radius / half.sin() * 1.05).max(radius + MIN_FRAMING_CLEARANCE_M);
     let orientation = DQuat::from_rotation_x(pitch_deg.to_radians());
     let position = center - orientation * DVec3::NEG_Z * distance;
     Pose {
         position,
         orientation,
+    }
+}
+
+#[cfg(test)]
+mod framing_tests {
+    use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// The framed sphere lies beyond the clearance and inside the
+        /// narrower half-angle, from a millimetre to a kilometre.
+        #[test]
+        fn the_framed_sphere_is_clear_of_the_eye_and_in_view(
+            size in 1e-3f64..1e3,
+            half_deg in 10.0f64..60.0,
+        ) {
+            let a = half_deg.to_radians();
+            let fov = Fov { left: -a, right: a, up: a, down: -a };
+            let lo = DVec3::new(4.0, -2.0, 7.0);
+            let hi = lo + DVec3::new(size, size * 0.5, size * 0.25);
+            let pose = frame_bounds(lo, hi, &fov, 0.0);
+            let centre = (lo + hi) * 0.5;
+            let radius = (hi - lo).length() * 0.5;
+            let distance = (centre - pose.position).length();
+            prop_assert!(distance - radius >= MIN_FRAMING_CLEARANCE_M - 1e-9);
+            prop_assert!((radius / distance).asin() <= half_deg.to_radians() + 1e-9);
+        }
     }
 }
