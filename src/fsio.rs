@@ -187,6 +187,29 @@ pub fn read_prefix(path: &Path, n: usize) -> io::Result<Vec<u8>> {
     Ok(bytes)
 }
 
+/// The most bytes [`read_system_text`] reads.
+const MAX_SYSTEM_FILE_BYTES: u64 = 1 << 20;
+
+/// Text the operating system provides (`/proc/self/statm`,
+/// `/proc/cpuinfo`): opened and checked as every read is, at most 1 MiB
+/// (their size reads as 0, so the bound holds while reading), not an
+/// input of the command.
+pub fn read_system_text(path: &Path) -> io::Result<String> {
+    let (file, meta) = open_checked(path, MAX_SYSTEM_FILE_BYTES)?;
+    let bytes = read_all(file, meta.len(), MAX_SYSTEM_FILE_BYTES)?;
+    String::from_utf8(bytes)
+        .map_err(|e| io::Error::new(io::ErrorKind::InvalidData, format!("not UTF-8 text: {e}")))
+}
+
+/// Whether the open `file` is still the file at `path` (not following a
+/// final link): a log about to be renamed must be the one being written.
+pub fn is_same_file(file: &File, path: &Path) -> bool {
+    match (file.metadata(), std::fs::symlink_metadata(path)) {
+        (Ok(a), Ok(b)) => file_id(path, &a).is_some() && file_id(path, &a) == file_id(path, &b),
+        _ => false,
+    }
+}
+
 fn read_all(file: File, len: u64, limit: u64) -> io::Result<Vec<u8>> {
     let mut bytes = Vec::new();
     bytes

@@ -11,7 +11,7 @@ pub fn process_rss_bytes() -> Option<u64> {
 mod os {
     /// Resident pages from `/proc/self/statm` times the page size.
     pub fn rss_bytes() -> Option<u64> {
-        let statm = std::fs::read_to_string("/proc/self/statm").ok()?;
+        let statm = crate::fsio::read_system_text(std::path::Path::new("/proc/self/statm")).ok()?;
         let pages: u64 = statm.split_whitespace().nth(1)?.parse().ok()?;
         // SAFETY: sysconf has no preconditions.
         let page = unsafe { libc::sysconf(libc::_SC_PAGESIZE) };

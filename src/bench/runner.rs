@@ -1376,7 +1376,7 @@ fn save_left(out: &Path, dir: &str, name: &str, images: &RefImages) -> Result<St
 
 /// The host CPU's model name (from /proc/cpuinfo).
 fn cpu_model() -> String {
-    std::fs::read_to_string("/proc/cpuinfo")
+    crate::fsio::read_system_text(Path::new("/proc/cpuinfo"))
         .ok()
         .and_then(|s| {
             s.lines()

@@ -199,7 +199,8 @@ pub struct PlanInput {
 /// The frame's steps in GPU order.
 pub fn frame(input: &PlanInput) -> Vec<Step> {
     let gpu_cull = input.gpu_cull && !input.floor;
-    let mut steps = Vec::with_capacity(16);
+    // At most 11 fixed steps and 4 scopes a part.
+    let mut steps = Vec::with_capacity(20);
     if gpu_cull {
         steps.push(Step::GpuCull);
     }
@@ -221,9 +222,7 @@ pub fn frame(input: &PlanInput) -> Vec<Step> {
         if part == ScopePart::Second {
             steps.push(Step::LateCull);
         }
-        for scope in scopes(input, part) {
-            steps.push(Step::Scope(scope));
-        }
+        push_scopes(input, part, &mut steps);
     }
     if input.resolved_sky && !input.floor {
         steps.push(Step::ResolvedSky);
@@ -256,9 +255,9 @@ fn colour_covered(input: &PlanInput) -> bool {
         && input.lms.is_none()
 }
 
-/// The scopes of one part: per view set, the inset's wide view (when it
-/// has one) and then the eye.
-fn scopes(input: &PlanInput, part: ScopePart) -> Vec<ScopeStep> {
+/// Appends the scopes of one part to `steps`: per view set, the inset's
+/// wide view (when it has one) and then the eye.
+fn push_scopes(input: &PlanInput, part: ScopePart, steps: &mut Vec<Step>) {
     // (target set, view mask, eye)
     let sets: &[(usize, u32, u32)] = if input.two_pass {
         &[(0, 0, 0), (1, 0, 1)]
@@ -287,23 +286,27 @@ fn scopes(input: &PlanInput, part: ScopePart) -> Vec<ScopeStep> {
         sets
     };
     let inset = input.inset.filter(|_| !input.floor);
-    let mut out = Vec::with_capacity(4);
     for &(set, view_mask, eye) in sets {
         let base = scope_base(input, part, eye, view_mask);
         if let Some(i) = inset.filter(|i| i.four_view_region.is_none()) {
-            out.push(ScopeStep {
-                name: "forward-wide",
+            steps.push(Step::Scope(ScopeStep {
+                name: if part == ScopePart::Second {
+                    "forward-late"
+                } else {
+                    "forward-wide"
+                },
                 target: Target::Wide { eye },
                 extent: i.wide_extent,
                 one_sample_twins: i.wide_one_sample[eye as usize % 2],
                 jitter: if i.quad { [0.0; 2] } else { i.jitter },
                 ..base
-            });
+            }));
         }
         // The scope over the inset (or the four views' region) draws
         // inside it only.
         let area = four.or_else(|| inset.map(|i| i.rect));
         let name = match (inset, input.lms) {
+            _ if part == ScopePart::Second => "forward-late",
             (Some(i), _) if i.four_view_region.is_some() => "forward-four-view",
             (Some(_), _) => "forward-inset",
             (None, Some(_)) => "forward-lms",
@@ -313,21 +316,15 @@ fn scopes(input: &PlanInput, part: ScopePart) -> Vec<ScopeStep> {
             Some(size) => (Target::Lms { eye }, size),
             None => (Target::Eye { set }, input.extent),
         };
-        out.push(ScopeStep {
+        steps.push(Step::Scope(ScopeStep {
             name,
             target,
             extent,
             area,
             draws: draws(input, part, area.is_some()),
             ..base
-        });
+        }));
     }
-    if part == ScopePart::Second {
-        for s in &mut out {
-            s.name = "forward-late";
-        }
-    }
-    out
 }
 
 /// A scope of `part` for `eye` with what every scope of the frame shares.

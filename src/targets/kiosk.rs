@@ -396,11 +396,7 @@ impl RotatingLog {
     /// those files exists and is not a log vergence made.
     fn rotate(&mut self) -> std::io::Result<()> {
         // The file at the path must still be the one being written.
-        let same = match (self.file.metadata(), std::fs::symlink_metadata(&self.path)) {
-            (Ok(a), Ok(b)) => same_inode(&a, &b),
-            _ => false,
-        };
-        if !same {
+        if !crate::fsio::is_same_file(&self.file, &self.path) {
             return Err(std::io::Error::other(format!(
                 "{} is no longer the log being written; the log is not rotated",
                 self.path.display()
@@ -450,19 +446,6 @@ impl RotatingLog {
         self.file.write_all(bytes)?;
         self.size += bytes.len() as u64;
         rotated
-    }
-}
-
-/// Whether two files' metadata name the same file.
-fn same_inode(a: &std::fs::Metadata, b: &std::fs::Metadata) -> bool {
-    #[cfg(unix)]
-    {
-        use std::os::unix::fs::MetadataExt as _;
-        a.dev() == b.dev() && a.ino() == b.ino()
-    }
-    #[cfg(not(unix))]
-    {
-        a.len() == b.len() && a.modified().ok() == b.modified().ok()
     }
 }
 
@@ -602,7 +585,13 @@ mod tests {
             log.write_lines(format!("line {i:02} of the kiosk log\n").as_bytes())
                 .unwrap();
         }
-        let read = |p: &str| std::fs::read_to_string(dir.join(p)).unwrap_or_default();
+        // Read as caches are (not made inputs: a later test's file could
+        // reuse the inode).
+        let read = |p: &str| {
+            crate::fsio::read_cache(&dir.join(p), 1 << 20)
+                .map(|b| String::from_utf8_lossy(&b).into_owned())
+                .unwrap_or_default()
+        };
         assert!(read("k.log").contains("line 19"));
         assert!(!read("k.log.1").is_empty() && !read("k.log.2").is_empty());
         assert!(!dir.join("k.log.3").exists(), "keeps 2");
@@ -645,10 +634,14 @@ mod tests {
             let _ = log.write_lines(format!("line {i:02} of the kiosk log\n").as_bytes());
         }
         assert_eq!(
-            std::fs::read_to_string(dir.join("k.log.2")).unwrap(),
+            String::from_utf8(crate::fsio::read_cache(&dir.join("k.log.2"), 1 << 20).unwrap())
+                .unwrap(),
             "the user's notes"
         );
-        assert_eq!(std::fs::read_to_string(&victim).unwrap(), "keep me");
+        assert_eq!(
+            crate::fsio::read_cache(&victim, 1 << 20).unwrap(),
+            b"keep me"
+        );
         let _ = std::fs::remove_dir_all(&dir);
     }
 }

@@ -35,8 +35,8 @@ fn the_unknown_option_error_lists_every_declared_name() {
 
 #[test]
 fn the_readme_table_is_the_generated_one() {
-    let readme =
-        std::fs::read_to_string(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md")).unwrap();
+    let path = std::path::Path::new(concat!(env!("CARGO_MANIFEST_DIR"), "/README.md"));
+    let readme = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES).unwrap();
     let table = markdown_table(&cull_names());
     assert!(
         readme.contains(&table),
