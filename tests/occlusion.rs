@@ -420,3 +420,133 @@ fn lod_cache_without_lod_is_one_clear_error() {
     let e = c.validate().unwrap_err().to_string();
     assert!(e.contains("lod-cache keeps the chains lod builds"), "{e}");
 }
+
+/// Occlusion with the inset: the depth pyramid comes from the wide views
+/// (the whole field of view), the wide and inset scopes each draw the
+/// early set and then the late one. The hidden boxes are not drawn from
+/// the second frame on, and every frame equals the inset without
+/// occlusion — standing still and walking past the wall's edge — in
+/// multiview and two-pass, with the wide views at the frame's samples, at
+/// one sample, and accumulated (inset-taau).
+#[test]
+fn occlusion_composes_with_the_inset() {
+    let ctx = context();
+    let scene = wall_scene();
+    let still: Vec<StereoRig> = (0..3).map(|_| rig_at(0.0)).collect();
+    let walk: Vec<StereoRig> = (0..8).map(|i| rig_at(1.3 * i as f64)).collect();
+    let cases = [
+        "multiview,msaa4,superfrustum,gpu-cull,inset=0.5",
+        "two-pass,msaa4,superfrustum,gpu-cull,inset=0.5",
+        "multiview,msaa4,superfrustum,gpu-cull,inset=0.5,inset-wide-1x",
+        "multiview,no-msaa,superfrustum,gpu-cull,inset=0.5,inset-taau",
+    ];
+    for base in cases {
+        let opts = format!("{base},occlusion");
+        let (_, reference) = frames(&ctx, &scene, base, &still);
+        let (culled, images) = frames(&ctx, &scene, &opts, &still);
+        for (i, r) in culled.iter().enumerate().skip(1) {
+            let c = r.stats.gpu_cull.expect("gpu-cull counters");
+            assert_eq!(c.occluded, HIDDEN as u64, "{opts} frame {i}: {c:?}");
+            assert_eq!(c.drawn_late, 0, "{opts} frame {i}: {c:?}");
+            assert_eq!(
+                differing(&images[i], &reference[i]),
+                0,
+                "{opts} frame {i}: the image differs from the inset's without occlusion"
+            );
+        }
+        let (_, reference) = frames(&ctx, &scene, base, &walk);
+        let (culled, images) = frames(&ctx, &scene, &opts, &walk);
+        let late: u64 = culled
+            .iter()
+            .map(|r| r.stats.gpu_cull.unwrap().drawn_late)
+            .sum();
+        assert!(
+            late > 0,
+            "{opts}: boxes came into view through the late phase"
+        );
+        for i in 0..walk.len() {
+            assert_eq!(
+                differing(&images[i], &reference[i]),
+                0,
+                "{opts} walking, frame {i}: something visible was missing"
+            );
+        }
+    }
+}
+
+/// `config(opts)` with adaptive quality over a budget no frame meets, so
+/// the controller lowers the render scale (and with the inset its wide
+/// rungs) frame by frame, the same way in every run.
+fn over_budget(opts: &str) -> RenderConfig {
+    RenderConfig {
+        aq: true,
+        budget_ms: Some(0.001),
+        frames_in_flight: 1,
+        ..config(opts)
+    }
+}
+
+/// Occlusion with adaptive quality: the depth pyramid follows the size the
+/// frame is drawn at. While the scale falls every frame, the hidden boxes
+/// stay undrawn and each frame equals adaptive quality's without
+/// occlusion, with and without the inset.
+#[test]
+fn occlusion_follows_adaptive_qualitys_scale() {
+    let ctx = context();
+    let scene = wall_scene();
+    let rigs: Vec<StereoRig> = (0..10).map(|_| rig_at(0.0)).collect();
+    for base in [
+        "multiview,msaa4,superfrustum,gpu-cull",
+        "two-pass,msaa4,superfrustum,gpu-cull,inset=0.5",
+    ] {
+        let run =
+            |opts: &str| common::frame_by_frame(&ctx, &scene, &over_budget(opts), &rigs, SIZE);
+        let (plain, reference) = run(base);
+        let (culled, images) = run(&format!("{base},occlusion"));
+        let scales: Vec<f64> = culled.iter().map(|r| r.aq.unwrap().scale).collect();
+        assert!(
+            scales.last() < scales.first(),
+            "{base}: the scale fell: {scales:?}"
+        );
+        for i in 1..rigs.len() {
+            assert_eq!(culled[i].aq.unwrap().size, plain[i].aq.unwrap().size);
+            let c = culled[i].stats.gpu_cull.unwrap();
+            assert_eq!(c.occluded, HIDDEN as u64, "{base} frame {i}: {c:?}");
+            assert_eq!(
+                differing(&images[i], &reference[i]),
+                0,
+                "{base},occlusion frame {i} (scale {}): differs from aq alone",
+                scales[i]
+            );
+        }
+    }
+}
+
+/// LOD with adaptive quality: levels are chosen at the density the frame
+/// is drawn at, so as the scale falls the same view draws coarser levels.
+#[test]
+fn lod_follows_adaptive_qualitys_scale() {
+    let ctx = context();
+    let scene = load("assets/retroufo/retroufo.glb");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let mut pose = framing_pose(&scene, &profile);
+    let (lo, hi) = scene.bounds();
+    pose.position += pose.orientation * DVec3::new(0.0, 0.0, (hi - lo).length());
+    let rigs: Vec<StereoRig> = (0..10).map(|_| profile.rig(pose)).collect();
+    let opts = "multiview,msaa4,superfrustum,gpu-cull,lod";
+    let (frames, _) = common::frame_by_frame(&ctx, &scene, &over_budget(opts), &rigs, SIZE);
+    let (first, last) = (&frames[0], frames.last().unwrap());
+    for r in &frames {
+        let c = r.stats.gpu_cull.unwrap();
+        assert_eq!(c.lod_triangles.iter().sum::<u64>(), r.stats.triangles);
+    }
+    assert!(last.aq.unwrap().scale < first.aq.unwrap().scale);
+    assert!(
+        last.stats.triangles < first.stats.triangles,
+        "at scale {} against {}: {} triangles against {}",
+        last.aq.unwrap().scale,
+        first.aq.unwrap().scale,
+        last.stats.triangles,
+        first.stats.triangles,
+    );
+}

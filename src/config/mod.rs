@@ -635,8 +635,6 @@ impl RenderConfig {
                     (foveation, "foveation"),
                     (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
-                    (self.occlusion, "occlusion"),
-                    (self.lod.is_some(), "lod"),
                     (self.timewarp.is_some(), "timewarp"),
                 ],
             )?;
@@ -648,7 +646,6 @@ impl RenderConfig {
                     (foveation, "foveation"),
                     (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
-                    (self.occlusion, "occlusion"),
                     (self.timewarp.is_some(), "timewarp"),
                     (
                         self.record_threads.is_some() || self.per_draw != PerDraw::Push,
@@ -656,6 +653,12 @@ impl RenderConfig {
                     ),
                 ],
             )?;
+        }
+        if self.inset.is_some_and(|i| i.four_views) && self.occlusion {
+            return Err(Error::config(
+                "--opt",
+                "occlusion builds its depth pyramid from the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
+            ));
         }
         if self.inset.is_some_and(|i| i.wide_1x && i.four_views) {
             return Err(Error::config(

@@ -256,7 +256,10 @@ impl Renderer {
         }
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
-            let occlusion = config.occlusion.then(|| (r.targets(), config.near as f32));
+            let occlusion = config.occlusion.then(|| r.occlusion_targets(samples));
+            // With occlusion the inset scope draws the same two sets as the
+            // wide one (early, late): no lists of its own.
+            let inset_lists = config.inset.is_some() && !r.four_view && !config.occlusion;
             let gpu = GpuCull::new(
                 &r.pipeline_setup(),
                 scene,
@@ -265,7 +268,7 @@ impl Renderer {
                 occlusion,
                 config.lod.is_some(),
                 config.mffr.is_some(),
-                config.inset.is_some() && !r.four_view,
+                inset_lists,
             )?;
             r.passes.gpu_cull = Some(gpu);
         }
@@ -285,5 +288,31 @@ impl Renderer {
             }
         }
         Ok(r)
+    }
+
+    /// The views occlusion's depth pyramid reduces: with the inset (two
+    /// scopes) its wide views, which cover each eye's whole field of view
+    /// with the eye's projection (the inset scope covers only its
+    /// rectangle); else the eyes' targets (`samples` per pixel).
+    fn occlusion_targets(&self, samples: u32) -> passes::gpu_cull::OcclusionTargets<'_> {
+        let near = self.config.near as f32;
+        match self.passes.inset.as_ref().filter(|i| !i.four_view()) {
+            Some(inset) => passes::gpu_cull::OcclusionTargets {
+                sets: &inset.wide.sets,
+                extent: inset.wide.extent,
+                samples: if inset.wide.sets.iter().all(|s| s.color_msaa.is_some()) {
+                    samples
+                } else {
+                    1
+                },
+                near,
+            },
+            None => passes::gpu_cull::OcclusionTargets {
+                sets: &self.targets().sets,
+                extent: self.targets().extent,
+                samples,
+                near,
+            },
+        }
     }
 }

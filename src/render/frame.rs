@@ -250,6 +250,11 @@ impl Renderer {
                 }
                 None => LodFrame::default(),
             };
+            let drawn = match self.passes.inset.as_ref() {
+                Some(inset) => inset.wide_extent(self.extent),
+                None => self.extent,
+            };
+            gpu.set_occlusion_size(drawn);
             gpu.upload(slot, data, lod, rig.head.position)?;
         } else {
             self.ensure_visible_capacity(slot, batches.ids.len())?;

@@ -4,7 +4,7 @@
 //! level, as `cull::hiz` defines it (`shaders/hiz_init*.comp` for level 0,
 //! `shaders/hiz_reduce.comp` for the rest). The late cull reads it.
 
-use super::super::attachments::Attachments;
+use super::super::attachments::AttachmentSet;
 use crate::cull::hiz::{self, Level};
 use crate::error::{Result, VkContext};
 use crate::gpu::barrier::{self, Use};
@@ -45,16 +45,23 @@ pub struct DepthPyramid {
 }
 
 impl DepthPyramid {
-    /// Creates the pass for `targets` (eyes of `extent`, `samples` per
-    /// pixel) with `slots` frame slots; their depth images must be
-    /// sampleable (created for occlusion).
+    /// Creates the pass for the attachment sets `targets` (one 2-layer set
+    /// under multiview, one per eye in two-pass; eyes of `extent`,
+    /// `samples` per pixel) with `slots` frame slots; their depth images
+    /// must be sampleable (created for occlusion).
     pub fn new(
         ctx: &Context,
-        targets: &Attachments,
+        targets: &[AttachmentSet],
         extent: vk::Extent2D,
         samples: u32,
         slots: usize,
     ) -> Result<DepthPyramid> {
+        if targets.is_empty() {
+            return Err(crate::error::Error::config(
+                "--opt",
+                "occlusion needs the depth of the views it culls for, and these targets have none of their own",
+            ));
+        }
         let levels = hiz::levels(extent.width, extent.height);
         let words: Vec<u32> = levels
             .iter()
@@ -73,14 +80,13 @@ impl DepthPyramid {
             pyramids: Vec::new(),
             views: Vec::new(),
             images: targets
-                .sets
                 .iter()
                 .map(|s| (s.depth.image, s.depth.layers))
                 .collect(),
-            aspect: crate::gpu::depth_aspect(targets.sets[0].depth.format),
+            aspect: crate::gpu::depth_aspect(targets[0].depth.format),
             extent,
             samples,
-            layered: targets.sets.len() == 1,
+            layered: targets.len() == 1,
             sampler: vk::Sampler::null(),
             set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
@@ -98,7 +104,7 @@ impl DepthPyramid {
         }
     }
 
-    fn build(&mut self, ctx: &Context, targets: &Attachments, slots: usize) -> Result<()> {
+    fn build(&mut self, ctx: &Context, targets: &[AttachmentSet], slots: usize) -> Result<()> {
         let texels = 2 * hiz::texels(&self.levels) as u64;
         for i in 0..slots {
             self.pyramids.push(Buffer::new(
@@ -113,7 +119,7 @@ impl DepthPyramid {
             )?);
         }
         for eye in 0..2 {
-            let set = &targets.sets[eye.min(targets.sets.len() - 1)];
+            let set = &targets[eye.min(targets.len() - 1)];
             let img: &Image = &set.depth;
             self.views.push(Image::make_view(
                 ctx,
@@ -217,6 +223,11 @@ impl DepthPyramid {
     /// How many levels the pyramid has.
     pub fn level_count(&self) -> u32 {
         self.levels.len() as u32
+    }
+
+    /// The size of the views the pyramid is built from.
+    pub fn extent(&self) -> vk::Extent2D {
+        self.extent
     }
 
     /// Texels of one eye's pyramid.

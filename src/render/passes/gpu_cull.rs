@@ -32,7 +32,7 @@ use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
-use crate::render::attachments::Attachments;
+use crate::render::attachments::AttachmentSet;
 use crate::render::batches::PipelineKey;
 use crate::render::scene_gpu::{split_dvec3, upload};
 use crate::scene::{Scene, WorldBounds};
@@ -279,14 +279,29 @@ pub enum FarSplit {
     Both,
 }
 
+/// The views occlusion's depth pyramid is built from: the eyes', or with
+/// the inset its wide views' (which cover the whole field of view with the
+/// eyes' projections, at their own size).
+#[derive(Clone, Copy)]
+pub struct OcclusionTargets<'a> {
+    /// Their attachment sets (depth sampleable: made for occlusion).
+    pub sets: &'a [AttachmentSet],
+    /// Their size.
+    pub extent: vk::Extent2D,
+    /// Their samples per pixel.
+    pub samples: u32,
+    /// The near plane (m).
+    pub near: f32,
+}
+
 impl GpuCull {
     /// Uploads `scene`'s instance boxes and primitive lists and creates the
     /// pipeline and `slots` frame slots of buffers, reading each slot's
     /// view-projections from `frame_ubos`. `order` lists the non-blended
     /// primitives in draw order; a scene whose instances use blended
     /// primitives is an error (they need a back-to-front sort the GPU path
-    /// does not do). With `occlusion` (the frame's attachments, created with
-    /// sampleable depth, and the near plane), the two-phase scheme runs.
+    /// does not do). With `occlusion` (the views whose depth the pyramid
+    /// reduces, and the near plane), the two-phase scheme runs.
     /// With `far_field` the second command set is the far pass's, with
     /// `inset` the inset views' (at most one of the three).
     #[allow(clippy::too_many_arguments)]
@@ -295,7 +310,7 @@ impl GpuCull {
         scene: &Scene,
         order: &[u32],
         frame_ubos: &[&Buffer],
-        occlusion: Option<(&Attachments, f32)>,
+        occlusion: Option<OcclusionTargets<'_>>,
         lod: bool,
         far_field: bool,
         inset: bool,
@@ -538,8 +553,8 @@ impl GpuCull {
             cmd_tris,
             cmd_level,
             pyramid: None,
-            near: occlusion.map_or(0.0, |o| o.1),
-            extent: occlusion.map_or(vk::Extent2D::default(), |o| o.0.extent),
+            near: occlusion.map_or(0.0, |o| o.near),
+            extent: occlusion.map_or(vk::Extent2D::default(), |o| o.extent),
             slots: Vec::new(),
             set_layout: vk::DescriptorSetLayout::null(),
             layout: vk::PipelineLayout::null(),
@@ -555,8 +570,8 @@ impl GpuCull {
             far_mode: 0,
             split_axes: None,
         };
-        if let Some((targets, _)) = occlusion {
-            match DepthPyramid::new(ctx, targets, targets.extent, setup.samples, slots) {
+        if let Some(o) = occlusion {
+            match DepthPyramid::new(ctx, o.sets, o.extent, o.samples, slots) {
                 Ok(p) => pass.pyramid = Some(p),
                 Err(e) => {
                     pass.destroy(ctx);
@@ -761,6 +776,23 @@ impl GpuCull {
         self.slots[slot]
             .volumes
             .write(0, as_bytes(std::slice::from_ref(&data)))
+    }
+
+    /// Sets the size the views the pyramid is built from are drawn at this
+    /// frame, within the size the pyramid was made for (`aq` draws from the
+    /// targets' top-left corner at a smaller size). The pyramid still
+    /// reduces the whole targets: past the drawn area lie older frames'
+    /// depths, and since each texel keeps its footprint's farthest depth, a
+    /// texel straddling the area's edge can only hide less than the drawn
+    /// depths alone would, never more.
+    pub fn set_occlusion_size(&mut self, size: vk::Extent2D) {
+        if let Some(p) = &self.pyramid {
+            let max = p.extent();
+            self.extent = vk::Extent2D {
+                width: size.width.clamp(1, max.width),
+                height: size.height.clamp(1, max.height),
+            };
+        }
     }
 
     /// Whether the two-phase occlusion scheme runs.

@@ -93,14 +93,15 @@ pub struct InsetPass {
 impl InsetPass {
     /// The wide targets at `scale` × `extent` (`samples` per pixel; with
     /// `msaa_rung` over MSAA also drawable at one sample, see
-    /// [`InsetPass::set_one_sample`]), with `taa` their temporal
+    /// [`InsetPass::set_one_sample`]; with `occlusion` drawn in two scopes
+    /// with their depth sampled by the depth pyramid), with `taa` their temporal
     /// anti-aliasing (upsampling to `extent` with `inset-taau`), and the
     /// composite; on failure, destroys what it made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         scale: f64,
-        (samples, msaa_rung): (u32, bool),
+        (samples, msaa_rung, occlusion): (u32, bool, bool),
         multiview: bool,
         taa: Option<TaaSettings>,
     ) -> Result<InsetPass> {
@@ -113,7 +114,12 @@ impl InsetPass {
             SampledSets::new(
                 ctx,
                 wide_extent,
-                (samples, msaa_rung, taa.is_some()),
+                &super::sampled::SampledOptions {
+                    samples,
+                    one_sample_depth: msaa_rung,
+                    keep_depth: taa.is_some(),
+                    occlusion,
+                },
                 multiview,
                 setup.depth_format,
                 "inset composite",

@@ -72,7 +72,10 @@ impl LmsPass {
         let targets = SampledSets::new(
             ctx,
             size,
-            (samples, false, false),
+            &super::sampled::SampledOptions {
+                samples,
+                ..Default::default()
+            },
             multiview,
             setup.depth_format,
             "LMS resample",

@@ -125,9 +125,11 @@ impl Passes {
             let wide_1x = i.wide_1x && setup.samples > 1;
             // aq's MSAA rung: the wide views' targets can also be drawn at
             // one sample, frame by frame (two scopes, over MSAA, and the
-            // inset's rungs not left out).
+            // inset's rungs not left out; not with occlusion, whose depth
+            // pyramid reads the wide views' multisampled depth).
             let msaa_rung = config.aq
                 && !config.aq_scale_only
+                && !config.occlusion
                 && !wide_1x
                 && setup.samples > 1
                 && setup.view_mask != 0b1111;
@@ -135,7 +137,11 @@ impl Passes {
                 setup,
                 extent,
                 i.wide_scale,
-                (if wide_1x { 1 } else { setup.samples }, msaa_rung),
+                (
+                    if wide_1x { 1 } else { setup.samples },
+                    msaa_rung,
+                    config.occlusion,
+                ),
                 config.stereo == crate::config::StereoMode::Multiview,
                 i.taa.map(|alpha| inset_taa::TaaSettings {
                     alpha,

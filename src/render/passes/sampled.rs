@@ -8,6 +8,20 @@ use crate::gpu::Context;
 use crate::render::attachments::{AttachmentSet, Attachments, SetOptions, COLOR_FORMAT};
 use ash::vk;
 
+/// What sampled sets are made with beyond drawing and resolving.
+#[derive(Clone, Copy, Debug, Default)]
+pub struct SampledOptions {
+    /// Samples per pixel.
+    pub samples: u32,
+    /// Also drawable at one sample ([`SetOptions::one_sample_depth`]).
+    pub one_sample_depth: bool,
+    /// The depth kept and sampleable ([`AttachmentSet::depth_output`]).
+    pub keep_depth: bool,
+    /// Drawn in occlusion's two scopes, the depth read by the depth
+    /// pyramid ([`SetOptions::occlusion`]).
+    pub occlusion: bool,
+}
+
 /// Sampled attachment sets, their array views and sampler.
 pub struct SampledSets {
     /// The sets (as the eye's: one 2-layer set under multiview, one per eye
@@ -20,30 +34,27 @@ pub struct SampledSets {
 }
 
 impl SampledSets {
-    /// Sets of `extent` with `samples` per pixel (with `one_sample_depth`,
-    /// also drawable at one sample: [`SetOptions::one_sample_depth`]; with
-    /// `keep_depth`, their depth kept and sampleable:
-    /// [`AttachmentSet::depth_output`]), their views and the sampler
+    /// Sets of `extent` as `opts` asks, their views and the sampler
     /// (`what` names it in errors); on failure, destroys what it made.
     pub fn new(
         ctx: &Context,
         extent: vk::Extent2D,
-        (samples, one_sample_depth, keep_depth): (u32, bool, bool),
+        opts: &SampledOptions,
         multiview: bool,
         depth_format: vk::Format,
         what: &str,
     ) -> Result<SampledSets> {
-        let opts = SetOptions {
+        let set_opts = SetOptions {
             depth_format,
-            keep_depth,
+            keep_depth: opts.keep_depth,
             composed: false,
             sampled: true,
             storage_output: false,
-            occlusion: false,
+            occlusion: opts.occlusion,
             multiview_layers: 2,
-            one_sample_depth,
+            one_sample_depth: opts.one_sample_depth,
         };
-        let sets = Attachments::new(ctx, extent, samples, multiview, opts)?.sets;
+        let sets = Attachments::new(ctx, extent, opts.samples, multiview, set_opts)?.sets;
         Self::with_sets(ctx, sets, extent, what)
     }
 

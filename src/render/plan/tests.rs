@@ -314,3 +314,53 @@ fn colour_is_covered_only_without_stencil_kept_draws_or_a_later_sky() {
         }
     );
 }
+
+#[test]
+fn occlusion_with_the_inset_draws_both_scopes_in_each_part() {
+    let steps = frame(&PlanInput {
+        gpu_cull: true,
+        occlusion: true,
+        inset: Some(inset(false)),
+        ..base()
+    });
+    let late = steps.iter().position(|s| *s == Step::LateCull).unwrap();
+    let s = scopes(&steps);
+    assert_eq!(s.len(), 4, "{steps:?}");
+    let before = steps[..late]
+        .iter()
+        .filter(|s| matches!(s, Step::Scope(_)))
+        .count();
+    assert_eq!(before, 2, "both early scopes come before the late cull");
+    for (k, s) in s.iter().enumerate() {
+        let second = k >= 2;
+        let inset_scope = k % 2 == 1;
+        assert_eq!(
+            s.part,
+            if second {
+                ScopePart::Second
+            } else {
+                ScopePart::First
+            }
+        );
+        assert_eq!(
+            s.target,
+            if inset_scope {
+                Target::Eye { set: 0 }
+            } else {
+                Target::Wide { eye: 0 }
+            }
+        );
+        assert_eq!(s.area.is_some(), inset_scope);
+        // Without the inset's own lists both scopes draw the early set
+        // first and the late set second.
+        assert_eq!(
+            s.draws,
+            Draws::Forward {
+                inset_list: inset_scope,
+                gpu_second: second,
+                sky: second
+            }
+        );
+    }
+    assert_eq!(steps[steps.len() - 2], Step::InsetComposite);
+}
