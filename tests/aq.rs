@@ -259,3 +259,65 @@ fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool)
         "allocations changed: {allocated:?}"
     );
 }
+
+/// Adaptive quality composes with the techniques that follow the frame's
+/// drawn size: over a budget no frame meets, the controller lowers the
+/// scale frame by frame, and each frame equals the same technique rendered
+/// by a renderer made at the size adaptive quality drew (same rig, pixel
+/// for pixel) — for RDM with its fill, the sky after the resolve, RDM with
+/// the resolved sky, LOD, occlusion, the stencil mask and two-pass.
+#[test]
+fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
+    use vergence::bench::plan::cull_names;
+    let ctx = context();
+    let scene = load("factory:2000");
+    let profile = HmdProfile::load("valve-index").unwrap();
+    let rig = profile.rig(framing_pose(&scene, &profile));
+    let rigs = vec![rig.clone(); 6];
+    let config = |opts: &str| {
+        let mut c = RenderConfig::default();
+        c.apply_opts(&format!("superfrustum,{opts}"), &cull_names())
+            .unwrap();
+        c.frames_in_flight = 1;
+        c.validate().unwrap();
+        c
+    };
+    let mut failures = Vec::new();
+    for opts in [
+        "gpu-cull",
+        "rdm=0.4",
+        "resolved-sky",
+        "rdm=0.4,resolved-sky",
+        "gpu-cull,lod",
+        "gpu-cull,occlusion",
+        "stencil-mask,two-pass",
+    ] {
+        let adaptive = RenderConfig {
+            aq: true,
+            budget_ms: Some(0.001),
+            ..config(opts)
+        };
+        let (results, images) = common::frame_by_frame(&ctx, &scene, &adaptive, &rigs, SIZE);
+        let last = results.last().unwrap().aq.unwrap();
+        assert!(last.scale < 1.0, "{opts}: the scale fell to {}", last.scale);
+        // The first frame (scale 1 or above) and the last (lowest so far).
+        for i in [0, rigs.len() - 1] {
+            let size = results[i].aq.unwrap().size;
+            assert_eq!(size[0], size[1]);
+            let (_, fixed) =
+                common::frame_by_frame(&ctx, &scene, &config(opts), &rigs[..1], size[0]);
+            let differing: usize = (0..2)
+                .map(|e| common::pixels_differing(&images[i][e], &fixed[0][e]))
+                .sum();
+            if differing != 0 {
+                failures.push(format!(
+                    "{opts},aq frame {i} at {size:?}: {differing} pixels"
+                ));
+            }
+        }
+    }
+    assert!(
+        failures.is_empty(),
+        "frames that differ from the technique rendered at their size: {failures:#?}"
+    );
+}

@@ -633,7 +633,6 @@ impl RenderConfig {
                 "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
                 &[
                     (foveation, "foveation"),
-                    (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
                     (self.timewarp.is_some(), "timewarp"),
                 ],
@@ -678,12 +677,6 @@ impl RenderConfig {
                 "inset-taau accumulates the wide views at the eye's resolution and the composite reads them pixel for pixel; inset-catmull-rom chooses the composite's upsampling filter, which it then no longer uses: leave one out",
             ));
         }
-        if self.inset.is_some_and(|i| i.taa.is_some()) && self.aq {
-            return Err(Error::config(
-                "--opt",
-                "inset-taa accumulates the wide views over frames at one size; aq changes their size from frame to frame, which would restart the history: leave one out",
-            ));
-        }
         if self.inset.is_some_and(|i| i.wide_1x) && self.msaa == 1 {
             return Err(Error::config(
                 "--opt",
@@ -722,16 +715,14 @@ impl RenderConfig {
             refuse_with(
                 "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
                 &[
-                    (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
                     (self.inset.is_some(), "inset"),
                     (self.lms.is_some(), "lms"),
                 ],
             )?;
             refuse_with(
-                "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (aq resizes the frame, timewarp reprojects it, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
+                "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (timewarp reprojects the frame, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
                 &[
-                    (self.aq, "aq"),
                     (self.timewarp.is_some(), "timewarp"),
                     (self.record_threads.is_some(), "--record-threads"),
                 ],

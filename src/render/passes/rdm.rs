@@ -115,6 +115,9 @@ impl Rdm {
             return 0;
         };
         let radius = self.radius.to_bits();
+        // The size drawn this frame (with aq less than the images'), packed
+        // as for the checkerboard.
+        let size = extent.width | extent.height << 16;
         super::record_composed(
             rec,
             q,
@@ -123,7 +126,7 @@ impl Rdm {
             targets.sets.iter(),
             (extent, view_mask),
             fill.pipeline,
-            |eye| [0, eye, 0, radius],
+            |eye| [0, eye, size, radius],
         )
     }
 
