@@ -37,8 +37,7 @@ fn the_sky_under_the_resolved_image_draws_the_image_of_the_sky_in_the_scope() {
     let ctx = context();
     let profile = HmdProfile::load("valve-index").unwrap();
     // AlphaBlendModeTest: blended materials over the sky; cad: glass parts
-    // among a thousand opaque ones; factory: occlusion's two scopes (the
-    // GPU cull takes no blended scene).
+    // among a thousand opaque ones; factory: occlusion's two scopes.
     for (spec, opts) in [
         (
             "assets/AlphaBlendModeTest/AlphaBlendModeTest.gltf",

@@ -171,6 +171,56 @@ impl Batcher {
         }
     }
 
+    /// The instances with at least one blended primitive, and how many
+    /// blended primitives each has.
+    pub fn blended_instances(&self) -> Vec<(u32, u32)> {
+        (0..self.instance_prims.len() as u32)
+            .filter_map(|i| {
+                let n = self.blended_prims(i).count() as u32;
+                (n > 0).then_some((i, n))
+            })
+            .collect()
+    }
+
+    fn blended_prims(&self, instance: u32) -> impl Iterator<Item = u32> + '_ {
+        let (s, n) = self.instance_prims[instance as usize];
+        self.prims[s as usize..(s + n) as usize]
+            .iter()
+            .copied()
+            .filter(|&p| self.keys[p as usize].alpha == 2)
+    }
+
+    /// The blended draws alone of the `visible` instances (the GPU cull
+    /// draws the rest): one per instance and blended primitive, sorted
+    /// back to front from `eye`, their first instance counted from `base`.
+    pub fn build_blended(&mut self, visible: &[u32], eye: DVec3, base: u32, out: &mut Batches) {
+        *out = Batches {
+            ids: std::mem::take(&mut out.ids),
+            draws: std::mem::take(&mut out.draws),
+            ..Batches::default()
+        };
+        out.ids.clear();
+        out.draws.clear();
+        let mut blended = std::mem::take(&mut self.blended);
+        blended.clear();
+        for &i in visible {
+            let d = self.centers[i as usize].distance_squared(eye);
+            blended.extend(self.blended_prims(i).map(|p| (d, p, i)));
+        }
+        blended.sort_by(|a, b| b.0.total_cmp(&a.0));
+        for &(_, p, i) in &blended {
+            out.draws.push(Draw {
+                primitive: p,
+                first: base + out.ids.len() as u32,
+                count: 1,
+            });
+            out.ids.push(i);
+            out.triangles += self.tris[p as usize] as u64;
+        }
+        out.instances_drawn = out.ids.len() as u64;
+        self.blended = blended;
+    }
+
     /// The non-blended primitives in draw order (grouped by pipeline key).
     pub fn order(&self) -> &[u32] {
         &self.order
@@ -389,6 +439,30 @@ mod tests {
                 let mesh = &scene.meshes[scene.instances[i as usize].mesh as usize];
                 assert!(mesh.primitives.contains(&d.primitive));
             }
+        }
+    }
+
+    #[test]
+    fn blended_draws_alone_are_sorted_back_to_front_after_the_base() {
+        let scene = crate::scene::cad::generate(400, 2).unwrap();
+        let mut b = Batcher::new(&scene);
+        let blended = b.blended_instances();
+        assert!(!blended.is_empty(), "cad scenes have glass parts");
+        let visible: Vec<u32> = blended.iter().map(|&(i, _)| i).collect();
+        let eye = DVec3::new(3.0, 1.0, -2.0);
+        let mut out = Batches::default();
+        b.build_blended(&visible, eye, 1000, &mut out);
+        let want: u32 = blended.iter().map(|&(_, n)| n).sum();
+        assert_eq!(out.draws.len() as u32, want);
+        let bounds = scene.world_bounds();
+        let mut last = f64::INFINITY;
+        for (k, d) in out.draws.iter().enumerate() {
+            assert_eq!((d.first, d.count), (1000 + k as u32, 1));
+            assert_eq!(b.keys[d.primitive as usize].alpha, 2);
+            let i = out.ids[k] as usize;
+            let dist = bounds[i].center.distance_squared(eye);
+            assert!(dist <= last, "draw {k} is nearer than the one before");
+            last = dist;
         }
     }
 }

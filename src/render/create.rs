@@ -130,6 +130,7 @@ impl Renderer {
             completed: VecDeque::with_capacity(slots + 1),
             slot_wait_ms: 0.0,
             batcher: Batcher::new(scene),
+            blended: None,
             sun: scene.sun,
             extras: uniforms::FrameExtras {
                 section: config.section.map(culling::plane_of),
@@ -256,6 +257,16 @@ impl Renderer {
         }
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
+            r.blended = blended::GpuBlended::new(config, scene, &r.batcher)?;
+            if r.blended.is_some() && config.mffr.is_some() {
+                return Err(Error::config(
+                    "--opt",
+                    format!(
+                        "scene '{}' has blended primitives, which gpu-cull draws after the near field's opaque ones; with mffr they would be cut at the far field's split: leave out mffr or gpu-cull",
+                        scene.name
+                    ),
+                ));
+            }
             let occlusion = config.occlusion.then(|| r.occlusion_targets(samples));
             // With occlusion the inset scope draws the same two sets as the
             // wide one (early, late): no lists of its own.
@@ -267,8 +278,8 @@ impl Renderer {
                 &r.ubos(),
                 occlusion,
                 config.lod.is_some(),
-                config.mffr.is_some(),
-                inset_lists,
+                (config.mffr.is_some(), inset_lists),
+                r.blended.as_ref().map_or(0, |b| b.capacity()),
             )?;
             r.passes.gpu_cull = Some(gpu);
         }

@@ -35,24 +35,39 @@ impl CullState {
         if config.gpu_cull {
             return Ok(None);
         }
+        let made = Self::over_boxes(strategy, config, &scene.world_aabbs())
+            .map_err(|e| Error::scene(&scene.name, e))?;
+        Ok(Some(CullState {
+            section: config.section.map(plane_of),
+            ..made
+        }))
+    }
+
+    /// `strategy` over the boxes `bounds` (world min, max; the culled
+    /// indices are theirs), with `config`'s near plane and draw distance
+    /// and no section plane; the error is the hierarchy's.
+    pub fn over_boxes(
+        strategy: Strategy,
+        config: &RenderConfig,
+        bounds: &[(glam::DVec3, glam::DVec3)],
+    ) -> std::result::Result<CullState, String> {
         let t = Instant::now();
-        let bvh = Bvh::build(&scene.world_aabbs(), DEFAULT_LEAF_SIZE)
-            .map_err(|e| Error::scene(&scene.name, e.to_string()))?;
+        let bvh = Bvh::build(bounds, DEFAULT_LEAF_SIZE).map_err(|e| e.to_string())?;
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
         let params = CullParams {
             near: config.near,
             draw_distance: config.draw_distance,
             ..CullParams::default()
         };
-        Ok(Some(CullState {
+        Ok(CullState {
             strategy,
             bvh,
             culler: Culler::new(),
             params,
-            section: config.section.map(plane_of),
+            section: None,
             kept: Vec::new(),
             build_ms,
-        }))
+        })
     }
 
     /// Sets the section plane the following culls apply (None: none).

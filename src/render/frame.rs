@@ -28,6 +28,14 @@ impl Renderer {
             instance_updates::check_index(m.index, self.instance_count)?;
             self.batcher.move_instance(m.index, b.center, b.radius);
         }
+        if let Some(blended) = self.blended.as_mut() {
+            let boxes: Vec<_> = moved
+                .iter()
+                .zip(bounds)
+                .map(|(m, b)| (m.index, (b.min, b.max)))
+                .collect();
+            blended.move_instances(&boxes)?;
+        }
         let gpu = self.passes.gpu_cull.as_ref();
         let boxes = |m: &crate::scene::motion::Moved, b: &crate::scene::WorldBounds| {
             gpu.map_or([0.0; instance_updates::BOX_FLOATS], |g| {
@@ -148,6 +156,13 @@ impl Renderer {
             }
             _ if gpu_cull => {
                 batches = Batches::default();
+                // The blended draws, after the opaque ones (the cull's).
+                if let (Some(b), Some(gpu)) = (self.blended.as_mut(), self.passes.gpu_cull.as_mut())
+                {
+                    let base = gpu.blended_base();
+                    b.batch(rig, self.frame_index, &mut self.batcher, base, &mut batches)?;
+                    gpu.set_blended(&batches.ids);
+                }
                 // The cull divides the instances between the wide views and
                 // the inset as the batcher would.
                 let lists = self

@@ -21,6 +21,7 @@
 
 pub mod attachments;
 pub mod batches;
+pub mod blended;
 mod create;
 pub mod culling;
 pub mod descriptors;
@@ -201,6 +202,8 @@ pub struct Renderer {
     /// recording began (added to its `cpu_ms.wait`).
     slot_wait_ms: f64,
     batcher: Batcher,
+    /// With `gpu-cull`: the blended instances, culled and sorted on the CPU.
+    blended: Option<blended::GpuBlended>,
     batches: Batches,
     pending: Option<Pending>,
     vertices: VertexBindings,

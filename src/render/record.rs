@@ -4,7 +4,7 @@
 
 use super::batches::Batches;
 use super::passes::{Recorder, Scope};
-use super::plan::{self, Draws, InsetInput, PlanInput, ScopeStep, Step, Target};
+use super::plan::{self, Draws, InsetInput, PlanInput, ScopePart, ScopeStep, Step, Target};
 use super::{attachments, pixel_area, FloorKind, Renderer};
 use crate::config::StereoMode;
 use crate::gpu::query::Queries;
@@ -281,7 +281,17 @@ impl Renderer {
                     _,
                     _,
                     Some(g),
-                ) => forward.record_gpu(rec, g, eye, self.slot, sky, gpu_second),
+                ) => {
+                    // The blended draws (CPU-sorted) after the opaque ones
+                    // and the sky; with occlusion in its second part.
+                    let blended = &f.batches.draws;
+                    forward.record_gpu(rec, g, eye, self.slot, sky, gpu_second)
+                        + if s.part == ScopePart::First || blended.is_empty() {
+                            0
+                        } else {
+                            forward.record(rec, blended, eye, false)
+                        }
+                }
                 (Draws::Forward { sky, .. }, ..) => forward.record_from(rec, near, base, eye, sky),
                 _ => 0,
             };

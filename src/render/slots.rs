@@ -136,8 +136,9 @@ impl Renderer {
                 StereoMode::TwoPass => 2,
             };
             stats.draw_calls += view_sets * drawn.draws + stats.far_passes * drawn.far_draws;
-            stats.instances_drawn = drawn.instances;
-            stats.triangles = drawn.triangles;
+            // Plus the blended draws batched on the CPU (none without).
+            stats.instances_drawn += drawn.instances;
+            stats.triangles += drawn.triangles;
             stats.gpu_cull = Some(drawn.cull);
         }
         if let Some(p) = self.passes.points.as_mut() {

@@ -259,6 +259,11 @@ pub struct GpuCull {
     inset: bool,
     /// This frame's inset lists (None: every instance in both sets).
     inset_lists: Option<InsetLists>,
+    /// Where the blended draws' instance ids start in each visible buffer
+    /// (after the cull's ranges), and this frame's ids (written there by
+    /// [`GpuCull::record`]).
+    blended_base: u32,
+    blended_ids: Vec<u32>,
     /// The wide views' scale this frame (their pixel density over the
     /// eyes'): with `lod` their list selects levels at that density.
     wide_scale: f32,
@@ -298,12 +303,13 @@ impl GpuCull {
     /// Uploads `scene`'s instance boxes and primitive lists and creates the
     /// pipeline and `slots` frame slots of buffers, reading each slot's
     /// view-projections from `frame_ubos`. `order` lists the non-blended
-    /// primitives in draw order; a scene whose instances use blended
-    /// primitives is an error (they need a back-to-front sort the GPU path
-    /// does not do). With `occlusion` (the views whose depth the pyramid
+    /// primitives in draw order. With `occlusion` (the views whose depth the pyramid
     /// reduces, and the near plane), the two-phase scheme runs.
     /// With `far_field` the second command set is the far pass's, with
-    /// `inset` the inset views' (at most one of the three).
+    /// `inset` the inset views' (at most one of the three). Blended
+    /// primitives are left to the CPU: each visible buffer keeps room for
+    /// `blended` instance ids after the cull's ranges
+    /// ([`GpuCull::set_blended`]).
     #[allow(clippy::too_many_arguments)]
     pub fn new(
         setup: &PipelineSetup,
@@ -312,8 +318,8 @@ impl GpuCull {
         frame_ubos: &[&Buffer],
         occlusion: Option<OcclusionTargets<'_>>,
         lod: bool,
-        far_field: bool,
-        inset: bool,
+        (far_field, inset): (bool, bool),
+        blended: u32,
     ) -> Result<GpuCull> {
         let slots = frame_ubos.len();
         let ctx = setup.ctx;
@@ -328,26 +334,21 @@ impl GpuCull {
         }
         let keys: &[PipelineKey] = setup.keys;
         let n_prims = scene.primitives.len();
-        // Mesh slices into one flat primitive list, and how many instances
-        // use each primitive (the capacity of its visible range).
+        // Mesh slices into one flat list of their non-blended primitives
+        // (the blended ones are culled and sorted on the CPU and drawn from
+        // the visible buffer's tail: `blended`), and how many instances use
+        // each primitive (the capacity of its visible range).
         let mut slices = Vec::with_capacity(scene.meshes.len());
         let mut flat: Vec<u32> = Vec::new();
         for m in &scene.meshes {
-            slices.push((flat.len() as u32, m.primitives.len() as u32));
-            flat.extend_from_slice(&m.primitives);
+            let start = flat.len() as u32;
+            flat.extend(m.primitives.iter().filter(|&&p| keys[p as usize].alpha < 2));
+            slices.push((start, flat.len() as u32 - start));
         }
         let mut users = vec![0u64; n_prims];
         for inst in &scene.instances {
-            for &p in &scene.meshes[inst.mesh as usize].primitives {
-                if keys[p as usize].alpha == 2 {
-                    return Err(Error::config(
-                        "--opt",
-                        format!(
-                            "gpu-cull cannot draw scene '{}': it has blended primitives, which must be sorted back to front on the CPU",
-                            scene.name
-                        ),
-                    ));
-                }
+            let (start, n) = slices[inst.mesh as usize];
+            for &p in &flat[start as usize..(start + n) as usize] {
                 users[p as usize] += 1;
             }
         }
@@ -362,7 +363,7 @@ impl GpuCull {
             n_cmds += levels(p);
         }
         let total: u64 = (0..n_prims).map(|p| users[p] * levels(p) as u64).sum();
-        if total > u32::MAX as u64 / 4 {
+        if total + blended as u64 > u32::MAX as u64 / 4 {
             return Err(Error::scene(
                 &scene.name,
                 format!("{total} instance-primitive pairs exceed what gpu-cull addresses"),
@@ -566,6 +567,8 @@ impl GpuCull {
             far_field,
             inset,
             inset_lists: None,
+            blended_base: (phases as u64 * total) as u32,
+            blended_ids: Vec::new(),
             wide_scale: 1.0,
             far_mode: 0,
             split_axes: None,
@@ -579,7 +582,12 @@ impl GpuCull {
                 }
             }
         }
-        match pass.build(ctx, n_cmds, phases as u64 * total, frame_ubos) {
+        match pass.build(
+            ctx,
+            n_cmds,
+            phases as u64 * total + blended as u64,
+            frame_ubos,
+        ) {
             Ok(()) => Ok(pass),
             Err(e) => {
                 pass.destroy(ctx);
@@ -644,7 +652,7 @@ impl GpuCull {
             let visible = buffer(
                 "gpu visible instances",
                 4 * total.max(1),
-                vk::BufferUsageFlags::STORAGE_BUFFER,
+                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
                 MemoryLocation::GpuOnly,
             );
             // Keep whatever was made so `destroy` frees it on failure.
@@ -826,6 +834,20 @@ impl GpuCull {
         self.inset
     }
 
+    /// Where the blended draws' instance ids start in the visible buffer
+    /// (their draws' first instance is this plus their offset in the ids).
+    pub fn blended_base(&self) -> u32 {
+        self.blended_base
+    }
+
+    /// Sets the coming frame's blended instance ids (in draw order, at
+    /// most the room made for them), which [`GpuCull::record`] writes
+    /// after the cull's ranges of the slot's visible buffer.
+    pub fn set_blended(&mut self, ids: &[u32]) {
+        self.blended_ids.clear();
+        self.blended_ids.extend_from_slice(ids);
+    }
+
     /// Sets the coming frame's inset lists (only with `inset`; None: every
     /// instance in both sets) and the wide views' `scale` (their pixel
     /// density over the eyes', in (0, 1]): with `lod` the wide views' list
@@ -919,6 +941,8 @@ impl GpuCull {
         let phases = self.sets() as u64;
         let n_cmds = self.cmd_tris.len() as u64;
         q.begin_pass(ctx, cmd, "cull-early");
+        // Also orders the blended ids' update before the vertex shaders
+        // that read them.
         let to_compute = [vk::MemoryBarrier2::default()
             .src_stage_mask(
                 vk::PipelineStageFlags2::ALL_TRANSFER | vk::PipelineStageFlags2::COMPUTE_SHADER,
@@ -926,7 +950,9 @@ impl GpuCull {
             .src_access_mask(
                 vk::AccessFlags2::TRANSFER_WRITE | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             )
-            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_stage_mask(
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::VERTEX_SHADER,
+            )
             .dst_access_mask(
                 vk::AccessFlags2::SHADER_STORAGE_READ | vk::AccessFlags2::SHADER_STORAGE_WRITE,
             )];
@@ -946,6 +972,11 @@ impl GpuCull {
                 }],
             );
             d.cmd_fill_buffer(cmd, s.counts.buffer, 0, vk::WHOLE_SIZE, 0);
+            // vkCmdUpdateBuffer takes at most 65,536 bytes a call.
+            for (k, chunk) in self.blended_ids.chunks(16_384).enumerate() {
+                let at = 4 * (self.blended_base as u64 + 16_384 * k as u64);
+                d.cmd_update_buffer(cmd, s.visible.buffer, at, as_bytes(chunk));
+            }
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().memory_barriers(&to_compute),
