@@ -2,8 +2,9 @@
 //! image draws the image of the sky drawn at every sample inside the
 //! forward scope, up to 8-bit rounding, with blended materials, occlusion's
 //! two scopes, both stereo modes, the stencil mask (whose hidden area
-//! stays black) and RDM (whose fill replaces the sky the resolved pass
-//! drew into the skipped quads). Every frame runs under Vulkan validation (with
+//! stays black), RDM (whose fill replaces the sky the resolved pass
+//! drew into the skipped quads) and the inset (the sky goes under the wide
+//! views' resolved image too, before the composite). Every frame runs under Vulkan validation (with
 //! synchronization validation in `cargo xtask test`); any message fails.
 
 mod common;
@@ -44,7 +45,14 @@ fn the_sky_under_the_resolved_image_draws_the_image_of_the_sky_in_the_scope() {
             &["", "stencil-mask", "rdm=0.3"][..],
         ),
         ("cad:1500", &[""][..]),
-        ("factory:3000", &["superfrustum,gpu-cull,occlusion"][..]),
+        (
+            "factory:3000",
+            &[
+                "superfrustum,gpu-cull,occlusion",
+                "inset=0.5",
+                "inset=0.5,inset-wide-1x",
+            ][..],
+        ),
     ] {
         let scene = load(spec);
         let pose = framing_pose(&scene, &profile);
@@ -84,7 +92,6 @@ fn the_sky_under_the_resolved_image_draws_the_image_of_the_sky_in_the_scope() {
                     // Nothing may differ by more than rounding, the
                     // stencil mask's hidden area (black) included.
                     let worst = largest_difference(&want.images[eye], &got.images[eye]);
-
                     assert!(
                         worst <= 2,
                         "{what}: eye {eye} differs by {worst} code values"
@@ -105,7 +112,8 @@ fn the_sky_under_the_resolved_image_draws_the_image_of_the_sky_in_the_scope() {
 fn resolved_sky_with_what_it_cannot_run_with_is_one_error() {
     for (opt, expect) in [
         ("no-msaa,resolved-sky", "needs msaa4"),
-        ("inset,resolved-sky", "inset"),
+        ("inset,inset-views=4,resolved-sky", "inset-views=4"),
+        ("inset,inset-taau,resolved-sky", "inset-taa"),
         ("mffr,resolved-sky", "mffr"),
     ] {
         let stderr = fails_with_one_error(

@@ -716,10 +716,16 @@ impl RenderConfig {
                 "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
                 &[
                     (self.mffr.is_some(), "mffr"),
-                    (self.inset.is_some(), "inset"),
+                    (self.inset.is_some_and(|i| i.four_views), "inset-views=4"),
                     (self.lms.is_some(), "lms"),
                 ],
             )?;
+            if self.inset.is_some_and(|i| i.taa.is_some()) {
+                return Err(Error::config(
+                    "--opt",
+                    "inset-taa and inset-taau accumulate the wide views as drawn with the sky inside their scope; with resolved-sky their images differ from that by more than rounding at the image's border and the horizon: leave one out",
+                ));
+            }
             refuse_with(
                 "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (timewarp reprojects the frame, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
                 &[

@@ -119,7 +119,11 @@ impl Renderer {
             }
             Step::Scope(s) => self.record_scope(f, q, s),
             Step::ResolvedSky => p.resolved_sky.as_ref().map_or(0, |s| {
-                s.record(&f.rec, q, targets, self.extent, self.view_mask())
+                let wide = p.inset.as_ref().map_or(0, |i| {
+                    let extent = i.wide_extent(self.extent);
+                    s.record(&f.rec, q, &i.wide.sets, extent, self.view_mask())
+                });
+                wide + s.record(&f.rec, q, &targets.sets, self.extent, self.view_mask())
             }),
             Step::RdmFill => p.rdm.as_ref().map_or(0, |r| {
                 r.record_fill(&f.rec, q, targets, self.extent, self.view_mask())

@@ -551,7 +551,7 @@ pub fn record_composed<'a>(
         rec,
         q,
         name,
-        targets,
+        &targets.sets,
         (extent, view_mask),
         (pipeline, crate::gpu::rendering::Load::Discard),
         |set| set.filled.as_ref().map(|(composed, _)| composed.view),
@@ -570,7 +570,7 @@ pub fn record_per_set(
     rec: &Recorder,
     q: &mut Queries,
     name: &'static str,
-    targets: &Attachments,
+    targets: &[AttachmentSet],
     (extent, view_mask): (vk::Extent2D, u32),
     (pipeline, load): (vk::Pipeline, crate::gpu::rendering::Load),
     target: impl Fn(&AttachmentSet) -> Option<vk::ImageView>,
@@ -578,7 +578,7 @@ pub fn record_per_set(
 ) -> u64 {
     q.begin_pass(rec.ctx, rec.cmd, name);
     let mut calls = 0;
-    for (eye, set) in targets.sets.iter().enumerate() {
+    for (eye, set) in targets.iter().enumerate() {
         let Some(view) = target(set) else {
             continue;
         };

@@ -35,7 +35,7 @@ use crate::gpu::query::Queries;
 use crate::gpu::rendering::Load;
 use crate::gpu::shaders;
 use crate::gpu::Context;
-use crate::render::attachments::{self, Attachments};
+use crate::render::attachments::{self, AttachmentSet};
 use ash::vk;
 
 /// The forward scope's colour clear with `resolved-sky`: transparent black,
@@ -62,13 +62,15 @@ impl ResolvedSky {
 
     /// After every forward scope: waits for their resolves, then draws the
     /// sky under each set's resolved image (`view_mask`: both eyes in one
-    /// scope under multiview; one set per eye in two-pass). Returns the
-    /// draw calls.
+    /// scope under multiview; one set per eye in two-pass) — the eyes'
+    /// `targets` of `extent`, and with the inset its wide views' too (the
+    /// sky is a function of each pixel's direction, so the wide views get
+    /// the same sky at their resolution). Returns the draw calls.
     pub fn record(
         &self,
         rec: &Recorder,
         q: &mut Queries,
-        targets: &Attachments,
+        targets: &[AttachmentSet],
         extent: vk::Extent2D,
         view_mask: u32,
     ) -> u64 {
