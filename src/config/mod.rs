@@ -632,7 +632,6 @@ impl RenderConfig {
             refuse_with(
                 "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
                 &[
-                    (foveation, "foveation"),
                     (self.mffr.is_some(), "mffr"),
                     (self.timewarp.is_some(), "timewarp"),
                 ],
@@ -642,7 +641,6 @@ impl RenderConfig {
             refuse_with(
                 "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
                 &[
-                    (foveation, "foveation"),
                     (rdm, "rdm"),
                     (self.mffr.is_some(), "mffr"),
                     (self.timewarp.is_some(), "timewarp"),
@@ -652,6 +650,12 @@ impl RenderConfig {
                     ),
                 ],
             )?;
+        }
+        if self.inset.is_some_and(|i| i.four_views) && foveation {
+            return Err(Error::config(
+                "--opt",
+                "foveation's rate image has the eyes' two layers; inset-views=4 draws four views in one scope: leave one out (the inset's two scopes take foveation)",
+            ));
         }
         if self.inset.is_some_and(|i| i.four_views) && self.occlusion {
             return Err(Error::config(

@@ -119,6 +119,13 @@ impl Renderer {
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
+        if let Some(rates) = self.shading_rate.as_mut() {
+            // The foveation pattern for the sizes drawn this frame.
+            rates.ensure(&self.ctx, self.extent)?;
+            if let Some(inset) = self.passes.inset.as_ref() {
+                rates.ensure(&self.ctx, inset.wide_extent(self.extent))?;
+            }
+        }
         if self.extras.section.is_some() {
             self.ensure_section_pipelines()?;
         }

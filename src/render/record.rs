@@ -188,7 +188,13 @@ impl Renderer {
             },
             view_mask: s.view_mask,
             depth_clear,
-            shading_rate: self.shading_rate.as_ref().and_then(|r| r.attachment(s.eye)),
+            shading_rate: self.shading_rate.as_ref().and_then(|r| {
+                let drawn = vk::Extent2D {
+                    width: s.extent[0],
+                    height: s.extent[1],
+                };
+                r.attachment(s.eye, drawn)
+            }),
             secondaries: s.secondaries,
             sky_after_resolve: s.sky_after_resolve,
             colour_covered: s.colour_covered,

@@ -1,8 +1,11 @@
 //! Foveated rendering's set-up on the GPU: the path is chosen by
 //! capability. With VK_KHR_fragment_shading_rate (attachment rates), the
-//! rate image `view::foveation` computes is uploaded once into one image per
+//! rate image `view::foveation` computes is uploaded into one image per
 //! attachment set (both layers under multiview) and attached to every
-//! forward scope, its rate replacing the pipeline's. Without it foveation
+//! forward scope, its rate replacing the pipeline's — one such image set
+//! per size a scope is drawn at, so that the foveal region stays centred
+//! on the drawn area when adaptive quality draws a smaller one, and the
+//! inset's wide views get the pattern at their own size. Without it foveation
 //! falls back to off, with a warning naming what is missing.
 
 use crate::config::{RenderConfig, StereoMode};
@@ -14,13 +17,23 @@ use crate::view::foveation::{self, Level};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
-/// The shading-rate images of the forward scopes.
+/// The shading-rate images of the forward scopes, per size drawn.
 pub struct ShadingRate {
-    /// One per attachment set.
-    images: Vec<Image>,
+    /// Per size a scope is drawn at (the eyes', the inset's wide views',
+    /// adaptive quality's scales): one image per attachment set, the rate
+    /// pattern centred on the drawn area.
+    sizes: Vec<(vk::Extent2D, Vec<Image>)>,
     /// The device's rate texel size in pixels.
     texel: (u32, u32),
+    level: Level,
+    gaze: [f32; 2],
+    /// Layers per image (2 under multiview) and images per size.
+    layers: u32,
+    sets: usize,
 }
+
+/// Rate images made per size at most; past it the nearest larger is used.
+const MAX_SIZES: usize = 64;
 
 impl ShadingRate {
     /// Sets up foveation `config.foveation` for eyes of `extent`. Returns
@@ -50,14 +63,48 @@ impl ShadingRate {
             eprintln!("warning: foveation {level:?} falls back to {path}");
             return Ok((None, path));
         };
-        let (w, h) = (extent.width, extent.height);
-        let (tw, th, data) = foveation::rate_image(level, config.gaze, w, h, texel);
-        let layers = if config.stereo == StereoMode::Multiview {
-            2
-        } else {
-            1
+        let multiview = config.stereo == StereoMode::Multiview;
+        let mut rates = ShadingRate {
+            sizes: Vec::new(),
+            texel,
+            level,
+            gaze: config.gaze,
+            layers: if multiview { 2 } else { 1 },
+            sets: if multiview { 1 } else { 2 },
         };
-        let sets = if layers == 2 { 1 } else { 2 };
+        rates.ensure(ctx, extent)?;
+        let (w, h) = (extent.width, extent.height);
+        let path = format!(
+            "vk-khr-fragment-shading-rate ({}x{} texels, {:.0} % of full-rate shading)",
+            texel.0,
+            texel.1,
+            100.0 * foveation::shaded_fraction(level, config.gaze, w, h, texel)
+        );
+        Ok((Some(rates), path))
+    }
+
+    /// Makes the rate images for scopes drawn at `extent` unless they
+    /// exist (a new adaptive-quality scale or wide-view size: once each,
+    /// uploaded before the frame that first uses them is recorded).
+    pub fn ensure(&mut self, ctx: &Context, extent: vk::Extent2D) -> Result<()> {
+        if self.sizes.iter().any(|(e, _)| *e == extent) || self.sizes.len() >= MAX_SIZES {
+            return Ok(());
+        }
+        let images = self.upload(ctx, extent)?;
+        self.sizes.push((extent, images));
+        Ok(())
+    }
+
+    /// One image per attachment set with the rate pattern for `extent`.
+    fn upload(&self, ctx: &Context, extent: vk::Extent2D) -> Result<Vec<Image>> {
+        let (tw, th, data) = foveation::rate_image(
+            self.level,
+            self.gaze,
+            extent.width,
+            extent.height,
+            self.texel,
+        );
+        let layers = self.layers;
         let mut staging = Buffer::new(
             ctx,
             &BufferDesc {
@@ -68,100 +115,127 @@ impl ShadingRate {
                 category: "staging",
             },
         )?;
-        for l in 0..layers as usize {
-            staging.write(l * data.len(), &data)?;
-        }
-        let mut rates = ShadingRate {
-            images: Vec::new(),
-            texel,
-        };
-        for _ in 0..sets {
-            rates.images.push(Image::new(
-                ctx,
-                &ImageDesc {
-                    name: "shading rate",
-                    format: vk::Format::R8_UINT,
-                    extent: vk::Extent2D {
-                        width: tw,
-                        height: th,
-                    },
-                    layers,
-                    mips: 1,
-                    samples: vk::SampleCountFlags::TYPE_1,
-                    usage: vk::ImageUsageFlags::FRAGMENT_SHADING_RATE_ATTACHMENT_KHR
-                        | vk::ImageUsageFlags::TRANSFER_DST,
-                    aspect: vk::ImageAspectFlags::COLOR,
-                    category: "render target",
-                    flags: vk::ImageCreateFlags::empty(),
-                },
-            )?);
-        }
-        let d = &ctx.device;
-        let buf = staging.buffer;
-        let upload = ctx.one_shot(|cmd| {
-            for img in &rates.images {
-                let color = vk::ImageAspectFlags::COLOR;
-                let to_dst = [barrier::image(
-                    img.image,
-                    color,
-                    layers,
-                    Use::TRANSFER_DST.discarded(),
-                    Use::TRANSFER_DST,
-                )];
-                let copy = barrier::color_copy(0, layers, tw, th);
-                let to_rate = [barrier::image(
-                    img.image,
-                    color,
-                    layers,
-                    Use::TRANSFER_DST,
-                    Use::SHADING_RATE,
-                )];
-                // SAFETY: recording into the one-shot command buffer; the
-                // staging buffer holds `layers` copies of the rate image.
-                unsafe {
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default().image_memory_barriers(&to_dst),
-                    );
-                    d.cmd_copy_buffer_to_image(
-                        cmd,
-                        buf,
-                        img.image,
-                        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                        &[copy],
-                    );
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default().image_memory_barriers(&to_rate),
-                    );
-                }
+        let mut images = Vec::new();
+        let made = (|| -> Result<()> {
+            for l in 0..layers as usize {
+                staging.write(l * data.len(), &data)?;
             }
-        });
+            for _ in 0..self.sets {
+                images.push(Image::new(
+                    ctx,
+                    &ImageDesc {
+                        name: "shading rate",
+                        format: vk::Format::R8_UINT,
+                        extent: vk::Extent2D {
+                            width: tw,
+                            height: th,
+                        },
+                        layers,
+                        mips: 1,
+                        samples: vk::SampleCountFlags::TYPE_1,
+                        usage: vk::ImageUsageFlags::FRAGMENT_SHADING_RATE_ATTACHMENT_KHR
+                            | vk::ImageUsageFlags::TRANSFER_DST,
+                        aspect: vk::ImageAspectFlags::COLOR,
+                        category: "render target",
+                        flags: vk::ImageCreateFlags::empty(),
+                    },
+                )?);
+            }
+            record_upload(ctx, staging.buffer, &images, (tw, th, layers))
+        })();
         staging.destroy(ctx);
-        if let Err(e) = upload {
-            rates.destroy(ctx);
-            return Err(e);
+        match made {
+            Ok(()) => Ok(images),
+            Err(e) => {
+                for img in images {
+                    img.destroy(ctx);
+                }
+                Err(e)
+            }
         }
-        let path = format!(
-            "vk-khr-fragment-shading-rate ({}x{} texels, {:.0} % of full-rate shading)",
-            texel.0,
-            texel.1,
-            100.0 * foveation::shaded_fraction(level, config.gaze, w, h, texel)
-        );
-        Ok((Some(rates), path))
     }
 
-    /// The rate attachment of attachment set `set` and its texel size.
-    pub fn attachment(&self, set: u32) -> Option<(vk::ImageView, (u32, u32))> {
-        self.images
-            .get(set as usize)
-            .map(|img| (img.view, self.texel))
+    /// The rate attachment of attachment set `set` for a scope drawn at
+    /// `extent` (the images made for it, else for the nearest larger size
+    /// made, else the largest), and its texel size.
+    pub fn attachment(
+        &self,
+        set: u32,
+        extent: vk::Extent2D,
+    ) -> Option<(vk::ImageView, (u32, u32))> {
+        let fits = |e: &vk::Extent2D| e.width >= extent.width && e.height >= extent.height;
+        let area = |e: &vk::Extent2D| e.width as u64 * e.height as u64;
+        let (_, images) = self
+            .sizes
+            .iter()
+            .find(|(e, _)| *e == extent)
+            .or_else(|| {
+                self.sizes
+                    .iter()
+                    .filter(|(e, _)| fits(e))
+                    .min_by_key(|(e, _)| area(e))
+            })
+            .or_else(|| self.sizes.iter().max_by_key(|(e, _)| area(e)))?;
+        images.get(set as usize).map(|img| (img.view, self.texel))
     }
 
     /// Destroys the images; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
-        for img in self.images {
-            img.destroy(ctx);
+        for (_, images) in self.sizes {
+            for img in images {
+                img.destroy(ctx);
+            }
         }
     }
+}
+
+/// Copies the rate pattern (`tw` × `th` texels, `layers` layers) from
+/// `staging` into each of `images` and leaves them ready as shading-rate
+/// attachments; waits for the copy.
+fn record_upload(
+    ctx: &Context,
+    staging: vk::Buffer,
+    images: &[Image],
+    (tw, th, layers): (u32, u32, u32),
+) -> Result<()> {
+    let d = &ctx.device;
+    ctx.one_shot(|cmd| {
+        for img in images {
+            let color = vk::ImageAspectFlags::COLOR;
+            let to_dst = [barrier::image(
+                img.image,
+                color,
+                layers,
+                Use::TRANSFER_DST.discarded(),
+                Use::TRANSFER_DST,
+            )];
+            let copy = barrier::color_copy(0, layers, tw, th);
+            let to_rate = [barrier::image(
+                img.image,
+                color,
+                layers,
+                Use::TRANSFER_DST,
+                Use::SHADING_RATE,
+            )];
+            // SAFETY: a one-shot command buffer; the images are new and
+            // not yet in use, the staging buffer holds the pattern.
+            unsafe {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&to_dst),
+                );
+                d.cmd_copy_buffer_to_image(
+                    cmd,
+                    staging,
+                    img.image,
+                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+                    &[copy],
+                );
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&to_rate),
+                );
+            }
+        }
+    })
 }
