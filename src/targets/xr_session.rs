@@ -38,6 +38,8 @@ use openxr::sys;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
+mod app;
+
 /// Everything a session owns, declared in teardown order (Rust drops fields
 /// in declaration order): OpenXR handles first (swapchains, space, session,
 /// messenger, instance), then the renderer (which waits for the device to
@@ -988,10 +990,10 @@ fn resize_eyes(
 }
 
 fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
-    let args = st.args;
     let session = live.session.clone().expect("set");
     let instance = live.instance.clone().expect("set");
     st.panel_drawn = false;
+    // xrWaitFrame: paces the loop to the display.
     let t_wait = Instant::now();
     let fs = {
         let _w = live.watchdog.watch("xrWaitFrame");
@@ -1002,6 +1004,7 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             .call("xrWaitFrame")?
     };
     let t_cpu = Instant::now();
+    // xrBeginFrame.
     {
         let _w = live.watchdog.watch("xrBeginFrame");
         live.stream
@@ -1010,245 +1013,29 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
             .begin()
             .call("xrBeginFrame")?;
     }
-    let mut rec = FrameRecord {
-        index,
-        should_render: fs.should_render,
-        wait_ms: (t_cpu - t_wait).as_secs_f64() * 1e3,
-        predicted_display_time_ns: fs.predicted_display_time.as_nanos(),
-        predicted_display_period_ns: fs.predicted_display_period.as_nanos(),
-        opt: st.opt.clone(),
-        ..FrameRecord::default()
-    };
+    let mut rec = app::frame_record(st, index, &fs, t_cpu - t_wait);
     let mut rendered = false;
     let mut layer_views: Option<Vec<xr::View>> = None;
-    let mut images: Vec<(usize, usize)> = Vec::new();
     if fs.should_render {
-        let (flags, views) = {
-            let _w = live.watchdog.watch("xrLocateViews");
-            session
-                .locate_views(
-                    st.view_type,
-                    fs.predicted_display_time,
-                    live.space.as_ref().expect("set"),
-                )
-                .call("xrLocateViews")?
-        };
-        let (sane, replaced) = sanitize_views(flags, &views, &mut st.last_valid);
-        if replaced {
-            stats.invalid_pose_frames += 1;
-        }
-        if let Some(sane) = sane {
-            // The eyes (with quad views, the context views; the focus
-            // views place the inset).
-            let tracking: Vec<(Pose, Fov)> =
-                sane.iter().take(2).map(|(p, f, _)| (*p, *f)).collect();
-            let focus = match sane.get(2..4) {
-                Some([l, r]) => Some([l.1, r.1]),
-                _ => None,
-            };
-            if let (Some(px), Some(f)) = (st.focus_px.take(), focus) {
-                st.pending_resize = focus_density_extent(&st.chains, &tracking, &f, px);
-            }
-            let now_ns = fs.predicted_display_time.as_nanos();
-            let dt = st
-                .last_display_ns
-                .map_or(0.0, |t| (now_ns - t).max(0) as f64 * 1e-9);
-            st.last_display_ns = Some(now_ns);
-            let hands = match &live.controls {
-                Some(c) => {
-                    let _w = live.watchdog.watch("xrSyncActions");
-                    c.read(
-                        &session,
-                        live.space.as_ref().expect("set"),
-                        fs.predicted_display_time,
-                    )?
-                }
-                None => Default::default(),
-            };
-            let input = FrameInput {
-                dt,
-                head: tracking_head(&tracking),
-                hands,
-            };
-            let mut update = st.interaction.update(&input, &st.query);
-            panel_input(st, stats, &mut update);
-            crate::interact::overlay::build(
-                &st.interaction,
-                &input,
-                &update,
-                &st.query,
-                &mut st.overlay,
-            );
-            if let Some(c) = &live.controls {
-                for hand in (0..2).filter(|&h| update.haptic[h]) {
-                    let _w = live.watchdog.watch("xrApplyHapticFeedback");
-                    // A missed tick is no reason to end the session.
-                    if let Err(e) = c.tick(&session, hand) {
-                        tracing::warn!(
-                            "haptic tick on the {} hand: {e}",
-                            crate::interact::HANDS[hand]
-                        );
-                    }
-                }
-            }
-            for e in &update.events {
-                tracing::info!(
-                    "interaction: {}",
-                    serde_json::to_string(e).unwrap_or_default()
-                );
-            }
-            if let Some(picked) = update.events.iter().rev().find_map(|e| match e {
-                crate::interact::Event::Select { picked, .. } => Some(picked),
-                _ => None,
-            }) {
-                stats.selected = Some(picked.clone());
-            }
-            let pointers = update.panel_pointer;
-            rec.events = update.events;
-            if st.idle.as_mut().is_some_and(|w| w.observe(&input.head, dt)) {
-                // Kiosk: nobody has moved for the idle time; the next
-                // visitor starts at the spawn.
-                st.interaction.viewpoint = 0;
-                if let Some(spawn) = st.interaction.viewpoints.first() {
-                    st.interaction.origin = *spawn;
-                }
-                tracing::info!(
-                    "kiosk: back to the spawn after {:.0} s without head motion",
-                    args.kiosk
-                        .as_ref()
-                        .and_then(|k| k.idle_return_s)
-                        .unwrap_or(0.0)
-                );
-                rec.events
-                    .push(crate::interact::Event::Recenter { viewpoint: 0 });
-            }
-            let mut rig = world_rig(&st.interaction.origin, &tracking);
-            rec.head_world = Some(PoseFile::from(&rig.head));
-            rig.hidden_area = match &st.masks {
-                Some(m) => Some(m.clone()),
-                None => Some(st.lens_default(&rig)),
-            };
-            if !st.first_fov_recorded {
-                // The eyes', then (quad views) the focus views' as located.
-                let located = rig
-                    .views
-                    .iter()
-                    .map(|v| v.fov)
-                    .chain(focus.iter().flatten().copied());
-                for (fov, info) in located.zip(stats.views.iter_mut()) {
-                    info.fov = Some(fov);
-                }
-                st.first_fov_recorded = true;
-            }
-            rec.fov = rig.views.iter().map(|v| v.fov).collect();
-            let driver = live.driver.as_mut().expect("set");
-            driver.renderer_mut().set_focus(focus);
-            driver.set_section(st.interaction.section);
-            driver.set_overlay(&st.overlay);
-            let shown_ns = fs.predicted_display_time.as_nanos();
-            let origin = *st.motion_origin_ns.get_or_insert(shown_ns);
-            let time = shown_ns.saturating_sub(origin) as f64 * 1e-9;
-            driver.set_time(time);
-            driver.set_display_budget(fs.predicted_display_period.as_nanos() as f64 * 1e-6);
-            driver.record(&rig, index)?;
-            // Rays follow moving instances (from the next frame's input on);
-            // only controllers cast them.
-            if live.controls.is_some() {
-                st.query.move_instances(driver.moved());
-            }
-            if live.mirror.is_some() {
-                st.last_shown = Some((rig.clone(), time));
-            }
-            let mut out = FrameOutput::default();
-            for (ci, chain) in live
-                .color
-                .iter_mut()
-                .chain(live.depth.iter_mut())
-                .chain(live.inset.iter_mut())
-                .enumerate()
-            {
-                let _w = live.watchdog.watch("xrAcquireSwapchainImage");
-                let i = chain
-                    .swapchain
-                    .acquire_image()
-                    .call("xrAcquireSwapchainImage")? as usize;
-                let _w2 = live.watchdog.watch("xrWaitSwapchainImage");
-                chain
-                    .swapchain
-                    .wait_image(xr::Duration::INFINITE)
-                    .call("xrWaitSwapchainImage")?;
-                images.push((ci, i));
-            }
-            let (ncolor, ndepth) = (live.color.len(), live.depth.len());
-            for &(ci, i) in &images {
-                if ci < ncolor {
-                    out.color.push(live.color[ci].images[i]);
-                } else if ci < ncolor + ndepth {
-                    out.depth.push(live.depth[ci - ncolor].images[i]);
-                } else {
-                    out.inset.push(live.inset[ci - ncolor - ndepth].images[i]);
-                }
-            }
-            let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
-            driver.submit(Some(&out), capture)?;
+        // xrLocateViews at the predicted display time.
+        if let Some(located) = locate_views(live, st, stats, &session, &fs)? {
+            // xrSyncActions: the controllers' poses and buttons.
+            let hands = sync_actions(live, &session, &fs)?;
+            // The application: interaction, the rig, culling, recording.
+            let (rig, pointers) =
+                app::update(live, stats, st, &located, hands, &fs, &mut rec, index)?;
+            // xrAcquireSwapchainImage, xrWaitSwapchainImage.
+            let out = acquire_images(live)?;
+            // The application: submit the frame into the images.
+            let capture = app::render(live, st, stats, &out, &rig, &rec)?;
             rendered = true;
-            if let Some(m) = live.mirror.as_mut() {
-                // Before the release: the runtime owns the images after it.
-                let eyes: Vec<Source> = (0..2)
-                    .map(|eye| {
-                        let (image, layer) = if out.color.len() == 1 {
-                            (out.color[0], eye as u32)
-                        } else {
-                            (out.color[eye], 0)
-                        };
-                        Source {
-                            image,
-                            layer,
-                            // The part rendered (smaller with aq; with
-                            // quad views the wide view).
-                            extent: driver.renderer().output_extent(),
-                        }
-                    })
-                    .collect();
-                m.copy(
-                    &eyes,
-                    rig.hidden_area.as_deref().map(Vec::as_slice),
-                    &rec.fov,
-                )?;
-            }
-            for chain in live
-                .color
-                .iter_mut()
-                .chain(live.depth.iter_mut())
-                .chain(live.inset.iter_mut())
-            {
-                let _w = live.watchdog.watch("xrReleaseSwapchainImage");
-                chain
-                    .swapchain
-                    .release_image()
-                    .call("xrReleaseSwapchainImage")?;
-            }
-            if capture {
-                let dir = args.capture.as_deref().expect("checked");
-                if st.chains.quad {
-                    // The four views as submitted: the wide views as the
-                    // eyes, the insets beside them.
-                    let [wl, wr, il, ir] = driver.renderer_mut().read_quad_images()?;
-                    write_capture(dir, &[wl, wr], &rig)?;
-                    let png = |img: &image::RgbaImage, side: &str| {
-                        super::headless::save_png(img, &dir.join(format!("inset-{side}.png")))
-                    };
-                    png(&il, "left")?;
-                    png(&ir, "right")?;
-                } else {
-                    let imgs = driver.read_images()?;
-                    write_capture(dir, &imgs, &rig)?;
-                }
-            }
-            layer_views = Some(sane.iter().map(|(_, _, v)| *v).collect());
-            draw_panel(live, stats, st, &pointers)?;
+            // xrReleaseSwapchainImage: the runtime owns them again.
+            release_images(live)?;
+            app::after_release(live, stats, st, capture, &rig, &pointers)?;
+            layer_views = Some(located.views.iter().map(|(_, _, v)| *v).collect());
         }
     }
+    // xrEndFrame with the projection layer (and the panel's quad).
     end_frame(
         live,
         &instance,
@@ -1257,53 +1044,125 @@ fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u
         layer_views.as_deref(),
         st,
     )?;
-    rec.layers = match layer_views {
-        Some(_) => 1 + u32::from(st.panel_drawn),
-        None => 0,
+    let submitted = layer_views.is_some();
+    app::frame_done(
+        live,
+        stats,
+        st,
+        rec,
+        (rendered, submitted),
+        &fs,
+        (index, t_cpu),
+    )
+}
+
+/// xrLocateViews at the frame's predicted display time, invalid views
+/// replaced by the last valid ones (None: none valid yet).
+fn locate_views(
+    live: &Live,
+    st: &mut LoopState,
+    stats: &mut RunStats,
+    session: &xr::Session<xr::Vulkan>,
+    fs: &xr::FrameState,
+) -> Result<Option<app::Located>> {
+    let (flags, views) = {
+        let _w = live.watchdog.watch("xrLocateViews");
+        session
+            .locate_views(
+                st.view_type,
+                fs.predicted_display_time,
+                live.space.as_ref().expect("set"),
+            )
+            .call("xrLocateViews")?
     };
-    if layer_views.is_some() && st.panel_drawn {
-        if let Some(p) = stats.panel.as_mut() {
-            p.frames_shown += 1;
+    let (sane, replaced) = sanitize_views(flags, &views, &mut st.last_valid);
+    if replaced {
+        stats.invalid_pose_frames += 1;
+    }
+    Ok(sane.map(|views| {
+        let tracking = views.iter().take(2).map(|(p, f, _)| (*p, *f)).collect();
+        let focus = match views.get(2..4) {
+            Some([l, r]) => Some([l.1, r.1]),
+            _ => None,
+        };
+        app::Located {
+            views,
+            tracking,
+            focus,
+        }
+    }))
+}
+
+/// xrSyncActions and the hands' state at the display time (none without
+/// controllers).
+fn sync_actions(
+    live: &Live,
+    session: &xr::Session<xr::Vulkan>,
+    fs: &xr::FrameState,
+) -> Result<[crate::interact::HandInput; 2]> {
+    match &live.controls {
+        Some(c) => {
+            let _w = live.watchdog.watch("xrSyncActions");
+            c.read(
+                session,
+                live.space.as_ref().expect("set"),
+                fs.predicted_display_time,
+            )
+        }
+        None => Ok(Default::default()),
+    }
+}
+
+/// xrAcquireSwapchainImage and xrWaitSwapchainImage on every swapchain
+/// (colour, depth, the insets'): the images the frame goes into.
+fn acquire_images(live: &mut Live) -> Result<FrameOutput> {
+    let mut images: Vec<(usize, usize)> = Vec::new();
+    for (ci, chain) in live
+        .color
+        .iter_mut()
+        .chain(live.depth.iter_mut())
+        .chain(live.inset.iter_mut())
+        .enumerate()
+    {
+        let _w = live.watchdog.watch("xrAcquireSwapchainImage");
+        let i = chain
+            .swapchain
+            .acquire_image()
+            .call("xrAcquireSwapchainImage")? as usize;
+        let _w2 = live.watchdog.watch("xrWaitSwapchainImage");
+        chain
+            .swapchain
+            .wait_image(xr::Duration::INFINITE)
+            .call("xrWaitSwapchainImage")?;
+        images.push((ci, i));
+    }
+    let mut out = FrameOutput::default();
+    let (ncolor, ndepth) = (live.color.len(), live.depth.len());
+    for &(ci, i) in &images {
+        if ci < ncolor {
+            out.color.push(live.color[ci].images[i]);
+        } else if ci < ncolor + ndepth {
+            out.depth.push(live.depth[ci - ncolor].images[i]);
+        } else {
+            out.inset.push(live.inset[ci - ncolor - ndepth].images[i]);
         }
     }
-    if layer_views.is_some() {
-        stats.frames_submitted += 1;
-        stats.frames_rendered += 1;
-        // After the frame is submitted: the window never holds it up.
-        if let Some(m) = live.mirror.as_mut() {
-            m.present()?;
-        }
-    }
-    // The CPU time still holds the wait for a frame slot; the record is
-    // completed (GPU time, counts, that wait taken out) when its frame
-    // finishes, and written in frame order.
-    rec.cpu_ms = t_cpu.elapsed().as_secs_f64() * 1e3;
-    st.records.push(rec, rendered);
-    let driver = live.driver.as_mut().expect("set");
-    while let Some(r) = driver.take_completed() {
-        let period_ms = fs.predicted_display_period.as_nanos() as f64 * 1e-6;
-        st.last_times = Some((r.gpu_ms(), r.cpu_ms(), period_ms));
-        if let Some(m) = live.mirror.as_mut() {
-            m.push_frame(&r);
-        }
-        st.records.complete(&r, stats);
-    }
-    st.records.flush(stats)?;
-    if let Some(m) = live.mirror.as_mut() {
-        let period_ms = fs.predicted_display_period.as_nanos() as f64 * 1e-6;
-        m.set_overlay_text(
-            &st.opt,
-            if period_ms > 0.0 {
-                period_ms
-            } else {
-                1000.0 / 90.0
-            },
-        );
-    }
-    if index + 1 == super::session::WARMUP_FRAMES {
-        if let Some(d) = &live.driver {
-            stats.sample_memory(d.renderer().context(), false);
-        }
+    Ok(out)
+}
+
+/// xrReleaseSwapchainImage on every swapchain.
+fn release_images(live: &mut Live) -> Result<()> {
+    for chain in live
+        .color
+        .iter_mut()
+        .chain(live.depth.iter_mut())
+        .chain(live.inset.iter_mut())
+    {
+        let _w = live.watchdog.watch("xrReleaseSwapchainImage");
+        chain
+            .swapchain
+            .release_image()
+            .call("xrReleaseSwapchainImage")?;
     }
     Ok(())
 }
