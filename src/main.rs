@@ -9,6 +9,7 @@ use vergence::config::{PerDraw, RenderConfig, StereoMode};
 use vergence::interact::{MoveDirection, Settings};
 use vergence::render::distortion::Method as DistortionMethod;
 use vergence::scene::Scene;
+use vergence::targets::framing::Framing;
 use vergence::targets::headless::{self, RenderJob};
 use vergence::targets::run::{RunArgs, XrMode};
 use vergence::view::profile::{HmdProfile, DEFAULT_PROFILE};
@@ -201,9 +202,15 @@ struct RenderArgs {
     rig: Option<PathBuf>,
     /// Use a camera of the glTF file as the head pose: its index or name
     /// (eyes and FOVs stay the profile's). Without --pose, --rig or
-    /// --camera the head frames the scene's bounds as `run` does.
+    /// --camera the head is placed as --frame says.
     #[arg(long, conflicts_with_all = ["pose", "rig"])]
     camera: Option<String>,
+    /// Without a pose: where the head starts. outside: outside the
+    /// scene's bounds with the whole scene in view (any size, any offset
+    /// from the origin); inside: standing on the floor at the bounds'
+    /// centre; spawn: the scene's own spawn, else its first camera.
+    #[arg(long = "frame", value_enum, default_value_t = Framing::Outside)]
+    framing: Framing,
     #[command(flatten)]
     frame: FrameOpts,
     /// Output folder.
@@ -348,9 +355,15 @@ struct RunCli {
     reconnect: bool,
     /// Where the tracking origin (the floor under the user) starts:
     /// x,y,z in metres and the yaw in degrees (0 looks down -Z). Default:
-    /// framing the scene.
+    /// as --frame says.
     #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true, conflicts_with = "camera")]
     spawn: Option<Pose>,
+    /// Without a pose: where the head starts. outside: outside the
+    /// scene's bounds with the whole scene in view (any size, any offset
+    /// from the origin); inside: standing on the floor at the bounds'
+    /// centre; spawn: the scene's own spawn, else its first camera.
+    #[arg(long = "frame", value_enum, default_value_t = Framing::Outside)]
+    framing: Framing,
     /// Start at a camera of the glTF file (its index or name): the eyes at
     /// the camera, facing its heading. The file's cameras are viewpoints
     /// either way.
@@ -415,6 +428,12 @@ struct ViewCli {
     /// Where the camera starts: x,y,z (metres), yaw, pitch, roll (degrees).
     #[arg(long, value_parser = vergence::cli::parse_pose, allow_hyphen_values = true)]
     pose: Option<Pose>,
+    /// Without a pose: where the head starts. outside: outside the
+    /// scene's bounds with the whole scene in view (any size, any offset
+    /// from the origin); inside: standing on the floor at the bounds'
+    /// centre; spawn: the scene's own spawn, else its first camera.
+    #[arg(long = "frame", value_enum, default_value_t = Framing::Outside)]
+    framing: Framing,
     /// End after N presented frames (default: until the window closes).
     #[arg(long, value_parser = clap::value_parser!(u64).range(1..))]
     frames: Option<u64>,
@@ -483,6 +502,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 rig,
                 pose: a.pose,
                 camera: a.camera,
+                framing: a.framing,
                 config,
                 size: a.frame.size(),
                 out: a.out,
@@ -594,6 +614,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 capture: a.capture,
                 reconnect,
                 spawn,
+                framing: a.framing,
                 viewpoints,
                 camera: a.camera,
                 interact: Settings {
@@ -643,6 +664,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 scene: a.scene,
                 hmd: a.hmd,
                 pose: a.pose,
+                framing: a.framing,
                 config: a.frame.config()?,
                 size: a.frame.size(),
                 frames: a.frames,

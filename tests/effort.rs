@@ -228,6 +228,7 @@ fn stats_name_the_paths_that_ran() {
             0.0,
         )),
         camera: None,
+        framing: Default::default(),
         rig: None,
         config,
         size: Some((96, 64)),

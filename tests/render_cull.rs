@@ -25,6 +25,7 @@ fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
             0.0,
         )),
         camera: None,
+        framing: Default::default(),
         rig: None,
         config,
         size: Some((128, 128)),

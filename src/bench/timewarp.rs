@@ -72,7 +72,7 @@ pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
     let head = match (&job.camera, job.pose) {
         (Some(name), _) => headless::scene_camera(scene, name)?,
         (None, Some(pose)) => pose,
-        (None, None) => headless::framing_head(scene, profile),
+        (None, None) => crate::targets::framing::head_pose(scene, profile, job.framing),
     };
     let step = job.head_turn_deg_s.to_radians() / profile.refresh_hz;
     let rig_at = |i: u32| -> StereoRig {

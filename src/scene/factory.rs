@@ -187,6 +187,13 @@ pub fn generate(n: usize, seed: u64) -> Result<Scene> {
     super::count_within("factory", n, MAX_INSTANCES, "instance count")?;
     let mut scene = Scene {
         name: format!("factory:{n}"),
+        // The hall's entrance, looking in.
+        spawn: Some(crate::view::Pose::from_euler_deg(
+            DVec3::new(3.0, 0.0, 2.0),
+            -25.0,
+            0.0,
+            0.0,
+        )),
         ..Scene::default()
     };
     build_assets(&mut scene);

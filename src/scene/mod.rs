@@ -297,6 +297,10 @@ pub struct Scene {
     pub cameras: Vec<SceneCamera>,
     /// The sun the file defines (a KHR_lights_punctual directional light).
     pub sun: Option<Sun>,
+    /// Where a viewer of the scene starts (the tracking origin: the floor
+    /// under a standing viewer), when the scene defines it (a generated
+    /// factory's hall entrance); `--frame spawn` uses it.
+    pub spawn: Option<crate::view::Pose>,
     /// Names of the file's scenes (glTF `scenes`; one was placed).
     pub scene_names: Vec<String>,
     /// The source file's nodes, for naming what the user points at (glTF

@@ -28,6 +28,8 @@ pub struct RenderJob {
     pub pose: Option<Pose>,
     /// A camera of the scene (index or name) as the head pose.
     pub camera: Option<String>,
+    /// How the head is placed without `pose` or `camera` (`--frame`).
+    pub framing: super::framing::Framing,
     /// Exact views to render instead of the profile's eyes at `pose`.
     pub rig: Option<crate::view::StereoRig>,
     /// Renderer configuration.
@@ -179,6 +181,14 @@ pub struct RenderStats {
     /// Which foveation path ran ("off", the Vulkan path, or why it fell
     /// back to off).
     pub foveation: String,
+    /// The head pose rendered from (the rig's head, world space: position
+    /// and orientation quaternion).
+    pub pose: crate::view::PoseFile,
+    /// The same pose as a `--pose` value (x,y,z,yaw,pitch,roll).
+    pub pose_arg: String,
+    /// Where the pose came from: `--pose`, `--camera NAME`, `--rig`, or
+    /// the framing (`--frame outside`, `inside` or `spawn`).
+    pub pose_from: String,
     /// Per-view render areas: used, or why not ("not offered").
     pub per_view_render_areas: String,
     /// With `inset`: how its four views were drawn, "four-view multiview"
@@ -415,31 +425,6 @@ pub fn scene_camera(scene: &Scene, name: &str) -> Result<Pose> {
     })
 }
 
-/// The head pose `run` starts at: the spawn pose framing the scene's
-/// bounds, at standing eye height above it.
-pub fn framing_head(scene: &Scene, profile: &HmdProfile) -> Pose {
-    spawn_pose(scene, &profile.views[0].fov).compose(&Pose {
-        position: glam::DVec3::new(0.0, 1.6, 0.0),
-        orientation: glam::DQuat::IDENTITY,
-    })
-}
-
-/// Where the tracking origin sits in the scene: at the hall entrance for
-/// large scenes, else where a standing viewer (eyes 1.6 m above the
-/// origin) sees the whole scene.
-pub fn spawn_pose(scene: &Scene, fov: &crate::view::Fov) -> Pose {
-    let (lo, hi) = scene.bounds();
-    let radius = (hi - lo).length() * 0.5;
-    if !radius.is_finite() || radius > 50.0 {
-        return Pose::from_euler_deg(glam::DVec3::new(3.0, 0.0, 2.0), -25.0, 0.0, 0.0);
-    }
-    let framed = crate::view::frame_bounds(lo, hi, fov, 0.0);
-    Pose {
-        position: framed.position - glam::DVec3::new(0.0, 1.6, 0.0),
-        orientation: framed.orientation,
-    }
-}
-
 /// Per-eye size from the override or the profile.
 pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2D {
     let (w, h) = size.unwrap_or((
@@ -492,7 +477,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     let head = match (&job.camera, job.pose) {
         (Some(name), _) => scene_camera(&scene, name)?,
         (None, Some(pose)) => pose,
-        (None, None) => framing_head(&scene, &profile),
+        (None, None) => super::framing::head_pose(&scene, &profile, job.framing),
     };
     let rig = match job.rig.clone() {
         // A rig file written before rig.json carried hidden areas: the
@@ -653,6 +638,20 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
         gpu_cull: frame.gpu_cull,
         lod: renderer.lod.clone(),
         foveation: renderer.foveation_path.clone(),
+        pose: crate::view::PoseFile::from(&rig.head),
+        pose_arg: rig.head.pose_arg(),
+        pose_from: match (&job.rig, &job.camera, job.pose) {
+            (Some(_), ..) => "--rig".to_string(),
+            (None, Some(name), _) => format!("--camera {name}"),
+            (None, None, Some(_)) => "--pose".to_string(),
+            (None, None, None) => format!(
+                "--frame {}",
+                serde_json::to_value(job.framing)
+                    .ok()
+                    .and_then(|v| v.as_str().map(str::to_string))
+                    .unwrap_or_default()
+            ),
+        },
         lms: renderer.lms_report(),
         inset_path: renderer.inset_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
@@ -667,6 +666,9 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     // Teardown may speak too.
     stats.validation_messages = ctx.validation_messages();
     outputs.write(&job.out.join("stats.json"), |w| json_to(w, &stats))?;
+    // The exact views rendered: `render --rig` and the simulator take it.
+    let rig_file = crate::view::RigFile::of(&rig);
+    outputs.write(&job.out.join("rig.json"), |w| json_to(w, &rig_file))?;
     outputs.commit()?;
     Ok((
         stats,

@@ -4,6 +4,7 @@
 
 pub mod downsample;
 pub mod error_probe;
+pub mod framing;
 pub mod headless;
 pub mod hud;
 pub mod kiosk;

@@ -52,9 +52,11 @@ pub struct RunArgs {
     /// `--reconnect`: when the OpenXR runtime is lost mid-run, retry every
     /// second until it is back, instead of exiting.
     pub reconnect: bool,
-    /// `--spawn x,y,z,yaw`: where the tracking origin starts (else the
-    /// scene is framed, see `targets::headless::spawn_pose`).
+    /// `--spawn x,y,z,yaw`: where the tracking origin starts (else as
+    /// `framing` says, see `targets::framing`).
     pub spawn: Option<Pose>,
+    /// `--frame`: how the start is placed without `--spawn` or `--camera`.
+    pub framing: super::framing::Framing,
     /// `--viewpoint x,y,z,yaw` (repeatable): further places the right stick
     /// click cycles through after the spawn.
     pub viewpoints: Vec<Pose>,

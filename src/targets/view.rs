@@ -33,6 +33,8 @@ pub struct ViewArgs {
     /// Where the fly camera starts (None: framing the scene, as `render`
     /// does without `--pose`).
     pub pose: Option<Pose>,
+    /// How the fly camera is placed without `pose` (`--frame`).
+    pub framing: super::framing::Framing,
     /// Renderer configuration.
     pub config: RenderConfig,
     /// Per-eye size override (else the profile's resolution).
@@ -262,7 +264,7 @@ fn view_loop(
     let mut driver = make_driver(ctx, scene, &live.config, extent, images)?;
     let start = args
         .pose
-        .unwrap_or_else(|| super::headless::framing_head(scene, profile));
+        .unwrap_or_else(|| super::framing::head_pose(scene, profile, args.framing));
     let mut camera = FlyCamera::at(start);
     let mut presented = 0u64;
     let mut index = 0u64;

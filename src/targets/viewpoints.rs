@@ -7,7 +7,7 @@
 //! to the heading (a camera's pitch and roll are not kept: the user's head
 //! supplies those).
 
-use super::headless::{scene_camera, spawn_pose};
+use super::headless::scene_camera;
 use super::session::RunArgs;
 use crate::error::Result;
 use crate::interact::locomotion::Origin;
@@ -17,7 +17,7 @@ use crate::view::{Fov, Pose};
 use glam::DVec3;
 
 /// Standing eye height above the tracking origin, metres (as
-/// [`super::headless::framing_head`] places the head).
+/// [`super::framing::head_pose`] places the head).
 pub const EYE_HEIGHT: f64 = 1.6;
 
 /// One place of the cycle.
@@ -67,7 +67,7 @@ pub fn plan(args: &RunArgs, scene: &Scene, fov: &Fov) -> Result<Vec<Viewpoint>> 
         },
         (None, None) => Viewpoint {
             name: "spawn".into(),
-            origin: spawn_pose(scene, fov),
+            origin: super::framing::origin_pose(scene, fov, args.framing),
         },
     };
     let mut out = vec![start];

@@ -134,6 +134,25 @@ impl Pose {
         }
     }
 
+    /// Yaw, pitch and roll in degrees such that
+    /// [`Pose::from_euler_deg`] gives this orientation back (intrinsic
+    /// Y, then X, then Z; pitch within ±90°).
+    pub fn to_euler_deg(&self) -> (f64, f64, f64) {
+        let (y, x, z) = self.orientation.normalize().to_euler(glam::EulerRot::YXZ);
+        (y.to_degrees(), x.to_degrees(), z.to_degrees())
+    }
+
+    /// This pose as a `--pose` value: `x,y,z,yaw,pitch,roll` (metres to
+    /// the micrometre, degrees to a millionth).
+    pub fn pose_arg(&self) -> String {
+        let (yaw, pitch, roll) = self.to_euler_deg();
+        let p = self.position;
+        format!(
+            "{:.6},{:.6},{:.6},{yaw:.6},{pitch:.6},{roll:.6}",
+            p.x, p.y, p.z
+        )
+    }
+
     /// Rejects poses the math cannot use: non-finite components or an
     /// orientation whose norm is not within 1e-3 of one.
     pub fn validate(&self) -> Result<(), String> {
@@ -420,10 +439,125 @@ pub fn frame_bounds(lo: DVec3, hi: DVec3, fov: &Fov, pitch_deg: f64) -> Pose {
     }
 }
 
+/// A head pose looking down -Z, pitched by `pitch_deg` (negative: down),
+/// from where every corner of the box `lo`..`hi` lies inside `fov` with a
+/// 5 % margin, as close as that allows ([`frame_points`] of the corners).
+pub fn frame_box(lo: DVec3, hi: DVec3, fov: &Fov, pitch_deg: f64) -> Pose {
+    let corners = (0..8).map(|k| {
+        DVec3::new(
+            if k & 1 == 0 { lo.x } else { hi.x },
+            if k & 2 == 0 { lo.y } else { hi.y },
+            if k & 4 == 0 { lo.z } else { hi.z },
+        )
+    });
+    frame_points(corners, (lo + hi) * 0.5, fov, pitch_deg)
+}
+
+/// A head pose looking down -Z, pitched by `pitch_deg` (negative: down),
+/// aimed at `center`, from where every one of `points` lies inside `fov`
+/// with a 5 % margin, as close as that allows (the points themselves, not
+/// a sphere or box around them, are fitted: a flat site seen from above
+/// fills the view) and at least [`MIN_FRAMING_CLEARANCE_M`] in front of
+/// the nearest point.
+///
+/// With the orientation R and a point x, the point lies at w = Rᵀ(x − c)
+/// in the view's axes once the eye sits at distance D behind c, at depth
+/// D − w_z; it is inside the right edge when w_x ≤ tan(right)·(D − w_z),
+/// i.e. D ≥ w_z + w_x / tan(right), and likewise for the other three
+/// edges: D is the largest of these bounds over the points.
+pub fn frame_points(
+    points: impl IntoIterator<Item = DVec3>,
+    center: DVec3,
+    fov: &Fov,
+    pitch_deg: f64,
+) -> Pose {
+    let orientation = DQuat::from_rotation_x(pitch_deg.to_radians());
+    let inverse = orientation.inverse();
+    // The tangents shrunk by the margin, each at least a little open.
+    let t = |a: f64| (a.tan() / 1.05).abs().max(0.05);
+    let (tl, tr, tu, td) = (t(fov.left), t(fov.right), t(fov.up), t(fov.down));
+    let mut distance: f64 = 0.0;
+    let mut nearest: f64 = 0.0;
+    for x in points {
+        // View axes: x right, y up, z toward the viewer.
+        let w = inverse * (x - center);
+        nearest = nearest.max(w.z);
+        distance = distance
+            .max(w.z + w.x / tr)
+            .max(w.z - w.x / tl)
+            .max(w.z + w.y / tu)
+            .max(w.z - w.y / td);
+    }
+    let distance = distance.max(nearest + MIN_FRAMING_CLEARANCE_M);
+    Pose {
+        position: center - orientation * DVec3::NEG_Z * distance,
+        orientation,
+    }
+}
+
 #[cfg(test)]
 mod framing_tests {
     use super::*;
     use proptest::prelude::*;
+
+    proptest! {
+        /// Every corner of the fitted box is in front of the eye and inside
+        /// the field of view, and the fit is tight (some corner within the
+        /// margin of an edge, or the box at the clearance).
+        #[test]
+        fn the_fitted_box_is_in_view_and_tight(
+            size in prop::array::uniform3(1e-2f64..1e4),
+            offset in prop::array::uniform3(-1e6f64..1e6),
+            pitch in -80.0f64..0.0,
+            half in 0.3f64..1.2,
+        ) {
+            let lo = DVec3::from(offset);
+            let hi = lo + DVec3::from(size);
+            let fov = Fov { left: -half, right: half * 0.9, up: half * 0.8, down: -half };
+            let pose = frame_box(lo, hi, &fov, pitch);
+            let inverse = pose.orientation.inverse();
+            let mut tight = false;
+            for k in 0..8 {
+                let x = DVec3::new(
+                    if k & 1 == 0 { lo.x } else { hi.x },
+                    if k & 2 == 0 { lo.y } else { hi.y },
+                    if k & 4 == 0 { lo.z } else { hi.z },
+                );
+                let v = inverse * (x - pose.position);
+                let depth = -v.z;
+                prop_assert!(depth >= MIN_FRAMING_CLEARANCE_M - 1e-6 * (1.0 + depth));
+                let (h, u) = (v.x / depth, v.y / depth);
+                let eps = 1e-9 * (1.0 + pose.position.length());
+                prop_assert!(h <= fov.right.tan() + eps && h >= fov.left.tan() - eps);
+                prop_assert!(u <= fov.up.tan() + eps && u >= fov.down.tan() - eps);
+                let edge = |a: f64, t: f64| (a - t / 1.05).abs() < 1e-6 * (1.0 + t.abs());
+                tight |= edge(h, fov.right.tan()) || edge(h, fov.left.tan())
+                    || edge(u, fov.up.tan()) || edge(u, fov.down.tan())
+                    || (depth - MIN_FRAMING_CLEARANCE_M).abs() < 1e-6 * (1.0 + depth);
+            }
+            prop_assert!(tight);
+        }
+    }
+
+    proptest! {
+        /// Yaw, pitch and roll give the orientation back, and a pose's
+        /// `--pose` value parses to the same pose.
+        #[test]
+        fn euler_angles_and_the_pose_argument_round_trip(
+            yaw in -180.0f64..180.0,
+            pitch in -89.0f64..89.0,
+            roll in -179.0f64..179.0,
+            x in -1e5f64..1e5,
+        ) {
+            let p = Pose::from_euler_deg(DVec3::new(x, 1.6, -x), yaw, pitch, roll);
+            let (a, b, c) = p.to_euler_deg();
+            let q = Pose::from_euler_deg(p.position, a, b, c);
+            prop_assert!(p.orientation.dot(q.orientation).abs() > 1.0 - 1e-12);
+            let back = crate::cli::parse_pose(&p.pose_arg()).unwrap();
+            prop_assert!((back.position - p.position).length() < 1e-5);
+            prop_assert!(back.orientation.dot(p.orientation).abs() > 1.0 - 1e-10);
+        }
+    }
 
     proptest! {
         /// The framed sphere lies beyond the clearance and inside the
