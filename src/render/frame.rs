@@ -73,220 +73,24 @@ impl Renderer {
                 .map_err(|m| Error::config("view pose", m))?;
             v.fov.validate().map_err(|m| Error::config("view fov", m))?;
         }
-        if rig.views.len() != 2 {
-            return Err(Error::config(
-                "views",
-                format!("the stereo renderer takes 2 views, got {}", rig.views.len()),
-            ));
-        }
-        if self.pending.is_some() {
-            return Err(Error::Gpu(
-                "a frame was recorded but never submitted".into(),
-            ));
-        }
-        if self.passes.gpu_cull.is_some() && visible.is_some() {
-            return Err(Error::config(
-                "--opt",
-                "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
-            ));
-        }
-        if let Some(i) = self.config.inset {
-            // Two views (checked above): no allocation in the frame.
-            let fovs = [rig.views[0].fov, rig.views[1].fov];
-            self.inset_rect = match &self.focus {
-                Some(focus) => crate::view::inset::focus_rect(
-                    &fovs,
-                    focus,
-                    self.extent.width,
-                    self.extent.height,
-                ),
-                None => crate::view::inset::inset_rect(
-                    &fovs,
-                    self.config.gaze,
-                    i.half_angle_deg,
-                    self.extent.width,
-                    self.extent.height,
-                ),
-            };
-            if let Some(pass) = self.passes.inset.as_mut() {
-                self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
-                pass.begin_frame([rig.views[0], rig.views[1]], self.config.near, self.extent);
-            }
-        }
+        self.check_frame(rig, visible)?;
+        self.place_inset(rig);
         // The slot's previous frame must be done before its buffers are
         // written: with N frames in flight, this waits for frame n - N.
         let t_wait = Instant::now();
         let slot = self.slot;
         let cmd = self.begin_slot(slot)?;
         let mut stats = FrameStats::default();
-        if let Some(rates) = self.shading_rate.as_mut() {
-            // The foveation pattern for the sizes drawn this frame.
-            rates.ensure(&self.ctx, self.extent)?;
-            if let Some(inset) = self.passes.inset.as_ref() {
-                rates.ensure(&self.ctx, inset.wide_extent(self.extent))?;
-            }
-        }
-        if self.extras.section.is_some() {
-            self.ensure_section_pipelines()?;
-        }
-        if !self.updates.is_empty() {
-            let instances = self.scene().instances.buffer;
-            let boxes = self.passes.gpu_cull.as_ref().map(GpuCull::boxes);
-            let ring = self.ring.as_mut().expect("ring present until drop");
-            stats.motion = Some(
-                self.updates
-                    .record(&self.ctx, ring, slot, cmd, instances, boxes)?,
-            );
-        }
+        self.prepare_slot(slot, cmd, &mut stats)?;
         // Released (the threads stop spinning) when this frame's recording
         // ends, whether it gets to the threads or not.
         let _woken = self.parallel.as_ref().map(ParallelRecording::wake);
         let t0 = Instant::now();
         stats.cpu_ms.wait = ms(t_wait, t0) + std::mem::take(&mut self.slot_wait_ms);
         let mut batches = std::mem::take(&mut self.batches);
-        let gpu_cull = self.passes.gpu_cull.is_some();
-        match self.passes.far.as_mut() {
-            // The GPU splits near from far: only the plan is made here.
-            Some(far) if gpu_cull => {
-                batches = Batches::default();
-                let split = if !far.plan(rig, self.extent.width, self.frame_index) {
-                    self.mffr_fallbacks += 1;
-                    FarSplit::AllNear
-                } else if !self.mffr_partition {
-                    FarSplit::Both
-                } else {
-                    far.split_axes(rig).map_or(FarSplit::AllNear, FarSplit::At)
-                };
-                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
-                    gpu.set_far_split(split);
-                }
-            }
-            _ if gpu_cull => {
-                batches = Batches::default();
-                // The blended draws, after the opaque ones (the cull's).
-                if let (Some(b), Some(gpu)) = (self.blended.as_mut(), self.passes.gpu_cull.as_mut())
-                {
-                    let base = gpu.blended_base();
-                    b.batch(rig, self.frame_index, &mut self.batcher, base, &mut batches)?;
-                    gpu.set_blended(&batches.ids);
-                }
-                // The cull divides the instances between the wide views and
-                // the inset as the batcher would.
-                let lists = self
-                    .inset_volumes(rig)
-                    .map(|v| crate::cull::gpu::InsetLists {
-                        inset: v.inset,
-                        core: v.core,
-                    });
-                // The wide views' density: the larger of their axes' scales.
-                let scale = self.passes.inset.as_ref().map_or(1.0, |pass| {
-                    let w = pass.wide_extent(self.extent);
-                    let (e, f) = (self.extent, |a: u32, b: u32| a as f64 / b.max(1) as f64);
-                    f(w.width, e.width).max(f(w.height, e.height))
-                });
-                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
-                    gpu.set_inset_lists(lists, scale);
-                }
-            }
-            Some(far) => {
-                if !far.plan(rig, self.extent.width, self.frame_index) {
-                    self.mffr_fallbacks += 1;
-                }
-                far.build_batches(
-                    &mut self.batcher,
-                    rig,
-                    visible,
-                    self.mffr_partition,
-                    &mut batches,
-                );
-            }
-            None => match self.inset_volumes(rig) {
-                // The inset views draw what their narrower volumes keep;
-                // the wide views all but what both cores contain.
-                Some(v) => self.batcher.build_inset(
-                    visible,
-                    rig.head.position,
-                    v.core.map(|core| {
-                        move |c, r| !core.iter().all(|f| f.planes.contains_sphere(c, r))
-                    }),
-                    |c, r| v.inset.iter().any(|f| f.planes.keeps_sphere(c, r)),
-                    &mut batches,
-                ),
-                None => self.batcher.build(visible, rig.head.position, &mut batches),
-            },
-        }
-        // Counted once per pass family: with a far field its pass draws too
-        // (the split batches already hold near + far; unsplit, the far pass
-        // draws every batch again).
-        let far_field = self
-            .passes
-            .far
-            .as_ref()
-            .is_some_and(|f| f.frame().is_some());
-        let passes = if far_field && batches.far_start.is_none() {
-            2
-        } else {
-            1
-        };
-        stats.instances_drawn = passes * batches.instances_drawn;
-        stats.triangles = passes * batches.triangles;
-        stats.far_passes = self
-            .passes
-            .far
-            .as_ref()
-            .and_then(|f| f.frame())
-            .map_or(0, |f| f.render.iter().filter(|&&r| r).count() as u64);
-        if let Some(gpu) = self.passes.gpu_cull.as_mut() {
-            let strategy = self
-                .config
-                .cull
-                .strategy()
-                .ok_or_else(|| Error::config("--opt", "gpu-cull needs a culling strategy"))?;
-            let params = crate::cull::CullParams {
-                near: self.config.near,
-                draw_distance: self.config.draw_distance,
-                ..crate::cull::CullParams::default()
-            };
-            // The volumes relative to the frame uniform's render origin.
-            let (data, _) = crate::cull::gpu::volume_data(
-                strategy,
-                rig,
-                self.frame_index,
-                &params,
-                rig.head.position,
-            )
-            .map_err(|e| Error::config("view for culling", e.to_string()))?;
-            let lod = match self.config.lod {
-                Some(bound) => {
-                    let e = (self.extent.width, self.extent.height);
-                    let eyes: Vec<_> = rig.views.iter().map(|v| (v.fov, e)).collect();
-                    let slack = rig
-                        .views
-                        .iter()
-                        .map(|v| (v.pose.position - rig.head.position).length())
-                        .fold(0.0, f64::max);
-                    LodFrame {
-                        k: crate::view::lod::pixel_density(&eyes) / bound,
-                        eye_slack: slack,
-                    }
-                }
-                None => LodFrame::default(),
-            };
-            let drawn = match self.passes.inset.as_ref() {
-                Some(inset) => inset.wide_extent(self.extent),
-                None => self.extent,
-            };
-            gpu.set_occlusion_size(drawn);
-            gpu.upload(slot, data, lod, rig.head.position)?;
-        } else {
-            self.ensure_visible_capacity(slot, batches.ids.len())?;
-            let ids: &[u8] = as_bytes(&batches.ids);
-            self.per_slot[slot]
-                .visible
-                .as_mut()
-                .expect("allocated above")
-                .write(0, ids)?;
-        }
+        self.batch(rig, visible, &mut batches)?;
+        self.count_drawn(&batches, &mut stats);
+        self.upload_lists(slot, rig, &batches)?;
         self.frame_index += 1;
         let data = self.frame_data(rig);
         self.per_slot[slot]
@@ -357,6 +161,253 @@ impl Renderer {
             batches,
             cmd,
         });
+        Ok(())
+    }
+
+    /// The frame's preconditions: two views, no frame pending, no CPU
+    /// list for a GPU-culled renderer.
+    fn check_frame(&self, rig: &StereoRig, visible: Option<&[u32]>) -> Result<()> {
+        if rig.views.len() != 2 {
+            return Err(Error::config(
+                "views",
+                format!("the stereo renderer takes 2 views, got {}", rig.views.len()),
+            ));
+        }
+        if self.pending.is_some() {
+            return Err(Error::Gpu(
+                "a frame was recorded but never submitted".into(),
+            ));
+        }
+        if self.passes.gpu_cull.is_some() && visible.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "a gpu-cull renderer culls on the GPU and draws no CPU visible list (e.g. the bench's empty-frame floor): make a CPU-culled configuration the baseline",
+            ));
+        }
+        Ok(())
+    }
+
+    /// Places the inset for this frame's views and starts the wide views'
+    /// frame (their accumulation's reprojection).
+    fn place_inset(&mut self, rig: &StereoRig) {
+        if let Some(i) = self.config.inset {
+            // Two views (checked above): no allocation in the frame.
+            let fovs = [rig.views[0].fov, rig.views[1].fov];
+            self.inset_rect = match &self.focus {
+                Some(focus) => crate::view::inset::focus_rect(
+                    &fovs,
+                    focus,
+                    self.extent.width,
+                    self.extent.height,
+                ),
+                None => crate::view::inset::inset_rect(
+                    &fovs,
+                    self.config.gaze,
+                    i.half_angle_deg,
+                    self.extent.width,
+                    self.extent.height,
+                ),
+            };
+            if let Some(pass) = self.passes.inset.as_mut() {
+                self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
+                pass.begin_frame([rig.views[0], rig.views[1]], self.config.near, self.extent);
+            }
+        }
+    }
+
+    /// Before the slot's buffers are written: the foveation patterns for
+    /// the sizes drawn, the section plane's pipelines, moved instances.
+    fn prepare_slot(
+        &mut self,
+        slot: usize,
+        cmd: vk::CommandBuffer,
+        stats: &mut FrameStats,
+    ) -> Result<()> {
+        if let Some(rates) = self.shading_rate.as_mut() {
+            // The foveation pattern for the sizes drawn this frame.
+            rates.ensure(&self.ctx, self.extent)?;
+            if let Some(inset) = self.passes.inset.as_ref() {
+                rates.ensure(&self.ctx, inset.wide_extent(self.extent))?;
+            }
+        }
+        if self.extras.section.is_some() {
+            self.ensure_section_pipelines()?;
+        }
+        if !self.updates.is_empty() {
+            let instances = self.scene().instances.buffer;
+            let boxes = self.passes.gpu_cull.as_ref().map(GpuCull::boxes);
+            let ring = self.ring.as_mut().expect("ring present until drop");
+            stats.motion = Some(
+                self.updates
+                    .record(&self.ctx, ring, slot, cmd, instances, boxes)?,
+            );
+        }
+        Ok(())
+    }
+
+    /// This frame's CPU batches into `batches`: with `gpu-cull` only the
+    /// blended draws (and the far split's or the inset lists' plan for the
+    /// cull); else the far field's split, the inset's two lists, or one
+    /// list of `visible`.
+    fn batch(
+        &mut self,
+        rig: &StereoRig,
+        visible: Option<&[u32]>,
+        batches: &mut Batches,
+    ) -> Result<()> {
+        let gpu_cull = self.passes.gpu_cull.is_some();
+        match self.passes.far.as_mut() {
+            // The GPU splits near from far: only the plan is made here.
+            Some(far) if gpu_cull => {
+                *batches = Batches::default();
+                let split = if !far.plan(rig, self.extent.width, self.frame_index) {
+                    self.mffr_fallbacks += 1;
+                    FarSplit::AllNear
+                } else if !self.mffr_partition {
+                    FarSplit::Both
+                } else {
+                    far.split_axes(rig).map_or(FarSplit::AllNear, FarSplit::At)
+                };
+                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+                    gpu.set_far_split(split);
+                }
+            }
+            _ if gpu_cull => {
+                *batches = Batches::default();
+                // The blended draws, after the opaque ones (the cull's).
+                if let (Some(b), Some(gpu)) = (self.blended.as_mut(), self.passes.gpu_cull.as_mut())
+                {
+                    let base = gpu.blended_base();
+                    b.batch(rig, self.frame_index, &mut self.batcher, base, batches)?;
+                    gpu.set_blended(&batches.ids);
+                }
+                // The cull divides the instances between the wide views and
+                // the inset as the batcher would.
+                let lists = self
+                    .inset_volumes(rig)
+                    .map(|v| crate::cull::gpu::InsetLists {
+                        inset: v.inset,
+                        core: v.core,
+                    });
+                // The wide views' density: the larger of their axes' scales.
+                let scale = self.passes.inset.as_ref().map_or(1.0, |pass| {
+                    let w = pass.wide_extent(self.extent);
+                    let (e, f) = (self.extent, |a: u32, b: u32| a as f64 / b.max(1) as f64);
+                    f(w.width, e.width).max(f(w.height, e.height))
+                });
+                if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+                    gpu.set_inset_lists(lists, scale);
+                }
+            }
+            Some(far) => {
+                if !far.plan(rig, self.extent.width, self.frame_index) {
+                    self.mffr_fallbacks += 1;
+                }
+                far.build_batches(
+                    &mut self.batcher,
+                    rig,
+                    visible,
+                    self.mffr_partition,
+                    batches,
+                );
+            }
+            None => match self.inset_volumes(rig) {
+                // The inset views draw what their narrower volumes keep;
+                // the wide views all but what both cores contain.
+                Some(v) => self.batcher.build_inset(
+                    visible,
+                    rig.head.position,
+                    v.core.map(|core| {
+                        move |c, r| !core.iter().all(|f| f.planes.contains_sphere(c, r))
+                    }),
+                    |c, r| v.inset.iter().any(|f| f.planes.keeps_sphere(c, r)),
+                    batches,
+                ),
+                None => self.batcher.build(visible, rig.head.position, batches),
+            },
+        }
+        Ok(())
+    }
+
+    /// The instances, triangles and far passes the batches draw.
+    fn count_drawn(&self, batches: &Batches, stats: &mut FrameStats) {
+        // Counted once per pass family: with a far field its pass draws too
+        // (the split batches already hold near + far; unsplit, the far pass
+        // draws every batch again).
+        let far_field = self
+            .passes
+            .far
+            .as_ref()
+            .is_some_and(|f| f.frame().is_some());
+        let passes = if far_field && batches.far_start.is_none() {
+            2
+        } else {
+            1
+        };
+        stats.instances_drawn = passes * batches.instances_drawn;
+        stats.triangles = passes * batches.triangles;
+        stats.far_passes = self
+            .passes
+            .far
+            .as_ref()
+            .and_then(|f| f.frame())
+            .map_or(0, |f| f.render.iter().filter(|&&r| r).count() as u64);
+    }
+
+    /// The slot's lists: with `gpu-cull` the cull's volumes and LOD
+    /// density, else the visible instance ids.
+    fn upload_lists(&mut self, slot: usize, rig: &StereoRig, batches: &Batches) -> Result<()> {
+        if let Some(gpu) = self.passes.gpu_cull.as_mut() {
+            let strategy = self
+                .config
+                .cull
+                .strategy()
+                .ok_or_else(|| Error::config("--opt", "gpu-cull needs a culling strategy"))?;
+            let params = crate::cull::CullParams {
+                near: self.config.near,
+                draw_distance: self.config.draw_distance,
+                ..crate::cull::CullParams::default()
+            };
+            // The volumes relative to the frame uniform's render origin.
+            let (data, _) = crate::cull::gpu::volume_data(
+                strategy,
+                rig,
+                self.frame_index,
+                &params,
+                rig.head.position,
+            )
+            .map_err(|e| Error::config("view for culling", e.to_string()))?;
+            let lod = match self.config.lod {
+                Some(bound) => {
+                    let e = (self.extent.width, self.extent.height);
+                    let eyes: Vec<_> = rig.views.iter().map(|v| (v.fov, e)).collect();
+                    let slack = rig
+                        .views
+                        .iter()
+                        .map(|v| (v.pose.position - rig.head.position).length())
+                        .fold(0.0, f64::max);
+                    LodFrame {
+                        k: crate::view::lod::pixel_density(&eyes) / bound,
+                        eye_slack: slack,
+                    }
+                }
+                None => LodFrame::default(),
+            };
+            let drawn = match self.passes.inset.as_ref() {
+                Some(inset) => inset.wide_extent(self.extent),
+                None => self.extent,
+            };
+            gpu.set_occlusion_size(drawn);
+            gpu.upload(slot, data, lod, rig.head.position)?;
+        } else {
+            self.ensure_visible_capacity(slot, batches.ids.len())?;
+            let ids: &[u8] = as_bytes(&batches.ids);
+            self.per_slot[slot]
+                .visible
+                .as_mut()
+                .expect("allocated above")
+                .write(0, ids)?;
+        }
         Ok(())
     }
 

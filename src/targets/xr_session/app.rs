@@ -169,7 +169,7 @@ pub(super) fn render(
     let args = st.args;
     let driver = live.driver.as_mut().expect("set");
     let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
-    driver.submit(Some(&out), capture)?;
+    driver.submit(Some(out), capture)?;
     if let Some(m) = live.mirror.as_mut() {
         // Before the release: the runtime owns the images after it.
         let eyes: Vec<Source> = (0..2)
@@ -215,7 +215,7 @@ pub(super) fn after_release(
             // The four views as submitted: the wide views as the
             // eyes, the insets beside them.
             let [wl, wr, il, ir] = driver.renderer_mut().read_quad_images()?;
-            write_capture(dir, &[wl, wr], &rig)?;
+            write_capture(dir, &[wl, wr], rig)?;
             let png = |img: &image::RgbaImage, side: &str| {
                 crate::targets::headless::save_png(img, &dir.join(format!("inset-{side}.png")))
             };
@@ -223,7 +223,7 @@ pub(super) fn after_release(
             png(&ir, "right")?;
         } else {
             let imgs = driver.read_images()?;
-            write_capture(dir, &imgs, &rig)?;
+            write_capture(dir, &imgs, rig)?;
         }
     }
     draw_panel(live, stats, st, pointers)
