@@ -626,6 +626,63 @@ impl RenderConfig {
                 "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
             ));
         }
+        self.refuse_incompatible()?;
+        if self.aq_scale_only && !(self.aq && self.inset.is_some()) {
+            return Err(Error::config(
+                "--opt",
+                "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
+            ));
+        }
+        if let Some(b) = self.budget_ms {
+            if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
+                return Err(Error::config(
+                    "--budget-ms",
+                    format!("{b} (supported: more than 0, at most 1000)"),
+                ));
+            }
+        }
+        if self.occlusion && self.mffr.is_some() {
+            return Err(Error::config(
+                "--opt",
+                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
+            ));
+        }
+        if let Some(n) = self.record_threads {
+            if !(1..=MAX_RECORD_THREADS).contains(&n) {
+                return Err(Error::config(
+                    "--record-threads",
+                    format!("{n} (supported: 1 to {MAX_RECORD_THREADS})"),
+                ));
+            }
+        }
+        let submission = self.record_threads.is_some() || self.per_draw != PerDraw::Push;
+        if submission && (self.gpu_cull || self.mffr.is_some()) {
+            return Err(Error::config(
+                "--record-threads/--per-draw",
+                "parallel recording and per-draw ubo/ssbo data apply to CPU-culled forward draws: they cannot be combined with gpu-cull or mffr",
+            ));
+        }
+        if let Some(p) = self.section {
+            let n = glam::DVec3::new(p[0], p[1], p[2]);
+            if !(p.iter().all(|v| v.is_finite()) && (n.length() - 1.0).abs() < 1e-6) {
+                return Err(Error::config(
+                    "--section",
+                    format!("{p:?} is not a plane with a unit normal"),
+                ));
+            }
+        }
+        if !(self.near.is_finite() && self.near > 0.0) {
+            return Err(Error::config(
+                "near plane",
+                format!("{} must be a positive number", self.near),
+            ));
+        }
+        Ok(())
+    }
+
+    /// The pairs of techniques that cannot render together (the docs'
+    /// "Which techniques combine" lists them with the same reasons).
+    fn refuse_incompatible(&self) -> Result<()> {
         let foveation = self.foveation != crate::view::foveation::Level::Off;
         let rdm = self.rdm.is_some() || self.rdm_auto;
         if self.aq {
@@ -737,56 +794,6 @@ impl RenderConfig {
                     (self.record_threads.is_some(), "--record-threads"),
                 ],
             )?;
-        }
-        if self.aq_scale_only && !(self.aq && self.inset.is_some()) {
-            return Err(Error::config(
-                "--opt",
-                "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
-            ));
-        }
-        if let Some(b) = self.budget_ms {
-            if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
-                return Err(Error::config(
-                    "--budget-ms",
-                    format!("{b} (supported: more than 0, at most 1000)"),
-                ));
-            }
-        }
-        if self.occlusion && self.mffr.is_some() {
-            return Err(Error::config(
-                "--opt",
-                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
-            ));
-        }
-        if let Some(n) = self.record_threads {
-            if !(1..=MAX_RECORD_THREADS).contains(&n) {
-                return Err(Error::config(
-                    "--record-threads",
-                    format!("{n} (supported: 1 to {MAX_RECORD_THREADS})"),
-                ));
-            }
-        }
-        let submission = self.record_threads.is_some() || self.per_draw != PerDraw::Push;
-        if submission && (self.gpu_cull || self.mffr.is_some()) {
-            return Err(Error::config(
-                "--record-threads/--per-draw",
-                "parallel recording and per-draw ubo/ssbo data apply to CPU-culled forward draws: they cannot be combined with gpu-cull or mffr",
-            ));
-        }
-        if let Some(p) = self.section {
-            let n = glam::DVec3::new(p[0], p[1], p[2]);
-            if !(p.iter().all(|v| v.is_finite()) && (n.length() - 1.0).abs() < 1e-6) {
-                return Err(Error::config(
-                    "--section",
-                    format!("{p:?} is not a plane with a unit normal"),
-                ));
-            }
-        }
-        if !(self.near.is_finite() && self.near > 0.0) {
-            return Err(Error::config(
-                "near plane",
-                format!("{} must be a positive number", self.near),
-            ));
         }
         Ok(())
     }

@@ -23,29 +23,7 @@ impl Renderer {
         extent: vk::Extent2D,
         output: Option<OutputSpec>,
     ) -> Result<Renderer> {
-        config.validate()?;
-        if config.rdm_auto || config.foveation == crate::view::foveation::Level::Lens(0) {
-            return Err(Error::config(
-                "--opt",
-                "rdm=auto and foveation=auto need an HMD profile with a lens to derive their radii from (this path does not resolve them); give rdm=R or a foveation level",
-            ));
-        }
-        if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384
-        {
-            return Err(Error::config(
-                "image size",
-                format!(
-                    "{}x{} must be within 1..=16384",
-                    extent.width, extent.height
-                ),
-            ));
-        }
-        if output.is_some_and(|o| o.quad) && config.inset.is_none() {
-            return Err(Error::config(
-                "output",
-                "four views go out only with --opt inset (the runtime's view configuration is quad views)",
-            ));
-        }
+        check_request(config, extent, output.as_ref())?;
         let samples = config.msaa.min(ctx.caps.max_samples);
         let slots = config.frames_in_flight as usize;
         // With aq every target is made once for the largest scale.
@@ -56,41 +34,8 @@ impl Renderer {
             extent
         };
         let extent = allocated;
-        let (chains, cache) = match (config.lod, &scene.source) {
-            (None, _) => (None, None),
-            (Some(_), Some(source)) if config.lod_cache => {
-                let (c, used) = crate::scene::lod_cache::load_or_build(scene, source);
-                (Some(c), Some(used))
-            }
-            (Some(_), _) => (Some(crate::scene::lod::build(scene)), None),
-        };
-        let lod_report = chains.as_ref().map(|c| LodReport {
-            levels: c.level_count(),
-            index_bytes: c.index_bytes(),
-            build_ms: c.build_ms,
-            cache,
-        });
-        let scene_gpu = SceneGpu::new(&ctx, scene, chains.as_ref())?;
-        drop(chains);
-        let draw_records = match DrawRecords::new(&ctx, config.per_draw, slots) {
-            Ok(r) => r,
-            Err(e) => {
-                scene_gpu.destroy(&ctx);
-                return Err(e);
-            }
-        };
-        let extra_set = draw_records.as_ref().map(DrawRecords::set_layout);
-        let descriptors =
-            match Descriptors::new(&ctx, scene_gpu.textures.len() as u32, slots, extra_set) {
-                Ok(d) => d,
-                Err(e) => {
-                    if let Some(r) = draw_records {
-                        r.destroy(&ctx);
-                    }
-                    scene_gpu.destroy(&ctx);
-                    return Err(e);
-                }
-            };
+        let (scene_gpu, draw_records, descriptors, lod_report) =
+            upload_scene(&ctx, scene, config, slots)?;
         let depth_out = output.as_ref().is_some_and(|o| o.depth);
         let mask_in_depth = mask_in_depth(config, depth_out);
         let stencil = tests_stencil(config, mask_in_depth) || depth_out;
@@ -169,6 +114,18 @@ impl Renderer {
         };
         // Made into the renderer, so a failure from here on drops it and
         // with it everything made so far.
+        r.make_slots(config, slots)?;
+        r.make_passes(scene, config, extent, slots)?;
+        r.make_targets(config, extent, samples, depth_format, output)?;
+        r.make_culling(scene, config, samples, slots)?;
+        Ok(r)
+    }
+
+    /// Per frame slot its uniform buffer and queries; the frame ring; the
+    /// recording threads.
+    fn make_slots(&mut self, config: &RenderConfig, slots: usize) -> Result<()> {
+        let ctx = self.ctx.clone();
+        let r = self;
         for i in 0..slots {
             let ubo = Buffer::new(
                 &ctx,
@@ -198,6 +155,20 @@ impl Renderer {
         if let Some(n) = config.record_threads {
             r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
         }
+        Ok(())
+    }
+
+    /// The foveation pattern, the passes the configuration asks for and
+    /// the point cloud's.
+    fn make_passes(
+        &mut self,
+        scene: &Scene,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        slots: usize,
+    ) -> Result<()> {
+        let ctx = self.ctx.clone();
+        let r = self;
         // Pipelines depend on the shading-rate attachment: foveation first.
         let (rates, path) = ShadingRate::new(&ctx, &r.config, extent)?;
         if rates.is_none() {
@@ -225,6 +196,20 @@ impl Renderer {
                 config.edl,
             )?);
         }
+        Ok(())
+    }
+
+    /// The frame's attachments (and the inset composite's binding to them).
+    fn make_targets(
+        &mut self,
+        config: &RenderConfig,
+        extent: vk::Extent2D,
+        samples: u32,
+        depth_format: vk::Format,
+        output: Option<OutputSpec>,
+    ) -> Result<()> {
+        let ctx = self.ctx.clone();
+        let r = self;
         r.targets = Some(Attachments::new(
             &ctx,
             extent,
@@ -255,6 +240,19 @@ impl Renderer {
         {
             inset.bind(&ctx, targets)?;
         }
+        Ok(())
+    }
+
+    /// The GPU cull (with the blended instances' CPU side) or the CPU
+    /// path's visible lists.
+    fn make_culling(
+        &mut self,
+        scene: &Scene,
+        config: &RenderConfig,
+        samples: u32,
+        slots: usize,
+    ) -> Result<()> {
+        let r = self;
         if config.gpu_cull {
             let order = r.batcher.order().to_vec();
             r.blended = blended::GpuBlended::new(config, scene, &r.batcher)?;
@@ -298,7 +296,7 @@ impl Renderer {
                 r.ensure_visible_capacity(i, ids)?;
             }
         }
-        Ok(r)
+        Ok(())
     }
 
     /// The views occlusion's depth pyramid reduces: with the inset (two
@@ -326,4 +324,88 @@ impl Renderer {
             },
         }
     }
+}
+
+/// The request's own checks: the configuration, the auto radii this path
+/// cannot resolve, the image size, and four views only with the inset.
+fn check_request(
+    config: &RenderConfig,
+    extent: vk::Extent2D,
+    output: Option<&OutputSpec>,
+) -> Result<()> {
+    config.validate()?;
+    if config.rdm_auto || config.foveation == crate::view::foveation::Level::Lens(0) {
+        return Err(Error::config(
+                "--opt",
+                "rdm=auto and foveation=auto need an HMD profile with a lens to derive their radii from (this path does not resolve them); give rdm=R or a foveation level",
+            ));
+    }
+    if extent.width == 0 || extent.height == 0 || extent.width > 16384 || extent.height > 16384 {
+        return Err(Error::config(
+            "image size",
+            format!(
+                "{}x{} must be within 1..=16384",
+                extent.width, extent.height
+            ),
+        ));
+    }
+    if output.is_some_and(|o| o.quad) && config.inset.is_none() {
+        return Err(Error::config(
+                "output",
+                "four views go out only with --opt inset (the runtime's view configuration is quad views)",
+            ));
+    }
+    Ok(())
+}
+
+/// The scene on the GPU (with its LOD chains, built or from the cache),
+/// the per-draw records, the descriptor sets, and the LOD report; on
+/// failure, destroys what it made.
+fn upload_scene(
+    ctx: &Arc<Context>,
+    scene: &Scene,
+    config: &RenderConfig,
+    slots: usize,
+) -> Result<(
+    SceneGpu,
+    Option<DrawRecords>,
+    Descriptors,
+    Option<LodReport>,
+)> {
+    let (chains, cache) = match (config.lod, &scene.source) {
+        (None, _) => (None, None),
+        (Some(_), Some(source)) if config.lod_cache => {
+            let (c, used) = crate::scene::lod_cache::load_or_build(scene, source);
+            (Some(c), Some(used))
+        }
+        (Some(_), _) => (Some(crate::scene::lod::build(scene)), None),
+    };
+    let lod_report = chains.as_ref().map(|c| LodReport {
+        levels: c.level_count(),
+        index_bytes: c.index_bytes(),
+        build_ms: c.build_ms,
+        cache,
+    });
+    let scene_gpu = SceneGpu::new(ctx, scene, chains.as_ref())?;
+    drop(chains);
+    let draw_records = match DrawRecords::new(ctx, config.per_draw, slots) {
+        Ok(r) => r,
+        Err(e) => {
+            scene_gpu.destroy(ctx);
+            return Err(e);
+        }
+    };
+    let extra_set = draw_records.as_ref().map(DrawRecords::set_layout);
+    let descriptors = match Descriptors::new(ctx, scene_gpu.textures.len() as u32, slots, extra_set)
+    {
+        Ok(d) => d,
+        Err(e) => {
+            if let Some(r) = draw_records {
+                r.destroy(ctx);
+            }
+            scene_gpu.destroy(ctx);
+            return Err(e);
+        }
+    };
+    Ok((scene_gpu, draw_records, descriptors, lod_report))
 }
