@@ -24,6 +24,8 @@
 //! what was visible, not what the scene holds.
 
 use super::depth_pyramid::DepthPyramid;
+
+mod table;
 use super::{PipelineSetup, Recorder};
 use crate::cull::gpu::{FarSplitAxes, InsetLists, VolumeData, VOLUME_DATA_SIZE};
 use crate::error::{Error, Result};
@@ -299,6 +301,124 @@ pub struct OcclusionTargets<'a> {
     pub near: f32,
 }
 
+/// The cull's buffers made from its tables: the instance boxes, the flat
+/// primitive list, the command template, the visibility (every instance
+/// visible, with occlusion), a placeholder, the LOD tables and the early
+/// list; on failure, destroys what it made.
+struct Tables {
+    instances: Buffer,
+    prims: Buffer,
+    template: Buffer,
+    visibility: Buffer,
+    placeholder: Buffer,
+    lod_levels: Buffer,
+    lod_errors: Buffer,
+    early: Buffer,
+}
+
+impl Tables {
+    fn upload(ctx: &Context, scene: &Scene, t: &table::Table, occlusion: bool) -> Result<Tables> {
+        let (slices, flat, lod_info, cmd_error) = (&t.slices, &t.flat, &t.lod_info, &t.cmd_error);
+        let words = t.words();
+        let mut boxes: Vec<f32> = Vec::with_capacity(scene.instances.len() * 12);
+        for (b, inst) in scene.world_bounds().iter().zip(&scene.instances) {
+            boxes.extend_from_slice(&box_record(slices[inst.mesh as usize], b, &inst.transform));
+        }
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        let instances = upload(
+            ctx,
+            "cull instances",
+            storage,
+            "instances",
+            as_bytes(&boxes),
+        )?;
+        let prims = match upload(ctx, "cull primitives", storage, "instances", as_bytes(flat)) {
+            Ok(b) => b,
+            Err(e) => {
+                instances.destroy(ctx);
+                return Err(e);
+            }
+        };
+        let template = match upload(
+            ctx,
+            "draw command template",
+            vk::BufferUsageFlags::TRANSFER_SRC,
+            "per-frame",
+            as_bytes(&words),
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                instances.destroy(ctx);
+                prims.destroy(ctx);
+                return Err(e);
+            }
+        };
+        // Every instance starts visible: the first frame draws all that is
+        // inside the volumes early, so its late phase already knows what
+        // is hidden.
+        let ones = vec![1u32; if occlusion { scene.instances.len() } else { 1 }];
+        let made = [
+            ("instance visibility", as_bytes(&ones)),
+            ("occlusion placeholder", as_bytes(&[0u32; 4])),
+            ("lod levels", as_bytes(lod_info)),
+            ("lod errors", as_bytes(cmd_error)),
+        ]
+        .map(|(name, bytes)| upload(ctx, name, storage, "instances", bytes));
+        if made.iter().any(|b| b.is_err()) {
+            let mut err = None;
+            for b in made {
+                match b {
+                    Ok(b) => b.destroy(ctx),
+                    Err(e) => err = err.or(Some(e)),
+                }
+            }
+            for b in [instances, prims, template] {
+                b.destroy(ctx);
+            }
+            return Err(err.expect("one upload failed"));
+        }
+        let [visibility, placeholder, lod_levels, lod_errors] =
+            made.map(|b| b.expect("checked above"));
+        let early = match upload(
+            ctx,
+            "early list",
+            storage | vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
+            "instances",
+            as_bytes(&first_early_list(if occlusion {
+                scene.instances.len() as u32
+            } else {
+                0
+            })),
+        ) {
+            Ok(b) => b,
+            Err(e) => {
+                for b in [
+                    instances,
+                    prims,
+                    template,
+                    visibility,
+                    placeholder,
+                    lod_levels,
+                    lod_errors,
+                ] {
+                    b.destroy(ctx);
+                }
+                return Err(e);
+            }
+        };
+        Ok(Tables {
+            instances,
+            prims,
+            template,
+            visibility,
+            placeholder,
+            lod_levels,
+            lod_errors,
+            early,
+        })
+    }
+}
+
 impl GpuCull {
     /// Uploads `scene`'s instance boxes and primitive lists and creates the
     /// pipeline and `slots` frame slots of buffers, reading each slot's
@@ -332,44 +452,6 @@ impl GpuCull {
                 ),
             ));
         }
-        let keys: &[PipelineKey] = setup.keys;
-        let n_prims = scene.primitives.len();
-        // Mesh slices into one flat list of their non-blended primitives
-        // (the blended ones are culled and sorted on the CPU and drawn from
-        // the visible buffer's tail: `blended`), and how many instances use
-        // each primitive (the capacity of its visible range).
-        let mut slices = Vec::with_capacity(scene.meshes.len());
-        let mut flat: Vec<u32> = Vec::new();
-        for m in &scene.meshes {
-            let start = flat.len() as u32;
-            flat.extend(m.primitives.iter().filter(|&&p| keys[p as usize].alpha < 2));
-            slices.push((start, flat.len() as u32 - start));
-        }
-        let mut users = vec![0u64; n_prims];
-        for inst in &scene.instances {
-            let (start, n) = slices[inst.mesh as usize];
-            for &p in &flat[start as usize..(start + n) as usize] {
-                users[p as usize] += 1;
-            }
-        }
-        // One draw command per primitive and LOD level (level 0 the
-        // original); each level's visible range can hold every user.
-        let lod_ranges = &setup.scene.lod_ranges;
-        let levels = |p: usize| 1 + lod_ranges[p].len();
-        let mut cmd_first = Vec::with_capacity(n_prims);
-        let mut n_cmds = 0usize;
-        for p in 0..n_prims {
-            cmd_first.push(n_cmds as u32);
-            n_cmds += levels(p);
-        }
-        let total: u64 = (0..n_prims).map(|p| users[p] * levels(p) as u64).sum();
-        if total + blended as u64 > u32::MAX as u64 / 4 {
-            return Err(Error::scene(
-                &scene.name,
-                format!("{total} instance-primitive pairs exceed what gpu-cull addresses"),
-            ));
-        }
-        let ranges = &setup.scene.ranges;
         if far_field && occlusion.is_some() {
             return Err(Error::config(
                 "--opt",
@@ -389,155 +471,25 @@ impl GpuCull {
         } else {
             1
         };
-        let mut commands = vec![vk::DrawIndexedIndirectCommand::default(); phases * n_cmds];
-        let mut cmd_tris = vec![0u64; n_cmds];
-        let mut cmd_level = vec![0u8; n_cmds];
-        let mut cmd_error = vec![0f32; n_cmds];
-        for p in 0..n_prims {
-            let c = cmd_first[p] as usize;
-            cmd_tris[c] = scene.primitives[p].triangles() as u64;
-            for (j, (r, e)) in lod_ranges[p].iter().enumerate() {
-                cmd_tris[c + 1 + j] = r.index_count as u64 / 3;
-                cmd_level[c + 1 + j] = (j + 1) as u8;
-                cmd_error[c + 1 + j] = *e;
-            }
-        }
-        let mut base = 0u32;
-        for &p in order {
-            let p = p as usize;
-            for j in 0..levels(p) {
-                let r = if j == 0 {
-                    ranges[p]
-                } else {
-                    lod_ranges[p][j - 1].0
-                };
-                commands[cmd_first[p] as usize + j] = vk::DrawIndexedIndirectCommand {
-                    index_count: r.index_count,
-                    instance_count: 0,
-                    first_index: r.first_index,
-                    vertex_offset: r.vertex_offset,
-                    first_instance: base,
-                };
-                base += users[p] as u32;
-            }
-        }
-        // The late commands draw from the late ranges, after the early ones.
-        for c in 0..n_cmds * (phases - 1) {
-            commands[n_cmds + c] = vk::DrawIndexedIndirectCommand {
-                first_instance: commands[c].first_instance + total as u32,
-                ..commands[c]
-            };
-        }
-        let lod_info: Vec<u32> = (0..n_prims)
-            .flat_map(|p| [cmd_first[p], levels(p) as u32, 0, 0])
-            .collect();
-        let mut words: Vec<u32> = Vec::with_capacity(commands.len() * 5);
-        for c in &commands {
-            words.extend_from_slice(&[
-                c.index_count,
-                c.instance_count,
-                c.first_index,
-                c.vertex_offset as u32,
-                c.first_instance,
-            ]);
-        }
-        let mut boxes: Vec<f32> = Vec::with_capacity(scene.instances.len() * 12);
-        for (b, inst) in scene.world_bounds().iter().zip(&scene.instances) {
-            boxes.extend_from_slice(&box_record(slices[inst.mesh as usize], b, &inst.transform));
-        }
-        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
-        let instances = upload(
-            ctx,
-            "cull instances",
-            storage,
-            "instances",
-            as_bytes(&boxes),
-        )?;
-        let prims = match upload(
-            ctx,
-            "cull primitives",
-            storage,
-            "instances",
-            as_bytes(&flat),
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                instances.destroy(ctx);
-                return Err(e);
-            }
-        };
-        let template = match upload(
-            ctx,
-            "draw command template",
-            vk::BufferUsageFlags::TRANSFER_SRC,
-            "per-frame",
-            as_bytes(&words),
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                instances.destroy(ctx);
-                prims.destroy(ctx);
-                return Err(e);
-            }
-        };
-        // Every instance starts visible: the first frame draws all that is
-        // inside the volumes early, so its late phase already knows what
-        // is hidden.
-        let ones = vec![
-            1u32;
-            if occlusion.is_some() {
-                scene.instances.len()
-            } else {
-                1
-            }
-        ];
-        let made = [
-            ("instance visibility", as_bytes(&ones)),
-            ("occlusion placeholder", as_bytes(&[0u32; 4])),
-            ("lod levels", as_bytes(&lod_info)),
-            ("lod errors", as_bytes(&cmd_error)),
-        ]
-        .map(|(name, bytes)| upload(ctx, name, storage, "instances", bytes));
-        if made.iter().any(|b| b.is_err()) {
-            let mut err = None;
-            for b in made {
-                match b {
-                    Ok(b) => b.destroy(ctx),
-                    Err(e) => err = err.or(Some(e)),
-                }
-            }
-            for b in [instances, prims, template] {
-                b.destroy(ctx);
-            }
-            return Err(err.expect("one upload failed"));
-        }
-        let [visibility, placeholder, lod_levels, lod_errors] =
-            made.map(|b| b.expect("checked above"));
-        let early = match upload(
-            ctx,
-            "early list",
-            storage | vk::BufferUsageFlags::INDIRECT_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-            "instances",
-            as_bytes(&first_early_list(
-                occlusion.map_or(0, |_| scene.instances.len() as u32),
-            )),
-        ) {
-            Ok(b) => b,
-            Err(e) => {
-                for b in [
-                    instances,
-                    prims,
-                    template,
-                    visibility,
-                    placeholder,
-                    lod_levels,
-                    lod_errors,
-                ] {
-                    b.destroy(ctx);
-                }
-                return Err(e);
-            }
-        };
+        let t = table::Table::new(setup, scene, order, phases, blended)?;
+        let Tables {
+            instances,
+            prims,
+            template,
+            visibility,
+            placeholder,
+            lod_levels,
+            lod_errors,
+            early,
+        } = Tables::upload(ctx, scene, &t, occlusion.is_some())?;
+        let (n_cmds, total) = (t.n_cmds, t.total);
+        let table::Table {
+            cmd_first,
+            cmd_tris,
+            cmd_level,
+            slices,
+            ..
+        } = t;
         let mut pass = GpuCull {
             instances,
             prims,
