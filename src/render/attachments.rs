@@ -228,45 +228,13 @@ impl AttachmentSet {
                 )
             };
             let resolve_image = resolve.image;
-            // sRGB has no storage use: the image is made mutable with
-            // extended usage and written through a UNORM view.
-            let filled = p.filled.insert(Image::new(
+            p.make_composed(
                 ctx,
-                &if storage_output {
-                    ImageDesc {
-                        usage: usage | vk::ImageUsageFlags::STORAGE,
-                        flags: vk::ImageCreateFlags::MUTABLE_FORMAT
-                            | vk::ImageCreateFlags::EXTENDED_USAGE,
-                        ..plain
-                    }
-                } else {
-                    plain
-                },
-            )?);
-            let filled_image = filled.image;
-            p.filled_view = Some(Image::make_view(
-                ctx,
+                plain,
                 resolve_image,
-                COLOR_FORMAT,
-                vk::ImageAspectFlags::COLOR,
-                vk::ImageViewType::TYPE_2D_ARRAY,
-                0,
-                layers,
-                1,
-            )?);
-            if storage_output {
-                p.filled_storage = Some(Image::view_for(
-                    ctx,
-                    filled_image,
-                    vk::Format::R8G8B8A8_UNORM,
-                    vk::ImageAspectFlags::COLOR,
-                    vk::ImageViewType::TYPE_2D_ARRAY,
-                    (0, output_layers),
-                    1,
-                    Some(vk::ImageUsageFlags::STORAGE),
-                )?);
-            }
-            Ok(())
+                (layers, output_layers),
+                storage_output,
+            )
         })();
         match (made, p) {
             (
@@ -383,6 +351,59 @@ struct Parts {
 }
 
 impl Parts {
+    /// The composed output (`plain`, with storage use and a UNORM view
+    /// when `storage_output`), and a 2D-array view of the resolve image
+    /// `resolve_image` of `layers` layers that the composing pass samples.
+    fn make_composed(
+        &mut self,
+        ctx: &Context,
+        plain: ImageDesc,
+        resolve_image: vk::Image,
+        (layers, output_layers): (u32, u32),
+        storage_output: bool,
+    ) -> Result<()> {
+        let usage = plain.usage;
+        // sRGB has no storage use: the image is made mutable with
+        // extended usage and written through a UNORM view.
+        let filled = self.filled.insert(Image::new(
+            ctx,
+            &if storage_output {
+                ImageDesc {
+                    usage: usage | vk::ImageUsageFlags::STORAGE,
+                    flags: vk::ImageCreateFlags::MUTABLE_FORMAT
+                        | vk::ImageCreateFlags::EXTENDED_USAGE,
+                    ..plain
+                }
+            } else {
+                plain
+            },
+        )?);
+        let filled_image = filled.image;
+        self.filled_view = Some(Image::make_view(
+            ctx,
+            resolve_image,
+            COLOR_FORMAT,
+            vk::ImageAspectFlags::COLOR,
+            vk::ImageViewType::TYPE_2D_ARRAY,
+            0,
+            layers,
+            1,
+        )?);
+        if storage_output {
+            self.filled_storage = Some(Image::view_for(
+                ctx,
+                filled_image,
+                vk::Format::R8G8B8A8_UNORM,
+                vk::ImageAspectFlags::COLOR,
+                vk::ImageViewType::TYPE_2D_ARRAY,
+                (0, output_layers),
+                1,
+                Some(vk::ImageUsageFlags::STORAGE),
+            )?);
+        }
+        Ok(())
+    }
+
     /// Destroys the views, then the images; the device must be idle.
     fn destroy(self, ctx: &Context) {
         for view in [self.filled_storage, self.filled_view]

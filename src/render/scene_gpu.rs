@@ -183,47 +183,7 @@ impl SceneGpu {
     pub fn new(ctx: &Context, scene: &Scene, lod: Option<&Chains>) -> Result<SceneGpu> {
         let features = scene.features();
         let used = used_streams(&features);
-        let mut data: [Vec<f32>; 6] = Default::default();
-        let mut indices: Vec<u32> = Vec::new();
-        let mut ranges = Vec::new();
-        let mut vertex_count = 0usize;
-        for p in &scene.primitives {
-            let n = p.positions.len();
-            ranges.push(DrawRange {
-                first_index: indices.len() as u32,
-                index_count: p.indices.len() as u32,
-                vertex_offset: vertex_count as i32,
-                material: p.material,
-            });
-            indices.extend_from_slice(&p.indices);
-            data[0].extend(p.positions.iter().flatten());
-            data[1].extend(p.normals.iter().flatten());
-            if used[2] {
-                match &p.tangents {
-                    Some(t) => data[2].extend(t.iter().flatten()),
-                    None => data[2].extend(std::iter::repeat_n([1.0, 0.0, 0.0, 1.0], n).flatten()),
-                }
-            }
-            if used[3] {
-                match &p.uv0 {
-                    Some(t) => data[3].extend(t.iter().flatten()),
-                    None => data[3].extend(std::iter::repeat_n(0.0, 2 * n)),
-                }
-            }
-            if used[4] {
-                match &p.uv1 {
-                    Some(t) => data[4].extend(t.iter().flatten()),
-                    None => data[4].extend(std::iter::repeat_n(0.0, 2 * n)),
-                }
-            }
-            if used[5] {
-                match &p.colors {
-                    Some(t) => data[5].extend(t.iter().flatten()),
-                    None => data[5].extend(std::iter::repeat_n(1.0, 4 * n)),
-                }
-            }
-            vertex_count += n;
-        }
+        let (data, mut indices, ranges, vertex_count) = pack_vertices(scene, &used);
         ctx.ensure_fits(
             estimate_bytes(scene, &data, indices.len()),
             &format!(
@@ -297,36 +257,7 @@ impl SceneGpu {
                 bytes_of(&inst),
             )?);
 
-            let mut mats: Vec<u32> = Vec::new();
-            for m in &scene.materials {
-                let f = |v: f32| v.to_bits();
-                let t = |r: Option<u32>| r.map_or(-1i32, |x| x as i32) as u32;
-                mats.extend(m.base_color.map(f));
-                mats.extend([
-                    f(m.emissive[0]),
-                    f(m.emissive[1]),
-                    f(m.emissive[2]),
-                    f(m.alpha_cutoff),
-                ]);
-                let ns = m.normal_tex.map_or(1.0, |(_, s)| s);
-                let os = m.occlusion_tex.map_or(1.0, |(_, s)| s);
-                mats.extend([f(m.metallic), f(m.roughness), f(ns), f(os)]);
-                let slots = [
-                    m.base_color_tex,
-                    m.metallic_roughness_tex,
-                    m.normal_tex.map(|x| x.0),
-                    m.occlusion_tex.map(|x| x.0),
-                    m.emissive_tex,
-                ];
-                let uv_mask = slots.iter().enumerate().fold(0u32, |acc, (i, s)| {
-                    acc | (s.is_some_and(|s| s.tex_coord == 1) as u32) << i
-                });
-                let flags = (m.unlit as u32)
-                    | (m.double_sided as u32) << 1
-                    | ((m.alpha_mode == AlphaMode::Mask) as u32) << 2;
-                mats.extend(slots[..4].iter().map(|s| t(s.map(|s| s.texture))));
-                mats.extend([t(slots[4].map(|s| s.texture)), uv_mask, flags, 0]);
-            }
+            let mats = material_records(scene);
             u.materials = Some(upload(
                 ctx,
                 "materials",
@@ -335,30 +266,7 @@ impl SceneGpu {
                 bytes_of(&mats),
             )?);
 
-            for (repeat, linear) in [(false, false), (false, true), (true, false), (true, true)] {
-                let address = if repeat {
-                    vk::SamplerAddressMode::REPEAT
-                } else {
-                    vk::SamplerAddressMode::CLAMP_TO_EDGE
-                };
-                let filter = if linear {
-                    vk::Filter::LINEAR
-                } else {
-                    vk::Filter::NEAREST
-                };
-                let info = vk::SamplerCreateInfo::default()
-                    .mag_filter(filter)
-                    .min_filter(filter)
-                    .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
-                    .address_mode_u(address)
-                    .address_mode_v(address)
-                    .address_mode_w(address)
-                    .max_lod(vk::LOD_CLAMP_NONE);
-                // SAFETY: valid sampler create info.
-                u.samplers.push(
-                    unsafe { ctx.device.create_sampler(&info, None) }.vk("creating a sampler")?,
-                );
-            }
+            make_samplers(ctx, &mut u.samplers)?;
             if scene.textures.is_empty() {
                 u.textures
                     .push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
@@ -614,4 +522,122 @@ fn upload_texture(
             Err(e)
         }
     }
+}
+
+/// Every primitive's vertex streams one after the other (the unused
+/// streams empty; a primitive without a used stream gets its default),
+/// their indices, each primitive's draw range, and the vertex count.
+#[allow(clippy::type_complexity)]
+fn pack_vertices(
+    scene: &Scene,
+    used: &[bool; 6],
+) -> ([Vec<f32>; 6], Vec<u32>, Vec<DrawRange>, usize) {
+    let mut data: [Vec<f32>; 6] = Default::default();
+    let mut indices: Vec<u32> = Vec::new();
+    let mut ranges = Vec::new();
+    let mut vertex_count = 0usize;
+    for p in &scene.primitives {
+        let n = p.positions.len();
+        ranges.push(DrawRange {
+            first_index: indices.len() as u32,
+            index_count: p.indices.len() as u32,
+            vertex_offset: vertex_count as i32,
+            material: p.material,
+        });
+        indices.extend_from_slice(&p.indices);
+        data[0].extend(p.positions.iter().flatten());
+        data[1].extend(p.normals.iter().flatten());
+        if used[2] {
+            match &p.tangents {
+                Some(t) => data[2].extend(t.iter().flatten()),
+                None => data[2].extend(std::iter::repeat_n([1.0, 0.0, 0.0, 1.0], n).flatten()),
+            }
+        }
+        if used[3] {
+            match &p.uv0 {
+                Some(t) => data[3].extend(t.iter().flatten()),
+                None => data[3].extend(std::iter::repeat_n(0.0, 2 * n)),
+            }
+        }
+        if used[4] {
+            match &p.uv1 {
+                Some(t) => data[4].extend(t.iter().flatten()),
+                None => data[4].extend(std::iter::repeat_n(0.0, 2 * n)),
+            }
+        }
+        if used[5] {
+            match &p.colors {
+                Some(t) => data[5].extend(t.iter().flatten()),
+                None => data[5].extend(std::iter::repeat_n(1.0, 4 * n)),
+            }
+        }
+        vertex_count += n;
+    }
+    (data, indices, ranges, vertex_count)
+}
+
+/// Each material as the shaders read it: 16 words (base colour,
+/// emissive and alpha cutoff, metallic, roughness and the normal and
+/// occlusion strengths, the five textures, which read uv1, and flags).
+fn material_records(scene: &Scene) -> Vec<u32> {
+    let mut mats: Vec<u32> = Vec::new();
+    for m in &scene.materials {
+        let f = |v: f32| v.to_bits();
+        let t = |r: Option<u32>| r.map_or(-1i32, |x| x as i32) as u32;
+        mats.extend(m.base_color.map(f));
+        mats.extend([
+            f(m.emissive[0]),
+            f(m.emissive[1]),
+            f(m.emissive[2]),
+            f(m.alpha_cutoff),
+        ]);
+        let ns = m.normal_tex.map_or(1.0, |(_, s)| s);
+        let os = m.occlusion_tex.map_or(1.0, |(_, s)| s);
+        mats.extend([f(m.metallic), f(m.roughness), f(ns), f(os)]);
+        let slots = [
+            m.base_color_tex,
+            m.metallic_roughness_tex,
+            m.normal_tex.map(|x| x.0),
+            m.occlusion_tex.map(|x| x.0),
+            m.emissive_tex,
+        ];
+        let uv_mask = slots.iter().enumerate().fold(0u32, |acc, (i, s)| {
+            acc | (s.is_some_and(|s| s.tex_coord == 1) as u32) << i
+        });
+        let flags = (m.unlit as u32)
+            | (m.double_sided as u32) << 1
+            | ((m.alpha_mode == AlphaMode::Mask) as u32) << 2;
+        mats.extend(slots[..4].iter().map(|s| t(s.map(|s| s.texture))));
+        mats.extend([t(slots[4].map(|s| s.texture)), uv_mask, flags, 0]);
+    }
+    mats
+}
+
+/// The four samplers textures use (clamp or repeat, nearest or linear),
+/// pushed onto `samplers` as they are made (so a failure leaves the made
+/// ones there to destroy).
+fn make_samplers(ctx: &Context, samplers: &mut Vec<vk::Sampler>) -> Result<()> {
+    for (repeat, linear) in [(false, false), (false, true), (true, false), (true, true)] {
+        let address = if repeat {
+            vk::SamplerAddressMode::REPEAT
+        } else {
+            vk::SamplerAddressMode::CLAMP_TO_EDGE
+        };
+        let filter = if linear {
+            vk::Filter::LINEAR
+        } else {
+            vk::Filter::NEAREST
+        };
+        let info = vk::SamplerCreateInfo::default()
+            .mag_filter(filter)
+            .min_filter(filter)
+            .mipmap_mode(vk::SamplerMipmapMode::LINEAR)
+            .address_mode_u(address)
+            .address_mode_v(address)
+            .address_mode_w(address)
+            .max_lod(vk::LOD_CLAMP_NONE);
+        // SAFETY: valid sampler create info.
+        samplers.push(unsafe { ctx.device.create_sampler(&info, None) }.vk("creating a sampler")?);
+    }
+    Ok(())
 }
