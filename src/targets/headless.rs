@@ -474,40 +474,11 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     let extent = eye_extent(&profile, job.size);
     let renderer = new_renderer(&ctx, &scene, &config, extent)?;
     let mut driver = FrameDriver::new(renderer, &scene)?;
-    let head = match (&job.camera, job.pose) {
-        (Some(name), _) => scene_camera(&scene, name)?,
-        (None, Some(pose)) => pose,
-        (None, None) => super::framing::head_pose(&scene, &profile, job.framing),
-    };
-    let rig = match job.rig.clone() {
-        // A rig file written before rig.json carried hidden areas: the
-        // profile's masks, when it has as many views.
-        Some(mut r) if r.hidden_area.is_none() && r.views.len() == profile.views.len() => {
-            r.hidden_area = Some(profile.hidden_areas.clone());
-            r
-        }
-        Some(r) => r,
-        None => profile.rig(head),
-    };
+    let rig = head_rig(job, &scene, &profile)?;
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
     let total = warmup + frames;
-    let mut all: Vec<FrameResult> = Vec::new();
-    let keep = |r: FrameResult, all: &mut Vec<FrameResult>| {
-        if r.index >= warmup as u64 {
-            all.push(r);
-        }
-    };
-    for i in 0..total {
-        driver.frame(&rig, i as u64, i + 1 == total)?;
-        while let Some(r) = driver.take_completed() {
-            keep(r, &mut all);
-        }
-    }
-    driver.finish()?;
-    while let Some(r) = driver.take_completed() {
-        keep(r, &mut all);
-    }
+    let all = run_frames(&mut driver, &rig, warmup, total)?;
     let cull_stats = all.last().and_then(|r| r.cull);
     let gpu_frame: Vec<f64> = all.iter().map(FrameResult::gpu_ms).collect();
     let cpu_frame: Vec<f64> = all
@@ -517,45 +488,11 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     let intervals: Vec<f64> = all.iter().filter_map(|r| r.interval_ms).collect();
     let cull_ms: Vec<f64> = all.iter().map(|r| r.cull_ms).collect();
     let motion_ms: Vec<f64> = all.iter().map(|r| r.motion_ms).collect();
-    let median_of = |get: &dyn Fn(&FrameResult) -> f64| {
-        Percentiles::of(&all.iter().map(get).collect::<Vec<_>>()).median
-    };
-    let mut frame = all.last().map(|r| r.stats.clone()).unwrap_or_default();
-    frame.cpu_ms.batch = median_of(&|r| r.stats.cpu_ms.batch);
-    frame.cpu_ms.record = median_of(&|r| r.stats.cpu_ms.record);
-    frame.cpu_ms.submit = median_of(&|r| r.stats.cpu_ms.submit);
-    frame.cpu_ms.wait = median_of(&|r| r.stats.cpu_ms.wait);
-    if frame.cpu_ms.record_threads.is_some() {
-        let threads = |r: &FrameResult| r.stats.cpu_ms.record_threads.unwrap_or_default();
-        frame.cpu_ms.record_threads = Some(crate::render::submission::ThreadTimes {
-            sum: median_of(&|r| threads(r).sum),
-            slowest: median_of(&|r| threads(r).slowest),
-        });
-    }
-    for (name, v) in frame.gpu_ms.iter_mut() {
-        *v = median_of(&|r| r.stats.gpu_ms.get(name).copied().unwrap_or(0.0));
-    }
+    let frame = median_frame(&all);
     let [left, right] = driver.read_images()?;
     let build_ms = driver.culling().map(|c| c.build_ms);
     let renderer = driver.renderer_mut();
-    let floor_gpu_ms = if frames > 1 {
-        let mut measure = |kind| -> Result<Percentiles> {
-            let mut v = Vec::new();
-            for i in 0..warmup + frames {
-                let ms = renderer.render_floor(kind)?;
-                if i >= warmup {
-                    v.push(ms);
-                }
-            }
-            Ok(Percentiles::of(&v))
-        };
-        Some(Floors {
-            clear: measure(FloorKind::Clear)?,
-            fullscreen_triangle: measure(FloorKind::FullscreenTriangle)?,
-        })
-    } else {
-        None
-    };
+    let floor_gpu_ms = measure_floors(renderer, warmup, frames)?;
     let preview = match (job.distorted, lenses) {
         (Some(method), Some(lenses)) => {
             let (Some(l), Some(r)) = (rig.views.first(), rig.views.get(1)) else {
@@ -732,4 +669,104 @@ fn png_to(w: &mut dyn std::io::Write, img: &image::RgbaImage) -> std::io::Result
 /// Writes an RGBA image as PNG ([`crate::fsio::write_output`]).
 pub fn save_png(img: &image::RgbaImage, path: &Path) -> Result<()> {
     crate::fsio::write_output(path, |w| png_to(w, img))
+}
+
+/// The views to render: `--rig`'s (with the profile's masks when the file
+/// has none), else the profile's eyes at `--camera`, `--pose` or the
+/// framing.
+fn head_rig(
+    job: &RenderJob,
+    scene: &Scene,
+    profile: &HmdProfile,
+) -> Result<crate::view::StereoRig> {
+    let head = match (&job.camera, job.pose) {
+        (Some(name), _) => scene_camera(scene, name)?,
+        (None, Some(pose)) => pose,
+        (None, None) => super::framing::head_pose(scene, profile, job.framing),
+    };
+    let rig = match job.rig.clone() {
+        // A rig file written before rig.json carried hidden areas: the
+        // profile's masks, when it has as many views.
+        Some(mut r) if r.hidden_area.is_none() && r.views.len() == profile.views.len() => {
+            r.hidden_area = Some(profile.hidden_areas.clone());
+            r
+        }
+        Some(r) => r,
+        None => profile.rig(head),
+    };
+    Ok(rig)
+}
+
+/// Renders `total` frames of `rig`, reading back the last; the results of
+/// those after `warmup`.
+fn run_frames(
+    driver: &mut FrameDriver,
+    rig: &crate::view::StereoRig,
+    warmup: u32,
+    total: u32,
+) -> Result<Vec<FrameResult>> {
+    let mut all: Vec<FrameResult> = Vec::new();
+    let keep = |r: FrameResult, all: &mut Vec<FrameResult>| {
+        if r.index >= warmup as u64 {
+            all.push(r);
+        }
+    };
+    for i in 0..total {
+        driver.frame(rig, i as u64, i + 1 == total)?;
+        while let Some(r) = driver.take_completed() {
+            keep(r, &mut all);
+        }
+    }
+    driver.finish()?;
+    while let Some(r) = driver.take_completed() {
+        keep(r, &mut all);
+    }
+    Ok(all)
+}
+
+/// The last frame's statistics with its CPU and GPU times replaced by the
+/// medians over `all`.
+fn median_frame(all: &[FrameResult]) -> crate::render::FrameStats {
+    let median_of = |get: &dyn Fn(&FrameResult) -> f64| {
+        Percentiles::of(&all.iter().map(get).collect::<Vec<_>>()).median
+    };
+    let mut frame = all.last().map(|r| r.stats.clone()).unwrap_or_default();
+    frame.cpu_ms.batch = median_of(&|r| r.stats.cpu_ms.batch);
+    frame.cpu_ms.record = median_of(&|r| r.stats.cpu_ms.record);
+    frame.cpu_ms.submit = median_of(&|r| r.stats.cpu_ms.submit);
+    frame.cpu_ms.wait = median_of(&|r| r.stats.cpu_ms.wait);
+    if frame.cpu_ms.record_threads.is_some() {
+        let threads = |r: &FrameResult| r.stats.cpu_ms.record_threads.unwrap_or_default();
+        frame.cpu_ms.record_threads = Some(crate::render::submission::ThreadTimes {
+            sum: median_of(&|r| threads(r).sum),
+            slowest: median_of(&|r| threads(r).slowest),
+        });
+    }
+    for (name, v) in frame.gpu_ms.iter_mut() {
+        *v = median_of(&|r| r.stats.gpu_ms.get(name).copied().unwrap_or(0.0));
+    }
+    frame
+}
+
+/// With more than one frame: the clear-only and full-screen-triangle
+/// floors, measured as many times after as many warm-ups.
+fn measure_floors(renderer: &mut Renderer, warmup: u32, frames: u32) -> Result<Option<Floors>> {
+    Ok(if frames > 1 {
+        let mut measure = |kind| -> Result<Percentiles> {
+            let mut v = Vec::new();
+            for i in 0..warmup + frames {
+                let ms = renderer.render_floor(kind)?;
+                if i >= warmup {
+                    v.push(ms);
+                }
+            }
+            Ok(Percentiles::of(&v))
+        };
+        Some(Floors {
+            clear: measure(FloorKind::Clear)?,
+            fullscreen_triangle: measure(FloorKind::FullscreenTriangle)?,
+        })
+    } else {
+        None
+    })
 }
