@@ -943,9 +943,6 @@ fn bench(
                     .map_or("ref".into(), |e| format!("{:.4}", e.flip_mean))
             );
         }
-        for t in vergence::bench::tables::target_lines(g) {
-            println!("  {t}");
-        }
     }
     println!(
         "wrote {}/report.md, report.html, results.json, results.csv",

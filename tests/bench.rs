@@ -72,7 +72,16 @@ fn get<'a>(results: &'a BenchResults, name: &str) -> &'a ConfigResult {
 fn smoke_plan_measures_and_reports() {
     let out = common::scratch("bench", "smoke");
     let stdout = ok(&["bench", "--plan", "smoke", "--out", out.to_str().unwrap()]);
-    assert!(stdout.contains("Target (full stack"), "{stdout}");
+    let checks = std::fs::read_to_string(out.join("checks.md")).unwrap();
+    assert!(checks.contains("Target (full stack"), "{checks}");
+    for report in ["report.md", "report.html"] {
+        let text = std::fs::read_to_string(out.join(report)).unwrap();
+        assert!(
+            !text.contains("Target ("),
+            "{report} holds a threshold line"
+        );
+    }
+    assert!(!stdout.contains("Target ("), "{stdout}");
     let plan = Plan::resolve("smoke").unwrap();
 
     let json = std::fs::read_to_string(out.join("results.json")).unwrap();
@@ -665,7 +674,11 @@ fn the_inset_error_is_measured_inside_the_inset() {
     }
     let md = std::fs::read_to_string(out.join("report.md")).unwrap();
     assert!(md.contains("Inside the inset"), "{md}");
-    assert!(md.contains("Target (inset vs two-pass-per-eye"), "{md}");
+    let checks = std::fs::read_to_string(out.join("checks.md")).unwrap();
+    assert!(
+        checks.contains("Target (inset vs two-pass-per-eye"),
+        "{checks}"
+    );
     let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();
     let head = csv_fields(csv.lines().next().unwrap());
     let col = head.iter().position(|h| h == "flip_inset_mean").unwrap();
@@ -808,8 +821,8 @@ fn tune_caps_flicker_at_the_baselines_against_a_supersampled_reference() {
         stdout.contains(&format!("over the cap {base:.6} (the baseline's)")),
         "{stdout}"
     );
-    // The report judges the capped target against the same cap.
-    let md = std::fs::read_to_string(file.with_extension("bench").join("report.md")).unwrap();
+    // The checks judge the capped threshold against the same cap.
+    let md = std::fs::read_to_string(file.with_extension("bench").join("checks.md")).unwrap();
     assert!(
         md.contains(&format!(
             "Target (the fastest configuration at FLIP mean ≤ 0.01 and flicker ≤ baseline's {base:.6}: ≥ 3× lower GPU frame time): "

@@ -3,7 +3,7 @@
 //! histograms and the scaling curve (cost against instance count).
 
 use super::runner::{BenchResults, Group};
-use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows, target_lines};
+use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows};
 use crate::stats::histogram;
 use plotters::prelude::*;
 use std::fmt::Write as _;
@@ -264,9 +264,6 @@ pub fn html(results: &BenchResults) -> String {
                 f.clear.p50,
                 f.fullscreen_triangle.p50
             );
-        }
-        for t in target_lines(g) {
-            let _ = write!(s, "<p><b>{}</b></p>", esc(&t));
         }
         let (head, rows) = group_rows(g);
         let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();

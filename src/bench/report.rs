@@ -7,12 +7,49 @@ use crate::error::Result;
 use std::fmt::Write as _;
 use std::path::Path;
 
-/// Writes results.json, results.csv, report.md and report.html into `dir`.
+/// Writes results.json, results.csv, report.md and report.html into `dir`,
+/// and `checks.md` (fixed thresholds some plans are checked against, kept
+/// out of the reports) when a group has any.
 pub fn write_all(dir: &Path, results: &BenchResults) -> Result<()> {
     crate::targets::headless::write_json(&dir.join("results.json"), results)?;
     write_text(&dir.join("results.csv"), &csv(results))?;
     write_text(&dir.join("report.md"), &markdown(results))?;
-    write_text(&dir.join("report.html"), &super::html::html(results))
+    write_text(&dir.join("report.html"), &super::html::html(results))?;
+    match checks(results) {
+        Some(text) => write_text(&dir.join("checks.md"), &text),
+        None => Ok(()),
+    }
+}
+
+/// The threshold checks of every group ([`target_lines`]), or None when
+/// no group has one.
+pub fn checks(results: &BenchResults) -> Option<String> {
+    let mut s = String::new();
+    for g in &results.groups {
+        let lines = target_lines(g);
+        if lines.is_empty() {
+            continue;
+        }
+        let _ = writeln!(
+            s,
+            "## {}
+",
+            group_title(g)
+        );
+        for t in lines {
+            let _ = writeln!(s, "- {t}");
+        }
+        let _ = writeln!(s);
+    }
+    (!s.is_empty()).then(|| {
+        format!(
+            "# Threshold checks
+
+Fixed thresholds this plan's results are checked against (the report itself states results only).
+
+{s}"
+        )
+    })
 }
 
 /// Writes `text` to `path` ([`crate::fsio::write_output`]).
@@ -137,9 +174,6 @@ pub fn markdown(results: &BenchResults) -> String {
                 "Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.\n",
                 g.baseline, f.empty_frame.p50, f.clear.p50, f.fullscreen_triangle.p50
             );
-        }
-        for t in target_lines(g) {
-            let _ = writeln!(s, "**{t}**\n");
         }
         let (head, rows) = group_rows(g);
         let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();

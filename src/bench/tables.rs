@@ -120,7 +120,8 @@ pub fn pass_rows(g: &Group) -> (Vec<String>, Vec<Vec<String>>) {
     (passes, rows)
 }
 
-/// The targets, checked on a group against its baseline: the
+/// The fixed thresholds a group is checked against its baseline (written
+/// to `checks.md`, not to the reports): the
 /// config named `full-stack` (≥ 2.5× lower GPU frame time at FLIP mean
 /// ≤ 0.05) and the config named `inset` (≥ 2× at FLIP mean ≤ 0.01 inside
 /// the inset and ≤ 0.05 over the lens-visible image), one line per config
