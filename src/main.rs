@@ -988,7 +988,7 @@ fn tune(
             out.display()
         );
     }
-    let results = run_bench(&plan, &dir)?;
+    let mut results = run_bench(&plan, &dir)?;
     let choice = tune::choose(&results, &goal)?;
     for line in &choice.why {
         println!("  {line}");
@@ -1004,6 +1004,9 @@ fn tune(
         }
     );
     vergence::fsio::write_bytes(out, tune::config_file(&choice, &goal, &results).as_bytes())?;
+    // The reports name the choice, its limits and every candidate's fit.
+    results.choice = Some(tune::summary(&choice, &goal));
+    vergence::bench::report::write_all(&dir, &results)?;
     println!(
         "wrote {} (use: vergence run --config {}); measurements in {}",
         out.display(),

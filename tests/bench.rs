@@ -291,6 +291,31 @@ fn tune_writes_a_config_run_accepts() {
         stdout.contains(&format!("chose {} (`{}`)", chosen.name, chosen.opt)),
         "{stdout}"
     );
+    // The reports name the choice and its limits; the chart marks it.
+    let c = results
+        .choice
+        .as_ref()
+        .expect("the choice is in results.json");
+    assert_eq!(
+        (c.name.as_str(), c.budget_ms, c.max_flip),
+        (chosen.name.as_str(), 10000.0, Some(0.2))
+    );
+    assert_eq!(c.why.len(), tune::CANDIDATES.len());
+    let bench = file.with_extension("bench");
+    let md = std::fs::read_to_string(bench.join("report.md")).unwrap();
+    assert!(md.starts_with("# vergence tune report"), "{md}");
+    assert!(
+        md.contains(&format!("**{}** (`{}`)", chosen.name, chosen.opt)),
+        "{md}"
+    );
+    assert!(
+        md.contains("Frame budget: 10000.000 ms") && md.contains("FLIP mean cap: 0.2"),
+        "{md}"
+    );
+    let html = std::fs::read_to_string(bench.join("report.html")).unwrap();
+    assert!(html.contains("<h2>Choice</h2>"));
+    let svg = &html[html.find("<svg").expect("a chart")..];
+    assert!(svg.contains("chosen"), "the chart marks the choice");
 
     let out = dir.join("render");
     ok(&[

@@ -64,7 +64,7 @@ pub fn pareto_frontier(points: &[(f64, f64)]) -> Vec<(f64, f64)> {
     out
 }
 
-fn pareto_svg(g: &Group) -> String {
+fn pareto_svg(g: &Group, chosen: Option<&str>) -> String {
     let pts: Vec<(f64, f64, String)> = g
         .results
         .iter()
@@ -100,6 +100,14 @@ fn pareto_svg(g: &Group) -> String {
                 + Circle::new((0, 0), 4, BLUE.filled())
                 + Text::new(name.clone(), (6, -12), ("sans-serif", 11))
         }))?;
+        // Tune's choice, ringed and labelled.
+        chart.draw_series(pts.iter().filter(|p| Some(p.2.as_str()) == chosen).map(
+            |(x, y, _)| {
+                EmptyElement::at((*x, *y))
+                    + Circle::new((0, 0), 9, GREEN.stroke_width(3))
+                    + Text::new("chosen", (6, 4), ("sans-serif", 12))
+            },
+        ))?;
         root.present()?;
         Ok(())
     })
@@ -244,6 +252,12 @@ pub fn html(results: &BenchResults) -> String {
          .grid{display:flex;flex-wrap:wrap;gap:8px}.grid figure{margin:0;font-size:12px}img{image-rendering:pixelated}</style>\
          </head><body><h1>vergence bench report</h1><ul>",
     );
+    if results.choice.is_some() {
+        s = s.replace(
+            "<h1>vergence bench report</h1>",
+            "<h1>vergence tune report</h1>",
+        );
+    }
     for (k, v) in facts(results) {
         let _ = write!(
             s,
@@ -253,6 +267,23 @@ pub fn html(results: &BenchResults) -> String {
         );
     }
     s.push_str("</ul>");
+    if let Some(c) = &results.choice {
+        s.push_str("<h2>Choice</h2>");
+        let _ = write!(
+            s,
+            "<p><b>{}</b> (<code>{}</code>): {}.</p><ul><li>Frame budget: {:.3} ms (the measured wall-clock frame interval's p95)</li><li>FLIP mean cap: {}</li><li>Flicker cap: {}</li></ul><p>Every candidate against the limits:</p><ul>",
+            esc(&c.name),
+            esc(&c.opt),
+            esc(&c.rule),
+            c.budget_ms,
+            c.max_flip.map_or("none (the least error within the budget wins)".to_string(), |m| m.to_string()),
+            esc(c.max_flicker.as_deref().unwrap_or("none")),
+        );
+        for w in &c.why {
+            let _ = write!(s, "<li><code>{}</code></li>", esc(w.trim()));
+        }
+        s.push_str("</ul>");
+    }
     for g in &results.groups {
         let _ = write!(s, "<h2>{}</h2>", esc(&group_title(g)));
         if let Some(f) = &g.floors {
@@ -281,7 +312,10 @@ pub fn html(results: &BenchResults) -> String {
             table(&mut s, &head, &inset);
         }
         s.push_str("<h3>Speed against accuracy</h3>");
-        s.push_str(&pareto_svg(g));
+        s.push_str(&pareto_svg(
+            g,
+            results.choice.as_ref().map(|c| c.name.as_str()),
+        ));
         s.push_str("<h3>Frame-time histograms (ms; red: refresh budget)</h3><div class=\"grid\">");
         let times = g
             .results

@@ -150,11 +150,43 @@ fn md_table(s: &mut String, head: &[String], rows: &[Vec<String>]) {
     }
 }
 
+/// What tune chose and under which limits, as markdown lines (the HTML
+/// report shows the same lines).
+pub fn choice_lines(c: &super::runner::TuneChoice) -> Vec<String> {
+    let mut out = vec![
+        "\n## Choice\n".to_string(),
+        format!("**{}** (`{}`): {}.\n", c.name, c.opt, c.rule),
+        format!(
+            "- Frame budget: {:.3} ms (the measured wall-clock frame interval's p95, frames in flight as `run` renders them)",
+            c.budget_ms
+        ),
+        match c.max_flip {
+            Some(m) => format!("- FLIP mean cap: {m}"),
+            None => "- FLIP mean cap: none (the least error within the budget wins)".to_string(),
+        },
+        match &c.max_flicker {
+            Some(m) => format!("- Flicker cap: {m}"),
+            None => "- Flicker cap: none".to_string(),
+        },
+        "\nEvery candidate against the limits:\n".to_string(),
+    ];
+    out.extend(c.why.iter().map(|w| format!("- `{}`", w.trim())));
+    out
+}
+
 /// `report.md`.
 pub fn markdown(results: &BenchResults) -> String {
-    let mut s = String::from("# vergence bench report\n\n");
+    let mut s = String::from(match results.choice {
+        Some(_) => "# vergence tune report\n\n",
+        None => "# vergence bench report\n\n",
+    });
     for (k, v) in facts(results) {
         let _ = writeln!(s, "- **{k}:** {v}");
+    }
+    if let Some(c) = &results.choice {
+        for line in choice_lines(c) {
+            let _ = writeln!(s, "{line}");
+        }
     }
     s.push_str(
         "\nGPU ms: sum of the frame's pass timestamps. Frame time: the measured wall-clock \

@@ -377,6 +377,29 @@ pub struct BenchResults {
     pub validation_messages: usize,
     /// The groups.
     pub groups: Vec<Group>,
+    /// With `vergence tune`: what it chose and under which limits.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub choice: Option<TuneChoice>,
+}
+
+/// What `vergence tune` chose from its measurements.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct TuneChoice {
+    /// The chosen configuration's name and `--opt` list.
+    pub name: String,
+    /// Its `--opt` list.
+    pub opt: String,
+    /// The frame budget (ms, the measured wall-clock frame interval's p95).
+    pub budget_ms: f64,
+    /// The FLIP mean cap (None: the least error within the budget wins).
+    pub max_flip: Option<f64>,
+    /// The flicker cap as given (a number or "baseline"), if any.
+    pub max_flicker: Option<String>,
+    /// The rule that picked it.
+    pub rule: String,
+    /// One line per candidate: its frame time against the budget, its
+    /// error and flicker against the caps.
+    pub why: Vec<String>,
 }
 
 /// The head path of a plan for one group: one rig per frame (warm-up

@@ -233,6 +233,26 @@ pub fn plan(
     }
 }
 
+/// The choice as the reports show it.
+pub fn summary(choice: &Choice, goal: &TuneGoal) -> super::runner::TuneChoice {
+    super::runner::TuneChoice {
+        name: choice.chosen.name.clone(),
+        opt: choice.chosen.opt.clone(),
+        budget_ms: goal.budget_ms,
+        max_flip: goal.max_flip,
+        max_flicker: goal.max_flicker.map(|c| match c {
+            FlickerCap::Value(v) => v.to_string(),
+            FlickerCap::Baseline => "the baseline's".to_string(),
+        }),
+        rule: if goal.max_flip.is_some() {
+            "the fastest within the budget and the caps".to_string()
+        } else {
+            "the least FLIP error within the budget".to_string()
+        },
+        why: choice.why.clone(),
+    }
+}
+
 /// The choice and the reasoning, as lines for the user.
 #[derive(Clone, Debug)]
 pub struct Choice {
