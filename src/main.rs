@@ -44,9 +44,15 @@ enum Command {
     /// CPU and GPU time, pacing, counts, memory and image error; writes
     /// results.json, results.csv, report.md and report.html into DIR.
     Bench {
-        /// A plan file or a shipped plan: smoke, default, scale.
+        /// A plan file (its scene and profile paths resolve against its
+        /// folder) or a shipped plan by name (smoke, default, scale, and
+        /// every plan in manifests/bench/, e.g. ufo-lod).
         #[arg(long, default_value = "default")]
         plan: String,
+        /// Check the plan (its configurations, scenes and profiles) and
+        /// stop, without measuring.
+        #[arg(long)]
+        check: bool,
         /// Output folder.
         #[arg(long, default_value = "bench-out")]
         out: PathBuf,
@@ -695,10 +701,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
         Command::RasterFloors(args) => raster_floors(&args)?,
         Command::Bench {
             plan,
+            check,
             out,
             frames,
             frames_in_flight,
-        } => bench(&plan, &out, frames, frames_in_flight)?,
+        } => bench(&plan, &out, frames, frames_in_flight, check)?,
         Command::Tune {
             budget_ms,
             max_flip,
@@ -914,6 +921,7 @@ fn bench(
     out: &std::path::Path,
     frames: Option<u32>,
     frames_in_flight: Option<u32>,
+    check: bool,
 ) -> anyhow::Result<()> {
     let mut plan = vergence::bench::plan::Plan::resolve(plan)?;
     if let Some(n) = frames_in_flight {
@@ -925,6 +933,16 @@ fn bench(
     }
     plan.check_inputs()
         .map_err(|m| anyhow::anyhow!("invalid --plan: {m}"))?;
+    if check {
+        println!(
+            "plan {}: {} scenes, {} profiles, {} configurations: ok",
+            plan.name,
+            plan.scenes.len(),
+            plan.hmds.len(),
+            plan.configs.len()
+        );
+        return Ok(());
+    }
     if out.is_file() {
         anyhow::bail!("invalid --out: {} is a file, not a folder", out.display());
     }

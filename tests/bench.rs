@@ -855,3 +855,53 @@ fn tune_caps_flicker_at_the_baselines_against_a_supersampled_reference() {
         "{md}"
     );
 }
+
+/// From a folder outside the repository: every shipped plan resolves by
+/// name and checks (its scene and profile paths resolve against the plan's
+/// own folder), a plan given by its full path too, and running the smoke
+/// plan twice into an output folder named like it works (the folder does
+/// not hide the plan).
+#[test]
+fn shipped_plans_work_by_name_from_any_folder() {
+    let away = common::scratch("bench", "elsewhere");
+    std::fs::create_dir_all(&away).unwrap();
+    let attempt = |args: &[&str]| {
+        let out = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+            .args(args)
+            .current_dir(&away)
+            .output()
+            .unwrap();
+        let text = String::from_utf8_lossy(&out.stdout).into_owned()
+            + &String::from_utf8_lossy(&out.stderr);
+        (out.status.success(), text)
+    };
+    let run = |args: &[&str]| {
+        let (ok, text) = attempt(args);
+        assert!(ok, "{args:?} from {}: {text}", away.display());
+        text
+    };
+    let names = vergence::bench::plan::shipped_names();
+    assert!(
+        names.len() >= 20 && names.iter().any(|n| n == "ufo-lod"),
+        "{names:?}"
+    );
+    for name in &names {
+        match attempt(&["bench", "--plan", name, "--check"]) {
+            (true, said) => assert!(said.contains(": ok"), "{name}: {said}"),
+            // The point-cloud plans read scans the user makes first
+            // (`vergence scan`, docs/points.md) in the working folder.
+            (false, said) => assert!(
+                said.starts_with("error:") && said.contains("bench-data/"),
+                "{name}: {said}"
+            ),
+        }
+    }
+    let full = common::root().join("manifests/bench/default.toml");
+    run(&["bench", "--plan", full.to_str().unwrap(), "--check"]);
+    for _ in 0..2 {
+        run(&[
+            "bench", "--plan", "smoke", "--frames", "2", "--out", "smoke",
+        ]);
+    }
+    assert!(away.join("smoke/report.md").is_file());
+}

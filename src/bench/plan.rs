@@ -4,7 +4,7 @@
 
 use crate::config::RenderConfig;
 use crate::error::{Error, Result};
-use std::path::Path;
+use std::path::{Path, PathBuf};
 
 /// One optimization set of a plan.
 #[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
@@ -33,6 +33,10 @@ pub struct PlanConfig {
 #[derive(Clone, Debug, PartialEq, serde::Deserialize, serde::Serialize)]
 #[serde(deny_unknown_fields)]
 pub struct Plan {
+    /// The folder the plan's relative paths (scenes, HMD profiles)
+    /// resolve against: the plan file's own (None: the working folder).
+    #[serde(skip)]
+    pub base: Option<PathBuf>,
     /// Plan name.
     pub name: String,
     /// Scenes (`factory:N`, a glTF file or a scene manifest).
@@ -152,6 +156,32 @@ pub const BUILTIN: &[(&str, &str)] = &[
     ),
 ];
 
+/// The shipped plans' folder in the source tree this binary was built
+/// from.
+pub fn shipped_dir() -> PathBuf {
+    Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/bench")
+}
+
+/// The plans usable by name: those in [`shipped_dir`] while it exists,
+/// else the built-in ones.
+pub fn shipped_names() -> Vec<String> {
+    let mut names: Vec<String> = std::fs::read_dir(shipped_dir())
+        .map(|d| {
+            d.filter_map(|e| e.ok())
+                .filter_map(|e| {
+                    let p = e.path();
+                    (p.extension()? == "toml").then(|| p.file_stem()?.to_str().map(String::from))?
+                })
+                .collect()
+        })
+        .unwrap_or_default();
+    if names.is_empty() {
+        names = BUILTIN.iter().map(|b| b.0.to_string()).collect();
+    }
+    names.sort();
+    names
+}
+
 /// The kind of head path a plan's frames follow.
 #[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Deserialize, serde::Serialize)]
 #[serde(rename_all = "lowercase")]
@@ -173,30 +203,67 @@ impl Plan {
         }
     }
 
-    /// A plan file, or a shipped plan by name (`smoke`, `default`, `scale`,
-    /// `in-flight`, `submission`).
+    /// A plan file, or a shipped plan by name: any plan in the shipped
+    /// plans' folder (`manifests/bench/NAME.toml` of the source tree this
+    /// binary was built from, while it exists), else one of the plans built
+    /// into the binary (`smoke`, `default`, `scale`, `in-flight`,
+    /// `submission`). A folder of that name (a bench's output folder) does
+    /// not hide a plan name.
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
         let path = Path::new(name_or_path);
-        if path.exists() {
+        if path.is_file() {
             return Plan::load(path);
         }
+        let shipped = shipped_dir().join(format!("{name_or_path}.toml"));
+        let by_name = !name_or_path.contains(['/', '\\']) && !name_or_path.is_empty();
+        if by_name && shipped.is_file() {
+            return Plan::load(&shipped);
+        }
         match BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
-            Some((n, text)) => Plan::parse(n, text),
+            Some((n, text)) => {
+                let mut plan = Plan::parse(n, text)?;
+                plan.base = Some(shipped_dir()).filter(|d| d.is_dir());
+                Ok(plan)
+            }
             None => Err(Error::config(
                 "--plan",
                 format!(
                     "{name_or_path}: no such file, and not a shipped plan ({})",
-                    BUILTIN.iter().map(|b| b.0).collect::<Vec<_>>().join(", ")
+                    shipped_names().join(", ")
                 ),
             )),
         }
     }
 
-    /// Reads and validates a plan file.
+    /// Reads and validates a plan file; its relative paths resolve against
+    /// its folder.
     pub fn load(path: &Path) -> Result<Plan> {
         let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
             .map_err(|e| Error::config("--plan", format!("{}: {e}", path.display())))?;
-        Plan::parse(&path.display().to_string(), &text)
+        let mut plan = Plan::parse(&path.display().to_string(), &text)?;
+        plan.base = Some(
+            path.parent()
+                .filter(|p| !p.as_os_str().is_empty())
+                .map_or_else(|| PathBuf::from("."), Path::to_path_buf),
+        );
+        Ok(plan)
+    }
+
+    /// A scene or HMD profile entry of the plan as it is loaded: a path
+    /// relative to the plan's folder when a file is there, else the entry
+    /// as written (a generated scene such as `factory:N`, a profile name).
+    pub fn input_path(&self, entry: &str) -> String {
+        match &self.base {
+            Some(base) if Path::new(entry).is_relative() => {
+                let at = base.join(entry);
+                if at.is_file() {
+                    at.to_string_lossy().into_owned()
+                } else {
+                    entry.to_string()
+                }
+            }
+            _ => entry.to_string(),
+        }
     }
 
     /// Parses and validates plan text; `origin` names it in errors.
@@ -369,10 +436,12 @@ impl Plan {
     /// the profile's pixels per degree. Errors name the scene or profile.
     pub fn check_inputs(&self) -> std::result::Result<(), String> {
         for s in &self.scenes {
-            crate::scene::Scene::check_spec(s).map_err(|e| format!("scene {s}: {e}"))?;
+            crate::scene::Scene::check_spec(&self.input_path(s))
+                .map_err(|e| format!("scene {s}: {e}"))?;
         }
         for h in &self.hmds {
-            let p = crate::view::profile::HmdProfile::load(h).map_err(|e| e.to_string())?;
+            let p = crate::view::profile::HmdProfile::load(&self.input_path(h))
+                .map_err(|e| e.to_string())?;
             if p.views.len() != 2 {
                 return Err(format!(
                     "HMD profile {h}: the renderer needs exactly 2 views, it has {}",

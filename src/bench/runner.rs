@@ -458,7 +458,7 @@ pub fn run_plan(
     let profiles = plan
         .hmds
         .iter()
-        .map(|h| crate::targets::headless::load_stereo_profile(h))
+        .map(|h| crate::targets::headless::load_stereo_profile(&plan.input_path(h)))
         .collect::<Result<Vec<_>>>()?;
     match run_groups(ctx, plan, &profiles, out, total, progress, &mut results) {
         Ok(finished) => results.complete = finished,
@@ -482,7 +482,8 @@ fn run_groups(
 ) -> std::result::Result<bool, String> {
     let mut done = 0;
     for scene_spec in &plan.scenes {
-        let (scene, _) = load_scene(scene_spec).map_err(|e| format!("scene {scene_spec}: {e}"))?;
+        let (scene, _) = load_scene(&plan.input_path(scene_spec))
+            .map_err(|e| format!("scene {scene_spec}: {e}"))?;
         for profile in profiles {
             for &scale in &plan.scales {
                 let mut group = Group {

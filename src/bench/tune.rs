@@ -202,6 +202,7 @@ pub fn plan(
     budget_ms: Option<f64>,
 ) -> Plan {
     Plan {
+        base: None,
         name: "tune".into(),
         scenes: vec![scene.to_string()],
         hmds: vec![hmd.to_string()],
