@@ -1059,39 +1059,55 @@ fn cull_bench(args: &vergence::bench::cull::CullBenchArgs) -> anyhow::Result<()>
     Ok(())
 }
 
+/// Writes `text` to stdout; a reader that stopped reading (`| head`) ends
+/// the output quietly instead of as an error.
+fn print_to_stdout(text: &str) {
+    use std::io::Write as _;
+    let mut out = std::io::stdout().lock();
+    let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
+}
+
 fn inspect(s: &Scene, load_ms: f64) {
+    use std::fmt::Write as _;
+    let mut o = String::new();
     let c = headless::SceneCounts::of(s);
     let (lo, hi) = s.bounds();
-    println!("scene       {}", c.name);
-    println!("loaded in   {load_ms:.1} ms");
-    println!("nodes       {}", c.nodes);
-    println!("meshes      {} ({} primitives)", c.meshes, c.primitives);
-    println!(
+    let _ = writeln!(o, "scene       {}", c.name);
+    let _ = writeln!(o, "loaded in   {load_ms:.1} ms");
+    let _ = writeln!(o, "nodes       {}", c.nodes);
+    let _ = writeln!(o, "meshes      {} ({} primitives)", c.meshes, c.primitives);
+    let _ = writeln!(
+        o,
         "triangles   {} (instanced), {} (unique)",
         c.triangles,
         s.primitives.iter().map(|p| p.triangles()).sum::<usize>()
     );
-    println!("materials   {}", c.materials);
-    println!("textures    {}", c.textures);
-    println!("instances   {}", c.instances);
-    println!(
+    let _ = writeln!(o, "materials   {}", c.materials);
+    let _ = writeln!(o, "textures    {}", c.textures);
+    let _ = writeln!(o, "instances   {}", c.instances);
+    let _ = writeln!(
+        o,
         "bounds      min [{:.3}, {:.3}, {:.3}] max [{:.3}, {:.3}, {:.3}]",
         lo.x, lo.y, lo.z, hi.x, hi.y, hi.z
     );
-    println!("features    {:?}", c.features);
+    let _ = writeln!(o, "features    {:?}", c.features);
     if let Some(cloud) = &s.points {
-        println!("points      {}", cloud.len());
+        let _ = writeln!(o, "points      {}", cloud.len());
         if let Some(t) = &cloud.octree {
             use vergence::scene::octree::CacheUse;
             match &t.cache {
-                Some(CacheUse::Read(p)) => println!(
-                    "octree      {} nodes, read from {} in {:.1} ms",
-                    t.nodes.len(),
-                    p.display(),
-                    t.build_ms
-                ),
+                Some(CacheUse::Read(p)) => {
+                    _ = writeln!(
+                        o,
+                        "octree      {} nodes, read from {} in {:.1} ms",
+                        t.nodes.len(),
+                        p.display(),
+                        t.build_ms
+                    )
+                }
                 other => {
-                    println!(
+                    let _ = writeln!(
+                        o,
                         "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
                         t.nodes.len(),
                         t.build_ms,
@@ -1099,9 +1115,11 @@ fn inspect(s: &Scene, load_ms: f64) {
                     );
                     match other {
                         Some(CacheUse::Written(p)) => {
-                            println!("octree cache written to {}", p.display())
+                            let _ = writeln!(o, "octree cache written to {}", p.display());
                         }
-                        Some(CacheUse::NotUsed(why)) => println!("octree cache not used: {why}"),
+                        Some(CacheUse::NotUsed(why)) => {
+                            _ = writeln!(o, "octree cache not used: {why}")
+                        }
                         _ => {}
                     }
                 }
@@ -1116,17 +1134,18 @@ fn inspect(s: &Scene, load_ms: f64) {
         ("extensions used", &s.extensions_used),
         ("extensions required", &s.extensions_required),
     ] {
-        println!("{label:<11} {}", list.len());
+        let _ = writeln!(o, "{label:<11} {}", list.len());
         for e in list {
-            println!("  {e:32} {}", support(e));
+            let _ = writeln!(o, "  {e:32} {}", support(e));
         }
     }
     if s.scene_names.len() > 1 {
-        println!("scenes      {}", s.scene_names.join(", "));
+        let _ = writeln!(o, "scenes      {}", s.scene_names.join(", "));
     }
     for c in &s.cameras {
         let p = c.pose.position;
-        println!(
+        let _ = writeln!(
+            o,
             "  camera {:3} {:24} at [{:.3}, {:.3}, {:.3}]{}",
             c.index,
             c.name,
@@ -1140,7 +1159,8 @@ fn inspect(s: &Scene, load_ms: f64) {
         );
     }
     if let Some(sun) = &s.sun {
-        println!(
+        let _ = writeln!(
+            o,
             "sun         towards [{:.3}, {:.3}, {:.3}], colour {:?}",
             sun.direction.x, sun.direction.y, sun.direction.z, sun.color
         );
@@ -1151,17 +1171,19 @@ fn inspect(s: &Scene, load_ms: f64) {
             .iter()
             .map(|&p| s.primitives[p as usize].triangles())
             .sum();
-        println!(
+        let _ = writeln!(
+            o,
             "  mesh {i:3} {:24} {} primitives, {tris} triangles",
             m.name,
             m.primitives.len()
         );
     }
     if s.meshes.len() > 20 {
-        println!("  ... {} more meshes", s.meshes.len() - 20);
+        let _ = writeln!(o, "  ... {} more meshes", s.meshes.len() - 20);
     }
     for (i, m) in s.materials.iter().enumerate().take(20) {
-        println!(
+        let _ = writeln!(
+            o,
             "  material {i:3} {:24} {:?}{}{}",
             m.name,
             m.alpha_mode,
@@ -1169,6 +1191,7 @@ fn inspect(s: &Scene, load_ms: f64) {
             if m.unlit { " unlit" } else { "" }
         );
     }
+    print_to_stdout(&o);
 }
 
 fn main() -> ExitCode {

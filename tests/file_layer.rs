@@ -193,3 +193,22 @@ fn errors_escape_control_characters() {
     );
     assert!(e.contains("\\u{1b}[31mred.gltf"), "{e}");
 }
+
+/// `vergence inspect FILE | head`: a reader that stops early ends the
+/// output quietly (exit 0, no panic), as with any Unix tool.
+#[test]
+fn inspect_into_a_closed_pipe_ends_quietly() {
+    let mut child = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args(["inspect", "assets/retroufo/retroufo.glb"])
+        .current_dir(common::root())
+        .stdout(std::process::Stdio::piped())
+        .stderr(std::process::Stdio::piped())
+        .spawn()
+        .unwrap();
+    // The reader goes away before the scene is loaded and anything written.
+    drop(child.stdout.take());
+    let out = child.wait_with_output().unwrap();
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(out.status.success(), "{stderr}");
+    assert!(!stderr.contains("panicked"), "{stderr}");
+}
