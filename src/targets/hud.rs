@@ -26,7 +26,7 @@ pub const MEASURE_KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F4;
 pub const HEATMAP_KEY: winit::keyboard::KeyCode = winit::keyboard::KeyCode::F5;
 
 /// The short key listing the overlay shows.
-pub const KEYS: &str = "0-9, F6, F7 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · F4 image error · F5 heat map · Esc quit";
+pub const KEYS: &str = "0-9, F6, F7 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · F4 image error · F5 heat map · F8 keep this pose · Esc quit";
 
 /// The key listing of `run`'s mirror (F4 stops the loop for two renders).
 pub const KEYS_MIRROR: &str = "0-9, F6, F7 switch an optimization (H lists them) · P print --opt · F2 save it · F3 overlay · F4 image error of the last frame · F5 heat map · Esc quit";

@@ -7,6 +7,7 @@ pub mod error_probe;
 pub mod framing;
 pub mod headless;
 pub mod hud;
+pub mod keep_pose;
 pub mod kiosk;
 pub mod mirror;
 pub mod panel;

@@ -19,7 +19,7 @@ use crate::render::driver::FrameDriver;
 use crate::render::{FrameOutput, OutputSpec, Renderer};
 use crate::view::Pose;
 use ash::vk;
-use std::path::PathBuf;
+use std::path::{Path, PathBuf};
 use std::sync::Arc;
 use std::time::Instant;
 
@@ -272,6 +272,7 @@ fn view_loop(
     let started = last;
     let mut last_slot = None;
     let mut hud = Hud::new(args.overlay);
+    let mut kept = 0u32;
     let budget_ms = 1000.0 / profile.refresh_hz.max(1.0);
     let run = (|| -> Result<()> {
         loop {
@@ -286,6 +287,15 @@ fn view_loop(
             }
             if pressed.contains(&super::hud::HEATMAP_KEY) {
                 hud.show_heatmap = !hud.show_heatmap;
+            }
+            if pressed.contains(&super::keep_pose::KEY) {
+                kept += 1;
+                let file = Path::new(super::keep_pose::DEFAULT_FILE);
+                match super::keep_pose::keep(&camera.pose(), &format!("view {kept}"), file) {
+                    Ok(line) => println!("{line}"),
+                    // The session goes on without it.
+                    Err(e) => eprintln!("vergence: pose not kept: {e}"),
+                }
             }
             if pressed.contains(&super::hud::MEASURE_KEY) {
                 // The frame the window shows, rendered again with the
