@@ -519,9 +519,9 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             if job.config.timewarp.is_some() {
                 vergence::bench::timewarp::check(&job)?;
             }
-            let (mut stats, loaded) = headless::render_to_dir_keeping(&job)?;
+            let (mut stats, loaded, mut outputs) = headless::render_to_dir_keeping(&job)?;
             if job.config.timewarp.is_some() {
-                let t = vergence::bench::timewarp::measure(&job, &loaded)?;
+                let t = vergence::bench::timewarp::measure(&job, &loaded, &mut outputs)?;
                 println!(
                     "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
                     t.k,
@@ -537,8 +537,11 @@ fn run(cli: Cli) -> anyhow::Result<()> {
                 );
                 stats.validation_messages += t.validation_messages;
                 stats.timewarp = Some(t);
-                headless::write_json(&job.out.join("stats.json"), &stats)?;
             }
+            // The images, rig.json, the timewarp's images and stats.json
+            // land together or not at all.
+            headless::write_stats(&mut outputs, &job, &stats)?;
+            outputs.commit()?;
             println!(
                 "rendered {} at {}x{} per eye ({}, {}x MSAA): {} draw calls, {} instances, {} triangles; wrote {}",
                 stats.scene.name,

@@ -51,10 +51,14 @@ pub fn check(job: &RenderJob) -> Result<crate::config::Timewarp> {
 }
 
 /// Runs the measurement `job` describes (its `config.timewarp` is set) on
-/// the context, scene and profile `render` already `loaded`, and writes
-/// the last warped pair and its truth into `job.out`
-/// (`{left,right}_warped.png`, `{left,right}_truth.png`).
-pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
+/// the context, scene and profile `render` already `loaded`, and adds the
+/// last warped pair and its truth to `outputs`, the render's set
+/// (`{left,right}_warped.png`, `{left,right}_truth.png` in `job.out`).
+pub fn measure(
+    job: &RenderJob,
+    loaded: &Loaded,
+    outputs: &mut crate::fsio::OutputSet,
+) -> Result<TimewarpStats> {
     let settings = check(job)?;
     let k = settings.k;
     let Loaded {
@@ -129,10 +133,15 @@ pub fn measure(job: &RenderJob, loaded: &Loaded) -> Result<TimewarpStats> {
     drop(warp);
     let warped = warp_ms.len();
     if let Some((images, truth)) = last {
-        headless::save_png(&images[0], &job.out.join("left_warped.png"))?;
-        headless::save_png(&images[1], &job.out.join("right_warped.png"))?;
-        headless::save_png(&truth[0], &job.out.join("left_truth.png"))?;
-        headless::save_png(&truth[1], &job.out.join("right_truth.png"))?;
+        let pairs = [
+            (&images[0], "left_warped.png"),
+            (&images[1], "right_warped.png"),
+            (&truth[0], "left_truth.png"),
+            (&truth[1], "right_truth.png"),
+        ];
+        for (image, name) in pairs {
+            outputs.write(&job.out.join(name), |w| headless::png_to(w, image))?;
+        }
     }
     let n = warped.max(1) as f64;
     Ok(TimewarpStats {

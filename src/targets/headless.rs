@@ -440,7 +440,19 @@ pub fn eye_extent(profile: &HmdProfile, size: Option<(u32, u32)>) -> vk::Extent2
 /// Renders one frame as `job` says and writes `left.png`, `right.png` and
 /// `stats.json` into `job.out`.
 pub fn render_to_dir(job: &RenderJob) -> Result<RenderStats> {
-    render_to_dir_keeping(job).map(|(stats, _)| stats)
+    let (stats, _, mut outputs) = render_to_dir_keeping(job)?;
+    write_stats(&mut outputs, job, &stats)?;
+    outputs.commit()?;
+    Ok(stats)
+}
+
+/// Adds `stats.json` to `outputs` (the last file of a render's set).
+pub fn write_stats(
+    outputs: &mut crate::fsio::OutputSet,
+    job: &RenderJob,
+    stats: &RenderStats,
+) -> Result<()> {
+    outputs.write(&job.out.join("stats.json"), |w| json_to(w, stats))
 }
 
 /// What [`render_to_dir_keeping`] loaded and made, for a measurement that
@@ -455,8 +467,13 @@ pub struct Loaded {
     pub profile: HmdProfile,
 }
 
-/// [`render_to_dir`], handing back the context, scene and profile it used.
-pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
+/// [`render_to_dir`], handing back the context, scene and profile it used
+/// and its outputs uncommitted (the images and `rig.json`, without
+/// `stats.json`): a measurement that follows adds its files and the
+/// statistics ([`write_stats`]), and everything lands together.
+pub fn render_to_dir_keeping(
+    job: &RenderJob,
+) -> Result<(RenderStats, Loaded, crate::fsio::OutputSet)> {
     let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
     let mut config = job.config.clone();
@@ -602,11 +619,9 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
     drop(driver);
     // Teardown may speak too.
     stats.validation_messages = ctx.validation_messages();
-    outputs.write(&job.out.join("stats.json"), |w| json_to(w, &stats))?;
     // The exact views rendered: `render --rig` and the simulator take it.
     let rig_file = crate::view::RigFile::of(&rig);
     outputs.write(&job.out.join("rig.json"), |w| json_to(w, &rig_file))?;
-    outputs.commit()?;
     Ok((
         stats,
         Loaded {
@@ -614,6 +629,7 @@ pub fn render_to_dir_keeping(job: &RenderJob) -> Result<(RenderStats, Loaded)> {
             scene,
             profile,
         },
+        outputs,
     ))
 }
 
@@ -654,7 +670,7 @@ fn json_to(w: &mut dyn std::io::Write, value: &impl serde::Serialize) -> std::io
 }
 
 /// `img` as PNG into `w`.
-fn png_to(w: &mut dyn std::io::Write, img: &image::RgbaImage) -> std::io::Result<()> {
+pub fn png_to(w: &mut dyn std::io::Write, img: &image::RgbaImage) -> std::io::Result<()> {
     use image::ImageEncoder as _;
     image::codecs::png::PngEncoder::new(w)
         .write_image(
