@@ -160,25 +160,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     let places = super::viewpoints::plan(args, &scene, &profile.views[0].fov)?;
     stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
     let spawn = places[0].origin;
-    stats.mode = "headless".into();
-    stats.scene = Some(SceneCounts::of(&scene));
-    stats.config = frames.driver.renderer().config.clone();
-    stats.foveation = frames.driver.renderer().foveation_path.clone();
-    stats.inset_path = frames.driver.renderer().inset_path.clone();
-    stats.lms = frames.driver.renderer().lms_report();
-    stats.device = ctx.device_name.clone();
-    stats.driver = ctx.driver.clone();
-    stats.system = format!("HMD profile {}", profile.name);
-    stats.image_size = [extent.width, extent.height];
-    stats.views = profile
-        .views
-        .iter()
-        .map(|v| ViewInfo {
-            recommended: v.resolution,
-            max: v.resolution,
-            fov: Some(v.fov),
-        })
-        .collect();
+    describe_session(stats, &frames, &ctx, (&scene, &profile), extent);
     if let Some(m) = &mut mirror {
         m.set_title(&format!(
             "vergence run: {} [{}]",
@@ -199,28 +181,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                   heads: &mut std::collections::VecDeque<(u64, Pose, String)>|
      -> Result<()> {
         stats.cull = r.cull;
-        while heads.front().is_some_and(|(i, ..)| *i < r.index) {
-            heads.pop_front();
-        }
-        let this = heads.front().filter(|(i, ..)| *i == r.index);
-        stats.push_frame(FrameRecord {
-            index: r.index,
-            should_render: true,
-            wait_ms: 0.0,
-            cpu_ms: r.cpu_ms(),
-            gpu_ms: r.gpu_ms(),
-            cull_ms: r.cull_ms,
-            predicted_display_time_ns: (r.started - started).as_nanos() as i64,
-            predicted_display_period_ns: period_ns,
-            missed_periods: 0,
-            instances_drawn: r.stats.instances_drawn,
-            fov: r.fov.to_vec(),
-            head_world: this.map(|(_, h, _)| PoseFile::from(h)),
-            events: Vec::new(),
-            opt: this.map(|(.., o)| o.clone()).unwrap_or_default(),
-            layers: 0,
-            aq: r.aq,
-        })
+        stats.push_frame(frame_record(&r, heads, started, period_ns))
     };
     let mut opt = config.opt_string();
     // The last recorded frame's rig and scene time (F4 measures it).
@@ -345,6 +306,69 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     stats.validation_messages = ctx.validation_messages();
     stats.exit = looped?;
     finished.and(shot)
+}
+
+/// The session's description in `stats`: mode, scene, configuration and
+/// the paths it runs, device, profile, image size and views.
+fn describe_session(
+    stats: &mut RunStats,
+    frames: &HeadlessFrames,
+    ctx: &Context,
+    (scene, profile): (&crate::scene::Scene, &crate::view::profile::HmdProfile),
+    extent: ash::vk::Extent2D,
+) {
+    stats.mode = "headless".into();
+    stats.scene = Some(SceneCounts::of(scene));
+    stats.config = frames.driver.renderer().config.clone();
+    stats.foveation = frames.driver.renderer().foveation_path.clone();
+    stats.inset_path = frames.driver.renderer().inset_path.clone();
+    stats.lms = frames.driver.renderer().lms_report();
+    stats.device = ctx.device_name.clone();
+    stats.driver = ctx.driver.clone();
+    stats.system = format!("HMD profile {}", profile.name);
+    stats.image_size = [extent.width, extent.height];
+    stats.views = profile
+        .views
+        .iter()
+        .map(|v| ViewInfo {
+            recommended: v.resolution,
+            max: v.resolution,
+            fov: Some(v.fov),
+        })
+        .collect();
+}
+
+/// The record of finished frame `r`: its times and counts, and the head
+/// and `--opt` string it was recorded with (from `heads`, the frames in
+/// flight by index, older ones dropped); display times from `started`.
+fn frame_record(
+    r: &FrameResult,
+    heads: &mut std::collections::VecDeque<(u64, Pose, String)>,
+    started: Instant,
+    period_ns: i64,
+) -> FrameRecord {
+    while heads.front().is_some_and(|(i, ..)| *i < r.index) {
+        heads.pop_front();
+    }
+    let this = heads.front().filter(|(i, ..)| *i == r.index);
+    FrameRecord {
+        index: r.index,
+        should_render: true,
+        wait_ms: 0.0,
+        cpu_ms: r.cpu_ms(),
+        gpu_ms: r.gpu_ms(),
+        cull_ms: r.cull_ms,
+        predicted_display_time_ns: (r.started - started).as_nanos() as i64,
+        predicted_display_period_ns: period_ns,
+        missed_periods: 0,
+        instances_drawn: r.stats.instances_drawn,
+        fov: r.fov.to_vec(),
+        head_world: this.map(|(_, h, _)| PoseFile::from(h)),
+        events: Vec::new(),
+        opt: this.map(|(.., o)| o.clone()).unwrap_or_default(),
+        layers: 0,
+        aq: r.aq,
+    }
 }
 
 /// The headless loop's renderer, driver and (with a mirror) the eye images
