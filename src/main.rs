@@ -493,213 +493,225 @@ fn parse_move_direction(s: &str) -> Result<MoveDirection, String> {
     }
 }
 
+/// `vergence render`.
+fn render_command(a: RenderArgs) -> anyhow::Result<()> {
+    let config = a.frame.config()?;
+    let rig = a
+        .rig
+        .as_deref()
+        .map(vergence::view::RigFile::load)
+        .transpose()?;
+    let job = RenderJob {
+        scene: a.scene,
+        hmd: a.hmd,
+        rig,
+        pose: a.pose,
+        camera: a.camera,
+        framing: a.framing,
+        config,
+        size: a.frame.size(),
+        out: a.out,
+        frames: a.frames,
+        distorted: a.preview.map(|PreviewMode::Distorted| a.distortion),
+        head_turn_deg_s: a.head_turn,
+    };
+    if job.config.timewarp.is_some() {
+        vergence::bench::timewarp::check(&job)?;
+    }
+    let (mut stats, loaded, mut outputs) = headless::render_to_dir_keeping(&job)?;
+    if job.config.timewarp.is_some() {
+        let t = vergence::bench::timewarp::measure(&job, &loaded, &mut outputs)?;
+        println!(
+            "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
+            t.k,
+            t.variant,
+            t.head_turn_deg_s,
+            t.frames_warped,
+            t.flip_mean,
+            t.flip_max,
+            100.0 * t.holes_fraction,
+            100.0 * t.border_fraction,
+            t.warp_gpu_ms.median,
+            t.render_gpu_ms.median
+        );
+        stats.validation_messages += t.validation_messages;
+        stats.timewarp = Some(t);
+    }
+    // The images, rig.json, the timewarp's images and stats.json
+    // land together or not at all.
+    headless::write_stats(&mut outputs, &job, &stats)?;
+    outputs.commit()?;
+    println!(
+        "rendered {} at {}x{} per eye ({}, {}x MSAA): {} draw calls, {} instances, {} triangles; wrote {}",
+        stats.scene.name,
+        stats.resolution[0],
+        stats.resolution[1],
+        stats.config.stereo.name(),
+        stats.config.msaa,
+        stats.draw_calls,
+        stats.instances_drawn,
+        stats.triangles,
+        job.out.display()
+    );
+    if stats.frames > 1 {
+        let floors = stats.floor_gpu_ms.map(|f| {
+            format!(
+                ", floors: clear {:.3} ms, full-screen triangle {:.3} ms",
+                f.clear.median, f.fullscreen_triangle.median
+            )
+        });
+        println!(
+            "{} frames: GPU {:.3} ms median ({:.3} p95), CPU batch+record+submit {:.3} ms median{}",
+            stats.frames,
+            stats.gpu_frame_ms.median,
+            stats.gpu_frame_ms.p95,
+            stats.cpu_frame_ms.median,
+            floors.unwrap_or_default()
+        );
+    }
+    if stats.validation_messages > 0 {
+        anyhow::bail!(
+            "{} Vulkan validation messages (see log)",
+            stats.validation_messages
+        );
+    }
+    Ok(())
+}
+
+/// `vergence run`.
+fn run_command(a: RunCli) -> anyhow::Result<()> {
+    let mut config = a.frame.config()?;
+    config.refuse_timewarp("run")?;
+    let kiosk = a
+        .kiosk
+        .as_deref()
+        .map(vergence::targets::kiosk::Kiosk::load)
+        .transpose()?;
+    let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
+    let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
+    if let (Some(k), Some(path)) = (&kiosk, a.kiosk.as_deref()) {
+        k.check_scenes(path)?;
+    }
+    if let Some(k) = &kiosk {
+        config.apply_opts(&k.opt, &cull_names())?;
+        config.validate()?;
+        let first = &k.scenes[0];
+        scene = first.scene.clone();
+        spawn = first.spawn;
+        viewpoints = first.viewpoints.clone();
+        reconnect |= k.reconnect;
+        mirror = mirror.or(k.mirror);
+        if let Some(log) = &k.log {
+            vergence::targets::kiosk::start_log(log)?;
+        }
+    }
+    if config.rdm_auto || config.foveation == vergence::view::foveation::Level::Lens(0) {
+        // Only the headless fallback profile has a lens; a
+        // runtime's views carry none.
+        let profile = (a.xr == XrMode::Headless)
+            .then(|| HmdProfile::load(&a.hmd_fallback))
+            .transpose()?;
+        config.resolve_lens(profile.as_ref())?;
+    }
+    let args = RunArgs {
+        scene,
+        hmd_fallback: a.hmd_fallback,
+        xr: a.xr,
+        frames: a.frames,
+        seconds: a.seconds,
+        stats_out: a.stats_out,
+        config,
+        size: a.frame.size(),
+        capture: a.capture,
+        reconnect,
+        spawn,
+        framing: a.framing,
+        viewpoints,
+        camera: a.camera,
+        interact: Settings {
+            move_speed: a.move_speed,
+            snap_turn_deg: a.snap_turn,
+            smooth_turn_deg_s: a.smooth_turn,
+            move_direction: a.move_direction,
+            panel: a.panel == vergence::targets::panel::PanelMode::On,
+            ..Settings::default()
+        },
+        mirror,
+        screenshot: a.screenshot,
+        save_config: a.save_config,
+        kiosk,
+        overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
+    };
+    let stats = vergence::targets::run::run(&args)?;
+    tracing::info!(
+        "ran {} {}: {} frames submitted; {}",
+        stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
+        stats.mode,
+        stats.frames_submitted,
+        stats.exit
+    );
+    println!(
+        "ran {} {} on {}: {} frames submitted ({} missed display periods), GPU {:.3} ms median, CPU {:.3} ms median; {}",
+        stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
+        stats.mode,
+        stats.system,
+        stats.frames_submitted,
+        stats.missed_display_periods,
+        stats.summary.gpu_frame_ms.median,
+        stats.summary.cpu_frame_ms.median,
+        stats.exit
+    );
+    if stats.validation_messages + stats.xr_validation_messages > 0 {
+        anyhow::bail!(
+            "{} Vulkan and {} OpenXR validation messages (see log)",
+            stats.validation_messages,
+            stats.xr_validation_messages
+        );
+    }
+    Ok(())
+}
+
+/// `vergence view`.
+fn view_command(a: ViewCli) -> anyhow::Result<()> {
+    a.frame.config()?.refuse_timewarp("view")?;
+    let args = vergence::targets::view::ViewArgs {
+        scene: a.scene,
+        hmd: a.hmd,
+        pose: a.pose,
+        framing: a.framing,
+        config: a.frame.config()?,
+        size: a.frame.size(),
+        frames: a.frames,
+        screenshot: a.screenshot,
+        eyes: a.eyes,
+        save_config: a.save_config,
+        overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
+    };
+    let s = vergence::targets::view::view(&args)?;
+    println!(
+        "viewed {} frames at {}x{} per eye in a {}x{} window ({}); opt {}",
+        s.frames,
+        s.eye_size[0],
+        s.eye_size[1],
+        s.window_size[0],
+        s.window_size[1],
+        s.present_mode,
+        s.opt
+    );
+    if s.validation_messages > 0 {
+        anyhow::bail!(
+            "{} Vulkan validation messages (see log)",
+            s.validation_messages
+        );
+    }
+    Ok(())
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
-        Command::Render(a) => {
-            let config = a.frame.config()?;
-            let rig = a
-                .rig
-                .as_deref()
-                .map(vergence::view::RigFile::load)
-                .transpose()?;
-            let job = RenderJob {
-                scene: a.scene,
-                hmd: a.hmd,
-                rig,
-                pose: a.pose,
-                camera: a.camera,
-                framing: a.framing,
-                config,
-                size: a.frame.size(),
-                out: a.out,
-                frames: a.frames,
-                distorted: a.preview.map(|PreviewMode::Distorted| a.distortion),
-                head_turn_deg_s: a.head_turn,
-            };
-            if job.config.timewarp.is_some() {
-                vergence::bench::timewarp::check(&job)?;
-            }
-            let (mut stats, loaded, mut outputs) = headless::render_to_dir_keeping(&job)?;
-            if job.config.timewarp.is_some() {
-                let t = vergence::bench::timewarp::measure(&job, &loaded, &mut outputs)?;
-                println!(
-                    "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
-                    t.k,
-                    t.variant,
-                    t.head_turn_deg_s,
-                    t.frames_warped,
-                    t.flip_mean,
-                    t.flip_max,
-                    100.0 * t.holes_fraction,
-                    100.0 * t.border_fraction,
-                    t.warp_gpu_ms.median,
-                    t.render_gpu_ms.median
-                );
-                stats.validation_messages += t.validation_messages;
-                stats.timewarp = Some(t);
-            }
-            // The images, rig.json, the timewarp's images and stats.json
-            // land together or not at all.
-            headless::write_stats(&mut outputs, &job, &stats)?;
-            outputs.commit()?;
-            println!(
-                "rendered {} at {}x{} per eye ({}, {}x MSAA): {} draw calls, {} instances, {} triangles; wrote {}",
-                stats.scene.name,
-                stats.resolution[0],
-                stats.resolution[1],
-                stats.config.stereo.name(),
-                stats.config.msaa,
-                stats.draw_calls,
-                stats.instances_drawn,
-                stats.triangles,
-                job.out.display()
-            );
-            if stats.frames > 1 {
-                let floors = stats.floor_gpu_ms.map(|f| {
-                    format!(
-                        ", floors: clear {:.3} ms, full-screen triangle {:.3} ms",
-                        f.clear.median, f.fullscreen_triangle.median
-                    )
-                });
-                println!(
-                    "{} frames: GPU {:.3} ms median ({:.3} p95), CPU batch+record+submit {:.3} ms median{}",
-                    stats.frames,
-                    stats.gpu_frame_ms.median,
-                    stats.gpu_frame_ms.p95,
-                    stats.cpu_frame_ms.median,
-                    floors.unwrap_or_default()
-                );
-            }
-            if stats.validation_messages > 0 {
-                anyhow::bail!(
-                    "{} Vulkan validation messages (see log)",
-                    stats.validation_messages
-                );
-            }
-        }
-        Command::Run(a) => {
-            let mut config = a.frame.config()?;
-            config.refuse_timewarp("run")?;
-            let kiosk = a
-                .kiosk
-                .as_deref()
-                .map(vergence::targets::kiosk::Kiosk::load)
-                .transpose()?;
-            let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
-            let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
-            if let (Some(k), Some(path)) = (&kiosk, a.kiosk.as_deref()) {
-                k.check_scenes(path)?;
-            }
-            if let Some(k) = &kiosk {
-                config.apply_opts(&k.opt, &cull_names())?;
-                config.validate()?;
-                let first = &k.scenes[0];
-                scene = first.scene.clone();
-                spawn = first.spawn;
-                viewpoints = first.viewpoints.clone();
-                reconnect |= k.reconnect;
-                mirror = mirror.or(k.mirror);
-                if let Some(log) = &k.log {
-                    vergence::targets::kiosk::start_log(log)?;
-                }
-            }
-            if config.rdm_auto || config.foveation == vergence::view::foveation::Level::Lens(0) {
-                // Only the headless fallback profile has a lens; a
-                // runtime's views carry none.
-                let profile = (a.xr == XrMode::Headless)
-                    .then(|| HmdProfile::load(&a.hmd_fallback))
-                    .transpose()?;
-                config.resolve_lens(profile.as_ref())?;
-            }
-            let args = RunArgs {
-                scene,
-                hmd_fallback: a.hmd_fallback,
-                xr: a.xr,
-                frames: a.frames,
-                seconds: a.seconds,
-                stats_out: a.stats_out,
-                config,
-                size: a.frame.size(),
-                capture: a.capture,
-                reconnect,
-                spawn,
-                framing: a.framing,
-                viewpoints,
-                camera: a.camera,
-                interact: Settings {
-                    move_speed: a.move_speed,
-                    snap_turn_deg: a.snap_turn,
-                    smooth_turn_deg_s: a.smooth_turn,
-                    move_direction: a.move_direction,
-                    panel: a.panel == vergence::targets::panel::PanelMode::On,
-                    ..Settings::default()
-                },
-                mirror,
-                screenshot: a.screenshot,
-                save_config: a.save_config,
-                kiosk,
-                overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
-            };
-            let stats = vergence::targets::run::run(&args)?;
-            tracing::info!(
-                "ran {} {}: {} frames submitted; {}",
-                stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
-                stats.mode,
-                stats.frames_submitted,
-                stats.exit
-            );
-            println!(
-                "ran {} {} on {}: {} frames submitted ({} missed display periods), GPU {:.3} ms median, CPU {:.3} ms median; {}",
-                stats.scene.as_ref().map_or("?", |s| s.name.as_str()),
-                stats.mode,
-                stats.system,
-                stats.frames_submitted,
-                stats.missed_display_periods,
-                stats.summary.gpu_frame_ms.median,
-                stats.summary.cpu_frame_ms.median,
-                stats.exit
-            );
-            if stats.validation_messages + stats.xr_validation_messages > 0 {
-                anyhow::bail!(
-                    "{} Vulkan and {} OpenXR validation messages (see log)",
-                    stats.validation_messages,
-                    stats.xr_validation_messages
-                );
-            }
-        }
-        Command::View(a) => {
-            a.frame.config()?.refuse_timewarp("view")?;
-            let args = vergence::targets::view::ViewArgs {
-                scene: a.scene,
-                hmd: a.hmd,
-                pose: a.pose,
-                framing: a.framing,
-                config: a.frame.config()?,
-                size: a.frame.size(),
-                frames: a.frames,
-                screenshot: a.screenshot,
-                eyes: a.eyes,
-                save_config: a.save_config,
-                overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
-            };
-            let s = vergence::targets::view::view(&args)?;
-            println!(
-                "viewed {} frames at {}x{} per eye in a {}x{} window ({}); opt {}",
-                s.frames,
-                s.eye_size[0],
-                s.eye_size[1],
-                s.window_size[0],
-                s.window_size[1],
-                s.present_mode,
-                s.opt
-            );
-            if s.validation_messages > 0 {
-                anyhow::bail!(
-                    "{} Vulkan validation messages (see log)",
-                    s.validation_messages
-                );
-            }
-        }
+        Command::Render(a) => render_command(a)?,
+        Command::Run(a) => run_command(a)?,
+        Command::View(a) => view_command(a)?,
         Command::CullBench(args) => cull_bench(&args)?,
         Command::RasterFloors(args) => raster_floors(&args)?,
         Command::Bench {
