@@ -208,10 +208,12 @@ impl Plan {
     /// binary was built from, while it exists), else one of the plans built
     /// into the binary (`smoke`, `default`, `scale`, `in-flight`,
     /// `submission`). A folder of that name (a bench's output folder) does
-    /// not hide a plan name.
+    /// not hide a plan name; anything else there is read as the plan.
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
         let path = Path::new(name_or_path);
-        if path.is_file() {
+        // Anything there but a folder is read (and refused with its reason
+        // when it is not a regular file).
+        if path.exists() && !path.is_dir() {
             return Plan::load(path);
         }
         let shipped = shipped_dir().join(format!("{name_or_path}.toml"));
