@@ -162,10 +162,20 @@ pub fn shipped_dir() -> PathBuf {
     Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/bench")
 }
 
-/// The plans usable by name: those in [`shipped_dir`] while it exists,
-/// else the built-in ones.
+/// Where plans are found by name: the source tree's plan folder
+/// ([`shipped_dir`]) while it exists, else `manifests/bench` under the
+/// working folder (a copy of the repository run from its root, as on a
+/// machine the release binary was carried to).
+pub fn plans_dir() -> Option<PathBuf> {
+    [shipped_dir(), PathBuf::from("manifests/bench")]
+        .into_iter()
+        .find(|d| d.is_dir())
+}
+
+/// The plans usable by name: those in [`plans_dir`], else the built-in
+/// ones.
 pub fn shipped_names() -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(shipped_dir())
+    let mut names: Vec<String> = std::fs::read_dir(plans_dir().unwrap_or_default())
         .map(|d| {
             d.filter_map(|e| e.ok())
                 .filter_map(|e| {
@@ -204,9 +214,9 @@ impl Plan {
     }
 
     /// A plan file, or a shipped plan by name: any plan in the shipped
-    /// plans' folder (`manifests/bench/NAME.toml` of the source tree this
-    /// binary was built from, while it exists), else one of the plans built
-    /// into the binary (`smoke`, `default`, `scale`, `in-flight`,
+    /// plans' folder ([`plans_dir`]: `manifests/bench/NAME.toml` of the
+    /// source tree this binary was built from, or of the working folder),
+    /// else one of the plans built into the binary (`smoke`, `default`, `scale`, `in-flight`,
     /// `submission`). A folder of that name (a bench's output folder) does
     /// not hide a plan name; anything else there is read as the plan.
     pub fn resolve(name_or_path: &str) -> Result<Plan> {
@@ -216,15 +226,19 @@ impl Plan {
         if path.exists() && !path.is_dir() {
             return Plan::load(path);
         }
-        let shipped = shipped_dir().join(format!("{name_or_path}.toml"));
         let by_name = !name_or_path.contains(['/', '\\']) && !name_or_path.is_empty();
-        if by_name && shipped.is_file() {
-            return Plan::load(&shipped);
+        if by_name {
+            if let Some(dir) = plans_dir() {
+                let shipped = dir.join(format!("{name_or_path}.toml"));
+                if shipped.is_file() {
+                    return Plan::load(&shipped);
+                }
+            }
         }
         match BUILTIN.iter().find(|(n, _)| *n == name_or_path) {
             Some((n, text)) => {
                 let mut plan = Plan::parse(n, text)?;
-                plan.base = Some(shipped_dir()).filter(|d| d.is_dir());
+                plan.base = plans_dir();
                 Ok(plan)
             }
             None => Err(Error::config(
