@@ -220,3 +220,22 @@ pub fn kiosk(data: &[u8]) {
         assert!(log.keep >= 1 && log.max_bytes > 0);
     }
 }
+
+/// Bytes → a viewpoints file's parser (`run --viewpoint FILE`, what F8 in
+/// `view` appends): an accepted file has 1 to
+/// [`crate::targets::keep_pose::MAX_VIEWPOINTS`] entries, each a valid
+/// pose within the distance limit.
+pub fn viewpoints(data: &[u8]) {
+    use crate::targets::keep_pose::{parse_viewpoints, MAX_VIEWPOINTS};
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(v) = parse_viewpoints(text) else {
+        return;
+    };
+    assert!((1..=MAX_VIEWPOINTS).contains(&v.len()));
+    for (_, pose) in &v {
+        assert!(pose.validate().is_ok());
+        assert!(pose.position.abs().max_element() <= crate::cli::MAX_DISTANCE_M);
+    }
+}

@@ -375,10 +375,12 @@ struct RunCli {
     /// either way.
     #[arg(long)]
     camera: Option<String>,
-    /// A further viewpoint, x,y,z,yaw (repeatable): the right stick click
-    /// cycles spawn → viewpoints → the scene's cameras → spawn.
-    #[arg(long, value_parser = parse_spawn, allow_hyphen_values = true)]
-    viewpoint: Vec<Pose>,
+    /// A further viewpoint, x,y,z,yaw, or a file of `[[viewpoint]]`
+    /// entries (as F8 in `view` appends to vergence-viewpoints.toml)
+    /// (repeatable): the right stick click cycles spawn → viewpoints → the
+    /// scene's cameras → spawn.
+    #[arg(long, allow_hyphen_values = true)]
+    viewpoint: Vec<String>,
     /// Smooth-move speed of the left stick, m/s.
     #[arg(long, default_value_t = 2.0)]
     move_speed: f64,
@@ -460,6 +462,21 @@ struct ViewCli {
     overlay: vergence::targets::hud::OverlayMode,
     #[command(flatten)]
     frame: FrameOpts,
+}
+
+/// A `--viewpoint` value: x,y,z,yaw, or a file of `[[viewpoint]]` entries.
+fn viewpoint_arg(v: &str) -> anyhow::Result<Vec<Pose>> {
+    match parse_spawn(v) {
+        Ok(pose) => Ok(vec![pose]),
+        Err(why) if std::path::Path::new(v).exists() || v.ends_with(".toml") => {
+            let kept = vergence::targets::keep_pose::read_viewpoints(std::path::Path::new(v))
+                .map_err(|e| {
+                    anyhow::anyhow!("invalid --viewpoint {v}: {e} (and not x,y,z,yaw: {why})")
+                })?;
+            Ok(kept.into_iter().map(|(_, pose)| pose).collect())
+        }
+        Err(why) => anyhow::bail!("invalid --viewpoint {v}: {why}"),
+    }
 }
 
 fn parse_spawn(s: &str) -> Result<Pose, String> {
@@ -587,7 +604,11 @@ fn run_command(a: RunCli) -> anyhow::Result<()> {
         .as_deref()
         .map(vergence::targets::kiosk::Kiosk::load)
         .transpose()?;
-    let (mut scene, mut spawn, mut viewpoints) = (a.scene, a.spawn, a.viewpoint);
+    let mut viewpoints = Vec::new();
+    for v in &a.viewpoint {
+        viewpoints.extend(viewpoint_arg(v)?);
+    }
+    let (mut scene, mut spawn) = (a.scene, a.spawn);
     let (mut reconnect, mut mirror) = (a.reconnect, a.mirror);
     if let (Some(k), Some(path)) = (&kiosk, a.kiosk.as_deref()) {
         k.check_scenes(path)?;

@@ -156,3 +156,37 @@ fn render_records_the_pose_it_used_and_takes_it_back() {
         assert_eq!(common::pixels_differing(&a, &b), 0, "{eye}");
     }
 }
+
+/// `run --viewpoint` takes a viewpoints file (as F8 in `view` appends it)
+/// beside x,y,z,yaw values: each entry joins the viewpoint cycle.
+#[test]
+fn run_takes_a_viewpoints_file() {
+    let out = scratch("framing", "viewpoints").join("stats.json");
+    std::fs::create_dir_all(out.parent().unwrap()).unwrap();
+    let file = common::root().join("tests/bad_inputs/viewpoints/good.toml");
+    let status = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "run", "--xr", "headless", "--frames", "2", "--mirror", "off",
+        ])
+        .args(["--scene", "factory:50", "--width", "32", "--height", "32"])
+        .arg("--viewpoint")
+        .arg(&file)
+        .args(["--viewpoint", "1,0,2,90", "--stats-out"])
+        .arg(&out)
+        .status()
+        .unwrap();
+    assert!(status.success());
+    let stats: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(&out).unwrap()).unwrap();
+    let names: Vec<&str> = stats["viewpoints"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|v| v.as_str().unwrap())
+        .collect();
+    assert_eq!(
+        names,
+        ["spawn", "--viewpoint 1", "--viewpoint 2"],
+        "{stats}"
+    );
+}

@@ -341,6 +341,18 @@ fn kiosk_files() {
 
 #[test]
 #[ignore]
+fn viewpoint_files() {
+    let seeds = files("tests/bad_inputs/viewpoints", &["toml"]);
+    fuzz(
+        "viewpoint_files",
+        5,
+        seeds,
+        vergence::fuzz_checks::viewpoints,
+    );
+}
+
+#[test]
+#[ignore]
 fn draco_and_basis_decoders() {
     use vergence::scene::draco::{decode, DracoExt, Expected};
     let mut seeds = Vec::new();

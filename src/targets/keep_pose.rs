@@ -59,6 +59,72 @@ pub fn keep(head: &Pose, name: &str, file: &Path) -> Result<String> {
     ))
 }
 
+/// One `[[viewpoint]]` entry: the floor point under the eyes and the
+/// heading.
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Entry {
+    name: String,
+    position: [f64; 3],
+    #[serde(default)]
+    yaw_deg: f64,
+}
+
+#[derive(serde::Deserialize)]
+#[serde(deny_unknown_fields)]
+struct Entries {
+    #[serde(default)]
+    viewpoint: Vec<Entry>,
+}
+
+/// Most viewpoints one file may hold.
+pub const MAX_VIEWPOINTS: usize = 10_000;
+
+/// The viewpoints of a `[[viewpoint]]` file (as [`keep`] appends them):
+/// each entry's name and the tracking origin it gives (the floor point,
+/// facing its heading). A file that is not one — unreadable, over the
+/// text limit, not TOML of that shape, no entries, a value out of range —
+/// is one error naming what is wrong.
+pub fn read_viewpoints(path: &Path) -> Result<Vec<(String, Pose)>> {
+    let err =
+        |m: String| crate::error::Error::config("--viewpoint", format!("{}: {m}", path.display()));
+    let text = crate::fsio::read_text(path, crate::fsio::MAX_TEXT_FILE_BYTES)
+        .map_err(|e| err(e.to_string()))?;
+    parse_viewpoints(&text).map_err(err)
+}
+
+/// The viewpoints of `[[viewpoint]]` TOML `text` ([`read_viewpoints`]),
+/// or what is wrong with it.
+pub fn parse_viewpoints(text: &str) -> std::result::Result<Vec<(String, Pose)>, String> {
+    let entries: Entries = toml::from_str(text).map_err(|e| e.message().to_string())?;
+    if entries.viewpoint.is_empty() || entries.viewpoint.len() > MAX_VIEWPOINTS {
+        return Err(format!(
+            "{} viewpoints (1 to {MAX_VIEWPOINTS} [[viewpoint]] entries)",
+            entries.viewpoint.len()
+        ));
+    }
+    entries
+        .viewpoint
+        .into_iter()
+        .map(|e| {
+            let ok = e
+                .position
+                .iter()
+                .all(|v| v.is_finite() && v.abs() <= crate::cli::MAX_DISTANCE_M)
+                && e.yaw_deg.is_finite()
+                && e.yaw_deg.abs() <= 1e6;
+            if !ok {
+                return Err(format!(
+                    "viewpoint '{}': position or yaw_deg out of range",
+                    e.name.escape_debug()
+                ));
+            }
+            let pose = Pose::from_euler_deg(glam::DVec3::from(e.position), e.yaw_deg, 0.0, 0.0);
+            Ok((e.name, pose))
+        })
+        .collect()
+}
+
 #[cfg(test)]
 mod tests {
     use super::*;
@@ -106,6 +172,18 @@ mod tests {
             .collect();
         assert_eq!(spawn.len(), 4);
         assert!((spawn[1] - 0.0).abs() < 1e-9 && (spawn[3] + 120.0).abs() < 1e-6);
+        // run --viewpoint reads the file back: the origins under the eyes.
+        let back = read_viewpoints(&file).unwrap();
+        assert_eq!(back.len(), 2);
+        assert_eq!(back[1].0, "gallery");
+        let eyes = Pose::from_euler_deg(DVec3::new(0.0, EYE_HEIGHT, 0.0), 0.0, 0.0, 0.0);
+        let head = back[1].1.compose(&eyes);
+        assert!((head.position - b.position).length() < 1e-5);
+        // Not a viewpoints file: one error naming it.
+        let bad = dir.join("bad.toml");
+        std::fs::write(&bad, "[[viewpoint]]\nname = 3\n").unwrap();
+        let e = read_viewpoints(&bad).unwrap_err().to_string();
+        assert!(e.contains("bad.toml") && !e.contains('\n'), "{e}");
         let _ = std::fs::remove_dir_all(&dir);
     }
 }
