@@ -40,7 +40,26 @@ enum FileId {
     Path(PathBuf),
 }
 
-static INPUTS: Mutex<Vec<FileId>> = Mutex::new(Vec::new());
+/// The inputs read so far: each file's identity and the path it was read
+/// through.
+static INPUTS: Mutex<Vec<(FileId, PathBuf)>> = Mutex::new(Vec::new());
+
+/// Whether `id` is an input still there: registered, and its path still
+/// names that file (an input deleted since may have left its inode
+/// number to a new file, which is not the input).
+fn registered(id: &FileId) -> bool {
+    let Ok(inputs) = INPUTS.lock() else {
+        return false;
+    };
+    inputs.iter().any(|(i, path)| {
+        i == id
+            && std::fs::metadata(path)
+                .ok()
+                .and_then(|m| file_id(path, &m))
+                .as_ref()
+                == Some(id)
+    })
+}
 
 #[cfg(unix)]
 fn file_id(_path: &Path, meta: &std::fs::Metadata) -> Option<FileId> {
@@ -55,8 +74,8 @@ fn file_id(path: &Path, _meta: &std::fs::Metadata) -> Option<FileId> {
 
 fn remember_input(path: &Path, meta: &std::fs::Metadata) {
     if let (Some(id), Ok(mut inputs)) = (file_id(path, meta), INPUTS.lock()) {
-        if !inputs.contains(&id) {
-            inputs.push(id);
+        if !inputs.iter().any(|(i, p)| *i == id && p == path) {
+            inputs.push((id, path.to_path_buf()));
         }
     }
 }
@@ -68,10 +87,7 @@ pub fn is_input(path: &Path) -> bool {
     let Ok(meta) = std::fs::symlink_metadata(path) else {
         return false;
     };
-    match (file_id(path, &meta), INPUTS.lock()) {
-        (Some(id), Ok(inputs)) => inputs.contains(&id),
-        _ => false,
-    }
+    file_id(path, &meta).is_some_and(|id| registered(&id))
 }
 
 /// What a non-regular file is, for the error message.
@@ -455,7 +471,7 @@ pub fn open_append(path: &Path) -> Result<File> {
     if !meta.is_file() {
         return Err(out(not_regular(&meta)));
     }
-    if file_id(path, &meta).is_some_and(|id| INPUTS.lock().is_ok_and(|i| i.contains(&id))) {
+    if file_id(path, &meta).is_some_and(|id| registered(&id)) {
         return Err(out(
             "is one of this command's inputs; vergence never writes over an input".into(),
         ));
@@ -479,6 +495,34 @@ pub fn is_link(path: &Path) -> bool {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    /// An input's inode number passed on to a new file (the input deleted,
+    /// the number reused) is not the input: the registry checks that the
+    /// path an input was read through still names that file.
+    #[cfg(unix)]
+    #[test]
+    fn a_reused_inode_number_is_not_an_input() {
+        let dir = std::env::temp_dir().join(format!("vergence-fsio-reuse-{}", std::process::id()));
+        let _ = std::fs::remove_dir_all(&dir);
+        std::fs::create_dir_all(&dir).unwrap();
+        let (gone, other) = (dir.join("gone.txt"), dir.join("other.txt"));
+        std::fs::write(&gone, "read once").unwrap();
+        std::fs::write(&other, "a new file").unwrap();
+        let meta = std::fs::symlink_metadata(&other).unwrap();
+        let id = file_id(&other, &meta).unwrap();
+        // As if `gone` had been read with `other`'s inode number, then
+        // deleted and the number reused by `other`.
+        INPUTS.lock().unwrap().push((id.clone(), gone.clone()));
+        std::fs::remove_file(&gone).unwrap();
+        assert!(!is_input(&other));
+        assert!(write_bytes(&other, b"replaced").is_ok());
+        // While the path still names the file, it is one (the write above
+        // replaced the file: its identity now).
+        let now = file_id(&other, &std::fs::symlink_metadata(&other).unwrap()).unwrap();
+        INPUTS.lock().unwrap().push((now, other.clone()));
+        assert!(is_input(&other));
+        let _ = std::fs::remove_dir_all(&dir);
+    }
     #[cfg(unix)]
     use std::os::unix::fs::FileTypeExt as _;
 
