@@ -169,6 +169,22 @@ pub fn parse_section(s: &str) -> Result<[f64; 4], String> {
 mod tests {
     use super::*;
 
+    /// A pose's `--pose` value ([`Pose::pose_arg`]) parses to the same
+    /// pose, from a micrometre to the distance limit.
+    #[test]
+    fn a_pose_argument_parses_back_to_its_pose() {
+        for (x, yaw, pitch, roll) in [
+            (0.0, 0.0, 0.0, 0.0),
+            (512_000.25, 37.5, -20.0, 3.0),
+            (-4_100_000.5, -179.0, 88.0, -170.0),
+        ] {
+            let p = Pose::from_euler_deg(glam::DVec3::new(x, 1.6, -x), yaw, pitch, roll);
+            let back = parse_pose(&p.pose_arg()).unwrap();
+            assert!((back.position - p.position).length() < 1e-5);
+            assert!(back.orientation.dot(p.orientation).abs() > 1.0 - 1e-10);
+        }
+    }
+
     #[test]
     fn values_outside_their_range_are_named() {
         assert_eq!(parse_seconds("2.5"), Ok(2.5));

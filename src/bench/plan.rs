@@ -175,15 +175,8 @@ pub fn plans_dir() -> Option<PathBuf> {
 /// The plans usable by name: those in [`plans_dir`], else the built-in
 /// ones.
 pub fn shipped_names() -> Vec<String> {
-    let mut names: Vec<String> = std::fs::read_dir(plans_dir().unwrap_or_default())
-        .map(|d| {
-            d.filter_map(|e| e.ok())
-                .filter_map(|e| {
-                    let p = e.path();
-                    (p.extension()? == "toml").then(|| p.file_stem()?.to_str().map(String::from))?
-                })
-                .collect()
-        })
+    let mut names = plans_dir()
+        .map(|d| crate::fsio::list_files(&d, "toml"))
         .unwrap_or_default();
     if names.is_empty() {
         names = BUILTIN.iter().map(|b| b.0.to_string()).collect();

@@ -164,10 +164,22 @@ pub fn origin_pose(scene: &Scene, fov: &Fov, framing: Framing) -> Pose {
         }
         Framing::Spawn => match (scene.spawn, scene.cameras.first()) {
             (Some(spawn), _) => spawn,
-            (None, Some(camera)) => super::viewpoints::camera_origin(&camera.pose),
+            (None, Some(camera)) => camera_origin(&camera.pose),
             (None, None) => origin_pose(scene, fov, Framing::Outside),
         },
     }
+}
+
+/// The tracking origin that puts standing eyes at `camera` looking along
+/// its heading.
+pub fn camera_origin(camera: &Pose) -> Pose {
+    let o = crate::interact::locomotion::Origin::from_pose(camera);
+    Pose::from_euler_deg(
+        o.position - DVec3::new(0.0, EYE_HEIGHT, 0.0),
+        o.yaw.to_degrees(),
+        0.0,
+        0.0,
+    )
 }
 
 /// The head pose for `framing` in `scene` with `profile`'s eyes: the

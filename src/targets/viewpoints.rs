@@ -7,6 +7,7 @@
 //! to the heading (a camera's pitch and roll are not kept: the user's head
 //! supplies those).
 
+pub use super::framing::camera_origin;
 use super::headless::scene_camera;
 use super::session::RunArgs;
 use crate::error::Result;
@@ -14,7 +15,6 @@ use crate::interact::locomotion::Origin;
 use crate::interact::{Interaction, Settings};
 use crate::scene::Scene;
 use crate::view::{Fov, Pose};
-use glam::DVec3;
 
 /// Standing eye height above the tracking origin, metres (as
 /// [`super::framing::head_pose`] places the head).
@@ -27,18 +27,6 @@ pub struct Viewpoint {
     pub name: String,
     /// The tracking origin there.
     pub origin: Pose,
-}
-
-/// The tracking origin that puts standing eyes at `camera` looking along
-/// its heading.
-pub fn camera_origin(camera: &Pose) -> Pose {
-    let o = Origin::from_pose(camera);
-    Pose::from_euler_deg(
-        o.position - DVec3::new(0.0, EYE_HEIGHT, 0.0),
-        o.yaw.to_degrees(),
-        0.0,
-        0.0,
-    )
 }
 
 /// The cycle for `args` in `scene`, the start first; `fov` frames the
@@ -101,6 +89,7 @@ pub fn interaction(places: &[Viewpoint], settings: Settings) -> Interaction {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use glam::DVec3;
 
     #[test]
     fn a_camera_origin_puts_the_eyes_at_the_camera() {

@@ -540,8 +540,8 @@ mod framing_tests {
     }
 
     proptest! {
-        /// Yaw, pitch and roll give the orientation back, and a pose's
-        /// `--pose` value parses to the same pose.
+        /// Yaw, pitch and roll give the orientation back (the `--pose`
+        /// value's round trip is tested in `cli`).
         #[test]
         fn euler_angles_and_the_pose_argument_round_trip(
             yaw in -180.0f64..180.0,
@@ -553,9 +553,6 @@ mod framing_tests {
             let (a, b, c) = p.to_euler_deg();
             let q = Pose::from_euler_deg(p.position, a, b, c);
             prop_assert!(p.orientation.dot(q.orientation).abs() > 1.0 - 1e-12);
-            let back = crate::cli::parse_pose(&p.pose_arg()).unwrap();
-            prop_assert!((back.position - p.position).length() < 1e-5);
-            prop_assert!(back.orientation.dot(p.orientation).abs() > 1.0 - 1e-10);
         }
     }
 
