@@ -528,28 +528,21 @@ const RESOLVE_ATTACHMENT: Use = Use {
     ),
 };
 
-fn record(
-    ctx: &Context,
-    cmd: vk::CommandBuffer,
-    pool: vk::QueryPool,
-    t: &Targets,
-    compute: &ComputeResolve,
-    v: &Variant,
-    args: &RasterFloorsArgs,
-) {
-    let d = &ctx.device;
-    let layers_n = args.views;
-    let (depth, depth_aspect) = if v.stencil {
-        (
+/// The depth image variant `v` draws into and its aspects.
+fn depth_of<'a>(t: &'a Targets, v: &Variant) -> (&'a Image, vk::ImageAspectFlags) {
+    match v.stencil {
+        true => (
             &t.depth_stencil,
             vk::ImageAspectFlags::DEPTH | vk::ImageAspectFlags::STENCIL,
-        )
-    } else {
-        (&t.depth, vk::ImageAspectFlags::DEPTH)
-    };
-    let colour_aspect = vk::ImageAspectFlags::COLOR;
+        ),
+        false => (&t.depth, vk::ImageAspectFlags::DEPTH),
+    }
+}
+
+/// Every image starts discarded; its first use decides its layout.
+fn start_barriers(t: &Targets, v: &Variant, layers: u32) -> Vec<vk::ImageMemoryBarrier2<'static>> {
+    let (depth, depth_aspect) = depth_of(t, v);
     let transfer = v.clear == Clear::Transfer;
-    // Every image starts discarded; the first use decides its layout.
     let first = if transfer {
         Use::TRANSFER_DST
     } else {
@@ -560,18 +553,13 @@ fn record(
     } else {
         Use::DEPTH_ATTACHMENT
     };
+    let colour = vk::ImageAspectFlags::COLOR;
     let mut start = vec![
-        barrier::image(
-            t.colour.image,
-            colour_aspect,
-            layers_n,
-            first.discarded(),
-            first,
-        ),
+        barrier::image(t.colour.image, colour, layers, first.discarded(), first),
         barrier::image(
             depth.image,
             depth_aspect,
-            layers_n,
+            layers,
             depth_first.discarded(),
             depth_first,
         ),
@@ -583,14 +571,71 @@ fn record(
         Resolve::None => None,
     };
     if let Some((img, u)) = resolved_first {
-        start.push(barrier::image(
-            img,
-            colour_aspect,
-            layers_n,
-            u.discarded(),
-            u,
-        ));
+        start.push(barrier::image(img, colour, layers, u.discarded(), u));
     }
+    start
+}
+
+/// One image barrier over all `layers` of `image`.
+fn transition(d: &ash::Device, cmd: vk::CommandBuffer, to: &[vk::ImageMemoryBarrier2]) {
+    // SAFETY: recording into the one-shot command buffer; the barriers
+    // name this device's images in the layouts they say.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cmd,
+            &vk::DependencyInfo::default().image_memory_barriers(to),
+        )
+    };
+}
+
+/// Records variant `v`'s frame between two timestamps: the clear (by
+/// transfer or by the scope's load), the empty scope and the resolve.
+fn record(
+    ctx: &Context,
+    cmd: vk::CommandBuffer,
+    pool: vk::QueryPool,
+    t: &Targets,
+    compute: &ComputeResolve,
+    v: &Variant,
+    args: &RasterFloorsArgs,
+) {
+    let d = &ctx.device;
+    let (depth, _) = depth_of(t, v);
+    transition(d, cmd, &start_barriers(t, v, args.views));
+    // SAFETY: recording into the one-shot command buffer; every image
+    // belongs to this device and is in the layout its barriers say.
+    unsafe {
+        d.cmd_reset_query_pool(cmd, pool, 0, 2);
+        d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, pool, 0);
+    }
+    if v.clear == Clear::Transfer {
+        clear_by_transfer(d, cmd, t, v, args.views);
+    }
+    if v.scope {
+        begin_scope(ctx, cmd, t, depth, v, args);
+        // SAFETY: ends the scope just begun.
+        unsafe { d.cmd_end_rendering(cmd) };
+    }
+    match v.resolve {
+        Resolve::None | Resolve::Attachment => {}
+        Resolve::Command => resolve_by_command(d, cmd, t, args),
+        Resolve::Compute => resolve_by_compute(d, cmd, t, compute, args),
+    }
+    // SAFETY: as above.
+    unsafe { d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, pool, 1) };
+}
+
+/// Clears colour and depth with transfer commands, then (with a scope)
+/// moves them to attachment layouts.
+fn clear_by_transfer(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    t: &Targets,
+    v: &Variant,
+    layers_n: u32,
+) {
+    let (depth, depth_aspect) = depth_of(t, v);
+    let colour_aspect = vk::ImageAspectFlags::COLOR;
     let layers = vk::ImageSubresourceRange {
         aspect_mask: colour_aspect,
         base_mip_level: 0,
@@ -598,142 +643,129 @@ fn record(
         base_array_layer: 0,
         layer_count: layers_n,
     };
-    // SAFETY: recording into the one-shot command buffer; every image
-    // belongs to this device and is in the layout its barriers say.
+    let black = vk::ClearColorValue {
+        float32: [0.0, 0.0, 0.0, 1.0],
+    };
+    let far = vk::ClearDepthStencilValue {
+        depth: 0.0,
+        stencil: 0,
+    };
+    let depth_layers = vk::ImageSubresourceRange {
+        aspect_mask: depth_aspect,
+        ..layers
+    };
+    let dst = vk::ImageLayout::TRANSFER_DST_OPTIMAL;
+    // SAFETY: both images were moved to TRANSFER_DST by the start barriers.
     unsafe {
-        d.cmd_pipeline_barrier2(
-            cmd,
-            &vk::DependencyInfo::default().image_memory_barriers(&start),
-        );
-        d.cmd_reset_query_pool(cmd, pool, 0, 2);
-        d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, pool, 0);
-        if transfer {
-            d.cmd_clear_color_image(
-                cmd,
+        d.cmd_clear_color_image(cmd, t.colour.image, dst, &black, &[layers]);
+        d.cmd_clear_depth_stencil_image(cmd, depth.image, dst, &far, &[depth_layers]);
+    }
+    if v.scope {
+        let to = [
+            barrier::image(
                 t.colour.image,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &vk::ClearColorValue {
-                    float32: [0.0, 0.0, 0.0, 1.0],
-                },
-                &[layers],
-            );
-            d.cmd_clear_depth_stencil_image(
-                cmd,
+                colour_aspect,
+                layers_n,
+                Use::TRANSFER_DST,
+                RESOLVE_ATTACHMENT,
+            ),
+            barrier::image(
                 depth.image,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &vk::ClearDepthStencilValue {
-                    depth: 0.0,
-                    stencil: 0,
-                },
-                &[vk::ImageSubresourceRange {
-                    aspect_mask: depth_aspect,
-                    ..layers
-                }],
-            );
-            if v.scope {
-                let to = [
-                    barrier::image(
-                        t.colour.image,
-                        colour_aspect,
-                        layers_n,
-                        Use::TRANSFER_DST,
-                        RESOLVE_ATTACHMENT,
-                    ),
-                    barrier::image(
-                        depth.image,
-                        depth_aspect,
-                        layers_n,
-                        Use::TRANSFER_DST,
-                        Use::DEPTH_ATTACHMENT,
-                    ),
-                ];
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().image_memory_barriers(&to),
-                );
-            }
-        }
-        if v.scope {
-            begin_scope(ctx, cmd, t, depth, v, args);
-            d.cmd_end_rendering(cmd);
-        }
-        match v.resolve {
-            Resolve::None | Resolve::Attachment => {}
-            Resolve::Command => {
-                let to = [barrier::image(
-                    t.colour.image,
-                    colour_aspect,
-                    layers_n,
-                    RESOLVE_ATTACHMENT,
-                    Use::TRANSFER_SRC,
-                )];
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().image_memory_barriers(&to),
-                );
-                let sub = vk::ImageSubresourceLayers {
-                    aspect_mask: colour_aspect,
-                    mip_level: 0,
-                    base_array_layer: 0,
-                    layer_count: layers_n,
-                };
-                d.cmd_resolve_image(
-                    cmd,
-                    t.colour.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    t.resolved.image,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[vk::ImageResolve {
-                        src_subresource: sub,
-                        src_offset: vk::Offset3D::default(),
-                        dst_subresource: sub,
-                        dst_offset: vk::Offset3D::default(),
-                        extent: vk::Extent3D {
-                            width: args.width,
-                            height: args.height,
-                            depth: 1,
-                        },
-                    }],
-                );
-            }
-            Resolve::Compute => {
-                let to = [barrier::image(
-                    t.colour.image,
-                    colour_aspect,
-                    layers_n,
-                    RESOLVE_ATTACHMENT,
-                    Use::COMPUTE_SAMPLED,
-                )];
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().image_memory_barriers(&to),
-                );
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, compute.pipeline);
-                d.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    compute.sets.layout,
-                    0,
-                    &compute.sets.sets,
-                    &[],
-                );
-                let push = [args.width, args.height, layers_n, args.samples];
-                d.cmd_push_constants(
-                    cmd,
-                    compute.sets.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    crate::gpu::memory::as_bytes(&push),
-                );
-                d.cmd_dispatch(
-                    cmd,
-                    args.width.div_ceil(8),
-                    args.height.div_ceil(8),
-                    layers_n,
-                );
-            }
-        }
-        d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, pool, 1);
+                depth_aspect,
+                layers_n,
+                Use::TRANSFER_DST,
+                Use::DEPTH_ATTACHMENT,
+            ),
+        ];
+        transition(d, cmd, &to);
+    }
+}
+
+/// Resolves the multisampled colour with vkCmdResolveImage.
+fn resolve_by_command(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    t: &Targets,
+    args: &RasterFloorsArgs,
+) {
+    let colour_aspect = vk::ImageAspectFlags::COLOR;
+    let to = [barrier::image(
+        t.colour.image,
+        colour_aspect,
+        args.views,
+        RESOLVE_ATTACHMENT,
+        Use::TRANSFER_SRC,
+    )];
+    transition(d, cmd, &to);
+    let sub = vk::ImageSubresourceLayers {
+        aspect_mask: colour_aspect,
+        mip_level: 0,
+        base_array_layer: 0,
+        layer_count: args.views,
+    };
+    let region = vk::ImageResolve {
+        src_subresource: sub,
+        src_offset: vk::Offset3D::default(),
+        dst_subresource: sub,
+        dst_offset: vk::Offset3D::default(),
+        extent: vk::Extent3D {
+            width: args.width,
+            height: args.height,
+            depth: 1,
+        },
+    };
+    // SAFETY: the colour image is in TRANSFER_SRC and the resolved image in
+    // TRANSFER_DST (the start barriers), both of this device.
+    unsafe {
+        d.cmd_resolve_image(
+            cmd,
+            t.colour.image,
+            vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+            t.resolved.image,
+            vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+            &[region],
+        )
+    };
+}
+
+/// Resolves the multisampled colour in a compute shader into the storage
+/// image.
+fn resolve_by_compute(
+    d: &ash::Device,
+    cmd: vk::CommandBuffer,
+    t: &Targets,
+    compute: &ComputeResolve,
+    args: &RasterFloorsArgs,
+) {
+    let colour_aspect = vk::ImageAspectFlags::COLOR;
+    let to = [barrier::image(
+        t.colour.image,
+        colour_aspect,
+        args.views,
+        RESOLVE_ATTACHMENT,
+        Use::COMPUTE_SAMPLED,
+    )];
+    transition(d, cmd, &to);
+    let push = [args.width, args.height, args.views, args.samples];
+    let bind = vk::PipelineBindPoint::COMPUTE;
+    // SAFETY: the pipeline and sets were made for this device; the colour
+    // image is sampled and the storage image in GENERAL (start barriers).
+    unsafe {
+        d.cmd_bind_pipeline(cmd, bind, compute.pipeline);
+        d.cmd_bind_descriptor_sets(cmd, bind, compute.sets.layout, 0, &compute.sets.sets, &[]);
+        d.cmd_push_constants(
+            cmd,
+            compute.sets.layout,
+            vk::ShaderStageFlags::COMPUTE,
+            0,
+            crate::gpu::memory::as_bytes(&push),
+        );
+        d.cmd_dispatch(
+            cmd,
+            args.width.div_ceil(8),
+            args.height.div_ceil(8),
+            args.views,
+        );
     }
 }
 

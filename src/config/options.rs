@@ -1,10 +1,14 @@
-//! The `--opt` names as data: each technique with its options, how each
-//! option takes a value, an example value and a one-line description.
-//! The unknown-option error's list of known names, `--opt`'s help and the
-//! README's techniques table are generated from these declarations; the
-//! tests check that every declared spelling parses, that the README's
-//! table is the generated one, and that printing a configuration and
-//! parsing the print gives it back over random configurations.
+//! The `--opt` names as data: each technique, in its own file here,
+//! declares its options (how each takes a value, an example value), a
+//! one-line description, how its entries set a configuration and how it
+//! prints its part of one. Parsing, printing, the unknown-option error's
+//! list of known names, `--opt`'s help and the README's techniques table
+//! are generated from these declarations; the tests check that every
+//! declared spelling parses, that the README's table is the generated
+//! one, and that printing a configuration and parsing the print gives it
+//! back over random configurations.
+
+use super::RenderConfig;
 
 /// How an option takes a value after `=`.
 #[derive(Clone, Copy, Debug, PartialEq, Eq)]
@@ -40,6 +44,10 @@ pub struct Technique {
     pub summary: &'static str,
     /// Its options (the culling strategies come from `cull_names`).
     pub options: &'static [Opt],
+    /// Applies one of its entries to a configuration.
+    pub parse: fn(&mut RenderConfig, &Entry) -> crate::error::Result<()>,
+    /// Appends the entries that set its part of a configuration.
+    pub print: fn(&RenderConfig, &mut Vec<String>),
 }
 
 const fn flag(name: &'static str) -> Opt {
@@ -69,128 +77,134 @@ const fn required(name: &'static str, meta: &'static str, example: &'static str)
 /// The page whose options are the culling strategies.
 pub const CULLING_PAGE: &str = "superfrustum";
 
-/// Every technique and its options, in the order the docs list them.
+mod aq;
+mod culling;
+mod foveation;
+mod gpu_cull;
+mod inset;
+mod lms;
+mod mffr;
+mod msaa;
+mod points;
+mod rdm;
+mod resolved_sky;
+mod stencil;
+mod stereo;
+mod timewarp;
+
+/// Every technique and its options, in the order the docs list them (and
+/// [`print`] writes them: the stereo mode, MSAA and culling first).
 pub const TECHNIQUES: &[Technique] = &[
-    Technique {
-        title: "Multiview / two-pass",
-        page: "multiview",
-        summary: "both eyes in one multiview rendering scope (the default), or one scope per eye",
-        options: &[flag("multiview"), flag("two-pass")],
-    },
-    Technique {
-        title: "MSAA and the raster floor",
-        page: "msaa",
-        summary: "4× (the default) or one sample; what an empty frame costs and the parts vergence skips",
-        options: &[flag("msaa4"), flag("msaa"), flag("no-msaa")],
-    },
-    Technique {
-        title: "Stereo culling on the CPU",
-        page: CULLING_PAGE,
-        summary: "culls both eyes against one combined frustum (or the alternatives) over a BVH",
-        options: &[],
-    },
-    Technique {
-        title: "HMD stencil mask",
-        page: "stencil-mask",
-        summary: "never shades the pixels the lenses hide",
-        options: &[flag("stencil-mask")],
-    },
-    Technique {
-        title: "Foveated shading",
-        page: "foveation",
-        summary: "coarser shading rate away from the gaze (VK_KHR_fragment_shading_rate)",
-        options: &[
-            optional("foveation", "off|low|medium|high|auto", "high"),
-            required("gaze", "X:Y", "0.25:-0.5"),
-        ],
-    },
-    Technique {
-        title: "Radial density masking",
-        page: "rdm",
-        summary: "skips every other 2×2 quad in the periphery and fills it from its neighbours",
-        options: &[optional("rdm", "R|auto", "0.4"), flag("rdm-nofill")],
-    },
-    Technique {
-        title: "Monoscopic far field",
-        page: "mffr",
-        summary: "renders what lies beyond a disparity of one pixel once, for both eyes",
-        options: &[
-            optional("mffr", "D", "12.5"),
-            flag("mffr-depth-shift"),
-            flag("mffr-alternate-eye"),
-            flag("mffr-no-split"),
-        ],
-    },
-    Technique {
-        title: "GPU-driven culling, occlusion, LOD",
-        page: "gpu-cull",
-        summary: "culls on the GPU with indirect draws, two-phase hierarchical-Z occlusion, per-instance level of detail by projected error",
-        options: &[
-            flag("gpu-cull"),
-            flag("occlusion"),
-            optional("lod", "PX", "2"),
-            flag("lod-cache"),
-        ],
-    },
-    Technique {
-        title: "Sky after the resolve",
-        page: "resolved-sky",
-        summary: "draws the sky once per pixel under the resolved 4× image",
-        options: &[flag("resolved-sky")],
-    },
-    Technique {
-        title: "Multi-resolution foveated rendering (inset)",
-        page: "inset",
-        summary: "full resolution around the gaze, a smaller wide view elsewhere, optionally at one sample, accumulated, upsampled and sharpened over frames; four views to runtimes that take them",
-        options: &[
-            optional("inset", "F", "0.6"),
-            required("inset-fov", "DEG", "15"),
-            required("inset-views", "2|4", "4"),
-            flag("inset-wide-1x"),
-            optional("inset-taa", "A", "0.25"),
-            flag("inset-taa-jitter"),
-            flag("inset-taau"),
-            optional("inset-sharpen", "S", "0.5"),
-            flag("inset-taau-lanczos"),
-            flag("inset-catmull-rom"),
-            flag("inset-wide-all"),
-            flag("inset-composite"),
-        ],
-    },
-    Technique {
-        title: "Lens-matched shading",
-        page: "lms",
-        summary: "renders each quadrant with a clip-space w scaling that matches the lens's falling pixel density",
-        options: &[optional("lms", "K", "0.25"), flag("lms-emulated")],
-    },
-    Technique {
-        title: "Adaptive quality",
-        page: "aq",
-        summary: "moves the render scale (and the inset's periphery) to hold the frame budget",
-        options: &[flag("aq"), flag("aq-scale-only")],
-    },
-    Technique {
-        title: "Timewarp, measured",
-        page: "timewarp",
-        summary: "warps frames to newer poses offline and measures the error against rendering them",
-        options: &[
-            required("timewarp", "K", "2"),
-            flag("timewarp-rotation"),
-            flag("timewarp-fill"),
-        ],
-    },
-    Technique {
-        title: "Point-cloud rendering",
-        page: "points",
-        summary: "compute rasterization of an octree-chosen point budget, composited with the meshes; eye-dome lighting",
-        options: &[
-            required("points-budget", "N", "5000"),
-            required("point-size", "PX", "3"),
-            flag("points-pipeline"),
-            optional("edl", "S", "1.5"),
-        ],
-    },
+    stereo::TECHNIQUE,
+    msaa::TECHNIQUE,
+    culling::TECHNIQUE,
+    stencil::TECHNIQUE,
+    foveation::TECHNIQUE,
+    rdm::TECHNIQUE,
+    mffr::TECHNIQUE,
+    gpu_cull::TECHNIQUE,
+    resolved_sky::TECHNIQUE,
+    inset::TECHNIQUE,
+    lms::TECHNIQUE,
+    aq::TECHNIQUE,
+    timewarp::TECHNIQUE,
+    points::TECHNIQUE,
 ];
+
+/// One `--opt` entry: the whole text, and its name and value split at
+/// the first `=`.
+#[derive(Clone, Copy, Debug)]
+pub struct Entry<'a> {
+    /// The entry as written (`lod=2`).
+    pub item: &'a str,
+    /// Before the `=` (`lod`).
+    pub name: &'a str,
+    /// After the `=`, if there is one (`2`).
+    pub value: Option<&'a str>,
+}
+
+impl<'a> Entry<'a> {
+    /// Splits `item` at its first `=`.
+    pub fn new(item: &'a str) -> Entry<'a> {
+        match item.split_once('=') {
+            Some((name, value)) => Entry {
+                item,
+                name,
+                value: Some(value),
+            },
+            None => Entry {
+                item,
+                name: item,
+                value: None,
+            },
+        }
+    }
+
+    /// The value as a number within `lo..=hi`; else one error naming the
+    /// entry, the expected form `name=META` and what the value is.
+    pub fn number(
+        &self,
+        (lo, hi): (f64, f64),
+        meta: &str,
+        what: &str,
+    ) -> crate::error::Result<f64> {
+        match self.value.unwrap_or_default().parse::<f64>() {
+            Ok(v) if v.is_finite() && (lo..=hi).contains(&v) => Ok(v),
+            _ => Err(crate::error::Error::config(
+                "--opt",
+                format!(
+                    "'{}': expected {}={meta} with {lo} <= {meta} <= {hi} ({what})",
+                    self.item, self.name
+                ),
+            )),
+        }
+    }
+}
+
+/// Applies one entry to `c` through the technique that declares its name
+/// (a culling strategy's name goes to the culling technique). An unknown
+/// name, a value given to a flag and a missing required value are each
+/// one error naming the entry.
+pub fn apply(c: &mut RenderConfig, item: &str, cull_names: &[&str]) -> crate::error::Result<()> {
+    use crate::error::Error;
+    let e = Entry::new(item);
+    if cull_names.contains(&item) {
+        return (culling::TECHNIQUE.parse)(c, &e);
+    }
+    let found = TECHNIQUES
+        .iter()
+        .find_map(|t| t.options.iter().find(|o| o.name == e.name).map(|o| (t, o)));
+    let Some((t, o)) = found else {
+        return Err(Error::config(
+            "--opt",
+            format!(
+                "unknown optimization '{item}' (known: {})",
+                known_list(cull_names)
+            ),
+        ));
+    };
+    match (o.value, e.value) {
+        (Value::Flag, Some(_)) => Err(Error::config(
+            "--opt",
+            format!("'{item}': {} takes no value", o.name),
+        )),
+        (Value::Required(meta), None) => Err(Error::config(
+            "--opt",
+            format!("'{item}': expected {}={meta}", o.name),
+        )),
+        _ => (t.parse)(c, &e),
+    }
+}
+
+/// The `--opt` list that gives `c` back: every technique's entries in
+/// [`TECHNIQUES`]' order.
+pub fn print(c: &RenderConfig) -> String {
+    let mut out = Vec::new();
+    for t in TECHNIQUES {
+        (t.print)(c, &mut out);
+    }
+    out.join(",")
+}
 
 impl Opt {
     /// How the option is written in lists and help: `name`, `name[=META]`

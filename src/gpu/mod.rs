@@ -7,6 +7,7 @@ pub mod barrier;
 pub mod driver;
 pub mod fault;
 pub mod memory;
+mod pick;
 pub mod pipeline;
 pub mod query;
 pub mod rendering;
@@ -604,73 +605,9 @@ impl PartialInstance {
         extra_device: &[&'static CStr],
     ) -> Result<Context> {
         let inst = &self.instance;
-        let required = factory.required_physical_device(inst)?;
-        // SAFETY: enumeration on a valid instance.
-        let devices = unsafe { inst.enumerate_physical_devices() }.vk("enumerating GPUs")?;
-        if devices.is_empty() {
-            return Err(Error::Gpu(
-                "no Vulkan device found (install mesa-vulkan-drivers for a CPU device)".into(),
-            ));
-        }
-        let wanted: Option<usize> = std::env::var("VERGENCE_DEVICE")
-            .ok()
-            .and_then(|v| v.parse().ok());
-        let mut candidates: Vec<(usize, vk::PhysicalDevice, vk::PhysicalDeviceProperties)> =
-            devices
-                .iter()
-                .enumerate()
-                // SAFETY: valid physical device handles from enumeration.
-                .map(|(i, &pd)| (i, pd, unsafe { inst.get_physical_device_properties(pd) }))
-                .filter(|(_, _, p)| p.api_version >= vk::API_VERSION_1_3)
-                .collect();
-        if let Some(r) = required {
-            candidates.retain(|(_, pd, _)| *pd == r);
-            if candidates.is_empty() {
-                return Err(Error::Gpu(
-                    "the GPU the OpenXR runtime asks for does not support Vulkan 1.3".into(),
-                ));
-            }
-        } else if let Some(w) = wanted {
-            candidates.retain(|(i, _, _)| *i == w);
-        }
-        candidates.sort_by_key(|(_, _, p)| match p.device_type {
-            vk::PhysicalDeviceType::DISCRETE_GPU => 0,
-            vk::PhysicalDeviceType::INTEGRATED_GPU => 1,
-            _ => 2,
-        });
-        let Some(&(_, pd, props)) = candidates.first() else {
-            return Err(Error::Gpu(
-                "no Vulkan 1.3 device found (or VERGENCE_DEVICE names none)".into(),
-            ));
-        };
-        let mut driver_props = vk::PhysicalDeviceDriverProperties::default();
-        let mut multiview_props = vk::PhysicalDeviceMultiviewProperties::default();
-        let mut p2 = vk::PhysicalDeviceProperties2::default()
-            .push_next(&mut driver_props)
-            .push_next(&mut multiview_props);
-        // SAFETY: valid physical device of a Vulkan 1.3 instance (driver
-        // properties are core since 1.2, multiview's since 1.1) and a
-        // correctly chained query.
-        unsafe { inst.get_physical_device_properties2(pd, &mut p2) };
-        let max_multiview_views = multiview_props.max_multiview_view_count;
-        let c_text = |s: std::result::Result<&CStr, _>| {
-            s.map(|s| s.to_string_lossy().into_owned())
-                .unwrap_or_default()
-        };
-        let driver_name = c_text(driver_props.driver_name_as_c_str());
-        let driver_info = c_text(driver_props.driver_info_as_c_str());
-        if let Some(why) = driver::refusal(driver_props.driver_id, &driver_info) {
-            return Err(Error::Gpu(why));
-        }
-        // SAFETY: valid physical device.
-        let families = unsafe { inst.get_physical_device_queue_family_properties(pd) };
-        let queue_family = families
-            .iter()
-            .position(|f| f.queue_flags.contains(vk::QueueFlags::GRAPHICS))
-            .ok_or_else(|| Error::Gpu("the device has no graphics queue".into()))?
-            as u32;
-        let timestamp_ok = families[queue_family as usize].timestamp_valid_bits > 0;
-
+        let (pd, props) = pick::choose(inst, factory.required_physical_device(inst)?)?;
+        let drv = pick::driver_info(inst, pd)?;
+        let (queue_family, timestamps) = pick::graphics_queue(inst, pd)?;
         // SAFETY: enumeration on a valid physical device.
         let dev_exts = unsafe { inst.enumerate_device_extension_properties(pd) }
             .vk("enumerating device extensions")?;
@@ -679,182 +616,21 @@ impl PartialInstance {
                 .iter()
                 .any(|e| e.extension_name_as_c_str().ok() == Some(name))
         };
-        let fsr_offered = has_ext(ash::khr::fragment_shading_rate::NAME);
-        let mut f11 = vk::PhysicalDeviceVulkan11Features::default();
-        let mut f13 = vk::PhysicalDeviceVulkan13Features::default();
-        let mut ffsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default();
-        let atomic_int64_offered = has_ext(ash::khr::shader_atomic_int64::NAME);
-        let mut fi64 = vk::PhysicalDeviceShaderAtomicInt64Features::default();
-        let mut f2 = vk::PhysicalDeviceFeatures2::default()
-            .push_next(&mut f11)
-            .push_next(&mut f13);
-        if atomic_int64_offered {
-            f2 = f2.push_next(&mut fi64);
-        }
-        if fsr_offered {
-            f2 = f2.push_next(&mut ffsr);
-        }
-        // SAFETY: valid physical device and a correctly chained query struct.
-        unsafe { inst.get_physical_device_features2(pd, &mut f2) };
-        let base = f2.features;
-        if f11.multiview == 0 || f13.dynamic_rendering == 0 || f13.synchronization2 == 0 {
-            return Err(Error::Gpu(
-                "the device lacks multiview, dynamic rendering or synchronization2".into(),
-            ));
-        }
-        // The section plane clips in the scene's vertex shader.
-        if base.shader_clip_distance == 0 {
-            return Err(Error::Gpu(
-                "the device lacks shaderClipDistance (the section plane needs it)".into(),
-            ));
-        }
-        let pipeline_statistics = base.pipeline_statistics_query != 0;
-        let atomic_int64 =
-            atomic_int64_offered && base.shader_int64 != 0 && fi64.shader_buffer_int64_atomics != 0;
-        let inherited_queries = base.inherited_queries != 0;
-        let shader_draw_parameters = f11.shader_draw_parameters != 0;
-        let features = vk::PhysicalDeviceFeatures::default()
-            .pipeline_statistics_query(pipeline_statistics)
-            .inherited_queries(inherited_queries)
-            .shader_clip_distance(true)
-            .shader_int64(atomic_int64)
-            .shader_sampled_image_array_dynamic_indexing(
-                base.shader_sampled_image_array_dynamic_indexing != 0,
-            )
-            .sampler_anisotropy(base.sampler_anisotropy != 0);
-        let mut e11 = vk::PhysicalDeviceVulkan11Features::default()
-            .multiview(true)
-            .shader_draw_parameters(shader_draw_parameters);
-        // Enabled through VK_KHR_draw_indirect_count rather than the
-        // Vulkan12Features bit: an OpenXR runtime creating the device
-        // (XR_KHR_vulkan_enable2) may chain its own 1.2-era feature structs,
-        // which must not meet a Vulkan12Features (VUID-VkDeviceCreateInfo-
-        // pNext-02830). The extension implies the feature.
-        let draw_indirect_count = has_ext(ash::khr::draw_indirect_count::NAME);
-        let mut e13 = vk::PhysicalDeviceVulkan13Features::default()
-            .dynamic_rendering(true)
-            .synchronization2(true);
-        let use_fsr = fsr_offered && ffsr.attachment_fragment_shading_rate != 0;
-        let shading_rate_texel = if use_fsr {
-            let mut fsr_props = vk::PhysicalDeviceFragmentShadingRatePropertiesKHR::default();
-            let mut p2 = vk::PhysicalDeviceProperties2::default().push_next(&mut fsr_props);
-            // SAFETY: valid physical device and a correctly chained query.
-            unsafe { inst.get_physical_device_properties2(pd, &mut p2) };
-            let t = fsr_props.min_fragment_shading_rate_attachment_texel_size;
-            Some((t.width.max(1), t.height.max(1)))
-        } else {
-            None
-        };
-        let mut e_fsr = vk::PhysicalDeviceFragmentShadingRateFeaturesKHR::default()
-            .attachment_fragment_shading_rate(true);
-        let mut dev_ext_names = Vec::new();
-        let memory_budget = has_ext(ash::ext::memory_budget::NAME);
-        if memory_budget {
-            dev_ext_names.push(ash::ext::memory_budget::NAME.as_ptr());
-        }
-        if use_fsr {
-            dev_ext_names.push(ash::khr::fragment_shading_rate::NAME.as_ptr());
-        }
-        for &name in extra_device {
-            if !has_ext(name) {
-                return Err(Error::Gpu(format!(
-                    "the device offers no {} (needed for a window)",
-                    name.to_string_lossy()
-                )));
-            }
-            dev_ext_names.push(name.as_ptr());
-        }
-        if draw_indirect_count {
-            dev_ext_names.push(ash::khr::draw_indirect_count::NAME.as_ptr());
-        }
-        let mut e_i64 = vk::PhysicalDeviceShaderAtomicInt64Features::default()
-            .shader_buffer_int64_atomics(true);
-        if atomic_int64 {
-            dev_ext_names.push(ash::khr::shader_atomic_int64::NAME.as_ptr());
-        }
-        let clip_space_w_scaling = has_ext(ash::nv::clip_space_w_scaling::NAME);
-        if clip_space_w_scaling {
-            dev_ext_names.push(ash::nv::clip_space_w_scaling::NAME.as_ptr());
-        }
-        let prio = [1.0f32];
-        let qinfo = [vk::DeviceQueueCreateInfo::default()
-            .queue_family_index(queue_family)
-            .queue_priorities(&prio)];
-        let mut dinfo = vk::DeviceCreateInfo::default()
-            .queue_create_infos(&qinfo)
-            .enabled_features(&features)
-            .enabled_extension_names(&dev_ext_names)
-            .push_next(&mut e11)
-            .push_next(&mut e13);
-        if use_fsr {
-            dinfo = dinfo.push_next(&mut e_fsr);
-        }
-        if atomic_int64 {
-            dinfo = dinfo.push_next(&mut e_i64);
-        }
-        let device = factory.create_device(&self.entry, inst, pd, &dinfo)?;
+        let offered = pick::features(inst, pd, &has_ext)?;
+        let exts = pick::extensions(&offered, &has_ext, extra_device)?;
+        let device = pick::create_device(
+            factory,
+            &self.entry,
+            inst,
+            pd,
+            queue_family,
+            &offered,
+            &exts,
+        )?;
         // SAFETY: the family/index pair was requested at device creation.
         let queue = unsafe { device.get_device_queue(queue_family, 0) };
-        // SAFETY: valid physical device.
-        let mem = unsafe { inst.get_physical_device_memory_properties(pd) };
-        let lazily_allocated_memory = mem.memory_types[..mem.memory_type_count as usize]
-            .iter()
-            .any(|t| {
-                t.property_flags
-                    .contains(vk::MemoryPropertyFlags::LAZILY_ALLOCATED)
-            });
-        let lim = props.limits;
-        let samples = lim.framebuffer_color_sample_counts & lim.framebuffer_depth_sample_counts;
-        let max_samples = [8u32, 4, 2, 1]
-            .into_iter()
-            .find(|&s| samples.contains(vk::SampleCountFlags::from_raw(s)))
-            .unwrap_or(1);
-        let depth_format = [
-            vk::Format::D32_SFLOAT_S8_UINT,
-            vk::Format::D24_UNORM_S8_UINT,
-        ]
-        .into_iter()
-        .find(|&f| {
-            // SAFETY: valid physical device.
-            let p = unsafe { inst.get_physical_device_format_properties(pd, f) };
-            p.optimal_tiling_features
-                .contains(vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT)
-        })
-        .ok_or_else(|| Error::Gpu("no depth-stencil format with stencil is supported".into()))?;
-        // SAFETY: valid physical device.
-        let d32 = unsafe { inst.get_physical_device_format_properties(pd, vk::Format::D32_SFLOAT) };
-        let depth_only_format = d32
-            .optimal_tiling_features
-            .contains(
-                vk::FormatFeatureFlags::DEPTH_STENCIL_ATTACHMENT
-                    | vk::FormatFeatureFlags::SAMPLED_IMAGE
-                    | vk::FormatFeatureFlags::TRANSFER_SRC,
-            )
-            .then_some(vk::Format::D32_SFLOAT);
-        let caps = Capabilities {
-            pipeline_statistics,
-            timestamp_period_ns: if timestamp_ok {
-                lim.timestamp_period
-            } else {
-                0.0
-            },
-            lazily_allocated_memory,
-            max_samples,
-            depth_format,
-            depth_only_format,
-            shading_rate_texel,
-            fragment_density_map: has_ext(ash::ext::fragment_density_map::NAME),
-            per_view_render_areas: has_ext(ash::qcom::multiview_per_view_render_areas::NAME),
-            max_multiview_views,
-            memory_budget,
-            draw_indirect_count,
-            shader_draw_parameters,
-            inherited_queries,
-            min_uniform_offset_alignment: lim.min_uniform_buffer_offset_alignment,
-            clip_space_w_scaling,
-            atomic_int64,
-            max_storage_buffer_range: lim.max_storage_buffer_range,
-        };
+        let limits = (&offered, timestamps, drv.max_multiview_views);
+        let caps = pick::capabilities(inst, pd, &props, limits, &has_ext)?;
         let allocator = Allocator::new(&AllocatorCreateDesc {
             instance: inst.clone(),
             device: device.clone(),
@@ -869,7 +645,9 @@ impl PartialInstance {
             .map(|s| s.to_string_lossy().into_owned())
             .unwrap_or_default();
         let driver = format!(
-            "{driver_name} {driver_info}, Vulkan {}.{}.{}, driver version {:#x}, vendor {:#06x}",
+            "{} {}, Vulkan {}.{}.{}, driver version {:#x}, vendor {:#06x}",
+            drv.name,
+            drv.info,
             vk::api_version_major(props.api_version),
             vk::api_version_minor(props.api_version),
             vk::api_version_patch(props.api_version),
@@ -891,7 +669,7 @@ impl PartialInstance {
             queue_family,
             device_name,
             driver,
-            driver_id: driver_props.driver_id,
+            driver_id: drv.id,
             caps,
             allocator: Mutex::new(Some(allocator)),
             memory_by_category: Mutex::new(BTreeMap::new()),

@@ -433,26 +433,29 @@ impl Interaction {
             0.0
         };
         let head_ok = input.head.validate().is_ok();
-        let mut hands = input.hands;
-        for h in &mut hands {
-            let finite = h.select.is_finite()
-                && h.squeeze.is_finite()
-                && h.stick.iter().all(|v| v.is_finite());
-            if !finite {
-                *h = HandInput::default();
-            }
-            h.aim = h.aim.filter(|p| p.validate().is_ok());
-            h.grip = h.grip.filter(|p| p.validate().is_ok());
-            h.stick = h.stick.map(|v| v.clamp(-1.0, 1.0));
-        }
-        let [left, right] = hands;
-        let head_world = self.origin.pose(&input.head);
-
+        let hands = input.hands.map(sanitized);
         // Grab first: while the world is held, sticks do not move it.
         self.update_grab(&hands, &mut out);
         let grabbing = self.grab.is_some();
+        self.left_stick(&hands[0], input, dt, grabbing || !head_ok, &mut out);
+        self.right_stick(&hands[1], input, q, dt, grabbing || !head_ok, &mut out);
+        self.update_menu(&hands, input, head_ok, &mut out);
+        for (i, h) in hands.iter().enumerate() {
+            self.point(i, h, q, &mut out);
+        }
+        out
+    }
 
-        // Left stick: smooth move; its click: fly.
+    /// Left stick: smooth move (unless `held`: grabbing or no head pose);
+    /// its click: fly.
+    fn left_stick(
+        &mut self,
+        left: &HandInput,
+        input: &FrameInput,
+        dt: f64,
+        held: bool,
+        out: &mut Update,
+    ) {
         if self.clicks[0] != left.stick_click {
             self.clicks[0] = left.stick_click;
             if left.stick_click {
@@ -462,22 +465,28 @@ impl Interaction {
         }
         let stick = [left.stick[0] as f64, left.stick[1] as f64];
         let dead = (stick[0] * stick[0] + stick[1] * stick[1]).sqrt() < 0.15;
-        if !grabbing && !dead && head_ok {
-            let facing = match (self.settings.move_direction, left.aim) {
-                (MoveDirection::Hand, Some(aim)) => self.origin.pose(&aim).forward(),
-                _ => head_world.forward(),
-            };
-            let d = smooth_move(
-                facing,
-                stick,
-                self.settings.move_speed * self.origin.scale,
-                dt,
-                self.fly,
-            );
-            self.origin.position += d;
+        if held || dead {
+            return;
         }
+        let facing = match (self.settings.move_direction, left.aim) {
+            (MoveDirection::Hand, Some(aim)) => self.origin.pose(&aim).forward(),
+            _ => self.origin.pose(&input.head).forward(),
+        };
+        let speed = self.settings.move_speed * self.origin.scale;
+        self.origin.position += smooth_move(facing, stick, speed, dt, self.fly);
+    }
 
-        // Right stick: snap (or smooth) turn, teleport aim; its click: recentre.
+    /// Right stick: snap (or smooth) turn and teleport aim (unless `held`:
+    /// grabbing or no head pose); its click: the next viewpoint.
+    fn right_stick(
+        &mut self,
+        right: &HandInput,
+        input: &FrameInput,
+        q: &SceneQuery,
+        dt: f64,
+        held: bool,
+        out: &mut Update,
+    ) {
         if self.clicks[1] != right.stick_click {
             self.clicks[1] = right.stick_click;
             if right.stick_click {
@@ -491,63 +500,85 @@ impl Interaction {
                 });
             }
         }
-        let [sx, sy] = right.stick.map(f64::from);
-        let mag = (sx * sx + sy * sy).sqrt();
-        if !grabbing && head_ok {
-            let pivot = self.origin.pose(&input.head).position;
-            if sx.abs() > 0.7 && sx.abs() > sy.abs() && !self.aiming {
-                match self.settings.smooth_turn_deg_s {
-                    Some(rate) => {
-                        let a = -sx.signum() * (sx.abs() - 0.7) / 0.3 * rate.to_radians() * dt;
-                        self.origin = self.origin.turned_about(pivot, a);
-                    }
-                    None if self.snap_armed => {
-                        // Stick right turns right: negative yaw.
-                        let deg = -sx.signum() * self.settings.snap_turn_deg;
-                        self.origin = self.origin.turned_about(pivot, deg.to_radians());
-                        out.events.push(Event::Turn { degrees: deg });
-                        self.snap_armed = false;
-                    }
-                    None => {}
-                }
-            } else if sx.abs() < 0.35 {
-                self.snap_armed = true;
-            }
-            if sy > 0.7 && sy >= sx.abs() {
-                self.aiming = true;
-            }
-            if self.aiming {
-                let arc = right.aim.map(|aim| {
-                    let w = self.origin.pose(&aim);
-                    // A projectile's range goes as v²/g: √scale on the
-                    // launch speed makes the reach scale with the user.
-                    cast_teleport(
-                        q,
-                        w.position,
-                        w.forward(),
-                        self.settings.arc_speed * self.origin.scale.sqrt(),
-                    )
-                });
-                if mag < 0.35 {
-                    self.aiming = false;
-                    if let Some(target) = arc.as_ref().and_then(|a| a.target) {
-                        let from = pivot;
-                        self.origin = self.origin.teleported(input.head.position, target);
-                        out.events.push(Event::Teleport {
-                            from: from.to_array(),
-                            to: target.to_array(),
-                        });
-                    }
-                } else {
-                    out.arc = arc;
-                }
-            }
-        } else {
+        if held {
             self.aiming = false;
+            return;
         }
+        let [sx, sy] = right.stick.map(f64::from);
+        self.turn(sx, sy, input, dt, out);
+        if sy > 0.7 && sy >= sx.abs() {
+            self.aiming = true;
+        }
+        if self.aiming {
+            self.aim_teleport(right, (sx * sx + sy * sy).sqrt(), input, q, out);
+        }
+    }
 
-        // Menu (either hand): the panel, or the next tool without one.
-        let menu = left.menu || right.menu;
+    /// A sideways right stick turns about the head: smoothly at the set
+    /// rate, or one snap per push (re-armed when the stick returns).
+    fn turn(&mut self, sx: f64, sy: f64, input: &FrameInput, dt: f64, out: &mut Update) {
+        let pivot = self.origin.pose(&input.head).position;
+        if sx.abs() > 0.7 && sx.abs() > sy.abs() && !self.aiming {
+            match self.settings.smooth_turn_deg_s {
+                Some(rate) => {
+                    let a = -sx.signum() * (sx.abs() - 0.7) / 0.3 * rate.to_radians() * dt;
+                    self.origin = self.origin.turned_about(pivot, a);
+                }
+                None if self.snap_armed => {
+                    // Stick right turns right: negative yaw.
+                    let deg = -sx.signum() * self.settings.snap_turn_deg;
+                    self.origin = self.origin.turned_about(pivot, deg.to_radians());
+                    out.events.push(Event::Turn { degrees: deg });
+                    self.snap_armed = false;
+                }
+                None => {}
+            }
+        } else if sx.abs() < 0.35 {
+            self.snap_armed = true;
+        }
+    }
+
+    /// While aiming: the teleport arc from the right hand; releasing the
+    /// stick (`mag` below 0.35) teleports to the arc's target, if any.
+    fn aim_teleport(
+        &mut self,
+        right: &HandInput,
+        mag: f64,
+        input: &FrameInput,
+        q: &SceneQuery,
+        out: &mut Update,
+    ) {
+        let arc = right.aim.map(|aim| {
+            let w = self.origin.pose(&aim);
+            // A projectile's range goes as v²/g: √scale on the launch
+            // speed makes the reach scale with the user.
+            let speed = self.settings.arc_speed * self.origin.scale.sqrt();
+            cast_teleport(q, w.position, w.forward(), speed)
+        });
+        if mag >= 0.35 {
+            out.arc = arc;
+            return;
+        }
+        self.aiming = false;
+        if let Some(target) = arc.as_ref().and_then(|a| a.target) {
+            let from = self.origin.pose(&input.head).position;
+            self.origin = self.origin.teleported(input.head.position, target);
+            out.events.push(Event::Teleport {
+                from: from.to_array(),
+                to: target.to_array(),
+            });
+        }
+    }
+
+    /// Menu (either hand): the panel, or the next tool without one.
+    fn update_menu(
+        &mut self,
+        hands: &[HandInput; 2],
+        input: &FrameInput,
+        head_ok: bool,
+        out: &mut Update,
+    ) {
+        let menu = hands[0].menu || hands[1].menu;
         if menu && !self.menu {
             if !self.settings.panel {
                 self.tool = self.tool.next();
@@ -560,69 +591,74 @@ impl Interaction {
             }
         }
         self.menu = menu;
+    }
 
-        // Rays and triggers.
-        for (i, h) in hands.iter().enumerate() {
-            let pressed = self.triggers[i].press(h.select);
-            let Some(aim) = h.aim else {
-                self.hovered[i] = None;
-                continue;
-            };
-            // The open panel is in front of the scene: a ray on it points
-            // at the panel only, and its trigger presses the panel.
-            if let Some(on) = self.panel.as_ref().and_then(|p| p.hit(&aim)) {
-                self.hovered[i] = None;
-                out.panel_pointer[i] = Some(on);
-                if pressed {
-                    out.panel_press = Some((i, on.uv));
-                }
-                continue;
+    /// Hand `i`'s ray and trigger: the open panel is in front of the scene
+    /// (a ray on it points at the panel only, and its trigger presses the
+    /// panel); otherwise the ray hovers the scene and the trigger uses the
+    /// tool on what it hits.
+    fn point(&mut self, i: usize, h: &HandInput, q: &SceneQuery, out: &mut Update) {
+        let pressed = self.triggers[i].press(h.select);
+        let Some(aim) = h.aim else {
+            self.hovered[i] = None;
+            return;
+        };
+        if let Some(on) = self.panel.as_ref().and_then(|p| p.hit(&aim)) {
+            self.hovered[i] = None;
+            out.panel_pointer[i] = Some(on);
+            if pressed {
+                out.panel_press = Some((i, on.uv));
             }
-            let ray = self.ray(&aim);
-            let hit = q.cast(&ray);
-            let now = hit.map(|h| h.instance);
-            out.haptic[i] = now.is_some() && now != self.hovered[i];
-            self.hovered[i] = now;
-            out.hover[i] = hit;
-            if !pressed {
-                continue;
-            }
-            match self.tool {
-                Tool::Select => {
-                    if let Some(hit) = hit {
-                        out.events.push(Event::Select {
-                            hand: HANDS[i],
-                            picked: describe(q.scene(), &hit, ray.origin),
-                        });
-                    }
-                }
-                Tool::Measure => {
-                    if let Some(hit) = hit {
-                        match self.measure.press(hit.point) {
-                            Some(d) => out.events.push(Event::Measure {
-                                distance_m: d,
-                                label: measure::label(d),
-                            }),
-                            None => out.events.push(Event::MeasurePoint {
-                                point: hit.point.to_array(),
-                            }),
-                        }
-                    }
-                }
-                Tool::Section => {
-                    self.section = match self.section {
-                        Some(_) => None,
-                        None => SectionPlane::from_hand(&self.origin.pose(&aim)),
-                    };
-                    out.events.push(Event::Section {
-                        plane: self
-                            .section
-                            .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]),
-                    });
-                }
-            }
+            return;
         }
-        out
+        let ray = self.ray(&aim);
+        let hit = q.cast(&ray);
+        let now = hit.map(|h| h.instance);
+        out.haptic[i] = now.is_some() && now != self.hovered[i];
+        self.hovered[i] = now;
+        out.hover[i] = hit;
+        if pressed {
+            self.use_tool(i, &aim, hit, ray.origin, q, out);
+        }
+    }
+
+    /// The trigger of hand `i` pressed with the current tool on `hit`.
+    fn use_tool(
+        &mut self,
+        i: usize,
+        aim: &Pose,
+        hit: Option<Hit>,
+        from: DVec3,
+        q: &SceneQuery,
+        out: &mut Update,
+    ) {
+        match (self.tool, hit) {
+            (Tool::Select, Some(hit)) => out.events.push(Event::Select {
+                hand: HANDS[i],
+                picked: describe(q.scene(), &hit, from),
+            }),
+            (Tool::Measure, Some(hit)) => match self.measure.press(hit.point) {
+                Some(d) => out.events.push(Event::Measure {
+                    distance_m: d,
+                    label: measure::label(d),
+                }),
+                None => out.events.push(Event::MeasurePoint {
+                    point: hit.point.to_array(),
+                }),
+            },
+            (Tool::Section, _) => {
+                self.section = match self.section {
+                    Some(_) => None,
+                    None => SectionPlane::from_hand(&self.origin.pose(aim)),
+                };
+                out.events.push(Event::Section {
+                    plane: self
+                        .section
+                        .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]),
+                });
+            }
+            _ => {}
+        }
     }
 
     /// Puts `tool` on the trigger (a panel button), as an event.
@@ -682,6 +718,20 @@ impl Interaction {
             None => {}
         }
     }
+}
+
+/// A hand's input with non-finite buttons or sticks treated as idle,
+/// invalid poses dropped and the stick within -1..1.
+fn sanitized(mut h: HandInput) -> HandInput {
+    let finite =
+        h.select.is_finite() && h.squeeze.is_finite() && h.stick.iter().all(|v| v.is_finite());
+    if !finite {
+        h = HandInput::default();
+    }
+    h.aim = h.aim.filter(|p| p.validate().is_ok());
+    h.grip = h.grip.filter(|p| p.validate().is_ok());
+    h.stick = h.stick.map(|v| v.clamp(-1.0, 1.0));
+    h
 }
 
 #[cfg(test)]

@@ -12,7 +12,7 @@
 use super::headless::{load_scene, SceneCounts};
 use super::mirror::{Desk, Mirror};
 use super::session::{
-    write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats, ViewInfo,
+    write_capture, FrameRecord, HandProfiles, OriginFile, RecordQueue, RunArgs, RunStats,
 };
 use crate::error::{Error, Result};
 use crate::gpu::surface::Source;
@@ -28,17 +28,17 @@ use crate::xr::instance::{connect, Connection};
 use crate::xr::state::{Action, QuitAction, SessionMachine};
 use crate::xr::watchdog::Watchdog;
 use crate::xr::{
-    choose_color_format, fetch_masks, sanitize_views, state_of, tracking_head, vulkan, world_rig,
-    xr_err, Chain, Messenger, TrackedView, XrCall, CALL_LIMIT,
+    fetch_masks, sanitize_views, state_of, tracking_head, vulkan, world_rig, xr_err, Chain,
+    Messenger, TrackedView, XrCall, CALL_LIMIT,
 };
 use ash::vk;
-use ash::vk::Handle;
 use openxr as xr;
 use openxr::sys;
 use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod app;
+mod setup;
 
 /// Everything a session owns, declared in teardown order (Rust drops fields
 /// in declaration order): OpenXR handles first (swapchains, space, session,
@@ -80,256 +80,50 @@ impl Drop for Live {
 /// filled as the session goes. No runtime or headset is
 /// [`Error::XrUnavailable`].
 pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
-    let Connection {
-        instance,
-        system,
-        exts,
-        layers: layer_names,
-        messenger,
-        props,
-        system_props: sys_props,
-        api_version,
-    } = connect(desk.live.config.inset.is_some_and(|i| !i.composite))?;
-    stats.mode = "openxr".into();
-    stats.runtime = Some(format!("{} {}", props.runtime_name, props.runtime_version));
-    stats.system = sys_props.system_name.clone();
-    stats.extensions_enabled = exts
-        .names()
-        .iter()
-        .map(|n| {
-            String::from_utf8_lossy(n)
-                .trim_end_matches('\0')
-                .to_string()
-        })
-        .collect();
-    stats.api_layers = layer_names.iter().map(|s| s.to_string()).collect();
-    tracing::info!(
-        "OpenXR runtime {} {}, system {}",
-        props.runtime_name,
-        props.runtime_version,
-        sys_props.system_name
-    );
-
-    // With the inset and a runtime that takes quad views
-    // (XR_VARJO_quad_views), the four views go out as they are (unless
-    // inset-composite asks for the composite here).
-    // Both name one value: XR_VARJO_quad_views' PRIMARY_QUAD_VARJO is
-    // OpenXR 1.1's PRIMARY_STEREO_WITH_FOVEATED_INSET.
-    let foveated_inset = xr::ViewConfigurationType::PRIMARY_STEREO_WITH_FOVEATED_INSET;
-    let quad = (exts.varjo_quad_views || api_version >= xr::Version::new(1, 1, 0))
-        && desk.live.config.inset.is_some_and(|i| !i.composite)
-        && instance
-            .enumerate_view_configurations(system)
-            .call("xrEnumerateViewConfigurations")?
-            .contains(&foveated_inset);
-    let view_type = if quad {
-        foveated_inset
-    } else {
-        xr::ViewConfigurationType::PRIMARY_STEREO
-    };
-    let config_views = instance
-        .enumerate_view_configuration_views(system, view_type)
-        .call("xrEnumerateViewConfigurationViews")?;
-    let wanted = if quad { 4 } else { 2 };
-    if config_views.len() != wanted {
-        return Err(Error::config(
-            "view configuration",
-            format!(
-                "the view configuration has {} views; the renderer needs {wanted}",
-                config_views.len()
-            ),
-        ));
-    }
-    stats.view_configuration = Some(
-        match (quad, exts.varjo_quad_views) {
-            (false, _) => "PRIMARY_STEREO",
-            (true, true) => "PRIMARY_QUAD_VARJO",
-            (true, false) => "PRIMARY_STEREO_WITH_FOVEATED_INSET",
-        }
-        .into(),
-    );
-    stats.api_version = Some(api_version.to_string());
-    if quad {
-        tracing::info!("the runtime takes quad views: the inset goes out as four views");
-    }
-    stats.views = config_views
-        .iter()
-        .map(|v| ViewInfo {
-            recommended: [
-                v.recommended_image_rect_width,
-                v.recommended_image_rect_height,
-            ],
-            max: [v.max_image_rect_width, v.max_image_rect_height],
-            fov: None,
-        })
-        .collect();
-    let blend = instance
-        .enumerate_environment_blend_modes(system, view_type)
-        .call("xrEnumerateEnvironmentBlendModes")?
-        .first()
-        .copied()
-        .unwrap_or(xr::EnvironmentBlendMode::OPAQUE);
-    let reqs = instance
-        .graphics_requirements::<xr::Vulkan>(system)
-        .call("xrGetVulkanGraphicsRequirements2KHR")?;
-    let ours = xr::Version::new(1, 3, 0);
-    if reqs.min_api_version_supported > ours {
-        return Err(Error::Gpu(format!(
-            "the OpenXR runtime needs Vulkan {} or newer; vergence uses Vulkan 1.3",
-            reqs.min_api_version_supported
-        )));
-    }
-    if reqs.max_api_version_supported.major() < 1
-        || (reqs.max_api_version_supported.major() == 1
-            && reqs.max_api_version_supported.minor() < 3)
-    {
-        tracing::warn!(
-            "the runtime was tested up to Vulkan {}; vergence needs 1.3 and goes ahead",
-            reqs.max_api_version_supported
-        );
-    }
+    let inset_out = desk.live.config.inset.is_some_and(|i| !i.composite);
+    let mut conn = connect(inset_out)?;
+    setup::record_runtime(&conn, stats);
+    let views = setup::choose_views(&conn, inset_out, stats)?;
+    let blend = setup::blend_mode(&conn, &views)?;
+    setup::check_vulkan(&conn)?;
     let (scene, _) = load_scene(&args.scene)?;
-    let extent = match args.size {
-        Some((w, h)) => vk::Extent2D {
-            width: w,
-            height: h,
-        },
-        None => vk::Extent2D {
-            width: config_views
-                .iter()
-                .take(2)
-                .map(|v| v.recommended_image_rect_width)
-                .max()
-                .unwrap_or(1),
-            height: config_views
-                .iter()
-                .take(2)
-                .map(|v| v.recommended_image_rect_height)
-                .max()
-                .unwrap_or(1),
-        },
-    };
+    let extent = setup::eye_extent(args.size, &views.config);
     // The mirror window first: its surface's extensions go into the create
     // infos handed to the runtime (XR_KHR_vulkan_enable2), which adds its
     // own; some runtimes would not add these.
+    let system_name = conn.system_props.system_name.clone();
     let extra = desk.prepare(
-        &format!("vergence run: {} ({})", scene.name, sys_props.system_name),
+        &format!("vergence run: {} ({system_name})", scene.name),
         extent,
     );
+    let factory = vulkan::XrDeviceFactory {
+        instance: &conn.instance,
+        system: conn.system,
+    };
     let ctx = Arc::new(Context::with_extensions(
         Validation::from_env(),
-        &vulkan::XrDeviceFactory {
-            instance: &instance,
-            system,
-        },
+        &factory,
         &extra,
     )?);
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
     stats.scene = Some(SceneCounts::of(&scene));
-
-    // SAFETY: the handles come from the context created through this
-    // runtime and outlive the session (see `Live`'s drop order).
-    let (session, waiter, stream) = unsafe {
-        instance.create_session::<xr::Vulkan>(
-            system,
-            &xr::vulkan::SessionCreateInfo {
-                instance: ctx.instance.handle().as_raw() as _,
-                physical_device: ctx.physical_device.as_raw() as _,
-                device: ctx.device.handle().as_raw() as _,
-                queue_family_index: ctx.queue_family,
-                queue_index: 0,
-            },
-        )
-    }
-    .call("xrCreateSession")?;
-    let mut live = Live {
-        mirror: None,
-        panel: None,
-        controls: None,
-        color: Vec::new(),
-        depth: Vec::new(),
-        inset: Vec::new(),
-        space: None,
-        stream: Some(stream),
-        waiter: Some(waiter),
-        session: Some(session.clone()),
-        messenger,
-        instance: Some(instance.clone()),
-        driver: None,
-        watchdog: Watchdog::start(CALL_LIMIT),
-    };
-    if exts.fb_display_refresh_rate {
-        stats.display_refresh_hz = session.get_display_refresh_rate().ok();
-        stats.display_refresh_rates = session
-            .enumerate_display_refresh_rates()
-            .unwrap_or_default();
-    }
-    let spaces = session
-        .enumerate_reference_spaces()
-        .call("xrEnumerateReferenceSpaces")?;
-    let space_type = if spaces.contains(&xr::ReferenceSpaceType::STAGE) {
-        xr::ReferenceSpaceType::STAGE
-    } else {
-        xr::ReferenceSpaceType::LOCAL
-    };
-    stats.reference_space = Some(
-        if space_type == xr::ReferenceSpaceType::STAGE {
-            "STAGE"
-        } else {
-            "LOCAL"
-        }
-        .into(),
-    );
-    let space = session
-        .create_reference_space(space_type, xr::Posef::IDENTITY)
-        .call("xrCreateReferenceSpace")?;
-    // Controllers are optional: without actions the session is head-only.
-    live.controls = match Controls::new(&instance, &session, &exts, api_version) {
-        Ok(c) => {
-            stats.suggested_profiles = c.suggested.clone();
-            Some(c)
-        }
-        Err(e) => {
-            tracing::warn!("no controller input (head-only): {e}");
-            None
-        }
-    };
-    let formats: Vec<vk::Format> = session
-        .enumerate_swapchain_formats()
-        .call("xrEnumerateSwapchainFormats")?
-        .into_iter()
-        .map(|f| vk::Format::from_raw(f as i32))
-        .collect();
-    let color_format = choose_color_format(&formats).ok_or_else(|| {
-        Error::Gpu(format!(
-            "the runtime offers no sRGB colour format vergence can fill (offered: {formats:?})"
-        ))
-    })?;
-    let depth_format =
-        (exts.khr_composition_layer_depth && !quad && formats.contains(&ctx.caps.depth_format))
-            .then_some(ctx.caps.depth_format);
-    stats.color_format = Some(format!("{color_format:?}"));
-    stats.depth_format = depth_format.map(|f| format!("{f:?}"));
+    let (session, waiter, stream) = setup::create_session(&conn, &ctx)?;
+    let mut live = Live::new(&mut conn, &session, waiter, stream);
+    let space = setup::reference_space(&conn, &session, stats)?;
+    live.controls = controls(&conn, &session, stats);
+    let (color_format, depth_format) =
+        setup::swapchain_formats(&conn, &session, views.quad, &ctx, stats)?;
     stats.image_size = [extent.width, extent.height];
     // With aq the swapchain images hold the largest render scale; each
     // frame's sub-image is the part it rendered.
-    let max = config_views
-        .iter()
-        .take(2)
-        .fold((u32::MAX, u32::MAX), |m, v| {
-            (
-                m.0.min(v.max_image_rect_width),
-                m.1.min(v.max_image_rect_height),
-            )
-        });
     let mut chains = ChainSpec {
         color_format,
         depth_format,
         extent,
         nominal: extent,
-        max,
-        quad,
+        max: setup::max_extent(&views.config),
+        quad: views.quad,
     };
     chains.extent = chains.images_for(desk.live.config.aq)?;
     let config = desk.live.config.clone();
@@ -357,70 +151,61 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.inset_path = renderer.inset_path.clone();
     stats.lms = renderer.lms_report();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
-    let masks = if exts.khr_visibility_mask {
-        Some(Arc::new(fetch_masks(&session, view_type, 2)?))
-    } else {
-        None
+    let masks = match conn.exts.khr_visibility_mask {
+        true => Some(Arc::new(fetch_masks(&session, views.view_type, 2)?)),
+        false => None,
     };
     stats.visibility_mask = masks
         .iter()
         .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
         .collect();
-    // No view has been located yet; a typical headset FOV frames the scene.
-    let places = super::viewpoints::plan(args, &scene, &Fov::symmetric(0.8, 0.8))?;
-    stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
-    let query = SceneQuery::new(&scene);
+    let mut state = LoopState::new(args, &scene, desk, chains, &views, stats)?;
+    state.blend = blend;
+    state.masks = masks;
+    let result = frame_loop(stats, &mut live, &mut state);
+    let result = finish_session(stats, &mut live, &mut state, &ctx, result);
+    // Teardown: OpenXR handles first (the session's last references go
+    // with `live`), then the renderer waits for the device and destroys its
+    // objects, then the context destroys device and instance.
+    drop(session);
+    drop(conn);
+    drop(live);
+    drop(ctx);
+    result
+}
 
-    let mut state = LoopState {
-        args,
-        scene: &scene,
-        desk,
-        chains,
-        opt: config.opt_string(),
-        idle: args
-            .kiosk
-            .as_ref()
-            .and_then(|k| k.idle_return_s)
-            .map(super::kiosk::IdleWatch::new),
-        records: RecordQueue::default(),
-        masks,
-        interaction: {
-            let mut it = super::viewpoints::interaction(&places, args.interact);
-            // `--section` is where the plane starts; the tool moves or
-            // removes it.
-            it.section = stats.config.section.map(crate::render::culling::plane_of);
-            it
-        },
-        query,
-        overlay: Vec::new(),
-        last_display_ns: None,
-        blend,
-        view_type,
-        with_depth: depth_format.is_some(),
-        last_valid: Vec::new(),
-        first_fov_recorded: false,
-        motion_origin_ns: None,
-        lens: None,
-        pending_toggle: None,
-        // With --width/--height the eye size is the user's.
-        focus_px: (quad && args.size.is_none()).then(|| {
-            let px = |v: &xr::ViewConfigurationView| {
-                (
-                    v.recommended_image_rect_width,
-                    v.recommended_image_rect_height,
-                )
-            };
-            [px(&config_views[2]), px(&config_views[3])]
-        }),
-        pending_resize: None,
-        last_times: None,
-        panel_drawn: false,
-        last_shown: None,
-    };
-    let mut result = frame_loop(stats, &mut live, &mut state);
+/// The controllers' actions; without them (an error is logged) the
+/// session is head-only.
+fn controls(
+    conn: &Connection,
+    session: &xr::Session<xr::Vulkan>,
+    stats: &mut RunStats,
+) -> Option<Controls> {
+    match Controls::new(&conn.instance, session, &conn.exts, conn.api_version) {
+        Ok(c) => {
+            stats.suggested_profiles = c.suggested.clone();
+            Some(c)
+        }
+        Err(e) => {
+            tracing::warn!("no controller input (head-only): {e}");
+            None
+        }
+    }
+}
+
+/// After the frame loop: the frames in flight finish (their records join
+/// the log) before the swapchains they were copied into go away; the
+/// mirror writes its screenshot (the last frame) on request and goes back
+/// to the desk; the memory and validation counts are recorded. The first
+/// error wins.
+fn finish_session(
+    stats: &mut RunStats,
+    live: &mut Live,
+    state: &mut LoopState,
+    ctx: &Context,
+    mut result: Result<()>,
+) -> Result<()> {
     stats.origin = Some(OriginFile::from(&state.interaction.origin));
-    // The frames in flight finish before the swapchains they were copied
-    // into go away; their records join the log.
     if let Some(driver) = live.driver.as_mut() {
         let finished = driver.finish();
         while let Some(r) = driver.take_completed() {
@@ -431,11 +216,8 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
             result = finished.and(flushed);
         }
     }
-    // The mirror's last image is the last frame's: written on request, then
-    // the window goes back to the run (its Vulkan side is destroyed, after
-    // waiting for the device) for a later session.
     if let Some(mut m) = live.mirror.take() {
-        let shot = match (&args.screenshot, &result) {
+        let shot = match (&state.args.screenshot, &result) {
             (Some(path), Ok(())) => m.write_screenshot(path),
             _ => Ok(()),
         };
@@ -444,7 +226,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
             result = shot;
         }
     }
-    stats.sample_memory(&ctx, true);
+    stats.sample_memory(ctx, true);
     // Added, not assigned: with --reconnect a run holds several sessions.
     stats.validation_messages += ctx.validation_messages();
     stats.xr_validation_messages += live.messenger.as_ref().map_or(0, Messenger::count);
@@ -455,14 +237,95 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
             }
         }
     }
-    // Teardown: OpenXR handles first (the session's last references go
-    // with `live`), then the renderer waits for the device and destroys its
-    // objects, then the context destroys device and instance.
-    drop(session);
-    drop(instance);
-    drop(live);
-    drop(ctx);
     result
+}
+
+impl Live {
+    /// The session's handles, nothing else yet (the set-up fills the rest;
+    /// the debug messenger moves here from the connection).
+    fn new(
+        conn: &mut Connection,
+        session: &xr::Session<xr::Vulkan>,
+        waiter: xr::FrameWaiter,
+        stream: xr::FrameStream<xr::Vulkan>,
+    ) -> Live {
+        Live {
+            mirror: None,
+            panel: None,
+            controls: None,
+            color: Vec::new(),
+            depth: Vec::new(),
+            inset: Vec::new(),
+            space: None,
+            stream: Some(stream),
+            waiter: Some(waiter),
+            session: Some(session.clone()),
+            messenger: conn.messenger.take(),
+            instance: Some(conn.instance.clone()),
+            driver: None,
+            watchdog: Watchdog::start(CALL_LIMIT),
+        }
+    }
+}
+
+impl<'a> LoopState<'a> {
+    /// The loop's state at the first frame: the viewpoints and the tools
+    /// (`--section` is where the plane starts), a kiosk's idle watch, and
+    /// with quad views the focus views' recommended sizes (unless
+    /// `--width`/`--height` set the eye size).
+    fn new(
+        args: &'a RunArgs,
+        scene: &'a Scene,
+        desk: &'a mut Desk,
+        chains: ChainSpec,
+        views: &setup::Views,
+        stats: &mut RunStats,
+    ) -> Result<LoopState<'a>> {
+        // No view has been located yet; a typical headset FOV frames the scene.
+        let places = super::viewpoints::plan(args, scene, &Fov::symmetric(0.8, 0.8))?;
+        stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
+        let mut interaction = super::viewpoints::interaction(&places, args.interact);
+        interaction.section = stats.config.section.map(crate::render::culling::plane_of);
+        let px = |v: &xr::ViewConfigurationView| {
+            (
+                v.recommended_image_rect_width,
+                v.recommended_image_rect_height,
+            )
+        };
+        let focus_px = (views.quad && args.size.is_none())
+            .then(|| [px(&views.config[2]), px(&views.config[3])]);
+        Ok(LoopState {
+            args,
+            scene,
+            opt: desk.live.config.opt_string(),
+            desk,
+            chains,
+            idle: args
+                .kiosk
+                .as_ref()
+                .and_then(|k| k.idle_return_s)
+                .map(super::kiosk::IdleWatch::new),
+            records: RecordQueue::default(),
+            masks: None,
+            interaction,
+            query: SceneQuery::new(scene),
+            overlay: Vec::new(),
+            last_display_ns: None,
+            blend: xr::EnvironmentBlendMode::OPAQUE,
+            view_type: views.view_type,
+            with_depth: chains.depth_format.is_some(),
+            last_valid: Vec::new(),
+            first_fov_recorded: false,
+            motion_origin_ns: None,
+            lens: None,
+            pending_toggle: None,
+            focus_px,
+            pending_resize: None,
+            last_times: None,
+            panel_drawn: false,
+            last_shown: None,
+        })
+    }
 }
 
 /// The swapchains' formats and size (kept to make them again when a live

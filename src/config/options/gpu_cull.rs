@@ -1,0 +1,58 @@
+//! `gpu-cull`, `occlusion`, `lod[=PX]` and `lod-cache`: culling and level
+//! of detail on the GPU ([`crate::render::passes::gpu_cull`]).
+
+use super::{flag, optional, Entry, Technique};
+use crate::config::{RenderConfig, MAX_LOD_BOUND_PX};
+use crate::error::{Error, Result};
+
+/// The declaration.
+pub const TECHNIQUE: Technique = Technique {
+    title: "GPU-driven culling, occlusion, LOD",
+    page: "gpu-cull",
+    summary: "culls on the GPU with indirect draws, two-phase hierarchical-Z occlusion, per-instance level of detail by projected error",
+    options: &[
+        flag("gpu-cull"),
+        flag("occlusion"),
+        optional("lod", "PX", "2"),
+        flag("lod-cache"),
+    ],
+    parse,
+    print,
+};
+
+fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
+    match (e.name, e.value) {
+        ("gpu-cull", _) => c.gpu_cull = true,
+        ("occlusion", _) => c.occlusion = true,
+        ("lod-cache", _) => c.lod_cache = true,
+        (_, None) => c.lod = Some(c.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX)),
+        (_, Some(v)) => match v.parse::<f64>() {
+            Ok(px) if px.is_finite() && px > 0.0 && px <= MAX_LOD_BOUND_PX => c.lod = Some(px),
+            _ => {
+                return Err(Error::config(
+                    "--opt",
+                    format!(
+                        "'{}': expected lod=PX with 0 < PX <= {MAX_LOD_BOUND_PX} (pixels of projected error)",
+                        e.item
+                    ),
+                ))
+            }
+        },
+    }
+    Ok(())
+}
+
+fn print(c: &RenderConfig, out: &mut Vec<String>) {
+    if c.gpu_cull {
+        out.push("gpu-cull".into());
+    }
+    if c.occlusion {
+        out.push("occlusion".into());
+    }
+    if let Some(px) = c.lod {
+        out.push(format!("lod={px}"));
+    }
+    if c.lod_cache {
+        out.push("lod-cache".into());
+    }
+}
