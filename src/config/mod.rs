@@ -583,43 +583,7 @@ impl RenderConfig {
                 ),
             ));
         }
-        if self.gpu_cull && self.cull == Culling::None {
-            return Err(Error::config(
-                "--opt",
-                "gpu-cull needs a culling strategy (per-eye, superfrustum, conical, conical-superfrustum, round-robin, round-robin-conical)",
-            ));
-        }
-        if self.occlusion && !self.gpu_cull {
-            return Err(Error::config(
-                "--opt",
-                "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
-            ));
-        }
-        if self.lod_cache && self.lod.is_none() {
-            return Err(Error::config(
-                "--opt",
-                "lod-cache keeps the chains lod builds: add lod (e.g. multiview,superfrustum,gpu-cull,lod,lod-cache)",
-            ));
-        }
-        if self.lod.is_some() && !self.gpu_cull {
-            return Err(Error::config(
-                "--opt",
-                "lod selects levels inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,lod)",
-            ));
-        }
-        if self.timewarp.is_some() && (self.occlusion || self.mffr.is_some()) {
-            return Err(Error::config(
-                "--opt",
-                "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
-            ));
-        }
-        self.refuse_incompatible()?;
-        if self.aq_scale_only && !(self.aq && self.inset.is_some()) {
-            return Err(Error::config(
-                "--opt",
-                "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
-            ));
-        }
+        options::check_rules(self)?;
         if let Some(b) = self.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
@@ -627,12 +591,6 @@ impl RenderConfig {
                     format!("{b} (supported: more than 0, at most 1000)"),
                 ));
             }
-        }
-        if self.occlusion && self.mffr.is_some() {
-            return Err(Error::config(
-                "--opt",
-                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
-            ));
         }
         if let Some(n) = self.record_threads {
             if !(1..=MAX_RECORD_THREADS).contains(&n) {
@@ -663,124 +621,6 @@ impl RenderConfig {
                 "near plane",
                 format!("{} must be a positive number", self.near),
             ));
-        }
-        Ok(())
-    }
-
-    /// The pairs of techniques that cannot render together (the docs'
-    /// "Which techniques combine" lists them with the same reasons).
-    fn refuse_incompatible(&self) -> Result<()> {
-        let foveation = self.foveation != crate::view::foveation::Level::Off;
-        let rdm = self.rdm.is_some() || self.rdm_auto;
-        if self.aq {
-            refuse_with(
-                "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
-                &[
-                    (self.mffr.is_some(), "mffr"),
-                    (self.timewarp.is_some(), "timewarp"),
-                ],
-            )?;
-        }
-        if self.inset.is_some() {
-            refuse_with(
-                "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
-                &[
-                    (rdm, "rdm"),
-                    (self.mffr.is_some(), "mffr"),
-                    (self.timewarp.is_some(), "timewarp"),
-                    (
-                        self.record_threads.is_some() || self.per_draw != PerDraw::Push,
-                        "--record-threads/--per-draw",
-                    ),
-                ],
-            )?;
-        }
-        if self.inset.is_some_and(|i| i.four_views) && foveation {
-            return Err(Error::config(
-                "--opt",
-                "foveation's rate image has the eyes' two layers; inset-views=4 draws four views in one scope: leave one out (the inset's two scopes take foveation)",
-            ));
-        }
-        if self.inset.is_some_and(|i| i.four_views) && self.occlusion {
-            return Err(Error::config(
-                "--opt",
-                "occlusion builds its depth pyramid from the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
-            ));
-        }
-        if self.inset.is_some_and(|i| i.wide_1x && i.four_views) {
-            return Err(Error::config(
-                "--opt",
-                "inset-wide-1x draws the wide views in their own scope at one sample; inset-views=4 draws them in the eyes' scope at the eyes' samples: leave one out",
-            ));
-        }
-        if self.inset.is_some_and(|i| i.taa.is_some() && i.four_views) {
-            return Err(Error::config(
-                "--opt",
-                "inset-taa jitters and accumulates the wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
-            ));
-        }
-        if self.inset.is_some_and(|i| i.taau && i.catmull_rom) {
-            return Err(Error::config(
-                "--opt",
-                "inset-taau accumulates the wide views at the eye's resolution and the composite reads them pixel for pixel; inset-catmull-rom chooses the composite's upsampling filter, which it then no longer uses: leave one out",
-            ));
-        }
-        if self.inset.is_some_and(|i| i.wide_1x) && self.msaa == 1 {
-            return Err(Error::config(
-                "--opt",
-                "inset-wide-1x draws the wide views at one sample while the insets keep the frame's MSAA; with no-msaa (--msaa 1) every view is at one sample already: leave one out",
-            ));
-        }
-        if self.lms.is_some() {
-            refuse_with(
-                "lms draws each eye per quadrant into a smaller, non-rectilinear image and resamples it; {} works on the rectilinear eye image: leave it out with lms",
-                &[
-                    (foveation, "foveation"),
-                    (rdm, "rdm"),
-                    (self.stencil_mask, "stencil-mask"),
-                    (self.mffr.is_some(), "mffr"),
-                    (self.occlusion, "occlusion"),
-                    (self.aq, "aq"),
-                    (self.inset.is_some(), "inset"),
-                    (self.timewarp.is_some(), "timewarp"),
-                    (self.record_threads.is_some(), "--record-threads"),
-                ],
-            )?;
-        }
-        if self.edl.is_some() && self.points_pipeline {
-            return Err(Error::config(
-                "--opt",
-                "edl shades the compute rasterizer's pixels by their neighbours' depths; points-pipeline draws points without them: leave one out",
-            ));
-        }
-        if self.resolved_sky {
-            if self.msaa == 1 {
-                return Err(Error::config(
-                    "--opt",
-                    "resolved-sky draws the sky after the MSAA resolve: it needs msaa4 (leave out no-msaa)",
-                ));
-            }
-            refuse_with(
-                "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
-                &[
-                    (self.mffr.is_some(), "mffr"),
-                    (self.inset.is_some_and(|i| i.four_views), "inset-views=4"),
-                    (self.lms.is_some(), "lms"),
-                ],
-            )?;
-            if self.inset.is_some_and(|i| i.taa.is_some()) {
-                return Err(Error::config(
-                    "--opt",
-                    "inset-taa and inset-taau accumulate the wide views as drawn with the sky inside their scope; with resolved-sky their images differ from that by more than rounding at the image's border and the horizon: leave one out",
-                ));
-            }
-            refuse_with(
-                "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (timewarp reprojects the frame, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
-                &[
-                    (self.timewarp.is_some(), "timewarp"),
-                    (self.record_threads.is_some(), "--record-threads"),
-                ],
-            )?;
         }
         Ok(())
     }

@@ -48,6 +48,85 @@ pub struct Technique {
     pub parse: fn(&mut RenderConfig, &Entry) -> crate::error::Result<()>,
     /// Appends the entries that set its part of a configuration.
     pub print: fn(&RenderConfig, &mut Vec<String>),
+    /// What it requires and what it cannot be combined with, each with
+    /// its reason.
+    pub rules: &'static [Rule],
+}
+
+/// A condition on a configuration.
+pub type Check = fn(&RenderConfig) -> bool;
+
+/// A configuration a technique refuses: when `when` holds, the
+/// techniques in `with` that are on are refused in one error, `message`
+/// with `{}` replaced by their names; with `with` empty, `when` alone is
+/// refused with `message`.
+#[derive(Debug)]
+pub struct Rule {
+    /// The technique's side of the condition.
+    pub when: Check,
+    /// What it excludes, each with the name the error gives it.
+    pub with: &'static [(&'static str, Check)],
+    /// The error (an `--opt` error).
+    pub message: &'static str,
+}
+
+impl Rule {
+    /// A rule refusing every configuration where `when` holds.
+    pub const fn always(when: Check, message: &'static str) -> Rule {
+        Rule {
+            when,
+            with: &[],
+            message,
+        }
+    }
+
+    /// This rule's error for `c`, if it refuses it.
+    fn check(&self, c: &RenderConfig) -> crate::error::Result<()> {
+        if !(self.when)(c) {
+            return Ok(());
+        }
+        let on: Vec<&str> = self
+            .with
+            .iter()
+            .filter_map(|(name, on)| on(c).then_some(*name))
+            .collect();
+        match (self.with.is_empty(), on.is_empty()) {
+            (false, true) => Ok(()),
+            _ => Err(crate::error::Error::config(
+                "--opt",
+                self.message.replace("{}", &on.join(", ")),
+            )),
+        }
+    }
+}
+
+/// Every technique's rules against `c`, in [`TECHNIQUES`]' order: the
+/// first that refuses it is the error.
+pub fn check_rules(c: &RenderConfig) -> crate::error::Result<()> {
+    TECHNIQUES
+        .iter()
+        .flat_map(|t| t.rules.iter())
+        .try_for_each(|r| r.check(c))
+}
+
+/// Radial density masking is on (with a radius or `auto`).
+fn rdm_on(c: &RenderConfig) -> bool {
+    c.rdm.is_some() || c.rdm_auto
+}
+
+/// VRS foveation is on.
+fn foveation_on(c: &RenderConfig) -> bool {
+    c.foveation != crate::view::foveation::Level::Off
+}
+
+/// The inset draws its four views in one scope.
+fn four_views(c: &RenderConfig) -> bool {
+    c.inset.is_some_and(|i| i.four_views)
+}
+
+/// Parallel recording or per-draw data other than push constants.
+fn submission_on(c: &RenderConfig) -> bool {
+    c.record_threads.is_some() || c.per_draw != super::PerDraw::Push
 }
 
 const fn flag(name: &'static str) -> Opt {

@@ -1,7 +1,7 @@
 //! `aq` and `aq-scale-only`: adaptive quality ([`crate::targets`]'s
 //! controller moves the render scale).
 
-use super::{flag, Entry, Technique};
+use super::{flag, Entry, Rule, Technique};
 use crate::config::RenderConfig;
 use crate::error::Result;
 
@@ -13,6 +13,17 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[flag("aq"), flag("aq-scale-only")],
     parse,
     print,
+    rules: &[
+        Rule {
+            when: |c| c.aq,
+            with: &[("mffr", |c| c.mffr.is_some()), ("timewarp", |c| c.timewarp.is_some())],
+            message: "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
+        },
+        Rule::always(
+            |c| c.aq_scale_only && !(c.aq && c.inset.is_some()),
+            "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
+        ),
+    ],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

@@ -13,6 +13,7 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

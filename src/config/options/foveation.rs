@@ -17,6 +17,7 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

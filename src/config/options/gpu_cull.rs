@@ -1,8 +1,8 @@
 //! `gpu-cull`, `occlusion`, `lod[=PX]` and `lod-cache`: culling and level
 //! of detail on the GPU ([`crate::render::passes::gpu_cull`]).
 
-use super::{flag, optional, Entry, Technique};
-use crate::config::{RenderConfig, MAX_LOD_BOUND_PX};
+use super::{flag, optional, Entry, Rule, Technique};
+use crate::config::{Culling, RenderConfig, MAX_LOD_BOUND_PX};
 use crate::error::{Error, Result};
 
 /// The declaration.
@@ -18,6 +18,28 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[
+        Rule::always(
+            |c| c.gpu_cull && c.cull == Culling::None,
+            "gpu-cull needs a culling strategy (per-eye, superfrustum, conical, conical-superfrustum, round-robin, round-robin-conical)",
+        ),
+        Rule::always(
+            |c| c.occlusion && !c.gpu_cull,
+            "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
+        ),
+        Rule::always(
+            |c| c.lod_cache && c.lod.is_none(),
+            "lod-cache keeps the chains lod builds: add lod (e.g. multiview,superfrustum,gpu-cull,lod,lod-cache)",
+        ),
+        Rule::always(
+            |c| c.lod.is_some() && !c.gpu_cull,
+            "lod selects levels inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,lod)",
+        ),
+        Rule::always(
+            |c| c.occlusion && c.mffr.is_some(),
+            "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
+        ),
+    ],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

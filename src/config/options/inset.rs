@@ -2,7 +2,10 @@
 //! ([`crate::view::inset`], accumulation in [`crate::view::taa`] and
 //! [`crate::view::taau`]).
 
-use super::{flag, optional, required, Entry, Technique};
+use super::{
+    flag, four_views, foveation_on, optional, rdm_on, required, submission_on, Entry, Rule,
+    Technique,
+};
 use crate::config::{Inset, RenderConfig};
 use crate::error::{Error, Result};
 use crate::view::{sharpen, taa};
@@ -28,6 +31,42 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[
+        Rule {
+            when: |c| c.inset.is_some(),
+            with: &[
+                ("rdm", rdm_on),
+                ("mffr", |c| c.mffr.is_some()),
+                ("timewarp", |c| c.timewarp.is_some()),
+                ("--record-threads/--per-draw", submission_on),
+            ],
+            message: "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
+        },
+        Rule::always(
+            |c| four_views(c) && foveation_on(c),
+            "foveation's rate image has the eyes' two layers; inset-views=4 draws four views in one scope: leave one out (the inset's two scopes take foveation)",
+        ),
+        Rule::always(
+            |c| four_views(c) && c.occlusion,
+            "occlusion builds its depth pyramid from the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
+        ),
+        Rule::always(
+            |c| four_views(c) && c.inset.is_some_and(|i| i.wide_1x),
+            "inset-wide-1x draws the wide views in their own scope at one sample; inset-views=4 draws them in the eyes' scope at the eyes' samples: leave one out",
+        ),
+        Rule::always(
+            |c| four_views(c) && c.inset.is_some_and(|i| i.taa.is_some()),
+            "inset-taa jitters and accumulates the wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
+        ),
+        Rule::always(
+            |c| c.inset.is_some_and(|i| i.taau && i.catmull_rom),
+            "inset-taau accumulates the wide views at the eye's resolution and the composite reads them pixel for pixel; inset-catmull-rom chooses the composite's upsampling filter, which it then no longer uses: leave one out",
+        ),
+        Rule::always(
+            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa == 1,
+            "inset-wide-1x draws the wide views at one sample while the insets keep the frame's MSAA; with no-msaa (--msaa 1) every view is at one sample already: leave one out",
+        ),
+    ],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
@@ -39,7 +78,7 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
             ..i
         },
         "inset-views" => Inset {
-            four_views: four_views(e)?,
+            four_views: views_value(e)?,
             ..i
         },
         "inset-taa" | "inset-taa-jitter" => accumulate(i, e)?,
@@ -74,7 +113,7 @@ fn modifier(i: Inset, e: &Entry) -> Result<Inset> {
 }
 
 /// `inset-views=2|4`: whether the four views share one scope.
-fn four_views(e: &Entry) -> Result<bool> {
+fn views_value(e: &Entry) -> Result<bool> {
     match e.value {
         Some("4") => Ok(true),
         Some("2") => Ok(false),

@@ -1,7 +1,7 @@
 //! `lms[=K]` and `lms-emulated`: lens-matched shading
 //! ([`crate::view::lms`]).
 
-use super::{flag, optional, Entry, Technique};
+use super::{flag, foveation_on, optional, rdm_on, Entry, Rule, Technique};
 use crate::config::RenderConfig;
 use crate::error::Result;
 
@@ -13,6 +13,21 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[optional("lms", "K", "0.25"), flag("lms-emulated")],
     parse,
     print,
+    rules: &[Rule {
+        when: |c| c.lms.is_some(),
+        with: &[
+            ("foveation", foveation_on),
+            ("rdm", rdm_on),
+            ("stencil-mask", |c| c.stencil_mask),
+            ("mffr", |c| c.mffr.is_some()),
+            ("occlusion", |c| c.occlusion),
+            ("aq", |c| c.aq),
+            ("inset", |c| c.inset.is_some()),
+            ("timewarp", |c| c.timewarp.is_some()),
+            ("--record-threads", |c| c.record_threads.is_some()),
+        ],
+        message: "lms draws each eye per quadrant into a smaller, non-rectilinear image and resamples it; {} works on the rectilinear eye image: leave it out with lms",
+    }],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

@@ -18,6 +18,7 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[],
 };
 
 /// The variants' flags, each with its name.

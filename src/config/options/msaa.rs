@@ -13,6 +13,7 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[flag("msaa4"), flag("msaa"), flag("no-msaa")],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

@@ -1,7 +1,7 @@
 //! `points-budget=N`, `point-size=PX`, `points-pipeline` and `edl[=S]`:
 //! point-cloud rendering ([`crate::render::passes::points`]).
 
-use super::{flag, optional, required, Entry, Technique};
+use super::{flag, optional, required, Entry, Rule, Technique};
 use crate::config::{RenderConfig, DEFAULT_EDL_STRENGTH, DEFAULT_POINTS_BUDGET};
 use crate::error::Result;
 
@@ -18,6 +18,10 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[Rule::always(
+        |c| c.edl.is_some() && c.points_pipeline,
+        "edl shades the compute rasterizer's pixels by their neighbours' depths; points-pipeline draws points without them: leave one out",
+    )],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

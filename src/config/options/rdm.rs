@@ -13,6 +13,7 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[optional("rdm", "R|auto", "0.4"), flag("rdm-nofill")],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

@@ -1,7 +1,7 @@
 //! `resolved-sky`: the sky drawn once per pixel after the resolve
 //! ([`crate::render::passes`]).
 
-use super::{flag, Entry, Technique};
+use super::{flag, four_views, Entry, Rule, Technique};
 use crate::config::RenderConfig;
 use crate::error::Result;
 
@@ -13,6 +13,33 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[flag("resolved-sky")],
     parse,
     print,
+    rules: &[
+        Rule::always(
+            |c| c.resolved_sky && c.msaa == 1,
+            "resolved-sky draws the sky after the MSAA resolve: it needs msaa4 (leave out no-msaa)",
+        ),
+        Rule {
+            when: |c| c.resolved_sky,
+            with: &[
+                ("mffr", |c| c.mffr.is_some()),
+                ("inset-views=4", four_views),
+                ("lms", |c| c.lms.is_some()),
+            ],
+            message: "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
+        },
+        Rule::always(
+            |c| c.resolved_sky && c.inset.is_some_and(|i| i.taa.is_some()),
+            "inset-taa and inset-taau accumulate the wide views as drawn with the sky inside their scope; with resolved-sky their images differ from that by more than rounding at the image's border and the horizon: leave one out",
+        ),
+        Rule {
+            when: |c| c.resolved_sky,
+            with: &[
+                ("timewarp", |c| c.timewarp.is_some()),
+                ("--record-threads", |c| c.record_threads.is_some()),
+            ],
+            message: "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (timewarp reprojects the frame, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
+        },
+    ],
 };
 
 fn parse(c: &mut RenderConfig, _: &Entry) -> Result<()> {

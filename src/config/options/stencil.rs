@@ -13,6 +13,7 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[flag("stencil-mask")],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, _: &Entry) -> Result<()> {

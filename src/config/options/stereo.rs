@@ -13,6 +13,7 @@ pub const TECHNIQUE: Technique = Technique {
     options: &[flag("multiview"), flag("two-pass")],
     parse,
     print,
+    rules: &[],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {

@@ -92,3 +92,35 @@ proptest! {
         }
     }
 }
+
+#[test]
+fn every_rule_names_what_it_refuses() {
+    for t in TECHNIQUES {
+        for r in t.rules {
+            assert_eq!(
+                r.message.contains("{}"),
+                !r.with.is_empty(),
+                "{}: {}",
+                t.page,
+                r.message
+            );
+            assert!(
+                r.message.contains("leave")
+                    || r.message.contains("add")
+                    || r.message.contains("cannot")
+                    || r.message.contains("needs")
+                    || r.message.contains("give"),
+                "{}",
+                r.message
+            );
+        }
+    }
+    let mut c = RenderConfig::default();
+    c.apply_opts("superfrustum,lms,stencil-mask,rdm", &cull_names())
+        .unwrap();
+    let e = check_rules(&c).unwrap_err().to_string();
+    assert!(
+        e.contains("rdm, stencil-mask") && e.contains("with lms"),
+        "{e}"
+    );
+}

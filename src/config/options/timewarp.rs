@@ -1,7 +1,7 @@
 //! `timewarp=K` and its variants: frames warped to newer poses and
 //! measured ([`crate::render::timewarp`]).
 
-use super::{flag, required, Entry, Technique};
+use super::{flag, required, Entry, Rule, Technique};
 use crate::config::{RenderConfig, Timewarp, TimewarpVariant, MAX_TIMEWARP_K};
 use crate::error::{Error, Result};
 
@@ -17,6 +17,10 @@ pub const TECHNIQUE: Technique = Technique {
     ],
     parse,
     print,
+    rules: &[Rule::always(
+        |c| c.timewarp.is_some() && (c.occlusion || c.mffr.is_some()),
+        "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
+    )],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
