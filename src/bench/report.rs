@@ -1,7 +1,7 @@
 //! Bench outputs: `results.json`, `results.csv` and `report.md` (the HTML
 //! report with plots is in [`super::html`]).
 
-use super::runner::{BenchResults, ConfigResult};
+use super::runner::{BenchResults, ConfigResult, Group};
 use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows, target_lines};
 use crate::error::Result;
 use std::fmt::Write as _;
@@ -199,154 +199,179 @@ pub fn markdown(results: &BenchResults) -> String {
          the profile's pixels per degree (at least 10).\n",
     );
     for g in &results.groups {
-        let _ = writeln!(s, "\n## {}\n", group_title(g));
-        if let Some(f) = &g.floors {
-            let _ = writeln!(
-                s,
-                "Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.\n",
-                g.baseline, f.empty_frame.p50, f.clear.p50, f.fullscreen_triangle.p50
-            );
-        }
-        let (head, rows) = group_rows(g);
-        let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
-        md_table(&mut s, &head, &rows);
-        let (passes, rows) = pass_rows(g);
-        let _ = writeln!(s, "\nGPU ms per pass (p50):\n");
-        let head: Vec<String> = std::iter::once("config".to_string())
-            .chain(passes)
-            .collect();
-        md_table(&mut s, &head, &rows);
-        let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
-        if !inset.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nInside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle around the gaze, where the eye looks; both eyes and the compared frames averaged; a configuration without an inset over the plan's first inset configuration's rectangle):\n"
-            );
-            let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
-            md_table(&mut s, &head, &inset);
-        }
-        let split = g.results.iter().any(|r| r.flicker_regions.is_some());
-        let region = |f: &crate::bench::runner::RegionFlicker| {
-            format!("{:.5} ({:.0} %)", f.mean, 100.0 * f.share)
-        };
-        let flicker: Vec<Vec<String>> = g
-            .results
-            .iter()
-            .filter_map(|r| {
-                let mut row = vec![
-                    r.name.clone(),
-                    format!("{:.5}", r.flicker?),
-                    r.error
-                        .as_ref()
-                        .map_or(String::new(), |e| format!("{:.4}", e.flip_mean)),
-                ];
-                if split {
-                    row.extend(match &r.flicker_regions {
-                        Some(f) => [region(&f.inset), region(&f.seam), region(&f.periphery)],
-                        None => Default::default(),
-                    });
-                    row.push(r.flicker_floor.map_or(String::new(), |v| format!("{v:.5}")));
-                }
-                Some(row)
-            })
-            .collect();
-        if !flicker.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nTemporal error (flicker: mean per-pixel frame-to-frame luma change beyond the reference's, along the first view turning a third of a pixel a frame; 0 = as stable as the reference):\n"
-            );
-            let mut head: Vec<String> = ["config", "flicker", "FLIP mean"]
-                .map(String::from)
-                .to_vec();
-            if split {
-                let _ = writeln!(
-                    s,
-                    "With an inset, its flicker split by where the composite takes each pixel from: mean over the region (its share of the visible pixels); the shares weight the means into the whole (a configuration without an inset over the plan's first inset configuration's regions). Floor: the flicker of the reference sequence put through a perfect wide view of the configuration's size and filter (each wide pixel the reference's mean over its area, read back as the composite reads it), the least any wide view of that size could add.\n"
-                );
-                head.extend(
-                    [
-                        "inside the inset",
-                        "feathered seam",
-                        "wide view alone",
-                        "floor (perfect wide view)",
-                    ]
-                    .map(String::from),
-                );
-            }
-            md_table(&mut s, &head, &flicker);
-        }
-        let aq: Vec<Vec<String>> = g
-            .results
-            .iter()
-            .filter_map(|r| {
-                let a = r.aq.as_ref()?;
-                Some(vec![
-                    r.name.clone(),
-                    format!("{:.3}", a.mean_scale),
-                    format!("{:.3}–{:.3}", a.min_scale, a.max_scale),
-                    a.level_changes.to_string(),
-                    a.wide_one_sample_frames.to_string(),
-                    if a.wide_rung_frames > 0 {
-                        format!("{} (×{:.3})", a.wide_rung_frames, a.min_wide_factor)
-                    } else {
-                        "0".into()
-                    },
-                    format!("{:.2}", a.budget_ms),
-                    format!("{} / {}", r.gpu_frames_over_budget, r.frames),
-                ])
-            })
-            .collect();
-        if !aq.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nAdaptive quality (render scale per axis the controller chose over the measured frames; GPU frames over the budget; the other configurations' GPU frames over budget are in results.json):\n"
-            );
-            let head = [
-                "config",
-                "mean scale",
-                "range",
-                "level changes",
-                "wide at 1 sample (MSAA rung)",
-                "inset rung frames (least wide factor)",
-                "budget ms",
-                "GPU over budget",
-            ]
-            .map(String::from);
-            md_table(&mut s, &head, &aq);
-        }
-        let moving: Vec<Vec<String>> = g
-            .results
-            .iter()
-            .filter_map(|r| {
-                Some(vec![
-                    r.name.clone(),
-                    format!("{:.0}", r.moved_instances?),
-                    format!("{:.1}", r.motion_upload_bytes? / 1024.0),
-                    format!("{:.3}", r.cpu_ms.motion?),
-                ])
-            })
-            .collect();
-        if !moving.is_empty() {
-            let _ = writeln!(
-                s,
-                "\nMoving instances per frame (p50; only these are uploaded):\n"
-            );
-            let head = ["config", "moved", "uploaded KiB", "CPU ms to move"].map(String::from);
-            md_table(&mut s, &head, &moving);
-        }
-        let paths: Vec<&ConfigResult> = g
-            .results
-            .iter()
-            .filter(|r| r.foveation_path != "off")
-            .collect();
-        if !paths.is_empty() {
-            let _ = writeln!(s, "\nFoveation paths:\n");
-            for r in paths {
-                let _ = writeln!(s, "- {}: {}", r.name, r.foveation_path);
-            }
-        }
+        md_group(&mut s, g);
     }
     s
+}
+
+/// One group's section of `report.md`: its floors, results and per-pass
+/// tables, then the tables only some configurations fill.
+fn md_group(s: &mut String, g: &Group) {
+    let _ = writeln!(s, "\n## {}\n", group_title(g));
+    if let Some(f) = &g.floors {
+        let _ = writeln!(
+            s,
+            "Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.\n",
+            g.baseline, f.empty_frame.p50, f.clear.p50, f.fullscreen_triangle.p50
+        );
+    }
+    let (head, rows) = group_rows(g);
+    let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
+    md_table(s, &head, &rows);
+    let (passes, rows) = pass_rows(g);
+    let _ = writeln!(s, "\nGPU ms per pass (p50):\n");
+    let head: Vec<String> = std::iter::once("config".to_string())
+        .chain(passes)
+        .collect();
+    md_table(s, &head, &rows);
+    let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
+    if !inset.is_empty() {
+        let _ = writeln!(
+            s,
+            "\nInside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle around the gaze, where the eye looks; both eyes and the compared frames averaged; a configuration without an inset over the plan's first inset configuration's rectangle):\n"
+        );
+        let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
+        md_table(s, &head, &inset);
+    }
+    md_flicker(s, g);
+    md_aq(s, g);
+    md_moving(s, g);
+    let paths: Vec<&ConfigResult> = g
+        .results
+        .iter()
+        .filter(|r| r.foveation_path != "off")
+        .collect();
+    if !paths.is_empty() {
+        let _ = writeln!(s, "\nFoveation paths:\n");
+        for r in paths {
+            let _ = writeln!(s, "- {}: {}", r.name, r.foveation_path);
+        }
+    }
+}
+
+/// The temporal error table, split by the inset's regions where a
+/// configuration has them.
+fn md_flicker(s: &mut String, g: &Group) {
+    let split = g.results.iter().any(|r| r.flicker_regions.is_some());
+    let region = |f: &crate::bench::runner::RegionFlicker| {
+        format!("{:.5} ({:.0} %)", f.mean, 100.0 * f.share)
+    };
+    let flicker: Vec<Vec<String>> = g
+        .results
+        .iter()
+        .filter_map(|r| {
+            let mut row = vec![
+                r.name.clone(),
+                format!("{:.5}", r.flicker?),
+                r.error
+                    .as_ref()
+                    .map_or(String::new(), |e| format!("{:.4}", e.flip_mean)),
+            ];
+            if split {
+                row.extend(match &r.flicker_regions {
+                    Some(f) => [region(&f.inset), region(&f.seam), region(&f.periphery)],
+                    None => Default::default(),
+                });
+                row.push(r.flicker_floor.map_or(String::new(), |v| format!("{v:.5}")));
+            }
+            Some(row)
+        })
+        .collect();
+    if flicker.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nTemporal error (flicker: mean per-pixel frame-to-frame luma change beyond the reference's, along the first view turning a third of a pixel a frame; 0 = as stable as the reference):\n"
+    );
+    let mut head: Vec<String> = ["config", "flicker", "FLIP mean"]
+        .map(String::from)
+        .to_vec();
+    if split {
+        let _ = writeln!(
+            s,
+            "With an inset, its flicker split by where the composite takes each pixel from: mean over the region (its share of the visible pixels); the shares weight the means into the whole (a configuration without an inset over the plan's first inset configuration's regions). Floor: the flicker of the reference sequence put through a perfect wide view of the configuration's size and filter (each wide pixel the reference's mean over its area, read back as the composite reads it), the least any wide view of that size could add.\n"
+        );
+        head.extend(
+            [
+                "inside the inset",
+                "feathered seam",
+                "wide view alone",
+                "floor (perfect wide view)",
+            ]
+            .map(String::from),
+        );
+    }
+    md_table(s, &head, &flicker);
+}
+
+/// The adaptive-quality table (configurations with `aq`).
+fn md_aq(s: &mut String, g: &Group) {
+    let aq: Vec<Vec<String>> = g
+        .results
+        .iter()
+        .filter_map(|r| {
+            let a = r.aq.as_ref()?;
+            Some(vec![
+                r.name.clone(),
+                format!("{:.3}", a.mean_scale),
+                format!("{:.3}–{:.3}", a.min_scale, a.max_scale),
+                a.level_changes.to_string(),
+                a.wide_one_sample_frames.to_string(),
+                if a.wide_rung_frames > 0 {
+                    format!("{} (×{:.3})", a.wide_rung_frames, a.min_wide_factor)
+                } else {
+                    "0".into()
+                },
+                format!("{:.2}", a.budget_ms),
+                format!("{} / {}", r.gpu_frames_over_budget, r.frames),
+            ])
+        })
+        .collect();
+    if aq.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nAdaptive quality (render scale per axis the controller chose over the measured frames; GPU frames over the budget; the other configurations' GPU frames over budget are in results.json):\n"
+    );
+    let head = [
+        "config",
+        "mean scale",
+        "range",
+        "level changes",
+        "wide at 1 sample (MSAA rung)",
+        "inset rung frames (least wide factor)",
+        "budget ms",
+        "GPU over budget",
+    ]
+    .map(String::from);
+    md_table(s, &head, &aq);
+}
+
+/// The moving-instances table (scenes with motion).
+fn md_moving(s: &mut String, g: &Group) {
+    let moving: Vec<Vec<String>> = g
+        .results
+        .iter()
+        .filter_map(|r| {
+            Some(vec![
+                r.name.clone(),
+                format!("{:.0}", r.moved_instances?),
+                format!("{:.1}", r.motion_upload_bytes? / 1024.0),
+                format!("{:.3}", r.cpu_ms.motion?),
+            ])
+        })
+        .collect();
+    if moving.is_empty() {
+        return;
+    }
+    let _ = writeln!(
+        s,
+        "\nMoving instances per frame (p50; only these are uploaded):\n"
+    );
+    let head = ["config", "moved", "uploaded KiB", "CPU ms to move"].map(String::from);
+    md_table(s, &head, &moving);
 }
 
 #[cfg(test)]

@@ -550,162 +550,256 @@ fn run_group(
     let Some(masks) = visible_masks(&rigs[0], extent) else {
         return Ok(false);
     };
-    let ppd = (metrics::headset_ppd(
-        extent.width,
-        profile.views[0].fov.left,
-        profile.views[0].fov.right,
-    ) as f64)
-        .max(MIN_FLIP_PPD);
+    let fov = profile.views[0].fov;
+    let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
     let group_dir = format!(
         "images/{}-{}-{}",
         sanitize(&group.scene),
         sanitize(&group.hmd),
         scale
     );
-    let mut reference_config = plan.reference_config()?;
-    reference_config.resolve_lens(Some(profile))?;
-    let ss = plan.reference_supersample;
-    let mut reference_images: RefImages = Vec::new();
-    let Some(mut reference) = measure(
+    let mut run = GroupRun {
         ctx,
         plan,
         scene,
-        &rigs,
-        (extent, ss),
-        ("reference", &plan.reference, &reference_config),
-        plan.refresh_hz(profile),
-        Some(&mut reference_images),
-        None,
-        None,
-    )?
-    else {
+        profile,
+        rigs,
+        extent,
+        masks,
+        ppd,
+        out,
+        group_dir,
+        reference_images: Vec::new(),
+        sequence: Vec::new(),
+        reference_sequence: Vec::new(),
+        inset_config: None,
+        floors: Vec::new(),
+    };
+    let Some(reference) = run.reference()? else {
         return Ok(false);
     };
-    reference.image = Some(save_left(out, &group_dir, "reference", &reference_images)?);
     group.results.push(reference);
     tick("reference");
-    // The temporal-error sequence: the first measured view turning by a
-    // third of a pixel a frame.
-    let sequence = flicker_rigs(plan, &rigs, profile, ppd, 0);
-    let reference_sequence = match sequence.is_empty() {
-        true => Vec::new(),
-        false => crate::targets::headless::render_sequence(
-            ctx,
-            scene,
-            &reference_config,
-            &sequence,
-            (extent, ss),
-            0.0,
-        )?,
-    };
-    // The rectangle the regions of configurations without an inset are
-    // measured over.
-    let inset_config = plan
-        .configs
-        .iter()
-        .filter_map(|c| {
-            let mut config = plan.config_for(c).ok()?;
-            config.resolve_lens(Some(profile)).ok()?;
-            config.inset.is_some().then_some(config)
-        })
-        .next();
-    // Flicker floors computed so far, by wide size, filter and inset.
-    let mut floors: Vec<(String, f64)> = Vec::new();
     for c in &plan.configs {
         if crate::quit::requested() {
             fill_speedups(group);
             return Ok(false);
         }
-        let mut config = plan.config_for(c)?;
-        config.resolve_lens(Some(profile))?;
-        let compare = Comparison {
-            reference: &reference_images,
-            masks: &masks,
-            ppd,
-            inset_config: inset_config.as_ref(),
-        };
-        let mut images = Vec::new();
-        let Some(mut r) = measure(
-            ctx,
-            plan,
-            scene,
-            &rigs,
-            (extent, 1),
-            (&c.name, &c.opt, &config),
-            plan.refresh_hz(profile),
-            Some(&mut images),
-            Some(&compare),
-            (c.name == group.baseline).then_some(&mut group.floors),
-        )?
-        else {
+        let floors = (c.name == group.baseline).then_some(&mut group.floors);
+        let Some(r) = run.config(c, floors)? else {
             fill_speedups(group);
             return Ok(false);
         };
-        r.image = Some(save_left(out, &group_dir, &c.name, &images)?);
-        if !reference_sequence.is_empty() && config.timewarp.is_none() {
-            // A configuration with a history (inset-taa) runs into the
-            // sequence from further back, so what is measured is its
-            // settled image; the lead frames are not compared.
-            let lead = config.settle_frames();
-            let mut test = crate::targets::headless::render_sequence(
-                ctx,
-                scene,
-                &config,
-                &flicker_rigs(plan, &rigs, profile, ppd, lead),
-                (extent, 1),
-                0.0,
-            )?;
-            test.drain(..lead.min(test.len()));
-            let inset = sequence
-                .first()
-                .and_then(|rig| config_inset_rect(&config, inset_config.as_ref(), rig, extent));
-            let f = sequence_flicker(&test, &reference_sequence, &masks, inset.as_ref(), extent)?;
-            r.flicker = Some(f.mean);
-            r.flicker_regions = f.regions;
-            if let Some(i) = config.inset {
-                let wide = crate::render::scaled(extent, i.wide_scale);
-                let key = format!("{:?} {} {inset:?}", wide, i.catmull_rom);
-                let floor = match floors.iter().find(|(k, _)| *k == key) {
-                    Some(&(_, v)) => v,
-                    None => {
-                        let through: Vec<[image::RgbaImage; 2]> = reference_sequence
-                            .iter()
-                            .map(|pair| {
-                                pair.clone().map(|f| {
-                                    super::flicker_floor::through_wide_view(
-                                        &f,
-                                        (wide.width, wide.height),
-                                        inset.as_ref(),
-                                        i.catmull_rom,
-                                    )
-                                })
-                            })
-                            .collect();
-                        let v =
-                            sequence_flicker(&through, &reference_sequence, &masks, None, extent)?
-                                .mean;
-                        floors.push((key, v));
-                        v
-                    }
-                };
-                r.flicker_floor = Some(floor);
-            }
-            let rel = format!("{group_dir}/{}.flicker.png", sanitize(&c.name));
-            let map = super::flicker::heatmap(&f.left_map, extent.width, extent.height, 0.05);
-            crate::targets::headless::save_png(&map, &out.join(&rel))?;
-            r.flicker_heatmap = Some(rel);
-        }
-        if let (Some(last), Some(reference)) = (images.last(), reference_images.last()) {
-            let flip = metrics::flip(&reference[0], &last[0], ppd as f32)?;
-            let rel = format!("{group_dir}/{}.flip.png", sanitize(&c.name));
-            crate::targets::headless::save_png(&flip.heatmap(), &out.join(&rel))?;
-            r.heatmap = Some(rel);
-        }
         group.results.push(r);
         tick(&c.name);
     }
     fill_speedups(group);
     Ok(true)
+}
+
+/// One group's measurement: its scene, profile and size, the reference's
+/// images and flicker sequence, and the flicker floors found so far.
+struct GroupRun<'a> {
+    ctx: &'a Arc<Context>,
+    plan: &'a Plan,
+    scene: &'a Scene,
+    profile: &'a HmdProfile,
+    rigs: Vec<StereoRig>,
+    extent: vk::Extent2D,
+    /// Per eye: pixels the lens shows.
+    masks: [Vec<bool>; 2],
+    ppd: f64,
+    out: &'a Path,
+    group_dir: String,
+    reference_images: RefImages,
+    /// The temporal-error sequence: the first measured view turning by a
+    /// third of a pixel a frame.
+    sequence: Vec<StereoRig>,
+    reference_sequence: RefImages,
+    /// The plan's first configuration with an inset (lens resolved): the
+    /// regions of configurations without one are measured over its
+    /// rectangle.
+    inset_config: Option<RenderConfig>,
+    /// Flicker floors computed so far, by wide size, filter and inset.
+    floors: Vec<(String, f64)>,
+}
+
+impl GroupRun<'_> {
+    /// Measures the reference (supersampled) and renders its flicker
+    /// sequence; None when the run was cut short.
+    fn reference(&mut self) -> Result<Option<ConfigResult>> {
+        let plan = self.plan;
+        let mut config = plan.reference_config()?;
+        config.resolve_lens(Some(self.profile))?;
+        let ss = plan.reference_supersample;
+        let Some(mut reference) = measure(
+            self.ctx,
+            plan,
+            self.scene,
+            &self.rigs,
+            (self.extent, ss),
+            ("reference", &plan.reference, &config),
+            plan.refresh_hz(self.profile),
+            Some(&mut self.reference_images),
+            None,
+            None,
+        )?
+        else {
+            return Ok(None);
+        };
+        let saved = save_left(
+            self.out,
+            &self.group_dir,
+            "reference",
+            &self.reference_images,
+        )?;
+        reference.image = Some(saved);
+        self.sequence = flicker_rigs(plan, &self.rigs, self.profile, self.ppd, 0);
+        if !self.sequence.is_empty() {
+            self.reference_sequence = crate::targets::headless::render_sequence(
+                self.ctx,
+                self.scene,
+                &config,
+                &self.sequence,
+                (self.extent, ss),
+                0.0,
+            )?;
+        }
+        self.inset_config = plan
+            .configs
+            .iter()
+            .filter_map(|c| {
+                let mut config = plan.config_for(c).ok()?;
+                config.resolve_lens(Some(self.profile)).ok()?;
+                config.inset.is_some().then_some(config)
+            })
+            .next();
+        Ok(Some(reference))
+    }
+
+    /// Measures configuration `c` against the reference: times, error,
+    /// flicker and heat maps (with `floors`, the baseline's raster floors
+    /// too). None when the run was cut short.
+    fn config(
+        &mut self,
+        c: &super::plan::PlanConfig,
+        floors: Option<&mut Option<Floors>>,
+    ) -> Result<Option<ConfigResult>> {
+        let mut config = self.plan.config_for(c)?;
+        config.resolve_lens(Some(self.profile))?;
+        let compare = Comparison {
+            reference: &self.reference_images,
+            masks: &self.masks,
+            ppd: self.ppd,
+            inset_config: self.inset_config.as_ref(),
+        };
+        let mut images = Vec::new();
+        let Some(mut r) = measure(
+            self.ctx,
+            self.plan,
+            self.scene,
+            &self.rigs,
+            (self.extent, 1),
+            (&c.name, &c.opt, &config),
+            self.plan.refresh_hz(self.profile),
+            Some(&mut images),
+            Some(&compare),
+            floors,
+        )?
+        else {
+            return Ok(None);
+        };
+        r.image = Some(save_left(self.out, &self.group_dir, &c.name, &images)?);
+        if !self.reference_sequence.is_empty() && config.timewarp.is_none() {
+            self.flicker(&config, &c.name, &mut r)?;
+        }
+        if let (Some(last), Some(reference)) = (images.last(), self.reference_images.last()) {
+            let flip = metrics::flip(&reference[0], &last[0], self.ppd as f32)?;
+            let rel = format!("{}/{}.flip.png", self.group_dir, sanitize(&c.name));
+            crate::targets::headless::save_png(&flip.heatmap(), &self.out.join(&rel))?;
+            r.heatmap = Some(rel);
+        }
+        Ok(Some(r))
+    }
+
+    /// The configuration's flicker along the sequence, by region with an
+    /// inset, with its floor and heat map. A configuration with a history
+    /// (inset-taa) runs into the sequence from further back, so what is
+    /// measured is its settled image; the lead frames are not compared.
+    fn flicker(&mut self, config: &RenderConfig, name: &str, r: &mut ConfigResult) -> Result<()> {
+        let extent = self.extent;
+        let lead = config.settle_frames();
+        let rigs = flicker_rigs(self.plan, &self.rigs, self.profile, self.ppd, lead);
+        let mut test = crate::targets::headless::render_sequence(
+            self.ctx,
+            self.scene,
+            config,
+            &rigs,
+            (extent, 1),
+            0.0,
+        )?;
+        test.drain(..lead.min(test.len()));
+        let inset = self
+            .sequence
+            .first()
+            .and_then(|rig| config_inset_rect(config, self.inset_config.as_ref(), rig, extent));
+        let f = sequence_flicker(
+            &test,
+            &self.reference_sequence,
+            &self.masks,
+            inset.as_ref(),
+            extent,
+        )?;
+        r.flicker = Some(f.mean);
+        r.flicker_regions = f.regions;
+        if let Some(i) = config.inset {
+            r.flicker_floor = Some(self.flicker_floor(&i, inset.as_ref())?);
+        }
+        let rel = format!("{}/{}.flicker.png", self.group_dir, sanitize(name));
+        let map = super::flicker::heatmap(&f.left_map, extent.width, extent.height, 0.05);
+        crate::targets::headless::save_png(&map, &self.out.join(&rel))?;
+        r.flicker_heatmap = Some(rel);
+        Ok(())
+    }
+
+    /// The flicker of the reference sequence put through a perfect wide
+    /// view of the inset's size and filter (computed once per size,
+    /// filter and rectangle).
+    fn flicker_floor(
+        &mut self,
+        i: &crate::config::Inset,
+        inset: Option<&PixelRect>,
+    ) -> Result<f64> {
+        let wide = crate::render::scaled(self.extent, i.wide_scale);
+        let key = format!("{:?} {} {inset:?}", wide, i.catmull_rom);
+        if let Some(&(_, v)) = self.floors.iter().find(|(k, _)| *k == key) {
+            return Ok(v);
+        }
+        let through: RefImages = self
+            .reference_sequence
+            .iter()
+            .map(|pair| {
+                pair.clone().map(|f| {
+                    super::flicker_floor::through_wide_view(
+                        &f,
+                        (wide.width, wide.height),
+                        inset,
+                        i.catmull_rom,
+                    )
+                })
+            })
+            .collect();
+        let v = sequence_flicker(
+            &through,
+            &self.reference_sequence,
+            &self.masks,
+            None,
+            self.extent,
+        )?
+        .mean;
+        self.floors.push((key, v));
+        Ok(v)
+    }
 }
 
 /// The temporal-error sequence of a group: `plan.flicker_frames` views

@@ -103,6 +103,39 @@ pub struct Source {
     pub extent: vk::Extent2D,
 }
 
+/// The blit of `s` (content columns from `x0`) into the letterboxed
+/// rectangle `(origin, size)` of the window, which shows `content`
+/// proportionally.
+fn blit_region(
+    s: &Source,
+    x0: u32,
+    content: vk::Extent2D,
+    (origin, size): (vk::Offset2D, vk::Extent2D),
+) -> vk::ImageBlit {
+    let map_x =
+        |x: u32| origin.x + (x as u64 * size.width as u64 / content.width.max(1) as u64) as i32;
+    let map_y =
+        |y: u32| origin.y + (y as u64 * size.height as u64 / content.height.max(1) as u64) as i32;
+    let layer = |base_array_layer| vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: 0,
+        base_array_layer,
+        layer_count: 1,
+    };
+    let corner = |x, y, z| vk::Offset3D { x, y, z };
+    vk::ImageBlit::default()
+        .src_subresource(layer(s.layer))
+        .src_offsets([
+            vk::Offset3D::default(),
+            corner(s.extent.width as i32, s.extent.height as i32, 1),
+        ])
+        .dst_subresource(layer(0))
+        .dst_offsets([
+            corner(map_x(x0), map_y(0), 0),
+            corner(map_x(x0 + s.extent.width), map_y(s.extent.height), 1),
+        ])
+}
+
 /// What one [`Presenter::present`] did.
 #[derive(Debug)]
 pub enum Presented {
@@ -476,38 +509,97 @@ impl Presenter {
                 return Ok(Presented::Skipped);
             }
         }
-        let d = &ctx.device;
-        // The overlay's texture changes go up before anything can skip this
-        // present (egui sends each change once): on the first overlay the
-        // renderer is made, and an upload waits for the device so no frame
-        // still samples what it replaces.
-        if let Some(frame) = ui.filter(|_| self.draws_overlays()) {
-            if self.ui.is_none() {
-                self.ui = Some(super::ui_layer::UiLayer::new(
-                    ctx,
-                    self.format.format,
-                    self.slots.len(),
-                )?);
-            }
-            if !frame.textures.set.is_empty() {
-                // SAFETY: waiting for the device on this thread.
-                unsafe { d.device_wait_idle() }.vk("waiting before an overlay upload")?;
-                if let Some(layer) = self.ui.as_mut() {
-                    layer.upload(ctx, frame)?;
-                }
-            }
-        }
+        self.prepare_overlay(ctx, ui)?;
         let never_block = self.pacing == Pacing::NeverBlock && !read_back;
-        let slot_index = self.next;
+        let slot = self.next;
         let (pool, cmd, fence, acquired) = {
-            let s = &self.slots[slot_index];
+            let s = &self.slots[slot];
             (s.pool, s.cmd, s.fence, s.acquired)
         };
+        let index = match self.acquire(ctx, size, never_block, (fence, acquired))? {
+            Ok(index) => index,
+            Err(presented) => return Ok(presented),
+        };
+        let target = self.images[index as usize];
+        let pixels = self.extent.width as u64 * self.extent.height as u64 * 4;
+        if read_back {
+            self.ensure_readback(ctx, pixels)?;
+        }
+        let readback = read_back.then(|| self.readback.as_ref().map(|b| b.buffer));
+        // The overlay draws only with the renderer made for this format
+        // (its textures live there; a swapchain that changed format would
+        // need egui to send them again, so the overlay stops instead).
+        let ui = ui.filter(|_| {
+            self.draws_overlays()
+                && self
+                    .ui
+                    .as_ref()
+                    .is_some_and(|l| l.format() == self.format.format)
+        });
+        let view = self.views.get(index as usize).copied();
+        self.record_blit(
+            ctx,
+            (pool, cmd),
+            (target, ui.zip(view)),
+            sources,
+            readback.flatten(),
+        )?;
+        self.submit_and_present(ctx, (cmd, fence, acquired), index)?;
+        if !read_back {
+            return Ok(Presented::Shown(None));
+        }
+        // SAFETY: waiting for the submission above before mapping its copy.
+        unsafe { ctx.device.wait_for_fences(&[fence], true, u64::MAX) }
+            .vk("waiting for a window readback")?;
+        self.read_pixels(pixels)
+            .map(|img| Presented::Shown(Some(img)))
+    }
+
+    /// The overlay's texture changes go up before anything can skip a
+    /// present (egui sends each change once): on the first overlay the
+    /// renderer is made, and an upload waits for the device so no frame
+    /// still samples what it replaces.
+    fn prepare_overlay(
+        &mut self,
+        ctx: &Context,
+        ui: Option<&super::ui_layer::UiFrame>,
+    ) -> Result<()> {
+        let Some(frame) = ui.filter(|_| self.draws_overlays()) else {
+            return Ok(());
+        };
+        if self.ui.is_none() {
+            self.ui = Some(super::ui_layer::UiLayer::new(
+                ctx,
+                self.format.format,
+                self.slots.len(),
+            )?);
+        }
+        if !frame.textures.set.is_empty() {
+            // SAFETY: waiting for the device on this thread.
+            unsafe { ctx.device.device_wait_idle() }.vk("waiting before an overlay upload")?;
+            if let Some(layer) = self.ui.as_mut() {
+                layer.upload(ctx, frame)?;
+            }
+        }
+        Ok(())
+    }
+
+    /// Waits for (or, never blocking, checks) the slot's last blit and
+    /// acquires an image: its index, or what the present became instead
+    /// (busy, or skipped while the swapchain is made again).
+    fn acquire(
+        &mut self,
+        ctx: &Context,
+        size: vk::Extent2D,
+        never_block: bool,
+        (fence, acquired): (vk::Fence, vk::Semaphore),
+    ) -> Result<std::result::Result<u32, Presented>> {
+        let d = &ctx.device;
         if never_block {
             // SAFETY: the fence belongs to this device.
             let done = unsafe { d.get_fence_status(fence) }.vk("querying a window blit")?;
             if !done {
-                return Ok(Presented::Busy);
+                return Ok(Err(Presented::Busy));
             }
         } else {
             // SAFETY: the fence belongs to this device; waiting makes the
@@ -526,73 +618,64 @@ impl Presenter {
                 vk::Fence::null(),
             )
         };
-        if never_block
-            && matches!(
-                acquire,
-                Err(vk::Result::NOT_READY) | Err(vk::Result::TIMEOUT)
-            )
-        {
-            return Ok(Presented::Busy);
+        let not_yet = matches!(acquire, Err(vk::Result::NOT_READY | vk::Result::TIMEOUT));
+        if never_block && not_yet {
+            return Ok(Err(Presented::Busy));
         }
         self.next = (self.next + 1) % self.slots.len();
-        let index = match acquire {
+        match acquire {
             Ok((i, suboptimal)) => {
-                if suboptimal {
-                    self.stale = true;
-                }
-                i
+                self.stale |= suboptimal;
+                Ok(Ok(i))
             }
             Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
                 self.recreate(ctx, size)?;
-                return Ok(Presented::Skipped);
+                Ok(Err(Presented::Skipped))
             }
-            Err(e) => return Err(e).vk("acquiring a window image"),
-        };
-        let target = self.images[index as usize];
-        let extent = self.extent;
-        let pixels = extent.width as u64 * extent.height as u64 * 4;
-        if read_back && self.readback.as_ref().is_none_or(|b| b.size < pixels) {
-            if let Some(old) = self.readback.take() {
-                // No submission still uses it: every read-back waits for
-                // its blit before returning.
-                old.destroy(ctx);
-            }
-            self.readback = Some(Buffer::new(
-                ctx,
-                &BufferDesc {
-                    name: "window readback",
-                    size: pixels,
-                    usage: vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuToCpu,
-                    category: "readback",
-                },
-            )?);
+            Err(e) => Err(e).vk("acquiring a window image"),
         }
-        let readback = read_back.then(|| self.readback.as_ref().map(|b| b.buffer));
-        // The overlay draws only with the renderer made for this format
-        // (its textures live there; a swapchain that changed format would
-        // need egui to send them again, so the overlay stops instead).
-        let ui = ui.filter(|_| {
-            self.draws_overlays()
-                && self
-                    .ui
-                    .as_ref()
-                    .is_some_and(|l| l.format() == self.format.format)
-        });
-        let view = self.views.get(index as usize).copied();
-        let ui_target = ui.zip(view);
-        self.record_blit(
+    }
+
+    /// A read-back buffer of at least `pixels` bytes.
+    fn ensure_readback(&mut self, ctx: &Context, pixels: u64) -> Result<()> {
+        if self.readback.as_ref().is_some_and(|b| b.size >= pixels) {
+            return Ok(());
+        }
+        if let Some(old) = self.readback.take() {
+            // No submission still uses it: every read-back waits for its
+            // blit before returning.
+            old.destroy(ctx);
+        }
+        self.readback = Some(Buffer::new(
             ctx,
-            (pool, cmd),
-            (target, ui_target),
-            sources,
-            readback.flatten(),
-        )?;
+            &BufferDesc {
+                name: "window readback",
+                size: pixels,
+                usage: vk::BufferUsageFlags::TRANSFER_DST,
+                location: MemoryLocation::GpuToCpu,
+                category: "readback",
+            },
+        )?);
+        Ok(())
+    }
+
+    /// Submits the recorded blit (after the acquire, signalling the
+    /// image's ready semaphore and the slot's fence) and presents image
+    /// `index`; an out-of-date or suboptimal present marks the swapchain
+    /// stale.
+    fn submit_and_present(
+        &mut self,
+        ctx: &Context,
+        (cmd, fence, acquired): (vk::CommandBuffer, vk::Fence, vk::Semaphore),
+        index: u32,
+    ) -> Result<()> {
+        let d = &ctx.device;
+        let ready = self.ready[index as usize];
         let waits = [vk::SemaphoreSubmitInfo::default()
             .semaphore(acquired)
             .stage_mask(vk::PipelineStageFlags2::ALL_TRANSFER)];
         let signals = [vk::SemaphoreSubmitInfo::default()
-            .semaphore(self.ready[index as usize])
+            .semaphore(ready)
             .stage_mask(vk::PipelineStageFlags2::ALL_COMMANDS)];
         let cmds = [vk::CommandBufferSubmitInfo::default().command_buffer(cmd)];
         let submit = vk::SubmitInfo2::default()
@@ -608,7 +691,7 @@ impl Presenter {
         }
         let swapchains = [self.swapchain];
         let indices = [index];
-        let wait = [self.ready[index as usize]];
+        let wait = [ready];
         let info = vk::PresentInfoKHR::default()
             .wait_semaphores(&wait)
             .swapchains(&swapchains)
@@ -616,16 +699,19 @@ impl Presenter {
         // SAFETY: the image was acquired and its blit submitted with the
         // semaphore the present waits on.
         match unsafe { self.swapchain_fn.queue_present(ctx.queue, &info) } {
-            Ok(false) => {}
-            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => self.stale = true,
-            Err(e) => return Err(e).vk("presenting a window image"),
+            Ok(false) => Ok(()),
+            Ok(true) | Err(vk::Result::ERROR_OUT_OF_DATE_KHR) => {
+                self.stale = true;
+                Ok(())
+            }
+            Err(e) => Err(e).vk("presenting a window image"),
         }
-        if !read_back {
-            return Ok(Presented::Shown(None));
-        }
-        // SAFETY: waiting for the submission above before mapping its copy.
-        unsafe { d.wait_for_fences(&[fence], true, u64::MAX) }
-            .vk("waiting for a window readback")?;
+    }
+
+    /// The read-back buffer's first `pixels` bytes as an RGBA image (BGRA
+    /// swapchains swizzled).
+    fn read_pixels(&mut self, pixels: u64) -> Result<image::RgbaImage> {
+        let extent = self.extent;
         let bgra = matches!(
             self.format.format,
             vk::Format::B8G8R8A8_SRGB | vk::Format::B8G8R8A8_UNORM
@@ -643,11 +729,13 @@ impl Presenter {
                 p.swap(0, 2);
             }
         }
-        let img = image::RgbaImage::from_raw(extent.width, extent.height, px)
-            .ok_or_else(|| Error::Gpu("window readback has the wrong size".into()))?;
-        Ok(Presented::Shown(Some(img)))
+        image::RgbaImage::from_raw(extent.width, extent.height, px)
+            .ok_or_else(|| Error::Gpu("window readback has the wrong size".into()))
     }
 
+    /// Records the window blit: the sources letterboxed side by side over
+    /// black, the overlay over them, then the hand-over to presentation
+    /// (and the copy into `readback` when given).
     fn record_blit(
         &mut self,
         ctx: &Context,
@@ -665,11 +753,6 @@ impl Presenter {
         let acquired = Use {
             layout: vk::ImageLayout::UNDEFINED,
             stage: vk::PipelineStageFlags2::ALL_TRANSFER,
-            access: vk::AccessFlags2::NONE,
-        };
-        let presented = Use {
-            layout: vk::ImageLayout::PRESENT_SRC_KHR,
-            stage: vk::PipelineStageFlags2::ALL_COMMANDS,
             access: vk::AccessFlags2::NONE,
         };
         let layer_barrier =
@@ -726,60 +809,20 @@ impl Presenter {
                 cmd,
                 &vk::DependencyInfo::default().image_memory_barriers(&cleared),
             );
-            let mut x0 = 0u64;
+            let mut x0 = 0u32;
             for s in sources {
-                // Content pixel columns [x0, x0 + w) map to the letterboxed
-                // rectangle proportionally.
-                let map_x = |x: u64| {
-                    origin.x + (x * size.width as u64 / content.width.max(1) as u64) as i32
-                };
-                let map_y = |y: u64| {
-                    origin.y + (y * size.height as u64 / content.height.max(1) as u64) as i32
-                };
-                let x1 = x0 + s.extent.width as u64;
-                let region = vk::ImageBlit::default()
-                    .src_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: c,
-                        mip_level: 0,
-                        base_array_layer: s.layer,
-                        layer_count: 1,
-                    })
-                    .src_offsets([
-                        vk::Offset3D::default(),
-                        vk::Offset3D {
-                            x: s.extent.width as i32,
-                            y: s.extent.height as i32,
-                            z: 1,
-                        },
-                    ])
-                    .dst_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: c,
-                        mip_level: 0,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    })
-                    .dst_offsets([
-                        vk::Offset3D {
-                            x: map_x(x0),
-                            y: map_y(0),
-                            z: 0,
-                        },
-                        vk::Offset3D {
-                            x: map_x(x1),
-                            y: map_y(s.extent.height as u64),
-                            z: 1,
-                        },
-                    ]);
+                let region = blit_region(s, x0, content, (origin, size));
+                let (src, dst) = (Use::TRANSFER_SRC.layout, Use::TRANSFER_DST.layout);
                 d.cmd_blit_image(
                     cmd,
                     s.image,
-                    Use::TRANSFER_SRC.layout,
+                    src,
                     target,
-                    Use::TRANSFER_DST.layout,
+                    dst,
                     &[region],
                     vk::Filter::LINEAR,
                 );
-                x0 = x1;
+                x0 += s.extent.width;
             }
             // The overlay over the blitted images, when there is one.
             let mut written_by = Use::TRANSFER_DST;
@@ -795,36 +838,59 @@ impl Presenter {
                 )?;
                 written_by = super::ui_layer::LOADED;
             }
-            let mut after = after_src;
-            match readback {
-                Some(buf) => {
-                    let to_read = [barrier::image(target, c, 1, written_by, Use::TRANSFER_SRC)];
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default().image_memory_barriers(&to_read),
-                    );
-                    let copy = barrier::color_copy(0, 1, self.extent.width, self.extent.height);
-                    d.cmd_copy_image_to_buffer(cmd, target, Use::TRANSFER_SRC.layout, buf, &[copy]);
-                    after.push(barrier::image(target, c, 1, Use::TRANSFER_SRC, presented));
-                    let to_host = [barrier::buffer_to_host(buf)];
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default()
-                            .buffer_memory_barriers(&to_host)
-                            .image_memory_barriers(&after),
-                    );
-                }
-                None => {
-                    after.push(barrier::image(target, c, 1, written_by, presented));
-                    d.cmd_pipeline_barrier2(
-                        cmd,
-                        &vk::DependencyInfo::default().image_memory_barriers(&after),
-                    );
-                }
-            }
+            self.record_handover(d, cmd, target, (written_by, after_src), readback);
             d.end_command_buffer(cmd).vk("ending the window blit")?;
         }
         Ok(())
+    }
+
+    /// After the blit (and overlay, last written by `written_by`): the
+    /// target copied into `readback` when asked, then the sources back to
+    /// their rendered layout and the target to presentation.
+    fn record_handover(
+        &self,
+        d: &ash::Device,
+        cmd: vk::CommandBuffer,
+        target: vk::Image,
+        (written_by, mut after): (Use, Vec<vk::ImageMemoryBarrier2<'static>>),
+        readback: Option<vk::Buffer>,
+    ) {
+        let c = vk::ImageAspectFlags::COLOR;
+        let presented = Use {
+            layout: vk::ImageLayout::PRESENT_SRC_KHR,
+            stage: vk::PipelineStageFlags2::ALL_COMMANDS,
+            access: vk::AccessFlags2::NONE,
+        };
+        let Some(buf) = readback else {
+            after.push(barrier::image(target, c, 1, written_by, presented));
+            // SAFETY: recording into the blit's command buffer; the images
+            // are in the layouts the barriers name.
+            unsafe {
+                d.cmd_pipeline_barrier2(
+                    cmd,
+                    &vk::DependencyInfo::default().image_memory_barriers(&after),
+                )
+            };
+            return;
+        };
+        let to_read = [barrier::image(target, c, 1, written_by, Use::TRANSFER_SRC)];
+        let copy = barrier::color_copy(0, 1, self.extent.width, self.extent.height);
+        after.push(barrier::image(target, c, 1, Use::TRANSFER_SRC, presented));
+        let to_host = [barrier::buffer_to_host(buf)];
+        // SAFETY: as above; the buffer holds the target's pixels.
+        unsafe {
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&to_read),
+            );
+            d.cmd_copy_image_to_buffer(cmd, target, Use::TRANSFER_SRC.layout, buf, &[copy]);
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default()
+                    .buffer_memory_barriers(&to_host)
+                    .image_memory_barriers(&after),
+            );
+        }
     }
 
     /// Waits for the device and destroys everything, the surface last. The

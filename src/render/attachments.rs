@@ -100,142 +100,14 @@ impl AttachmentSet {
         layers: u32,
         opts: SetOptions,
     ) -> Result<AttachmentSet> {
-        let SetOptions {
-            depth_format,
-            keep_depth,
-            composed,
-            sampled,
-            storage_output,
-            occlusion,
-            multiview_layers: _,
-            one_sample_depth,
-        } = opts;
-        // The frame the runtime gets: the eyes' layers.
-        let output_layers = layers.min(2);
-        let s = vk::SampleCountFlags::from_raw(samples);
-        let transient = if occlusion {
-            vk::ImageUsageFlags::empty()
-        } else {
-            vk::ImageUsageFlags::TRANSIENT_ATTACHMENT
-        };
-        let desc = |name, format, samples, usage, aspect| ImageDesc {
-            name,
-            format,
+        let size = Size {
             extent,
             layers,
-            mips: 1,
             samples,
-            usage,
-            aspect,
-            category: "render target",
-            flags: vk::ImageCreateFlags::empty(),
         };
         // What is made so far: destroyed if a later image fails.
         let mut p = Parts::default();
-        let made = (|| -> Result<()> {
-            if samples > 1 {
-                let d = desc(
-                    "colour msaa",
-                    COLOR_FORMAT,
-                    s,
-                    vk::ImageUsageFlags::COLOR_ATTACHMENT | transient,
-                    vk::ImageAspectFlags::COLOR,
-                );
-                p.color_msaa = Some(Image::new(ctx, &d)?);
-            }
-            let ds = crate::gpu::depth_aspect(depth_format);
-            let depth_usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
-            let stored_depth = keep_depth && samples == 1;
-            // Sampled: the depth pyramid reads the multisampled depth; a
-            // sampled set that keeps its depth (the inset's wide views
-            // under inset-taa) has its kept depth read.
-            let depth_sampled = if occlusion || (sampled && stored_depth) {
-                vk::ImageUsageFlags::SAMPLED
-            } else {
-                vk::ImageUsageFlags::empty()
-            };
-            p.depth = Some(Image::new(
-                ctx,
-                &desc(
-                    "depth-stencil",
-                    depth_format,
-                    s,
-                    if stored_depth {
-                        depth_usage | depth_sampled | vk::ImageUsageFlags::TRANSFER_SRC
-                    } else {
-                        depth_usage | depth_sampled | transient
-                    },
-                    ds,
-                ),
-            )?);
-            if keep_depth && samples > 1 {
-                p.depth_resolve = Some(Image::new(
-                    ctx,
-                    &desc(
-                        "depth resolve",
-                        depth_format,
-                        vk::SampleCountFlags::TYPE_1,
-                        depth_usage
-                            | vk::ImageUsageFlags::TRANSFER_SRC
-                            | if sampled {
-                                vk::ImageUsageFlags::SAMPLED
-                            } else {
-                                vk::ImageUsageFlags::empty()
-                            },
-                        ds,
-                    ),
-                )?);
-            }
-            if one_sample_depth && samples > 1 {
-                p.depth_one_sample = Some(Image::new(
-                    ctx,
-                    &desc(
-                        "depth-stencil one sample",
-                        depth_format,
-                        vk::SampleCountFlags::TYPE_1,
-                        depth_usage | transient,
-                        ds,
-                    ),
-                )?);
-            }
-            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
-            let sampled = if composed || sampled {
-                vk::ImageUsageFlags::SAMPLED
-            } else {
-                vk::ImageUsageFlags::empty()
-            };
-            let resolve = p.resolve.insert(Image::new(
-                ctx,
-                &desc(
-                    "colour resolve",
-                    COLOR_FORMAT,
-                    vk::SampleCountFlags::TYPE_1,
-                    usage | sampled,
-                    vk::ImageAspectFlags::COLOR,
-                ),
-            )?);
-            if !composed {
-                return Ok(());
-            }
-            let plain = ImageDesc {
-                layers: output_layers,
-                ..desc(
-                    "composed output",
-                    COLOR_FORMAT,
-                    vk::SampleCountFlags::TYPE_1,
-                    usage,
-                    vk::ImageAspectFlags::COLOR,
-                )
-            };
-            let resolve_image = resolve.image;
-            p.make_composed(
-                ctx,
-                plain,
-                resolve_image,
-                (layers, output_layers),
-                storage_output,
-            )
-        })();
+        let made = p.make(ctx, &size, &opts);
         match (made, p) {
             (
                 Ok(()),
@@ -254,7 +126,7 @@ impl AttachmentSet {
                 depth,
                 resolve,
                 depth_resolve,
-                keep_depth,
+                keep_depth: opts.keep_depth,
                 filled: filled.zip(filled_view),
                 filled_storage,
                 depth_one_sample,
@@ -336,6 +208,39 @@ impl AttachmentSet {
     }
 }
 
+/// A set's size: its extent, layers and samples per pixel.
+struct Size {
+    extent: vk::Extent2D,
+    layers: u32,
+    samples: u32,
+}
+
+impl Size {
+    /// One of the set's images: this size (with `samples`), `format`,
+    /// `usage` and `aspect`.
+    fn desc(
+        &self,
+        name: &'static str,
+        format: vk::Format,
+        samples: vk::SampleCountFlags,
+        usage: vk::ImageUsageFlags,
+        aspect: vk::ImageAspectFlags,
+    ) -> ImageDesc<'static> {
+        ImageDesc {
+            name,
+            format,
+            extent: self.extent,
+            layers: self.layers,
+            mips: 1,
+            samples,
+            usage,
+            aspect,
+            category: "render target",
+            flags: vk::ImageCreateFlags::empty(),
+        }
+    }
+}
+
 /// An attachment set's images and views as they are made (all optional
 /// until the set is whole), so that a set left half made is destroyed.
 #[derive(Default)]
@@ -351,6 +256,101 @@ struct Parts {
 }
 
 impl Parts {
+    /// Makes the set's images in order (colour MSAA, depth, resolves,
+    /// the composed output), stopping at the first that fails.
+    fn make(&mut self, ctx: &Context, size: &Size, opts: &SetOptions) -> Result<()> {
+        let s = vk::SampleCountFlags::from_raw(size.samples);
+        // Occlusion samples the depth, so nothing of it is transient.
+        let transient = match opts.occlusion {
+            true => vk::ImageUsageFlags::empty(),
+            false => vk::ImageUsageFlags::TRANSIENT_ATTACHMENT,
+        };
+        if size.samples > 1 {
+            let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | transient;
+            let d = size.desc(
+                "colour msaa",
+                COLOR_FORMAT,
+                s,
+                usage,
+                vk::ImageAspectFlags::COLOR,
+            );
+            self.color_msaa = Some(Image::new(ctx, &d)?);
+        }
+        self.make_depth(ctx, size, opts, transient)?;
+        let usage = vk::ImageUsageFlags::COLOR_ATTACHMENT | vk::ImageUsageFlags::TRANSFER_SRC;
+        let sampled = match opts.composed || opts.sampled {
+            true => vk::ImageUsageFlags::SAMPLED,
+            false => vk::ImageUsageFlags::empty(),
+        };
+        let one = vk::SampleCountFlags::TYPE_1;
+        let colour = vk::ImageAspectFlags::COLOR;
+        let d = size.desc("colour resolve", COLOR_FORMAT, one, usage | sampled, colour);
+        let resolve_image = self.resolve.insert(Image::new(ctx, &d)?).image;
+        if !opts.composed {
+            return Ok(());
+        }
+        // The frame the runtime gets: the eyes' layers.
+        let output_layers = size.layers.min(2);
+        let plain = ImageDesc {
+            layers: output_layers,
+            ..size.desc("composed output", COLOR_FORMAT, one, usage, colour)
+        };
+        let layers = (size.layers, output_layers);
+        self.make_composed(ctx, plain, resolve_image, layers, opts.storage_output)
+    }
+
+    /// The depth-stencil image, its one-sample resolve when the depth is
+    /// kept under MSAA, and the one-sample depth of a set that also draws
+    /// at one sample. Sampled: the depth pyramid reads the multisampled
+    /// depth; a sampled set that keeps its depth (the inset's wide views
+    /// under inset-taa) has its kept depth read.
+    fn make_depth(
+        &mut self,
+        ctx: &Context,
+        size: &Size,
+        opts: &SetOptions,
+        transient: vk::ImageUsageFlags,
+    ) -> Result<()> {
+        let format = opts.depth_format;
+        let aspect = crate::gpu::depth_aspect(format);
+        let usage = vk::ImageUsageFlags::DEPTH_STENCIL_ATTACHMENT;
+        let (s, one) = (
+            vk::SampleCountFlags::from_raw(size.samples),
+            vk::SampleCountFlags::TYPE_1,
+        );
+        let stored = opts.keep_depth && size.samples == 1;
+        let sampled = match opts.occlusion || (opts.sampled && stored) {
+            true => vk::ImageUsageFlags::SAMPLED,
+            false => vk::ImageUsageFlags::empty(),
+        };
+        let depth_usage = match stored {
+            true => usage | sampled | vk::ImageUsageFlags::TRANSFER_SRC,
+            false => usage | sampled | transient,
+        };
+        let d = size.desc("depth-stencil", format, s, depth_usage, aspect);
+        self.depth = Some(Image::new(ctx, &d)?);
+        if opts.keep_depth && size.samples > 1 {
+            let read = match opts.sampled {
+                true => vk::ImageUsageFlags::SAMPLED,
+                false => vk::ImageUsageFlags::empty(),
+            };
+            let resolve_usage = usage | vk::ImageUsageFlags::TRANSFER_SRC | read;
+            let d = size.desc("depth resolve", format, one, resolve_usage, aspect);
+            self.depth_resolve = Some(Image::new(ctx, &d)?);
+        }
+        if opts.one_sample_depth && size.samples > 1 {
+            let d = size.desc(
+                "depth-stencil one sample",
+                format,
+                one,
+                usage | transient,
+                aspect,
+            );
+            self.depth_one_sample = Some(Image::new(ctx, &d)?);
+        }
+        Ok(())
+    }
+
     /// The composed output (`plain`, with storage use and a UNORM view
     /// when `storage_output`), and a 2D-array view of the resolve image
     /// `resolve_image` of `layers` layers that the composing pass samples.

@@ -512,48 +512,25 @@ pub fn render_to_dir_keeping(
     let floor_gpu_ms = measure_floors(renderer, warmup, frames)?;
     let preview = match (job.distorted, lenses) {
         (Some(method), Some(lenses)) => {
-            let (Some(l), Some(r)) = (rig.views.first(), rig.views.get(1)) else {
-                return Err(Error::Gpu("the distortion preview needs two views".into()));
-            };
-            let fovs = [&l.fov, &r.fov];
-            let mut p = crate::render::distortion::DistortionPreview::new(
-                &ctx, lenses, fovs, extent, method,
-            )?;
-            let out = p.run(&[left.clone(), right.clone()], frames)?;
-            outputs.write(&job.out.join("left_distorted.png"), |w| {
-                png_to(w, &out.images[0])
-            })?;
-            outputs.write(&job.out.join("right_distorted.png"), |w| {
-                png_to(w, &out.images[1])
-            })?;
-            Some(PreviewStats {
-                mode: "distorted",
-                method,
-                panel: lenses[0].panel,
-                gpu_ms: Percentiles::of(&out.gpu_ms),
-            })
+            let eyes = [left.clone(), right.clone()];
+            let preview = (lenses, method, frames);
+            Some(distortion_preview(
+                &ctx,
+                &rig,
+                extent,
+                eyes,
+                preview,
+                job,
+                &mut outputs,
+            )?)
         }
         _ => None,
     };
     outputs.write(&job.out.join("left.png"), |w| png_to(w, &left))?;
     outputs.write(&job.out.join("right.png"), |w| png_to(w, &right))?;
-    let mut cpu_ms = BTreeMap::new();
-    cpu_ms.insert("load".to_string(), load_ms);
-    if let Some(build_ms) = build_ms {
-        cpu_ms.insert("bvh_build".to_string(), build_ms);
-        cpu_ms.insert("cull".to_string(), Percentiles::of(&cull_ms).median);
-    }
-    if !scene.moving.is_empty() {
-        cpu_ms.insert("motion".to_string(), Percentiles::of(&motion_ms).median);
-    }
-    cpu_ms.insert("batch".to_string(), frame.cpu_ms.batch);
-    cpu_ms.insert("record".to_string(), frame.cpu_ms.record);
-    cpu_ms.insert("submit".to_string(), frame.cpu_ms.submit);
-    cpu_ms.insert("wait".to_string(), frame.cpu_ms.wait);
-    if let Some(t) = frame.cpu_ms.record_threads {
-        cpu_ms.insert("record_threads_sum".to_string(), t.sum);
-        cpu_ms.insert("record_threads_slowest".to_string(), t.slowest);
-    }
+    let cull_median = build_ms.map(|b| (b, Percentiles::of(&cull_ms).median));
+    let motion = (!scene.moving.is_empty()).then(|| Percentiles::of(&motion_ms).median);
+    let cpu_ms = cpu_ms_table(load_ms, cull_median, motion, &frame);
     let mut stats = RenderStats {
         scene: SceneCounts::of(&scene),
         hmd: profile.name.clone(),
@@ -594,18 +571,7 @@ pub fn render_to_dir_keeping(
         foveation: renderer.foveation_path.clone(),
         pose: crate::view::PoseFile::from(&rig.head),
         pose_arg: rig.head.pose_arg(),
-        pose_from: match (&job.rig, &job.camera, job.pose) {
-            (Some(_), ..) => "--rig".to_string(),
-            (None, Some(name), _) => format!("--camera {name}"),
-            (None, None, Some(_)) => "--pose".to_string(),
-            (None, None, None) => format!(
-                "--frame {}",
-                serde_json::to_value(job.framing)
-                    .ok()
-                    .and_then(|v| v.as_str().map(str::to_string))
-                    .unwrap_or_default()
-            ),
-        },
+        pose_from: pose_from(job),
         lms: renderer.lms_report(),
         inset_path: renderer.inset_path.clone(),
         per_view_render_areas: renderer.per_view_render_areas(),
@@ -631,6 +597,92 @@ pub fn render_to_dir_keeping(
         },
         outputs,
     ))
+}
+
+/// Where the rendered pose came from, as `stats.json`'s `pose_from` says.
+fn pose_from(job: &RenderJob) -> String {
+    match (&job.rig, &job.camera, job.pose) {
+        (Some(_), ..) => "--rig".to_string(),
+        (None, Some(name), _) => format!("--camera {name}"),
+        (None, None, Some(_)) => "--pose".to_string(),
+        (None, None, None) => format!(
+            "--frame {}",
+            serde_json::to_value(job.framing)
+                .ok()
+                .and_then(|v| v.as_str().map(str::to_string))
+                .unwrap_or_default()
+        ),
+    }
+}
+
+/// `stats.json`'s CPU times: loading, the BVH build and the cull's median
+/// (with CPU culling), the motion's median (with moving instances), and
+/// the median frame's batch, record, submit and wait.
+fn cpu_ms_table(
+    load_ms: f64,
+    cull: Option<(f64, f64)>,
+    motion: Option<f64>,
+    frame: &crate::render::FrameStats,
+) -> BTreeMap<String, f64> {
+    let mut cpu_ms = BTreeMap::new();
+    cpu_ms.insert("load".to_string(), load_ms);
+    if let Some((build_ms, cull_ms)) = cull {
+        cpu_ms.insert("bvh_build".to_string(), build_ms);
+        cpu_ms.insert("cull".to_string(), cull_ms);
+    }
+    if let Some(m) = motion {
+        cpu_ms.insert("motion".to_string(), m);
+    }
+    let c = &frame.cpu_ms;
+    for (k, v) in [
+        ("batch", c.batch),
+        ("record", c.record),
+        ("submit", c.submit),
+        ("wait", c.wait),
+    ] {
+        cpu_ms.insert(k.to_string(), v);
+    }
+    if let Some(t) = c.record_threads {
+        cpu_ms.insert("record_threads_sum".to_string(), t.sum);
+        cpu_ms.insert("record_threads_slowest".to_string(), t.slowest);
+    }
+    cpu_ms
+}
+
+/// The lens-distorted preview of the rendered eyes (`frames` times, for
+/// its GPU times), written beside them.
+fn distortion_preview(
+    ctx: &Arc<Context>,
+    rig: &crate::view::StereoRig,
+    extent: vk::Extent2D,
+    eyes: [image::RgbaImage; 2],
+    (lenses, method, frames): (
+        [&crate::view::distortion::Lens; 2],
+        crate::render::distortion::Method,
+        u32,
+    ),
+    job: &RenderJob,
+    outputs: &mut crate::fsio::OutputSet,
+) -> Result<PreviewStats> {
+    let (Some(l), Some(r)) = (rig.views.first(), rig.views.get(1)) else {
+        return Err(Error::Gpu("the distortion preview needs two views".into()));
+    };
+    let fovs = [&l.fov, &r.fov];
+    let mut p =
+        crate::render::distortion::DistortionPreview::new(ctx, lenses, fovs, extent, method)?;
+    let out = p.run(&eyes, frames)?;
+    outputs.write(&job.out.join("left_distorted.png"), |w| {
+        png_to(w, &out.images[0])
+    })?;
+    outputs.write(&job.out.join("right_distorted.png"), |w| {
+        png_to(w, &out.images[1])
+    })?;
+    Ok(PreviewStats {
+        mode: "distorted",
+        method,
+        panel: lenses[0].panel,
+        gpu_ms: Percentiles::of(&out.gpu_ms),
+    })
 }
 
 /// The lenses of a profile's two views, for the distortion preview; one

@@ -27,6 +27,36 @@ use ash::vk;
 use std::path::Path;
 use std::sync::Arc;
 
+/// A masked mirror layer while its mask renders: loaded (the copied
+/// pixels) and partly cleared.
+const MASKING: Use = Use {
+    layout: Use::COLOR_ATTACHMENT.layout,
+    stage: Use::COLOR_ATTACHMENT.stage,
+    access: vk::AccessFlags2::from_raw(
+        vk::AccessFlags2::COLOR_ATTACHMENT_READ.as_raw()
+            | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE.as_raw(),
+    ),
+};
+
+/// The copy of eye image `s` into mirror layer `layer` (clipped to the
+/// mirror's `extent`).
+fn copy_region(s: &Source, layer: u32, extent: vk::Extent2D) -> vk::ImageCopy {
+    let sub = |base_array_layer| vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: 0,
+        base_array_layer,
+        layer_count: 1,
+    };
+    vk::ImageCopy::default()
+        .src_subresource(sub(s.layer))
+        .dst_subresource(sub(layer))
+        .extent(vk::Extent3D {
+            width: s.extent.width.min(extent.width),
+            height: s.extent.height.min(extent.height),
+            depth: 1,
+        })
+}
+
 /// What the mirror window shows.
 #[derive(Clone, Copy, Debug, PartialEq, Eq, clap::ValueEnum, serde::Serialize)]
 #[serde(rename_all = "kebab-case")]
@@ -400,25 +430,7 @@ impl Mirror {
             )));
         }
         if self.mode == MirrorMode::Cropped {
-            for &e in shown {
-                let area = match hidden.and_then(|h| h.get(e)) {
-                    Some(a) => a.clone(),
-                    None => match fovs.get(e) {
-                        Some(f) => crate::view::lens::default_hidden_area(f),
-                        None => continue,
-                    },
-                };
-                let Some(&fov) = fovs.get(e) else {
-                    continue;
-                };
-                let stale = self.masks[e]
-                    .as_ref()
-                    .is_none_or(|m| m.fov != fov || m.area != area);
-                if stale {
-                    let rects = mask_rects(&area, &fov, self.image().extent);
-                    self.masks[e] = Some(MaskRects { area, fov, rects });
-                }
-            }
+            self.refresh_masks(hidden, fovs);
         }
         let ctx = self.ctx.clone();
         let d = &ctx.device;
@@ -436,54 +448,91 @@ impl Mirror {
             self.stats.copied += 1;
             return Ok(());
         }
-        let c = vk::ImageAspectFlags::COLOR;
-        let attached = Use::COLOR_ATTACHMENT;
-        // The mask's rendering loads the copied pixels and clears some.
-        let masking = Use {
-            access: vk::AccessFlags2::COLOR_ATTACHMENT_READ
-                | vk::AccessFlags2::COLOR_ATTACHMENT_WRITE,
-            ..attached
-        };
-        let mirrored = SHOWN;
-        let layer_barrier = barrier::color_layer;
-        let mut before = Vec::new();
-        let mut after_src = Vec::new();
-        let mut after_dst = Vec::new();
-        for &e in shown {
-            let s = eyes[e];
-            before.push(layer_barrier(s.image, s.layer, mirrored, Use::TRANSFER_SRC));
-            after_src.push(layer_barrier(s.image, s.layer, Use::TRANSFER_SRC, attached));
-            before.push(layer_barrier(
-                self.image().image,
-                e as u32,
-                mirrored.discarded(),
-                Use::TRANSFER_DST,
-            ));
+        Self::begin(&ctx, pool, cmd)?;
+        self.record_copy(&ctx, cmd, eyes);
+        Self::submit(&ctx, cmd, fence)?;
+        self.copied = true;
+        self.stats.copied += 1;
+        Ok(())
+    }
+
+    /// The cropped mirror's mask rectangles per shown eye, made again when
+    /// the eye's hidden area (the runtime's, else the lens default) or FOV
+    /// changed.
+    fn refresh_masks(&mut self, hidden: Option<&[HiddenArea]>, fovs: &[Fov]) {
+        for &e in self.mode.eyes() {
+            let Some(&fov) = fovs.get(e) else {
+                continue;
+            };
+            let area = match hidden.and_then(|h| h.get(e)) {
+                Some(a) => a.clone(),
+                None => crate::view::lens::default_hidden_area(&fov),
+            };
+            let stale = self.masks[e]
+                .as_ref()
+                .is_none_or(|m| m.fov != fov || m.area != area);
+            if stale {
+                let rects = mask_rects(&area, &fov, self.image().extent);
+                self.masks[e] = Some(MaskRects { area, fov, rects });
+            }
         }
-        let masked: Vec<usize> = if self.mode == MirrorMode::Cropped {
-            shown
+    }
+
+    /// The shown eyes whose mask has rectangles to clear.
+    fn masked_eyes(&self) -> Vec<usize> {
+        match self.mode {
+            MirrorMode::Cropped => self
+                .mode
+                .eyes()
                 .iter()
                 .copied()
                 .filter(|&e| self.masks[e].as_ref().is_some_and(|m| !m.rects.is_empty()))
-                .collect()
-        } else {
-            Vec::new()
-        };
+                .collect(),
+            _ => Vec::new(),
+        }
+    }
+
+    /// Records the copy of the shown eyes into the mirror's layers, then
+    /// the masks cleared to black (loading the copied pixels).
+    fn record_copy(&self, ctx: &Context, cmd: vk::CommandBuffer, eyes: &[Source]) {
+        let d = &ctx.device;
+        let shown = self.mode.eyes();
+        let attached = Use::COLOR_ATTACHMENT;
+        let masked = self.masked_eyes();
+        let mirror = self.image().image;
+        let mut before = Vec::new();
+        let mut after = Vec::new();
         for &e in shown {
-            let to = if masked.contains(&e) {
-                masking
-            } else {
-                mirrored
-            };
-            after_dst.push(layer_barrier(
-                self.image().image,
+            let s = eyes[e];
+            before.push(barrier::color_layer(
+                s.image,
+                s.layer,
+                SHOWN,
+                Use::TRANSFER_SRC,
+            ));
+            before.push(barrier::color_layer(
+                mirror,
+                e as u32,
+                SHOWN.discarded(),
+                Use::TRANSFER_DST,
+            ));
+            after.push(barrier::color_layer(
+                s.image,
+                s.layer,
+                Use::TRANSFER_SRC,
+                attached,
+            ));
+        }
+        for &e in shown {
+            let to = if masked.contains(&e) { MASKING } else { SHOWN };
+            after.push(barrier::color_layer(
+                mirror,
                 e as u32,
                 Use::TRANSFER_DST,
                 to,
             ));
         }
         let extent = self.image().extent;
-        Self::begin(&ctx, pool, cmd)?;
         // SAFETY: recording into this slot's command buffer, whose last
         // submission finished; the images are alive and in the layouts the
         // barriers name (the frame's commands, submitted earlier on this
@@ -494,78 +543,55 @@ impl Mirror {
                 &vk::DependencyInfo::default().image_memory_barriers(&before),
             );
             for &e in shown {
-                let s = eyes[e];
-                let w = s.extent.width.min(extent.width);
-                let h = s.extent.height.min(extent.height);
-                let region = vk::ImageCopy::default()
-                    .src_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: c,
-                        mip_level: 0,
-                        base_array_layer: s.layer,
-                        layer_count: 1,
-                    })
-                    .dst_subresource(vk::ImageSubresourceLayers {
-                        aspect_mask: c,
-                        mip_level: 0,
-                        base_array_layer: e as u32,
-                        layer_count: 1,
-                    })
-                    .extent(vk::Extent3D {
-                        width: w,
-                        height: h,
-                        depth: 1,
-                    });
-                d.cmd_copy_image(
-                    cmd,
-                    s.image,
-                    Use::TRANSFER_SRC.layout,
-                    self.image().image,
-                    Use::TRANSFER_DST.layout,
-                    &[region],
-                );
+                let region = copy_region(&eyes[e], e as u32, extent);
+                let (src, dst) = (Use::TRANSFER_SRC.layout, Use::TRANSFER_DST.layout);
+                d.cmd_copy_image(cmd, eyes[e].image, src, mirror, dst, &[region]);
             }
-            after_src.extend(after_dst);
             d.cmd_pipeline_barrier2(
                 cmd,
-                &vk::DependencyInfo::default().image_memory_barriers(&after_src),
+                &vk::DependencyInfo::default().image_memory_barriers(&after),
             );
-            for &e in &masked {
-                let rects = &self.masks[e].as_ref().expect("filtered above").rects;
-                crate::gpu::rendering::begin_color(
-                    d,
-                    cmd,
-                    self.layer_views[e],
-                    extent,
-                    crate::gpu::rendering::Load::Keep,
-                    0,
-                );
-                let black = [vk::ClearAttachment {
-                    aspect_mask: c,
-                    color_attachment: 0,
-                    clear_value: vk::ClearValue {
-                        color: vk::ClearColorValue {
-                            float32: [0.0, 0.0, 0.0, 1.0],
-                        },
-                    },
-                }];
+        }
+        self.record_masks(d, cmd, &masked);
+    }
+
+    /// Clears the `masked` eyes' mask rectangles to black.
+    fn record_masks(&self, d: &ash::Device, cmd: vk::CommandBuffer, masked: &[usize]) {
+        if masked.is_empty() {
+            return;
+        }
+        let extent = self.image().extent;
+        let black = [vk::ClearAttachment {
+            aspect_mask: vk::ImageAspectFlags::COLOR,
+            color_attachment: 0,
+            clear_value: vk::ClearValue {
+                color: vk::ClearColorValue {
+                    float32: [0.0, 0.0, 0.0, 1.0],
+                },
+            },
+        }];
+        let keep = crate::gpu::rendering::Load::Keep;
+        let done: Vec<_> = masked
+            .iter()
+            .map(|&e| barrier::color_layer(self.image().image, e as u32, MASKING, SHOWN))
+            .collect();
+        // SAFETY: the masked layers were moved to MASKING by the copy's
+        // barriers; each scope renders into one layer's view.
+        unsafe {
+            for &e in masked {
+                let rects = &self.masks[e]
+                    .as_ref()
+                    .expect("masked eyes have masks")
+                    .rects;
+                crate::gpu::rendering::begin_color(d, cmd, self.layer_views[e], extent, keep, 0);
                 d.cmd_clear_attachments(cmd, &black, rects);
                 d.cmd_end_rendering(cmd);
             }
-            let done: Vec<_> = masked
-                .iter()
-                .map(|&e| layer_barrier(self.image().image, e as u32, masking, mirrored))
-                .collect();
-            if !done.is_empty() {
-                d.cmd_pipeline_barrier2(
-                    cmd,
-                    &vk::DependencyInfo::default().image_memory_barriers(&done),
-                );
-            }
+            d.cmd_pipeline_barrier2(
+                cmd,
+                &vk::DependencyInfo::default().image_memory_barriers(&done),
+            );
         }
-        Self::submit(&ctx, cmd, fence)?;
-        self.copied = true;
-        self.stats.copied += 1;
-        Ok(())
     }
 
     /// Resets `pool` and begins `cmd` from it; the slot's last submission

@@ -175,11 +175,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     let mut index = 0u64;
     // A finished frame's record: written when its GPU times are known.
     // Heads and `--opt` strings of the frames in flight, by frame index.
-    let mut heads: std::collections::VecDeque<(u64, Pose, String)> = Default::default();
-    let record = |r: FrameResult,
-                  stats: &mut RunStats,
-                  heads: &mut std::collections::VecDeque<(u64, Pose, String)>|
-     -> Result<()> {
+    let mut heads = Heads::default();
+    let record = |r: FrameResult, stats: &mut RunStats, heads: &mut Heads| -> Result<()> {
         stats.cull = r.cull;
         stats.push_frame(frame_record(&r, heads, started, period_ns))
     };
@@ -196,16 +193,12 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             }
             if let Some(m) = mirror.as_mut() {
                 if let Some(new) = desk.handle(m, index) {
-                    let old = frames.driver.renderer().config.clone();
                     let finished = frames.drain(m);
                     while let Some(r) = frames.driver.take_completed() {
                         record(r, stats, &mut heads)?;
                     }
                     finished?;
-                    if let Err(e) = frames.rebuild(&ctx, &scene, &new, extent) {
-                        desk.live.revert(old.clone(), &e);
-                        frames.rebuild(&ctx, &scene, &old, extent)?;
-                    }
+                    frames.switch(&ctx, &scene, new, extent, &mut desk.live)?;
                     opt = desk.live.config.opt_string();
                     m.set_title(&format!("vergence run: {} [{opt}]", scene.name));
                 }
@@ -226,17 +219,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             }
             // The turn starts at this loop's first frame (which looks
             // exactly from the spawn), not at the run's start.
-            let t = turn_start
-                .get_or_insert_with(Instant::now)
-                .elapsed()
-                .as_secs_f64();
-            let yaw = 20.0 * (t * std::f64::consts::TAU / 10.0).sin();
-            let head = spawn.compose(&Pose::from_euler_deg(
-                DVec3::new(0.0, 1.6, 0.0),
-                yaw,
-                0.0,
-                0.0,
-            ));
+            let t = turn_start.get_or_insert_with(Instant::now).elapsed();
+            let head = turning_head(&spawn, t.as_secs_f64());
             let rig = profile.rig(head);
             heads.push_back((index, head, opt.clone()));
             if let Some(m) = mirror.as_mut() {
@@ -254,20 +238,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             ));
             let output = frames.eyes.as_ref().map(|e| e.output(0));
             frames.driver.submit(output.as_ref(), capture)?;
-            if let (Some(m), Some(eyes)) = (mirror.as_mut(), frames.eyes.as_ref()) {
-                let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
-                // The frame's rendered part (smaller than the images with aq).
-                let shown = frames.driver.renderer().extent();
-                let sources = [0, 1].map(|eye| crate::gpu::surface::Source {
-                    extent: shown,
-                    ..eyes.source(0, eye)
-                });
-                m.copy(
-                    &sources,
-                    rig.hidden_area.as_deref().map(Vec::as_slice),
-                    &fovs,
-                )?;
-                m.present()?;
+            if let Some(m) = mirror.as_mut() {
+                frames.show(m, &rig)?;
             }
             if capture {
                 let images = frames.driver.read_images()?;
@@ -308,6 +280,21 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     finished.and(shot)
 }
 
+/// Heads and `--opt` strings of the frames in flight, by frame index.
+type Heads = std::collections::VecDeque<(u64, Pose, String)>;
+
+/// The headless run's head: the spawn turning 20° left and right of it
+/// every 10 s, `t` seconds into the turn, at standing height.
+fn turning_head(spawn: &Pose, t: f64) -> Pose {
+    let yaw = 20.0 * (t * std::f64::consts::TAU / 10.0).sin();
+    spawn.compose(&Pose::from_euler_deg(
+        DVec3::new(0.0, 1.6, 0.0),
+        yaw,
+        0.0,
+        0.0,
+    ))
+}
+
 /// The session's description in `stats`: mode, scene, configuration and
 /// the paths it runs, device, profile, image size and views.
 fn describe_session(
@@ -343,7 +330,7 @@ fn describe_session(
 /// flight by index, older ones dropped); display times from `started`.
 fn frame_record(
     r: &FrameResult,
-    heads: &mut std::collections::VecDeque<(u64, Pose, String)>,
+    heads: &mut Heads,
     started: Instant,
     period_ns: i64,
 ) -> FrameRecord {
@@ -448,6 +435,45 @@ impl HeadlessFrames {
             self.eyes = Some(EyeImages::new(ctx, config.stereo, held, 1)?);
         }
         Ok(())
+    }
+
+    /// A live switch to `new` (the frames in flight drained): a renderer
+    /// that cannot be made is reverted to the one before.
+    fn switch(
+        &mut self,
+        ctx: &Arc<Context>,
+        scene: &Scene,
+        new: RenderConfig,
+        extent: ash::vk::Extent2D,
+        live: &mut super::toggles::LiveConfig,
+    ) -> Result<()> {
+        let old = self.driver.renderer().config.clone();
+        if let Err(e) = self.rebuild(ctx, scene, &new, extent) {
+            live.revert(old.clone(), &e);
+            self.rebuild(ctx, scene, &old, extent)?;
+        }
+        Ok(())
+    }
+
+    /// Copies the frame just submitted into the mirror (its rendered part,
+    /// smaller than the images with aq, with the rig's hidden area) and
+    /// presents it.
+    fn show(&self, m: &mut Mirror, rig: &crate::view::StereoRig) -> Result<()> {
+        let Some(eyes) = self.eyes.as_ref() else {
+            return Ok(());
+        };
+        let fovs: Vec<_> = rig.views.iter().map(|v| v.fov).collect();
+        let shown = self.driver.renderer().extent();
+        let sources = [0, 1].map(|eye| crate::gpu::surface::Source {
+            extent: shown,
+            ..eyes.source(0, eye)
+        });
+        m.copy(
+            &sources,
+            rig.hidden_area.as_deref().map(Vec::as_slice),
+            &fovs,
+        )?;
+        m.present()
     }
 
     fn destroy(self, ctx: &Context) {

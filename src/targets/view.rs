@@ -282,67 +282,20 @@ fn view_loop(
             let input = window.pump();
             let pressed = std::mem::take(&mut input.pressed);
             let close = input.close;
-            if pressed.contains(&super::hud::KEY) {
-                hud.visible = !hud.visible;
-            }
-            if pressed.contains(&super::hud::HEATMAP_KEY) {
-                hud.show_heatmap = !hud.show_heatmap;
-            }
-            if pressed.contains(&super::keep_pose::KEY) {
-                kept += 1;
-                let file = Path::new(super::keep_pose::DEFAULT_FILE);
-                match super::keep_pose::keep(&camera.pose(), &format!("view {kept}"), file) {
-                    Ok(line) => println!("{line}"),
-                    // The session goes on without it.
-                    Err(e) => eprintln!("vergence: pose not kept: {e}"),
-                }
-            }
-            if pressed.contains(&super::hud::MEASURE_KEY) {
-                // The frame the window shows, rendered again with the
-                // current configuration and with the reference.
-                let rig = profile.rig(camera.pose());
-                let time = last.duration_since(started).as_secs_f64();
-                match super::error_probe::measure(ctx, scene, &live.config, (&rig, time), extent) {
-                    Ok(report) => {
-                        println!(
-                            "image error: FLIP mean {:.4} against two-pass 4x for {}",
-                            report.flip_mean, report.opt
-                        );
-                        hud.set_error(report);
-                        hud.visible = true;
-                    }
-                    // The session goes on without the measurement.
-                    Err(e) => eprintln!("vergence: image error not measured: {e}"),
-                }
-            }
+            let time = last.duration_since(started).as_secs_f64();
+            let view = ViewState {
+                ctx,
+                scene,
+                profile,
+                extent,
+            };
+            view.keys(&pressed, &mut hud, &mut kept, (&camera, time), &live.config);
             if let Some(new) = live.handle(&pressed, index) {
                 // The frames in flight finish and the presenter's blits
                 // are done (they read the eye images) before the renderer,
                 // and the eye images when the stereo mode changed, are
                 // made again.
-                let old = driver.renderer().config.clone();
-                driver.finish()?;
-                while driver.take_completed().is_some() {}
-                // SAFETY: waiting for the device on this thread.
-                unsafe { ctx.device.device_wait_idle() }.vk("waiting before a live switch")?;
-                let remake = |c: &RenderConfig, images: &mut Option<EyeImages>| {
-                    if images
-                        .as_ref()
-                        .is_some_and(|i| i.multiview != (c.stereo == StereoMode::Multiview))
-                    {
-                        if let Some(i) = images.take() {
-                            i.destroy(ctx);
-                        }
-                    }
-                    make_driver(ctx, scene, c, extent, images)
-                };
-                driver = match remake(&new, images) {
-                    Ok(d) => d,
-                    Err(e) => {
-                        live.revert(old.clone(), &e);
-                        remake(&old, images)?
-                    }
-                };
+                view.switch(&mut driver, new, live, images)?;
                 last_slot = None;
                 window.set_title(&format!(
                     "vergence view: {} ({}) [{}]",
@@ -369,14 +322,10 @@ fn view_loop(
                 // images once more, read back, so the screenshot is what
                 // the window showed last.
                 if let (Some(path), Some(slot)) = (&args.screenshot, last_slot) {
-                    let sources: Vec<Source> = args
-                        .eyes
-                        .indices()
-                        .iter()
-                        .map(|&e| images.source(slot, e))
-                        .collect();
+                    let sources = eye_sources(args, images, slot);
+                    let size = window.size();
                     if let Presented::Shown(Some(img)) =
-                        presenter.present_with(ctx, &sources, window.size(), true, ui.as_ref())?
+                        presenter.present_with(ctx, &sources, size, true, ui.as_ref())?
                     {
                         save_png(&img, path)?;
                     }
@@ -398,12 +347,7 @@ fn view_loop(
             while let Some(r) = driver.take_completed() {
                 hud.push(&r);
             }
-            let sources: Vec<Source> = args
-                .eyes
-                .indices()
-                .iter()
-                .map(|&e| images.source(slot, e))
-                .collect();
+            let sources = eye_sources(args, images, slot);
             let final_frame = args.frames.is_some_and(|n| presented + 1 >= n);
             let want_shot = final_frame && args.screenshot.is_some();
             let shown =
@@ -431,6 +375,105 @@ fn view_loop(
     let finished = driver.finish();
     drop(driver);
     run.and(finished).map(|()| presented)
+}
+
+/// The window's source images: the shown eyes of frame slot `slot`.
+fn eye_sources(args: &ViewArgs, images: &EyeImages, slot: usize) -> Vec<Source> {
+    args.eyes
+        .indices()
+        .iter()
+        .map(|&e| images.source(slot, e))
+        .collect()
+}
+
+/// What the view's keys and live switches work with.
+struct ViewState<'a> {
+    ctx: &'a Arc<Context>,
+    scene: &'a crate::scene::Scene,
+    profile: &'a crate::view::profile::HmdProfile,
+    extent: vk::Extent2D,
+}
+
+impl ViewState<'_> {
+    /// The HUD's keys, F8 (keep the pose; `kept` counts them) and the
+    /// error measure of the shown frame (`camera` at scene time).
+    fn keys(
+        &self,
+        pressed: &[winit::keyboard::KeyCode],
+        hud: &mut Hud,
+        kept: &mut u32,
+        (camera, time): (&FlyCamera, f64),
+        config: &RenderConfig,
+    ) {
+        if pressed.contains(&super::hud::KEY) {
+            hud.visible = !hud.visible;
+        }
+        if pressed.contains(&super::hud::HEATMAP_KEY) {
+            hud.show_heatmap = !hud.show_heatmap;
+        }
+        if pressed.contains(&super::keep_pose::KEY) {
+            *kept += 1;
+            let file = Path::new(super::keep_pose::DEFAULT_FILE);
+            match super::keep_pose::keep(&camera.pose(), &format!("view {kept}"), file) {
+                Ok(line) => println!("{line}"),
+                // The session goes on without it.
+                Err(e) => eprintln!("vergence: pose not kept: {e}"),
+            }
+        }
+        if !pressed.contains(&super::hud::MEASURE_KEY) {
+            return;
+        }
+        // The frame the window shows, rendered again with the current
+        // configuration and with the reference.
+        let rig = self.profile.rig(camera.pose());
+        match super::error_probe::measure(self.ctx, self.scene, config, (&rig, time), self.extent) {
+            Ok(report) => {
+                println!(
+                    "image error: FLIP mean {:.4} against two-pass 4x for {}",
+                    report.flip_mean, report.opt
+                );
+                hud.set_error(report);
+                hud.visible = true;
+            }
+            // The session goes on without the measurement.
+            Err(e) => eprintln!("vergence: image error not measured: {e}"),
+        }
+    }
+
+    /// A live switch to `new`: the frames in flight finish and the
+    /// presenter's blits are done (they read the eye images) before the
+    /// renderer, and the eye images when the stereo mode changed, are made
+    /// again. A configuration that cannot be made is reverted.
+    fn switch(
+        &self,
+        driver: &mut FrameDriver,
+        new: RenderConfig,
+        live: &mut LiveConfig,
+        images: &mut Option<EyeImages>,
+    ) -> Result<()> {
+        let old = driver.renderer().config.clone();
+        driver.finish()?;
+        while driver.take_completed().is_some() {}
+        // SAFETY: waiting for the device on this thread.
+        unsafe { self.ctx.device.device_wait_idle() }.vk("waiting before a live switch")?;
+        let remake = |c: &RenderConfig, images: &mut Option<EyeImages>| {
+            let multiview = c.stereo == StereoMode::Multiview;
+            if images.as_ref().is_some_and(|i| i.multiview != multiview) {
+                if let Some(i) = images.take() {
+                    i.destroy(self.ctx);
+                }
+            }
+            make_driver(self.ctx, self.scene, c, self.extent, images)
+        };
+        *driver = match remake(&new, images) {
+            Ok(d) => d,
+            Err(e) => {
+                live.revert(old.clone(), &e);
+                remake(&old, images)?
+            }
+        };
+        Ok(())
+    }
 }
 
 #[cfg(test)]

@@ -512,173 +512,10 @@ impl LoopState<'_> {
 }
 
 fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Result<()> {
-    let args = st.args;
-    let instance = live.instance.clone().expect("set");
-    let session = live.session.clone().expect("set");
-    let view_type = st.view_type;
     let mut machine = SessionMachine::default();
-    let mut buf = xr::EventDataBuffer::new();
-    // --seconds counts from the run's start, across reconnects.
-    let started = stats.run_started();
     let session_started = Instant::now();
     stats.begin_session();
-    let mut index = 0u64;
-    let result: Result<String> = 'main: loop {
-        if let Some(m) = live.mirror.as_mut() {
-            let switched = st.desk.handle(m, index);
-            if let Some(d) = live.driver.as_ref() {
-                let section = st
-                    .interaction
-                    .section
-                    .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]);
-                st.desk.measure_error(
-                    m,
-                    d.renderer().context(),
-                    st.scene,
-                    st.last_shown.as_ref().map(|(r, t)| (r, *t)),
-                    st.chains.nominal,
-                    section,
-                );
-            }
-            if let Some(new) = switched {
-                if let Err(e) = switch_config(live, stats, st, &session, new) {
-                    break 'main Err(e);
-                }
-            }
-        }
-        if let Some(nominal) = st.pending_resize.take() {
-            if let Err(e) = resize_eyes(live, stats, st, &session, nominal) {
-                break 'main Err(e);
-            }
-        }
-        if let Some(t) = st.pending_toggle.take() {
-            if let Some(new) = st.desk.live.switch(t, index) {
-                if let Err(e) = switch_config(live, stats, st, &session, new) {
-                    break 'main Err(e);
-                }
-            }
-        }
-        let (window_closed, next_scene) = (st.desk.closed, st.desk.next_scene);
-        if crate::quit::requested()
-            || window_closed
-            || next_scene
-            || args.limit_reached(stats.frames_submitted, started)
-        {
-            match machine.on_quit() {
-                QuitAction::RequestExit => {
-                    let _w = live.watchdog.watch("xrRequestExitSession");
-                    if let Err(e) = session.request_exit().call("xrRequestExitSession") {
-                        break 'main Err(e);
-                    }
-                }
-                QuitAction::Leave => break 'main Ok("quit before the session ran".into()),
-                QuitAction::Wait => {}
-            }
-        }
-        loop {
-            let event = {
-                let _w = live.watchdog.watch("xrPollEvent");
-                instance.poll_event(&mut buf).call("xrPollEvent")
-            };
-            let event = match event {
-                Ok(Some(e)) => e,
-                Ok(None) => break,
-                Err(e) => break 'main Err(e),
-            };
-            match event {
-                xr::Event::SessionStateChanged(e) => {
-                    let st = state_of(e.state());
-                    stats.states.push(format!("{st:?}").to_uppercase());
-                    tracing::info!("session state {st:?}");
-                    let action = machine.on_state(st);
-                    let done = match action {
-                        Action::Begin => {
-                            let _w = live.watchdog.watch("xrBeginSession");
-                            session.begin(view_type).call("xrBeginSession").map(|_| ())
-                        }
-                        Action::End => {
-                            let _w = live.watchdog.watch("xrEndSession");
-                            session.end().call("xrEndSession").map(|_| ())
-                        }
-                        Action::Exit => {
-                            machine.performed(action);
-                            break 'main Ok(if machine.exit_requested && window_closed {
-                                "session exited after the mirror window was closed".into()
-                            } else if machine.exit_requested && next_scene {
-                                "session exited for the next scene".into()
-                            } else if machine.exit_requested {
-                                "session exited after vergence asked to exit".into()
-                            } else {
-                                "the runtime ended the session".into()
-                            });
-                        }
-                        Action::Lost => {
-                            machine.performed(action);
-                            break 'main Err(xr_err(
-                                "the session is being lost (XR_SESSION_STATE_LOSS_PENDING)",
-                                sys::Result::ERROR_SESSION_LOST,
-                            ));
-                        }
-                        Action::None => Ok(()),
-                    };
-                    if let Err(e) = done {
-                        break 'main Err(e);
-                    }
-                    machine.performed(action);
-                }
-                xr::Event::InstanceLossPending(_) => {
-                    break 'main Err(xr_err(
-                        "the OpenXR instance is being lost (XrEventDataInstanceLossPending)",
-                        sys::Result::ERROR_INSTANCE_LOST,
-                    ));
-                }
-                xr::Event::EventsLost(e) => {
-                    stats.events_lost += e.lost_event_count() as u64;
-                    tracing::warn!(
-                        "the runtime's event queue overflowed: {} events lost",
-                        e.lost_event_count()
-                    );
-                }
-                xr::Event::VisibilityMaskChangedKHR(_) => match fetch_masks(&session, view_type, 2)
-                {
-                    Ok(m) => {
-                        st.masks = Some(Arc::new(m));
-                        stats.visibility_mask_refreshes += 1;
-                    }
-                    Err(e) => break 'main Err(e),
-                },
-                xr::Event::InteractionProfileChanged(_) => {
-                    if let Some(c) = &live.controls {
-                        let _w = live.watchdog.watch("xrGetCurrentInteractionProfile");
-                        match c.profiles(&instance, &session) {
-                            Ok([left, right]) => {
-                                tracing::info!(
-                                    "interaction profiles: left {}, right {}",
-                                    left.as_deref().unwrap_or("none"),
-                                    right.as_deref().unwrap_or("none")
-                                );
-                                stats.interaction_profiles = HandProfiles { left, right };
-                            }
-                            Err(e) => break 'main Err(e),
-                        }
-                    }
-                }
-                xr::Event::ReferenceSpaceChangePending(_) => {
-                    tracing::info!("the reference space is about to change (recentre)");
-                }
-                _ => {}
-            }
-        }
-        stats.focused = machine.was_focused();
-        if !machine.frames_due() {
-            std::thread::sleep(Duration::from_millis(5));
-            continue;
-        }
-        match one_frame(live, stats, st, index) {
-            Ok(()) => index += 1,
-            Err(e) => break 'main Err(e),
-        }
-    };
+    let result = run_frames(stats, live, st, &mut machine);
     stats.duration_s += session_started.elapsed().as_secs_f64();
     stats.focused = machine.was_focused();
     match result {
@@ -691,6 +528,213 @@ fn frame_loop(stats: &mut RunStats, live: &mut Live, st: &mut LoopState) -> Resu
             Err(e)
         }
     }
+}
+
+/// The session's loop: the desk's work, a requested quit, the runtime's
+/// events, then a frame while frames are due. Returns why the session
+/// ended.
+fn run_frames(
+    stats: &mut RunStats,
+    live: &mut Live,
+    st: &mut LoopState,
+    machine: &mut SessionMachine,
+) -> Result<String> {
+    let session = live.session.clone().expect("set");
+    // --seconds counts from the run's start, across reconnects.
+    let started = stats.run_started();
+    let mut index = 0u64;
+    loop {
+        desk_work(live, stats, st, &session, index)?;
+        let quit = crate::quit::requested()
+            || st.desk.closed
+            || st.desk.next_scene
+            || st.args.limit_reached(stats.frames_submitted, started);
+        if quit {
+            match machine.on_quit() {
+                QuitAction::RequestExit => {
+                    let _w = live.watchdog.watch("xrRequestExitSession");
+                    session.request_exit().call("xrRequestExitSession")?;
+                }
+                QuitAction::Leave => return Ok("quit before the session ran".into()),
+                QuitAction::Wait => {}
+            }
+        }
+        if let Some(reason) = poll_events(stats, live, st, machine)? {
+            return Ok(reason);
+        }
+        stats.focused = machine.was_focused();
+        if !machine.frames_due() {
+            std::thread::sleep(Duration::from_millis(5));
+            continue;
+        }
+        one_frame(live, stats, st, index)?;
+        index += 1;
+    }
+}
+
+/// The desk's work before a frame: the mirror's keys (a switched
+/// configuration) and its error measure, a pending eye resize and a
+/// panel's pending toggle.
+fn desk_work(
+    live: &mut Live,
+    stats: &mut RunStats,
+    st: &mut LoopState,
+    session: &xr::Session<xr::Vulkan>,
+    index: u64,
+) -> Result<()> {
+    if let Some(m) = live.mirror.as_mut() {
+        let switched = st.desk.handle(m, index);
+        if let Some(d) = live.driver.as_ref() {
+            let section = st
+                .interaction
+                .section
+                .map(|p| [p.normal.x, p.normal.y, p.normal.z, p.d]);
+            st.desk.measure_error(
+                m,
+                d.renderer().context(),
+                st.scene,
+                st.last_shown.as_ref().map(|(r, t)| (r, *t)),
+                st.chains.nominal,
+                section,
+            );
+        }
+        if let Some(new) = switched {
+            switch_config(live, stats, st, session, new)?;
+        }
+    }
+    if let Some(nominal) = st.pending_resize.take() {
+        resize_eyes(live, stats, st, session, nominal)?;
+    }
+    if let Some(t) = st.pending_toggle.take() {
+        if let Some(new) = st.desk.live.switch(t, index) {
+            switch_config(live, stats, st, session, new)?;
+        }
+    }
+    Ok(())
+}
+
+/// Drains the runtime's event queue. Returns why the session ended when
+/// it did (it exited), None while it goes on.
+fn poll_events(
+    stats: &mut RunStats,
+    live: &mut Live,
+    st: &mut LoopState,
+    machine: &mut SessionMachine,
+) -> Result<Option<String>> {
+    let instance = live.instance.clone().expect("set");
+    let mut buf = xr::EventDataBuffer::new();
+    loop {
+        let event = {
+            let _w = live.watchdog.watch("xrPollEvent");
+            instance.poll_event(&mut buf).call("xrPollEvent")?
+        };
+        let Some(event) = event else {
+            return Ok(None);
+        };
+        if let xr::Event::SessionStateChanged(e) = event {
+            if let Some(reason) = on_state(stats, live, st, machine, e.state())? {
+                return Ok(Some(reason));
+            }
+            continue;
+        }
+        on_event(stats, live, st, &instance, event)?;
+    }
+}
+
+/// A session state change: begins or ends the session as the state
+/// machine says; the session's exit is its end (with the reason), a loss
+/// pending an error.
+fn on_state(
+    stats: &mut RunStats,
+    live: &Live,
+    st: &LoopState,
+    machine: &mut SessionMachine,
+    state: xr::SessionState,
+) -> Result<Option<String>> {
+    let state = state_of(state);
+    stats.states.push(format!("{state:?}").to_uppercase());
+    tracing::info!("session state {state:?}");
+    let session = live.session.as_ref().expect("set");
+    let action = machine.on_state(state);
+    match action {
+        Action::Begin => {
+            let _w = live.watchdog.watch("xrBeginSession");
+            session.begin(st.view_type).call("xrBeginSession")?;
+        }
+        Action::End => {
+            let _w = live.watchdog.watch("xrEndSession");
+            session.end().call("xrEndSession")?;
+        }
+        Action::Exit => {
+            machine.performed(action);
+            let reason = match (machine.exit_requested, st.desk.closed, st.desk.next_scene) {
+                (true, true, _) => "session exited after the mirror window was closed",
+                (true, _, true) => "session exited for the next scene",
+                (true, ..) => "session exited after vergence asked to exit",
+                (false, ..) => "the runtime ended the session",
+            };
+            return Ok(Some(reason.into()));
+        }
+        Action::Lost => {
+            machine.performed(action);
+            return Err(xr_err(
+                "the session is being lost (XR_SESSION_STATE_LOSS_PENDING)",
+                sys::Result::ERROR_SESSION_LOST,
+            ));
+        }
+        Action::None => {}
+    }
+    machine.performed(action);
+    Ok(None)
+}
+
+/// Any other event: an instance loss pending (an error), lost events
+/// counted, a new visibility mask fetched, the interaction profiles
+/// recorded, a pending reference-space change logged.
+fn on_event(
+    stats: &mut RunStats,
+    live: &Live,
+    st: &mut LoopState,
+    instance: &xr::Instance,
+    event: xr::Event,
+) -> Result<()> {
+    let session = live.session.as_ref().expect("set");
+    match event {
+        xr::Event::InstanceLossPending(_) => {
+            return Err(xr_err(
+                "the OpenXR instance is being lost (XrEventDataInstanceLossPending)",
+                sys::Result::ERROR_INSTANCE_LOST,
+            ));
+        }
+        xr::Event::EventsLost(e) => {
+            stats.events_lost += e.lost_event_count() as u64;
+            tracing::warn!(
+                "the runtime's event queue overflowed: {} events lost",
+                e.lost_event_count()
+            );
+        }
+        xr::Event::VisibilityMaskChangedKHR(_) => {
+            st.masks = Some(Arc::new(fetch_masks(session, st.view_type, 2)?));
+            stats.visibility_mask_refreshes += 1;
+        }
+        xr::Event::InteractionProfileChanged(_) => {
+            if let Some(c) = &live.controls {
+                let _w = live.watchdog.watch("xrGetCurrentInteractionProfile");
+                let [left, right] = c.profiles(instance, session)?;
+                tracing::info!(
+                    "interaction profiles: left {}, right {}",
+                    left.as_deref().unwrap_or("none"),
+                    right.as_deref().unwrap_or("none")
+                );
+                stats.interaction_profiles = HandProfiles { left, right };
+            }
+        }
+        xr::Event::ReferenceSpaceChangePending(_) => {
+            tracing::info!("the reference space is about to change (recentre)");
+        }
+        _ => {}
+    }
+    Ok(())
 }
 
 /// Takes the renderer out of the session before it is made again: its

@@ -132,6 +132,85 @@ pub struct Drawn {
     pub cull: GpuCullStats,
 }
 
+/// The cull's descriptor bindings: volumes, instances, primitives,
+/// commands, counts, visible list, frame uniforms, pyramid, pyramid
+/// levels, visibility, LOD levels, LOD errors, early list.
+const BINDINGS: u32 = 13;
+
+/// The bindings that are uniform buffers (the cull volumes and the
+/// frame's uniforms); the rest are storage buffers.
+const UNIFORM_BINDINGS: [u32; 2] = [0, 6];
+
+/// Frame slot `i`'s buffers: the cull volumes (host-written), the draw
+/// commands and counts and the visible list in device memory (the cull's
+/// atomics and the indirect reads would otherwise cross the bus), and
+/// the host-visible copy the frame reads them back through. What was made
+/// is freed when a later buffer fails.
+fn make_slot(ctx: &Context, i: usize, n_cmds: usize, total: u64) -> Result<Slot> {
+    let buffer = |name: &str, size: u64, usage, location| {
+        Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: &format!("{name} {i}"),
+                size,
+                usage,
+                location,
+                category: "per-frame",
+            },
+        )
+    };
+    let indirect = vk::BufferUsageFlags::STORAGE_BUFFER
+        | vk::BufferUsageFlags::INDIRECT_BUFFER
+        | vk::BufferUsageFlags::TRANSFER_DST
+        | vk::BufferUsageFlags::TRANSFER_SRC;
+    let (commands_size, counts_size) = sizes(n_cmds);
+    let gpu = MemoryLocation::GpuOnly;
+    let uniform = vk::BufferUsageFlags::UNIFORM_BUFFER;
+    let volumes = buffer(
+        "cull volumes",
+        VOLUME_DATA_SIZE as u64,
+        uniform,
+        MemoryLocation::CpuToGpu,
+    )?;
+    let commands = buffer("draw commands", commands_size, indirect, gpu);
+    let counts = buffer("draw counts", counts_size, indirect, gpu);
+    let to_host = vk::BufferUsageFlags::TRANSFER_DST;
+    let readback = buffer(
+        "gpu-cull readback",
+        commands_size + counts_size,
+        to_host,
+        MemoryLocation::GpuToCpu,
+    );
+    let visible_usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+    let visible = buffer(
+        "gpu visible instances",
+        4 * total.max(1),
+        visible_usage,
+        gpu,
+    );
+    match (commands, counts, visible, readback) {
+        (Ok(commands), Ok(counts), Ok(visible), Ok(readback)) => Ok(Slot {
+            volumes,
+            commands,
+            counts,
+            visible,
+            readback,
+            set: vk::DescriptorSet::null(),
+        }),
+        (a, b, c, r) => {
+            volumes.destroy(ctx);
+            let mut err = None;
+            for r in [a, b, c, r] {
+                match r {
+                    Ok(buf) => buf.destroy(ctx),
+                    Err(e) => err = err.or(Some(e)),
+                }
+            }
+            Err(err.expect("one of them failed"))
+        }
+    }
+}
+
 /// Bytes of a slot's draw commands (early and late, or near and far) and
 /// of its counts (a draw count per command, then [`COUNTERS`]) for
 /// `n_cmds` commands per set.
@@ -557,90 +636,27 @@ impl GpuCull {
     ) -> Result<()> {
         let slots = frame_ubos.len();
         for i in 0..slots {
-            let buffer = |name: &str, size: u64, usage, location| {
-                Buffer::new(
-                    ctx,
-                    &BufferDesc {
-                        name: &format!("{name} {i}"),
-                        size,
-                        usage,
-                        location,
-                        category: "per-frame",
-                    },
-                )
-            };
-            let volumes = buffer(
-                "cull volumes",
-                VOLUME_DATA_SIZE as u64,
-                vk::BufferUsageFlags::UNIFORM_BUFFER,
-                MemoryLocation::CpuToGpu,
-            )?;
-            // Commands and counters stay in device memory (the cull's
-            // atomics and the indirect reads would otherwise cross the
-            // bus); the frame copies them into a host-visible buffer.
-            let indirect = vk::BufferUsageFlags::STORAGE_BUFFER
-                | vk::BufferUsageFlags::INDIRECT_BUFFER
-                | vk::BufferUsageFlags::TRANSFER_DST
-                | vk::BufferUsageFlags::TRANSFER_SRC;
-            let (commands_size, counts_size) = sizes(n_cmds);
-            let commands = buffer(
-                "draw commands",
-                commands_size,
-                indirect,
-                MemoryLocation::GpuOnly,
-            );
-            let counts = buffer(
-                "draw counts",
-                counts_size,
-                indirect,
-                MemoryLocation::GpuOnly,
-            );
-            let readback = buffer(
-                "gpu-cull readback",
-                commands_size + counts_size,
-                vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuToCpu,
-            );
-            let visible = buffer(
-                "gpu visible instances",
-                4 * total.max(1),
-                vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST,
-                MemoryLocation::GpuOnly,
-            );
-            // Keep whatever was made so `destroy` frees it on failure.
-            match (commands, counts, visible, readback) {
-                (Ok(commands), Ok(counts), Ok(visible), Ok(readback)) => self.slots.push(Slot {
-                    volumes,
-                    commands,
-                    counts,
-                    visible,
-                    readback,
-                    set: vk::DescriptorSet::null(),
-                }),
-                (a, b, c, r) => {
-                    volumes.destroy(ctx);
-                    let mut err = None;
-                    for r in [a, b, c, r] {
-                        match r {
-                            Ok(buf) => buf.destroy(ctx),
-                            Err(e) => err = err.or(Some(e)),
-                        }
-                    }
-                    return Err(err.expect("one of them failed"));
-                }
-            }
+            let slot = make_slot(ctx, i, n_cmds, total)?;
+            self.slots.push(slot);
         }
-        let d = &ctx.device;
         let (uniform, storage) = (
             vk::DescriptorType::UNIFORM_BUFFER,
             vk::DescriptorType::STORAGE_BUFFER,
         );
         let compute = vk::ShaderStageFlags::COMPUTE;
-        let types = [
-            uniform, storage, storage, storage, storage, storage, uniform, storage, storage,
-            storage, storage, storage, storage,
-        ];
-        let bindings: Vec<_> = types.iter().map(|&ty| (ty, 1, compute)).collect();
+        let bindings: Vec<_> = (0..BINDINGS)
+            .map(|b| {
+                (
+                    if UNIFORM_BINDINGS.contains(&b) {
+                        uniform
+                    } else {
+                        storage
+                    },
+                    1,
+                    compute,
+                )
+            })
+            .collect();
         let made = DescriptorSets::new(ctx, &bindings, compute, PUSH_BYTES, slots, "gpu-cull")?;
         self.set_layout = made.set_layout;
         self.layout = made.layout;
@@ -649,52 +665,7 @@ impl GpuCull {
             slot.set = set;
         }
         for (i, slot) in self.slots.iter().enumerate() {
-            let info = |b: &Buffer| {
-                [vk::DescriptorBufferInfo::default()
-                    .buffer(b.buffer)
-                    .range(vk::WHOLE_SIZE)]
-            };
-            let infos = [
-                info(&slot.volumes),
-                info(&self.instances),
-                info(&self.prims),
-                info(&slot.commands),
-                info(&slot.counts),
-                info(&slot.visible),
-                info(frame_ubos[i]),
-                info(
-                    self.pyramid
-                        .as_ref()
-                        .map_or(&self.placeholder, |p| p.buffer(i)),
-                ),
-                info(
-                    self.pyramid
-                        .as_ref()
-                        .map_or(&self.placeholder, |p| p.level_buffer()),
-                ),
-                info(&self.visibility),
-                info(&self.lod_levels),
-                info(&self.lod_errors),
-                info(&self.early),
-            ];
-            let writes: Vec<vk::WriteDescriptorSet> = infos
-                .iter()
-                .enumerate()
-                .map(|(i, b)| {
-                    vk::WriteDescriptorSet::default()
-                        .dst_set(slot.set)
-                        .dst_binding(i as u32)
-                        .descriptor_type(if i == 0 || i == 6 {
-                            vk::DescriptorType::UNIFORM_BUFFER
-                        } else {
-                            storage
-                        })
-                        .buffer_info(b)
-                })
-                .collect();
-            // SAFETY: the set is not in use (created above) and every buffer
-            // is live and owned by this pass.
-            unsafe { d.update_descriptor_sets(&writes, &[]) };
+            self.write_set(ctx, i, slot, frame_ubos[i]);
         }
         let module = if subgroup_ballots(ctx) {
             &shaders::GPU_CULL_COMP
@@ -703,6 +674,50 @@ impl GpuCull {
         };
         self.pipeline = compute_pipeline(ctx, self.layout, &module.words(), "gpu-cull")?;
         Ok(())
+    }
+
+    /// Points slot `i`'s descriptor set at its buffers, the pass's shared
+    /// ones and the frame's uniforms (`ubo`).
+    fn write_set(&self, ctx: &Context, i: usize, slot: &Slot, ubo: &Buffer) {
+        let info = |b: &Buffer| {
+            [vk::DescriptorBufferInfo::default()
+                .buffer(b.buffer)
+                .range(vk::WHOLE_SIZE)]
+        };
+        let pyramid = self.pyramid.as_ref();
+        let infos = [
+            info(&slot.volumes),
+            info(&self.instances),
+            info(&self.prims),
+            info(&slot.commands),
+            info(&slot.counts),
+            info(&slot.visible),
+            info(ubo),
+            info(pyramid.map_or(&self.placeholder, |p| p.buffer(i))),
+            info(pyramid.map_or(&self.placeholder, |p| p.level_buffer())),
+            info(&self.visibility),
+            info(&self.lod_levels),
+            info(&self.lod_errors),
+            info(&self.early),
+        ];
+        let writes: Vec<vk::WriteDescriptorSet> = infos
+            .iter()
+            .enumerate()
+            .map(|(b, buffer)| {
+                let ty = match UNIFORM_BINDINGS.contains(&(b as u32)) {
+                    true => vk::DescriptorType::UNIFORM_BUFFER,
+                    false => vk::DescriptorType::STORAGE_BUFFER,
+                };
+                vk::WriteDescriptorSet::default()
+                    .dst_set(slot.set)
+                    .dst_binding(b as u32)
+                    .descriptor_type(ty)
+                    .buffer_info(buffer)
+            })
+            .collect();
+        // SAFETY: the set is not in use (just created) and every buffer is
+        // live and owned by this pass or the frame.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
     }
 
     /// The visible buffer of `slot` (the scene vertex shader's binding 2 in
