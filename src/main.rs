@@ -728,6 +728,60 @@ fn view_command(a: ViewCli) -> anyhow::Result<()> {
     Ok(())
 }
 
+/// `scan`: a simulated scanner over the scene from `stations` stations of
+/// `rays` rays each, written as a point file. The output's kind, the
+/// rays' total and the output path are checked before scanning; a scan
+/// that hits nothing writes nothing.
+fn scan(
+    scene: &str,
+    (stations, rays): (u32, u32),
+    noise: f64,
+    seed: u64,
+    out: &std::path::Path,
+) -> anyhow::Result<()> {
+    if !vergence::scene::point_files::writes(out) {
+        anyhow::bail!(
+            "--out {}: a point file ends in .las, .laz or .e57",
+            out.display()
+        );
+    }
+    let total = u64::from(stations) * u64::from(rays);
+    if total > MAX_SCAN_RAYS {
+        anyhow::bail!(
+            "--stations {stations} × --rays {rays} = {total} rays, over the {MAX_SCAN_RAYS}-ray limit of one scan"
+        );
+    }
+    let (s, _) = headless::load_scene(scene)?;
+    // Refused before scanning: a folder, a device, or the scene itself (a
+    // point file read as this scene's input).
+    vergence::fsio::prepare_output(out)?;
+    let settings = vergence::interact::scan::ScanSettings {
+        stations,
+        rays_per_station: rays,
+        range_noise_m: noise,
+        seed,
+        ..Default::default()
+    };
+    let started = std::time::Instant::now();
+    let cloud = vergence::interact::scan::scan(&s, &settings);
+    let scanned = started.elapsed().as_secs_f64();
+    if cloud.is_empty() {
+        anyhow::bail!(
+            "scan of {}: no ray hit the scene; nothing written to {}",
+            s.name,
+            out.display()
+        );
+    }
+    vergence::scene::point_files::write_file(out, &cloud)?;
+    println!(
+        "scanned {} from {stations} stations × {rays} rays: {} points in {scanned:.2} s; wrote {}",
+        s.name,
+        cloud.len(),
+        out.display()
+    );
+    Ok(())
+}
+
 fn run(cli: Cli) -> anyhow::Result<()> {
     match cli.command {
         Command::Render(a) => render_command(a)?,
@@ -788,48 +842,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             noise,
             seed,
             out,
-        } => {
-            if !vergence::scene::point_files::writes(&out) {
-                anyhow::bail!(
-                    "--out {}: a point file ends in .las, .laz or .e57",
-                    out.display()
-                );
-            }
-            let total = u64::from(stations) * u64::from(rays);
-            if total > MAX_SCAN_RAYS {
-                anyhow::bail!(
-                    "--stations {stations} × --rays {rays} = {total} rays, over the {MAX_SCAN_RAYS}-ray limit of one scan"
-                );
-            }
-            let (s, _) = headless::load_scene(&scene)?;
-            // Refused before scanning: a folder, a device, or the scene
-            // itself (a point file read as this scene's input).
-            vergence::fsio::prepare_output(&out)?;
-            let settings = vergence::interact::scan::ScanSettings {
-                stations,
-                rays_per_station: rays,
-                range_noise_m: noise,
-                seed,
-                ..Default::default()
-            };
-            let started = std::time::Instant::now();
-            let cloud = vergence::interact::scan::scan(&s, &settings);
-            let scanned = started.elapsed().as_secs_f64();
-            if cloud.is_empty() {
-                anyhow::bail!(
-                    "scan of {}: no ray hit the scene; nothing written to {}",
-                    s.name,
-                    out.display()
-                );
-            }
-            vergence::scene::point_files::write_file(&out, &cloud)?;
-            println!(
-                "scanned {} from {stations} stations × {rays} rays: {} points in {scanned:.2} s; wrote {}",
-                s.name,
-                cloud.len(),
-                out.display()
-            );
-        }
+        } => scan(&scene, (stations, rays), noise, seed, &out)?,
         Command::Lens { hmd, json } => {
             let profile = HmdProfile::load(&hmd)?;
             let report = vergence::bench::lens::report(&profile)?;
@@ -1103,6 +1116,74 @@ fn print_to_stdout(text: &str) {
     let _ = out.write_all(text.as_bytes()).and_then(|()| out.flush());
 }
 
+/// `inspect`'s lines for a point cloud: its size and its octree (read
+/// from the cache, or built and whether the cache was written).
+fn inspect_points(o: &mut String, cloud: &vergence::scene::points::PointCloud) {
+    use std::fmt::Write as _;
+    use vergence::scene::octree::CacheUse;
+    let _ = writeln!(o, "points      {}", cloud.len());
+    let Some(t) = &cloud.octree else {
+        return;
+    };
+    if let Some(CacheUse::Read(p)) = &t.cache {
+        let _ = writeln!(
+            o,
+            "octree      {} nodes, read from {} in {:.1} ms",
+            t.nodes.len(),
+            p.display(),
+            t.build_ms
+        );
+        return;
+    }
+    let _ = writeln!(
+        o,
+        "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
+        t.nodes.len(),
+        t.build_ms,
+        cloud.len() as f64 / (t.build_ms.max(1e-6) * 1e3)
+    );
+    match &t.cache {
+        Some(CacheUse::Written(p)) => {
+            let _ = writeln!(o, "octree cache written to {}", p.display());
+        }
+        Some(CacheUse::NotUsed(why)) => {
+            let _ = writeln!(o, "octree cache not used: {why}");
+        }
+        _ => {}
+    }
+}
+
+/// `inspect`'s lines for the first 20 meshes and materials.
+fn inspect_meshes(o: &mut String, s: &Scene) {
+    use std::fmt::Write as _;
+    for (i, m) in s.meshes.iter().enumerate().take(20) {
+        let tris: usize = m
+            .primitives
+            .iter()
+            .map(|&p| s.primitives[p as usize].triangles())
+            .sum();
+        let _ = writeln!(
+            o,
+            "  mesh {i:3} {:24} {} primitives, {tris} triangles",
+            m.name,
+            m.primitives.len()
+        );
+    }
+    if s.meshes.len() > 20 {
+        let _ = writeln!(o, "  ... {} more meshes", s.meshes.len() - 20);
+    }
+    for (i, m) in s.materials.iter().enumerate().take(20) {
+        let _ = writeln!(
+            o,
+            "  material {i:3} {:24} {:?}{}{}",
+            m.name,
+            m.alpha_mode,
+            if m.double_sided { " double-sided" } else { "" },
+            if m.unlit { " unlit" } else { "" }
+        );
+    }
+}
+
 fn inspect(s: &Scene, load_ms: f64) {
     use std::fmt::Write as _;
     let mut o = String::new();
@@ -1128,39 +1209,7 @@ fn inspect(s: &Scene, load_ms: f64) {
     );
     let _ = writeln!(o, "features    {:?}", c.features);
     if let Some(cloud) = &s.points {
-        let _ = writeln!(o, "points      {}", cloud.len());
-        if let Some(t) = &cloud.octree {
-            use vergence::scene::octree::CacheUse;
-            match &t.cache {
-                Some(CacheUse::Read(p)) => {
-                    _ = writeln!(
-                        o,
-                        "octree      {} nodes, read from {} in {:.1} ms",
-                        t.nodes.len(),
-                        p.display(),
-                        t.build_ms
-                    )
-                }
-                other => {
-                    let _ = writeln!(
-                        o,
-                        "octree      {} nodes, built in {:.1} ms ({:.1} M points/s)",
-                        t.nodes.len(),
-                        t.build_ms,
-                        cloud.len() as f64 / (t.build_ms.max(1e-6) * 1e3)
-                    );
-                    match other {
-                        Some(CacheUse::Written(p)) => {
-                            let _ = writeln!(o, "octree cache written to {}", p.display());
-                        }
-                        Some(CacheUse::NotUsed(why)) => {
-                            _ = writeln!(o, "octree cache not used: {why}")
-                        }
-                        _ => {}
-                    }
-                }
-            }
-        }
+        inspect_points(&mut o, cloud);
     }
     let support = |e: &str| match vergence::scene::gltf_load::support(e) {
         Some((level, note)) => format!("{level:?}: {note}"),
@@ -1201,32 +1250,7 @@ fn inspect(s: &Scene, load_ms: f64) {
             sun.direction.x, sun.direction.y, sun.direction.z, sun.color
         );
     }
-    for (i, m) in s.meshes.iter().enumerate().take(20) {
-        let tris: usize = m
-            .primitives
-            .iter()
-            .map(|&p| s.primitives[p as usize].triangles())
-            .sum();
-        let _ = writeln!(
-            o,
-            "  mesh {i:3} {:24} {} primitives, {tris} triangles",
-            m.name,
-            m.primitives.len()
-        );
-    }
-    if s.meshes.len() > 20 {
-        let _ = writeln!(o, "  ... {} more meshes", s.meshes.len() - 20);
-    }
-    for (i, m) in s.materials.iter().enumerate().take(20) {
-        let _ = writeln!(
-            o,
-            "  material {i:3} {:24} {:?}{}{}",
-            m.name,
-            m.alpha_mode,
-            if m.double_sided { " double-sided" } else { "" },
-            if m.unlit { " unlit" } else { "" }
-        );
-    }
+    inspect_meshes(&mut o, s);
     print_to_stdout(&o);
 }
 

@@ -2,7 +2,7 @@
 //! with plotters: a Pareto chart (GPU ms against FLIP), frame-time
 //! histograms and the scaling curve (cost against instance count).
 
-use super::runner::{BenchResults, Group};
+use super::runner::{BenchResults, Group, TuneChoice};
 use super::tables::{facts, group_rows, group_title, inset_rows, pass_rows};
 use crate::stats::histogram;
 use plotters::prelude::*;
@@ -243,6 +243,102 @@ fn scaling_svg(title: &str, series: &Series) -> String {
     })
 }
 
+/// The tune report's choice: the configuration, the rule that chose it,
+/// the limits and every candidate against them.
+fn html_choice(s: &mut String, c: &TuneChoice) {
+    s.push_str("<h2>Choice</h2>");
+    let _ = write!(
+        s,
+        "<p><b>{}</b> (<code>{}</code>): {}.</p><ul><li>Frame budget: {:.3} ms (the measured wall-clock frame interval's p95)</li><li>FLIP mean cap: {}</li><li>Flicker cap: {}</li></ul><p>Every candidate against the limits:</p><ul>",
+        esc(&c.name),
+        esc(&c.opt),
+        esc(&c.rule),
+        c.budget_ms,
+        c.max_flip.map_or("none (the least error within the budget wins)".to_string(), |m| m.to_string()),
+        esc(c.max_flicker.as_deref().unwrap_or("none")),
+    );
+    for w in &c.why {
+        let _ = write!(s, "<li><code>{}</code></li>", esc(w.trim()));
+    }
+    s.push_str("</ul>");
+}
+
+/// One group's section: floors, results, per-pass and inset tables, the
+/// speed/accuracy chart (the choice ringed), frame-time histograms and
+/// the images.
+fn html_group(s: &mut String, g: &Group, choice: Option<&str>) {
+    let _ = write!(s, "<h2>{}</h2>", esc(&group_title(g)));
+    if let Some(f) = &g.floors {
+        let _ = write!(
+            s,
+            "<p>Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.</p>",
+            esc(&g.baseline),
+            f.empty_frame.p50,
+            f.clear.p50,
+            f.fullscreen_triangle.p50
+        );
+    }
+    let (head, rows) = group_rows(g);
+    let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
+    table(s, &head, &rows);
+    let (passes, rows) = pass_rows(g);
+    s.push_str("<h3>GPU ms per pass (p50)</h3>");
+    let head: Vec<String> = std::iter::once("config".to_string())
+        .chain(passes)
+        .collect();
+    table(s, &head, &rows);
+    let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
+    if !inset.is_empty() {
+        s.push_str("<h3>Inside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle)</h3>");
+        let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
+        table(s, &head, &inset);
+    }
+    s.push_str("<h3>Speed against accuracy</h3>");
+    s.push_str(&pareto_svg(g, choice));
+    html_histograms(s, g);
+    s.push_str("<h3>Images (left eye, last compared frame), FLIP heat maps and flicker maps (white at 0.05)</h3><div class=\"grid\">");
+    for r in &g.results {
+        for (path, what) in [
+            (&r.image, ""),
+            (&r.heatmap, " FLIP"),
+            (&r.flicker_heatmap, " flicker"),
+        ] {
+            if let Some(p) = path {
+                let _ = write!(
+                    s,
+                    "<figure><img src=\"{}\" width=\"240\"><figcaption>{}{}</figcaption></figure>",
+                    esc(p),
+                    esc(&r.name),
+                    what
+                );
+            }
+        }
+    }
+    s.push_str("</div>");
+}
+
+/// The group's frame-time histograms on one shared axis, the refresh
+/// budget marked.
+fn html_histograms(s: &mut String, g: &Group) {
+    s.push_str("<h3>Frame-time histograms (ms; red: refresh budget)</h3><div class=\"grid\">");
+    let times = g
+        .results
+        .iter()
+        .flat_map(|r| r.frame_times_ms.iter().copied());
+    let lo = times.clone().fold(f64::INFINITY, f64::min);
+    let hi = times.fold(0.0, f64::max);
+    let (lo, hi) = if lo.is_finite() && hi > lo {
+        (lo * 0.95, hi * 1.05)
+    } else {
+        (0.0, 1.0)
+    };
+    let budget = 1000.0 / g.refresh_hz;
+    for r in &g.results {
+        s.push_str(&histogram_svg(&r.name, &r.frame_times_ms, lo, hi, budget));
+    }
+    s.push_str("</div>");
+}
+
 /// `report.html`: self-contained apart from the images under `images/`.
 pub fn html(results: &BenchResults) -> String {
     let mut s = String::from(
@@ -268,89 +364,10 @@ pub fn html(results: &BenchResults) -> String {
     }
     s.push_str("</ul>");
     if let Some(c) = &results.choice {
-        s.push_str("<h2>Choice</h2>");
-        let _ = write!(
-            s,
-            "<p><b>{}</b> (<code>{}</code>): {}.</p><ul><li>Frame budget: {:.3} ms (the measured wall-clock frame interval's p95)</li><li>FLIP mean cap: {}</li><li>Flicker cap: {}</li></ul><p>Every candidate against the limits:</p><ul>",
-            esc(&c.name),
-            esc(&c.opt),
-            esc(&c.rule),
-            c.budget_ms,
-            c.max_flip.map_or("none (the least error within the budget wins)".to_string(), |m| m.to_string()),
-            esc(c.max_flicker.as_deref().unwrap_or("none")),
-        );
-        for w in &c.why {
-            let _ = write!(s, "<li><code>{}</code></li>", esc(w.trim()));
-        }
-        s.push_str("</ul>");
+        html_choice(&mut s, c);
     }
     for g in &results.groups {
-        let _ = write!(s, "<h2>{}</h2>", esc(&group_title(g)));
-        if let Some(f) = &g.floors {
-            let _ = write!(
-                s,
-                "<p>Floors ({}'s stereo mode and MSAA), GPU ms p50: empty frame {:.3}, clear only {:.3}, one full-screen triangle {:.3}.</p>",
-                esc(&g.baseline),
-                f.empty_frame.p50,
-                f.clear.p50,
-                f.fullscreen_triangle.p50
-            );
-        }
-        let (head, rows) = group_rows(g);
-        let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
-        table(&mut s, &head, &rows);
-        let (passes, rows) = pass_rows(g);
-        s.push_str("<h3>GPU ms per pass (p50)</h3>");
-        let head: Vec<String> = std::iter::once("config".to_string())
-            .chain(passes)
-            .collect();
-        table(&mut s, &head, &rows);
-        let inset: Vec<Vec<String>> = inset_rows(g).into_iter().map(Vec::from).collect();
-        if !inset.is_empty() {
-            s.push_str("<h3>Inside the inset (FLIP mean over the lens-visible pixels of the full-density rectangle)</h3>");
-            let head = ["config", "FLIP inside the inset", "FLIP over the image"].map(String::from);
-            table(&mut s, &head, &inset);
-        }
-        s.push_str("<h3>Speed against accuracy</h3>");
-        s.push_str(&pareto_svg(
-            g,
-            results.choice.as_ref().map(|c| c.name.as_str()),
-        ));
-        s.push_str("<h3>Frame-time histograms (ms; red: refresh budget)</h3><div class=\"grid\">");
-        let times = g
-            .results
-            .iter()
-            .flat_map(|r| r.frame_times_ms.iter().copied());
-        let lo = times.clone().fold(f64::INFINITY, f64::min);
-        let hi = times.fold(0.0, f64::max);
-        let (lo, hi) = if lo.is_finite() && hi > lo {
-            (lo * 0.95, hi * 1.05)
-        } else {
-            (0.0, 1.0)
-        };
-        let budget = 1000.0 / g.refresh_hz;
-        for r in &g.results {
-            s.push_str(&histogram_svg(&r.name, &r.frame_times_ms, lo, hi, budget));
-        }
-        s.push_str("</div><h3>Images (left eye, last compared frame), FLIP heat maps and flicker maps (white at 0.05)</h3><div class=\"grid\">");
-        for r in &g.results {
-            for (path, what) in [
-                (&r.image, ""),
-                (&r.heatmap, " FLIP"),
-                (&r.flicker_heatmap, " flicker"),
-            ] {
-                if let Some(p) = path {
-                    let _ = write!(
-                        s,
-                        "<figure><img src=\"{}\" width=\"240\"><figcaption>{}{}</figcaption></figure>",
-                        esc(p),
-                        esc(&r.name),
-                        what
-                    );
-                }
-            }
-        }
-        s.push_str("</div>");
+        html_group(&mut s, g, results.choice.as_ref().map(|c| c.name.as_str()));
     }
     let curves = scaling(results);
     if !curves.is_empty() {

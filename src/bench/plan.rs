@@ -297,8 +297,9 @@ impl Plan {
         Ok(plan)
     }
 
-    /// Checks counts, ranges, names and every `--opt` list.
-    pub fn validate(&self) -> std::result::Result<(), String> {
+    /// Checks the plan's lists are not empty and its numbers are within
+    /// their ranges.
+    fn validate_numbers(&self) -> std::result::Result<(), String> {
         if self.scenes.is_empty() || self.hmds.is_empty() || self.configs.is_empty() {
             return Err("scenes, hmds and configs must each list at least one entry".into());
         }
@@ -352,63 +353,18 @@ impl Plan {
                 self.error_frames, self.frames
             ));
         }
+        Ok(())
+    }
+
+    /// Checks the plan: its numbers within their ranges, every
+    /// configuration's name and options, the reference and the baseline.
+    pub fn validate(&self) -> std::result::Result<(), String> {
+        self.validate_numbers()?;
         let mut names = std::collections::BTreeSet::new();
         let mut files = std::collections::BTreeSet::new();
         for c in &self.configs {
-            if c.name.trim().is_empty() || c.name.contains(['/', '\\', ',']) {
-                return Err(format!(
-                    "config name '{}' must be non-empty without / \\ or ,",
-                    c.name
-                ));
-            }
-            if c.name.chars().count() > MAX_CONFIG_NAME_CHARS
-                || c.name.chars().any(char::is_control)
-            {
-                return Err(format!(
-                    "config name {:?} must be at most {MAX_CONFIG_NAME_CHARS} characters without control characters (it names image files and report rows)",
-                    c.name.chars().take(80).collect::<String>()
-                ));
-            }
-            if c.name == "reference" {
-                return Err("config name 'reference' is reserved for the image reference".into());
-            }
-            if !names.insert(c.name.as_str()) {
-                return Err(format!("config name '{}' appears twice", c.name));
-            }
-            // Each configuration writes NAME.png, NAME.flip.png and
-            // NAME.flicker.png: a name ending in .flip must not land on
-            // another's heat map (nor the reference's image).
-            let stem = sanitize(&c.name);
-            for file in [
-                stem.clone(),
-                format!("{stem}.flip"),
-                format!("{stem}.flicker"),
-            ] {
-                if file == "reference" || !files.insert(file.clone()) {
-                    return Err(format!(
-                        "config name '{}' gives the image file name {file}.png, which another configuration or the reference also writes",
-                        c.name
-                    ));
-                }
-            }
-            let config = self
-                .config_for(c)
-                .map_err(|e| format!("config '{}': {e}", c.name))?;
-            // Every compared frame is warped from each of the K - 1 frames
-            // before it, so that many must precede the first.
-            if let (Some(tw), Some(&first)) = (config.timewarp, self.error_frame_indices().first())
-            {
-                if self.warmup + first < tw.k - 1 {
-                    return Err(format!(
-                        "config '{}': timewarp={} warps each compared frame from the {} frames before it, but the first compared frame has {} before it: raise warmup to at least {}",
-                        c.name,
-                        tw.k,
-                        tw.k - 1,
-                        self.warmup + first,
-                        tw.k - 1 - first
-                    ));
-                }
-            }
+            check_config_name(&c.name, &mut names, &mut files)?;
+            self.check_timewarp_lead(c)?;
         }
         let reference = self
             .reference_config()
@@ -435,6 +391,28 @@ impl Plan {
             }
         }
         Ok(())
+    }
+
+    /// With timewarp, every compared frame is warped from each of the K - 1
+    /// frames before it, so that many must precede the first.
+    fn check_timewarp_lead(&self, c: &PlanConfig) -> std::result::Result<(), String> {
+        let config = self
+            .config_for(c)
+            .map_err(|e| format!("config '{}': {e}", c.name))?;
+        let (Some(tw), Some(&first)) = (config.timewarp, self.error_frame_indices().first()) else {
+            return Ok(());
+        };
+        if self.warmup + first >= tw.k - 1 {
+            return Ok(());
+        }
+        Err(format!(
+            "config '{}': timewarp={} warps each compared frame from the {} frames before it, but the first compared frame has {} before it: raise warmup to at least {}",
+            c.name,
+            tw.k,
+            tw.k - 1,
+            self.warmup + first,
+            tw.k - 1 - first
+        ))
     }
 
     /// Checks what [`Plan::validate`] cannot see from the text alone,
@@ -553,6 +531,47 @@ pub fn config_from_opt(opt: &str) -> Result<RenderConfig> {
     c.apply_opts(opt, &cull_names())?;
     c.validate()?;
     Ok(c)
+}
+
+/// A configuration's name: non-empty, short, without separators or
+/// control characters, not `reference`, not repeated, and not giving an
+/// image file name (NAME.png, NAME.flip.png, NAME.flicker.png) another
+/// configuration or the reference also writes.
+fn check_config_name<'a>(
+    name: &'a str,
+    names: &mut std::collections::BTreeSet<&'a str>,
+    files: &mut std::collections::BTreeSet<String>,
+) -> std::result::Result<(), String> {
+    if name.trim().is_empty() || name.contains(['/', '\\', ',']) {
+        return Err(format!(
+            "config name '{name}' must be non-empty without / \\ or ,"
+        ));
+    }
+    if name.chars().count() > MAX_CONFIG_NAME_CHARS || name.chars().any(char::is_control) {
+        return Err(format!(
+            "config name {:?} must be at most {MAX_CONFIG_NAME_CHARS} characters without control characters (it names image files and report rows)",
+            name.chars().take(80).collect::<String>()
+        ));
+    }
+    if name == "reference" {
+        return Err("config name 'reference' is reserved for the image reference".into());
+    }
+    if !names.insert(name) {
+        return Err(format!("config name '{name}' appears twice"));
+    }
+    let stem = sanitize(name);
+    for file in [
+        stem.clone(),
+        format!("{stem}.flip"),
+        format!("{stem}.flicker"),
+    ] {
+        if file == "reference" || !files.insert(file.clone()) {
+            return Err(format!(
+                "config name '{name}' gives the image file name {file}.png, which another configuration or the reference also writes"
+            ));
+        }
+    }
+    Ok(())
 }
 
 #[cfg(test)]

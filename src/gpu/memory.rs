@@ -245,6 +245,45 @@ impl<'a> ImageDesc<'a> {
     }
 }
 
+/// Memory for an image with requirements `req`: of the lazily allocated
+/// type `lazy` when given (transient attachments on tile-based GPUs),
+/// else from the allocator (counted in the image's category).
+fn image_memory(
+    ctx: &Context,
+    desc: &ImageDesc,
+    req: vk::MemoryRequirements,
+    lazy: Option<u32>,
+) -> Result<Memory> {
+    if let Some(t) = lazy {
+        let ai = vk::MemoryAllocateInfo::default()
+            .allocation_size(req.size)
+            .memory_type_index(t);
+        // SAFETY: a memory type the image accepts.
+        let m = unsafe { ctx.device.allocate_memory(&ai, None) }
+            .vk("allocating lazily allocated memory")?;
+        return Ok(Memory::Lazy(m));
+    }
+    let alloc = ctx
+        .allocator
+        .lock()
+        .ok()
+        .and_then(|mut a| {
+            a.as_mut().map(|a| {
+                a.allocate(&AllocationCreateDesc {
+                    name: desc.name,
+                    requirements: req,
+                    location: MemoryLocation::GpuOnly,
+                    linear: false,
+                    allocation_scheme: AllocationScheme::GpuAllocatorManaged,
+                })
+            })
+        })
+        .ok_or_else(|| Error::Gpu("allocator unavailable".into()))
+        .and_then(|r| r.map_err(|e| alloc_err(desc.name, e)))?;
+    ctx.track_memory(desc.category, alloc.size() as i64);
+    Ok(Memory::Allocator(alloc))
+}
+
 impl Image {
     /// Creates an image and a 2D-array view over all its layers and mips.
     pub fn new(ctx: &Context, desc: &ImageDesc) -> Result<Image> {
@@ -291,50 +330,11 @@ impl Image {
             // SAFETY: the image was never used.
             unsafe { d.destroy_image(image, None) }
         };
-        let memory = match lazy_type {
-            Some(t) => {
-                let ai = vk::MemoryAllocateInfo::default()
-                    .allocation_size(req.size)
-                    .memory_type_index(t);
-                // SAFETY: a memory type the image accepts.
-                match unsafe { d.allocate_memory(&ai, None) }
-                    .vk("allocating lazily allocated memory")
-                {
-                    Ok(m) => Memory::Lazy(m),
-                    Err(e) => {
-                        drop_image();
-                        return Err(e);
-                    }
-                }
-            }
-            None => {
-                let alloc = ctx
-                    .allocator
-                    .lock()
-                    .ok()
-                    .and_then(|mut a| {
-                        a.as_mut().map(|a| {
-                            a.allocate(&AllocationCreateDesc {
-                                name: desc.name,
-                                requirements: req,
-                                location: MemoryLocation::GpuOnly,
-                                linear: false,
-                                allocation_scheme: AllocationScheme::GpuAllocatorManaged,
-                            })
-                        })
-                    })
-                    .ok_or_else(|| Error::Gpu("allocator unavailable".into()))
-                    .and_then(|r| r.map_err(|e| alloc_err(desc.name, e)));
-                match alloc {
-                    Ok(alloc) => {
-                        ctx.track_memory(desc.category, alloc.size() as i64);
-                        Memory::Allocator(alloc)
-                    }
-                    Err(e) => {
-                        drop_image();
-                        return Err(e);
-                    }
-                }
+        let memory = match image_memory(ctx, desc, req, lazy_type) {
+            Ok(m) => m,
+            Err(e) => {
+                drop_image();
+                return Err(e);
             }
         };
         let (mem, offset) = match &memory {

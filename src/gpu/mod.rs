@@ -248,6 +248,53 @@ impl DeviceFactory for Direct {
     }
 }
 
+/// Whether to enable the Khronos validation layer: never, where
+/// installed, or always (an error naming the package when it is not).
+fn validation_wanted(entry: &ash::Entry, validation: Validation) -> Result<bool> {
+    // SAFETY: plain enumeration call on a loaded entry.
+    let layers =
+        unsafe { entry.enumerate_instance_layer_properties() }.vk("enumerating instance layers")?;
+    let has_layer = layers
+        .iter()
+        .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
+    match validation {
+        Validation::Off => Ok(false),
+        Validation::IfAvailable => Ok(has_layer),
+        Validation::Required if has_layer => Ok(true),
+        Validation::Required => Err(Error::Gpu("VK_LAYER_KHRONOS_validation is required but not installed (apt-get install vulkan-validationlayers)".into())),
+    }
+}
+
+/// The instance extensions to enable: debug utils where offered (and
+/// whether it is), and `extra` (a window's), which must all be there.
+fn instance_extensions(
+    entry: &ash::Entry,
+    extra: &[&'static CStr],
+) -> Result<(bool, Vec<*const std::ffi::c_char>)> {
+    // SAFETY: plain enumeration call.
+    let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
+        .vk("enumerating instance extensions")?;
+    let has = |name: &CStr| {
+        exts.iter()
+            .any(|e| e.extension_name_as_c_str().ok() == Some(name))
+    };
+    let has_debug_utils = has(ash::ext::debug_utils::NAME);
+    let mut names = Vec::new();
+    if has_debug_utils {
+        names.push(ash::ext::debug_utils::NAME.as_ptr());
+    }
+    for &name in extra {
+        if !has(name) {
+            return Err(Error::Gpu(format!(
+                "the Vulkan loader offers no {} (needed for a window)",
+                name.to_string_lossy()
+            )));
+        }
+        names.push(name.as_ptr());
+    }
+    Ok((has_debug_utils, names))
+}
+
 impl Context {
     /// Creates a headless context (no surface) on the first suitable device;
     /// `VERGENCE_DEVICE=<index>` picks another.
@@ -271,48 +318,14 @@ impl Context {
         // SAFETY: loading the Vulkan loader library; failure is reported.
         let entry = unsafe { ash::Entry::load() }
             .map_err(|e| Error::Gpu(format!("cannot load the Vulkan loader (libvulkan.so.1): {e}; install libvulkan1 and a driver (e.g. mesa-vulkan-drivers)")))?;
-        // SAFETY: plain enumeration call on a loaded entry.
-        let layers = unsafe { entry.enumerate_instance_layer_properties() }
-            .vk("enumerating instance layers")?;
-        let has_layer = layers
-            .iter()
-            .any(|l| l.layer_name_as_c_str().ok() == Some(VALIDATION_LAYER));
-        let validation_enabled = match validation {
-            Validation::Off => false,
-            Validation::IfAvailable => has_layer,
-            Validation::Required if has_layer => true,
-            Validation::Required => {
-                return Err(Error::Gpu("VK_LAYER_KHRONOS_validation is required but not installed (apt-get install vulkan-validationlayers)".into()))
-            }
-        };
+        let validation_enabled = validation_wanted(&entry, validation)?;
         let app_name = c"vergence";
         let app = vk::ApplicationInfo::default()
             .application_name(app_name)
             .engine_name(app_name)
             .api_version(vk::API_VERSION_1_3);
         let mut layer_names = Vec::new();
-        let mut ext_names = Vec::new();
-        // SAFETY: plain enumeration call.
-        let exts = unsafe { entry.enumerate_instance_extension_properties(None) }
-            .vk("enumerating instance extensions")?;
-        let has_debug_utils = exts
-            .iter()
-            .any(|e| e.extension_name_as_c_str().ok() == Some(ash::ext::debug_utils::NAME));
-        if has_debug_utils {
-            ext_names.push(ash::ext::debug_utils::NAME.as_ptr());
-        }
-        for &name in &extra.instance {
-            if !exts
-                .iter()
-                .any(|e| e.extension_name_as_c_str().ok() == Some(name))
-            {
-                return Err(Error::Gpu(format!(
-                    "the Vulkan loader offers no {} (needed for a window)",
-                    name.to_string_lossy()
-                )));
-            }
-            ext_names.push(name.as_ptr());
-        }
+        let (has_debug_utils, ext_names) = instance_extensions(&entry, &extra.instance)?;
         if validation_enabled {
             layer_names.push(VALIDATION_LAYER.as_ptr());
         }

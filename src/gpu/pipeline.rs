@@ -83,6 +83,70 @@ fn module(ctx: &Context, code: &[u32], what: &str) -> Result<vk::ShaderModule> {
 }
 
 impl GraphicsPipelineDesc<'_> {
+    /// The specialization constants' map entries (4 bytes each, in
+    /// order) and their data.
+    fn specialization_data(&self) -> (Vec<vk::SpecializationMapEntry>, Vec<u8>) {
+        let entries = self
+            .specialization
+            .iter()
+            .enumerate()
+            .map(|(i, (id, _))| vk::SpecializationMapEntry {
+                constant_id: *id,
+                offset: 4 * i as u32,
+                size: 4,
+            })
+            .collect();
+        let data = self
+            .specialization
+            .iter()
+            .flat_map(|(_, v)| v.to_ne_bytes())
+            .collect();
+        (entries, data)
+    }
+
+    /// The depth test and write, and the stencil test when there is one
+    /// (the same on both faces).
+    fn depth_state(&self) -> vk::PipelineDepthStencilStateCreateInfo<'static> {
+        let stencil = self.stencil.unwrap_or_default();
+        vk::PipelineDepthStencilStateCreateInfo::default()
+            .depth_test_enable(self.depth_test)
+            .depth_write_enable(self.depth_write)
+            .depth_compare_op(self.depth_compare)
+            .stencil_test_enable(self.stencil.is_some())
+            .front(stencil)
+            .back(stencil)
+    }
+
+    /// The colour attachment's blending: off, over (premultiplied alpha
+    /// on top) or under (the new colour behind what is there).
+    fn blend_attachment(&self) -> vk::PipelineColorBlendAttachmentState {
+        // (source colour, destination colour, source alpha, destination
+        // alpha) factors.
+        let (sc, dc, sa, da) = match self.blend {
+            Blend::Off | Blend::Over => (
+                vk::BlendFactor::SRC_ALPHA,
+                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
+                vk::BlendFactor::ONE,
+                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
+            ),
+            Blend::Under => (
+                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
+                vk::BlendFactor::ONE,
+                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
+                vk::BlendFactor::ONE,
+            ),
+        };
+        vk::PipelineColorBlendAttachmentState::default()
+            .blend_enable(self.blend != Blend::Off)
+            .src_color_blend_factor(sc)
+            .dst_color_blend_factor(dc)
+            .color_blend_op(vk::BlendOp::ADD)
+            .src_alpha_blend_factor(sa)
+            .dst_alpha_blend_factor(da)
+            .alpha_blend_op(vk::BlendOp::ADD)
+            .color_write_mask(self.color_write)
+    }
+
     /// Creates the pipeline.
     pub fn build(&self, ctx: &Context) -> Result<vk::Pipeline> {
         let vs = module(ctx, self.vertex, self.name)?;
@@ -94,21 +158,7 @@ impl GraphicsPipelineDesc<'_> {
                 return Err(e);
             }
         };
-        let entries: Vec<vk::SpecializationMapEntry> = self
-            .specialization
-            .iter()
-            .enumerate()
-            .map(|(i, (id, _))| vk::SpecializationMapEntry {
-                constant_id: *id,
-                offset: 4 * i as u32,
-                size: 4,
-            })
-            .collect();
-        let data: Vec<u8> = self
-            .specialization
-            .iter()
-            .flat_map(|(_, v)| v.to_ne_bytes())
-            .collect();
+        let (entries, data) = self.specialization_data();
         let spec = vk::SpecializationInfo::default()
             .map_entries(&entries)
             .data(&data);
@@ -149,40 +199,8 @@ impl GraphicsPipelineDesc<'_> {
             .line_width(1.0);
         let multisample =
             vk::PipelineMultisampleStateCreateInfo::default().rasterization_samples(self.samples);
-        let stencil = self.stencil.unwrap_or_default();
-        let depth = vk::PipelineDepthStencilStateCreateInfo::default()
-            .depth_test_enable(self.depth_test)
-            .depth_write_enable(self.depth_write)
-            .depth_compare_op(self.depth_compare)
-            .stencil_test_enable(self.stencil.is_some())
-            .front(stencil)
-            .back(stencil);
-        let mask = self.color_write;
-        // (source colour, destination colour, source alpha, destination
-        // alpha) factors.
-        let (sc, dc, sa, da) = match self.blend {
-            Blend::Off | Blend::Over => (
-                vk::BlendFactor::SRC_ALPHA,
-                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
-                vk::BlendFactor::ONE,
-                vk::BlendFactor::ONE_MINUS_SRC_ALPHA,
-            ),
-            Blend::Under => (
-                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
-                vk::BlendFactor::ONE,
-                vk::BlendFactor::ONE_MINUS_DST_ALPHA,
-                vk::BlendFactor::ONE,
-            ),
-        };
-        let attachment = [vk::PipelineColorBlendAttachmentState::default()
-            .blend_enable(self.blend != Blend::Off)
-            .src_color_blend_factor(sc)
-            .dst_color_blend_factor(dc)
-            .color_blend_op(vk::BlendOp::ADD)
-            .src_alpha_blend_factor(sa)
-            .dst_alpha_blend_factor(da)
-            .alpha_blend_op(vk::BlendOp::ADD)
-            .color_write_mask(mask)];
+        let depth = self.depth_state();
+        let attachment = [self.blend_attachment()];
         let blend = vk::PipelineColorBlendStateCreateInfo::default().attachments(&attachment);
         let dynamic = [
             vk::DynamicState::VIEWPORT,

@@ -74,6 +74,26 @@ pub enum Pacing {
     NeverBlock,
 }
 
+impl Pacing {
+    /// The present mode for this pacing among the surface's `modes`:
+    /// FIFO for vsync; mailbox, else immediate, else FIFO never to block.
+    fn present_mode(self, modes: &[vk::PresentModeKHR]) -> vk::PresentModeKHR {
+        let wanted: &[vk::PresentModeKHR] = match self {
+            Pacing::Vsync => &[vk::PresentModeKHR::FIFO],
+            Pacing::NeverBlock => &[
+                vk::PresentModeKHR::MAILBOX,
+                vk::PresentModeKHR::IMMEDIATE,
+                vk::PresentModeKHR::FIFO,
+            ],
+        };
+        wanted
+            .iter()
+            .copied()
+            .find(|m| modes.contains(m))
+            .unwrap_or(vk::PresentModeKHR::FIFO)
+    }
+}
+
 /// What a [`Source`] image is in between presents (the contract of
 /// [`Presenter::present`]): COLOR_ATTACHMENT_OPTIMAL, last written by a
 /// transfer or as an attachment, last read by the window's blit (a
@@ -294,6 +314,45 @@ impl Presenter {
         self.stale = true;
     }
 
+    /// Swapchain image `i`'s name, its present semaphore and, where the
+    /// overlay draws into it (`view_format`), its view.
+    fn add_image_objects(
+        &mut self,
+        ctx: &Context,
+        i: usize,
+        view_format: Option<vk::Format>,
+    ) -> Result<()> {
+        let img = self.images[i];
+        ctx.set_name(img, &format!("window image {i}"));
+        // SAFETY: plain object creation; destroyed with the swapchain.
+        let s = unsafe {
+            ctx.device
+                .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
+        }
+        .vk("creating a present semaphore")?;
+        self.ready.push(s);
+        let Some(format) = view_format else {
+            return Ok(());
+        };
+        let info = vk::ImageViewCreateInfo::default()
+            .image(img)
+            .view_type(vk::ImageViewType::TYPE_2D)
+            .format(format)
+            .subresource_range(vk::ImageSubresourceRange {
+                aspect_mask: vk::ImageAspectFlags::COLOR,
+                base_mip_level: 0,
+                level_count: 1,
+                base_array_layer: 0,
+                layer_count: 1,
+            });
+        // SAFETY: a view of a live swapchain image; destroyed with the
+        // swapchain.
+        let v = unsafe { ctx.device.create_image_view(&info, None) }
+            .vk("creating a window image view")?;
+        self.views.push(v);
+        Ok(())
+    }
+
     fn create_swapchain(&mut self, ctx: &Context, size: vk::Extent2D) -> Result<()> {
         let pd = ctx.physical_device;
         let sf = &self.surface_fn;
@@ -330,19 +389,7 @@ impl Presenter {
             .find_map(|f| formats.iter().find(|s| s.format == f).copied())
             .or_else(|| formats.first().copied())
             .ok_or_else(|| Error::Gpu("the window surface offers no formats".into()))?;
-        let wanted: &[vk::PresentModeKHR] = match self.pacing {
-            Pacing::Vsync => &[vk::PresentModeKHR::FIFO],
-            Pacing::NeverBlock => &[
-                vk::PresentModeKHR::MAILBOX,
-                vk::PresentModeKHR::IMMEDIATE,
-                vk::PresentModeKHR::FIFO,
-            ],
-        };
-        let present_mode = wanted
-            .iter()
-            .copied()
-            .find(|m| modes.contains(m))
-            .unwrap_or(vk::PresentModeKHR::FIFO);
+        let present_mode = self.pacing.present_mode(&modes);
         let mut needed = vk::ImageUsageFlags::TRANSFER_DST | vk::ImageUsageFlags::TRANSFER_SRC;
         if !caps.supported_usage_flags.contains(needed) {
             return Err(Error::Gpu(format!(
@@ -394,33 +441,8 @@ impl Presenter {
         // SAFETY: the swapchain was just created on this device.
         self.images = unsafe { self.swapchain_fn.get_swapchain_images(swapchain) }
             .vk("getting the swapchain images")?;
-        for (i, &img) in self.images.iter().enumerate() {
-            ctx.set_name(img, &format!("window image {i}"));
-            // SAFETY: plain object creation; destroyed with the swapchain.
-            let s = unsafe {
-                ctx.device
-                    .create_semaphore(&vk::SemaphoreCreateInfo::default(), None)
-            }
-            .vk("creating a present semaphore")?;
-            self.ready.push(s);
-            if drawable {
-                let info = vk::ImageViewCreateInfo::default()
-                    .image(img)
-                    .view_type(vk::ImageViewType::TYPE_2D)
-                    .format(format.format)
-                    .subresource_range(vk::ImageSubresourceRange {
-                        aspect_mask: vk::ImageAspectFlags::COLOR,
-                        base_mip_level: 0,
-                        level_count: 1,
-                        base_array_layer: 0,
-                        layer_count: 1,
-                    });
-                // SAFETY: a view of a live swapchain image; destroyed with
-                // the swapchain.
-                let v = unsafe { ctx.device.create_image_view(&info, None) }
-                    .vk("creating a window image view")?;
-                self.views.push(v);
-            }
+        for i in 0..self.images.len() {
+            self.add_image_objects(ctx, i, drawable.then_some(format.format))?;
         }
         self.format = format;
         self.extent = extent;

@@ -7,6 +7,7 @@
 //! data (no Vulkan types); sizes follow the world scale so the models stay
 //! hand-sized when the world is scaled.
 
+use super::locomotion::ArcResult;
 use super::raycast::SceneQuery;
 use super::{FrameInput, Interaction, Update};
 use crate::view::Pose;
@@ -181,6 +182,72 @@ pub fn push_outline(out: &mut Vec<OverlayBox>, lo: DVec3, hi: DVec3, pad: f64, t
     }
 }
 
+/// The teleport arc (green with a target, red without), at most
+/// [`ARC_SEGMENTS`] segments, and at its target a pad and a post; `s` is
+/// the user's scale.
+fn push_arc(out: &mut Vec<OverlayBox>, arc: &ArcResult, s: f64) {
+    let color = if arc.target.is_some() {
+        ARC_OK_COLOR
+    } else {
+        ARC_NONE_COLOR
+    };
+    let step = arc.points.len().div_ceil(ARC_SEGMENTS).max(1);
+    let mut pts: Vec<DVec3> = arc.points.iter().copied().step_by(step).collect();
+    if let Some(&last) = arc.points.last() {
+        if pts.last() != Some(&last) {
+            pts.push(last);
+        }
+    }
+    for w in pts.windows(2) {
+        out.extend(OverlayBox::segment(w[0], w[1], 0.008 * s, color));
+    }
+    let Some(t) = arc.target else {
+        return;
+    };
+    out.push(OverlayBox {
+        center: t + DVec3::Y * 0.005 * s,
+        axes: [
+            DVec3::X * 0.25 * s,
+            DVec3::Y * 0.005 * s,
+            DVec3::Z * 0.25 * s,
+        ],
+        color: ARC_OK_COLOR,
+    });
+    out.extend(OverlayBox::segment(
+        t,
+        t + DVec3::Y * 0.3 * s,
+        0.02 * s,
+        ARC_OK_COLOR,
+    ));
+}
+
+/// The measure tool's points as small cubes and, with both, the segment
+/// between them and its length as a label facing the eye.
+fn push_measure(out: &mut Vec<OverlayBox>, it: &Interaction, input: &FrameInput) {
+    let s = it.origin.scale;
+    let cube = |p: DVec3| OverlayBox {
+        center: p,
+        axes: [
+            DVec3::X * 0.01 * s,
+            DVec3::Y * 0.01 * s,
+            DVec3::Z * 0.01 * s,
+        ],
+        color: MEASURE_COLOR,
+    };
+    let m = &it.measure;
+    out.extend(m.first.map(cube));
+    out.extend(m.second.map(cube));
+    let (Some(a), Some(b), Some(d)) = (m.first, m.second, m.distance()) else {
+        return;
+    };
+    out.extend(OverlayBox::segment(a, b, 0.003 * s, MEASURE_COLOR));
+    let eye = it.origin.point(input.head.position);
+    let mid = (a + b) * 0.5;
+    let height = (0.04 * mid.distance(eye)).clamp(0.02 * s, 5.0 * s);
+    let label = super::measure::label(d);
+    push_label(out, &label, mid + DVec3::Y * height * 1.5, eye, height);
+}
+
 /// The frame's overlay for `it` after [`Interaction::update`] gave
 /// `update` for `input` over the scene `q`: replaces `out`'s contents (at
 /// most [`MAX_BOXES`]).
@@ -242,64 +309,9 @@ pub fn build(
         }
     }
     if let Some(arc) = &update.arc {
-        let color = if arc.target.is_some() {
-            ARC_OK_COLOR
-        } else {
-            ARC_NONE_COLOR
-        };
-        let step = arc.points.len().div_ceil(ARC_SEGMENTS).max(1);
-        let mut pts: Vec<DVec3> = arc.points.iter().copied().step_by(step).collect();
-        if let Some(&last) = arc.points.last() {
-            if pts.last() != Some(&last) {
-                pts.push(last);
-            }
-        }
-        for w in pts.windows(2) {
-            out.extend(OverlayBox::segment(w[0], w[1], 0.008 * s, color));
-        }
-        if let Some(t) = arc.target {
-            out.push(OverlayBox {
-                center: t + DVec3::Y * 0.005 * s,
-                axes: [
-                    DVec3::X * 0.25 * s,
-                    DVec3::Y * 0.005 * s,
-                    DVec3::Z * 0.25 * s,
-                ],
-                color: ARC_OK_COLOR,
-            });
-            out.extend(OverlayBox::segment(
-                t,
-                t + DVec3::Y * 0.3 * s,
-                0.02 * s,
-                ARC_OK_COLOR,
-            ));
-        }
+        push_arc(out, arc, s);
     }
-    let cube = |p: DVec3| OverlayBox {
-        center: p,
-        axes: [
-            DVec3::X * 0.01 * s,
-            DVec3::Y * 0.01 * s,
-            DVec3::Z * 0.01 * s,
-        ],
-        color: MEASURE_COLOR,
-    };
-    let m = &it.measure;
-    out.extend(m.first.map(cube));
-    out.extend(m.second.map(cube));
-    if let (Some(a), Some(b), Some(d)) = (m.first, m.second, m.distance()) {
-        out.extend(OverlayBox::segment(a, b, 0.003 * s, MEASURE_COLOR));
-        let eye = it.origin.point(input.head.position);
-        let mid = (a + b) * 0.5;
-        let height = (0.04 * mid.distance(eye)).clamp(0.02 * s, 5.0 * s);
-        push_label(
-            out,
-            &super::measure::label(d),
-            mid + DVec3::Y * height * 1.5,
-            eye,
-            height,
-        );
-    }
+    push_measure(out, it, input);
     out.truncate(MAX_BOXES);
 }
 

@@ -654,63 +654,57 @@ impl DistortionPreview {
                 )]),
             );
             stamp(0);
-            if self.method == Method::Compute {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-                d.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
-                for params in &self.params {
-                    d.cmd_push_constants(cmd, self.layout, STAGES, 0, as_bytes(&[*params]));
-                    d.cmd_dispatch(
-                        cmd,
-                        self.panel.width.div_ceil(8),
-                        self.panel.height.div_ceil(8),
-                        1,
-                    );
-                }
-                stamp(1);
-                return;
+        }
+        match self.method {
+            Method::Compute => self.record_compute(cmd),
+            _ => self.record_raster(cmd),
+        }
+        stamp(1);
+    }
+
+    /// The compute warp: one dispatch per eye over the panel.
+    fn record_compute(&self, cmd: vk::CommandBuffer) {
+        let d = &self.ctx.device;
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        let groups = (self.panel.width.div_ceil(8), self.panel.height.div_ceil(8));
+        // SAFETY: recording into an idle command buffer; all objects live.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, bind, self.pipeline);
+            d.cmd_bind_descriptor_sets(cmd, bind, self.layout, 0, &[self.set], &[]);
+            for params in &self.params {
+                d.cmd_push_constants(cmd, self.layout, STAGES, 0, as_bytes(&[*params]));
+                d.cmd_dispatch(cmd, groups.0, groups.1, 1);
             }
-            let area = vk::Rect2D {
-                offset: vk::Offset2D { x: 0, y: 0 },
-                extent: self.panel,
-            };
-            for (eye, &view) in self.target_views.iter().enumerate() {
-                crate::gpu::rendering::begin_color(
-                    d,
-                    cmd,
-                    view,
-                    area.extent,
-                    crate::gpu::rendering::Load::Clear([0.0, 0.0, 0.0, 1.0]),
-                    0,
-                );
-                d.cmd_set_viewport(
-                    cmd,
-                    0,
-                    &[vk::Viewport {
-                        x: 0.0,
-                        y: 0.0,
-                        width: self.panel.width as f32,
-                        height: self.panel.height as f32,
-                        min_depth: 0.0,
-                        max_depth: 1.0,
-                    }],
-                );
+        }
+    }
+
+    /// The raster warps: per eye, a scope over its target view drawing the
+    /// distortion mesh, the grid or one full-screen triangle.
+    fn record_raster(&self, cmd: vk::CommandBuffer) {
+        let d = &self.ctx.device;
+        let o = self.owned();
+        let area = vk::Rect2D {
+            offset: vk::Offset2D { x: 0, y: 0 },
+            extent: self.panel,
+        };
+        let viewport = vk::Viewport {
+            x: 0.0,
+            y: 0.0,
+            width: self.panel.width as f32,
+            height: self.panel.height as f32,
+            min_depth: 0.0,
+            max_depth: 1.0,
+        };
+        let bind = vk::PipelineBindPoint::GRAPHICS;
+        let clear = crate::gpu::rendering::Load::Clear([0.0, 0.0, 0.0, 1.0]);
+        for (eye, &view) in self.target_views.iter().enumerate() {
+            // SAFETY: recording into an idle command buffer; all objects live.
+            unsafe {
+                crate::gpu::rendering::begin_color(d, cmd, view, area.extent, clear, 0);
+                d.cmd_set_viewport(cmd, 0, &[viewport]);
                 d.cmd_set_scissor(cmd, 0, &[area]);
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::GRAPHICS, self.pipeline);
-                d.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::GRAPHICS,
-                    self.layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
+                d.cmd_bind_pipeline(cmd, bind, self.pipeline);
+                d.cmd_bind_descriptor_sets(cmd, bind, self.layout, 0, &[self.set], &[]);
                 d.cmd_push_constants(cmd, self.layout, STAGES, 0, as_bytes(&[self.params[eye]]));
                 match (&o.meshes, self.method) {
                     (Some(meshes), _) => {
@@ -724,7 +718,6 @@ impl DistortionPreview {
                 }
                 d.cmd_end_rendering(cmd);
             }
-            stamp(1);
         }
     }
 

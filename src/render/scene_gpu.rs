@@ -195,92 +195,12 @@ impl SceneGpu {
         )?;
         // What is uploaded so far: destroyed if a later upload fails.
         let mut u = Uploaded::default();
-        let mut lod_ranges = vec![Vec::new(); scene.primitives.len()];
-        let mut fullscreen_first_index = 0;
-        let made = (|| -> Result<()> {
-            for (i, (name, _)) in STREAMS.iter().enumerate() {
-                if used[i] {
-                    u.streams[i] = Some(upload(
-                        ctx,
-                        &format!("vertex {name}"),
-                        vk::BufferUsageFlags::VERTEX_BUFFER,
-                        "vertex",
-                        bytes_of(&data[i]),
-                    )?);
-                }
-            }
-            // Defaults read at stride 0: tangent +X, uv 0, colour white.
-            let defaults_data: [f32; 16] = [
-                1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
-            ];
-            u.defaults = Some(upload(
-                ctx,
-                "vertex defaults",
-                vk::BufferUsageFlags::VERTEX_BUFFER,
-                "vertex",
-                bytes_of(&defaults_data),
-            )?);
-            if let Some(chains) = lod {
-                for (p, levels) in chains.levels.iter().enumerate() {
-                    for l in levels {
-                        let range = DrawRange {
-                            first_index: indices.len() as u32,
-                            index_count: l.indices.len() as u32,
-                            ..ranges[p]
-                        };
-                        indices.extend_from_slice(&l.indices);
-                        lod_ranges[p].push((range, l.error));
-                    }
-                }
-            }
-            // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
-            // drops non-indexed draws from every view but the first under multiview.
-            fullscreen_first_index = indices.len() as u32;
-            indices.extend_from_slice(&[0, 1, 2]);
-            u.indices = Some(upload(
-                ctx,
-                "indices",
-                vk::BufferUsageFlags::INDEX_BUFFER,
-                "index",
-                bytes_of(&indices),
-            )?);
-
-            let mut inst: Vec<f32> = Vec::with_capacity(scene.instances.len() * 16);
-            for i in &scene.instances {
-                inst.extend_from_slice(&instance_record(&i.transform));
-            }
-            u.instances = Some(upload(
-                ctx,
-                "instances",
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-                "instance",
-                bytes_of(&inst),
-            )?);
-
-            let mats = material_records(scene);
-            u.materials = Some(upload(
-                ctx,
-                "materials",
-                vk::BufferUsageFlags::STORAGE_BUFFER,
-                "material",
-                bytes_of(&mats),
-            )?);
-
-            make_samplers(ctx, &mut u.samplers)?;
-            if scene.textures.is_empty() {
-                u.textures
-                    .push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
-                u.texture_samplers.push(u.samplers[0]);
-            }
-            for t in &scene.textures {
-                u.textures.push(upload_texture(
-                    ctx, &t.name, t.width, t.height, t.srgb, &t.rgba8,
-                )?);
-                u.texture_samplers
-                    .push(u.samplers[(t.repeat as usize) * 2 + t.linear as usize]);
-            }
-            Ok(())
-        })();
+        let lod_ranges = append_lod_levels(lod, &ranges, &mut indices, scene.primitives.len());
+        // Full-screen passes draw this indexed triangle: lavapipe (Mesa 22.3)
+        // drops non-indexed draws from every view but the first under multiview.
+        let fullscreen_first_index = indices.len() as u32;
+        indices.extend_from_slice(&[0, 1, 2]);
+        let made = u.upload_all(ctx, scene, (&used, &data), &indices);
         match (made, u) {
             (
                 Ok(()),
@@ -349,6 +269,79 @@ struct Uploaded {
 }
 
 impl Uploaded {
+    /// Uploads the used vertex streams and their defaults, the indices,
+    /// the instances, the materials, the samplers and the textures (a white
+    /// one when the scene has none), stopping at the first failure.
+    fn upload_all(
+        &mut self,
+        ctx: &Context,
+        scene: &Scene,
+        (used, data): (&[bool], &[Vec<f32>]),
+        indices: &[u32],
+    ) -> Result<()> {
+        let vertex = vk::BufferUsageFlags::VERTEX_BUFFER;
+        let storage = vk::BufferUsageFlags::STORAGE_BUFFER;
+        for (i, (name, _)) in STREAMS.iter().enumerate() {
+            if used[i] {
+                let bytes = bytes_of(&data[i]);
+                self.streams[i] = Some(upload(
+                    ctx,
+                    &format!("vertex {name}"),
+                    vertex,
+                    "vertex",
+                    bytes,
+                )?);
+            }
+        }
+        // Defaults read at stride 0: tangent +X, uv 0, colour white.
+        let defaults_data: [f32; 16] = [
+            1.0, 0.0, 0.0, 1.0, 0.0, 0.0, 0.0, 0.0, 1.0, 1.0, 1.0, 1.0, 0.0, 0.0, 0.0, 0.0,
+        ];
+        self.defaults = Some(upload(
+            ctx,
+            "vertex defaults",
+            vertex,
+            "vertex",
+            bytes_of(&defaults_data),
+        )?);
+        let index = vk::BufferUsageFlags::INDEX_BUFFER;
+        self.indices = Some(upload(ctx, "indices", index, "index", bytes_of(indices))?);
+        let inst: Vec<f32> = scene
+            .instances
+            .iter()
+            .flat_map(|i| instance_record(&i.transform))
+            .collect();
+        self.instances = Some(upload(
+            ctx,
+            "instances",
+            storage,
+            "instance",
+            bytes_of(&inst),
+        )?);
+        let mats = material_records(scene);
+        self.materials = Some(upload(
+            ctx,
+            "materials",
+            storage,
+            "material",
+            bytes_of(&mats),
+        )?);
+        make_samplers(ctx, &mut self.samplers)?;
+        if scene.textures.is_empty() {
+            self.textures
+                .push(upload_texture(ctx, "white", 1, 1, true, &[255; 4])?);
+            self.texture_samplers.push(self.samplers[0]);
+        }
+        for t in &scene.textures {
+            self.textures.push(upload_texture(
+                ctx, &t.name, t.width, t.height, t.srgb, &t.rgba8,
+            )?);
+            self.texture_samplers
+                .push(self.samplers[(t.repeat as usize) * 2 + t.linear as usize]);
+        }
+        Ok(())
+    }
+
     /// Destroys what was uploaded; the device must be idle.
     fn destroy(self, ctx: &Context) {
         let buffers = [self.defaults, self.indices, self.instances, self.materials];
@@ -381,6 +374,106 @@ fn estimate_bytes(scene: &Scene, streams: &[Vec<f32>; 6], indices: usize) -> u64
         .map(|t| t.width as u64 * t.height as u64 * 4 * 4 / 3)
         .sum();
     vertex + indices as u64 * 4 + scene.instances.len() as u64 * 64 + textures
+}
+
+/// Records the upload of `staging` into level 0 of `image` (of `w` × `h`
+/// and `mips` levels), each further level blitted from the one before,
+/// and every level made ready to sample.
+fn record_texture_upload(
+    d: &ash::Device,
+    cb: vk::CommandBuffer,
+    image: &Image,
+    staging: &Buffer,
+    (w, h, mips): (u32, u32, u32),
+) {
+    let barrier = |level: u32, from: Use, to: Use| {
+        barrier::image_level(image.image, vk::ImageAspectFlags::COLOR, level, 1, from, to)
+    };
+    let pre: Vec<_> = (0..mips)
+        .map(|l| barrier(l, Use::TRANSFER_DST.discarded(), Use::TRANSFER_DST))
+        .collect();
+    // Every level but the last was a blit source; the last was only
+    // written.
+    let post: Vec<_> = (0..mips)
+        .map(|l| {
+            let from = if l + 1 < mips {
+                Use::TRANSFER_SRC
+            } else {
+                Use::TRANSFER_DST
+            };
+            barrier(l, from, Use::SAMPLED)
+        })
+        .collect();
+    let sub = |level| vk::ImageSubresourceLayers {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        mip_level: level,
+        base_array_layer: 0,
+        layer_count: 1,
+    };
+    let (src, dst) = (
+        vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
+        vk::ImageLayout::TRANSFER_DST_OPTIMAL,
+    );
+    // SAFETY: recording transfers on live objects; layouts tracked per level.
+    unsafe {
+        d.cmd_pipeline_barrier2(
+            cb,
+            &vk::DependencyInfo::default().image_memory_barriers(&pre),
+        );
+        let copy = barrier::color_copy(0, 1, w, h);
+        d.cmd_copy_buffer_to_image(cb, staging.buffer, image.image, dst, &[copy]);
+        let (mut mw, mut mh) = (w as i32, h as i32);
+        for l in 1..mips {
+            let b = [barrier(l - 1, Use::TRANSFER_DST, Use::TRANSFER_SRC)];
+            d.cmd_pipeline_barrier2(cb, &vk::DependencyInfo::default().image_memory_barriers(&b));
+            let (nw, nh) = ((mw / 2).max(1), (mh / 2).max(1));
+            let blit = vk::ImageBlit::default()
+                .src_subresource(sub(l - 1))
+                .src_offsets([vk::Offset3D::default(), vk::Offset3D { x: mw, y: mh, z: 1 }])
+                .dst_subresource(sub(l))
+                .dst_offsets([vk::Offset3D::default(), vk::Offset3D { x: nw, y: nh, z: 1 }]);
+            d.cmd_blit_image(
+                cb,
+                image.image,
+                src,
+                image.image,
+                dst,
+                &[blit],
+                vk::Filter::LINEAR,
+            );
+            (mw, mh) = (nw, nh);
+        }
+        d.cmd_pipeline_barrier2(
+            cb,
+            &vk::DependencyInfo::default().image_memory_barriers(&post),
+        );
+    }
+}
+
+/// Appends the LOD chains' levels to `indices`: per primitive, each
+/// level's draw range (the primitive's, over its own indices) and error.
+fn append_lod_levels(
+    lod: Option<&Chains>,
+    ranges: &[DrawRange],
+    indices: &mut Vec<u32>,
+    primitives: usize,
+) -> Vec<Vec<(DrawRange, f32)>> {
+    let mut lod_ranges = vec![Vec::new(); primitives];
+    let Some(chains) = lod else {
+        return lod_ranges;
+    };
+    for (p, levels) in chains.levels.iter().enumerate() {
+        for l in levels {
+            let range = DrawRange {
+                first_index: indices.len() as u32,
+                index_count: l.indices.len() as u32,
+                ..ranges[p]
+            };
+            indices.extend_from_slice(&l.indices);
+            lod_ranges[p].push((range, l.error));
+        }
+    }
+    lod_ranges
 }
 
 fn upload_texture(
@@ -444,76 +537,8 @@ fn upload_texture(
             return Err(e);
         }
     };
-    let d = &ctx.device;
-    let barrier = |level: u32, from: Use, to: Use| {
-        barrier::image_level(image.image, vk::ImageAspectFlags::COLOR, level, 1, from, to)
-    };
-    let r = ctx.one_shot(|cb| {
-        // SAFETY: recording transfers on live objects; layouts tracked per level.
-        unsafe {
-            let mut pre = Vec::new();
-            for l in 0..mips {
-                pre.push(barrier(l, Use::TRANSFER_DST.discarded(), Use::TRANSFER_DST));
-            }
-            d.cmd_pipeline_barrier2(
-                cb,
-                &vk::DependencyInfo::default().image_memory_barriers(&pre),
-            );
-            let copy = barrier::color_copy(0, 1, w, h);
-            d.cmd_copy_buffer_to_image(
-                cb,
-                staging.buffer,
-                image.image,
-                vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                &[copy],
-            );
-            let (mut mw, mut mh) = (w as i32, h as i32);
-            for l in 1..mips {
-                let b = [barrier(l - 1, Use::TRANSFER_DST, Use::TRANSFER_SRC)];
-                d.cmd_pipeline_barrier2(
-                    cb,
-                    &vk::DependencyInfo::default().image_memory_barriers(&b),
-                );
-                let (nw, nh) = ((mw / 2).max(1), (mh / 2).max(1));
-                let sub = |level| vk::ImageSubresourceLayers {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    mip_level: level,
-                    base_array_layer: 0,
-                    layer_count: 1,
-                };
-                let blit = vk::ImageBlit::default()
-                    .src_subresource(sub(l - 1))
-                    .src_offsets([vk::Offset3D::default(), vk::Offset3D { x: mw, y: mh, z: 1 }])
-                    .dst_subresource(sub(l))
-                    .dst_offsets([vk::Offset3D::default(), vk::Offset3D { x: nw, y: nh, z: 1 }]);
-                d.cmd_blit_image(
-                    cb,
-                    image.image,
-                    vk::ImageLayout::TRANSFER_SRC_OPTIMAL,
-                    image.image,
-                    vk::ImageLayout::TRANSFER_DST_OPTIMAL,
-                    &[blit],
-                    vk::Filter::LINEAR,
-                );
-                (mw, mh) = (nw, nh);
-            }
-            let mut post = Vec::new();
-            for l in 0..mips {
-                // Every level but the last was a blit source; the last was
-                // only written.
-                let from = if l + 1 < mips {
-                    Use::TRANSFER_SRC
-                } else {
-                    Use::TRANSFER_DST
-                };
-                post.push(barrier(l, from, Use::SAMPLED));
-            }
-            d.cmd_pipeline_barrier2(
-                cb,
-                &vk::DependencyInfo::default().image_memory_barriers(&post),
-            );
-        }
-    });
+    let r =
+        ctx.one_shot(|cb| record_texture_upload(&ctx.device, cb, &image, &staging, (w, h, mips)));
     staging.destroy(ctx);
     match r {
         Ok(()) => Ok(image),

@@ -335,102 +335,50 @@ impl Timewarp {
         })
     }
 
+    /// Records one warp: the source images and parameters in, the
+    /// variant's dispatches between two timestamps, the warped images and
+    /// counters out to the read-back buffer.
     fn record(&self, cmd: vk::CommandBuffer, params: &Params) {
         let d = &self.ctx.device;
         let b = self.buffers();
         let layer = self.extent.width as u64 * self.extent.height as u64 * 4;
-        let compute_barrier = |cmd| {
-            let m = [vk::MemoryBarrier2::default()
-                .src_stage_mask(
-                    vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::ALL_TRANSFER,
-                )
-                .src_access_mask(vk::AccessFlags2::SHADER_WRITE | vk::AccessFlags2::TRANSFER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                .dst_access_mask(vk::AccessFlags2::SHADER_READ | vk::AccessFlags2::SHADER_WRITE)];
-            // SAFETY: a barrier in the open command buffer.
-            unsafe {
-                d.cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&m))
-            };
-        };
-        let groups = (
-            self.extent.width.div_ceil(8),
-            self.extent.height.div_ceil(8),
-        );
-        let dispatch = |cmd, pipeline, eye: u32, mode: u32| {
-            let push = Push {
-                size: [self.extent.width, self.extent.height],
-                eye,
-                mode,
-            };
-            // SAFETY: recording a dispatch with this warp's pipeline and set.
-            unsafe {
-                d.cmd_bind_pipeline(cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
-                d.cmd_bind_descriptor_sets(
-                    cmd,
-                    vk::PipelineBindPoint::COMPUTE,
-                    self.layout,
-                    0,
-                    &[self.set],
-                    &[],
-                );
-                d.cmd_push_constants(
-                    cmd,
-                    self.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    as_bytes(&[push]),
-                );
-                d.cmd_dispatch(cmd, groups.0, groups.1, 1);
-            }
+        let region = |src_offset, dst_offset, size| vk::BufferCopy {
+            src_offset,
+            dst_offset,
+            size,
         };
         // SAFETY: recording into the one-time command buffer; every buffer
         // belongs to this warp and is idle (the previous warp was waited for).
         unsafe {
-            let copy = |from: u64, to: &Buffer| {
-                d.cmd_copy_buffer(
-                    cmd,
-                    b.staging.buffer,
-                    to.buffer,
-                    &[vk::BufferCopy {
-                        src_offset: from,
-                        dst_offset: 0,
-                        size: 2 * layer,
-                    }],
-                )
-            };
-            copy(0, &b.src_colour);
-            copy(2 * layer, &b.src_depth);
+            d.cmd_copy_buffer(
+                cmd,
+                b.staging.buffer,
+                b.src_colour.buffer,
+                &[region(0, 0, 2 * layer)],
+            );
+            d.cmd_copy_buffer(
+                cmd,
+                b.staging.buffer,
+                b.src_depth.buffer,
+                &[region(2 * layer, 0, 2 * layer)],
+            );
             d.cmd_update_buffer(cmd, b.params.buffer, 0, as_bytes(&[*params]));
             d.cmd_fill_buffer(cmd, b.counters.buffer, 0, vk::WHOLE_SIZE, 0);
             d.cmd_reset_query_pool(cmd, self.queries, 0, 2);
             d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 0);
             d.cmd_fill_buffer(cmd, b.keys.buffer, 0, vk::WHOLE_SIZE, 0);
-            compute_barrier(cmd);
-            match self.variant {
-                Variant::Rotation => {
-                    for eye in 0..2 {
-                        dispatch(cmd, self.rotate, eye, 0);
-                    }
-                }
-                Variant::Depth | Variant::Fill => {
-                    for mode in 0..2 {
-                        for eye in 0..2 {
-                            dispatch(cmd, self.scatter, eye, mode);
-                        }
-                        compute_barrier(cmd);
-                    }
-                    let fill = u32::from(self.variant == Variant::Fill);
-                    for eye in 0..2 {
-                        dispatch(cmd, self.resolve, eye, fill);
-                    }
-                }
-            }
+        }
+        self.compute_barrier(cmd);
+        self.record_dispatches(cmd);
+        let to_copy = [vk::MemoryBarrier2::default()
+            .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .src_access_mask(vk::AccessFlags2::SHADER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COPY)
+            .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
+        let to_host = [barrier::copies_to_host()];
+        // SAFETY: as above.
+        unsafe {
             d.cmd_write_timestamp2(cmd, vk::PipelineStageFlags2::ALL_COMMANDS, self.queries, 1);
-            let to_copy = [vk::MemoryBarrier2::default()
-                .src_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
-                .src_access_mask(vk::AccessFlags2::SHADER_WRITE)
-                .dst_stage_mask(vk::PipelineStageFlags2::COPY)
-                .dst_access_mask(vk::AccessFlags2::TRANSFER_READ)];
             d.cmd_pipeline_barrier2(
                 cmd,
                 &vk::DependencyInfo::default().memory_barriers(&to_copy),
@@ -439,25 +387,81 @@ impl Timewarp {
                 cmd,
                 b.out.buffer,
                 b.readback.buffer,
-                &[vk::BufferCopy {
-                    src_offset: 0,
-                    dst_offset: 0,
-                    size: 2 * layer,
-                }],
+                &[region(0, 0, 2 * layer)],
             );
-            d.cmd_copy_buffer(
-                cmd,
-                b.counters.buffer,
-                b.readback.buffer,
-                &[vk::BufferCopy {
-                    src_offset: 0,
-                    dst_offset: 2 * layer,
-                    size: COUNTERS,
-                }],
-            );
+            let counters = region(0, 2 * layer, COUNTERS);
+            d.cmd_copy_buffer(cmd, b.counters.buffer, b.readback.buffer, &[counters]);
             d.cmd_pipeline_barrier2(
                 cmd,
-                &vk::DependencyInfo::default().memory_barriers(&[barrier::copies_to_host()]),
+                &vk::DependencyInfo::default().memory_barriers(&to_host),
+            );
+        }
+    }
+
+    /// The variant's dispatches per eye: rotation's one pass, or the depth
+    /// warp's two scatter passes (each followed by a barrier) and its
+    /// resolve (filling holes with `timewarp-fill`).
+    fn record_dispatches(&self, cmd: vk::CommandBuffer) {
+        if self.variant == Variant::Rotation {
+            for eye in 0..2 {
+                self.dispatch(cmd, self.rotate, eye, 0);
+            }
+            return;
+        }
+        for mode in 0..2 {
+            for eye in 0..2 {
+                self.dispatch(cmd, self.scatter, eye, mode);
+            }
+            self.compute_barrier(cmd);
+        }
+        let fill = u32::from(self.variant == Variant::Fill);
+        for eye in 0..2 {
+            self.dispatch(cmd, self.resolve, eye, fill);
+        }
+    }
+
+    /// Compute and transfer writes before the next compute reads.
+    fn compute_barrier(&self, cmd: vk::CommandBuffer) {
+        let m = [vk::MemoryBarrier2::default()
+            .src_stage_mask(
+                vk::PipelineStageFlags2::COMPUTE_SHADER | vk::PipelineStageFlags2::ALL_TRANSFER,
+            )
+            .src_access_mask(vk::AccessFlags2::SHADER_WRITE | vk::AccessFlags2::TRANSFER_WRITE)
+            .dst_stage_mask(vk::PipelineStageFlags2::COMPUTE_SHADER)
+            .dst_access_mask(vk::AccessFlags2::SHADER_READ | vk::AccessFlags2::SHADER_WRITE)];
+        // SAFETY: a barrier in the open command buffer.
+        unsafe {
+            self.ctx
+                .device
+                .cmd_pipeline_barrier2(cmd, &vk::DependencyInfo::default().memory_barriers(&m))
+        };
+    }
+
+    /// One dispatch of `pipeline` over an eye's pixels.
+    fn dispatch(&self, cmd: vk::CommandBuffer, pipeline: vk::Pipeline, eye: u32, mode: u32) {
+        let d = &self.ctx.device;
+        let push = Push {
+            size: [self.extent.width, self.extent.height],
+            eye,
+            mode,
+        };
+        let bind = vk::PipelineBindPoint::COMPUTE;
+        // SAFETY: recording a dispatch with this warp's pipeline and set.
+        unsafe {
+            d.cmd_bind_pipeline(cmd, bind, pipeline);
+            d.cmd_bind_descriptor_sets(cmd, bind, self.layout, 0, &[self.set], &[]);
+            d.cmd_push_constants(
+                cmd,
+                self.layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(&[push]),
+            );
+            d.cmd_dispatch(
+                cmd,
+                self.extent.width.div_ceil(8),
+                self.extent.height.div_ceil(8),
+                1,
             );
         }
     }

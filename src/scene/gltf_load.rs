@@ -1669,29 +1669,7 @@ fn place_nodes(
     scene: &mut Scene,
 ) -> Result<()> {
     let roots = root_nodes(ctx, doc, selector)?;
-    scene.scene_names = doc
-        .scenes()
-        .map(|s| {
-            s.name()
-                .map_or_else(|| format!("scene {}", s.index()), str::to_string)
-        })
-        .collect();
-    // Every node's name, parent and extras, for naming selections.
-    scene.node_info = doc
-        .nodes()
-        .map(|n| super::NodeInfo {
-            name: n.name().map(str::to_string),
-            parent: None,
-            extras: n.extras().as_ref().map(|r| r.get().to_string()),
-        })
-        .collect();
-    for n in doc.nodes() {
-        for c in n.children() {
-            if let Some(info) = scene.node_info.get_mut(c.index()) {
-                info.parent = Some(n.index() as u32);
-            }
-        }
-    }
+    name_nodes(doc, scene);
     let mut visited = vec![false; doc.nodes().len()];
     let mut dropped: std::collections::BTreeMap<&'static str, usize> = Default::default();
     let mut ignored_lights = 0usize;
@@ -1717,86 +1695,16 @@ fn place_nodes(
             return Err(ctx.err(format!("node {} has a non-finite transform", node.index())));
         }
         if let Some(cam) = node.camera() {
-            let pose = camera_pose(&world);
-            if pose.is_none() {
-                // A camera whose node scales an axis to zero has no
-                // orientation: said, not dropped unseen.
-                tracing::warn!(
-                    "{}: node {} places camera {} with a degenerate transform (an axis scaled to zero); it is not offered as a viewpoint",
-                    ctx.path.display(),
-                    node.index(),
-                    cam.index()
-                );
-            }
-            if let Some(pose) = pose {
-                let yfov = match cam.projection() {
-                    gltf::camera::Projection::Perspective(p) => Some(p.yfov() as f64),
-                    gltf::camera::Projection::Orthographic(_) => None,
-                };
-                scene.cameras.push(SceneCamera {
-                    index: cam.index(),
-                    name: cam
-                        .name()
-                        .or(node.name())
-                        .map_or_else(|| format!("camera {}", cam.index()), str::to_string),
-                    pose,
-                    yfov,
-                });
-            }
+            place_camera(ctx, &node, &cam, &world, scene);
         }
         if let Some(i) = node
             .extension_value("KHR_lights_punctual")
             .and_then(|e| e.get("light"))
         {
-            let light = i
-                .as_u64()
-                .and_then(|i| lights.get(i as usize))
-                .ok_or_else(|| {
-                    ctx.err(format!(
-                        "node {}: KHR_lights_punctual light {i} does not exist ({} lights)",
-                        node.index(),
-                        lights.len()
-                    ))
-                })?;
-            match light {
-                Light::Directional(color) if scene.sun.is_none() => {
-                    // The light shines along its node's local -Z
-                    // (KHR_lights_punctual, "Directional"): the sun lies
-                    // along +Z.
-                    let towards = world.matrix3 * DVec3::Z;
-                    if let Some(direction) = towards.try_normalize() {
-                        scene.sun = Some(Sun {
-                            direction,
-                            color: *color,
-                        });
-                    }
-                }
-                _ => ignored_lights += 1,
-            }
+            ignored_lights += place_light(ctx, &node, i, lights, &world, scene)? as usize;
         }
         if let Some(mesh) = node.mesh() {
-            let locals =
-                gpu_instances(ctx, doc, &node, MAX_SCENE_INSTANCES - scene.instances.len())?
-                    .unwrap_or_else(|| vec![DAffine3::IDENTITY]);
-            if scene.instances.len() + locals.len() > MAX_SCENE_INSTANCES {
-                return Err(ctx.err(format!(
-                    "node {} would take the scene over {MAX_SCENE_INSTANCES} instances",
-                    node.index()
-                )));
-            }
-            for local in locals {
-                let transform = world * local;
-                match instance_problem(&transform) {
-                    None => {
-                        scene.instances.push(Instance {
-                            mesh: mesh.index() as u32,
-                            transform,
-                        });
-                        scene.instance_node.push(node.index() as u32);
-                    }
-                    Some(why) => *dropped.entry(why).or_default() += 1,
-                }
-            }
+            place_mesh(ctx, doc, (&node, &mesh), &world, scene, &mut dropped)?;
         }
         for child in node.children() {
             stack.push((child, world, depth + 1));
@@ -1810,6 +1718,140 @@ fn place_nodes(
             "{}: ignored {ignored_lights} KHR_lights_punctual light(s) (point and spot lights, and directional lights after the first)",
             ctx.path.display()
         );
+    }
+    Ok(())
+}
+
+/// The scenes' names, and every node's name, parent and extras (for
+/// naming selections).
+fn name_nodes(doc: &gltf::Document, scene: &mut Scene) {
+    scene.scene_names = doc
+        .scenes()
+        .map(|s| {
+            s.name()
+                .map_or_else(|| format!("scene {}", s.index()), str::to_string)
+        })
+        .collect();
+    scene.node_info = doc
+        .nodes()
+        .map(|n| super::NodeInfo {
+            name: n.name().map(str::to_string),
+            parent: None,
+            extras: n.extras().as_ref().map(|r| r.get().to_string()),
+        })
+        .collect();
+    for n in doc.nodes() {
+        for c in n.children() {
+            if let Some(info) = scene.node_info.get_mut(c.index()) {
+                info.parent = Some(n.index() as u32);
+            }
+        }
+    }
+}
+
+/// A camera node as a viewpoint. A camera whose node scales an axis to
+/// zero has no orientation: said, not dropped unseen.
+fn place_camera(
+    ctx: &Ctx,
+    node: &gltf::Node,
+    cam: &gltf::Camera,
+    world: &DAffine3,
+    scene: &mut Scene,
+) {
+    let Some(pose) = camera_pose(world) else {
+        tracing::warn!(
+            "{}: node {} places camera {} with a degenerate transform (an axis scaled to zero); it is not offered as a viewpoint",
+            ctx.path.display(),
+            node.index(),
+            cam.index()
+        );
+        return;
+    };
+    let yfov = match cam.projection() {
+        gltf::camera::Projection::Perspective(p) => Some(p.yfov() as f64),
+        gltf::camera::Projection::Orthographic(_) => None,
+    };
+    scene.cameras.push(SceneCamera {
+        index: cam.index(),
+        name: cam
+            .name()
+            .or(node.name())
+            .map_or_else(|| format!("camera {}", cam.index()), str::to_string),
+        pose,
+        yfov,
+    });
+}
+
+/// A node's KHR_lights_punctual light `i`: the first directional light
+/// is the sun; returns whether the light was ignored (point and spot
+/// lights, later directional lights). A light that does not exist is an
+/// error.
+fn place_light(
+    ctx: &Ctx,
+    node: &gltf::Node,
+    i: &serde_json::Value,
+    lights: &[Light],
+    world: &DAffine3,
+    scene: &mut Scene,
+) -> Result<bool> {
+    let light = i
+        .as_u64()
+        .and_then(|i| lights.get(i as usize))
+        .ok_or_else(|| {
+            ctx.err(format!(
+                "node {}: KHR_lights_punctual light {i} does not exist ({} lights)",
+                node.index(),
+                lights.len()
+            ))
+        })?;
+    match light {
+        Light::Directional(color) if scene.sun.is_none() => {
+            // The light shines along its node's local -Z
+            // (KHR_lights_punctual, "Directional"): the sun lies along +Z.
+            let towards = world.matrix3 * DVec3::Z;
+            if let Some(direction) = towards.try_normalize() {
+                scene.sun = Some(Sun {
+                    direction,
+                    color: *color,
+                });
+            }
+            Ok(false)
+        }
+        _ => Ok(true),
+    }
+}
+
+/// A mesh node's instances (one, or its EXT_mesh_gpu_instancing copies),
+/// within the scene's instance limit; instances with a degenerate or
+/// non-finite transform are counted in `dropped` by reason.
+fn place_mesh(
+    ctx: &Ctx,
+    doc: &gltf::Document,
+    (node, mesh): (&gltf::Node, &gltf::Mesh),
+    world: &DAffine3,
+    scene: &mut Scene,
+    dropped: &mut std::collections::BTreeMap<&'static str, usize>,
+) -> Result<()> {
+    let locals = gpu_instances(ctx, doc, node, MAX_SCENE_INSTANCES - scene.instances.len())?
+        .unwrap_or_else(|| vec![DAffine3::IDENTITY]);
+    if scene.instances.len() + locals.len() > MAX_SCENE_INSTANCES {
+        return Err(ctx.err(format!(
+            "node {} would take the scene over {MAX_SCENE_INSTANCES} instances",
+            node.index()
+        )));
+    }
+    for local in locals {
+        let transform = *world * local;
+        match instance_problem(&transform) {
+            None => {
+                scene.instances.push(Instance {
+                    mesh: mesh.index() as u32,
+                    transform,
+                });
+                scene.instance_node.push(node.index() as u32);
+            }
+            Some(why) => *dropped.entry(why).or_default() += 1,
+        }
     }
     Ok(())
 }

@@ -519,15 +519,11 @@ fn read_las_from<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
     })
 }
 
-/// [`read_las_from`] after the guard: header checks, then the points in
-/// chunks.
-fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
-    path: &Path,
-    read: R,
-    size: u64,
-) -> Result<PointCloud> {
-    let mut reader = las::Reader::new(read).map_err(|e| bad(path, las_message(&e)))?;
-    let header = reader.header().clone();
+/// A LAS/LAZ header's checks before any point is read: the count within
+/// the point limit and what the file's size can hold, finite positive
+/// scales with finite offsets, and finite bounds within the extent limit
+/// (returned, in LAS's axes).
+fn check_header(path: &Path, header: &las::Header, size: u64) -> Result<(DVec3, DVec3)> {
     let count = header.number_of_points();
     let format = *header.point_format();
     let record = u64::from(format.len()).max(1);
@@ -576,6 +572,54 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
             format!("the header's bounds {lo:?} – {hi:?} are not finite or span more than {MAX_EXTENT_M} m"),
         ));
     }
+    Ok((lo, hi))
+}
+
+/// Appends point `p` to `cloud` (y up, relative to its origin; its raw
+/// colour, or intensity as grey, to `chunk` for the chunk's bit-depth
+/// decision). A point outside `(lo, hi)` (the header's bounds with slack)
+/// is an error.
+fn push_point(
+    path: &Path,
+    cloud: &mut PointCloud,
+    chunk: &mut Vec<[u16; 3]>,
+    p: &las::Point,
+    (lo, hi): (DVec3, DVec3),
+) -> Result<()> {
+    let w = DVec3::new(p.x, p.y, p.z);
+    if !w.is_finite() || w.cmplt(lo).any() || w.cmpgt(hi).any() {
+        return Err(bad(
+            path,
+            format!(
+                "point {} at {w:?} lies outside the header's bounds",
+                cloud.len()
+            ),
+        ));
+    }
+    let d = DVec3::new(p.x, p.z, -p.y) - cloud.origin;
+    cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
+    chunk.push(
+        p.color
+            .map_or([p.intensity; 3], |c| [c.red, c.green, c.blue]),
+    );
+    cloud.colors.push([0, 0, 0, (p.intensity >> 8) as u8]);
+    cloud.classification.push(u8::from(p.classification));
+    Ok(())
+}
+
+/// [`read_las_from`] after the guard: header checks, then the points in
+/// chunks.
+fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
+    path: &Path,
+    read: R,
+    size: u64,
+) -> Result<PointCloud> {
+    let mut reader = las::Reader::new(read).map_err(|e| bad(path, las_message(&e)))?;
+    let header = reader.header().clone();
+    let count = header.number_of_points();
+    let record = u64::from(header.point_format().len()).max(1);
+    let (lo, hi) = check_header(path, &header, size)?;
+    let t = header.transforms();
     // The file's own coordinate offset when it lies near the points (then
     // every offset from it is the file's integer times its scale, exactly,
     // and writing the cloud back with the same offset gives the same
@@ -619,24 +663,7 @@ fn decode<R: std::io::Read + std::io::Seek + Send + Sync + 'static>(
         for p in data.points() {
             let p =
                 p.map_err(|e| bad(path, format!("point {}: {}", cloud.len(), las_message(&e))))?;
-            let w = DVec3::new(p.x, p.y, p.z);
-            if !w.is_finite() || w.cmplt(lo - slack).any() || w.cmpgt(hi + slack).any() {
-                return Err(bad(
-                    path,
-                    format!(
-                        "point {} at {w:?} lies outside the header's bounds",
-                        cloud.len()
-                    ),
-                ));
-            }
-            let d = DVec3::new(p.x, p.z, -p.y) - origin;
-            cloud.positions.push([d.x as f32, d.y as f32, d.z as f32]);
-            chunk.push(
-                p.color
-                    .map_or([p.intensity; 3], |c| [c.red, c.green, c.blue]),
-            );
-            cloud.colors.push([0, 0, 0, (p.intensity >> 8) as u8]);
-            cloud.classification.push(u8::from(p.classification));
+            push_point(path, &mut cloud, &mut chunk, &p, (lo - slack, hi + slack))?;
             if cloud.len() as u64 > count {
                 return Err(bad(
                     path,

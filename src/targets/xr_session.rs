@@ -1074,6 +1074,98 @@ fn release_images(live: &mut Live) -> Result<()> {
     Ok(())
 }
 
+/// Eye `eye`'s part of `chains` at `image_rect`: a layer of the one
+/// swapchain under multiview (the session's colour chains are one), else
+/// the eye's own swapchain.
+fn sub_image(
+    live: &Live,
+    chains: &[Chain],
+    eye: usize,
+    image_rect: sys::Rect2Di,
+) -> sys::SwapchainSubImage {
+    let multiview = live.color.len() == 1;
+    sys::SwapchainSubImage {
+        swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
+        image_rect,
+        image_array_index: if multiview { eye as u32 } else { 0 },
+    }
+}
+
+/// The eyes' depth for the runtime (with XR_KHR_composition_layer_depth).
+/// With the inset the eye's depth exists only inside the inset (the wide
+/// view has its own), with lms only in the LMS image's layout: no depth
+/// goes to the runtime then.
+fn depth_layers(
+    live: &Live,
+    st: &LoopState,
+    views: usize,
+    rect: sys::Rect2Di,
+) -> Vec<sys::CompositionLayerDepthInfoKHR> {
+    let reshaped = live.driver.as_ref().is_some_and(|d| {
+        let c = &d.renderer().config;
+        c.inset.is_some() || c.lms.is_some()
+    });
+    if !st.with_depth || reshaped {
+        return Vec::new();
+    }
+    (0..views)
+        .map(|eye| sys::CompositionLayerDepthInfoKHR {
+            ty: sys::CompositionLayerDepthInfoKHR::TYPE,
+            next: std::ptr::null(),
+            sub_image: sub_image(live, &live.depth, eye, rect),
+            min_depth: 0.0,
+            max_depth: 1.0,
+            // Reverse-Z with an infinite far plane: depth 0 is at infinity
+            // and 1 at the near plane (nearZ > farZ marks reversed depth in
+            // XR_KHR_composition_layer_depth).
+            near_z: f32::INFINITY,
+            far_z: st.args.config.near as f32,
+        })
+        .collect()
+}
+
+/// The projection layer's views, each pointing at its depth (when
+/// `depth` has one). Views 2 and 3 are the focus views: their images are
+/// the insets, whose FOV is the inset rectangle's (snapped outward to
+/// whole pixels around the runtime's).
+fn projection_views(
+    live: &Live,
+    views: &[xr::View],
+    depth: &[sys::CompositionLayerDepthInfoKHR],
+    (main_rect, inset_rect): (sys::Rect2Di, sys::Rect2Di),
+) -> Vec<sys::CompositionLayerProjectionView> {
+    let renderer = live.driver.as_ref().map(|d| d.renderer());
+    views
+        .iter()
+        .enumerate()
+        .map(|(i, v)| {
+            let eye = i % 2;
+            let (fov, sub) = match (i >= 2, renderer) {
+                (true, Some(r)) => {
+                    let e = r.extent();
+                    let f = crate::view::inset::rect_fov(
+                        &crate::xr::fov_of(&views[eye].fov),
+                        &r.inset_rect(),
+                        e.width,
+                        e.height,
+                    );
+                    (fovf(&f), sub_image(live, &live.inset, eye, inset_rect))
+                }
+                _ => (v.fov, sub_image(live, &live.color, eye, main_rect)),
+            };
+            sys::CompositionLayerProjectionView {
+                ty: sys::CompositionLayerProjectionView::TYPE,
+                next: depth
+                    .get(i)
+                    .map_or(std::ptr::null(), |d| d as *const _ as *const _),
+                pose: v.pose,
+                fov,
+                sub_image: sub,
+            }
+        })
+        .collect()
+}
+
 /// xrEndFrame with one projection layer (and its depth info when the
 /// runtime takes depth) and the panel's quad layer when it was drawn this
 /// frame, or with no layer when nothing was rendered.
@@ -1096,76 +1188,17 @@ fn end_frame(
     // The eyes' images (with quad views the wide views'), and the insets'.
     let main_rect = rect(renderer.map(|r| r.output_extent()).unwrap_or_default());
     let inset_rect = rect(renderer.map(|r| r.inset_extent()).unwrap_or_default());
-    let multiview = live.color.len() == 1;
-    let sub = |chains: &[Chain], eye: usize, image_rect| sys::SwapchainSubImage {
-        swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
-        image_rect,
-        image_array_index: if multiview { eye as u32 } else { 0 },
-    };
-    let mut depth_infos: Vec<sys::CompositionLayerDepthInfoKHR> = Vec::new();
-    let mut proj: Vec<sys::CompositionLayerProjectionView> = Vec::new();
-    let mut layer = None;
-    if let Some(views) = views {
-        // With inset the eye's depth exists only inside the inset (the
-        // wide view has its own), with lms only in the LMS image's layout:
-        // no depth goes to the runtime then.
-        let inset = live.driver.as_ref().is_some_and(|d| {
-            let c = &d.renderer().config;
-            c.inset.is_some() || c.lms.is_some()
-        });
-        if st.with_depth && !inset {
-            for eye in 0..views.len() {
-                depth_infos.push(sys::CompositionLayerDepthInfoKHR {
-                    ty: sys::CompositionLayerDepthInfoKHR::TYPE,
-                    next: std::ptr::null(),
-                    sub_image: sub(&live.depth, eye, main_rect),
-                    min_depth: 0.0,
-                    max_depth: 1.0,
-                    // Reverse-Z with an infinite far plane: depth 0 is at
-                    // infinity and 1 at the near plane (nearZ > farZ
-                    // marks reversed depth in XR_KHR_composition_layer_depth).
-                    near_z: f32::INFINITY,
-                    far_z: st.args.config.near as f32,
-                });
-            }
-        }
-        for (i, v) in views.iter().enumerate() {
-            let eye = i % 2;
-            // Views 2 and 3 are the focus views: their images are the
-            // insets, whose FOV is the inset rectangle's (snapped outward
-            // to whole pixels around the runtime's).
-            let (fov, sub_image) = match (i >= 2, renderer) {
-                (true, Some(r)) => {
-                    let e = r.extent();
-                    let f = crate::view::inset::rect_fov(
-                        &crate::xr::fov_of(&views[eye].fov),
-                        &r.inset_rect(),
-                        e.width,
-                        e.height,
-                    );
-                    (fovf(&f), sub(&live.inset, eye, inset_rect))
-                }
-                _ => (v.fov, sub(&live.color, eye, main_rect)),
-            };
-            proj.push(sys::CompositionLayerProjectionView {
-                ty: sys::CompositionLayerProjectionView::TYPE,
-                next: depth_infos
-                    .get(i)
-                    .map_or(std::ptr::null(), |d| d as *const _ as *const _),
-                pose: v.pose,
-                fov,
-                sub_image,
-            });
-        }
-        layer = Some(sys::CompositionLayerProjection {
-            ty: sys::CompositionLayerProjection::TYPE,
-            next: std::ptr::null(),
-            layer_flags: xr::CompositionLayerFlags::EMPTY,
-            space: live.space.as_ref().expect("set").as_raw(),
-            view_count: proj.len() as u32,
-            views: proj.as_ptr(),
-        });
-    }
+    let depth_infos = views.map_or_else(Vec::new, |v| depth_layers(live, st, v.len(), main_rect));
+    let rects = (main_rect, inset_rect);
+    let proj = views.map_or_else(Vec::new, |v| projection_views(live, v, &depth_infos, rects));
+    let layer = views.map(|_| sys::CompositionLayerProjection {
+        ty: sys::CompositionLayerProjection::TYPE,
+        next: std::ptr::null(),
+        layer_flags: xr::CompositionLayerFlags::EMPTY,
+        space: live.space.as_ref().expect("set").as_raw(),
+        view_count: proj.len() as u32,
+        views: proj.as_ptr(),
+    });
     let quad = match (&layer, st.panel_drawn, &live.panel, &st.interaction.panel) {
         (Some(_), true, Some(xp), Some(p)) => Some(xp.layer(p, live.space.as_ref().expect("set"))),
         _ => None,

@@ -132,6 +132,38 @@ pub struct Drawn {
     pub cull: GpuCullStats,
 }
 
+/// What this pass cannot do: run without indirect count (one error
+/// naming the device), or give its second command set to more than one
+/// of occlusion's late phase, the far field and the inset's lists.
+fn refuse_unsupported(
+    ctx: &Context,
+    occlusion: bool,
+    (far_field, inset): (bool, bool),
+) -> Result<()> {
+    if !ctx.caps.draw_indirect_count {
+        return Err(Error::config(
+            "--opt",
+            format!(
+                "gpu-cull needs VK_KHR_draw_indirect_count (drawIndirectCount), which {} lacks",
+                ctx.device_name
+            ),
+        ));
+    }
+    if far_field && occlusion {
+        return Err(Error::config(
+            "--opt",
+            "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth",
+        ));
+    }
+    if inset && (far_field || occlusion) {
+        return Err(Error::config(
+            "--opt",
+            "inset's own lists with gpu-cull take the second command set, which mffr and occlusion use: leave them out with inset",
+        ));
+    }
+    Ok(())
+}
+
 /// The cull's descriptor bindings: volumes, instances, primitives,
 /// commands, counts, visible list, frame uniforms, pyramid, pyramid
 /// levels, visibility, LOD levels, LOD errors, early list.
@@ -522,27 +554,7 @@ impl GpuCull {
     ) -> Result<GpuCull> {
         let slots = frame_ubos.len();
         let ctx = setup.ctx;
-        if !ctx.caps.draw_indirect_count {
-            return Err(Error::config(
-                "--opt",
-                format!(
-                    "gpu-cull needs VK_KHR_draw_indirect_count (drawIndirectCount), which {} lacks",
-                    ctx.device_name
-                ),
-            ));
-        }
-        if far_field && occlusion.is_some() {
-            return Err(Error::config(
-                "--opt",
-                "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth",
-            ));
-        }
-        if inset && (far_field || occlusion.is_some()) {
-            return Err(Error::config(
-                "--opt",
-                "inset's own lists with gpu-cull take the second command set, which mffr and occlusion use: leave them out with inset",
-            ));
-        }
+        refuse_unsupported(ctx, occlusion.is_some(), (far_field, inset))?;
         // A second command set: the late phase's (occlusion), the far
         // pass's (mffr) or the inset views' (inset).
         let phases = if occlusion.is_some() || far_field || inset {

@@ -158,75 +158,121 @@ impl PointsPass {
         }
     }
 
-    fn build(&mut self, setup: &PipelineSetup, frames: &[&Buffer]) -> Result<()> {
-        let ctx = setup.ctx;
+    /// Frame slot `i`'s buffers: the per-pixel depth-colour keys (both
+    /// eyes), the drawn-points counter and its host copy, and the octree
+    /// ranges to draw (one range of every point until an octree selects).
+    /// What was made is freed when a later buffer fails.
+    fn make_slot(&self, ctx: &Context, i: usize) -> Result<Slot> {
         let pixels = 2 * self.extent.width as u64 * self.extent.height as u64;
-        for i in 0..frames.len() {
-            let keys = Buffer::new(
+        let keys_usage = vk::BufferUsageFlags::STORAGE_BUFFER | vk::BufferUsageFlags::TRANSFER_DST;
+        let keys = Buffer::new(
+            ctx,
+            &BufferDesc {
+                name: &format!("point keys {i}"),
+                size: 8 * pixels.max(1),
+                usage: keys_usage,
+                location: MemoryLocation::GpuOnly,
+                category: "per-frame",
+            },
+        )?;
+        let small = |name: String, size: u64, location| {
+            Buffer::new(
                 ctx,
                 &BufferDesc {
-                    name: &format!("point keys {i}"),
-                    size: 8 * pixels.max(1),
-                    usage: vk::BufferUsageFlags::STORAGE_BUFFER
-                        | vk::BufferUsageFlags::TRANSFER_DST,
-                    location: MemoryLocation::GpuOnly,
+                    name: &name,
+                    size,
+                    usage: keys_usage | vk::BufferUsageFlags::TRANSFER_SRC,
+                    location,
                     category: "per-frame",
                 },
-            )?;
-            let small = |name: String, size: u64, location| {
-                Buffer::new(
-                    ctx,
-                    &BufferDesc {
-                        name: &name,
-                        size,
-                        usage: vk::BufferUsageFlags::STORAGE_BUFFER
-                            | vk::BufferUsageFlags::TRANSFER_DST
-                            | vk::BufferUsageFlags::TRANSFER_SRC,
-                        location,
-                        category: "per-frame",
-                    },
-                )
-            };
-            let nodes = self.octree.as_ref().map_or(1, |t| t.nodes.len().max(1)) as u64;
-            let made = [
-                small(format!("points drawn {i}"), 4, MemoryLocation::GpuOnly),
-                small(
-                    format!("points drawn (host) {i}"),
-                    4,
-                    MemoryLocation::GpuToCpu,
-                ),
-                small(
-                    format!("point ranges {i}"),
-                    8 * nodes,
-                    MemoryLocation::CpuToGpu,
-                ),
-            ];
-            if made.iter().any(|b| b.is_err()) {
-                keys.destroy(ctx);
-                let mut err = None;
-                for b in made {
-                    match b {
-                        Ok(b) => b.destroy(ctx),
-                        Err(e) => err = err.or(Some(e)),
-                    }
+            )
+        };
+        let nodes = self.octree.as_ref().map_or(1, |t| t.nodes.len().max(1)) as u64;
+        let made = [
+            small(format!("points drawn {i}"), 4, MemoryLocation::GpuOnly),
+            small(
+                format!("points drawn (host) {i}"),
+                4,
+                MemoryLocation::GpuToCpu,
+            ),
+            small(
+                format!("point ranges {i}"),
+                8 * nodes,
+                MemoryLocation::CpuToGpu,
+            ),
+        ];
+        if made.iter().any(|b| b.is_err()) {
+            keys.destroy(ctx);
+            let mut err = None;
+            for b in made {
+                match b {
+                    Ok(b) => b.destroy(ctx),
+                    Err(e) => err = err.or(Some(e)),
                 }
-                return Err(err.expect("one of them failed"));
             }
-            let [drawn, drawn_host, mut ranges] = made.map(|b| b.expect("checked above"));
-            // Without an octree the one range is every point.
-            if let Err(e) = ranges.write(0, as_bytes(&[0u32, 0u32])) {
-                for b in [keys, drawn, drawn_host, ranges] {
-                    b.destroy(ctx);
-                }
-                return Err(e);
+            return Err(err.expect("one of them failed"));
+        }
+        let [drawn, drawn_host, mut ranges] = made.map(|b| b.expect("checked above"));
+        // Without an octree the one range is every point.
+        if let Err(e) = ranges.write(0, as_bytes(&[0u32, 0u32])) {
+            for b in [keys, drawn, drawn_host, ranges] {
+                b.destroy(ctx);
             }
-            self.slots.push(Slot {
-                keys,
-                drawn,
-                drawn_host,
-                ranges,
-                selected: self.count,
-            });
+            return Err(e);
+        }
+        Ok(Slot {
+            keys,
+            drawn,
+            drawn_host,
+            ranges,
+            selected: self.count,
+        })
+    }
+
+    /// Points a slot's descriptor set at the frame's uniforms, the point
+    /// streams (unused bindings repeat the first) and the slot's buffers.
+    fn write_set(&self, ctx: &Context, slot: &Slot, set: vk::DescriptorSet, frame: &Buffer) {
+        let info = |b: &Buffer| {
+            [vk::DescriptorBufferInfo::default()
+                .buffer(b.buffer)
+                .range(vk::WHOLE_SIZE)]
+        };
+        let part = |k: usize| info(self.points.get(k).unwrap_or(&self.points[0]));
+        let infos = [
+            info(frame),
+            part(0),
+            info(&slot.keys),
+            info(&slot.drawn),
+            info(&slot.ranges),
+            part(1),
+            part(2),
+            part(3),
+            part(4),
+        ];
+        let writes: Vec<vk::WriteDescriptorSet> = infos
+            .iter()
+            .enumerate()
+            .map(|(b, i)| {
+                let ty = match b {
+                    0 => vk::DescriptorType::UNIFORM_BUFFER,
+                    _ => vk::DescriptorType::STORAGE_BUFFER,
+                };
+                vk::WriteDescriptorSet::default()
+                    .dst_set(set)
+                    .dst_binding(b as u32)
+                    .descriptor_type(ty)
+                    .buffer_info(i)
+            })
+            .collect();
+        // SAFETY: the set is new and every buffer is live.
+        unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+
+    fn build(&mut self, setup: &PipelineSetup, frames: &[&Buffer]) -> Result<()> {
+        let ctx = setup.ctx;
+        for i in 0..frames.len() {
+            let slot = self.make_slot(ctx, i)?;
+            self.slots.push(slot);
         }
         let (uniform, storage) = (
             vk::DescriptorType::UNIFORM_BUFFER,
@@ -246,37 +292,7 @@ impl PointsPass {
         ];
         self.sets = DescriptorSets::new(ctx, &bindings, compute, 48, frames.len(), "points")?;
         for ((slot, &set), frame) in self.slots.iter().zip(&self.sets.sets).zip(frames) {
-            let info = |b: &Buffer| {
-                [vk::DescriptorBufferInfo::default()
-                    .buffer(b.buffer)
-                    .range(vk::WHOLE_SIZE)]
-            };
-            // Unused point bindings repeat the first buffer.
-            let part = |k: usize| info(self.points.get(k).unwrap_or(&self.points[0]));
-            let infos = [
-                info(frame),
-                part(0),
-                info(&slot.keys),
-                info(&slot.drawn),
-                info(&slot.ranges),
-                part(1),
-                part(2),
-                part(3),
-                part(4),
-            ];
-            let writes: Vec<vk::WriteDescriptorSet> = infos
-                .iter()
-                .enumerate()
-                .map(|(b, i)| {
-                    vk::WriteDescriptorSet::default()
-                        .dst_set(set)
-                        .dst_binding(b as u32)
-                        .descriptor_type(if b == 0 { uniform } else { storage })
-                        .buffer_info(i)
-                })
-                .collect();
-            // SAFETY: the set is new and every buffer is live.
-            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+            self.write_set(ctx, slot, set, frame);
         }
         if self.list.is_some() {
             return self.build_list(setup);
