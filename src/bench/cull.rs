@@ -240,15 +240,9 @@ fn percentile(sorted: &[f64], q: f64) -> f64 {
     sorted[idx]
 }
 
-/// Runs the bench on `bounds` with `eyes` (poses relative to the head, left
-/// first) in a pool of `args.threads` threads. Each frame computes exact
-/// per-eye culling once (untimed), then times every strategy on it, in an
-/// order rotated frame by frame.
-pub fn run(
-    args: &CullBenchArgs,
-    bounds: &[(DVec3, DVec3)],
-    eyes: &[(Pose, Fov)],
-) -> Result<CullBenchReport, CullBenchError> {
+/// The strategies to time (every one unless `--strategies` names some,
+/// each at most once), with the thread, frame and lens arguments checked.
+fn checked_strategies(args: &CullBenchArgs) -> Result<Vec<Strategy>, CullBenchError> {
     let strategies: Vec<Strategy> = if args.strategies.is_empty() {
         Strategy::ALL.to_vec()
     } else {
@@ -281,6 +275,19 @@ pub fn run(
         crate::cli::parse_lens_half_angle(&a.to_string())
             .map_err(|m| CullBenchError::Args(format!("--lens-half-angle: {m}")))?;
     }
+    Ok(strategies)
+}
+
+/// Runs the bench on `bounds` with `eyes` (poses relative to the head, left
+/// first) in a pool of `args.threads` threads. Each frame computes exact
+/// per-eye culling once (untimed), then times every strategy on it, in an
+/// order rotated frame by frame.
+pub fn run(
+    args: &CullBenchArgs,
+    bounds: &[(DVec3, DVec3)],
+    eyes: &[(Pose, Fov)],
+) -> Result<CullBenchReport, CullBenchError> {
+    let strategies = checked_strategies(args)?;
     let pool = rayon::ThreadPoolBuilder::new()
         .num_threads(args.threads)
         .build()

@@ -968,6 +968,85 @@ fn visible_masks(rig: &StereoRig, extent: vk::Extent2D) -> Option<[Vec<bool>; 2]
     Some([mask(0)?, mask(1)?])
 }
 
+/// Spin-up: the first view, unmeasured, until the GPU is back at its
+/// clocks (see `Plan::spin_up_ms`). An even number of frames: the
+/// renderer's frame count picks the round-robin eye and MFFR's alternate
+/// eye, so the measured frames keep the parity they have without a
+/// spin-up. aq's measured run then starts at its default level like a
+/// session. False when a quit was requested.
+fn spin_up(driver: &mut FrameDriver, plan: &Plan, first: &StereoRig) -> Result<bool> {
+    let spin = std::time::Instant::now();
+    let mut spun = 0u64;
+    while spin.elapsed().as_secs_f64() * 1e3 < plan.spin_up_ms as f64 || spun % 2 == 1 {
+        driver.frame(first, 0, false)?;
+        spun += 1;
+        while driver.take_completed().is_some() {}
+        if crate::quit::requested() {
+            return Ok(false);
+        }
+    }
+    driver.finish()?;
+    while driver.take_completed().is_some() {}
+    driver.reset_aq();
+    Ok(true)
+}
+
+/// The exact-culling ground truth, after the timed loop: the `judged`
+/// frames' culls replayed (culling depends only on the rig and the frame
+/// number), false positives and negatives averaged per frame.
+fn cull_accuracy(
+    c: &crate::render::culling::CullState,
+    rigs: &[StereoRig],
+    judged: std::ops::Range<usize>,
+) -> Result<CullAccuracy> {
+    let mut a = CullAccuracy::default();
+    let n = judged.len().max(1) as f64;
+    for i in judged {
+        let (fp, fneg) = c.replay_accuracy(&rigs[i], i as u64)?;
+        a.false_positives += fp as f64 / n;
+        a.false_negatives += fneg as f64 / n;
+        a.false_negatives_total += fneg;
+    }
+    Ok(a)
+}
+
+/// The plan's compared frames, rendered again and read back into
+/// `images` (scaled to the eye size, as the compositor would show aq's
+/// smaller frames), each with its error against the reference. Each is
+/// rendered after the frame before it (frames in flight as measured); a
+/// configuration with a history (inset-taa) runs the path from its settle
+/// frames before, so the compared image is the settled one it showed in
+/// the timed loop.
+fn compared_frames(
+    driver: &mut FrameDriver,
+    plan: &Plan,
+    rigs: &[StereoRig],
+    (extent, config): (vk::Extent2D, &RenderConfig),
+    images: &mut RefImages,
+    compare: Option<&Comparison>,
+) -> Result<Vec<ImageError>> {
+    let mut errors = Vec::new();
+    let lead = config.settle_frames().max(1);
+    for k in plan.error_frame_indices() {
+        let i = (plan.warmup + k) as usize;
+        let first = i.saturating_sub(lead);
+        for (j, rig) in rigs.iter().enumerate().take(i + 1).skip(first) {
+            driver.frame(rig, j as u64, j == i)?;
+        }
+        let pair = driver
+            .read_images()?
+            .map(|img| crate::targets::headless::to_size(img, extent));
+        if let Some(cmp) = compare {
+            if let Some(reference) = cmp.reference.get(images.len()) {
+                let inset = config_inset_rect(config, cmp.inset_config, &rigs[i], extent);
+                errors.push(image_error(reference, &pair, cmp, inset.as_ref())?);
+            }
+        }
+        images.push(pair);
+    }
+    Ok(errors)
+}
+
 /// Renders `config` along `rigs`: warm-up, measured frames, then the
 /// compared frames (each preceded by its predecessor on the path, so
 /// history-dependent techniques see a realistic previous frame), read back
@@ -1000,26 +1079,10 @@ fn measure(
             frames.push(r);
         }
     };
-    // Spin-up: the first view, unmeasured, until the GPU is back at its
-    // clocks (see `Plan::spin_up_ms`).
     if let Some(first) = rigs.first() {
-        let spin = std::time::Instant::now();
-        let mut spun = 0u64;
-        // An even number of frames: the renderer's frame count picks the
-        // round-robin eye and MFFR's alternate eye, so the measured frames
-        // keep the parity they have without a spin-up.
-        while spin.elapsed().as_secs_f64() * 1e3 < plan.spin_up_ms as f64 || spun % 2 == 1 {
-            driver.frame(first, 0, false)?;
-            spun += 1;
-            while driver.take_completed().is_some() {}
-            if crate::quit::requested() {
-                return Ok(None);
-            }
+        if !spin_up(&mut driver, plan, first)? {
+            return Ok(None);
         }
-        driver.finish()?;
-        while driver.take_completed().is_some() {}
-        // aq's measured run starts at its default level like a session.
-        driver.reset_aq();
     }
     for (i, rig) in rigs.iter().enumerate() {
         driver.frame(rig, i as u64, false)?;
@@ -1037,19 +1100,9 @@ fn measure(
     // The exact-culling ground truth, after the timed loop: the first
     // measured frames' culls replayed (culling depends only on the rig and
     // the frame number).
+    let judged = warmup..(warmup + n_accuracy).min(rigs.len());
     let accuracy = match driver.culling() {
-        Some(c) => {
-            let mut a = CullAccuracy::default();
-            let judged = warmup..(warmup + n_accuracy).min(rigs.len());
-            let n = judged.len().max(1) as f64;
-            for i in judged {
-                let (fp, fneg) = c.replay_accuracy(&rigs[i], i as u64)?;
-                a.false_positives += fp as f64 / n;
-                a.false_negatives += fneg as f64 / n;
-                a.false_negatives_total += fneg;
-            }
-            Some(a)
-        }
+        Some(c) => Some(cull_accuracy(c, rigs, judged)?),
         None => None,
     };
     if let Some(f) = floors_out {
@@ -1074,31 +1127,7 @@ fn measure(
         });
         result.error = average_errors(&errors);
     } else if let Some(images) = images {
-        let mut errors = Vec::new();
-        // Each compared frame is rendered again after the frame before it
-        // (frames in flight as measured); a configuration with a history
-        // (inset-taa) runs the path from its settle frames before, so the
-        // compared image is the settled one it showed in the timed loop.
-        let lead = config.settle_frames().max(1);
-        for k in plan.error_frame_indices() {
-            let i = (plan.warmup + k) as usize;
-            let first = i.saturating_sub(lead);
-            for (j, rig) in rigs.iter().enumerate().take(i + 1).skip(first) {
-                driver.frame(rig, j as u64, j == i)?;
-            }
-            // With aq, what the compositor would show: the rendered size
-            // scaled to the eye image.
-            let pair = driver
-                .read_images()?
-                .map(|img| crate::targets::headless::to_size(img, extent));
-            if let Some(cmp) = compare {
-                if let Some(reference) = cmp.reference.get(images.len()) {
-                    let inset = config_inset_rect(config, cmp.inset_config, &rigs[i], extent);
-                    errors.push(image_error(reference, &pair, cmp, inset.as_ref())?);
-                }
-            }
-            images.push(pair);
-        }
+        let errors = compared_frames(&mut driver, plan, rigs, (extent, config), images, compare)?;
         result.error = average_errors(&errors);
     }
     drop(driver);

@@ -157,6 +157,17 @@ pub fn image_level(
         })
 }
 
+/// The colour aspect's first mip level over `count` layers from `first`.
+pub fn color_range(first: u32, count: u32) -> vk::ImageSubresourceRange {
+    vk::ImageSubresourceRange {
+        aspect_mask: vk::ImageAspectFlags::COLOR,
+        base_mip_level: 0,
+        level_count: 1,
+        base_array_layer: first,
+        layer_count: count,
+    }
+}
+
 /// A copy between a tightly packed buffer (from byte `offset`) and mip 0 of
 /// `layers` layers of a `width`×`height` colour image.
 pub fn color_copy(offset: u64, layers: u32, width: u32, height: u32) -> vk::BufferImageCopy {

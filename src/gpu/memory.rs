@@ -353,27 +353,7 @@ impl Image {
             free(ctx, memory, desc.category);
             return Err(e);
         }
-        let view_type = if desc.layers == 1 {
-            vk::ImageViewType::TYPE_2D
-        } else {
-            vk::ImageViewType::TYPE_2D_ARRAY
-        };
-        // With extended usage the image's own (all-layer) view keeps only
-        // the uses its format has: storage goes through another view.
-        let view_usage = desc
-            .flags
-            .contains(vk::ImageCreateFlags::EXTENDED_USAGE)
-            .then(|| desc.usage & !vk::ImageUsageFlags::STORAGE);
-        let view = match Self::view_for(
-            ctx,
-            image,
-            desc.format,
-            desc.aspect,
-            view_type,
-            (0, desc.layers),
-            desc.mips,
-            view_usage,
-        ) {
+        let view = match Self::whole_view(ctx, image, desc) {
             Ok(v) => v,
             Err(e) => {
                 drop_image();
@@ -393,6 +373,31 @@ impl Image {
             memory,
             category: desc.category,
         })
+    }
+
+    /// The image's own view: 2D (one layer) or 2D array over every layer
+    /// and mip. With extended usage it keeps only the uses its format has:
+    /// storage goes through another view.
+    fn whole_view(ctx: &Context, image: vk::Image, desc: &ImageDesc) -> Result<vk::ImageView> {
+        let view_type = if desc.layers == 1 {
+            vk::ImageViewType::TYPE_2D
+        } else {
+            vk::ImageViewType::TYPE_2D_ARRAY
+        };
+        let view_usage = desc
+            .flags
+            .contains(vk::ImageCreateFlags::EXTENDED_USAGE)
+            .then(|| desc.usage & !vk::ImageUsageFlags::STORAGE);
+        Self::view_for(
+            ctx,
+            image,
+            desc.format,
+            desc.aspect,
+            view_type,
+            (0, desc.layers),
+            desc.mips,
+            view_usage,
+        )
     }
 
     /// Creates a view of `count` layers starting at `first`.

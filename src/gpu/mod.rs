@@ -296,6 +296,14 @@ fn instance_extensions(
 }
 
 impl Context {
+    /// The device memory allocated so far, bytes by category.
+    pub fn memory_snapshot(&self) -> BTreeMap<String, u64> {
+        self.memory_by_category
+            .lock()
+            .map(|m| m.iter().map(|(k, v)| (k.to_string(), *v)).collect())
+            .unwrap_or_default()
+    }
+
     /// Creates a headless context (no surface) on the first suitable device;
     /// `VERGENCE_DEVICE=<index>` picks another.
     pub fn new_headless(validation: Validation) -> Result<Context> {

@@ -241,23 +241,35 @@ impl GraphicsPipelineDesc<'_> {
                 .flags(vk::PipelineCreateFlags::RENDERING_FRAGMENT_SHADING_RATE_ATTACHMENT_KHR)
                 .push_next(&mut fsr);
         }
-        // SAFETY: all referenced state lives until the call returns; modules
-        // are destroyed after creation, which Vulkan permits.
-        let result = unsafe {
-            ctx.device
-                .create_graphics_pipelines(vk::PipelineCache::null(), &[info], None)
-        };
-        // SAFETY: modules are no longer needed once the pipeline exists.
-        unsafe {
-            ctx.device.destroy_shader_module(vs, None);
-            ctx.device.destroy_shader_module(fs, None);
-        }
-        let pipeline = result
-            .map_err(|(_, e)| e)
-            .vk(&format!("creating pipeline {}", self.name))?[0];
-        ctx.set_name(pipeline, self.name);
-        Ok(pipeline)
+        create_graphics(ctx, &info, [vs, fs], self.name)
     }
+}
+
+/// Creates the graphics pipeline `info` (named `name`) and destroys its
+/// shader modules, which Vulkan permits once the pipeline exists.
+fn create_graphics(
+    ctx: &Context,
+    info: &vk::GraphicsPipelineCreateInfo,
+    modules: [vk::ShaderModule; 2],
+    name: &str,
+) -> Result<vk::Pipeline> {
+    // SAFETY: all state `info` references lives until the call returns.
+    let result = unsafe {
+        ctx.device.create_graphics_pipelines(
+            vk::PipelineCache::null(),
+            std::slice::from_ref(info),
+            None,
+        )
+    };
+    for m in modules {
+        // SAFETY: modules are no longer needed once the pipeline exists.
+        unsafe { ctx.device.destroy_shader_module(m, None) };
+    }
+    let pipeline = result
+        .map_err(|(_, e)| e)
+        .vk(&format!("creating pipeline {name}"))?[0];
+    ctx.set_name(pipeline, name);
+    Ok(pipeline)
 }
 
 /// The stencil attachment format that goes with depth format `depth`:

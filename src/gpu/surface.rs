@@ -123,6 +123,43 @@ pub struct Source {
     pub extent: vk::Extent2D,
 }
 
+/// A swapchain image as acquired: contents undefined, first written by
+/// transfers.
+const ACQUIRED: Use = Use {
+    layout: vk::ImageLayout::UNDEFINED,
+    stage: vk::PipelineStageFlags2::ALL_TRANSFER,
+    access: vk::AccessFlags2::NONE,
+};
+
+/// The swapchain's size: the surface's, or the window's `size` within
+/// the surface's limits where the surface leaves it to the swapchain.
+fn swap_extent(caps: &vk::SurfaceCapabilitiesKHR, size: vk::Extent2D) -> vk::Extent2D {
+    if caps.current_extent.width != u32::MAX {
+        return caps.current_extent;
+    }
+    vk::Extent2D {
+        width: size
+            .width
+            .clamp(caps.min_image_extent.width, caps.max_image_extent.width),
+        height: size
+            .height
+            .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
+    }
+}
+
+/// The first composite alpha the surface supports, opaque first.
+fn composite_alpha(caps: &vk::SurfaceCapabilitiesKHR) -> vk::CompositeAlphaFlagsKHR {
+    [
+        vk::CompositeAlphaFlagsKHR::OPAQUE,
+        vk::CompositeAlphaFlagsKHR::INHERIT,
+        vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
+        vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
+    ]
+    .into_iter()
+    .find(|a| caps.supported_composite_alpha.contains(*a))
+    .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE)
+}
+
 /// The blit of `s` (content columns from `x0`) into the letterboxed
 /// rectangle `(origin, size)` of the window, which shows `content`
 /// proportionally.
@@ -367,18 +404,7 @@ impl Presenter {
                     .vk("querying the present modes")?,
             )
         };
-        let extent = if caps.current_extent.width != u32::MAX {
-            caps.current_extent
-        } else {
-            vk::Extent2D {
-                width: size
-                    .width
-                    .clamp(caps.min_image_extent.width, caps.max_image_extent.width),
-                height: size
-                    .height
-                    .clamp(caps.min_image_extent.height, caps.max_image_extent.height),
-            }
-        };
+        let extent = swap_extent(&caps, size);
         if extent.width == 0 || extent.height == 0 {
             // Minimized: keep the old swapchain (if any) and try again later.
             self.stale = true;
@@ -408,15 +434,7 @@ impl Presenter {
         if caps.max_image_count > 0 {
             count = count.min(caps.max_image_count);
         }
-        let alpha = [
-            vk::CompositeAlphaFlagsKHR::OPAQUE,
-            vk::CompositeAlphaFlagsKHR::INHERIT,
-            vk::CompositeAlphaFlagsKHR::PRE_MULTIPLIED,
-            vk::CompositeAlphaFlagsKHR::POST_MULTIPLIED,
-        ]
-        .into_iter()
-        .find(|a| caps.supported_composite_alpha.contains(*a))
-        .unwrap_or(vk::CompositeAlphaFlagsKHR::OPAQUE);
+        let alpha = composite_alpha(&caps);
         let old = self.swapchain;
         let info = vk::SwapchainCreateInfoKHR::default()
             .surface(self.surface)
@@ -772,11 +790,7 @@ impl Presenter {
         let d = &ctx.device;
         let c = vk::ImageAspectFlags::COLOR;
         let written = SHOWN;
-        let acquired = Use {
-            layout: vk::ImageLayout::UNDEFINED,
-            stage: vk::PipelineStageFlags2::ALL_TRANSFER,
-            access: vk::AccessFlags2::NONE,
-        };
+        let acquired = ACQUIRED;
         let layer_barrier =
             |s: &Source, from: Use, to: Use| barrier::color_layer(s.image, s.layer, from, to);
         let mut before: Vec<_> = sources
@@ -793,13 +807,7 @@ impl Presenter {
             height: sources.iter().map(|s| s.extent.height).max().unwrap_or(0),
         };
         let (origin, size) = letterbox(content, self.extent);
-        let range = vk::ImageSubresourceRange {
-            aspect_mask: c,
-            base_mip_level: 0,
-            level_count: 1,
-            base_array_layer: 0,
-            layer_count: 1,
-        };
+        let range = barrier::color_range(0, 1);
         let black = vk::ClearColorValue {
             float32: [0.0, 0.0, 0.0, 1.0],
         };

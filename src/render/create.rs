@@ -43,9 +43,16 @@ impl Renderer {
             Some(f) if !stencil => f,
             _ => ctx.caps.depth_format,
         };
-        let inset_choice = config
-            .inset
-            .map(|i| inset_path(i, config.stereo, ctx.caps.max_multiview_views, samples));
+        let quad = output.is_some_and(|o| o.quad);
+        let inset_choice = config.inset.map(|i| {
+            let (four, path) = inset_path(i, config.stereo, ctx.caps.max_multiview_views, samples);
+            let path = if quad {
+                format!("{path}, submitted as four views")
+            } else {
+                path
+            };
+            (four, path)
+        });
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
@@ -63,7 +70,7 @@ impl Renderer {
                 y1: nominal.height,
             },
             focus: None,
-            quad: output.is_some_and(|o| o.quad),
+            quad,
             vertices: VertexBindings::new(&scene_gpu),
             scene: Some(scene_gpu),
             targets: None,
@@ -91,21 +98,10 @@ impl Renderer {
             mffr_fallbacks: 0,
             mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
-            inset_path: inset_choice.as_ref().map(|c| {
-                if output.is_some_and(|o| o.quad) {
-                    format!("{}, submitted as four views", c.1)
-                } else {
-                    c.1.clone()
-                }
-            }),
+            four_view: inset_choice.as_ref().is_some_and(|c| c.0),
+            inset_path: inset_choice.map(|c| c.1),
             mask_in_depth,
-            four_view: inset_choice.is_some_and(|c| c.0),
-            wide_region: crate::view::inset::PixelRect {
-                x0: 0,
-                y0: 0,
-                x1: 0,
-                y1: 0,
-            },
+            wide_region: crate::view::inset::PixelRect::default(),
             lod: lod_report,
             draw_records,
             parallel: None,

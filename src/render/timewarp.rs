@@ -129,9 +129,11 @@ pub struct Timewarp {
 
 const COUNTERS: u64 = 6 * 4;
 
-impl Timewarp {
-    /// Builds the warp for eye images of `extent` pixels.
-    pub fn new(ctx: &Arc<Context>, extent: vk::Extent2D, variant: Variant) -> Result<Timewarp> {
+impl Buffers {
+    /// The warp's buffers for two eyes of `extent`: the source colour and
+    /// depth, the scatter keys and targets, the output, the counters and
+    /// parameters, and the upload and read-back buffers.
+    fn new(ctx: &Context, extent: vk::Extent2D) -> Result<Buffers> {
         let pixels = extent.width as u64 * extent.height as u64 * 2;
         let buffer = |name, size, usage, location| {
             Buffer::new(
@@ -149,7 +151,7 @@ impl Timewarp {
         let dst = vk::BufferUsageFlags::TRANSFER_DST;
         let src = vk::BufferUsageFlags::TRANSFER_SRC;
         let gpu = MemoryLocation::GpuOnly;
-        let buffers = Buffers {
+        Ok(Buffers {
             src_colour: buffer("timewarp colour", pixels * 4, storage | dst, gpu)?,
             src_depth: buffer("timewarp depth", pixels * 4, storage | dst, gpu)?,
             keys: buffer("timewarp keys", pixels * 4, storage | dst, gpu)?,
@@ -169,22 +171,12 @@ impl Timewarp {
                 dst,
                 MemoryLocation::GpuToCpu,
             )?,
-        };
-        let storage = (
-            vk::DescriptorType::STORAGE_BUFFER,
-            1,
-            vk::ShaderStageFlags::COMPUTE,
-        );
-        let binding = DescriptorSets::new(
-            ctx,
-            &[storage; 7],
-            vk::ShaderStageFlags::COMPUTE,
-            std::mem::size_of::<Push>() as u32,
-            1,
-            "timewarp",
-        )?;
-        let (layout, set) = (binding.layout, binding.sets[0]);
-        let b = &buffers;
+        })
+    }
+
+    /// Points the warp's descriptor set at its seven storage buffers.
+    fn write_set(&self, ctx: &Context, set: vk::DescriptorSet) {
+        let b = self;
         let all = [
             &b.src_colour,
             &b.src_depth,
@@ -216,6 +208,28 @@ impl Timewarp {
         // SAFETY: every write names a live buffer of this warp and the
         // binding's own set.
         unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+    }
+}
+
+impl Timewarp {
+    /// Builds the warp for eye images of `extent` pixels.
+    pub fn new(ctx: &Arc<Context>, extent: vk::Extent2D, variant: Variant) -> Result<Timewarp> {
+        let buffers = Buffers::new(ctx, extent)?;
+        let storage = (
+            vk::DescriptorType::STORAGE_BUFFER,
+            1,
+            vk::ShaderStageFlags::COMPUTE,
+        );
+        let binding = DescriptorSets::new(
+            ctx,
+            &[storage; 7],
+            vk::ShaderStageFlags::COMPUTE,
+            std::mem::size_of::<Push>() as u32,
+            1,
+            "timewarp",
+        )?;
+        let (layout, set) = (binding.layout, binding.sets[0]);
+        buffers.write_set(ctx, set);
         let scatter = compute_pipeline(
             ctx,
             layout,

@@ -240,6 +240,12 @@ impl OctreeReport {
             cache: tree.cache.clone(),
         }
     }
+
+    /// The report of the scene's point octree, if it has one.
+    pub fn of_scene(scene: &Scene) -> Option<OctreeReport> {
+        let c = scene.points.as_ref()?;
+        c.octree.as_ref().map(|t| OctreeReport::of(t, c.len()))
+    }
 }
 
 /// `stats.json`'s `motion` block.
@@ -250,6 +256,17 @@ pub struct MotionReport {
     /// What the last frame uploaded.
     #[serde(flatten)]
     pub last_frame: crate::render::instance_updates::UpdateStats,
+}
+
+impl MotionReport {
+    /// The scene's moving instances and what `frame` uploaded; None for a
+    /// scene where nothing moves.
+    pub fn of(scene: &Scene, frame: &crate::render::FrameStats) -> Option<MotionReport> {
+        (!scene.moving.is_empty()).then(|| MotionReport {
+            moving_instances: scene.moving_instances(),
+            last_frame: frame.motion.unwrap_or_default(),
+        })
+    }
 }
 
 pub use crate::stats::Percentiles;
@@ -467,26 +484,34 @@ pub struct Loaded {
     pub profile: HmdProfile,
 }
 
-/// [`render_to_dir`], handing back the context, scene and profile it used
-/// and its outputs uncommitted (the images and `rig.json`, without
-/// `stats.json`): a measurement that follows adds its files and the
-/// statistics ([`write_stats`]), and everything lands together.
-pub fn render_to_dir_keeping(
-    job: &RenderJob,
-) -> Result<(RenderStats, Loaded, crate::fsio::OutputSet)> {
+/// What [`render_frames`] rendered, with what it rendered it from.
+struct Rendered {
+    profile: HmdProfile,
+    scene: Scene,
+    load_ms: f64,
+    ctx: Arc<Context>,
+    extent: vk::Extent2D,
+    driver: FrameDriver,
+    rig: crate::view::StereoRig,
+    frames: u32,
+    warmup: u32,
+    all: Vec<FrameResult>,
+}
+
+/// Loads the job's profile (its lenses with a distortion preview) and
+/// scene, checks the output folder (the images and statistics land
+/// together or not at all, so it is checked before anything is rendered),
+/// and renders the warm-up and measured frames.
+fn render_frames(job: &RenderJob) -> Result<Rendered> {
     let profile = load_stereo_profile(&job.hmd)?;
     job.config.validate()?;
     let mut config = job.config.clone();
     config.resolve_lens(Some(&profile))?;
-    let lenses = match job.distorted {
-        Some(_) => Some(profile_lenses(&profile)?),
-        None => None,
-    };
+    if job.distorted.is_some() {
+        profile_lenses(&profile)?;
+    }
     let (scene, load_ms) = load_scene(&job.scene)?;
-    // The images and statistics land together or not at all; the folder
-    // is checked before anything is rendered.
     crate::fsio::prepare_output(&job.out.join("stats.json"))?;
-    let mut outputs = crate::fsio::OutputSet::default();
     let ctx = Arc::new(Context::new_headless(Validation::from_env())?);
     let extent = eye_extent(&profile, job.size);
     let renderer = new_renderer(&ctx, &scene, &config, extent)?;
@@ -494,42 +519,63 @@ pub fn render_to_dir_keeping(
     let rig = head_rig(job, &scene, &profile)?;
     let frames = job.frames.max(1);
     let warmup = if frames > 1 { 2 } else { 0 };
-    let total = warmup + frames;
-    let all = run_frames(&mut driver, &rig, warmup, total)?;
+    let all = run_frames(&mut driver, &rig, warmup, warmup + frames)?;
+    Ok(Rendered {
+        profile,
+        scene,
+        load_ms,
+        ctx,
+        extent,
+        driver,
+        rig,
+        frames,
+        warmup,
+        all,
+    })
+}
+
+/// [`render_to_dir`], handing back the context, scene and profile it used
+/// and its outputs uncommitted (the images and `rig.json`, without
+/// `stats.json`): a measurement that follows adds its files and the
+/// statistics ([`write_stats`]), and everything lands together.
+pub fn render_to_dir_keeping(
+    job: &RenderJob,
+) -> Result<(RenderStats, Loaded, crate::fsio::OutputSet)> {
+    let Rendered {
+        profile,
+        scene,
+        load_ms,
+        ctx,
+        extent,
+        mut driver,
+        rig,
+        frames,
+        warmup,
+        all,
+    } = render_frames(job)?;
+    let mut outputs = crate::fsio::OutputSet::default();
     let cull_stats = all.last().and_then(|r| r.cull);
-    let gpu_frame: Vec<f64> = all.iter().map(FrameResult::gpu_ms).collect();
-    let cpu_frame: Vec<f64> = all
-        .iter()
-        .map(|r| r.stats.cpu_ms.batch + r.stats.cpu_ms.record + r.stats.cpu_ms.submit)
-        .collect();
-    let intervals: Vec<f64> = all.iter().filter_map(|r| r.interval_ms).collect();
-    let cull_ms: Vec<f64> = all.iter().map(|r| r.cull_ms).collect();
-    let motion_ms: Vec<f64> = all.iter().map(|r| r.motion_ms).collect();
     let frame = median_frame(&all);
     let [left, right] = driver.read_images()?;
     let build_ms = driver.culling().map(|c| c.build_ms);
     let renderer = driver.renderer_mut();
     let floor_gpu_ms = measure_floors(renderer, warmup, frames)?;
-    let preview = match (job.distorted, lenses) {
-        (Some(method), Some(lenses)) => {
-            let eyes = [left.clone(), right.clone()];
-            let preview = (lenses, method, frames);
-            Some(distortion_preview(
-                &ctx,
-                &rig,
-                extent,
-                eyes,
-                preview,
-                job,
-                &mut outputs,
-            )?)
-        }
-        _ => None,
-    };
+    let eyes = [&left, &right];
+    let preview = distortion_preview(
+        &ctx,
+        &rig,
+        extent,
+        eyes,
+        (&profile, frames),
+        job,
+        &mut outputs,
+    )?;
     outputs.write(&job.out.join("left.png"), |w| png_to(w, &left))?;
     outputs.write(&job.out.join("right.png"), |w| png_to(w, &right))?;
-    let cull_median = build_ms.map(|b| (b, Percentiles::of(&cull_ms).median));
-    let motion = (!scene.moving.is_empty()).then(|| Percentiles::of(&motion_ms).median);
+    let series =
+        |get: fn(&FrameResult) -> f64| Percentiles::of(&all.iter().map(get).collect::<Vec<_>>());
+    let cull_median = build_ms.map(|b| (b, series(|r| r.cull_ms).median));
+    let motion = (!scene.moving.is_empty()).then(|| series(|r| r.motion_ms).median);
     let cpu_ms = cpu_ms_table(load_ms, cull_median, motion, &frame);
     let mut stats = RenderStats {
         scene: SceneCounts::of(&scene),
@@ -545,25 +591,22 @@ pub fn render_to_dir_keeping(
         points_drawn: frame.points_drawn,
         points_selected: frame.points_selected,
         points_path: renderer.points_path(),
-        points_octree: scene
-            .points
-            .as_ref()
-            .and_then(|c| c.octree.as_ref().map(|t| OctreeReport::of(t, c.len()))),
+        points_octree: OctreeReport::of_scene(&scene),
         cpu_ms,
         gpu_ms: frame.gpu_ms.clone(),
         fragment_invocations: frame.pipeline.map(|p| p.fragment_invocations),
         vertex_invocations: frame.pipeline.map(|p| p.vertex_invocations),
-        gpu_memory: ctx
-            .memory_by_category
-            .lock()
-            .map(|m| m.iter().map(|(k, v)| (k.to_string(), *v)).collect())
-            .unwrap_or_default(),
+        gpu_memory: ctx.memory_snapshot(),
         lazily_allocated_attachments: renderer.lazily_allocated(),
         validation_messages: ctx.validation_messages(),
         frames,
-        gpu_frame_ms: Percentiles::of(&gpu_frame),
-        cpu_frame_ms: Percentiles::of(&cpu_frame),
-        frame_interval_ms: Percentiles::of(&intervals),
+        gpu_frame_ms: series(FrameResult::gpu_ms),
+        cpu_frame_ms: series(|r| {
+            r.stats.cpu_ms.batch + r.stats.cpu_ms.record + r.stats.cpu_ms.submit
+        }),
+        frame_interval_ms: Percentiles::of(
+            &all.iter().filter_map(|r| r.interval_ms).collect::<Vec<_>>(),
+        ),
         floor_gpu_ms,
         cull: cull_stats,
         gpu_cull: frame.gpu_cull,
@@ -577,10 +620,7 @@ pub fn render_to_dir_keeping(
         per_view_render_areas: renderer.per_view_render_areas(),
         preview,
         timewarp: None,
-        motion: (!scene.moving.is_empty()).then(|| MotionReport {
-            moving_instances: scene.moving_instances(),
-            last_frame: frame.motion.unwrap_or_default(),
-        }),
+        motion: MotionReport::of(&scene, &frame),
     };
     drop(driver);
     // Teardown may speak too.
@@ -649,40 +689,40 @@ fn cpu_ms_table(
     cpu_ms
 }
 
-/// The lens-distorted preview of the rendered eyes (`frames` times, for
-/// its GPU times), written beside them.
+/// With `--distorted`, the lens-distorted preview of the rendered eyes
+/// (`frames` times, for its GPU times), written beside them.
 fn distortion_preview(
     ctx: &Arc<Context>,
     rig: &crate::view::StereoRig,
     extent: vk::Extent2D,
-    eyes: [image::RgbaImage; 2],
-    (lenses, method, frames): (
-        [&crate::view::distortion::Lens; 2],
-        crate::render::distortion::Method,
-        u32,
-    ),
+    eyes: [&image::RgbaImage; 2],
+    (profile, frames): (&HmdProfile, u32),
     job: &RenderJob,
     outputs: &mut crate::fsio::OutputSet,
-) -> Result<PreviewStats> {
+) -> Result<Option<PreviewStats>> {
+    let Some(method) = job.distorted else {
+        return Ok(None);
+    };
+    let lenses = profile_lenses(profile)?;
     let (Some(l), Some(r)) = (rig.views.first(), rig.views.get(1)) else {
         return Err(Error::Gpu("the distortion preview needs two views".into()));
     };
     let fovs = [&l.fov, &r.fov];
     let mut p =
         crate::render::distortion::DistortionPreview::new(ctx, lenses, fovs, extent, method)?;
-    let out = p.run(&eyes, frames)?;
+    let out = p.run(&eyes.map(|e| e.clone()), frames)?;
     outputs.write(&job.out.join("left_distorted.png"), |w| {
         png_to(w, &out.images[0])
     })?;
     outputs.write(&job.out.join("right_distorted.png"), |w| {
         png_to(w, &out.images[1])
     })?;
-    Ok(PreviewStats {
+    Ok(Some(PreviewStats {
         mode: "distorted",
         method,
         panel: lenses[0].panel,
         gpu_ms: Percentiles::of(&out.gpu_ms),
-    })
+    }))
 }
 
 /// The lenses of a profile's two views, for the distortion preview; one

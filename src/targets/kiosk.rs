@@ -211,23 +211,7 @@ impl Kiosk {
                 )?,
             ),
         };
-        let log = match raw.log {
-            None => None,
-            Some(l) => {
-                printable("log.file", &l.file)?;
-                if !(1..=1_000_000).contains(&l.max_kb) {
-                    return Err(format!("log.max_kb = {}: expected 1 to 1000000", l.max_kb));
-                }
-                if !(1..=100).contains(&l.keep) {
-                    return Err(format!("log.keep = {}: expected 1 to 100", l.keep));
-                }
-                Some(KioskLog {
-                    file: dir.join(&l.file),
-                    max_bytes: l.max_kb * 1024,
-                    keep: l.keep,
-                })
-            }
-        };
+        let log = raw.log.map(|l| parse_log(l, dir)).transpose()?;
         if raw.scenes.is_empty() || raw.scenes.len() > MAX_SCENES {
             return Err(format!(
                 "needs 1 to {MAX_SCENES} [[scenes]], found {}",
@@ -236,41 +220,11 @@ impl Kiosk {
         }
         let mut scenes: Vec<KioskScene> = Vec::new();
         for (i, s) in raw.scenes.iter().enumerate() {
-            let at = format!("scenes[{i}]");
-            printable(&format!("{at}.name"), &s.name)?;
-            printable(&format!("{at}.scene"), &s.scene)?;
-            if scenes.iter().any(|o| o.name == s.name) {
-                return Err(format!("{at}: the name '{}' is used twice", s.name));
+            let scene = parse_scene(&format!("scenes[{i}]"), s, dir)?;
+            if scenes.iter().any(|o| o.name == scene.name) {
+                return Err(format!("scenes[{i}]: the name '{}' is used twice", s.name));
             }
-            if s.viewpoints.len() > MAX_VIEWPOINTS {
-                return Err(format!(
-                    "{at}: at most {MAX_VIEWPOINTS} viewpoints, found {}",
-                    s.viewpoints.len()
-                ));
-            }
-            let spawn = s
-                .spawn
-                .as_deref()
-                .map(|v| pose_of(&format!("{at}.spawn"), v))
-                .transpose()?;
-            let viewpoints = s
-                .viewpoints
-                .iter()
-                .enumerate()
-                .map(|(k, v)| pose_of(&format!("{at}.viewpoints[{k}]"), v))
-                .collect::<std::result::Result<Vec<_>, _>>()?;
-            let local = dir.join(&s.scene);
-            let scene = if local.exists() {
-                local.to_string_lossy().into_owned()
-            } else {
-                s.scene.clone()
-            };
-            scenes.push(KioskScene {
-                name: s.name.clone(),
-                scene,
-                spawn,
-                viewpoints,
-            });
+            scenes.push(scene);
         }
         Ok(Kiosk {
             name: raw.name,
@@ -283,6 +237,61 @@ impl Kiosk {
             scenes,
         })
     }
+}
+
+/// The `[log]` table: a printable file name (relative to `dir`), 1 to
+/// 1,000,000 kB before rotating, 1 to 100 files kept.
+fn parse_log(l: RawLog, dir: &Path) -> std::result::Result<KioskLog, String> {
+    printable("log.file", &l.file)?;
+    if !(1..=1_000_000).contains(&l.max_kb) {
+        return Err(format!("log.max_kb = {}: expected 1 to 1000000", l.max_kb));
+    }
+    if !(1..=100).contains(&l.keep) {
+        return Err(format!("log.keep = {}: expected 1 to 100", l.keep));
+    }
+    Ok(KioskLog {
+        file: dir.join(&l.file),
+        max_bytes: l.max_kb * 1024,
+        keep: l.keep,
+    })
+}
+
+/// One `[[scenes]]` entry (`at` names it in errors): printable name and
+/// scene, at most [`MAX_VIEWPOINTS`] viewpoints, poses checked; the scene
+/// resolves against `dir` where a file is there, else stays as written (a
+/// generated scene such as `factory:1000`).
+fn parse_scene(at: &str, s: &RawScene, dir: &Path) -> std::result::Result<KioskScene, String> {
+    printable(&format!("{at}.name"), &s.name)?;
+    printable(&format!("{at}.scene"), &s.scene)?;
+    if s.viewpoints.len() > MAX_VIEWPOINTS {
+        return Err(format!(
+            "{at}: at most {MAX_VIEWPOINTS} viewpoints, found {}",
+            s.viewpoints.len()
+        ));
+    }
+    let spawn = s
+        .spawn
+        .as_deref()
+        .map(|v| pose_of(&format!("{at}.spawn"), v))
+        .transpose()?;
+    let viewpoints = s
+        .viewpoints
+        .iter()
+        .enumerate()
+        .map(|(k, v)| pose_of(&format!("{at}.viewpoints[{k}]"), v))
+        .collect::<std::result::Result<Vec<_>, _>>()?;
+    let local = dir.join(&s.scene);
+    let scene = if local.exists() {
+        local.to_string_lossy().into_owned()
+    } else {
+        s.scene.clone()
+    };
+    Ok(KioskScene {
+        name: s.name.clone(),
+        scene,
+        spawn,
+        viewpoints,
+    })
 }
 
 /// Watches the head for motion: [`IdleWatch::observe`] says when it has

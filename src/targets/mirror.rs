@@ -868,6 +868,16 @@ pub struct Desk {
 }
 
 impl Desk {
+    /// Why the session should end at the desk's request: the mirror
+    /// window was closed, or the next scene was asked for.
+    pub fn leaving(&self) -> Option<&'static str> {
+        match (self.closed, self.next_scene) {
+            (true, _) => Some("the mirror window was closed"),
+            (false, true) => Some("the next scene was asked for"),
+            (false, false) => None,
+        }
+    }
+
     /// For a run asked for mirror `asked` (see [`resolve`]) starting from
     /// `config`; F2 writes to `save_to`.
     pub fn new(

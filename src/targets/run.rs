@@ -202,19 +202,11 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                     opt = desk.live.config.opt_string();
                     m.set_title(&format!("vergence run: {} [{opt}]", scene.name));
                 }
-                desk.measure_error(
-                    m,
-                    &ctx,
-                    &scene,
-                    last_shown.as_ref().map(|(r, t)| (r, *t)),
-                    extent,
-                    frames.driver.renderer().config.section,
-                );
-                if desk.closed {
-                    return Ok("the mirror window was closed".into());
-                }
-                if desk.next_scene {
-                    return Ok("the next scene was asked for".into());
+                let section = frames.driver.renderer().config.section;
+                let shown = last_shown.as_ref().map(|(r, t)| (r, *t));
+                desk.measure_error(m, &ctx, &scene, shown, extent, section);
+                if let Some(why) = desk.leaving() {
+                    return Ok(why.into());
                 }
             }
             // The turn starts at this loop's first frame (which looks
@@ -226,25 +218,13 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
             if let Some(m) = mirror.as_mut() {
                 m.set_overlay_text(&opt, 1000.0 / profile.refresh_hz.max(1.0));
             }
-            let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+            let last = args.frames == Some(stats.frames_submitted + 1);
+            let capture = args.capture.as_deref().filter(|_| last);
             // aq's budget: the profile's refresh period (unless --budget-ms).
-            frames
-                .driver
-                .set_display_budget(1000.0 / profile.refresh_hz.max(1.0));
-            frames.driver.record(&rig, index)?;
-            last_shown = Some((
-                rig.clone(),
-                index as f64 / crate::render::driver::DEFAULT_FRAME_RATE,
-            ));
-            let output = frames.eyes.as_ref().map(|e| e.output(0));
-            frames.driver.submit(output.as_ref(), capture)?;
-            if let Some(m) = mirror.as_mut() {
-                frames.show(m, &rig)?;
-            }
-            if capture {
-                let images = frames.driver.read_images()?;
-                write_capture(args.capture.as_deref().expect("checked"), &images, &rig)?;
-            }
+            let budget_ms = 1000.0 / profile.refresh_hz.max(1.0);
+            frames.render_one(&rig, index, budget_ms, mirror.as_mut(), capture)?;
+            let time = index as f64 / crate::render::driver::DEFAULT_FRAME_RATE;
+            last_shown = Some((rig, time));
             stats.frames_submitted += 1;
             stats.frames_rendered += 1;
             index += 1;
@@ -451,6 +431,31 @@ impl HeadlessFrames {
         if let Err(e) = self.rebuild(ctx, scene, &new, extent) {
             live.revert(old.clone(), &e);
             self.rebuild(ctx, scene, &old, extent)?;
+        }
+        Ok(())
+    }
+
+    /// Records and submits frame `index` for `rig` (aq's budget
+    /// `budget_ms`), shows it in the mirror, and with `capture` writes its
+    /// images and rig there.
+    fn render_one(
+        &mut self,
+        rig: &crate::view::StereoRig,
+        index: u64,
+        budget_ms: f64,
+        mirror: Option<&mut Mirror>,
+        capture: Option<&std::path::Path>,
+    ) -> Result<()> {
+        self.driver.set_display_budget(budget_ms);
+        self.driver.record(rig, index)?;
+        let output = self.eyes.as_ref().map(|e| e.output(0));
+        self.driver.submit(output.as_ref(), capture.is_some())?;
+        if let Some(m) = mirror {
+            self.show(m, rig)?;
+        }
+        if let Some(path) = capture {
+            let images = self.driver.read_images()?;
+            write_capture(path, &images, rig)?;
         }
         Ok(())
     }

@@ -297,25 +297,22 @@ fn view_loop(
                 // made again.
                 view.switch(&mut driver, new, live, images)?;
                 last_slot = None;
+                let opt = live.config.opt_string();
                 window.set_title(&format!(
-                    "vergence view: {} ({}) [{}]",
-                    scene.name,
-                    profile.name,
-                    live.config.opt_string()
+                    "vergence view: {} ({}) [{opt}]",
+                    scene.name, profile.name
                 ));
             }
             let images = images.as_ref().expect("made with the driver");
             let slots = driver.renderer().frames_in_flight().min(images.sets.len());
             let size = window.size();
             let opt = live.config.opt_string();
-            let ui = hud.frame(
-                [size.width, size.height],
-                &HudInfo {
-                    opt: &opt,
-                    budget_ms,
-                    keys: super::hud::KEYS,
-                },
-            );
+            let info = HudInfo {
+                opt: &opt,
+                budget_ms,
+                keys: super::hud::KEYS,
+            };
+            let ui = hud.frame([size.width, size.height], &info);
             let input = window.input();
             if close {
                 // The window is still there: present the last frame's eye
@@ -324,9 +321,8 @@ fn view_loop(
                 if let (Some(path), Some(slot)) = (&args.screenshot, last_slot) {
                     let sources = eye_sources(args, images, slot);
                     let size = window.size();
-                    if let Presented::Shown(Some(img)) =
-                        presenter.present_with(ctx, &sources, size, true, ui.as_ref())?
-                    {
+                    let shown = presenter.present_with(ctx, &sources, size, true, ui.as_ref())?;
+                    if let Presented::Shown(Some(img)) = shown {
                         save_png(&img, path)?;
                     }
                 }
@@ -347,23 +343,12 @@ fn view_loop(
             while let Some(r) = driver.take_completed() {
                 hud.push(&r);
             }
-            let sources = eye_sources(args, images, slot);
             let final_frame = args.frames.is_some_and(|n| presented + 1 >= n);
             let want_shot = final_frame && args.screenshot.is_some();
-            let shown =
-                presenter.present_with(ctx, &sources, window.size(), want_shot, ui.as_ref());
-            if let Some(f) = &ui {
-                presenter.retire_ui(ctx, f)?;
-            }
-            match shown? {
-                Presented::Shown(shot) => {
-                    presented += 1;
-                    last_slot = Some(slot);
-                    if let (Some(img), Some(path)) = (shot, &args.screenshot) {
-                        save_png(&img, path)?;
-                    }
-                }
-                Presented::Skipped | Presented::Busy => {}
+            let target = (&mut *presenter, window.size());
+            if present_eyes(ctx, args, target, (images, slot), want_shot, ui.as_ref())? {
+                presented += 1;
+                last_slot = Some(slot);
             }
             if index > 100 + 10 * args.frames.unwrap_or(u64::MAX / 20) {
                 return Err(Error::Window(
@@ -375,6 +360,33 @@ fn view_loop(
     let finished = driver.finish();
     drop(driver);
     run.and(finished).map(|()| presented)
+}
+
+/// Presents the shown eyes of frame slot `slot` with the HUD's frame `ui`
+/// in a window of `size`; with `want_shot` the read-back goes to
+/// `--screenshot`. Returns whether the frame was shown.
+fn present_eyes(
+    ctx: &Arc<Context>,
+    args: &ViewArgs,
+    (presenter, size): (&mut Presenter, vk::Extent2D),
+    (images, slot): (&EyeImages, usize),
+    want_shot: bool,
+    ui: Option<&crate::gpu::ui_layer::UiFrame>,
+) -> Result<bool> {
+    let sources = eye_sources(args, images, slot);
+    let shown = presenter.present_with(ctx, &sources, size, want_shot, ui);
+    if let Some(f) = ui {
+        presenter.retire_ui(ctx, f)?;
+    }
+    match shown? {
+        Presented::Shown(shot) => {
+            if let (Some(img), Some(path)) = (shot, &args.screenshot) {
+                save_png(&img, path)?;
+            }
+            Ok(true)
+        }
+        Presented::Skipped | Presented::Busy => Ok(false),
+    }
 }
 
 /// The window's source images: the shown eyes of frame slot `slot`.

@@ -29,7 +29,7 @@ pub const DEFAULT_WIDE_SCALE: f64 = 0.5;
 pub const FEATHER_PX: f32 = 8.0;
 
 /// A pixel rectangle: columns x0..x1, rows y0..y1 (ends exclusive).
-#[derive(Clone, Copy, Debug, PartialEq, Eq)]
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq)]
 pub struct PixelRect {
     /// First column.
     pub x0: u32,

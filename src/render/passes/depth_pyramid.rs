@@ -104,6 +104,41 @@ impl DepthPyramid {
         }
     }
 
+    /// Points each slot's set at both eyes' depth views (sampled through
+    /// the pass's sampler) and the slot's pyramid buffer.
+    fn write_sets(&self, ctx: &Context) {
+        let images: Vec<vk::DescriptorImageInfo> = self
+            .views
+            .iter()
+            .map(|&v| {
+                vk::DescriptorImageInfo::default()
+                    .sampler(self.sampler)
+                    .image_view(v)
+                    .image_layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL)
+            })
+            .collect();
+        for (set, pyramid) in self.sets.iter().zip(&self.pyramids) {
+            let buffer = [vk::DescriptorBufferInfo::default()
+                .buffer(pyramid.buffer)
+                .range(vk::WHOLE_SIZE)];
+            let writes = [
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(0)
+                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
+                    .image_info(&images),
+                vk::WriteDescriptorSet::default()
+                    .dst_set(*set)
+                    .dst_binding(1)
+                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
+                    .buffer_info(&buffer),
+            ];
+            // SAFETY: the set is not in use yet; the views, sampler and
+            // buffer are live and owned by this pass.
+            unsafe { ctx.device.update_descriptor_sets(&writes, &[]) };
+        }
+    }
+
     fn build(&mut self, ctx: &Context, targets: &[AttachmentSet], slots: usize) -> Result<()> {
         let texels = 2 * hiz::texels(&self.levels) as u64;
         for i in 0..slots {
@@ -164,36 +199,7 @@ impl DepthPyramid {
         self.layout = made.layout;
         self.pool = made.pool;
         self.sets = made.sets;
-        let images: Vec<vk::DescriptorImageInfo> = self
-            .views
-            .iter()
-            .map(|&v| {
-                vk::DescriptorImageInfo::default()
-                    .sampler(self.sampler)
-                    .image_view(v)
-                    .image_layout(vk::ImageLayout::DEPTH_STENCIL_READ_ONLY_OPTIMAL)
-            })
-            .collect();
-        for (set, pyramid) in self.sets.iter().zip(&self.pyramids) {
-            let buffer = [vk::DescriptorBufferInfo::default()
-                .buffer(pyramid.buffer)
-                .range(vk::WHOLE_SIZE)];
-            let writes = [
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(0)
-                    .descriptor_type(vk::DescriptorType::COMBINED_IMAGE_SAMPLER)
-                    .image_info(&images),
-                vk::WriteDescriptorSet::default()
-                    .dst_set(*set)
-                    .dst_binding(1)
-                    .descriptor_type(vk::DescriptorType::STORAGE_BUFFER)
-                    .buffer_info(&buffer),
-            ];
-            // SAFETY: the set is not in use yet; the views, sampler and
-            // buffer are live and owned by this pass.
-            unsafe { d.update_descriptor_sets(&writes, &[]) };
-        }
+        self.write_sets(ctx);
         let init = if self.samples > 1 {
             shaders::HIZ_INIT_MS_COMP.words()
         } else {
