@@ -9,7 +9,7 @@ use ash::vk;
 use std::process::Command;
 use vergence::bench::metrics::flip;
 use vergence::config::{RenderConfig, StereoMode};
-use vergence::render::distortion::{DistortionPreview, Method};
+use vergence::render::distortion::{preview_panel, DistortionPreview, Method};
 use vergence::view::distortion::{eye_uv, Lens};
 use vergence::view::profile::HmdProfile;
 use vergence::view::Fov;
@@ -78,7 +78,14 @@ fn the_four_methods_agree_on_a_rendered_scene() {
             .iter()
             .map(|&m| preview(&ctx, &p, &frame.images, m))
             .collect();
-        let [pw, ph] = p.views[0].lens.unwrap().panel;
+        // Eye images of a quarter of the profile's size: the panel is
+        // drawn at no more than twice their size per axis.
+        let eye = vk::Extent2D {
+            width: w,
+            height: h,
+        };
+        let panel = preview_panel(p.views[0].lens.unwrap().panel, eye);
+        let (pw, ph) = (panel.width, panel.height);
         assert_eq!(out[0][0].dimensions(), (pw, ph));
         // Pixels per degree of the panel: its width over the eye's FOV.
         let fov = &p.views[0].fov;
@@ -217,8 +224,54 @@ fn render_writes_the_panel_images_and_their_gpu_time() {
     );
     assert_eq!(stats["preview"]["mode"], "distorted");
     assert_eq!(stats["preview"]["method"], "grid");
-    assert_eq!(stats["preview"]["panel"], serde_json::json!([640, 800]));
+    // The 640×800 panel is more than twice the 128×160 eye image per
+    // axis: the preview draws it at twice the eye image.
+    assert_eq!(stats["preview"]["panel"], serde_json::json!([256, 320]));
+    let left = image::open(out.join("left_distorted.png")).unwrap();
+    assert_eq!((left.width(), left.height()), (256, 320));
     assert!(stats["preview"]["gpu_ms"]["median"].as_f64().unwrap() > 0.0);
+}
+
+/// A profile may declare the largest panel its parser allows; a small
+/// render's preview then follows the rendered size (its cost was the
+/// panel's: 2 GB of panel images for a 16×16 render), and at a render as
+/// large as the panel the panel keeps its own size.
+#[test]
+fn the_preview_follows_the_rendered_size_not_the_declared_panel() {
+    let e = |width, height| vk::Extent2D { width, height };
+    assert_eq!(preview_panel([16384, 16384], e(16, 16)), e(32, 32));
+    assert_eq!(preview_panel([640, 800], e(1068, 1336)), e(640, 800));
+    assert_eq!(preview_panel([1440, 1600], e(2016, 2240)), e(1440, 1600));
+    assert_eq!(preview_panel([16384, 8], e(16, 16)), e(32, 1));
+    let dir = common::scratch("distortion", "huge-panel");
+    let text = std::fs::read_to_string(
+        std::path::Path::new(env!("CARGO_MANIFEST_DIR")).join("manifests/hmd/rift-dk1.toml"),
+    )
+    .unwrap()
+    .replace("panel = [640, 800]", "panel = [16384, 16384]");
+    let profile = dir.join("huge-panel.toml");
+    std::fs::write(&profile, text).unwrap();
+    let out = dir.join("out");
+    let t0 = std::time::Instant::now();
+    let stats = common::render_cli(
+        &[
+            "--scene",
+            "factory:50",
+            "--hmd",
+            profile.to_str().unwrap(),
+            "--width",
+            "16",
+            "--height",
+            "16",
+            "--preview",
+            "distorted",
+        ],
+        &out,
+    );
+    assert_eq!(stats["preview"]["panel"], serde_json::json!([32, 32]));
+    let left = image::open(out.join("left_distorted.png")).unwrap();
+    assert_eq!((left.width(), left.height()), (32, 32));
+    assert!(t0.elapsed().as_secs() < 60, "{:?}", t0.elapsed());
 }
 
 #[test]

@@ -681,6 +681,19 @@ fn clear_by_transfer(
     }
 }
 
+/// Moves the multisampled colour from its resolve-attachment use to `to`.
+fn colour_to(d: &ash::Device, cmd: vk::CommandBuffer, t: &Targets, layers: u32, to: Use) {
+    let colour = vk::ImageAspectFlags::COLOR;
+    let b = [barrier::image(
+        t.colour.image,
+        colour,
+        layers,
+        RESOLVE_ATTACHMENT,
+        to,
+    )];
+    transition(d, cmd, &b);
+}
+
 /// Resolves the multisampled colour with vkCmdResolveImage.
 fn resolve_by_command(
     d: &ash::Device,
@@ -689,14 +702,7 @@ fn resolve_by_command(
     args: &RasterFloorsArgs,
 ) {
     let colour_aspect = vk::ImageAspectFlags::COLOR;
-    let to = [barrier::image(
-        t.colour.image,
-        colour_aspect,
-        args.views,
-        RESOLVE_ATTACHMENT,
-        Use::TRANSFER_SRC,
-    )];
-    transition(d, cmd, &to);
+    colour_to(d, cmd, t, args.views, Use::TRANSFER_SRC);
     let sub = vk::ImageSubresourceLayers {
         aspect_mask: colour_aspect,
         mip_level: 0,
@@ -737,15 +743,7 @@ fn resolve_by_compute(
     compute: &ComputeResolve,
     args: &RasterFloorsArgs,
 ) {
-    let colour_aspect = vk::ImageAspectFlags::COLOR;
-    let to = [barrier::image(
-        t.colour.image,
-        colour_aspect,
-        args.views,
-        RESOLVE_ATTACHMENT,
-        Use::COMPUTE_SAMPLED,
-    )];
-    transition(d, cmd, &to);
+    colour_to(d, cmd, t, args.views, Use::COMPUTE_SAMPLED);
     let push = [args.width, args.height, args.views, args.samples];
     let bind = vk::PipelineBindPoint::COMPUTE;
     // SAFETY: the pipeline and sets were made for this device; the colour

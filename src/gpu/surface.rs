@@ -375,13 +375,7 @@ impl Presenter {
             .image(img)
             .view_type(vk::ImageViewType::TYPE_2D)
             .format(format)
-            .subresource_range(vk::ImageSubresourceRange {
-                aspect_mask: vk::ImageAspectFlags::COLOR,
-                base_mip_level: 0,
-                level_count: 1,
-                base_array_layer: 0,
-                layer_count: 1,
-            });
+            .subresource_range(barrier::color_range(0, 1));
         // SAFETY: a view of a live swapchain image; destroyed with the
         // swapchain.
         let v = unsafe { ctx.device.create_image_view(&info, None) }

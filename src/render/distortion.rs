@@ -62,6 +62,29 @@ impl Method {
 /// Grid cells per side for the grid method (as many as the baked mesh).
 pub const GRID_CELLS: u32 = mesh::GRID_CELLS;
 
+/// Most panel-image pixels per eye-image pixel, along each axis, that the
+/// preview draws: a real panel has about as many pixels as the eye image
+/// rendered for it (usually fewer), so a preview is drawn at the panel's
+/// own size; a profile may declare a panel far larger than the images
+/// rendered (a 16×16 render for a 16384×16384 panel), and then the preview
+/// is scaled down so its work and memory follow the rendered size.
+pub const MAX_PANEL_PER_EYE: f64 = 2.0;
+
+/// The size a panel of `panel` pixels is previewed at for eye images of
+/// `eye`: the panel's own, or scaled down (aspect kept) to at most
+/// [`MAX_PANEL_PER_EYE`] times the eye image along each axis.
+pub fn preview_panel(panel: [u32; 2], eye: vk::Extent2D) -> vk::Extent2D {
+    let fit = |e: u32, p: u32| MAX_PANEL_PER_EYE * e.max(1) as f64 / p.max(1) as f64;
+    let s = fit(eye.width, panel[0])
+        .min(fit(eye.height, panel[1]))
+        .min(1.0);
+    let side = |p: u32| ((p as f64 * s).floor() as u32).max(1);
+    vk::Extent2D {
+        width: side(panel[0]),
+        height: side(panel[1]),
+    }
+}
+
 /// The push constants of `shaders/distortion.glsl`.
 #[derive(Clone, Copy, Debug, Default)]
 #[repr(C)]
@@ -85,7 +108,9 @@ unsafe impl Pod for LensParams {}
 unsafe impl Pod for mesh::MeshVertex {}
 
 impl LensParams {
-    fn of(lens: &Lens, fov: &Fov, layer: i32) -> LensParams {
+    /// The parameters of `lens` seen through `fov`, drawn into layer
+    /// `layer` of a panel image of `panel` pixels.
+    fn of(lens: &Lens, fov: &Fov, layer: i32, panel: vk::Extent2D) -> LensParams {
         let f = |v: f64| v as f32;
         let (model, k) = match &lens.radial {
             Radial::Panotools(p) => (0, [0, 1, 2].map(|c| p.cubic(c).map(f))),
@@ -107,7 +132,7 @@ impl LensParams {
                 f(lens.axis[1]),
             ],
             fov: [f(l), f(r), f(u), f(d)],
-            panel: [lens.panel[0] as f32, lens.panel[1] as f32],
+            panel: [panel.width as f32, panel.height as f32],
             r_max: f(lens.r_max),
             model,
             layer,
@@ -202,6 +227,11 @@ impl DistortionPreview {
         Self::build(ctx, lenses, fovs, eye, method, true)
     }
 
+    /// The size the panel images are drawn at ([`preview_panel`]).
+    pub fn panel(&self) -> vk::Extent2D {
+        self.panel
+    }
+
     /// Like [`Self::new`], for drawing from GPU images only
     /// ([`Self::record_from`]): no upload or read-back buffers, so
     /// [`Self::run`] is an error.
@@ -232,13 +262,10 @@ impl DistortionPreview {
                 ),
             });
         }
-        let panel = vk::Extent2D {
-            width: lenses[0].panel[0],
-            height: lenses[0].panel[1],
-        };
+        let panel = preview_panel(lenses[0].panel, eye);
         let params = [
-            LensParams::of(lenses[0], fovs[0], 0),
-            LensParams::of(lenses[1], fovs[1], 1),
+            LensParams::of(lenses[0], fovs[0], 0, panel),
+            LensParams::of(lenses[1], fovs[1], 1, panel),
         ];
         let d = &ctx.device;
         let color = vk::ImageAspectFlags::COLOR;

@@ -56,7 +56,9 @@ pub struct PreviewStats {
     pub mode: &'static str,
     /// fragment, grid or mesh.
     pub method: crate::render::distortion::Method,
-    /// Panel pixels per eye.
+    /// Panel-image pixels per eye: the panel's own, or scaled down where
+    /// the profile's panel is more than twice the rendered eye image along
+    /// an axis.
     pub panel: [u32; 2],
     /// GPU ms of the preview for both eyes (median and p95 over the
     /// frames measured, one run per frame).
@@ -720,7 +722,7 @@ fn distortion_preview(
     Ok(Some(PreviewStats {
         mode: "distorted",
         method,
-        panel: lenses[0].panel,
+        panel: [p.panel().width, p.panel().height],
         gpu_ms: Percentiles::of(&out.gpu_ms),
     }))
 }

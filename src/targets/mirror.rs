@@ -137,12 +137,10 @@ impl MirrorLenses {
         })
     }
 
-    /// The panel size (the left lens's).
-    pub fn panel(&self) -> vk::Extent2D {
-        vk::Extent2D {
-            width: self.lenses[0].panel[0],
-            height: self.lenses[0].panel[1],
-        }
+    /// The size the left lens's panel is shown at for eye images of
+    /// `eye` ([`crate::render::distortion::preview_panel`]).
+    pub fn panel(&self, eye: vk::Extent2D) -> vk::Extent2D {
+        crate::render::distortion::preview_panel(self.lenses[0].panel, eye)
     }
 }
 
@@ -336,13 +334,7 @@ impl Mirror {
                 .image(image)
                 .view_type(vk::ImageViewType::TYPE_2D)
                 .format(format)
-                .subresource_range(vk::ImageSubresourceRange {
-                    aspect_mask: vk::ImageAspectFlags::COLOR,
-                    base_mip_level: 0,
-                    level_count: 1,
-                    base_array_layer: layer,
-                    layer_count: 1,
-                });
+                .subresource_range(barrier::color_range(layer, 1));
             // SAFETY: a view of a live image; destroyed in `drop`.
             let view = unsafe { ctx.device.create_image_view(&info, None) }
                 .vk("creating a mirror view")?;
@@ -920,7 +912,7 @@ impl Desk {
         if self.window.is_none() && !self.tried {
             if let Some(mode) = self.mode {
                 self.tried = true;
-                let panel = self.lenses.map(|l| l.panel());
+                let panel = self.lenses.map(|l| l.panel(eye));
                 self.window = MirrorWindow::open(mode, title, eye, panel);
             }
         }
