@@ -10,7 +10,8 @@
 // so the far field sits at the disparity of D (exact for points at D).
 // Alternate eye (flag bit 1): each eye has its own far image (view 2 + eye),
 // rendered from that eye on alternate frames; otherwise both use view 2.
-// D arrives as float bits in pc.unused1, the flags in pc.material.
+// D arrives as float bits in pc.unused1, the flags in pc.material, the
+// part of the far image drawn (with aq) in pc.unused0.
 layout(early_fragment_tests) in;
 layout(set = 0, binding = 7) uniform sampler2D far_field[2];
 layout(location = 0) in vec2 v_ndc;
@@ -31,5 +32,13 @@ void main() {
     vec4 ft = frame.tangents[far_view];
     vec2 tan_c = c.xy / -c.z;
     vec2 uv = vec2((tan_c.x - ft.x) / (ft.y - ft.x), (tan_c.y - ft.z) / (ft.w - ft.z));
+    // With aq the far image holds this frame's far field in its top-left
+    // part (pc.unused0: width | height << 16; 0 when it fills the image):
+    // read that part, clamped to its edge texels as the whole image is.
+    if (pc.unused0 != 0u) {
+        vec2 drawn = vec2(pc.unused0 & 0xffffu, pc.unused0 >> 16);
+        vec2 size = vec2(textureSize(far_field[image], 0));
+        uv = clamp(uv * drawn, vec2(0.5), drawn - 0.5) / size;
+    }
     out_color = texture(far_field[image], uv);
 }

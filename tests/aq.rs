@@ -265,7 +265,8 @@ fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool)
 /// scale frame by frame, and each frame equals the same technique rendered
 /// by a renderer made at the size adaptive quality drew (same rig, pixel
 /// for pixel) — for RDM with its fill, the sky after the resolve, RDM with
-/// the resolved sky, LOD, occlusion, the stencil mask and two-pass.
+/// the resolved sky, LOD, occlusion, the stencil mask and two-pass, and the
+/// far field (on the CPU's split and the GPU's, with alternate eyes).
 #[test]
 fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
     use vergence::bench::plan::cull_names;
@@ -291,6 +292,9 @@ fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
         "gpu-cull,lod",
         "gpu-cull,occlusion",
         "stencil-mask,two-pass",
+        "mffr",
+        "mffr,mffr-alternate-eye",
+        "gpu-cull,mffr",
     ] {
         let adaptive = RenderConfig {
             aq: true,

@@ -355,6 +355,9 @@ impl Renderer {
             width: e.width.min(self.allocated.width),
             height: e.height.min(self.allocated.height),
         };
+        if let Some(far) = self.passes.far.as_mut() {
+            far.set_eye_size(self.extent);
+        }
     }
 
     /// With `inset` and `aq`'s MSAA rung (see

@@ -16,7 +16,7 @@ pub const TECHNIQUE: Technique = Technique {
     rules: &[
         Rule {
             when: |c| c.aq,
-            with: &[("mffr", |c| c.mffr.is_some()), ("timewarp", |c| c.timewarp.is_some())],
+            with: &[("timewarp", |c| c.timewarp.is_some())],
             message: "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
         },
         Rule::always(

@@ -42,6 +42,15 @@ use std::collections::HashMap;
 /// FOV is wider than one eye's by the other eye's extra coverage.
 pub const FAR_WIDTH_SCALE: f64 = 1.25;
 
+/// The far image's size for eyes of `eye` pixels: [`FAR_WIDTH_SCALE`]
+/// times as wide, as tall.
+fn far_size(eye: vk::Extent2D) -> vk::Extent2D {
+    vk::Extent2D {
+        width: ((eye.width as f64 * FAR_WIDTH_SCALE).ceil() as u32).min(16384),
+        height: eye.height,
+    }
+}
+
 /// This frame's far field.
 #[derive(Clone, Copy, Debug, PartialEq)]
 pub struct FarFrame {
@@ -57,7 +66,11 @@ pub struct FarField {
     settings: Mffr,
     /// One far image, or one per eye (alternate eye).
     sets: Vec<AttachmentSet>,
+    /// The far images' size (for the largest eye size).
     extent: vk::Extent2D,
+    /// The part of them drawn for this frame's eye size (with `aq`, the
+    /// top-left part the eye size at the current scale gives).
+    drawn: vk::Extent2D,
     pipelines: ScenePipelines,
     sky: vk::Pipeline,
     composite: vk::Pipeline,
@@ -77,10 +90,7 @@ impl FarField {
         eye_extent: vk::Extent2D,
     ) -> Result<FarField> {
         let ctx = setup.ctx;
-        let extent = vk::Extent2D {
-            width: ((eye_extent.width as f64 * FAR_WIDTH_SCALE).ceil() as u32).min(16384),
-            height: eye_extent.height,
-        };
+        let extent = far_size(eye_extent);
         let count = if settings.alternate_eye { 2 } else { 1 };
         let info = vk::SamplerCreateInfo::default()
             .mag_filter(vk::Filter::LINEAR)
@@ -94,6 +104,7 @@ impl FarField {
             settings,
             sets: Vec::new(),
             extent,
+            drawn: extent,
             pipelines: ScenePipelines::default(),
             sky: vk::Pipeline::null(),
             composite: vk::Pipeline::null(),
@@ -165,6 +176,23 @@ impl FarField {
             shading_rate_attachment: false,
             ..setup.scene_desc(&vs, &fs)
         })
+    }
+
+    /// Draws the following frames' far images at the size eyes of `eye`
+    /// pixels give (`aq`'s render scale), in the top-left part of the
+    /// images; the composite reads that part. With `mffr-alternate-eye`
+    /// a change of size renders both far images again on the next frame
+    /// (the one kept from the frame before has the old size).
+    pub fn set_eye_size(&mut self, eye: vk::Extent2D) {
+        let s = far_size(eye);
+        let drawn = vk::Extent2D {
+            width: s.width.min(self.extent.width),
+            height: s.height.min(self.extent.height),
+        };
+        if drawn != self.drawn {
+            self.views = [None, None];
+        }
+        self.drawn = drawn;
     }
 
     /// Builds the pipelines that clip against the section plane, unless
@@ -334,7 +362,7 @@ impl FarField {
                 part: ScopePart::Whole,
                 views: set.views(),
                 area: None,
-                extent: self.extent,
+                extent: self.drawn,
                 view_mask: 0,
                 depth_clear: 0.0,
                 shading_rate: None,
@@ -357,8 +385,14 @@ impl FarField {
             return 0;
         };
         let flags = self.settings.depth_shift as u32 | (self.settings.alternate_eye as u32) << 1;
+        // The drawn part (width | height << 16), 0 when it is the whole
+        // image (both at most 16384).
+        let drawn = match self.drawn == self.extent {
+            true => 0,
+            false => self.drawn.width | self.drawn.height << 16,
+        };
         rec.bind(self.composite);
-        rec.push([flags, eye, 0, (frame.split as f32).to_bits()]);
+        rec.push([flags, eye, drawn, (frame.split as f32).to_bits()]);
         rec.draw(3);
         1
     }
