@@ -579,6 +579,7 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
             .arg(&saved)
             .arg("--stats-out")
             .arg(&s_path)
+            .current_dir(&dir)
             .stdout(Stdio::piped())
             .stderr(Stdio::piped())
             .spawn()
@@ -597,6 +598,8 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
     x.key(id, "3");
     // F4: the last frame's image error against the reference.
     x.key(id, "F4");
+    // F8: the head pose kept as a viewpoint (in the run's folder).
+    x.key(id, "F8");
     let start = Instant::now();
     while !saved.exists() {
         assert!(
@@ -617,6 +620,10 @@ fn keys_switch_an_optimization_from_the_next_frame_and_save_it() {
         "{stdout}"
     );
     check_error_line(&stdout, "multiview,msaa4,none,stencil-mask", 0.05);
+    assert!(stdout.contains("pose: --pose "), "{stdout}");
+    let kept = vergence::targets::keep_pose::read_viewpoints(&dir.join("vergence-viewpoints.toml"))
+        .unwrap_or_else(|e| panic!("F8 kept no viewpoint: {e}"));
+    assert_eq!(kept[0].0, "run 1");
     let s = stats(&s_path);
     assert_eq!(s["exit"], "the mirror window was closed");
     assert_eq!(s["validation_messages"], 0, "{}", text(&o));

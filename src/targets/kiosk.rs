@@ -62,6 +62,8 @@ struct RawScene {
     spawn: Option<Vec<f64>>,
     #[serde(default)]
     viewpoints: Vec<Vec<f64>>,
+    #[serde(default)]
+    viewpoint_file: Option<String>,
 }
 
 /// One scene on offer.
@@ -257,7 +259,9 @@ fn parse_log(l: RawLog, dir: &Path) -> std::result::Result<KioskLog, String> {
 }
 
 /// One `[[scenes]]` entry (`at` names it in errors): printable name and
-/// scene, at most [`MAX_VIEWPOINTS`] viewpoints, poses checked; the scene
+/// scene, at most [`MAX_VIEWPOINTS`] viewpoints (those listed, then a
+/// `viewpoint_file`'s `[[viewpoint]]` entries, as F8 in `view` appends
+/// them), poses checked; the scene
 /// resolves against `dir` where a file is there, else stays as written (a
 /// generated scene such as `factory:1000`).
 fn parse_scene(at: &str, s: &RawScene, dir: &Path) -> std::result::Result<KioskScene, String> {
@@ -280,6 +284,19 @@ fn parse_scene(at: &str, s: &RawScene, dir: &Path) -> std::result::Result<KioskS
         .enumerate()
         .map(|(k, v)| pose_of(&format!("{at}.viewpoints[{k}]"), v))
         .collect::<std::result::Result<Vec<_>, _>>()?;
+    let mut viewpoints = viewpoints;
+    if let Some(file) = &s.viewpoint_file {
+        printable(&format!("{at}.viewpoint_file"), file)?;
+        let kept = super::keep_pose::read_viewpoints(&dir.join(file))
+            .map_err(|e| format!("{at}.viewpoint_file: {e}"))?;
+        viewpoints.extend(kept.into_iter().map(|(_, pose)| pose));
+        if viewpoints.len() > MAX_VIEWPOINTS {
+            return Err(format!(
+                "{at}: at most {MAX_VIEWPOINTS} viewpoints with the file's, found {}",
+                viewpoints.len()
+            ));
+        }
+    }
     let local = dir.join(&s.scene);
     let scene = if local.exists() {
         local.to_string_lossy().into_owned()
@@ -560,6 +577,33 @@ mod tests {
             let e = Kiosk::parse(text, Path::new(".")).unwrap_err();
             assert!(e.contains(says), "{text}: {e}");
         }
+    }
+
+    #[test]
+    fn a_scene_takes_the_viewpoints_f8_kept() {
+        let dir = std::env::temp_dir().join(format!("vergence-kiosk-vp-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("kept.toml");
+        let _ = std::fs::remove_file(&file);
+        let head =
+            |x: f64, yaw: f64| Pose::from_euler_deg(glam::DVec3::new(x, 1.6, -2.0), yaw, 0.0, 0.0);
+        super::super::keep_pose::keep(&head(3.0, 90.0), "door", &file).unwrap();
+        super::super::keep_pose::keep(&head(-1.5, -30.0), "stairs", &file).unwrap();
+        let text = "name = \"k\"\n[[scenes]]\nname = \"a\"\nscene = \"factory:10\"\nviewpoints = [[0, 0, 0, 0]]\nviewpoint_file = \"kept.toml\"\n";
+        let k = Kiosk::parse(text, &dir).unwrap();
+        let v = &k.scenes[0].viewpoints;
+        assert_eq!(v.len(), 3);
+        // The floor under each kept head, with its heading.
+        assert!((v[1].position - glam::DVec3::new(3.0, 0.0, -2.0)).length() < 1e-5);
+        assert!((v[2].position - glam::DVec3::new(-1.5, 0.0, -2.0)).length() < 1e-5);
+        assert!((v[1].to_euler_deg().0 - 90.0).abs() < 1e-4);
+        let missing = text.replace("kept.toml", "nowhere.toml");
+        let e = Kiosk::parse(&missing, &dir).unwrap_err();
+        assert!(
+            e.contains("scenes[0].viewpoint_file") && e.contains("nowhere.toml"),
+            "{e}"
+        );
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

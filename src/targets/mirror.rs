@@ -857,6 +857,10 @@ pub struct Desk {
     pub overlay: bool,
     /// F4 was pressed: the loop measures the last frame's image error.
     pub measure: bool,
+    /// F8 was pressed: the loop keeps the last frame's head pose.
+    keep: bool,
+    /// Poses kept so far (they are named `run 1`, `run 2`, ...).
+    kept: u32,
 }
 
 impl Desk {
@@ -883,6 +887,8 @@ impl Desk {
             lenses: None,
             tried: false,
             measure: false,
+            keep: false,
+            kept: 0,
             closed: false,
             scenes: 1,
             next_scene: false,
@@ -984,10 +990,34 @@ impl Desk {
         if pressed.contains(&crate::targets::hud::MEASURE_KEY) {
             self.measure = true;
         }
+        if pressed.contains(&super::keep_pose::KEY) {
+            self.keep = true;
+        }
         if self.scenes > 1 && pressed.contains(&winit::keyboard::KeyCode::KeyN) {
             self.next_scene = true;
         }
         self.live.handle(&pressed, next_frame)
+    }
+
+    /// After F8: the head pose of the last frame shown (`last`, in the
+    /// scene's frame after locomotion) printed as `--pose` and `--spawn`
+    /// values and appended as a named viewpoint to
+    /// [`super::keep_pose::DEFAULT_FILE`], as F8 in `view` does; a failure
+    /// only says so.
+    pub fn keep_pose(&mut self, last: Option<&crate::view::StereoRig>) {
+        if !std::mem::take(&mut self.keep) {
+            return;
+        }
+        let Some(rig) = last else {
+            eprintln!("vergence: pose not kept: no frame shown yet");
+            return;
+        };
+        self.kept += 1;
+        let file = std::path::Path::new(super::keep_pose::DEFAULT_FILE);
+        match super::keep_pose::keep(&rig.head, &format!("run {}", self.kept), file) {
+            Ok(line) => println!("{line}"),
+            Err(e) => eprintln!("vergence: pose not kept: {e}"),
+        }
     }
 
     /// After F4: the last frame (`rig` at scene time `time`, `extent` per

@@ -205,6 +205,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                 let section = frames.driver.renderer().config.section;
                 let shown = last_shown.as_ref().map(|(r, t)| (r, *t));
                 desk.measure_error(m, &ctx, &scene, shown, extent, section);
+                desk.keep_pose(last_shown.as_ref().map(|(r, _)| r));
                 if let Some(why) = desk.leaving() {
                     return Ok(why.into());
                 }

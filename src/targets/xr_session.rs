@@ -598,6 +598,7 @@ fn desk_work(
                 section,
             );
         }
+        st.desk.keep_pose(st.last_shown.as_ref().map(|(r, _)| r));
         if let Some(new) = switched {
             switch_config(live, stats, st, session, new)?;
         }
