@@ -19,8 +19,11 @@ def case(name, kind, expect, content, mode="w"):
 
 def cli(name, args, expect, exit=None, memory=False):
     """A command-line case: vergence ARGS (placeholders: {dir} the corpus,
-    {out} a scratch folder, {fifo} a FIFO, {big} a 17 MiB sparse file);
-    memory: run under an address-space limit (no GPU needed)."""
+    {out} a scratch folder, {fifo} a FIFO named pipe.gltf, {fifo_ply} and
+    {fifo_las} FIFOs named pipe.ply and pipe.las, {zero_ply} a link
+    zero.ply to /dev/zero, {big} a 17 MiB sparse file big.toml; the test
+    makes them in its scratch folder); memory: run under an address-space
+    limit (no GPU needed)."""
     cases.append((name, "cli", expect, {"args": args, "exit": exit, "memory": memory}))
 
 
@@ -795,6 +798,45 @@ cli("scan-noise-huge", ["scan", "--scene", "factory:10", "--noise", "1e6", "--ou
     ["--noise", "[0, 10]"], memory=True)
 cli("scan-rays-product", ["scan", "--scene", "factory:10", "--stations", "10000", "--rays", "100000000",
                           "--out", "{out}/p.las"], ["over the 100000000-ray limit"], memory=True)
+
+# Point files that are not regular files: refused by the file layer before
+# a reader opens them (the test makes the FIFOs and the link; see cli()).
+cli("points-fifo-ply", ["render", "--scene", "{fifo_ply}", "--out", "{out}"],
+    ["pipe.ply", "a FIFO, not a regular file"], memory=True)
+cli("points-fifo-las", ["render", "--scene", "{fifo_las}", "--out", "{out}"],
+    ["pipe.las", "a FIFO, not a regular file"], memory=True)
+cli("points-ply-dev-zero", ["render", "--scene", "{zero_ply}", "--out", "{out}"],
+    ["zero.ply", "a character device, not a regular file"], memory=True)
+# tune refuses an --out that is its own scene before measuring anything (the
+# scene is the 17 MiB sparse big.toml: were the check gone, loading it
+# would fail and nothing would be written over it).
+cli("tune-out-is-its-scene", ["tune", "--budget-ms", "10", "--frames", "1", "--scene", "{big}",
+                              "--out", "{big}"],
+    ["--out", "big.toml", "is the scene being tuned"], memory=True)
+# A kiosk log named like one of the kiosk's scene files (loaded at start,
+# so an input): refused before anything is written.
+case("kiosk/log-is-scene.gltf", None, None, gltf())
+case("kiosk/log-is-scene.toml", "kiosk", ["log-is-scene.gltf", "is one of this command's inputs"],
+     'name = "k"\n[log]\nfile = "log-is-scene.gltf"\n[[scenes]]\nname = "hall"\nscene = "factory:10"\n'
+     '[[scenes]]\nname = "tri"\nscene = "log-is-scene.gltf"\n')
+# A WebP decompression bomb: a 26-byte lossless WebP whose header claims
+# 8192x8192 (256 MiB as RGBA8), used by two images. The first takes the
+# whole shared allowance for images beyond 1100:1; the second is refused
+# before anything is decoded.
+def webp_claiming(w, h):
+    bits = (w - 1) | ((h - 1) << 14) | (1 << 28)
+    vp8l = b"\x2f" + struct.pack("<I", bits)
+    chunk = b"VP8L" + struct.pack("<I", len(vp8l)) + vp8l + b"\0" * (len(vp8l) & 1)
+    return b"RIFF" + struct.pack("<I", 4 + len(chunk)) + b"WEBP" + chunk
+bin_file("images/webp-bomb.webp", webp_claiming(8192, 8192))
+doc = json.loads(textured("webp-bomb.webp"))
+doc["extensionsUsed"] = ["EXT_texture_webp"]
+doc["images"] = [{"uri": "webp-bomb.webp", "mimeType": "image/webp"}] * 2
+doc["textures"] = [{"extensions": {"EXT_texture_webp": {"source": i}}} for i in range(2)]
+doc["materials"][0]["emissiveTexture"] = {"index": 1}
+case("images/webp-bomb.gltf", "scene",
+     ["webp-bomb.webp", "26 encoded bytes claim 268435456 decoded bytes", "a decompression bomb"],
+     json.dumps(doc, indent=1))
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"

@@ -2,26 +2,32 @@
 #extension GL_EXT_multiview : require
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "bilinear.glsl"
 // Lens-matched shading's resample (src/view/lms.rs): each pixel of the
 // rectilinear eye image reads the LMS image where its NDC point landed,
 // (x, y) / (1 + a|x| + b|y|) with the side coefficients of its quadrant,
 // bilinearly. The coefficients come packed as 16-bit counts of 1/1024
 // (left | right << 16 in pc.material, up | down << 16 in pc.unused0), the
-// LMS pixel of NDC (0, 0) as x | y << 16 in pc.unused1, the eye image's
-// size as specialization constants. The LMS frames are array element
-// pc.view_offset (the attachment set), layer gl_ViewIndex. Drawn with the
-// output-free full-screen triangle of floor.vert.
+// eye image's size drawn this frame (adaptive quality's) as
+// width | height << 16 in pc.unused1. The LMS pixel of NDC (0, 0) is
+// Layout::new's ceil((size / 2) / (1 + k)) for the left and up sides, here
+// in integers: ceil(size * 512 / (1024 + count)); the image's size adds
+// the same for the right and down sides. It is read bilinearly in texel
+// space (bilinear.glsl). The LMS frames are array
+// element pc.view_offset (the attachment set), layer gl_ViewIndex; the LMS
+// image lies in their top-left part. Drawn with the output-free full-screen
+// triangle of floor.vert.
 layout(set = 0, binding = 7) uniform sampler2DArray lms_frames[2];
 layout(location = 0) out vec4 out_color;
-layout(constant_id = 0) const uint EYE_WIDTH = 1;
-layout(constant_id = 1) const uint EYE_HEIGHT = 1;
 void main() {
     uint set = pc.view_offset;
-    vec2 eye = vec2(float(EYE_WIDTH), float(EYE_HEIGHT));
+    uvec2 eye_size = uvec2(pc.unused1 & 0xffffu, pc.unused1 >> 16);
+    vec2 eye = vec2(eye_size);
     vec2 ndc = gl_FragCoord.xy / eye * 2.0 - 1.0;
     const float quantum = 1.0 / 1024.0;
-    float a = float(ndc.x < 0.0 ? pc.material & 0xffffu : pc.material >> 16) * quantum;
-    float b = float(ndc.y < 0.0 ? pc.unused0 & 0xffffu : pc.unused0 >> 16) * quantum;
+    uvec2 low = uvec2(pc.material & 0xffffu, pc.unused0 & 0xffffu);
+    float a = float(ndc.x < 0.0 ? low.x : pc.material >> 16) * quantum;
+    float b = float(ndc.y < 0.0 ? low.y : pc.unused0 >> 16) * quantum;
     float d = 1.0 + a * abs(ndc.x) + b * abs(ndc.y);
     // Nothing was drawn beyond the eye's frustum (eye NDC ±1), so the
     // bilinear footprint (half an LMS pixel each way, up to D² eye pixels
@@ -30,8 +36,14 @@ void main() {
     ndc = clamp(ndc, margin - 1.0, 1.0 - margin);
     d = 1.0 + a * abs(ndc.x) + b * abs(ndc.y);
     vec2 lms = ndc / d;
-    vec2 centre = vec2(float(pc.unused1 & 0xffffu), float(pc.unused1 >> 16));
-    vec2 pixel = centre + lms * eye * 0.5;
-    vec2 size = vec2(textureSize(lms_frames[set], 0).xy);
-    out_color = texture(lms_frames[set], vec3(pixel / size, float(gl_ViewIndex)));
+    uvec2 den = 1024u + low;
+    uvec2 centre = (eye_size * 512u + den - 1u) / den;
+    vec2 pixel = vec2(centre) + lms * eye * 0.5;
+    // The LMS image's size this frame (Layout::new: each side's half
+    // rounded up), read in texel space (bilinear.glsl: the same at any
+    // target size).
+    uvec2 high = uvec2(pc.material >> 16, pc.unused0 >> 16);
+    uvec2 far_den = 1024u + high;
+    uvec2 size = centre + (eye_size * 512u + far_den - 1u) / far_den;
+    out_color = bilinear(lms_frames[set], pixel, int(gl_ViewIndex), ivec2(max(size, uvec2(1u))));
 }

@@ -2,6 +2,7 @@
 #extension GL_EXT_multiview : require
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
+#include "bilinear.glsl"
 // Monoscopic far field: each eye pixel's ray (from the eye's FOV tangents
 // and orientation) is looked up in the far-field image rendered once from
 // the centre camera (view 2). Plain: the ray direction itself (exact for
@@ -34,11 +35,11 @@ void main() {
     vec2 uv = vec2((tan_c.x - ft.x) / (ft.y - ft.x), (tan_c.y - ft.z) / (ft.w - ft.z));
     // With aq the far image holds this frame's far field in its top-left
     // part (pc.unused0: width | height << 16; 0 when it fills the image):
-    // read that part, clamped to its edge texels as the whole image is.
-    if (pc.unused0 != 0u) {
-        vec2 drawn = vec2(pc.unused0 & 0xffffu, pc.unused0 >> 16);
-        vec2 size = vec2(textureSize(far_field[image], 0));
-        uv = clamp(uv * drawn, vec2(0.5), drawn - 0.5) / size;
-    }
-    out_color = texture(far_field[image], uv);
+    // read that part, clamped to its edge texels as the whole image is,
+    // bilinearly in texel space (bilinear.glsl: the same at any image
+    // size).
+    ivec2 drawn = pc.unused0 != 0u
+        ? ivec2(pc.unused0 & 0xffffu, pc.unused0 >> 16)
+        : textureSize(far_field[image], 0);
+    out_color = bilinear(far_field[image], uv * vec2(drawn), drawn);
 }

@@ -295,6 +295,8 @@ fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
         "mffr",
         "mffr,mffr-alternate-eye",
         "gpu-cull,mffr",
+        "lms",
+        "lms=0.3,stencil-mask,two-pass",
     ] {
         let adaptive = RenderConfig {
             aq: true,

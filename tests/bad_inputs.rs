@@ -267,7 +267,8 @@ struct Case {
     file: String,
     kind: String,
     expect: Vec<String>,
-    /// `cli` cases: the arguments ({dir}, {out}, {fifo}, {big} replaced).
+    /// `cli` cases: the arguments ({dir}, {out}, {fifo}, {fifo_ply},
+    /// {fifo_las}, {zero_ply}, {big} replaced).
     #[serde(default)]
     args: Vec<String>,
     /// The exit code required (else any failure that is not a panic).
@@ -429,12 +430,20 @@ fn corpus() {
     let scratch = common::scratch("bad", "corpus");
     let out = scratch.join("out");
     let fifo = scratch.join("pipe.gltf");
+    // Point files are read by their extension: a FIFO for the PLY and the
+    // LAS reader each, and a .ply that is a link to /dev/zero.
+    let fifo_ply = scratch.join("pipe.ply");
+    let fifo_las = scratch.join("pipe.las");
+    let zero_ply = scratch.join("zero.ply");
     let big = scratch.join("big.toml");
     #[cfg(unix)]
     {
-        let c = std::ffi::CString::new(fifo.to_str().unwrap()).unwrap();
-        // SAFETY: a valid NUL-terminated path.
-        assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        for f in [&fifo, &fifo_ply, &fifo_las] {
+            let c = std::ffi::CString::new(f.to_str().unwrap()).unwrap();
+            // SAFETY: a valid NUL-terminated path.
+            assert_eq!(unsafe { libc::mkfifo(c.as_ptr(), 0o600) }, 0);
+        }
+        std::os::unix::fs::symlink("/dev/zero", &zero_ply).unwrap();
     }
     // 17 MiB, sparse: over the 16 MiB text limit without using the disk.
     std::fs::File::create(&big)
@@ -445,6 +454,9 @@ fn corpus() {
         a.replace("{dir}", dir.to_str().unwrap())
             .replace("{out}", out.to_str().unwrap())
             .replace("{fifo}", fifo.to_str().unwrap())
+            .replace("{fifo_ply}", fifo_ply.to_str().unwrap())
+            .replace("{fifo_las}", fifo_las.to_str().unwrap())
+            .replace("{zero_ply}", zero_ply.to_str().unwrap())
             .replace("{big}", big.to_str().unwrap())
     };
     let o = out.to_str().unwrap().to_string();

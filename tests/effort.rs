@@ -380,6 +380,131 @@ fn rdm_skips_checker_quads_beyond_the_radius_and_the_fill_restores_them() {
     }
 }
 
+/// With the inset the checkerboard goes in the wide views, with LMS in its
+/// image, and the fill runs in place before the composite or resample:
+/// the centre (the inset, or LMS's image inside the radius) is the frame
+/// without RDM pixel for pixel, and the fill removes most of the holes'
+/// error.
+#[test]
+fn rdm_in_the_wide_views_and_the_lms_image_fills_before_they_are_composited() {
+    use vergence::bench::metrics::flip;
+    let ctx = common::context();
+    let profile = HmdProfile::load("monado-sim").unwrap();
+    let scene = common::load("factory:2000");
+    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let render = |stereo, opts: &str| {
+        let mut c = config(stereo, false);
+        c.msaa = 4;
+        c.apply_opts(opts, &["none"]).unwrap();
+        c.validate().unwrap();
+        common::render_config(&ctx, &scene, &profile, pose, &c, W, H)
+    };
+    for (stereo, base) in [
+        (StereoMode::Multiview, "inset=0.5"),
+        (StereoMode::TwoPass, "inset=0.5"),
+        (StereoMode::Multiview, "inset=0.5,inset-taau"),
+        (StereoMode::Multiview, "lms=0.3"),
+        (StereoMode::TwoPass, "lms=0.3,stencil-mask"),
+    ] {
+        let off = render(stereo, base);
+        let holes = render(stereo, &format!("{base},rdm=0.4,rdm-nofill"));
+        let filled = render(stereo, &format!("{base},rdm=0.4"));
+        let what = format!("{stereo:?} {base}");
+        assert!(filled.stats.gpu_ms.contains_key("rdm-fill"), "{what}");
+        for eye in 0..2 {
+            let (cx, cy) = (W / 2, H / 2);
+            for y in cy - 8..cy + 8 {
+                for x in cx - 8..cx + 8 {
+                    let px = |f: &common::Frame| f.images[eye].get_pixel(x, y).0;
+                    assert_eq!(
+                        px(&filled),
+                        px(&off),
+                        "{what}: the centre changed at ({x}, {y})"
+                    );
+                }
+            }
+            let e_holes = flip(&off.images[eye], &holes.images[eye], 30.0)
+                .unwrap()
+                .mean;
+            let e_fill = flip(&off.images[eye], &filled.images[eye], 30.0)
+                .unwrap()
+                .mean;
+            eprintln!("{what} eye {eye}: FLIP mean {e_holes:.4} with holes, {e_fill:.4} filled");
+            assert!(e_holes > 0.01, "{what}: no holes ({e_holes})");
+            assert!(
+                e_fill < e_holes / 2.0 && e_fill < 0.15,
+                "{what}: fill {e_fill}, holes {e_holes}"
+            );
+        }
+    }
+}
+
+/// MFFR with the inset's two scopes: the far field is composited into the
+/// wide views and into the inset, each scope's near field drawn over it.
+/// Inside the inset the frame is MFFR's own pixel for pixel; overall it is
+/// as near the inset without MFFR as MFFR is to the plain frame.
+#[test]
+fn mffr_composites_the_far_field_into_the_wide_views_and_the_inset() {
+    use vergence::bench::metrics::flip;
+    use vergence::bench::plan::cull_names;
+    let ctx = common::context();
+    let profile = HmdProfile::load("monado-sim").unwrap();
+    let scene = common::load("factory:20000");
+    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let (w, h) = (320, 240);
+    let render = |stereo, opts: &str| {
+        let mut c = RenderConfig {
+            stereo,
+            ..RenderConfig::default()
+        };
+        c.apply_opts(opts, &cull_names()).unwrap();
+        c.validate().unwrap();
+        common::render_config(&ctx, &scene, &profile, pose, &c, w, h)
+    };
+    let mean = |a: &common::Frame, b: &common::Frame| -> f32 {
+        (0..2)
+            .map(|e| flip(&a.images[e], &b.images[e], 30.0).unwrap().mean)
+            .sum::<f32>()
+            / 2.0
+    };
+    let join = |parts: &[&str]| {
+        let v: Vec<&str> = parts.iter().copied().filter(|p| !p.is_empty()).collect();
+        v.join(",")
+    };
+    for (stereo, cull, taau) in [
+        (StereoMode::Multiview, "", ""),
+        (StereoMode::TwoPass, "", ""),
+        (StereoMode::Multiview, "superfrustum,gpu-cull", ""),
+        (StereoMode::Multiview, "", "inset-taau"),
+    ] {
+        let what = format!("{stereo:?} {cull} {taau}");
+        let plain = render(stereo, cull);
+        let mffr = render(stereo, &join(&[cull, "mffr=8"]));
+        let inset = render(stereo, &join(&[cull, "inset=0.5", taau]));
+        let both = render(stereo, &join(&[cull, "inset=0.5", taau, "mffr=8"]));
+        assert!(both.stats.gpu_ms.contains_key("mffr-far"), "{what}");
+        if taau.is_empty() {
+            for e in 0..2 {
+                for y in h / 2 - 8..h / 2 + 8 {
+                    for x in w / 2 - 8..w / 2 + 8 {
+                        assert_eq!(
+                            both.images[e].get_pixel(x, y),
+                            mffr.images[e].get_pixel(x, y),
+                            "{what}: inside the inset at ({x}, {y})"
+                        );
+                    }
+                }
+            }
+        }
+        let (e_both, e_mffr) = (mean(&inset, &both), mean(&plain, &mffr));
+        eprintln!("{what}: FLIP inset+mffr vs inset {e_both:.4}, mffr vs plain {e_mffr:.4}");
+        assert!(
+            e_both < 0.1 && e_both < 2.0 * e_mffr + 0.01,
+            "{what}: {e_both} vs {e_mffr}"
+        );
+    }
+}
+
 #[test]
 fn mffr_composites_one_far_field_into_both_eyes() {
     use vergence::bench::metrics::flip;

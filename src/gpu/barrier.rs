@@ -41,6 +41,15 @@ impl Use {
         stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
         access: vk::AccessFlags2::SHADER_STORAGE_WRITE,
     };
+    /// Read and written in place by compute shaders as a storage image.
+    pub const COMPUTE_STORAGE_RW: Use = Use {
+        layout: vk::ImageLayout::GENERAL,
+        stage: vk::PipelineStageFlags2::COMPUTE_SHADER,
+        access: vk::AccessFlags2::from_raw(
+            vk::AccessFlags2::SHADER_STORAGE_READ.as_raw()
+                | vk::AccessFlags2::SHADER_STORAGE_WRITE.as_raw(),
+        ),
+    };
     /// Read by a copy or blit.
     pub const TRANSFER_SRC: Use = Use {
         layout: vk::ImageLayout::TRANSFER_SRC_OPTIMAL,

@@ -59,6 +59,9 @@ pub static RDM_FRAG: Module = spirv!("rdm.frag");
 pub static RDM_FILL_FRAG: Module = spirv!("rdm_fill.frag");
 /// The inset composite (multi-resolution foveated rendering), in compute.
 pub static INSET_COMPOSITE_COMP: Module = spirv!("inset_composite.comp");
+/// Radial density masking's fill in place (the inset's wide views, LMS's
+/// image).
+pub static RDM_FILL_IN_PLACE_COMP: Module = spirv!("rdm_fill_in_place.comp");
 /// Temporal anti-aliasing of the inset's wide views (`inset-taa`).
 pub static INSET_TAA_COMP: Module = spirv!("inset_taa.comp");
 /// Temporal upsampling of the inset's wide views to the eye's resolution
@@ -129,7 +132,7 @@ pub static TIMEWARP_ROTATE_COMP: Module = spirv!("timewarp_rotate.comp");
 pub static MSAA_RESOLVE_COMP: Module = spirv!("msaa_resolve.comp");
 
 /// Every embedded module.
-pub static ALL: [&Module; 44] = [
+pub static ALL: [&Module; 45] = [
     &SCENE_VERT,
     &SCENE_UBO_VERT,
     &SCENE_SSBO_VERT,
@@ -143,6 +146,7 @@ pub static ALL: [&Module; 44] = [
     &RDM_FRAG,
     &RDM_FILL_FRAG,
     &INSET_COMPOSITE_COMP,
+    &RDM_FILL_IN_PLACE_COMP,
     &INSET_TAA_COMP,
     &INSET_TAAU_COMP,
     &LMS_RESAMPLE_FRAG,

@@ -51,6 +51,9 @@ pub struct AttachmentSet {
     /// A UNORM 2D-array view of the composed output for compute writes
     /// (with [`SetOptions::storage_output`]).
     pub filled_storage: Option<vk::ImageView>,
+    /// A UNORM 2D-array view of `resolve` for compute work in place
+    /// (with [`SetOptions::storage_resolve`]).
+    pub resolve_storage: Option<vk::ImageView>,
     /// A one-sample depth image for drawing the set at one sample straight
     /// into `resolve` (with [`SetOptions::one_sample_depth`] at more than
     /// one sample; [`AttachmentSet::views_one_sample`]).
@@ -77,6 +80,11 @@ pub struct SetOptions {
     /// inset composite): it gets storage use and a UNORM view
     /// ([`AttachmentSet::filled_storage`]).
     pub storage_output: bool,
+    /// The resolve image is changed in place by a compute shader (radial
+    /// density masking's fill in the inset's wide views and in lens-matched
+    /// shading's image): it gets storage use and a UNORM view
+    /// ([`AttachmentSet::resolve_storage`]).
+    pub storage_resolve: bool,
     /// Occlusion culling: the frame is drawn in two rendering scopes, so
     /// the multisampled colour and depth are stored between them (not
     /// transient), and the depth is sampleable (the depth pyramid).
@@ -120,6 +128,7 @@ impl AttachmentSet {
                     filled,
                     filled_view,
                     filled_storage,
+                    resolve_storage,
                 },
             ) => Ok(AttachmentSet {
                 color_msaa,
@@ -129,6 +138,7 @@ impl AttachmentSet {
                 keep_depth: opts.keep_depth,
                 filled: filled.zip(filled_view),
                 filled_storage,
+                resolve_storage,
                 depth_one_sample,
             }),
             (made, p) => {
@@ -203,6 +213,7 @@ impl AttachmentSet {
             filled,
             filled_view,
             filled_storage: self.filled_storage,
+            resolve_storage: self.resolve_storage,
         }
         .destroy(ctx);
     }
@@ -253,6 +264,7 @@ struct Parts {
     filled: Option<Image>,
     filled_view: Option<vk::ImageView>,
     filled_storage: Option<vk::ImageView>,
+    resolve_storage: Option<vk::ImageView>,
 }
 
 impl Parts {
@@ -285,7 +297,29 @@ impl Parts {
         let one = vk::SampleCountFlags::TYPE_1;
         let colour = vk::ImageAspectFlags::COLOR;
         let d = size.desc("colour resolve", COLOR_FORMAT, one, usage | sampled, colour);
+        // sRGB has no storage use: made mutable with extended usage and
+        // changed through a UNORM view.
+        let d = match opts.storage_resolve {
+            true => ImageDesc {
+                usage: d.usage | vk::ImageUsageFlags::STORAGE,
+                flags: vk::ImageCreateFlags::MUTABLE_FORMAT | vk::ImageCreateFlags::EXTENDED_USAGE,
+                ..d
+            },
+            false => d,
+        };
         let resolve_image = self.resolve.insert(Image::new(ctx, &d)?).image;
+        if opts.storage_resolve {
+            self.resolve_storage = Some(Image::view_for(
+                ctx,
+                resolve_image,
+                vk::Format::R8G8B8A8_UNORM,
+                colour,
+                vk::ImageViewType::TYPE_2D_ARRAY,
+                (0, size.layers),
+                1,
+                Some(vk::ImageUsageFlags::STORAGE),
+            )?);
+        }
         if !opts.composed {
             return Ok(());
         }
@@ -406,7 +440,7 @@ impl Parts {
 
     /// Destroys the views, then the images; the device must be idle.
     fn destroy(self, ctx: &Context) {
-        for view in [self.filled_storage, self.filled_view]
+        for view in [self.filled_storage, self.filled_view, self.resolve_storage]
             .into_iter()
             .flatten()
         {

@@ -226,6 +226,7 @@ impl Renderer {
                     || config.lms.is_some(),
                 sampled: false,
                 storage_output: config.inset.is_some() && !r.quad,
+                storage_resolve: false,
                 occlusion: config.occlusion,
                 multiview_layers: if r.four_view { 4 } else { 2 },
                 one_sample_depth: false,
@@ -263,8 +264,12 @@ impl Renderer {
             }
             let occlusion = config.occlusion.then(|| r.occlusion_targets(samples));
             // With occlusion the inset scope draws the same two sets as the
-            // wide one (early, late): no lists of its own.
-            let inset_lists = config.inset.is_some() && !r.four_view && !config.occlusion;
+            // wide one (early, late), with mffr the same near set: no lists
+            // of its own.
+            let inset_lists = config.inset.is_some()
+                && !r.four_view
+                && !config.occlusion
+                && config.mffr.is_none();
             let gpu = GpuCull::new(
                 &r.pipeline_setup(),
                 scene,

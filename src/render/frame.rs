@@ -224,8 +224,15 @@ impl Renderer {
         stats: &mut FrameStats,
     ) -> Result<()> {
         if let Some(rates) = self.shading_rate.as_mut() {
-            // The foveation pattern for the sizes drawn this frame.
-            rates.ensure(&self.ctx, self.extent)?;
+            // The foveation pattern for the sizes drawn this frame (with
+            // lms, the LMS image's only: every scope draws into it).
+            match self.passes.lms.as_ref() {
+                Some(lms) => {
+                    let (layout, c) = lms.geometry();
+                    rates.ensure_lms(&self.ctx, layout, c)?;
+                }
+                None => rates.ensure(&self.ctx, self.extent)?,
+            }
             if let Some(inset) = self.passes.inset.as_ref() {
                 rates.ensure(&self.ctx, inset.wide_extent(self.extent))?;
             }

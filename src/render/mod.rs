@@ -358,6 +358,9 @@ impl Renderer {
         if let Some(far) = self.passes.far.as_mut() {
             far.set_eye_size(self.extent);
         }
+        if let Some(lms) = self.passes.lms.as_mut() {
+            lms.set_eye_size(self.extent);
+        }
     }
 
     /// With `inset` and `aq`'s MSAA rung (see

@@ -99,6 +99,9 @@ pub struct ScopeStep {
     /// The stencil mask, RDM's checkerboard and the points' composite are
     /// drawn first (not in occlusion's second part).
     pub masks: bool,
+    /// RDM's checkerboard is among the masks: every scope but the inset's
+    /// own (with the inset, the wide views hold the periphery).
+    pub checkerboard: bool,
     /// What the scope draws.
     pub draws: Draws,
     /// The overlay (boxes, section) after the draws.
@@ -224,7 +227,11 @@ pub fn frame(input: &PlanInput) -> Vec<Step> {
         }
         push_scopes(input, part, &mut steps);
     }
-    if input.resolved_sky && !input.floor {
+    // With lms the sky goes under the resampled eye image (the LMS image
+    // holds premultiplied colour and coverage, which the resample's
+    // bilinear reads keep: "under" is linear in them).
+    let sky = input.resolved_sky && !input.floor;
+    if sky && input.lms.is_none() {
         steps.push(Step::ResolvedSky);
     }
     if input.rdm {
@@ -232,6 +239,9 @@ pub fn frame(input: &PlanInput) -> Vec<Step> {
     }
     if input.lms.is_some() {
         steps.push(Step::LmsResample);
+        if sky {
+            steps.push(Step::ResolvedSky);
+        }
     }
     if input.inset.is_some_and(|i| !i.quad) && !input.floor {
         steps.push(Step::InsetComposite);
@@ -322,6 +332,7 @@ fn push_scopes(input: &PlanInput, part: ScopePart, steps: &mut Vec<Step>) {
             extent,
             area,
             draws: draws(input, part, area.is_some()),
+            checkerboard: base.checkerboard && input.inset.is_none(),
             ..base
         }));
     }
@@ -343,6 +354,7 @@ fn scope_base(input: &PlanInput, part: ScopePart, eye: u32, view_mask: u32) -> S
         sky_after_resolve: input.resolved_sky && !input.floor,
         colour_covered: colour_covered(input),
         masks: part != ScopePart::Second,
+        checkerboard: input.rdm && part != ScopePart::Second,
         draws: draws(input, part, false),
         overlay: !input.floor && part != ScopePart::First,
         quadrants: if input.lms.is_some() && !input.floor {

@@ -62,7 +62,7 @@ impl Renderer {
             far: p.far.as_ref().is_some_and(|f| f.frame().is_some()),
             far_pass: p.far.is_some(),
             inset,
-            lms: p.lms.as_ref().map(|l| size(l.targets.extent)),
+            lms: p.lms.as_ref().map(|l| size(l.size())),
             resolved_sky: p.resolved_sky.is_some(),
             rdm: p.rdm.is_some(),
             stencil_mask: p.stencil_mask.is_some(),
@@ -119,15 +119,34 @@ impl Renderer {
             }
             Step::Scope(s) => self.record_scope(f, q, s),
             Step::ResolvedSky => p.resolved_sky.as_ref().map_or(0, |s| {
+                let mask = self.view_mask();
                 let wide = p.inset.as_ref().map_or(0, |i| {
-                    let extent = i.wide_extent(self.extent);
-                    s.record(&f.rec, q, &i.wide.sets, extent, self.view_mask())
+                    let jitter = if self.quad { [0.0; 2] } else { i.jitter() };
+                    let area = (i.wide_extent(self.extent), mask, jitter);
+                    s.record(&f.rec, q, &i.wide.sets, area)
                 });
-                wide + s.record(&f.rec, q, &targets.sets, self.extent, self.view_mask())
+                let (sets, extent) = (&targets.sets, self.extent);
+                wide + match p.lms {
+                    // Under the resample's output.
+                    Some(_) => s.record_composed(&f.rec, q, sets, extent, mask),
+                    None => s.record(&f.rec, q, sets, (extent, mask, [0.0; 2])),
+                }
             }),
-            Step::RdmFill => p.rdm.as_ref().map_or(0, |r| {
-                r.record_fill(&f.rec, q, targets, self.extent, self.view_mask())
-            }),
+            Step::RdmFill => match (&p.rdm_in_place, &p.inset, &p.lms) {
+                // In the images the later passes read: a dispatch, not a
+                // draw.
+                (Some(fill), Some(inset), _) => {
+                    fill.record(&f.rec, q, &inset.wide.sets, inset.wide_extent(self.extent));
+                    0
+                }
+                (Some(fill), None, Some(lms)) => {
+                    fill.record(&f.rec, q, &lms.targets.sets, lms.size());
+                    0
+                }
+                _ => p.rdm.as_ref().map_or(0, |r| {
+                    r.record_fill(&f.rec, q, targets, self.extent, self.view_mask())
+                }),
+            },
             Step::LmsResample => p.lms.as_ref().map_or(0, |l| {
                 l.record_resample(&f.rec, q, targets, self.extent, self.view_mask())
             }),
@@ -231,13 +250,26 @@ impl Renderer {
         let (p, rec, eye) = (&self.passes, &f.rec, s.eye);
         let mut draw_calls = 0;
         if let Some(mask) = &p.stencil_mask {
-            draw_calls += match twins.and_then(|w| w.hidden) {
-                Some(pipeline) => mask.record_using(rec, pipeline, self.slot, eye),
-                None => mask.record(rec, self.slot, eye),
-            };
+            // Through each LMS quadrant's w scaling, as the scene is drawn.
+            for k in 0..s.quadrants {
+                if let Some(l) = p.lms.as_ref().filter(|_| s.quadrants > 1) {
+                    l.set_quadrant(rec, Some(k));
+                }
+                draw_calls += match twins.and_then(|w| w.hidden) {
+                    Some(pipeline) => mask.record_using(rec, pipeline, self.slot, eye),
+                    None => mask.record(rec, self.slot, eye),
+                };
+            }
+            if let Some(l) = p.lms.as_ref().filter(|_| s.quadrants > 1) {
+                l.set_quadrant(rec, None);
+            }
         }
-        if let Some(rdm) = &p.rdm {
-            draw_calls += rdm.record(rec, self.extent, eye);
+        if let Some(rdm) = p.rdm.as_ref().filter(|_| s.checkerboard) {
+            let extent = vk::Extent2D {
+                width: s.extent[0],
+                height: s.extent[1],
+            };
+            draw_calls += rdm.record(rec, extent, eye);
         }
         if let Some(points) = p.points.as_ref().filter(|_| f.floor.is_none()) {
             let extent = vk::Extent2D {

@@ -5,7 +5,9 @@
 //! forward scope, its rate replacing the pipeline's — one such image set
 //! per size a scope is drawn at, so that the foveal region stays centred
 //! on the drawn area when adaptive quality draws a smaller one, and the
-//! inset's wide views get the pattern at their own size. Without it foveation
+//! inset's wide views get the pattern at their own size; lens-matched
+//! shading's image gets the pattern through its map, each texel at the
+//! rate of the eye point it shows. Without it foveation
 //! falls back to off, with a warning naming what is missing.
 
 use crate::config::{RenderConfig, StereoMode};
@@ -14,6 +16,7 @@ use crate::gpu::barrier::{self, Use};
 use crate::gpu::memory::{Buffer, BufferDesc, Image, ImageDesc};
 use crate::gpu::Context;
 use crate::view::foveation::{self, Level};
+use crate::view::lms::{Coefficients, Layout};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
 
@@ -90,20 +93,43 @@ impl ShadingRate {
         if self.sizes.iter().any(|(e, _)| *e == extent) || self.sizes.len() >= MAX_SIZES {
             return Ok(());
         }
-        let images = self.upload(ctx, extent)?;
-        self.sizes.push((extent, images));
-        Ok(())
-    }
-
-    /// One image per attachment set with the rate pattern for `extent`.
-    fn upload(&self, ctx: &Context, extent: vk::Extent2D) -> Result<Vec<Image>> {
-        let (tw, th, data) = foveation::rate_image(
+        let pattern = foveation::rate_image(
             self.level,
             self.gaze,
             extent.width,
             extent.height,
             self.texel,
         );
+        let images = self.upload(ctx, pattern)?;
+        self.sizes.push((extent, images));
+        Ok(())
+    }
+
+    /// Makes the rate images of lens-matched shading's scopes: its image
+    /// (`layout.size`) with each texel at the rate of the eye point it
+    /// shows, so the rings stay where they are in the eye.
+    pub fn ensure_lms(&mut self, ctx: &Context, layout: &Layout, c: &Coefficients) -> Result<()> {
+        let extent = vk::Extent2D {
+            width: layout.size[0],
+            height: layout.size[1],
+        };
+        // With no scaling the LMS image is the eye's, and so is its pattern.
+        if self.sizes.iter().any(|(e, _)| *e == extent) || self.sizes.len() >= MAX_SIZES {
+            return Ok(());
+        }
+        let size = (extent.width, extent.height);
+        let pattern = foveation::rate_image_mapped(self.level, self.gaze, size, self.texel, |p| {
+            let q = layout.eye_ndc(c, [p[0] as f64, p[1] as f64]);
+            [q[0] as f32, q[1] as f32]
+        });
+        let images = self.upload(ctx, pattern)?;
+        self.sizes.push((extent, images));
+        Ok(())
+    }
+
+    /// One image per attachment set with the rate pattern (`tw` × `th`
+    /// texels).
+    fn upload(&self, ctx: &Context, (tw, th, data): (u32, u32, Vec<u8>)) -> Result<Vec<Image>> {
         let layers = self.layers;
         let mut staging = Buffer::new(
             ctx,

@@ -197,6 +197,25 @@ pub fn decode(bytes: &[u8], hash: u64, scene: &Scene) -> Result<Chains, String> 
     })
 }
 
+/// The most bytes a cache of `scene`'s chains can hold: the header, and
+/// per primitive its level count and at most `MAX_LEVELS - 1` levels, each
+/// an error, a count and fewer indices than the primitive has. A larger
+/// file is not this scene's cache and is not read.
+pub fn max_bytes(scene: &Scene) -> u64 {
+    let levels = (MAX_LEVELS - 1) as u64;
+    let header = (MAGIC.len() + 12) as u64;
+    scene.primitives.iter().fold(header, |n, p| {
+        n + 4 + levels * (8 + 4 * p.indices.len() as u64)
+    })
+}
+
+/// The cache at `file` for `scene`, read only when it is a regular file
+/// no larger than [`max_bytes`].
+fn read(file: &Path, scene: &Scene) -> std::io::Result<Vec<u8>> {
+    let limit = max_bytes(scene).min(crate::fsio::MAX_SCENE_FILE_BYTES);
+    crate::fsio::read_cache(file, limit)
+}
+
 /// The chains of `scene` (loaded from `source`) through the cache next to
 /// it: read when it holds this content, else built and written. Reading
 /// and writing problems are warnings (logged) and reported in the
@@ -205,7 +224,7 @@ pub fn load_or_build(scene: &Scene, source: &Path) -> (Chains, CacheUse) {
     let t = std::time::Instant::now();
     let file = path_for(source);
     let hash = content_hash(scene);
-    match crate::fsio::read_cache(&file, crate::fsio::MAX_SCENE_FILE_BYTES) {
+    match read(&file, scene) {
         Ok(bytes) => match decode(&bytes, hash, scene) {
             Ok(mut chains) => {
                 chains.build_ms = t.elapsed().as_secs_f64() * 1e3;
@@ -254,6 +273,31 @@ mod tests {
             }],
             ..Scene::default()
         }
+    }
+
+    /// A file larger than any cache of the scene is refused before it is
+    /// read (a 3 GB sparse file would otherwise be read whole), and a real
+    /// cache fits the bound.
+    #[test]
+    fn a_file_larger_than_the_scenes_cache_can_be_is_not_read() {
+        let s = scene();
+        let chains = super::super::lod::build(&s);
+        let bytes = encode(content_hash(&s), &chains);
+        assert!(bytes.len() as u64 <= max_bytes(&s));
+        let dir = std::env::temp_dir().join(format!("vergence-lodcache-{}", std::process::id()));
+        std::fs::create_dir_all(&dir).unwrap();
+        let file = dir.join("big.gltf.lodcache");
+        std::fs::File::create(&file)
+            .unwrap()
+            .set_len(3 << 30)
+            .unwrap();
+        let started = std::time::Instant::now();
+        let err = read(&file, &s).unwrap_err();
+        assert!(err.to_string().contains("over the"), "{err}");
+        assert!(started.elapsed().as_secs() < 5, "{:?}", started.elapsed());
+        std::fs::write(&file, &bytes).unwrap();
+        assert_eq!(read(&file, &s).unwrap(), bytes);
+        std::fs::remove_dir_all(&dir).unwrap();
     }
 
     #[test]

@@ -90,6 +90,25 @@ pub fn rate_image(
     height: u32,
     texel: (u32, u32),
 ) -> (u32, u32, Vec<u8>) {
+    let (w, h) = (width as f32, height as f32);
+    rate_image_mapped(level, gaze, (width, height), texel, |p| {
+        [p[0] / w * 2.0 - 1.0, p[1] / h * 2.0 - 1.0]
+    })
+}
+
+/// The rate image of a `size` target whose pixel `p` (continuous) shows
+/// the eye's NDC point `to_ndc(p)`: each texel takes the rate of the eye
+/// point its centre shows, so the rings stay where they are in the eye
+/// when the target is not rectilinear (lens-matched shading's image,
+/// [`super::lms::Layout::eye_ndc`]).
+pub fn rate_image_mapped(
+    level: Level,
+    gaze: [f32; 2],
+    size: (u32, u32),
+    texel: (u32, u32),
+    to_ndc: impl Fn([f32; 2]) -> [f32; 2],
+) -> (u32, u32, Vec<u8>) {
+    let (width, height) = size;
     let tw = width.div_ceil(texel.0.max(1));
     let th = height.div_ceil(texel.1.max(1));
     let mut out = Vec::with_capacity((tw * th) as usize);
@@ -97,8 +116,7 @@ pub fn rate_image(
         for tx in 0..tw {
             let cx = ((tx as f32 + 0.5) * texel.0 as f32).min(width as f32);
             let cy = ((ty as f32 + 0.5) * texel.1 as f32).min(height as f32);
-            let nx = cx / width as f32 * 2.0 - 1.0;
-            let ny = cy / height as f32 * 2.0 - 1.0;
+            let [nx, ny] = to_ndc([cx, cy]);
             let d = ((nx - gaze[0]).powi(2) + (ny - gaze[1]).powi(2)).sqrt();
             let s = level.size_at(d);
             out.push(rate(s, s));
@@ -177,6 +195,49 @@ mod tests {
         assert_eq!(off, 1.0);
         assert!(low < off && med < low && high < med, "{low} {med} {high}");
         assert!(high > 0.1);
+    }
+
+    /// Through lens-matched shading's map the full-rate texels are those
+    /// whose centre shows an eye point inside the full-rate ring, and
+    /// with no scaling the pattern is the eye image's own.
+    #[test]
+    fn the_lms_pattern_keeps_the_rings_in_the_eye() {
+        use super::super::lms::{Coefficients, Layout};
+        let texel = (16, 16);
+        let plain = Coefficients::uniform(0.0);
+        let layout = Layout::new(&plain, [2016, 2240]);
+        let mapped = |c: Coefficients, l: Layout| {
+            let size = (l.size[0], l.size[1]);
+            rate_image_mapped(Level::High, [0.0; 2], size, texel, |p| {
+                let q = l.eye_ndc(&c, [p[0] as f64, p[1] as f64]);
+                [q[0] as f32, q[1] as f32]
+            })
+        };
+        assert_eq!(
+            mapped(plain, layout),
+            rate_image(Level::High, [0.0; 2], 2016, 2240, texel)
+        );
+        let c = Coefficients::uniform(0.4);
+        let l = Layout::new(&c, [2016, 2240]);
+        let (tw, th, img) = mapped(c, l);
+        let inner = Level::High.rings()[0].0 as f64;
+        for ty in 0..th {
+            for tx in 0..tw {
+                let p = [(tx as f64 + 0.5) * 16.0, (ty as f64 + 0.5) * 16.0];
+                let p = [p[0].min(l.size[0] as f64), p[1].min(l.size[1] as f64)];
+                let q = l.eye_ndc(&c, p);
+                let full = (q[0] * q[0] + q[1] * q[1]).sqrt() < inner - 1e-4;
+                let r = img[(ty * tw + tx) as usize];
+                if full {
+                    assert_eq!(r, 0, "texel {tx},{ty} shows {q:?}");
+                } else if (q[0] * q[0] + q[1] * q[1]).sqrt() > inner + 1e-4 {
+                    assert_ne!(r, 0, "texel {tx},{ty} shows {q:?}");
+                }
+            }
+        }
+        let full = |img: &[u8]| img.iter().filter(|&&r| r == 0).count();
+        let eye = rate_image(Level::High, [0.0; 2], 2016, 2240, texel).2;
+        assert!(full(&img) < full(&eye), "the LMS image is denser nowhere");
     }
 
     #[test]

@@ -205,6 +205,16 @@ impl Layout {
             / (self.eye[0] as f64 * self.eye[1] as f64).max(1.0)
     }
 
+    /// The eye NDC point LMS pixel `p` (continuous) shows: the inverse of
+    /// [`Layout::lms_pixel`].
+    pub fn eye_ndc(&self, c: &Coefficients, p: [f64; 2]) -> [f64; 2] {
+        let q = [
+            (p[0] - self.centre[0] as f64) / (self.eye[0] as f64 * 0.5),
+            (p[1] - self.centre[1] as f64) / (self.eye[1] as f64 * 0.5),
+        ];
+        inverse(c, q)
+    }
+
     /// The LMS pixel position (continuous) where eye NDC `p` lands.
     pub fn lms_pixel(&self, c: &Coefficients, p: [f64; 2]) -> [f64; 2] {
         let q = forward(c, p);
@@ -295,6 +305,27 @@ mod tests {
     }
 
     proptest! {
+        #[test]
+        fn eye_ndc_undoes_lms_pixel(c in coeffs(), x in -1.0f64..1.0, y in -1.0f64..1.0, w in 2u32..5000, h in 2u32..5000) {
+            let l = Layout::new(&c, [w, h]);
+            let p = l.eye_ndc(&c, l.lms_pixel(&c, [x, y]));
+            prop_assert!((p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9);
+        }
+
+        /// The resample shader's integer centre and size
+        /// (`lms_resample.frag`: ceil(size * 512 / (1024 + count)) per
+        /// side) are the layout's.
+        #[test]
+        fn the_integer_layout_is_the_layouts(c in coeffs(), w in 1u32..65536, h in 1u32..65536) {
+            let l = Layout::new(&c, [w, h]);
+            let [lr, ud] = c.packed();
+            let half = |size: u32, count: u32| (size * 512).div_ceil(1024 + count);
+            let centre = [half(w, lr & 0xffff), half(h, ud & 0xffff)];
+            prop_assert_eq!(l.centre, centre);
+            let size = [centre[0] + half(w, lr >> 16), centre[1] + half(h, ud >> 16)];
+            prop_assert_eq!(l.size, [size[0].max(1), size[1].max(1)]);
+        }
+
         #[test]
         fn inverse_undoes_forward(c in coeffs(), x in -1.0f64..1.0, y in -1.0f64..1.0) {
             let q = forward(&c, [x, y]);

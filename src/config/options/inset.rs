@@ -35,8 +35,6 @@ pub const TECHNIQUE: Technique = Technique {
         Rule {
             when: |c| c.inset.is_some(),
             with: &[
-                ("rdm", rdm_on),
-                ("mffr", |c| c.mffr.is_some()),
                 ("timewarp", |c| c.timewarp.is_some()),
                 ("--record-threads/--per-draw", submission_on),
             ],
@@ -45,6 +43,22 @@ pub const TECHNIQUE: Technique = Technique {
         Rule::always(
             |c| four_views(c) && foveation_on(c),
             "foveation's rate image has the eyes' two layers; inset-views=4 draws four views in one scope: leave one out (the inset's two scopes take foveation)",
+        ),
+        Rule::always(
+            |c| four_views(c) && c.mffr.is_some(),
+            "mffr's far cameras take the views inset-views=4 gives the wide views: leave one out (the inset's two scopes take mffr)",
+        ),
+        Rule::always(
+            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa > 1 && c.mffr.is_some(),
+            "inset-wide-1x draws the wide views at one sample with their own pipelines; mffr's composite is made for the frame's samples: leave one out",
+        ),
+        Rule::always(
+            |c| four_views(c) && rdm_on(c),
+            "rdm puts its checkerboard in the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
+        ),
+        Rule::always(
+            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa > 1 && rdm_on(c),
+            "inset-wide-1x draws the wide views at one sample with their own pipelines; rdm's checkerboard is made for the frame's samples: leave one out",
         ),
         Rule::always(
             |c| four_views(c) && c.occlusion,

@@ -1,7 +1,7 @@
 //! `lms[=K]` and `lms-emulated`: lens-matched shading
 //! ([`crate::view::lms`]).
 
-use super::{flag, foveation_on, optional, rdm_on, Entry, Rule, Technique};
+use super::{flag, optional, Entry, Rule, Technique};
 use crate::config::RenderConfig;
 use crate::error::Result;
 
@@ -16,12 +16,8 @@ pub const TECHNIQUE: Technique = Technique {
     rules: &[Rule {
         when: |c| c.lms.is_some(),
         with: &[
-            ("foveation", foveation_on),
-            ("rdm", rdm_on),
-            ("stencil-mask", |c| c.stencil_mask),
             ("mffr", |c| c.mffr.is_some()),
             ("occlusion", |c| c.occlusion),
-            ("aq", |c| c.aq),
             ("inset", |c| c.inset.is_some()),
             ("timewarp", |c| c.timewarp.is_some()),
             ("--record-threads", |c| c.record_threads.is_some()),

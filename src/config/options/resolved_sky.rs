@@ -20,17 +20,9 @@ pub const TECHNIQUE: Technique = Technique {
         ),
         Rule {
             when: |c| c.resolved_sky,
-            with: &[
-                ("mffr", |c| c.mffr.is_some()),
-                ("inset-views=4", four_views),
-                ("lms", |c| c.lms.is_some()),
-            ],
+            with: &[("inset-views=4", four_views)],
             message: "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
         },
-        Rule::always(
-            |c| c.resolved_sky && c.inset.is_some_and(|i| i.taa.is_some()),
-            "inset-taa and inset-taau accumulate the wide views as drawn with the sky inside their scope; with resolved-sky their images differ from that by more than rounding at the image's border and the horizon: leave one out",
-        ),
         Rule {
             when: |c| c.resolved_sky,
             with: &[

@@ -116,11 +116,11 @@ fn every_rule_names_what_it_refuses() {
         }
     }
     let mut c = RenderConfig::default();
-    c.apply_opts("superfrustum,lms,stencil-mask,rdm", &cull_names())
+    c.apply_opts("superfrustum,lms,timewarp=2,mffr", &cull_names())
         .unwrap();
     let e = check_rules(&c).unwrap_err().to_string();
     assert!(
-        e.contains("rdm, stencil-mask") && e.contains("with lms"),
+        e.contains("mffr, timewarp") && e.contains("with lms"),
         "{e}"
     );
 }

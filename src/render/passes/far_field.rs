@@ -7,7 +7,9 @@
 //! (reverse-Z: `near / D`), so only nearer geometry passes, and a
 //! full-screen composite (`shaders/mffr_composite.frag`) looks up every
 //! pixel's ray in the far image (`mffr-depth-shift`: the ray's point at D).
-//! The sky lies beyond the split, so only the far pass draws it.
+//! The sky lies beyond the split, so only the far pass draws it (with
+//! `resolved-sky` none does: the eyes' sky after the resolve fills what the
+//! composite and the near field leave uncovered).
 //!
 //! `mffr-alternate-eye` keeps one far image per eye, each re-rendered from
 //! its eye (with the centre camera's orientation and union FOV) every other
@@ -73,6 +75,10 @@ pub struct FarField {
     drawn: vk::Extent2D,
     pipelines: ScenePipelines,
     sky: vk::Pipeline,
+    /// With `resolved-sky` the far scopes draw no sky and leave the
+    /// uncovered pixels transparent: the eyes' sky after the resolve goes
+    /// under the composite too.
+    resolved_sky: bool,
     composite: vk::Pipeline,
     sampler: vk::Sampler,
     /// This frame's plan (None: fell back to stereo).
@@ -83,11 +89,16 @@ pub struct FarField {
 }
 
 impl FarField {
-    /// Creates the far targets for eyes of `eye_extent` and the pipelines.
+    /// Creates the far targets for eyes of `eye_extent` and the pipelines;
+    /// with `resolved_sky` the far images get no sky: their uncovered
+    /// pixels stay transparent through the composite (premultiplied colour
+    /// and coverage, bilinearly read, which "under" is linear in), and the
+    /// eyes' sky after the resolve fills them at the eyes' resolution.
     pub fn new(
         setup: &PipelineSetup,
         settings: Mffr,
         eye_extent: vk::Extent2D,
+        resolved_sky: bool,
     ) -> Result<FarField> {
         let ctx = setup.ctx;
         let extent = far_size(eye_extent);
@@ -107,6 +118,7 @@ impl FarField {
             drawn: extent,
             pipelines: ScenePipelines::default(),
             sky: vk::Pipeline::null(),
+            resolved_sky,
             composite: vk::Pipeline::null(),
             sampler,
             frame: None,
@@ -134,6 +146,7 @@ impl FarField {
                     composed: false,
                     sampled: true,
                     storage_output: false,
+                    storage_resolve: false,
                     occlusion: false,
                     multiview_layers: 2,
                     one_sample_depth: false,
@@ -330,7 +343,7 @@ impl FarField {
         self.record_with(rec, q, |view| {
             let far = batches.far_draws();
             let base = batches.far_start.unwrap_or(0) as u32;
-            let sky = Some((self.sky, rec.sky_slot(far)));
+            let sky = self.in_scope_sky().map(|p| (p, rec.sky_slot(far)));
             rec.draw_batches(far, base, self.pipelines.get(rec.section), sky, view)
         })
     }
@@ -340,7 +353,7 @@ impl FarField {
     pub fn record_gpu(&self, rec: &Recorder, q: &mut Queries, gpu: &GpuCull, slot: usize) -> u64 {
         self.record_with(rec, q, |view| {
             let pipelines = self.pipelines.get(rec.section);
-            gpu.record_draws(rec, pipelines, Some(self.sky), view, slot, true)
+            gpu.record_draws(rec, pipelines, self.in_scope_sky(), view, slot, true)
         })
     }
 
@@ -357,7 +370,7 @@ impl FarField {
             let set = &self.sets[i];
             rec.barriers(&attachments::begin_barriers(std::slice::from_ref(set)));
             rec.begin_scope(&Scope {
-                sky_after_resolve: false,
+                sky_after_resolve: self.resolved_sky,
                 colour_covered: false,
                 part: ScopePart::Whole,
                 views: set.views(),
@@ -375,6 +388,11 @@ impl FarField {
         }
         q.end_pass(rec.ctx, rec.cmd);
         draws
+    }
+
+    /// The sky drawn inside the far scope: none with `resolved-sky`.
+    fn in_scope_sky(&self) -> Option<vk::Pipeline> {
+        (!self.resolved_sky).then_some(self.sky)
     }
 
     /// The composite of view `eye` inside the open forward scope: every

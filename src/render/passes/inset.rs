@@ -52,6 +52,22 @@ use ash::vk;
 /// sharpening's strength.
 const PUSH_BYTES: u32 = 10 * 4;
 
+/// How the wide views' targets are made.
+#[derive(Clone, Copy, Debug)]
+pub struct WideOptions {
+    /// Samples per pixel.
+    pub samples: u32,
+    /// Over MSAA, also drawable at one sample (`aq`'s MSAA rung, see
+    /// [`InsetPass::set_one_sample`]).
+    pub msaa_rung: bool,
+    /// Drawn in occlusion's two scopes, their depth sampled by the depth
+    /// pyramid.
+    pub occlusion: bool,
+    /// Radial density masking's fill changes the resolved wide views in
+    /// place (storage use).
+    pub rdm: bool,
+}
+
 /// The wide view's targets and the composite's compute pipeline with its
 /// one descriptor set (the frames do not change between frame slots).
 pub struct InsetPass {
@@ -91,17 +107,15 @@ pub struct InsetPass {
 }
 
 impl InsetPass {
-    /// The wide targets at `scale` × `extent` (`samples` per pixel; with
-    /// `msaa_rung` over MSAA also drawable at one sample, see
-    /// [`InsetPass::set_one_sample`]; with `occlusion` drawn in two scopes
-    /// with their depth sampled by the depth pyramid), with `taa` their temporal
+    /// The wide targets at `scale` × `extent` as `wide_options` says,
+    /// with `taa` their temporal
     /// anti-aliasing (upsampling to `extent` with `inset-taau`), and the
     /// composite; on failure, destroys what it made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         scale: f64,
-        (samples, msaa_rung, occlusion): (u32, bool, bool),
+        wide_options: WideOptions,
         multiview: bool,
         taa: Option<TaaSettings>,
     ) -> Result<InsetPass> {
@@ -115,10 +129,11 @@ impl InsetPass {
                 ctx,
                 wide_extent,
                 &super::sampled::SampledOptions {
-                    samples,
-                    one_sample_depth: msaa_rung,
+                    samples: wide_options.samples,
+                    one_sample_depth: wide_options.msaa_rung,
                     keep_depth: taa.is_some(),
-                    occlusion,
+                    occlusion: wide_options.occlusion,
+                    storage_resolve: wide_options.rdm,
                 },
                 multiview,
                 setup.depth_format,

@@ -53,15 +53,17 @@ pub struct LmsPass {
 
 impl LmsPass {
     /// The LMS targets for eyes of `extent` (`samples` per pixel) and the
-    /// resample; the native path when `setup.w_scaling`. On failure,
-    /// destroys what it made.
+    /// resample; the native path when `setup.w_scaling`; `path` as the
+    /// report says it; with `rdm` the resolved LMS images are changed in
+    /// place by RDM's fill (storage use). On failure, destroys what it
+    /// made.
     pub fn new(
         setup: &PipelineSetup,
         extent: vk::Extent2D,
         samples: u32,
         multiview: bool,
         coefficients: Coefficients,
-        path: String,
+        (path, rdm): (String, bool),
     ) -> Result<LmsPass> {
         let ctx = setup.ctx;
         let layout = Layout::new(&coefficients, [extent.width, extent.height]);
@@ -74,6 +76,7 @@ impl LmsPass {
             size,
             &super::sampled::SampledOptions {
                 samples,
+                storage_resolve: rdm,
                 ..Default::default()
             },
             multiview,
@@ -84,10 +87,7 @@ impl LmsPass {
             shaders::FLOOR_VERT.words(),
             shaders::LMS_RESAMPLE_FRAG.words(),
         );
-        let desc = crate::gpu::pipeline::GraphicsPipelineDesc {
-            specialization: vec![(0, extent.width), (1, extent.height)],
-            ..setup.composed_desc("LMS resample", &vs, &fs)
-        };
+        let desc = setup.composed_desc("LMS resample", &vs, &fs);
         let resample = match desc.build(ctx) {
             Ok(p) => p,
             Err(e) => {
@@ -106,6 +106,28 @@ impl LmsPass {
             native,
             path,
         })
+    }
+
+    /// Draws the following frames' eyes at `eye` (`aq`'s scale, at most
+    /// the size the targets were made for): the LMS image is laid out for
+    /// it in the top-left part of the LMS targets, and the resample reads
+    /// that part.
+    pub fn set_eye_size(&mut self, eye: vk::Extent2D) {
+        self.layout = Layout::new(&self.coefficients, [eye.width, eye.height]);
+    }
+
+    /// The LMS image's size this frame (the part of the targets drawn).
+    pub fn size(&self) -> vk::Extent2D {
+        vk::Extent2D {
+            width: self.layout.size[0],
+            height: self.layout.size[1],
+        }
+    }
+
+    /// Where the LMS image lies and the side coefficients it is drawn
+    /// with.
+    pub fn geometry(&self) -> (&Layout, &Coefficients) {
+        (&self.layout, &self.coefficients)
     }
 
     /// The report of this pass.
@@ -197,7 +219,7 @@ impl LmsPass {
     ) -> u64 {
         rec.lms.set(None);
         let [lr, ud] = self.coefficients.packed();
-        let centre = self.layout.centre[0] | self.layout.centre[1] << 16;
+        let eye = self.layout.eye[0] | self.layout.eye[1] << 16;
         super::record_composed(
             rec,
             q,
@@ -206,7 +228,7 @@ impl LmsPass {
             self.targets.sets.iter(),
             (extent, view_mask),
             self.resample,
-            |eye| [lr, eye, ud, centre],
+            |set| [lr, set, ud, eye],
         )
     }
 

@@ -19,6 +19,7 @@ pub mod output;
 pub mod overlay;
 pub mod points;
 pub mod rdm;
+pub mod rdm_in_place;
 pub mod resolved_sky;
 pub mod sampled;
 pub mod stencil_mask;
@@ -59,6 +60,8 @@ pub struct Passes {
     pub stencil_mask: Option<StencilMask>,
     /// Radial density masking (`rdm`).
     pub rdm: Option<Rdm>,
+    /// RDM's fill in place in the inset's wide views or LMS's image.
+    pub rdm_in_place: Option<rdm_in_place::RdmInPlace>,
     /// Monoscopic far field (`mffr`).
     pub far: Option<FarField>,
     /// GPU-driven culling (`gpu-cull`; built by the renderer, which has the
@@ -117,7 +120,7 @@ impl Passes {
             self.rdm = Some(Rdm::new(setup, radius, config.rdm_fill)?);
         }
         if let Some(m) = config.mffr {
-            self.far = Some(FarField::new(setup, m, extent)?);
+            self.far = Some(FarField::new(setup, m, extent, config.resolved_sky)?);
         }
         if let Some(i) = config.inset {
             // With inset-wide-1x over MSAA the wide views have one sample
@@ -130,6 +133,8 @@ impl Passes {
             let msaa_rung = config.aq
                 && !config.aq_scale_only
                 && !config.occlusion
+                && config.rdm.is_none()
+                && config.mffr.is_none()
                 && !wide_1x
                 && setup.samples > 1
                 && setup.view_mask != 0b1111;
@@ -137,11 +142,12 @@ impl Passes {
                 setup,
                 extent,
                 i.wide_scale,
-                (
-                    if wide_1x { 1 } else { setup.samples },
+                inset::WideOptions {
+                    samples: if wide_1x { 1 } else { setup.samples },
                     msaa_rung,
-                    config.occlusion,
-                ),
+                    occlusion: config.occlusion,
+                    rdm: config.rdm.is_some() && config.rdm_fill,
+                },
                 config.stereo == crate::config::StereoMode::Multiview,
                 i.taa.map(|alpha| inset_taa::TaaSettings {
                     alpha,
@@ -173,8 +179,18 @@ impl Passes {
                 setup.samples,
                 config.stereo == crate::config::StereoMode::Multiview,
                 l.coefficients(),
-                path,
+                (path, config.rdm.is_some() && config.rdm_fill),
             )?);
+        }
+        if let (Some(radius), true) = (config.rdm, config.rdm_fill) {
+            let sets = match (&self.inset, &self.lms) {
+                (Some(i), _) => Some(&i.wide.sets),
+                (_, Some(l)) => Some(&l.targets.sets),
+                _ => None,
+            };
+            if let Some(sets) = sets.filter(|s| !s.is_empty()) {
+                self.rdm_in_place = Some(rdm_in_place::RdmInPlace::new(setup.ctx, sets, radius)?);
+            }
         }
         Ok(())
     }
@@ -188,6 +204,9 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.rdm {
+            p.destroy(ctx);
+        }
+        if let Some(p) = self.rdm_in_place {
             p.destroy(ctx);
         }
         if let Some(p) = self.far {
@@ -552,7 +571,7 @@ pub fn record_composed<'a>(
         q,
         name,
         &targets.sets,
-        (extent, view_mask),
+        (extent, view_mask, [0.0; 2]),
         (pipeline, crate::gpu::rendering::Load::Discard),
         |set| set.filled.as_ref().map(|(composed, _)| composed.view),
         push,
@@ -561,7 +580,8 @@ pub fn record_composed<'a>(
 
 /// Inside the GPU pass `name`, per attachment set of `targets` one
 /// full-screen triangle of `pipeline` with the push constants `push(eye)`
-/// over `extent`, into the colour image `target(set)` picks (a set without
+/// over `extent` (its viewport moved by `jitter` pixels, as the scopes it
+/// follows were), into the colour image `target(set)` picks (a set without
 /// one is skipped), started as `load` says; the caller has made what the
 /// pipeline reads readable and the targets writable. The full-screen passes
 /// (composites, the resolved sky) share it. Returns the draw calls.
@@ -571,7 +591,7 @@ pub fn record_per_set(
     q: &mut Queries,
     name: &'static str,
     targets: &[AttachmentSet],
-    (extent, view_mask): (vk::Extent2D, u32),
+    (extent, view_mask, jitter): (vk::Extent2D, u32, [f32; 2]),
     (pipeline, load): (vk::Pipeline, crate::gpu::rendering::Load),
     target: impl Fn(&AttachmentSet) -> Option<vk::ImageView>,
     push: impl Fn(u32) -> [u32; 4],
@@ -586,6 +606,7 @@ pub fn record_per_set(
         // Its own viewport, scissor and sets: it follows other scopes (or
         // executed secondaries) whose state it must not rely on.
         rec.set_state(extent);
+        rec.jitter(extent, jitter);
         rec.bind(pipeline);
         rec.push(push(eye as u32));
         rec.draw(3);
@@ -826,19 +847,26 @@ impl Recorder<'_> {
         unsafe { self.ctx.device.cmd_begin_rendering(self.cmd, &info) };
         if !scope.secondaries {
             self.set_state(scope.extent);
-            if scope.jitter != [0.0; 2] {
-                let (mut viewport, _) = whole(scope.extent);
-                viewport.x = scope.jitter[0];
-                viewport.y = scope.jitter[1];
-                // SAFETY: inside the scope just begun.
-                unsafe { self.ctx.device.cmd_set_viewport(self.cmd, 0, &[viewport]) };
-            }
+            self.jitter(scope.extent, scope.jitter);
             if let Some(a) = scope.area {
                 // SAFETY: inside the scope just begun; the rectangle lies in
                 // its render area.
                 unsafe { self.ctx.device.cmd_set_scissor(self.cmd, 0, &[a]) };
             }
         }
+    }
+
+    /// Moves the viewport over `extent` by `jitter` pixels (`inset-taa`'s
+    /// sub-pixel jitter); nothing when it is zero.
+    pub fn jitter(&self, extent: vk::Extent2D, jitter: [f32; 2]) {
+        if jitter == [0.0; 2] {
+            return;
+        }
+        let (mut viewport, _) = whole(extent);
+        viewport.x = jitter[0];
+        viewport.y = jitter[1];
+        // SAFETY: inside a rendering scope of `extent`.
+        unsafe { self.ctx.device.cmd_set_viewport(self.cmd, 0, &[viewport]) };
     }
 
     /// Sets what draws inside a rendering scope need and a command buffer

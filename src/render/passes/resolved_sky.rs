@@ -65,8 +65,36 @@ impl ResolvedSky {
     /// scope under multiview; one set per eye in two-pass) — the eyes'
     /// `targets` of `extent`, and with the inset its wide views' too (the
     /// sky is a function of each pixel's direction, so the wide views get
-    /// the same sky at their resolution). Returns the draw calls.
+    /// the same sky at their resolution; `jitter`: the viewport offset the
+    /// views were drawn with, `inset-taa`'s for the wide views, so each
+    /// pixel gets the sky of the direction its scope drew). Returns the
+    /// draw calls.
     pub fn record(
+        &self,
+        rec: &Recorder,
+        q: &mut Queries,
+        targets: &[AttachmentSet],
+        (extent, view_mask, jitter): (vk::Extent2D, u32, [f32; 2]),
+    ) -> u64 {
+        rec.memory_barriers(&[attachments::between_scopes()]);
+        super::record_per_set(
+            rec,
+            q,
+            "sky-resolved",
+            targets,
+            (extent, view_mask, jitter),
+            (self.pipeline, Load::Keep),
+            |set| Some(set.resolve.view),
+            |eye| [0, eye, 0, 0],
+        )
+    }
+
+    /// [`ResolvedSky::record`] under the composed output images of
+    /// `targets` (lens-matched shading's resample writes them): the
+    /// resample's bilinear reads keep premultiplied colour and coverage,
+    /// which "under" is linear in, so the sky fills what the scene left
+    /// uncovered at the eye image's resolution.
+    pub fn record_composed(
         &self,
         rec: &Recorder,
         q: &mut Queries,
@@ -80,9 +108,9 @@ impl ResolvedSky {
             q,
             "sky-resolved",
             targets,
-            (extent, view_mask),
+            (extent, view_mask, [0.0; 2]),
             (self.pipeline, Load::Keep),
-            |set| Some(set.resolve.view),
+            |set| set.filled.as_ref().map(|(composed, _)| composed.view),
             |eye| [0, eye, 0, 0],
         )
     }

@@ -20,6 +20,9 @@ pub struct SampledOptions {
     /// Drawn in occlusion's two scopes, the depth read by the depth
     /// pyramid ([`SetOptions::occlusion`]).
     pub occlusion: bool,
+    /// The resolve images changed in place by a compute shader
+    /// ([`SetOptions::storage_resolve`]).
+    pub storage_resolve: bool,
 }
 
 /// Sampled attachment sets, their array views and sampler.
@@ -50,6 +53,7 @@ impl SampledSets {
             composed: false,
             sampled: true,
             storage_output: false,
+            storage_resolve: opts.storage_resolve,
             occlusion: opts.occlusion,
             multiview_layers: 2,
             one_sample_depth: opts.one_sample_depth,
@@ -90,15 +94,17 @@ impl SampledSets {
 
     fn finish(&mut self, ctx: &Context, what: &str) -> Result<()> {
         for set in &self.sets {
-            self.views.push(crate::gpu::memory::Image::make_view(
+            // Sampled only: a resolve image with storage use (changed in
+            // place through its UNORM view) has uses sRGB lacks.
+            self.views.push(crate::gpu::memory::Image::view_for(
                 ctx,
                 set.resolve.image,
                 COLOR_FORMAT,
                 vk::ImageAspectFlags::COLOR,
                 vk::ImageViewType::TYPE_2D_ARRAY,
-                0,
-                set.resolve.layers,
+                (0, set.resolve.layers),
                 1,
+                Some(vk::ImageUsageFlags::SAMPLED),
             )?);
         }
         let info = vk::SamplerCreateInfo::default()

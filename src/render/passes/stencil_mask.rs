@@ -19,6 +19,10 @@
 //! frame needs no stencil aspect, and with the sky writing every other
 //! sample it needs no colour clear either.
 //!
+//! With lens-matched shading the mask is drawn once per quadrant, through
+//! the quadrant's w scaling, so it lands where the scene's hidden pixels
+//! land in the LMS image.
+//!
 //! Each frame slot has its own vertex buffer, rewritten only when the rig's
 //! meshes change (a runtime may send new ones).
 
@@ -201,7 +205,7 @@ impl StencilMask {
             return 0;
         }
         rec.bind(pipeline);
-        rec.push([0, eye, per_view, 0]);
+        rec.push_draw(per_view, eye);
         rec.draw(per_view);
         1
     }

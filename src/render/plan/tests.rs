@@ -186,6 +186,46 @@ fn the_inset_draws_the_wide_view_then_the_eye_inside_its_rectangle() {
 }
 
 #[test]
+fn rdm_checkers_the_periphery_the_wide_views_or_the_eye_and_fills_it_before_the_composites() {
+    let i = inset(false);
+    for lms in [None, Some([120, 60])] {
+        let steps = frame(&PlanInput {
+            rdm: true,
+            lms,
+            ..base()
+        });
+        assert!(scopes(&steps).iter().all(|s| s.checkerboard));
+        let at = |want: Step| steps.iter().position(|s| *s == want);
+        if lms.is_some() {
+            assert!(at(Step::RdmFill) < at(Step::LmsResample));
+        }
+    }
+    let steps = frame(&PlanInput {
+        rdm: true,
+        inset: Some(i),
+        gpu_cull: true,
+        occlusion: true,
+        ..base()
+    });
+    let s = scopes(&steps);
+    let checkered: Vec<_> = s
+        .iter()
+        .map(|s| (s.target, s.part, s.checkerboard))
+        .collect();
+    assert_eq!(
+        checkered,
+        [
+            (Target::Wide { eye: 0 }, ScopePart::First, true),
+            (Target::Eye { set: 0 }, ScopePart::First, false),
+            (Target::Wide { eye: 0 }, ScopePart::Second, false),
+            (Target::Eye { set: 0 }, ScopePart::Second, false),
+        ]
+    );
+    let at = |want: Step| steps.iter().position(|s| *s == want).unwrap();
+    assert!(at(Step::RdmFill) < at(Step::InsetComposite));
+}
+
+#[test]
 fn four_inset_views_share_one_scope_over_the_region_and_the_inset() {
     let i = inset(true);
     for floor in [false, true] {
@@ -256,6 +296,18 @@ fn lms_draws_four_quadrants_into_its_targets_then_resamples() {
     );
     assert!(!s[1].colour_covered);
     assert!(steps.contains(&Step::LmsResample));
+}
+
+#[test]
+fn with_lms_the_resolved_sky_goes_under_the_resampled_image() {
+    let steps = frame(&PlanInput {
+        lms: Some([120, 60]),
+        resolved_sky: true,
+        ..base()
+    });
+    let at = |want: Step| steps.iter().position(|s| *s == want).unwrap();
+    assert_eq!(at(Step::ResolvedSky), at(Step::LmsResample) + 1);
+    assert!(scopes(&steps).iter().all(|s| s.sky_after_resolve));
 }
 
 #[test]
