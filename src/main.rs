@@ -423,6 +423,12 @@ struct RunCli {
     /// returning to the spawn when nobody moves, a rotating log file.
     #[arg(long, conflicts_with_all = ["scene", "spawn", "viewpoint"])]
     kiosk: Option<PathBuf>,
+    /// Let the OpenXR runtime print its own messages to this terminal
+    /// (Monado prints several dozen lines per session; by default they are
+    /// kept out, as OXR_NO_PRINTING_STDERR=1 does; setting that variable
+    /// yourself overrides both).
+    #[arg(long)]
+    runtime_log: bool,
 }
 
 #[derive(clap::Args)]
@@ -1254,6 +1260,19 @@ fn inspect(s: &Scene, load_ms: f64) {
     print_to_stdout(&o);
 }
 
+/// Keeps an OpenXR runtime's own printing (Monado's: instance, devices,
+/// Vulkan extensions, several dozen lines per session) out of `run`'s
+/// terminal unless `--runtime-log` asks for it or the variable is set.
+/// Called before any thread starts, as setting the environment must be.
+fn quiet_runtime(cli: &Cli) {
+    const QUIET: &str = "OXR_NO_PRINTING_STDERR";
+    if let Command::Run(a) = &cli.command {
+        if !a.runtime_log && std::env::var_os(QUIET).is_none() {
+            std::env::set_var(QUIET, "1");
+        }
+    }
+}
+
 fn main() -> ExitCode {
     use tracing_subscriber::layer::SubscriberExt as _;
     use tracing_subscriber::util::SubscriberInitExt as _;
@@ -1279,6 +1298,7 @@ fn main() -> ExitCode {
         .with(kiosk_log)
         .init();
     let cli = Cli::parse();
+    quiet_runtime(&cli);
     match run(cli).context("vergence") {
         Ok(()) => ExitCode::SUCCESS,
         Err(e) => {

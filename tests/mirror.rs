@@ -880,11 +880,37 @@ fn a_kiosk_offers_its_scenes_allows_only_its_toggles_and_logs() {
     let toggles = s["toggles"].as_array().unwrap();
     assert_eq!(toggles.len(), 1, "{toggles:?}");
     assert_eq!(toggles[0]["opt"], "multiview,no-msaa,superfrustum");
+    let refused = s["refused_toggles"].as_array().unwrap();
+    assert_eq!(refused.len(), 1, "{refused:?}");
+    assert_eq!(refused[0]["toggle"], "stencil-mask");
+    assert_eq!(refused[0]["why"], "not allowed here");
+    // One section per scene, frames numbered over the whole run.
+    let scenes = s["scenes"].as_array().unwrap();
+    let names: Vec<&str> = scenes.iter().map(|c| c["name"].as_str().unwrap()).collect();
+    assert_eq!(names, ["small", "large"]);
+    assert_eq!(scenes[1]["scene"], "factory:300");
+    assert_eq!(scenes[1]["counts"]["name"], "factory:300");
+    let (first, n0) = (&scenes[0], scenes[0]["frames"].as_u64().unwrap());
+    assert_eq!(first["first_frame"], 0);
+    assert_eq!(scenes[1]["first_frame"].as_u64(), Some(n0), "{scenes:?}");
+    let indexes: Vec<u64> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .map(|f| f["index"].as_u64().unwrap())
+        .collect();
+    let total = n0 + scenes[1]["frames"].as_u64().unwrap();
+    assert_eq!(indexes, (0..total).collect::<Vec<u64>>());
+    assert!(toggles[0]["frame"].as_u64().unwrap() < n0, "{toggles:?}");
     let log = std::fs::read_to_string(dir.join("k.log")).expect("the kiosk log");
+    let second = format!("kiosk: scene large from frame {n0}");
     for want in [
         "kiosk test kiosk: 2 scenes",
+        "kiosk: scene small from frame 0",
+        "live toggle stencil-mask refused",
         "live toggle msaa",
         "next scene large",
+        second.as_str(),
     ] {
         assert!(log.contains(want), "'{want}' not in the log:\n{log}");
     }
@@ -932,6 +958,9 @@ fn under_monado_a_kiosk_returns_a_still_head_to_the_spawn() {
     assert!(!recentred.is_empty(), "no return to the spawn: {s}");
     let log = std::fs::read_to_string(dir.join("idle.log")).expect("the kiosk log");
     assert!(log.contains("back to the spawn after 1 s"), "{log}");
+    // The runtime's own printing stays out of the terminal.
+    let stderr = String::from_utf8_lossy(&o.stderr);
+    assert!(!stderr.contains("LOG in xrCreateInstance"), "{stderr}");
     assert_eq!(s["validation_messages"], 0);
     assert_eq!(s["xr_validation_messages"], 0);
 }

@@ -45,7 +45,13 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     let mut at = 0;
     let result = loop {
         let a = args.for_scene(at);
+        let name = args.kiosk.as_ref().map_or(&a.scene, |k| &k.scenes[at].name);
+        desk.live.frame_base = stats.begin_scene(name, &a.scene);
+        if args.kiosk.is_some() {
+            tracing::info!("kiosk: scene {name} from frame {}", desk.live.frame_base);
+        }
         let r = run_once(&a, mode, &mut stats, &mut desk);
+        stats.end_scene();
         let started = stats.run_started();
         let go_on = r.is_ok()
             && desk.next_scene
@@ -69,6 +75,7 @@ pub fn run(args: &RunArgs) -> Result<RunStats> {
     };
     stats.mirror = desk.stats.clone();
     stats.toggles = desk.live.events.clone();
+    stats.refused_toggles = desk.live.refused.clone();
     stats.summarize();
     if let Some(path) = &args.stats_out {
         if !stats.mode.is_empty() {

@@ -406,6 +406,10 @@ pub struct RunStats {
     series: Series,
     #[serde(skip)]
     started: Option<Instant>,
+    /// Added to the current loop's frame numbers (see
+    /// [`RunStats::begin_scene`]).
+    #[serde(skip)]
+    frame_base: u64,
     /// Frames ended with xrEndFrame success (headless: rendered).
     pub frames_submitted: u64,
     /// Frames rendered (shouldRender true).
@@ -439,12 +443,35 @@ pub struct RunStats {
     pub panel: Option<crate::targets::xr_panel::PanelStats>,
     /// Optimizations switched by the live toggles, in order.
     pub toggles: Vec<crate::targets::toggles::ToggleEvent>,
+    /// Live toggles refused (not allowed by the kiosk, or an invalid
+    /// combination), in order.
+    pub refused_toggles: Vec<crate::targets::toggles::RefusedToggle>,
+    /// The scenes shown, in order (a kiosk's N starts the next one): each
+    /// with its frames, numbered over the whole run.
+    pub scenes: Vec<SceneSection>,
     /// Sessions re-established after the runtime was lost (`--reconnect`).
     pub reconnects: u64,
     /// Why the loop ended.
     pub exit: String,
     /// Wall time of the loop in seconds.
     pub duration_s: f64,
+}
+
+/// One scene of the run, as `--stats-out` lists it.
+#[derive(Clone, Debug, Default, serde::Serialize)]
+pub struct SceneSection {
+    /// Its name (a kiosk scene's name; else the scene as given).
+    pub name: String,
+    /// The scene as given (file or generated scene).
+    pub scene: String,
+    /// Its first frame's index in `frames`.
+    pub first_frame: u64,
+    /// Its frames.
+    pub frames: u64,
+    /// Seconds from the start of the run to its first frame.
+    pub started_s: f64,
+    /// Its counts (None when it could not be loaded).
+    pub counts: Option<SceneCounts>,
 }
 
 /// A tracking origin as written to the statistics.
@@ -584,9 +611,13 @@ impl RunStats {
     /// spool path would be unlinked when the old one drops.
     pub fn fall_back(&mut self, reason: String) {
         let frames = std::mem::take(&mut self.frames);
+        let scenes = std::mem::take(&mut self.scenes);
         *self = RunStats {
             fallback_reason: Some(reason),
             frames,
+            scenes,
+            started: self.started,
+            frame_base: self.frame_base,
             ..RunStats::default()
         };
     }
@@ -602,9 +633,37 @@ impl RunStats {
         })
     }
 
-    /// Adds a frame, counting missed display periods from the change in
-    /// predicted display time: a step of k periods means k - 1 were missed.
+    /// Starts the section of scene `scene` (named `name`): frames from now
+    /// on are numbered after the run's earlier ones. Returns the number
+    /// the loop adds to its own frame numbers.
+    pub fn begin_scene(&mut self, name: &str, scene: &str) -> u64 {
+        let first = self.frames.len();
+        let started_s = self.run_started().elapsed().as_secs_f64();
+        self.scenes.push(SceneSection {
+            name: name.into(),
+            scene: scene.into(),
+            first_frame: first,
+            started_s,
+            ..SceneSection::default()
+        });
+        self.frame_base = first;
+        first
+    }
+
+    /// Ends the current scene's section: its frame count and counts.
+    pub fn end_scene(&mut self) {
+        let (total, counts) = (self.frames.len(), self.scene.clone());
+        if let Some(s) = self.scenes.last_mut() {
+            s.frames = total - s.first_frame;
+            s.counts = counts;
+        }
+    }
+
+    /// Adds a frame (its index after the run's earlier scenes'), counting
+    /// missed display periods from the change in predicted display time:
+    /// a step of k periods means k - 1 were missed.
     pub fn push_frame(&mut self, mut f: FrameRecord) -> Result<()> {
+        f.index += self.frame_base;
         if let Some(prev) = self.series.last_display_time_ns {
             let period = f.predicted_display_period_ns.max(1) as f64;
             let step = (f.predicted_display_time_ns - prev) as f64;

@@ -299,6 +299,18 @@ pub struct ToggleEvent {
     pub opt: String,
 }
 
+/// One switch refused while running (not allowed here, or an invalid
+/// combination), as `--stats-out` lists it and the kiosk log says it.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct RefusedToggle {
+    /// The frame the key was pressed before.
+    pub frame: u64,
+    /// The toggle's name.
+    pub toggle: String,
+    /// Why it was refused.
+    pub why: String,
+}
+
 /// The live configuration of a window's loop and what its keys did.
 #[derive(Debug)]
 pub struct LiveConfig {
@@ -310,6 +322,12 @@ pub struct LiveConfig {
     pub save_to: PathBuf,
     /// Every switch made, in order.
     pub events: Vec<ToggleEvent>,
+    /// Every switch refused, in order.
+    pub refused: Vec<RefusedToggle>,
+    /// Added to the loop's frame numbers in `events` and `refused`: the
+    /// frames of the run before this loop (a kiosk's earlier scenes), so
+    /// they count over the whole run as `--stats-out`'s frames do.
+    pub frame_base: u64,
     /// More lines for the key listing (a kiosk's N for the next scene).
     pub extra_help: Option<String>,
 }
@@ -325,6 +343,8 @@ impl LiveConfig {
             allowed: Toggle::ALL.to_vec(),
             save_to: save_to.unwrap_or_else(|| PathBuf::from(DEFAULT_SAVE_PATH)),
             events: Vec::new(),
+            refused: Vec::new(),
+            frame_base: 0,
             extra_help: None,
         }
     }
@@ -374,8 +394,10 @@ impl LiveConfig {
     /// give an invalid combination (refused with one line on stderr; a
     /// switch prints one line on stdout).
     pub fn switch(&mut self, t: Toggle, next_frame: u64) -> Option<RenderConfig> {
+        let frame = self.frame_base + next_frame;
         if !self.allowed.contains(&t) {
             eprintln!("vergence: the {} toggle is not allowed here", t.name());
+            self.refuse(t, frame, "not allowed here".into());
             return None;
         }
         let next = t.apply(&self.config);
@@ -384,9 +406,9 @@ impl LiveConfig {
                 self.config = next;
                 let opt = self.config.opt_string();
                 println!("opt: {opt} ({} switched)", t.name());
-                tracing::info!("live toggle {} at frame {next_frame}: {opt}", t.name());
+                tracing::info!("live toggle {} at frame {frame}: {opt}", t.name());
                 self.events.push(ToggleEvent {
-                    frame: next_frame,
+                    frame,
                     toggle: t.name().into(),
                     opt,
                 });
@@ -394,9 +416,21 @@ impl LiveConfig {
             }
             Err(e) => {
                 eprintln!("vergence: {} not switched: {e}", t.name());
+                self.refuse(t, frame, e.to_string());
                 None
             }
         }
+    }
+
+    /// Records a refused switch and says it in the log (the kiosk log
+    /// too).
+    fn refuse(&mut self, t: Toggle, frame: u64, why: String) {
+        tracing::info!("live toggle {} refused at frame {frame}: {why}", t.name());
+        self.refused.push(RefusedToggle {
+            frame,
+            toggle: t.name().into(),
+            why,
+        });
     }
 
     /// Goes back to `old` after the loop could not render with the last
@@ -482,7 +516,21 @@ mod tests {
             }]
         );
         live.allowed = vec![Toggle::Msaa];
+        // A later scene of a kiosk: frames count on over the run.
+        live.frame_base = 100;
         assert_eq!(live.handle(&[KeyCode::Digit3], 8), None, "not allowed");
+        let refused: Vec<(u64, &str)> = live
+            .refused
+            .iter()
+            .map(|r| (r.frame, r.toggle.as_str()))
+            .collect();
+        assert_eq!(refused, [(5, "gpu-cull"), (108, "stencil-mask")]);
+        assert!(
+            live.refused[0].why.contains("gpu-cull"),
+            "{:?}",
+            live.refused
+        );
+        assert_eq!(live.refused[1].why, "not allowed here");
         assert!(live
             .file_text()
             .contains("opt = \"multiview,msaa4,none,stencil-mask\""));
