@@ -234,6 +234,40 @@ fn the_headless_mirror_shows_the_submitted_eyes() {
 /// into the window's image only: where it lies the window differs from
 /// the submitted eye image, elsewhere it matches; with `--overlay off` the
 /// window is the eye image.
+/// The overlay's mean CPU, GPU and wait times (`mirror.overlay`) are the
+/// means of the same frames' records in `--stats-out`: one set of figures.
+fn overlay_matches_the_records(s: &Value) {
+    let o = &s["mirror"]["overlay"];
+    let (first, n) = (
+        o["first_frame"].as_u64().unwrap(),
+        o["frames"].as_u64().unwrap(),
+    );
+    assert!(n >= 5, "{o}");
+    let frames: Vec<&Value> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| (first..first + n).contains(&f["index"].as_u64().unwrap()))
+        .collect();
+    assert_eq!(frames.len() as u64, n, "{o}");
+    for (field, mean) in [
+        ("cpu_ms", "cpu_ms_mean"),
+        ("gpu_ms", "gpu_ms_mean"),
+        ("wait_ms", "wait_ms_mean"),
+    ] {
+        let want = frames
+            .iter()
+            .map(|f| f[field].as_f64().unwrap())
+            .sum::<f64>()
+            / n as f64;
+        let got = o[mean].as_f64().unwrap();
+        assert!(
+            (got - want).abs() <= 1e-9 * want.abs().max(1.0),
+            "{field}: overlay {got}, records {want}"
+        );
+    }
+}
+
 #[test]
 fn the_overlay_is_in_the_window_and_not_in_the_eye_images() {
     let _g = lock();
@@ -265,6 +299,7 @@ fn the_overlay_is_in_the_window_and_not_in_the_eye_images() {
     for overlay in ["on", "off"] {
         let (s, o) = run_named(&x, &dir, overlay, &args(overlay));
         assert_eq!(s["validation_messages"], 0, "{}", text(&o));
+        overlay_matches_the_records(&s);
         let shot = load(&dir.join(format!("{overlay}.png")));
         let eye = load(&dir.join(overlay).join("left.png"));
         assert_eq!(shot.dimensions(), eye.dimensions());
@@ -450,6 +485,7 @@ fn under_monado_the_mirror_shows_the_swapchain_images_with_no_validation_message
         "{}",
         s["mirror"]
     );
+    overlay_matches_the_records(&s);
     let s_path = dir.join("stats.json");
     let o = with_monado(&x)
         .args([

@@ -40,18 +40,58 @@ pub const HISTORY: usize = 240;
 /// One frame's times for the graph.
 #[derive(Clone, Copy, Debug, Default, PartialEq)]
 pub struct Times {
-    /// CPU ms of the frame's own work (cull, batch, record, submit).
+    /// CPU ms: in `run`, as `--stats-out`'s `cpu_ms` (the frame loop from
+    /// the end of the pacing wait to the submission, the wait for a frame
+    /// slot excluded); in `view`, the frame's own work (cull, batch,
+    /// record, submit).
     pub cpu: f64,
     /// GPU ms (the passes' timestamps).
     pub gpu: f64,
-    /// CPU ms spent waiting for a frame slot.
+    /// Wait ms: in `run`, as `--stats-out`'s `wait_ms` (xrWaitFrame's,
+    /// 0 headless); in `view`, the wait for a frame slot.
     pub wait: f64,
+}
+
+/// The mean times of every frame the overlay showed, for `--stats-out`
+/// (`mirror.overlay`): in `run` they are the means of the same frames'
+/// records.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize)]
+pub struct OverlayFigures {
+    /// The first frame shown (its index in the frame records).
+    pub first_frame: u64,
+    /// Frames shown.
+    pub frames: u64,
+    /// Mean CPU ms.
+    pub cpu_ms_mean: f64,
+    /// Mean GPU ms.
+    pub gpu_ms_mean: f64,
+    /// Mean wait ms.
+    pub wait_ms_mean: f64,
+}
+
+impl OverlayFigures {
+    /// These figures and a later session's `b` together: the frames of
+    /// both, the means weighted by their frames.
+    pub fn merged(&self, b: &OverlayFigures) -> OverlayFigures {
+        let n = (self.frames + b.frames).max(1) as f64;
+        let w = |x: f64, y: f64| (x * self.frames as f64 + y * b.frames as f64) / n;
+        OverlayFigures {
+            first_frame: self.first_frame.min(b.first_frame),
+            frames: self.frames + b.frames,
+            cpu_ms_mean: w(self.cpu_ms_mean, b.cpu_ms_mean),
+            gpu_ms_mean: w(self.gpu_ms_mean, b.gpu_ms_mean),
+            wait_ms_mean: w(self.wait_ms_mean, b.wait_ms_mean),
+        }
+    }
 }
 
 /// The overlay's state across frames.
 pub struct Hud {
     ctx: egui::Context,
     history: VecDeque<Times>,
+    /// Every frame shown: the first one's index, the count and the sums
+    /// of CPU, GPU and wait ms.
+    shown: Option<(u64, u64, [f64; 3])>,
     last: Option<FrameResult>,
     /// Whether it is drawn.
     pub visible: bool,
@@ -87,6 +127,7 @@ impl Hud {
         Hud {
             ctx: egui::Context::default(),
             history: VecDeque::with_capacity(HISTORY),
+            shown: None,
             last: None,
             visible,
             started: std::time::Instant::now(),
@@ -128,17 +169,47 @@ impl Hud {
         self.error.as_ref().map(|(r, _)| r.flip_mean)
     }
 
-    /// Adds a finished frame.
+    /// Adds a finished frame with its own times (`view`).
     pub fn push(&mut self, r: &FrameResult) {
-        if self.history.len() == HISTORY {
-            self.history.pop_front();
-        }
-        self.history.push_back(Times {
+        let t = Times {
             cpu: r.cpu_ms(),
             gpu: r.gpu_ms(),
             wait: r.stats.cpu_ms.wait,
-        });
+        };
+        self.push_times(r.index, t);
+        self.set_last(r);
+    }
+
+    /// Shows finished frame `r`'s counts and passes (its times come with
+    /// [`Hud::push_times`]).
+    pub fn set_last(&mut self, r: &FrameResult) {
         self.last = Some(r.clone());
+    }
+
+    /// Adds frame `index`'s times to the graph and the means.
+    pub fn push_times(&mut self, index: u64, t: Times) {
+        if self.history.len() == HISTORY {
+            self.history.pop_front();
+        }
+        self.history.push_back(t);
+        let (_, n, sums) = self.shown.get_or_insert((index, 0, [0.0; 3]));
+        *n += 1;
+        for (s, v) in sums.iter_mut().zip([t.cpu, t.gpu, t.wait]) {
+            *s += v;
+        }
+    }
+
+    /// The means of every frame shown (None before the first).
+    pub fn figures(&self) -> Option<OverlayFigures> {
+        let (first_frame, frames, [cpu, gpu, wait]) = self.shown?;
+        let n = frames.max(1) as f64;
+        Some(OverlayFigures {
+            first_frame,
+            frames,
+            cpu_ms_mean: cpu / n,
+            gpu_ms_mean: gpu / n,
+            wait_ms_mean: wait / n,
+        })
     }
 
     /// The frame times kept for the graph, oldest first.

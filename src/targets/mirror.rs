@@ -203,6 +203,9 @@ pub struct MirrorStats {
     pub busy: u64,
     /// Frames not presented because the swapchain was out of date (resize).
     pub resized: u64,
+    /// The overlay's mean times over the frames it showed (the same as
+    /// their records' means).
+    pub overlay: Option<crate::targets::hud::OverlayFigures>,
 }
 
 struct CopySlot {
@@ -686,9 +689,15 @@ impl Mirror {
             .collect()
     }
 
-    /// Adds a finished frame to the overlay's graph.
+    /// Shows a finished frame's counts and passes in the overlay.
     pub fn push_frame(&mut self, r: &crate::render::driver::FrameResult) {
-        self.hud.push(r);
+        self.hud.set_last(r);
+    }
+
+    /// Adds frame `index`'s times, as its `--stats-out` record has them,
+    /// to the overlay's graph and means.
+    pub fn push_record(&mut self, index: u64, t: crate::targets::hud::Times) {
+        self.hud.push_times(index, t);
     }
 
     /// Sets the `--opt` list and the frame budget (ms) the overlay shows.
@@ -793,6 +802,7 @@ impl Mirror {
     pub fn final_stats(&mut self) -> MirrorStats {
         let s = self.win().size();
         self.stats.window_size = [s.width, s.height];
+        self.stats.overlay = self.hud.figures();
         self.stats.present_mode = format!("{:?}", self.presenter.present_mode());
         self.stats.clone()
     }
@@ -965,6 +975,10 @@ impl Desk {
         total.presented += s.presented;
         total.busy += s.busy;
         total.resized += s.resized;
+        total.overlay = match (total.overlay, s.overlay) {
+            (Some(a), Some(b)) => Some(a.merged(&b)),
+            (a, b) => a.or(b),
+        };
     }
 
     /// Handles a frame's window input: a close ends the run, keys switch

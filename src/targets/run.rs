@@ -183,7 +183,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
     // A finished frame's record: written when its GPU times are known.
     // Heads and `--opt` strings of the frames in flight, by frame index.
     let mut heads = Heads::default();
-    let record = |r: FrameResult, stats: &mut RunStats, heads: &mut Heads| -> Result<()> {
+    let record = |r: FrameResult, stats: &mut RunStats, heads: &mut Heads| {
         stats.cull = r.cull;
         stats.push_frame(frame_record(&r, heads, started, period_ns))
     };
@@ -202,7 +202,8 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                 if let Some(new) = desk.handle(m, index) {
                     let finished = frames.drain(m);
                     while let Some(r) = frames.driver.take_completed() {
-                        record(r, stats, &mut heads)?;
+                        let (i, t) = record(r, stats, &mut heads)?;
+                        m.push_record(i, t);
                     }
                     finished?;
                     frames.switch(&ctx, &scene, new, extent, &mut desk.live)?;
@@ -240,7 +241,11 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                 if let Some(m) = mirror.as_mut() {
                     m.push_frame(&r);
                 }
-                record(r, stats, &mut heads)?;
+                let (i, t) = record(r, stats, &mut heads)?;
+                // The overlay shows the records' own times.
+                if let Some(m) = mirror.as_mut() {
+                    m.push_record(i, t);
+                }
             }
             if index == WARMUP_FRAMES {
                 stats.sample_memory(&ctx, false);

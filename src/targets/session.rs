@@ -11,6 +11,7 @@ use crate::interact::locomotion::Origin;
 use crate::interact::{Event, Settings};
 use crate::render::driver::FrameResult;
 use crate::stats::FrameHistogram;
+use crate::targets::hud::Times;
 use crate::view::{Fov, Pose, PoseFile, RigFile, StereoRig};
 use std::path::{Path, PathBuf};
 use std::time::{Duration, Instant};
@@ -586,13 +587,15 @@ impl RecordQueue {
         }
     }
 
-    /// Writes the complete records at the front.
-    pub fn flush(&mut self, stats: &mut RunStats) -> Result<()> {
+    /// Writes the complete records at the front; returns their indexes
+    /// and times (what the overlay shows).
+    pub fn flush(&mut self, stats: &mut RunStats) -> Result<Vec<(u64, Times)>> {
+        let mut written = Vec::new();
         while self.waiting.front().is_some_and(|(_, waits)| !waits) {
             let (rec, _) = self.waiting.pop_front().expect("front exists");
-            stats.push_frame(rec)?;
+            written.push(stats.push_frame(rec)?);
         }
-        Ok(())
+        Ok(written)
     }
 
     /// Writes every record, also those whose frame never finished (the
@@ -662,8 +665,16 @@ impl RunStats {
     /// Adds a frame (its index after the run's earlier scenes'), counting
     /// missed display periods from the change in predicted display time:
     /// a step of k periods means k - 1 were missed.
-    pub fn push_frame(&mut self, mut f: FrameRecord) -> Result<()> {
+    pub fn push_frame(&mut self, mut f: FrameRecord) -> Result<(u64, Times)> {
         f.index += self.frame_base;
+        let shown = (
+            f.index,
+            Times {
+                cpu: f.cpu_ms,
+                gpu: f.gpu_ms,
+                wait: f.wait_ms,
+            },
+        );
         if let Some(prev) = self.series.last_display_time_ns {
             let period = f.predicted_display_period_ns.max(1) as f64;
             let step = (f.predicted_display_time_ns - prev) as f64;
@@ -683,7 +694,8 @@ impl RunStats {
             self.series.cpu.record(f.cpu_ms);
             self.series.gpu.record(f.gpu_ms);
         }
-        self.frames.push(&f)
+        self.frames.push(&f)?;
+        Ok(shown)
     }
 
     /// When the run began (the first call starts the clock); `--seconds`

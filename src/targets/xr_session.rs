@@ -755,7 +755,11 @@ fn retire_driver(
         st.records.complete(&r, stats);
     }
     finished?;
-    st.records.flush(stats)?;
+    for (i, t) in st.records.flush(stats)? {
+        if let Some(m) = live.mirror.as_mut() {
+            m.push_record(i, t);
+        }
+    }
     if let Some(m) = live.mirror.as_mut() {
         m.finish()?;
     }
