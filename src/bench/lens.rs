@@ -168,6 +168,30 @@ impl LensReport {
 #[cfg(test)]
 mod tests {
     use super::*;
+    use proptest::prelude::*;
+
+    proptest! {
+        /// Whatever sizes a profile declares (up to the largest a profile
+        /// may), neither image is sampled more than MAX_SAMPLES times
+        /// (plus one row and column of rounding), and the usual sizes keep
+        /// the fine stride.
+        #[test]
+        fn the_stride_bounds_the_samples(pw in 1u32..=16384, ph in 1u32..=16384, ew in 1u32..=16384, eh in 1u32..=16384) {
+            let s = sample_stride([pw, ph], [ew, eh]) as u64;
+            prop_assert!(s >= STRIDE as u64);
+            for [w, h] in [[pw, ph], [ew, eh]] {
+                let samples = (w as u64).div_ceil(s) * (h as u64).div_ceil(s);
+                prop_assert!(samples <= MAX_SAMPLES + 2 * 16384 / s + 1, "{samples} at stride {s}");
+            }
+        }
+    }
+
+    #[test]
+    fn usual_panels_keep_the_fine_stride() {
+        assert_eq!(sample_stride([1080, 1200], [1080, 1200]), STRIDE);
+        // 4.5 M eye pixels: every third pixel per axis, about 0.5 M.
+        assert_eq!(sample_stride([1440, 1600], [2016, 2240]), 3);
+    }
 
     #[test]
     fn the_report_has_every_view_and_ring_and_refuses_a_profile_without_a_lens() {
