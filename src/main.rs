@@ -1171,7 +1171,7 @@ fn inspect_meshes(o: &mut String, s: &Scene) {
         let _ = writeln!(
             o,
             "  mesh {i:3} {:24} {} primitives, {tris} triangles",
-            m.name,
+            vergence::error::one_safe_line(&m.name),
             m.primitives.len()
         );
     }
@@ -1182,7 +1182,7 @@ fn inspect_meshes(o: &mut String, s: &Scene) {
         let _ = writeln!(
             o,
             "  material {i:3} {:24} {:?}{}{}",
-            m.name,
+            vergence::error::one_safe_line(&m.name),
             m.alpha_mode,
             if m.double_sided { " double-sided" } else { "" },
             if m.unlit { " unlit" } else { "" }
@@ -1239,7 +1239,7 @@ fn inspect(s: &Scene, load_ms: f64) {
             o,
             "  camera {:3} {:24} at [{:.3}, {:.3}, {:.3}]{}",
             c.index,
-            c.name,
+            vergence::error::one_safe_line(&c.name),
             p.x,
             p.y,
             p.z,
@@ -1257,7 +1257,12 @@ fn inspect(s: &Scene, load_ms: f64) {
         );
     }
     inspect_meshes(&mut o, s);
-    print_to_stdout(&o);
+    // Names come from the file: no control character reaches the terminal.
+    let safe: String = o
+        .lines()
+        .map(|l| vergence::error::one_safe_line(l) + "\n")
+        .collect();
+    print_to_stdout(&safe);
 }
 
 /// Keeps an OpenXR runtime's own printing (Monado's: instance, devices,

@@ -192,6 +192,26 @@ fn errors_escape_control_characters() {
         "a raw escape reached the terminal: {e:?}"
     );
     assert!(e.contains("\\u{1b}[31mred.gltf"), "{e}");
+    // Names inside a file (a mesh, a material) are escaped in what
+    // inspect prints too.
+    let gltf = std::fs::read_to_string(common::root().join("assets/Box/Box.gltf")).unwrap();
+    let mut json: serde_json::Value = serde_json::from_str(&gltf).unwrap();
+    json["meshes"][0]["name"] = "\u{1b}]0;owned\u{7}mesh".into();
+    json["materials"][0]["name"] = "line\nbreak\u{202e}rtl".into();
+    std::fs::copy(
+        common::root().join("assets/Box/Box0.bin"),
+        dir.join("Box0.bin"),
+    )
+    .unwrap();
+    let file = dir.join("named.gltf");
+    std::fs::write(&file, json.to_string()).unwrap();
+    let out = succeeds(&["inspect", file.to_str().unwrap()]);
+    assert!(
+        !out.contains('\u{1b}') && !out.contains('\u{7}') && !out.contains('\u{202e}'),
+        "a raw control character reached the terminal: {out:?}"
+    );
+    assert!(out.contains("\\u{1b}]0;owned\\u{7}mesh"), "{out}");
+    assert!(out.contains("line break\\u{202e}rtl"), "{out}");
 }
 
 /// `vergence inspect FILE | head`: a reader that stops early ends the
