@@ -26,23 +26,31 @@ void main() {
     vec2 ndc = gl_FragCoord.xy / eye * 2.0 - 1.0;
     const float quantum = 1.0 / 1024.0;
     uvec2 low = uvec2(pc.material & 0xffffu, pc.unused0 & 0xffffu);
-    float a = float(ndc.x < 0.0 ? low.x : pc.material >> 16) * quantum;
-    float b = float(ndc.y < 0.0 ? low.y : pc.unused0 >> 16) * quantum;
+    uvec2 high = uvec2(pc.material >> 16, pc.unused0 >> 16);
+    // The side coefficients: left, right (x); up, down (y).
+    vec2 lo_k = vec2(low) * quantum;
+    vec2 hi_k = vec2(high) * quantum;
+    float a = ndc.x < 0.0 ? lo_k.x : hi_k.x;
+    float b = ndc.y < 0.0 ? lo_k.y : hi_k.y;
     float d = 1.0 + a * abs(ndc.x) + b * abs(ndc.y);
-    // Nothing was drawn beyond the eye's frustum (eye NDC ±1), so the
-    // bilinear footprint (half an LMS pixel each way, up to D² eye pixels
-    // there) is kept inside it: the outermost pixels repeat inwards.
-    vec2 margin = d * d / eye;
-    ndc = clamp(ndc, margin - 1.0, 1.0 - margin);
-    d = 1.0 + a * abs(ndc.x) + b * abs(ndc.y);
     vec2 lms = ndc / d;
     uvec2 den = 1024u + low;
     uvec2 centre = (eye_size * 512u + den - 1u) / den;
     vec2 pixel = vec2(centre) + lms * eye * 0.5;
+    // Only the LMS image inside the eye's frustum (eye NDC ±1) was drawn,
+    // and a pixel the frustum's edge crosses has uncovered samples. Along
+    // x, this row's edges x = ±1 land at LMS NDC ±1 / (1 + a + b|y|)
+    // (src/view/lms.rs, forward); the bilinear footprint is kept between
+    // the centres of the outermost pixels wholly inside them (those
+    // repeat outwards), and along y likewise.
+    vec2 edge_lo = -1.0 / (1.0 + lo_k + vec2(b * abs(ndc.y), a * abs(ndc.x)));
+    vec2 edge_hi = 1.0 / (1.0 + hi_k + vec2(b * abs(ndc.y), a * abs(ndc.x)));
+    vec2 first = ceil(vec2(centre) + edge_lo * eye * 0.5) + 0.5;
+    vec2 last = floor(vec2(centre) + edge_hi * eye * 0.5) - 0.5;
+    pixel = clamp(pixel, first, max(first, last));
     // The LMS image's size this frame (Layout::new: each side's half
     // rounded up), read in texel space (bilinear.glsl: the same at any
     // target size).
-    uvec2 high = uvec2(pc.material >> 16, pc.unused0 >> 16);
     uvec2 far_den = 1024u + high;
     uvec2 size = centre + (eye_size * 512u + far_den - 1u) / far_den;
     out_color = bilinear(lms_frames[set], pixel, int(gl_ViewIndex), ivec2(max(size, uvec2(1u))));

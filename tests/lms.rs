@@ -107,8 +107,9 @@ fn texel(hi: &image::RgbaImage, c: &Coefficients, l: &Layout, i: i64, j: i64, ch
 }
 
 /// Eye pixel (x, y) predicted the way `lms_resample.frag` computes it:
-/// its NDC (kept inside the frustum by the footprint margin) mapped into
-/// the LMS image and read bilinearly, in linear light; as 8-bit sRGB.
+/// its NDC mapped into the LMS image, kept between the outermost drawn
+/// LMS pixels' centres, and read bilinearly, in linear light; as 8-bit
+/// sRGB.
 fn predicted(
     hi: &image::RgbaImage,
     c: &Coefficients,
@@ -118,17 +119,25 @@ fn predicted(
     ch: usize,
 ) -> f64 {
     let size = [W as f64, H as f64];
-    let mut ndc = [
+    let ndc = [
         (x as f64 + 0.5) / size[0] * 2.0 - 1.0,
         (y as f64 + 0.5) / size[1] * 2.0 - 1.0,
     ];
     let (a, b) = c.at(ndc[0], ndc[1]);
-    let d = 1.0 + a * ndc[0].abs() + b * ndc[1].abs();
+    let mut p = l.lms_pixel(c, ndc);
+    // Kept between the centres of the outermost LMS pixels wholly inside
+    // the eye's frustum, whose edges x = ±1 (this row) and y = ±1 (this
+    // column) land at LMS NDC ±1 / (1 + k + the other axis' term).
+    let other = [b * ndc[1].abs(), a * ndc[0].abs()];
+    let sides = [(c.left, c.right), (c.up, c.down)];
     for k in 0..2 {
-        let m = d * d / size[k];
-        ndc[k] = ndc[k].clamp(m - 1.0, 1.0 - m);
+        let centre = l.centre[k] as f64;
+        let lo = centre - size[k] * 0.5 / (1.0 + sides[k].0 + other[k]);
+        let hi = centre + size[k] * 0.5 / (1.0 + sides[k].1 + other[k]);
+        let first = lo.ceil() + 0.5;
+        let last = (hi.floor() - 0.5).max(first);
+        p[k] = p[k].clamp(first, last);
     }
-    let p = l.lms_pixel(c, ndc);
     let (u, v) = (p[0] - 0.5, p[1] - 0.5);
     let (i, j) = (u.floor(), v.floor());
     let (fx, fy) = (u - i, v - j);
@@ -199,6 +208,23 @@ fn every_pixel_is_the_lms_image_read_through_the_map() {
         sum
     };
     for eye in 0..2 {
+        // The outermost pixels read only LMS pixels wholly inside the
+        // frustum: the border is not darkened by undrawn samples.
+        let ring = |img: &image::RgbaImage| {
+            let (mut sum, mut n) = (0.0, 0.0);
+            for (x, y, p) in img.enumerate_pixels() {
+                if x == 0 || y == 0 || x == W - 1 || y == H - 1 {
+                    sum += (p[0] as f64 + p[1] as f64 + p[2] as f64) / 3.0;
+                    n += 1.0;
+                }
+            }
+            sum / n
+        };
+        let (lms_ring, plain_ring) = (ring(&mv.images[eye]), ring(&plain.images[eye]));
+        assert!(
+            lms_ring > plain_ring - 3.0,
+            "eye {eye}: the border averages {lms_ring:.1}, without LMS {plain_ring:.1}"
+        );
         let got = &mv.images[eye];
         let mut close = 0usize;
         let err_map = error(eye, k, &mut close);

@@ -29,10 +29,10 @@ fn config(stereo: StereoMode, opt: &str) -> RenderConfig {
 /// The configurations whose sky in the scope is not the reference at the
 /// image's border, with the plain frame to hold both to, the border's
 /// width and the tolerance inside it. Lens-matched shading resamples the
-/// sky from its image, which smooths the horizon by a few code values and
-/// darkens the outermost pixels (their bilinear reads reach LMS pixels the
-/// quadrants' sky does not cover); the sky after the resolve goes under
-/// the resampled image at the eye's resolution instead. The inset's
+/// sky from its image, which smooths the horizon by a few code values, and
+/// its outermost pixels repeat the LMS pixels wholly inside the frustum;
+/// the sky after the resolve goes under the resampled image at the eye's
+/// resolution instead. The inset's
 /// accumulation jitters the wide views' viewport, which leaves a sliver at
 /// the border uncovered: with the sky in the scope it holds the clear
 /// colour and darkens the border rows, with the sky after the resolve it
