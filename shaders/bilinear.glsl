@@ -6,7 +6,7 @@
 // same value whatever size the image was made at (a sampler's normalized
 // coordinates and its sub-texel precision would not). texelFetch decodes
 // sRGB, so the mix is in linear light as a sampler's. Included by
-// mffr_composite.frag and lms_resample.frag.
+// mffr_composite.frag.
 vec4 bilinear_mix(vec4 a, vec4 b, vec4 c, vec4 d, vec2 f) {
     return mix(mix(a, b, f.x), mix(c, d, f.x), f.y);
 }

