@@ -439,18 +439,58 @@ fn rdm_in_the_wide_views_and_the_lms_image_fills_before_they_are_composited() {
     }
 }
 
+/// The MFFR tests' frame: factory:20000 on the simulated HMD from the
+/// hall's corner, at 320×240 per eye.
+struct MffrScene {
+    ctx: std::sync::Arc<vergence::gpu::Context>,
+    profile: HmdProfile,
+    scene: vergence::scene::Scene,
+    pose: Pose,
+}
+
+impl MffrScene {
+    fn new() -> MffrScene {
+        MffrScene {
+            ctx: common::context(),
+            profile: HmdProfile::load("monado-sim").unwrap(),
+            scene: common::load("factory:20000"),
+            pose: Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0),
+        }
+    }
+
+    fn render(&self, c: &RenderConfig) -> common::Frame {
+        common::render_config(
+            &self.ctx,
+            &self.scene,
+            &self.profile,
+            self.pose,
+            c,
+            320,
+            240,
+        )
+    }
+}
+
+/// The FLIP mean of `b` against `a`, both eyes averaged.
+fn flip_both(a: &common::Frame, b: &common::Frame) -> f32 {
+    (0..2)
+        .map(|e| {
+            vergence::bench::metrics::flip(&a.images[e], &b.images[e], 30.0)
+                .unwrap()
+                .mean
+        })
+        .sum::<f32>()
+        / 2.0
+}
+
 /// MFFR with the inset's two scopes: the far field is composited into the
 /// wide views and into the inset, each scope's near field drawn over it.
 /// Inside the inset the frame is MFFR's own pixel for pixel; overall it is
 /// as near the inset without MFFR as MFFR is to the plain frame.
 #[test]
 fn mffr_composites_the_far_field_into_the_wide_views_and_the_inset() {
-    use vergence::bench::metrics::flip;
     use vergence::bench::plan::cull_names;
-    let ctx = common::context();
-    let profile = HmdProfile::load("monado-sim").unwrap();
-    let scene = common::load("factory:20000");
-    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let m = MffrScene::new();
     let (w, h) = (320, 240);
     let render = |stereo, opts: &str| {
         let mut c = RenderConfig {
@@ -459,14 +499,9 @@ fn mffr_composites_the_far_field_into_the_wide_views_and_the_inset() {
         };
         c.apply_opts(opts, &cull_names()).unwrap();
         c.validate().unwrap();
-        common::render_config(&ctx, &scene, &profile, pose, &c, w, h)
+        m.render(&c)
     };
-    let mean = |a: &common::Frame, b: &common::Frame| -> f32 {
-        (0..2)
-            .map(|e| flip(&a.images[e], &b.images[e], 30.0).unwrap().mean)
-            .sum::<f32>()
-            / 2.0
-    };
+    let mean = flip_both;
     let join = |parts: &[&str]| {
         let v: Vec<&str> = parts.iter().copied().filter(|p| !p.is_empty()).collect();
         v.join(",")
@@ -508,10 +543,8 @@ fn mffr_composites_the_far_field_into_the_wide_views_and_the_inset() {
 #[test]
 fn mffr_composites_one_far_field_into_both_eyes() {
     use vergence::bench::metrics::flip;
-    let ctx = common::context();
-    let profile = HmdProfile::load("monado-sim").unwrap();
-    let scene = common::load("factory:20000");
-    let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
+    let m = MffrScene::new();
+    let (ctx, profile, scene, pose) = (&m.ctx, &m.profile, &m.scene, m.pose);
     let (w, h) = (320, 240);
     let cfg = |stereo, opts: &str| {
         let mut c = RenderConfig {
@@ -521,14 +554,9 @@ fn mffr_composites_one_far_field_into_both_eyes() {
         c.apply_opts(opts, &["none"]).unwrap();
         c
     };
-    let render = |c: &RenderConfig| common::render_config(&ctx, &scene, &profile, pose, c, w, h);
+    let render = |c: &RenderConfig| m.render(c);
     let stereo = render(&cfg(StereoMode::Multiview, ""));
-    let mean = |a: &common::Frame, b: &common::Frame| -> f32 {
-        (0..2)
-            .map(|e| flip(&a.images[e], &b.images[e], 30.0).unwrap().mean)
-            .sum::<f32>()
-            / 2.0
-    };
+    let mean = flip_both;
     // Split beyond everything: the far field holds only the sky.
     let all_near = render(&cfg(StereoMode::Multiview, "mffr=100000"));
     assert!(all_near.stats.gpu_ms.contains_key("mffr-far"));
@@ -570,7 +598,7 @@ fn mffr_composites_one_far_field_into_both_eyes() {
     };
     let mut r = vergence::render::Renderer::new(
         ctx.clone(),
-        &scene,
+        scene,
         &cfg(StereoMode::Multiview, "mffr=8,mffr-alternate-eye"),
         extent,
     )

@@ -427,43 +427,23 @@ impl InsetPass {
         if let Some(t) = &self.taa {
             t.record(rec, q);
         }
-        let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-composite");
         rec.barriers(&self.before);
-        // SAFETY: recording outside any rendering scope into the frame's
-        // command buffer; the set was written by `bind` for these targets.
-        unsafe {
-            d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::COMPUTE, self.composite);
-            d.cmd_bind_descriptor_sets(
-                rec.cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.sets.layout,
-                0,
-                &self.sets.sets,
-                &[],
-            );
-            for (i, set) in targets.sets.iter().enumerate() {
-                let Some((out, _)) = &set.filled else {
-                    continue;
-                };
-                let push = [
-                    lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size, filter,
-                    sharpen,
-                ];
-                d.cmd_push_constants(
-                    rec.cmd,
-                    self.sets.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    crate::gpu::memory::as_bytes(&push),
-                );
-                d.cmd_dispatch(
-                    rec.cmd,
-                    extent.width.div_ceil(8),
-                    extent.height.div_ceil(8),
-                    out.layers,
-                );
-            }
+        rec.bind_compute(self.composite, &self.sets);
+        for (i, set) in targets.sets.iter().enumerate() {
+            let Some((out, _)) = &set.filled else {
+                continue;
+            };
+            let push = [
+                lo, hi, feather, i as u32, wide_lo, wide_size, wide_layer, eye_size, filter,
+                sharpen,
+            ];
+            let groups = [
+                extent.width.div_ceil(8),
+                extent.height.div_ceil(8),
+                out.layers,
+            ];
+            rec.dispatch(self.sets.layout, &push, groups);
         }
         rec.barriers(&self.after);
         q.end_pass(rec.ctx, rec.cmd);

@@ -394,53 +394,34 @@ impl InsetTaa {
     /// once by [`InsetTaa::new`]).
     pub fn record(&self, rec: &Recorder, q: &mut Queries) {
         let s = &self.state;
-        let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "inset-taa");
         rec.barriers(&self.before[usize::from(s.first)]);
-        // SAFETY: recording outside any rendering scope into the frame's
-        // command buffer; the set was written for these images.
-        unsafe {
-            d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_bind_descriptor_sets(
-                rec.cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.sets.layout,
-                0,
-                &self.sets.sets,
-                &[],
-            );
-            for set in 0..self.history.len() as u32 {
-                for layer in 0..self.layers {
-                    // Two-pass: set i is eye i; multiview: layer i is.
-                    let eye = (set + layer) as usize % 2;
-                    let mut push = [0u32; PUSH_WORDS];
-                    for (w, v) in push.iter_mut().zip(s.to_previous[eye]) {
-                        *w = v.to_bits();
-                    }
-                    let parity_layer = |p: u32| p * self.layers + layer;
-                    let out = self.upsample.unwrap_or(s.size);
-                    push[16..].copy_from_slice(&[
-                        s.size.width | s.size.height << 16,
-                        set,
-                        layer,
-                        parity_layer(1 - s.parity),
-                        parity_layer(s.parity),
-                        s.valid as u32,
-                        self.alpha.to_bits(),
-                        s.jitter[0].to_bits(),
-                        s.jitter[1].to_bits(),
-                        out.width | out.height << 16,
-                        self.lanczos as u32,
-                    ]);
-                    d.cmd_push_constants(
-                        rec.cmd,
-                        self.sets.layout,
-                        vk::ShaderStageFlags::COMPUTE,
-                        0,
-                        crate::gpu::memory::as_bytes(&push),
-                    );
-                    d.cmd_dispatch(rec.cmd, out.width.div_ceil(8), out.height.div_ceil(8), 1);
+        rec.bind_compute(self.pipeline, &self.sets);
+        for set in 0..self.history.len() as u32 {
+            for layer in 0..self.layers {
+                // Two-pass: set i is eye i; multiview: layer i is.
+                let eye = (set + layer) as usize % 2;
+                let mut push = [0u32; PUSH_WORDS];
+                for (w, v) in push.iter_mut().zip(s.to_previous[eye]) {
+                    *w = v.to_bits();
                 }
+                let parity_layer = |p: u32| p * self.layers + layer;
+                let out = self.upsample.unwrap_or(s.size);
+                push[16..].copy_from_slice(&[
+                    s.size.width | s.size.height << 16,
+                    set,
+                    layer,
+                    parity_layer(1 - s.parity),
+                    parity_layer(s.parity),
+                    s.valid as u32,
+                    self.alpha.to_bits(),
+                    s.jitter[0].to_bits(),
+                    s.jitter[1].to_bits(),
+                    out.width | out.height << 16,
+                    self.lanczos as u32,
+                ]);
+                let groups = [out.width.div_ceil(8), out.height.div_ceil(8), 1];
+                rec.dispatch(self.sets.layout, &push, groups);
             }
         }
         rec.barriers(&self.after);

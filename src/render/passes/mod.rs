@@ -720,6 +720,48 @@ pub struct Recorder<'a> {
 }
 
 impl Recorder<'_> {
+    /// Binds compute `pipeline` and the descriptor sets of `sets` (from
+    /// set 0 of its layout) for the dispatches that follow.
+    pub fn bind_compute(
+        &self,
+        pipeline: vk::Pipeline,
+        sets: &crate::gpu::pipeline::DescriptorSets,
+    ) {
+        let d = &self.ctx.device;
+        // SAFETY: recording outside any rendering scope into the frame's
+        // open command buffer; the pipeline was made with the sets' layout
+        // and the sets were written before the frame.
+        unsafe {
+            d.cmd_bind_pipeline(self.cmd, vk::PipelineBindPoint::COMPUTE, pipeline);
+            d.cmd_bind_descriptor_sets(
+                self.cmd,
+                vk::PipelineBindPoint::COMPUTE,
+                sets.layout,
+                0,
+                &sets.sets,
+                &[],
+            );
+        }
+    }
+
+    /// Pushes `words` to the compute stage of `layout` and dispatches
+    /// `groups` workgroups (after [`Recorder::bind_compute`]).
+    pub fn dispatch(&self, layout: vk::PipelineLayout, words: &[u32], groups: [u32; 3]) {
+        let d = &self.ctx.device;
+        // SAFETY: a compute pipeline of `layout` is bound; the words fit
+        // its push-constant range.
+        unsafe {
+            d.cmd_push_constants(
+                self.cmd,
+                layout,
+                vk::ShaderStageFlags::COMPUTE,
+                0,
+                as_bytes(words),
+            );
+            d.cmd_dispatch(self.cmd, groups[0], groups[1], groups[2]);
+        }
+    }
+
     /// Records global memory `barriers`.
     pub fn memory_barriers(&self, barriers: &[vk::MemoryBarrier2]) {
         // SAFETY: recording into the frame's open command buffer, outside

@@ -12,7 +12,6 @@
 
 use crate::error::Result;
 use crate::gpu::barrier::{self, Use};
-use crate::gpu::memory::as_bytes;
 use crate::gpu::pipeline::{compute_pipeline, DescriptorSets};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
@@ -86,38 +85,17 @@ impl RdmInPlace {
                 .collect()
         };
         let size = extent.width | extent.height << 16;
-        let d = &rec.ctx.device;
         q.begin_pass(rec.ctx, rec.cmd, "rdm-fill");
         rec.barriers(&transition(Use::COLOR_ATTACHMENT, Use::COMPUTE_STORAGE_RW));
-        // SAFETY: recording outside any rendering scope into the frame's
-        // command buffer; the set names these targets' storage views,
-        // which the barrier above made writable in the general layout.
-        unsafe {
-            d.cmd_bind_pipeline(rec.cmd, vk::PipelineBindPoint::COMPUTE, self.pipeline);
-            d.cmd_bind_descriptor_sets(
-                rec.cmd,
-                vk::PipelineBindPoint::COMPUTE,
-                self.sets.layout,
-                0,
-                &self.sets.sets,
-                &[],
-            );
-            for (i, set) in targets.iter().enumerate() {
-                let push = [size, self.radius.to_bits(), i as u32, 0];
-                d.cmd_push_constants(
-                    rec.cmd,
-                    self.sets.layout,
-                    vk::ShaderStageFlags::COMPUTE,
-                    0,
-                    as_bytes(&push),
-                );
-                d.cmd_dispatch(
-                    rec.cmd,
-                    extent.width.div_ceil(8),
-                    extent.height.div_ceil(8),
-                    set.resolve.layers,
-                );
-            }
+        rec.bind_compute(self.pipeline, &self.sets);
+        for (i, set) in targets.iter().enumerate() {
+            let push = [size, self.radius.to_bits(), i as u32, 0];
+            let groups = [
+                extent.width.div_ceil(8),
+                extent.height.div_ceil(8),
+                set.resolve.layers,
+            ];
+            rec.dispatch(self.sets.layout, &push, groups);
         }
         rec.barriers(&transition(Use::COMPUTE_STORAGE_RW, Use::COLOR_ATTACHMENT));
         q.end_pass(rec.ctx, rec.cmd);

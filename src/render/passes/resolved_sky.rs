@@ -74,19 +74,9 @@ impl ResolvedSky {
         rec: &Recorder,
         q: &mut Queries,
         targets: &[AttachmentSet],
-        (extent, view_mask, jitter): (vk::Extent2D, u32, [f32; 2]),
+        area: (vk::Extent2D, u32, [f32; 2]),
     ) -> u64 {
-        rec.memory_barriers(&[attachments::between_scopes()]);
-        super::record_per_set(
-            rec,
-            q,
-            "sky-resolved",
-            targets,
-            (extent, view_mask, jitter),
-            (self.pipeline, Load::Keep),
-            |set| Some(set.resolve.view),
-            |eye| [0, eye, 0, 0],
-        )
+        self.record_into(rec, q, targets, area, |set| Some(set.resolve.view))
     }
 
     /// [`ResolvedSky::record`] under the composed output images of
@@ -102,15 +92,30 @@ impl ResolvedSky {
         extent: vk::Extent2D,
         view_mask: u32,
     ) -> u64 {
+        let area = (extent, view_mask, [0.0; 2]);
+        self.record_into(rec, q, targets, area, |set| {
+            set.filled.as_ref().map(|(composed, _)| composed.view)
+        })
+    }
+
+    /// The sky under the image `target` picks of each set.
+    fn record_into(
+        &self,
+        rec: &Recorder,
+        q: &mut Queries,
+        targets: &[AttachmentSet],
+        area: (vk::Extent2D, u32, [f32; 2]),
+        target: impl Fn(&AttachmentSet) -> Option<vk::ImageView>,
+    ) -> u64 {
         rec.memory_barriers(&[attachments::between_scopes()]);
         super::record_per_set(
             rec,
             q,
             "sky-resolved",
             targets,
-            (extent, view_mask, [0.0; 2]),
+            area,
             (self.pipeline, Load::Keep),
-            |set| set.filled.as_ref().map(|(composed, _)| composed.view),
+            target,
             |eye| [0, eye, 0, 0],
         )
     }
