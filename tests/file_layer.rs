@@ -232,3 +232,26 @@ fn inspect_into_a_closed_pipe_ends_quietly() {
     assert!(out.status.success(), "{stderr}");
     assert!(!stderr.contains("panicked"), "{stderr}");
 }
+
+/// A file larger than any LOD cache of its scene is refused before it is
+/// read (a 3 GB sparse file would otherwise be read whole), and a real
+/// cache fits the bound.
+#[test]
+fn a_lod_cache_larger_than_its_scene_allows_is_not_read() {
+    use vergence::scene::lod_cache::{content_hash, encode, max_bytes, read_for};
+    let scene = common::load("factory:200");
+    let bytes = encode(content_hash(&scene), &vergence::scene::lod::build(&scene));
+    assert!(bytes.len() as u64 <= max_bytes(&scene));
+    let dir = common::scratch("files", "lodcache-size");
+    let file = dir.join("big.gltf.lodcache");
+    std::fs::File::create(&file)
+        .unwrap()
+        .set_len(3 << 30)
+        .unwrap();
+    let started = std::time::Instant::now();
+    let err = read_for(&file, &scene).unwrap_err();
+    assert!(err.to_string().contains("over the"), "{err}");
+    assert!(started.elapsed().as_secs() < 5, "{:?}", started.elapsed());
+    std::fs::write(&file, &bytes).unwrap();
+    assert_eq!(read_for(&file, &scene).unwrap(), bytes);
+}

@@ -587,15 +587,15 @@ impl RecordQueue {
         }
     }
 
-    /// Writes the complete records at the front; returns their indexes
-    /// and times (what the overlay shows).
-    pub fn flush(&mut self, stats: &mut RunStats) -> Result<Vec<(u64, Times)>> {
-        let mut written = Vec::new();
+    /// Writes the complete records at the front, handing each one's index
+    /// and times to `shown` (what the overlay shows).
+    pub fn flush(&mut self, stats: &mut RunStats, mut shown: impl FnMut(u64, Times)) -> Result<()> {
         while self.waiting.front().is_some_and(|(_, waits)| !waits) {
             let (rec, _) = self.waiting.pop_front().expect("front exists");
-            written.push(stats.push_frame(rec)?);
+            let (i, t) = stats.push_frame(rec)?;
+            shown(i, t);
         }
-        Ok(written)
+        Ok(())
     }
 
     /// Writes every record, also those whose frame never finished (the

@@ -755,11 +755,12 @@ fn retire_driver(
         st.records.complete(&r, stats);
     }
     finished?;
-    for (i, t) in st.records.flush(stats)? {
-        if let Some(m) = live.mirror.as_mut() {
+    let mirror = &mut live.mirror;
+    st.records.flush(stats, |i, t| {
+        if let Some(m) = mirror.as_mut() {
             m.push_record(i, t);
         }
-    }
+    })?;
     if let Some(m) = live.mirror.as_mut() {
         m.finish()?;
     }

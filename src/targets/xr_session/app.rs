@@ -275,11 +275,12 @@ pub(super) fn frame_done(
         st.records.complete(&r, stats);
     }
     // The overlay shows the records' own times: one set of figures.
-    for (i, t) in st.records.flush(stats)? {
-        if let Some(m) = live.mirror.as_mut() {
+    let mirror = &mut live.mirror;
+    st.records.flush(stats, |i, t| {
+        if let Some(m) = mirror.as_mut() {
             m.push_record(i, t);
         }
-    }
+    })?;
     if let Some(m) = live.mirror.as_mut() {
         let period_ms = fs.predicted_display_period.as_nanos() as f64 * 1e-6;
         m.set_overlay_text(
