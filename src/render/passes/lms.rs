@@ -220,6 +220,10 @@ impl LmsPass {
         rec.lms.set(None);
         let [lr, ud] = self.coefficients.packed();
         let eye = self.layout.eye[0] | self.layout.eye[1] << 16;
+        // The centre beside the set (images are at most 16,384 pixels a
+        // side, so the centre fits 15 bits).
+        let [cx, cy] = self.layout.centre;
+        let at = (cx & 0x7fff) << 1 | cy << 16;
         super::record_composed(
             rec,
             q,
@@ -228,7 +232,7 @@ impl LmsPass {
             self.targets.sets.iter(),
             (extent, view_mask),
             self.resample,
-            |set| [lr, set, ud, eye],
+            |set| [lr, set | at, ud, eye],
         )
     }
 
