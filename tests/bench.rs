@@ -158,7 +158,7 @@ fn smoke_plan_measures_and_reports() {
     let foveated = |r: &&ConfigResult| r.opt.contains("foveation=");
     assert_eq!(g.results.iter().filter(foveated).count(), 2);
     for r in &g.results {
-        let path = &r.foveation_path;
+        let path = &r.renderer.foveation;
         if !foveated(&r) {
             assert_eq!(path, "off", "{}", r.name);
         } else if ctx.caps.shading_rate_texel.is_some() {
@@ -178,6 +178,24 @@ fn smoke_plan_measures_and_reports() {
             );
         }
     }
+
+    // The renderer's block sits at each result's top level, keyed as in
+    // render's stats.json; a result written before it (the foveation path
+    // as `foveation_path`) still loads.
+    let raw: serde_json::Value =
+        serde_json::from_str(&std::fs::read_to_string(out.join("results.json")).unwrap()).unwrap();
+    let first = &raw["groups"][0]["results"][0];
+    assert_eq!(first["foveation"], g.results[0].renderer.foveation.as_str());
+    assert!(first["per_view_render_areas"]
+        .as_str()
+        .unwrap()
+        .contains("unused"));
+    assert!(first.get("foveation_path").is_none());
+    let mut old = first.clone();
+    let fov = old.as_object_mut().unwrap().remove("foveation").unwrap();
+    old["foveation_path"] = fov;
+    let back: ConfigResult = serde_json::from_value(old).unwrap();
+    assert_eq!(back.renderer, g.results[0].renderer);
 
     // CSV: the header, one row per result, same field count, same numbers.
     let csv = std::fs::read_to_string(out.join("results.csv")).unwrap();

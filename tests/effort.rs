@@ -160,7 +160,7 @@ fn foveation_uses_the_shading_rate_attachment_or_falls_back_to_off() {
     };
     let r = vergence::render::Renderer::new(ctx.clone(), &factory, &make(Level::High), extent)
         .expect("renderer");
-    let path = r.foveation_path.clone();
+    let path = r.report().foveation;
     drop(r);
     let full = common::render_config(&ctx, &factory, &profile, pose, &make(Level::Off), w, h);
     let fov = common::render_config(&ctx, &factory, &profile, pose, &make(Level::High), w, h);
@@ -241,16 +241,23 @@ fn stats_name_the_paths_that_ran() {
     let json: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
     assert_eq!(json["config"]["stencil_mask"], true);
-    assert_eq!(json["foveation"], stats.foveation);
+    assert_eq!(json["foveation"], stats.renderer.foveation);
     let ctx = common::context();
     if ctx.caps.shading_rate_texel.is_none() {
-        assert!(stats.foveation.starts_with("off: "), "{}", stats.foveation);
+        assert!(
+            stats.renderer.foveation.starts_with("off: "),
+            "{}",
+            stats.renderer.foveation
+        );
         assert_eq!(
             json["config"]["foveation"], "off",
             "the fallback is recorded"
         );
     } else {
-        assert!(stats.foveation.starts_with("vk-khr-fragment-shading-rate"));
+        assert!(stats
+            .renderer
+            .foveation
+            .starts_with("vk-khr-fragment-shading-rate"));
     }
     // Per-view render areas: the line states what the device's extension
     // list says, and that vergence does not use them.
@@ -264,7 +271,7 @@ fn stats_name_the_paths_that_ran() {
         e.extension_name_as_c_str().ok() == Some(ash::qcom::multiview_per_view_render_areas::NAME)
     });
     assert_eq!(ctx.caps.per_view_render_areas, listed);
-    let line = &stats.per_view_render_areas;
+    let line = &stats.renderer.per_view_render_areas;
     let said = if listed {
         "offered by "
     } else {
@@ -279,7 +286,7 @@ fn stats_name_the_paths_that_ran() {
 
 #[test]
 fn per_view_render_areas_line_states_the_offer() {
-    use vergence::render::per_view_render_areas;
+    use vergence::render::report::per_view_render_areas;
     let on = per_view_render_areas(true, "GPU X");
     let off = per_view_render_areas(false, "GPU X");
     assert!(on.starts_with("offered by GPU X; unused: "), "{on}");

@@ -96,7 +96,7 @@ pub fn csv(results: &BenchResults) -> String {
                 r.stereo.clone(),
                 r.msaa.to_string(),
                 r.cull.clone(),
-                quote(&r.foveation_path),
+                quote(&r.renderer.foveation),
                 r.gpu_frame_ms.p50.to_string(),
                 r.gpu_frame_ms.p95.to_string(),
                 r.gpu_frame_ms.p99.to_string(),
@@ -239,12 +239,12 @@ fn md_group(s: &mut String, g: &Group) {
     let paths: Vec<&ConfigResult> = g
         .results
         .iter()
-        .filter(|r| r.foveation_path != "off")
+        .filter(|r| r.renderer.foveation != "off")
         .collect();
     if !paths.is_empty() {
         let _ = writeln!(s, "\nFoveation paths:\n");
         for r in paths {
-            let _ = writeln!(s, "- {}: {}", r.name, r.foveation_path);
+            let _ = writeln!(s, "- {}: {}", r.name, r.renderer.foveation);
         }
     }
 }

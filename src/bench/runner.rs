@@ -113,11 +113,12 @@ pub struct ConfigResult {
     pub msaa: u32,
     /// Culling strategy.
     pub cull: String,
-    /// Which foveation path ran.
-    pub foveation_path: String,
-    /// With `lms`: its path, coefficients and image size.
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub lms: Option<crate::render::passes::lms::LmsReport>,
+    /// What the renderer chose per technique (the foveation, inset, LMS,
+    /// LOD and point paths; per-view render areas), at the top level: the
+    /// same block as `render`'s stats.json. Results written before it
+    /// named the foveation path `foveation_path`; they still load.
+    #[serde(flatten)]
+    pub renderer: crate::render::report::RendererReport,
     /// Measured frames.
     pub frames: u32,
     /// CPU ms per phase.
@@ -1384,8 +1385,7 @@ fn summarize(
         stereo: config.stereo.name().to_string(),
         msaa: config.msaa,
         cull: config.cull.name().to_string(),
-        foveation_path: renderer.foveation_path.clone(),
-        lms: renderer.lms_report(),
+        renderer: renderer.report(),
         frames: frames.len() as u32,
         cpu_ms: PhaseMs {
             cull: median(&|f| f.cull_ms),

@@ -32,6 +32,7 @@ pub mod instance_updates;
 pub mod passes;
 pub mod plan;
 mod record;
+pub mod report;
 pub mod scene_gpu;
 pub mod shading_rate;
 mod slots;
@@ -494,28 +495,9 @@ impl Renderer {
             .depth(self.readback.extent(), self.depth_format)
     }
 
-    /// Whether this device offers per-view render areas
-    /// Which path draws the scene's points (None: no cloud).
-    pub fn points_path(&self) -> Option<String> {
-        self.passes.points.as_ref().map(|p| p.path().to_string())
-    }
-
     /// Points in the scene's cloud (None: no cloud).
     pub fn points_total(&self) -> Option<u64> {
         self.passes.points.as_ref().map(|p| p.total())
-    }
-
-    /// With `lms`: which path scaled w, the coefficients and the LMS
-    /// image's size.
-    pub fn lms_report(&self) -> Option<passes::lms::LmsReport> {
-        self.passes.lms.as_ref().map(|l| l.report())
-    }
-
-    /// Whether the device offers per-view render areas
-    /// (VK_QCOM_multiview_per_view_render_areas), and that vergence does not
-    /// use them, for stats: see [`per_view_render_areas`].
-    pub fn per_view_render_areas(&self) -> String {
-        per_view_render_areas(self.ctx.caps.per_view_render_areas, &self.ctx.device_name)
     }
 
     /// Whether the transient attachments use lazily allocated memory.
@@ -525,7 +507,7 @@ impl Renderer {
 }
 
 /// What building the LOD chains made (`lod`), for stats.
-#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct LodReport {
     /// Simplified levels built over all primitives.
     pub levels: usize,
@@ -553,16 +535,6 @@ fn device_lost(e: Error, context: &str, pass: &str) -> Error {
         },
         other => other,
     }
-}
-
-/// The stats line on VK_QCOM_multiview_per_view_render_areas: whether
-/// `device` offers it (`offered`, from the device's extension list), and
-/// that vergence does not use it, with the reason.
-pub fn per_view_render_areas(offered: bool, device: &str) -> String {
-    format!(
-        "{} by {device}; unused: each view has its own projection over its whole image, so there is no padding to skip",
-        if offered { "offered" } else { "not offered" }
-    )
 }
 
 fn ms(a: Instant, b: Instant) -> f64 {

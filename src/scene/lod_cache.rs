@@ -29,7 +29,7 @@ pub const ALGORITHM: &[u8] =
     b"lod chain 1: meshopt 0.7 simplify_decoder, ErrorAbsolute|Permissive, halving, stop above 90 %";
 
 /// What happened to the cache on one load (for `stats.json`).
-#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize)]
+#[derive(Clone, Debug, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
 #[serde(rename_all = "snake_case")]
 pub enum CacheUse {
     /// The chains were read from this file.

@@ -137,10 +137,6 @@ pub struct RenderStats {
     /// without a cloud).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_selected: Option<u64>,
-    /// Which path drew the points: "compute (64-bit atomic max)", or the
-    /// point-list pipeline and why (absent without a cloud).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub points_path: Option<String>,
     /// The cloud's octree: nodes and build time (absent without one).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub points_octree: Option<OctreeReport>,
@@ -177,12 +173,6 @@ pub struct RenderStats {
     /// late, occluded).
     #[serde(skip_serializing_if = "Option::is_none")]
     pub gpu_cull: Option<crate::render::GpuCullStats>,
-    /// With `lod`: the chains built at load (levels, index bytes, build ms).
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lod: Option<crate::render::LodReport>,
-    /// Which foveation path ran ("off", the Vulkan path, or why it fell
-    /// back to off).
-    pub foveation: String,
     /// The head pose rendered from (the rig's head, world space: position
     /// and orientation quaternion).
     pub pose: crate::view::PoseFile,
@@ -191,16 +181,10 @@ pub struct RenderStats {
     /// Where the pose came from: `--pose`, `--camera NAME`, `--rig`, or
     /// the framing (`--frame outside`, `inside` or `spawn`).
     pub pose_from: String,
-    /// Per-view render areas: used, or why not ("not offered").
-    pub per_view_render_areas: String,
-    /// With `inset`: how its four views were drawn, "four-view multiview"
-    /// or "two scopes (why)".
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inset_path: Option<String>,
-    /// With `lms`: the path that scaled w ("nv-clip-space-w-scaling" or
-    /// "vertex-shader (why)"), the coefficients and the LMS image's size.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lms: Option<crate::render::passes::lms::LmsReport>,
+    /// What the renderer chose per technique (the foveation, inset, LMS,
+    /// LOD and point paths; per-view render areas), at the top level.
+    #[serde(flatten)]
+    pub renderer: crate::render::report::RendererReport,
     /// With `--preview distorted`: the distortion preview's figures.
     #[serde(skip_serializing_if = "Option::is_none")]
     pub preview: Option<PreviewStats>,
@@ -592,7 +576,6 @@ pub fn render_to_dir_keeping(
         points_total: renderer.points_total(),
         points_drawn: frame.points_drawn,
         points_selected: frame.points_selected,
-        points_path: renderer.points_path(),
         points_octree: OctreeReport::of_scene(&scene),
         cpu_ms,
         gpu_ms: frame.gpu_ms.clone(),
@@ -612,14 +595,10 @@ pub fn render_to_dir_keeping(
         floor_gpu_ms,
         cull: cull_stats,
         gpu_cull: frame.gpu_cull,
-        lod: renderer.lod.clone(),
-        foveation: renderer.foveation_path.clone(),
         pose: crate::view::PoseFile::from(&rig.head),
         pose_arg: rig.head.pose_arg(),
         pose_from: pose_from(job),
-        lms: renderer.lms_report(),
-        inset_path: renderer.inset_path.clone(),
-        per_view_render_areas: renderer.per_view_render_areas(),
+        renderer: renderer.report(),
         preview,
         timewarp: None,
         motion: MotionReport::of(&scene, &frame),

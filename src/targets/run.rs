@@ -300,9 +300,7 @@ fn describe_session(
     stats.mode = "headless".into();
     stats.scene = Some(SceneCounts::of(scene));
     stats.config = frames.driver.renderer().config.clone();
-    stats.foveation = frames.driver.renderer().foveation_path.clone();
-    stats.inset_path = frames.driver.renderer().inset_path.clone();
-    stats.lms = frames.driver.renderer().lms_report();
+    stats.renderer = frames.driver.renderer().report();
     stats.device = ctx.device_name.clone();
     stats.driver = ctx.driver.clone();
     stats.system = format!("HMD profile {}", profile.name);

@@ -427,15 +427,11 @@ pub struct RunStats {
     pub xr_validation_messages: usize,
     /// Culling counters of the last frame.
     pub cull: Option<CullStats>,
-    /// Which foveation path ran.
-    pub foveation: String,
-    /// With `inset`: how its four views were drawn, "four-view multiview"
-    /// or "two scopes (why)".
-    #[serde(default, skip_serializing_if = "Option::is_none")]
-    pub inset_path: Option<String>,
-    /// With `lms`: its path, coefficients and image size.
-    #[serde(skip_serializing_if = "Option::is_none")]
-    pub lms: Option<crate::render::passes::lms::LmsReport>,
+    /// What the renderer chose per technique (the foveation, inset, LMS,
+    /// LOD and point paths; per-view render areas), at the top level: the
+    /// same block as `render`'s stats.json.
+    #[serde(flatten)]
+    pub renderer: crate::render::report::RendererReport,
     /// Series summary.
     pub summary: RunSummary,
     /// The mirror window (None: no mirror).

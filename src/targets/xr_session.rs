@@ -147,9 +147,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     let renderer =
         Renderer::with_output(ctx.clone(), &scene, &config, extent, Some(chains.output()))?;
     stats.config = renderer.config.clone();
-    stats.foveation = renderer.foveation_path.clone();
-    stats.inset_path = renderer.inset_path.clone();
-    stats.lms = renderer.lms_report();
+    stats.renderer = renderer.report();
     live.driver = Some(FrameDriver::new(renderer, &scene)?);
     let masks = match conn.exts.khr_visibility_mask {
         true => Some(Arc::new(fetch_masks(&session, views.view_type, 2)?)),
@@ -823,9 +821,7 @@ fn switch_config(
             make(live, &mut st.chains, &old)?
         }
     };
-    stats.foveation = driver.renderer().foveation_path.clone();
-    stats.inset_path = driver.renderer().inset_path.clone();
-    stats.lms = driver.renderer().lms_report();
+    stats.renderer = driver.renderer().report();
     live.driver = Some(driver);
     st.opt = st.desk.live.config.opt_string();
     if let Some(m) = &mut live.mirror {
