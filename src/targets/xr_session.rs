@@ -38,14 +38,15 @@ use std::sync::Arc;
 use std::time::{Duration, Instant};
 
 mod app;
+mod protocol;
 mod setup;
 
 /// Everything a session owns, declared in teardown order (Rust drops fields
-/// in declaration order): OpenXR handles first (swapchains, space, session,
-/// messenger, instance), then the renderer (which waits for the device to
-/// go idle before destroying its Vulkan objects); the Vulkan context, held
-/// by the caller, goes last.
-/// The watchdog is last so it also covers a teardown that blocks.
+/// in declaration order): the mirror and the panel, the OpenXR handles
+/// ([`Runtime`]), then the renderer (which waits for the device to go idle
+/// before destroying its Vulkan objects); the Vulkan context, held by the
+/// caller, goes last. The watchdog is last so it also covers a teardown
+/// that blocks.
 struct Live {
     /// The mirror window's Vulkan side goes first: dropping it waits for
     /// the device, so its copies are done before the swapchains go.
@@ -53,6 +54,15 @@ struct Live {
     /// The in-headset panel (made when the menu first opens it); its
     /// swapchain goes before the session.
     panel: Option<super::xr_panel::XrPanel>,
+    rt: Runtime,
+    driver: Option<FrameDriver>,
+    watchdog: Watchdog,
+}
+
+/// The OpenXR side of a session: its handles in teardown order
+/// (swapchains, space, session, messenger, instance) and what the frame
+/// protocol keeps from frame to frame.
+pub(super) struct Runtime {
     controls: Option<Controls>,
     color: Vec<Chain>,
     depth: Vec<Chain>,
@@ -64,8 +74,15 @@ struct Live {
     session: Option<xr::Session<xr::Vulkan>>,
     messenger: Option<Messenger>,
     instance: Option<xr::Instance>,
-    driver: Option<FrameDriver>,
-    watchdog: Watchdog,
+    /// The session's view configuration (stereo, or quad views with the
+    /// inset).
+    view_type: xr::ViewConfigurationType,
+    blend: xr::EnvironmentBlendMode,
+    /// The runtime takes the eyes' depth (a depth swapchain exists).
+    with_depth: bool,
+    /// The last valid pose and FOV of each view, standing in for invalid
+    /// ones.
+    last_valid: Vec<Option<TrackedView>>,
 }
 
 impl Drop for Live {
@@ -109,9 +126,9 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     stats.driver = ctx.driver.clone();
     stats.scene = Some(SceneCounts::of(&scene));
     let (session, waiter, stream) = setup::create_session(&conn, &ctx)?;
-    let mut live = Live::new(&mut conn, &session, waiter, stream);
+    let mut live = Live::new(&mut conn, &session, (waiter, stream), views.view_type);
     let space = setup::reference_space(&conn, &session, stats)?;
-    live.controls = controls(&conn, &session, stats);
+    live.rt.controls = controls(&conn, &session, stats);
     let (color_format, depth_format) =
         setup::swapchain_formats(&conn, &session, views.quad, &ctx, stats)?;
     stats.image_size = [extent.width, extent.height];
@@ -128,7 +145,9 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
     chains.extent = chains.images_for(desk.live.config.aq)?;
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, &config)?;
-    live.space = Some(space);
+    live.rt.space = Some(space);
+    live.rt.blend = blend;
+    live.rt.with_depth = chains.depth_format.is_some();
     if args.interact.panel && stats.panel.is_none() {
         stats.panel = Some(super::xr_panel::PanelStats {
             size_px: super::panel::SIZE_PX,
@@ -158,7 +177,6 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         .flat_map(|m| m.iter().map(|a| [a.vertices.len(), a.indices.len()]))
         .collect();
     let mut state = LoopState::new(args, &scene, desk, chains, &views, stats)?;
-    state.blend = blend;
     state.masks = masks;
     let result = frame_loop(stats, &mut live, &mut state);
     let result = finish_session(stats, &mut live, &mut state, &ctx, result);
@@ -227,9 +245,9 @@ fn finish_session(
     stats.sample_memory(ctx, true);
     // Added, not assigned: with --reconnect a run holds several sessions.
     stats.validation_messages += ctx.validation_messages();
-    stats.xr_validation_messages += live.messenger.as_ref().map_or(0, Messenger::count);
+    stats.xr_validation_messages += live.rt.messenger.as_ref().map_or(0, Messenger::count);
     if stats.xr_validation_messages > 0 {
-        if let Some(m) = &live.messenger {
+        if let Some(m) = &live.rt.messenger {
             for line in m.first_messages() {
                 eprintln!("OpenXR validation: {line}");
             }
@@ -244,22 +262,28 @@ impl Live {
     fn new(
         conn: &mut Connection,
         session: &xr::Session<xr::Vulkan>,
-        waiter: xr::FrameWaiter,
-        stream: xr::FrameStream<xr::Vulkan>,
+        (waiter, stream): (xr::FrameWaiter, xr::FrameStream<xr::Vulkan>),
+        view_type: xr::ViewConfigurationType,
     ) -> Live {
         Live {
             mirror: None,
             panel: None,
-            controls: None,
-            color: Vec::new(),
-            depth: Vec::new(),
-            inset: Vec::new(),
-            space: None,
-            stream: Some(stream),
-            waiter: Some(waiter),
-            session: Some(session.clone()),
-            messenger: conn.messenger.take(),
-            instance: Some(conn.instance.clone()),
+            rt: Runtime {
+                controls: None,
+                color: Vec::new(),
+                depth: Vec::new(),
+                inset: Vec::new(),
+                space: None,
+                stream: Some(stream),
+                waiter: Some(waiter),
+                session: Some(session.clone()),
+                messenger: conn.messenger.take(),
+                instance: Some(conn.instance.clone()),
+                view_type,
+                blend: xr::EnvironmentBlendMode::OPAQUE,
+                with_depth: false,
+                last_valid: Vec::new(),
+            },
             driver: None,
             watchdog: Watchdog::start(CALL_LIMIT),
         }
@@ -309,10 +333,6 @@ impl<'a> LoopState<'a> {
             query: SceneQuery::new(scene),
             overlay: Vec::new(),
             last_display_ns: None,
-            blend: xr::EnvironmentBlendMode::OPAQUE,
-            view_type: views.view_type,
-            with_depth: chains.depth_format.is_some(),
-            last_valid: Vec::new(),
             first_fov_recorded: false,
             motion_origin_ns: None,
             lens: None,
@@ -404,11 +424,11 @@ impl ChainSpec {
             }
             (false, _) => self.extent,
         };
-        live.color.clear();
-        live.depth.clear();
-        live.inset.clear();
+        live.rt.color.clear();
+        live.rt.depth.clear();
+        live.rt.inset.clear();
         for _ in 0..sets {
-            live.color.push(Chain::new(
+            live.rt.color.push(Chain::new(
                 session,
                 self.color_format,
                 color_usage,
@@ -416,7 +436,7 @@ impl ChainSpec {
                 layers,
             )?);
             if self.quad {
-                live.inset.push(Chain::new(
+                live.rt.inset.push(Chain::new(
                     session,
                     self.color_format,
                     color_usage,
@@ -425,7 +445,7 @@ impl ChainSpec {
                 )?);
             }
             if let Some(df) = self.depth_format {
-                live.depth.push(Chain::new(
+                live.rt.depth.push(Chain::new(
                     session,
                     df,
                     xr::SwapchainUsageFlags::DEPTH_STENCIL_ATTACHMENT
@@ -461,12 +481,6 @@ struct LoopState<'a> {
     overlay: Vec<crate::interact::overlay::OverlayBox>,
     /// The previous rendered frame's predicted display time (for dt).
     last_display_ns: Option<i64>,
-    blend: xr::EnvironmentBlendMode,
-    /// The session's view configuration (stereo, or quad views with the
-    /// inset).
-    view_type: xr::ViewConfigurationType,
-    with_depth: bool,
-    last_valid: Vec<Option<TrackedView>>,
     first_fov_recorded: bool,
     /// The predicted display time of the first rendered frame: moving
     /// instances run on display time from there.
@@ -537,7 +551,7 @@ fn run_frames(
     st: &mut LoopState,
     machine: &mut SessionMachine,
 ) -> Result<String> {
-    let session = live.session.clone().expect("set");
+    let session = live.rt.session.clone().expect("set");
     // --seconds counts from the run's start, across reconnects.
     let started = stats.run_started();
     let mut index = 0u64;
@@ -565,7 +579,15 @@ fn run_frames(
             std::thread::sleep(Duration::from_millis(5));
             continue;
         }
-        one_frame(live, stats, st, index)?;
+        let mut app = app::SessionApp {
+            mirror: &mut live.mirror,
+            panel: &mut live.panel,
+            driver: &mut live.driver,
+            watchdog: &live.watchdog,
+            stats,
+            st,
+        };
+        protocol::one_frame(&mut live.rt, &live.watchdog, &mut app, index)?;
         index += 1;
     }
 }
@@ -620,7 +642,7 @@ fn poll_events(
     st: &mut LoopState,
     machine: &mut SessionMachine,
 ) -> Result<Option<String>> {
-    let instance = live.instance.clone().expect("set");
+    let instance = live.rt.instance.clone().expect("set");
     let mut buf = xr::EventDataBuffer::new();
     loop {
         let event = {
@@ -653,12 +675,12 @@ fn on_state(
     let state = state_of(state);
     stats.states.push(format!("{state:?}").to_uppercase());
     tracing::info!("session state {state:?}");
-    let session = live.session.as_ref().expect("set");
+    let session = live.rt.session.as_ref().expect("set");
     let action = machine.on_state(state);
     match action {
         Action::Begin => {
             let _w = live.watchdog.watch("xrBeginSession");
-            session.begin(st.view_type).call("xrBeginSession")?;
+            session.begin(live.rt.view_type).call("xrBeginSession")?;
         }
         Action::End => {
             let _w = live.watchdog.watch("xrEndSession");
@@ -697,7 +719,7 @@ fn on_event(
     instance: &xr::Instance,
     event: xr::Event,
 ) -> Result<()> {
-    let session = live.session.as_ref().expect("set");
+    let session = live.rt.session.as_ref().expect("set");
     match event {
         xr::Event::InstanceLossPending(_) => {
             return Err(xr_err(
@@ -713,11 +735,11 @@ fn on_event(
             );
         }
         xr::Event::VisibilityMaskChangedKHR(_) => {
-            st.masks = Some(Arc::new(fetch_masks(session, st.view_type, 2)?));
+            st.masks = Some(Arc::new(fetch_masks(session, live.rt.view_type, 2)?));
             stats.visibility_mask_refreshes += 1;
         }
         xr::Event::InteractionProfileChanged(_) => {
-            if let Some(c) = &live.controls {
+            if let Some(c) = &live.rt.controls {
                 let _w = live.watchdog.watch("xrGetCurrentInteractionProfile");
                 let [left, right] = c.profiles(instance, session)?;
                 tracing::info!(
@@ -800,7 +822,7 @@ fn switch_config(
             chains.quad && c.inset.map(|i| i.wide_scale) != old.inset.map(|i| i.wide_scale);
         if c.stereo != old.stereo
             || images != chains.extent
-            || live.color.is_empty()
+            || live.rt.color.is_empty()
             || wide_changed
         {
             chains.extent = images;
@@ -815,9 +837,9 @@ fn switch_config(
         Err(e) => {
             st.desk.live.revert(old.clone(), &e);
             // The old configuration's swapchains, made again if they went.
-            live.color.clear();
-            live.depth.clear();
-            live.inset.clear();
+            live.rt.color.clear();
+            live.rt.depth.clear();
+            live.rt.inset.clear();
             make(live, &mut st.chains, &old)?
         }
     };
@@ -898,350 +920,6 @@ fn resize_eyes(
     Ok(())
 }
 
-fn one_frame(live: &mut Live, stats: &mut RunStats, st: &mut LoopState, index: u64) -> Result<()> {
-    let session = live.session.clone().expect("set");
-    let instance = live.instance.clone().expect("set");
-    st.panel_drawn = false;
-    // xrWaitFrame: paces the loop to the display.
-    let t_wait = Instant::now();
-    let fs = {
-        let _w = live.watchdog.watch("xrWaitFrame");
-        live.waiter
-            .as_mut()
-            .expect("set")
-            .wait()
-            .call("xrWaitFrame")?
-    };
-    let t_cpu = Instant::now();
-    // xrBeginFrame.
-    {
-        let _w = live.watchdog.watch("xrBeginFrame");
-        live.stream
-            .as_mut()
-            .expect("set")
-            .begin()
-            .call("xrBeginFrame")?;
-    }
-    let mut rec = app::frame_record(st, index, &fs, t_cpu - t_wait);
-    let mut rendered = false;
-    let mut layer_views: Option<Vec<xr::View>> = None;
-    if fs.should_render {
-        // xrLocateViews at the predicted display time.
-        if let Some(located) = locate_views(live, st, stats, &session, &fs)? {
-            // xrSyncActions: the controllers' poses and buttons.
-            let hands = sync_actions(live, &session, &fs)?;
-            // The application: interaction, the rig, culling, recording.
-            let (rig, pointers) =
-                app::update(live, stats, st, &located, hands, &fs, &mut rec, index)?;
-            // xrAcquireSwapchainImage, xrWaitSwapchainImage.
-            let out = acquire_images(live)?;
-            // The application: submit the frame into the images.
-            let capture = app::render(live, st, stats, &out, &rig, &rec)?;
-            rendered = true;
-            // xrReleaseSwapchainImage: the runtime owns them again.
-            release_images(live)?;
-            app::after_release(live, stats, st, capture, &rig, &pointers)?;
-            layer_views = Some(located.views.iter().map(|(_, _, v)| *v).collect());
-        }
-    }
-    // xrEndFrame with the projection layer (and the panel's quad).
-    end_frame(
-        live,
-        &instance,
-        &session,
-        fs.predicted_display_time,
-        layer_views.as_deref(),
-        st,
-    )?;
-    let submitted = layer_views.is_some();
-    app::frame_done(
-        live,
-        stats,
-        st,
-        rec,
-        (rendered, submitted),
-        &fs,
-        (index, t_cpu),
-    )
-}
-
-/// xrLocateViews at the frame's predicted display time, invalid views
-/// replaced by the last valid ones (None: none valid yet).
-fn locate_views(
-    live: &Live,
-    st: &mut LoopState,
-    stats: &mut RunStats,
-    session: &xr::Session<xr::Vulkan>,
-    fs: &xr::FrameState,
-) -> Result<Option<app::Located>> {
-    let (flags, views) = {
-        let _w = live.watchdog.watch("xrLocateViews");
-        session
-            .locate_views(
-                st.view_type,
-                fs.predicted_display_time,
-                live.space.as_ref().expect("set"),
-            )
-            .call("xrLocateViews")?
-    };
-    let (sane, replaced) = sanitize_views(flags, &views, &mut st.last_valid);
-    if replaced {
-        stats.invalid_pose_frames += 1;
-    }
-    Ok(sane.map(|views| {
-        let tracking = views.iter().take(2).map(|(p, f, _)| (*p, *f)).collect();
-        let focus = match views.get(2..4) {
-            Some([l, r]) => Some([l.1, r.1]),
-            _ => None,
-        };
-        app::Located {
-            views,
-            tracking,
-            focus,
-        }
-    }))
-}
-
-/// xrSyncActions and the hands' state at the display time (none without
-/// controllers).
-fn sync_actions(
-    live: &Live,
-    session: &xr::Session<xr::Vulkan>,
-    fs: &xr::FrameState,
-) -> Result<[crate::interact::HandInput; 2]> {
-    match &live.controls {
-        Some(c) => {
-            let _w = live.watchdog.watch("xrSyncActions");
-            c.read(
-                session,
-                live.space.as_ref().expect("set"),
-                fs.predicted_display_time,
-            )
-        }
-        None => Ok(Default::default()),
-    }
-}
-
-/// xrAcquireSwapchainImage and xrWaitSwapchainImage on every swapchain
-/// (colour, depth, the insets'): the images the frame goes into.
-fn acquire_images(live: &mut Live) -> Result<FrameOutput> {
-    let mut images: Vec<(usize, usize)> = Vec::new();
-    for (ci, chain) in live
-        .color
-        .iter_mut()
-        .chain(live.depth.iter_mut())
-        .chain(live.inset.iter_mut())
-        .enumerate()
-    {
-        let _w = live.watchdog.watch("xrAcquireSwapchainImage");
-        let i = chain
-            .swapchain
-            .acquire_image()
-            .call("xrAcquireSwapchainImage")? as usize;
-        let _w2 = live.watchdog.watch("xrWaitSwapchainImage");
-        chain
-            .swapchain
-            .wait_image(xr::Duration::INFINITE)
-            .call("xrWaitSwapchainImage")?;
-        images.push((ci, i));
-    }
-    let mut out = FrameOutput::default();
-    let (ncolor, ndepth) = (live.color.len(), live.depth.len());
-    for &(ci, i) in &images {
-        if ci < ncolor {
-            out.color.push(live.color[ci].images[i]);
-        } else if ci < ncolor + ndepth {
-            out.depth.push(live.depth[ci - ncolor].images[i]);
-        } else {
-            out.inset.push(live.inset[ci - ncolor - ndepth].images[i]);
-        }
-    }
-    Ok(out)
-}
-
-/// xrReleaseSwapchainImage on every swapchain.
-fn release_images(live: &mut Live) -> Result<()> {
-    for chain in live
-        .color
-        .iter_mut()
-        .chain(live.depth.iter_mut())
-        .chain(live.inset.iter_mut())
-    {
-        let _w = live.watchdog.watch("xrReleaseSwapchainImage");
-        chain
-            .swapchain
-            .release_image()
-            .call("xrReleaseSwapchainImage")?;
-    }
-    Ok(())
-}
-
-/// Eye `eye`'s part of `chains` at `image_rect`: a layer of the one
-/// swapchain under multiview (the session's colour chains are one), else
-/// the eye's own swapchain.
-fn sub_image(
-    live: &Live,
-    chains: &[Chain],
-    eye: usize,
-    image_rect: sys::Rect2Di,
-) -> sys::SwapchainSubImage {
-    let multiview = live.color.len() == 1;
-    sys::SwapchainSubImage {
-        swapchain: chains[if multiview { 0 } else { eye }].swapchain.as_raw(),
-        image_rect,
-        image_array_index: if multiview { eye as u32 } else { 0 },
-    }
-}
-
-/// The eyes' depth for the runtime (with XR_KHR_composition_layer_depth).
-/// With the inset the eye's depth exists only inside the inset (the wide
-/// view has its own), with lms only in the LMS image's layout: no depth
-/// goes to the runtime then.
-fn depth_layers(
-    live: &Live,
-    st: &LoopState,
-    views: usize,
-    rect: sys::Rect2Di,
-) -> Vec<sys::CompositionLayerDepthInfoKHR> {
-    let reshaped = live.driver.as_ref().is_some_and(|d| {
-        let c = &d.renderer().config;
-        c.inset.is_some() || c.lms.is_some()
-    });
-    if !st.with_depth || reshaped {
-        return Vec::new();
-    }
-    (0..views)
-        .map(|eye| sys::CompositionLayerDepthInfoKHR {
-            ty: sys::CompositionLayerDepthInfoKHR::TYPE,
-            next: std::ptr::null(),
-            sub_image: sub_image(live, &live.depth, eye, rect),
-            min_depth: 0.0,
-            max_depth: 1.0,
-            // Reverse-Z with an infinite far plane: depth 0 is at infinity
-            // and 1 at the near plane (nearZ > farZ marks reversed depth in
-            // XR_KHR_composition_layer_depth).
-            near_z: f32::INFINITY,
-            far_z: st.args.config.near as f32,
-        })
-        .collect()
-}
-
-/// The projection layer's views, each pointing at its depth (when
-/// `depth` has one). Views 2 and 3 are the focus views: their images are
-/// the insets, whose FOV is the inset rectangle's (snapped outward to
-/// whole pixels around the runtime's).
-fn projection_views(
-    live: &Live,
-    views: &[xr::View],
-    depth: &[sys::CompositionLayerDepthInfoKHR],
-    (main_rect, inset_rect): (sys::Rect2Di, sys::Rect2Di),
-) -> Vec<sys::CompositionLayerProjectionView> {
-    let renderer = live.driver.as_ref().map(|d| d.renderer());
-    views
-        .iter()
-        .enumerate()
-        .map(|(i, v)| {
-            let eye = i % 2;
-            let (fov, sub) = match (i >= 2, renderer) {
-                (true, Some(r)) => {
-                    let e = r.extent();
-                    let f = crate::view::inset::rect_fov(
-                        &crate::xr::fov_of(&views[eye].fov),
-                        &r.inset_rect(),
-                        e.width,
-                        e.height,
-                    );
-                    (fovf(&f), sub_image(live, &live.inset, eye, inset_rect))
-                }
-                _ => (v.fov, sub_image(live, &live.color, eye, main_rect)),
-            };
-            sys::CompositionLayerProjectionView {
-                ty: sys::CompositionLayerProjectionView::TYPE,
-                next: depth
-                    .get(i)
-                    .map_or(std::ptr::null(), |d| d as *const _ as *const _),
-                pose: v.pose,
-                fov,
-                sub_image: sub,
-            }
-        })
-        .collect()
-}
-
-/// xrEndFrame with one projection layer (and its depth info when the
-/// runtime takes depth) and the panel's quad layer when it was drawn this
-/// frame, or with no layer when nothing was rendered.
-fn end_frame(
-    live: &Live,
-    instance: &xr::Instance,
-    session: &xr::Session<xr::Vulkan>,
-    display_time: xr::Time,
-    views: Option<&[xr::View]>,
-    st: &LoopState,
-) -> Result<()> {
-    let rect = |e: vk::Extent2D| sys::Rect2Di {
-        offset: sys::Offset2Di { x: 0, y: 0 },
-        extent: sys::Extent2Di {
-            width: e.width as i32,
-            height: e.height as i32,
-        },
-    };
-    let renderer = live.driver.as_ref().map(|d| d.renderer());
-    // The eyes' images (with quad views the wide views'), and the insets'.
-    let main_rect = rect(renderer.map(|r| r.output_extent()).unwrap_or_default());
-    let inset_rect = rect(renderer.map(|r| r.inset_extent()).unwrap_or_default());
-    let depth_infos = views.map_or_else(Vec::new, |v| depth_layers(live, st, v.len(), main_rect));
-    let rects = (main_rect, inset_rect);
-    let proj = views.map_or_else(Vec::new, |v| projection_views(live, v, &depth_infos, rects));
-    let layer = views.map(|_| sys::CompositionLayerProjection {
-        ty: sys::CompositionLayerProjection::TYPE,
-        next: std::ptr::null(),
-        layer_flags: xr::CompositionLayerFlags::EMPTY,
-        space: live.space.as_ref().expect("set").as_raw(),
-        view_count: proj.len() as u32,
-        views: proj.as_ptr(),
-    });
-    let quad = match (&layer, st.panel_drawn, &live.panel, &st.interaction.panel) {
-        (Some(_), true, Some(xp), Some(p)) => Some(xp.layer(p, live.space.as_ref().expect("set"))),
-        _ => None,
-    };
-    let mut layers: Vec<*const sys::CompositionLayerBaseHeader> = layer
-        .iter()
-        .map(|l| l as *const sys::CompositionLayerProjection as *const _)
-        .collect();
-    // The panel over the scene.
-    layers.extend(
-        quad.iter()
-            .map(|q| q as *const sys::CompositionLayerQuad as *const _),
-    );
-    let info = sys::FrameEndInfo {
-        ty: sys::FrameEndInfo::TYPE,
-        next: std::ptr::null(),
-        display_time,
-        environment_blend_mode: st.blend,
-        layer_count: layers.len() as u32,
-        layers: layers.as_ptr(),
-    };
-    let _w = live.watchdog.watch("xrEndFrame");
-    // SAFETY: every pointer in `info` references locals alive for the call;
-    // the swapchain images were released after the frame's submission.
-    let r = unsafe { (instance.fp().end_frame)(session.as_raw(), &info) };
-    if r.into_raw() < 0 {
-        return Err(xr_err("xrEndFrame", r));
-    }
-    Ok(())
-}
-
-/// An OpenXR FOV from a [`Fov`].
-fn fovf(f: &Fov) -> sys::Fovf {
-    sys::Fovf {
-        angle_left: f.left as f32,
-        angle_right: f.right as f32,
-        angle_up: f.up as f32,
-        angle_down: f.down as f32,
-    }
-}
-
 /// A trigger press on the open panel: the button under the ray does its
 /// job (a tool now, a toggle from the next frame, close), logged as events.
 fn panel_input(st: &mut LoopState, stats: &mut RunStats, update: &mut crate::interact::Update) {
@@ -1274,60 +952,4 @@ fn panel_input(st: &mut LoopState, stats: &mut RunStats, update: &mut crate::int
         super::panel::Button::Toggle(t) => st.pending_toggle = Some(t),
         super::panel::Button::Close => update.events.extend(st.interaction.close_panel()),
     }
-}
-
-/// Draws the open panel into its swapchain (made the first time). A panel
-/// that cannot be made or drawn is closed for the session with one warning
-/// (and `panel.error` in the stats); the menu button then cycles the tools.
-fn draw_panel(
-    live: &mut Live,
-    stats: &mut RunStats,
-    st: &mut LoopState,
-    pointers: &[Option<crate::interact::panel::PanelHit>; 2],
-) -> Result<()> {
-    st.panel_drawn = false;
-    if st.interaction.panel.is_none() {
-        return Ok(());
-    }
-    let drawn = (|| -> Result<()> {
-        if live.panel.is_none() {
-            let ctx = live
-                .driver
-                .as_ref()
-                .expect("set")
-                .renderer()
-                .context()
-                .clone();
-            let session = live.session.as_ref().expect("set");
-            live.panel = Some(super::xr_panel::XrPanel::new(
-                &ctx,
-                session,
-                st.chains.color_format,
-            )?);
-        }
-        let panel = live.panel.as_mut().expect("made above");
-        let state = super::panel::PanelState {
-            tool: st.interaction.tool,
-            config: &st.desk.live.config,
-            allowed: &st.desk.live.allowed,
-            pointers: pointers.map(|p| p.map(|h| h.uv)),
-            times_ms: st.last_times,
-            selected: stats.selected.as_ref().map(super::panel::selection_line),
-        };
-        let frame = panel.ui.frame(&state);
-        panel.draw(&frame, &live.watchdog)
-    })();
-    match drawn {
-        Ok(()) => st.panel_drawn = true,
-        Err(e) => {
-            tracing::warn!("the in-headset panel is off for this session: {e}");
-            if let Some(p) = stats.panel.as_mut() {
-                p.error = Some(e.to_string());
-            }
-            st.interaction.panel = None;
-            st.interaction.settings.panel = false;
-            live.panel = None;
-        }
-    }
-    Ok(())
 }
