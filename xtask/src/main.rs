@@ -36,8 +36,9 @@ const HOST_PACKAGES: &[&str] = &[
 ];
 /// Packages inside the Debian 13 root: a current lavapipe (Mesa 22.3 in
 /// Debian 12 misroutes some multiview draws), validation layers, and the
-/// OpenXR runtime Monado with its loader and validation layer, and for the
-/// window tests Xvfb, xdotool and the X client libraries winit loads.
+/// OpenXR runtime Monado with its loader and validation layer, for the
+/// window tests Xvfb, xdotool and the X client libraries winit loads, and
+/// Wine to run the Windows binary.
 const ROOT_PACKAGES: &[&str] = &[
     "mesa-vulkan-drivers",
     "vulkan-validationlayers",
@@ -56,6 +57,8 @@ const ROOT_PACKAGES: &[&str] = &[
     "libxrandr2",
     "libxi6",
     "libxkbcommon-x11-0",
+    "wine",
+    "wine64",
 ];
 const ROOT_SUITE: &str = "trixie";
 /// Monado on distributions that ship it (Debian 13+, Ubuntu 24.04+).
@@ -291,27 +294,59 @@ fn run_with_limit(cmd: &mut Command, limit: std::time::Duration) -> Result<(), S
     }
 }
 
-/// `cargo check` of the binary for Windows, when the target's standard
-/// library is installed or rustup can add it; otherwise one line saying
-/// why it was skipped.
-fn check_windows(r: &Path) -> Result<(), String> {
+/// Cross-builds the binary for Windows when that target's standard
+/// library is installed or rustup can add it, and returns the executable
+/// (`tests/windows.rs` runs it under Wine); otherwise one line saying why
+/// it was skipped.
+fn build_windows(r: &Path) -> Result<Option<PathBuf>, String> {
     if !target_installed(WINDOWS_TARGET) {
         if output_of(Command::new("rustup").arg("--version")).is_none() {
-            eprintln!("xtask: Windows build check skipped: the {WINDOWS_TARGET} standard library is not installed and there is no rustup to add it");
-            return Ok(());
+            eprintln!("xtask: Windows build skipped: the {WINDOWS_TARGET} standard library is not installed and there is no rustup to add it");
+            return Ok(None);
         }
         let limit = std::time::Duration::from_secs(300);
         if let Err(why) = run_with_limit(
             Command::new("rustup").args(["target", "add", WINDOWS_TARGET]),
             limit,
         ) {
-            eprintln!("xtask: Windows build check skipped: rustup target add {WINDOWS_TARGET} failed ({why})");
-            return Ok(());
+            eprintln!(
+                "xtask: Windows build skipped: rustup target add {WINDOWS_TARGET} failed ({why})"
+            );
+            return Ok(None);
         }
     }
     run(cargo()
         .current_dir(r)
-        .args(["check", "--target", WINDOWS_TARGET, "--bin", "vergence"]))
+        .args(["build", "--target", WINDOWS_TARGET, "--bin", "vergence"]))?;
+    let exe = r.join(format!("target/{WINDOWS_TARGET}/debug/vergence.exe"));
+    copy_mingw_runtime(exe.parent().expect("in a folder"))?;
+    Ok(Some(exe))
+}
+
+/// The MinGW runtime libraries the executable links (its C++ parts'
+/// standard library, libgcc, winpthreads), copied beside it: Wine, like
+/// Windows, looks for them there.
+fn copy_mingw_runtime(dir: &Path) -> Result<(), String> {
+    for dll in [
+        "libstdc++-6.dll",
+        "libgcc_s_seh-1.dll",
+        "libwinpthread-1.dll",
+    ] {
+        let found = output_of(
+            Command::new("x86_64-w64-mingw32-g++").arg(format!("-print-file-name={dll}")),
+        )
+        .map(|p| PathBuf::from(p.trim()))
+        .filter(|p| p.is_file())
+        .or_else(|| {
+            let p = PathBuf::from("/usr/x86_64-w64-mingw32/lib").join(dll);
+            p.is_file().then_some(p)
+        });
+        if let Some(src) = found {
+            std::fs::copy(&src, dir.join(dll))
+                .map_err(|e| format!("copying {}: {e}", src.display()))?;
+        }
+    }
+    Ok(())
 }
 
 fn test(args: &[String]) -> Result<(), String> {
@@ -328,8 +363,11 @@ fn test(args: &[String]) -> Result<(), String> {
         "-D",
         "warnings",
     ]))?;
-    check_windows(&r)?;
+    let windows = build_windows(&r)?;
     let mut cmd = cargo();
+    if let Some(exe) = &windows {
+        cmd.env("VERGENCE_WINDOWS_EXE", exe);
+    }
     cmd.current_dir(&r)
         .args(["test", "--workspace"])
         .args(args)
