@@ -601,6 +601,14 @@ case("kiosk/bad-mirror.toml", "kiosk", ["mirror = \"sideways\""], kiosk(top='mir
 case("kiosk/log-keep.toml", "kiosk", ["log.keep = 0: expected 1 to 100"], 'name = "k"\n[log]\nfile = "k.log"\nkeep = 0\n[[scenes]]\nname = "a"\nscene = "factory:10"\n')
 case("kiosk/empty-name.toml", "kiosk", ["name is empty"], 'name = " "\n[[scenes]]\nname = "a"\nscene = "factory:10"\n')
 case("kiosk/not-toml.toml", "kiosk", ["--kiosk", "not-toml.toml"], "name = \n[[[\n")
+# A scene's viewpoint file that is missing, and one that is not a
+# viewpoints file (another kiosk file): named with the scene's key.
+case("kiosk/missing-viewpoint-file.toml", "kiosk", ["scenes[0].viewpoint_file", "no-such-viewpoints.toml"],
+     'name = "viewpoint file that is missing"\n\n[[scenes]]\nname = "factory"\nscene = "factory:10"\n'
+     'viewpoint_file = "no-such-viewpoints.toml"\n')
+case("kiosk/viewpoint-file-not-viewpoints.toml", "kiosk", ["scenes[0].viewpoint_file", "short-spawn.toml"],
+     'name = "viewpoint file that is not a viewpoints file"\n\n[[scenes]]\nname = "factory"\n'
+     'scene = "factory:10"\nviewpoint_file = "short-spawn.toml"\n')
 cli("kiosk-missing", ["run", "--xr", "headless", "--frames", "1", "--kiosk", "{dir}/kiosk/nothing-here.toml"], ["--kiosk", "nothing-here.toml"])
 cli("kiosk-with-scene", ["run", "--kiosk", "{dir}/kiosk/unknown-key.toml", "--scene", "factory"], ["--kiosk", "--scene"], exit=2)
 
@@ -614,13 +622,23 @@ cli("timewarp-in-run", ["run", "--xr", "headless", "--frames", "1", "--opt", "ti
 cli("timewarp-with-occlusion", ["render", "--opt", "timewarp=2,gpu-cull,occlusion,superfrustum", "--out", "{out}"], ["timewarp", "occlusion"])
 cli("rdm-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "rdm=auto", "--out", "{out}"], ["rdm=auto", "valve-index", "[views.lens]"])
 cli("foveation-auto-without-lens", ["render", "--scene", "factory:10", "--hmd", "valve-index", "--width", "32", "--height", "32", "--opt", "foveation=auto", "--out", "{out}"], ["foveation=auto", "valve-index", "[views.lens]"])
-cli("aq-with-foveation", ["render", "--opt", "aq,foveation=high", "--out", "{out}"], ["aq", "foveation"])
-cli("inset-with-mffr", ["render", "--opt", "inset,mffr", "--out", "{out}"], ["inset", "mffr"])
+cli("aq-with-timewarp", ["render", "--opt", "aq,timewarp=2", "--out", "{out}"], ["aq", "timewarp"])
+cli("inset-wide-1x-with-rdm", ["render", "--opt", "inset,inset-wide-1x,rdm", "--out", "{out}"], ["inset-wide-1x", "rdm"])
+cli("inset-wide-1x-with-mffr", ["render", "--opt", "inset,inset-wide-1x,mffr", "--out", "{out}"], ["inset-wide-1x", "mffr"])
+cli("inset-four-views-with-mffr", ["render", "--opt", "inset,inset-views=4,mffr", "--out", "{out}"], ["inset-views=4", "mffr"])
 cli("inset-scale-big", ["render", "--opt", "inset=5", "--out", "{out}"], ["inset=5", "0.1 <= F <= 1"])
 cli("inset-fov-zero", ["render", "--opt", "inset-fov=0", "--out", "{out}"], ["inset-fov=0", "1 <= DEG <= 80"])
 cli("inset-views-three", ["render", "--opt", "inset-views=3", "--out", "{out}"], ["inset-views=3", "inset-views=2", "inset-views=4"])
 cli("inset-wide-1x-four-views", ["render", "--opt", "inset-wide-1x,inset-views=4", "--out", "{out}"], ["inset-wide-1x", "inset-views=4"])
 cli("inset-wide-1x-no-msaa", ["render", "--opt", "inset-wide-1x,no-msaa", "--out", "{out}"], ["inset-wide-1x", "no-msaa"])
+cli("inset-taa-zero", ["render", "--opt", "inset-taa=0", "--out", "{out}"], ["inset-taa=0", "0.01 <= A <= 1"])
+cli("inset-taa-word", ["render", "--opt", "inset-taa=strong", "--out", "{out}"], ["inset-taa=strong", "0.01 <= A <= 1"])
+cli("inset-taa-four-views", ["render", "--opt", "inset-taa,inset-views=4", "--out", "{out}"], ["inset-taa", "inset-views=4"])
+cli("inset-taau-catmull-rom", ["render", "--opt", "inset-taau,inset-catmull-rom", "--out", "{out}"], ["inset-taau", "inset-catmull-rom"])
+cli("inset-sharpen-strength", ["render", "--opt", "inset-sharpen=5", "--out", "{out}"], ["inset-sharpen=", "S"])
+cli("inset-sharpen-catmull-rom", ["render", "--opt", "inset-sharpen,inset-catmull-rom", "--out", "{out}"], ["inset-taau", "inset-catmull-rom"])
+cli("inset-taau-lanczos-four-views", ["render", "--opt", "inset-taau-lanczos,inset-views=4", "--out", "{out}"], ["inset-taa", "inset-views=4"])
+cli("inset-four-views-resolved-sky", ["render", "--opt", "inset,inset-views=4,resolved-sky", "--out", "{out}"], ["inset-views=4", "resolved-sky"])
 cli("aq-scale-only-without-inset", ["render", "--opt", "aq,aq-scale-only", "--out", "{out}"], ["aq-scale-only", "inset"])
 cli("aq-in-view", ["view", "--opt", "aq", "--frames", "1"], ["aq", "view"])
 cli("budget-ms-negative", ["render", "--opt", "aq", "--budget-ms=-3", "--out", "{out}"], ["--budget-ms", "-3"])
@@ -837,6 +855,56 @@ doc["materials"][0]["emissiveTexture"] = {"index": 1}
 case("images/webp-bomb.gltf", "scene",
      ["webp-bomb.webp", "26 encoded bytes claim 268435456 decoded bytes", "a decompression bomb"],
      json.dumps(doc, indent=1))
+
+# A kiosk log that is the kiosk file itself, and a kiosk whose second
+# scene is broken: both refused at start, naming the file and the key.
+case("kiosk/log-is-kiosk.toml", "kiosk", ["log-is-kiosk.toml", "never writes over an input"],
+     'name = "k"\n[log]\nfile = "log-is-kiosk.toml"\n[[scenes]]\nname = "a"\nscene = "factory:10"\n')
+case("kiosk/second-scene-broken.toml", "kiosk", ["second-scene-broken.toml", "scenes[1] (annex)", "no-such-annex.gltf"],
+     'name = "k"\n[[scenes]]\nname = "hall"\nscene = "factory:10"\n[[scenes]]\nname = "annex"\n'
+     'scene = "no-such-annex.gltf"\n')
+# raster-floors' default two views on a driver that crashes on an empty
+# multiview scope, and a render --out that is a file.
+cli("raster-floors-multiview-lavapipe", ["raster-floors", "--width", "64", "--height", "64", "--repeats", "2"],
+    ["--views 2", "lavapipe", "--views 1"])
+cli("render-out-is-a-file", ["render", "--scene", "factory:10", "--out", "{dir}/cases.toml"],
+    ["cases.toml", "is a file, not a folder to write into"])
+# Viewpoint files for run --viewpoint: a position out of range, one too
+# short, none at all, and a --viewpoint value that is not a pose; good.toml
+# is one as `view`'s F8 writes it.
+case("viewpoints/good.toml", None, None,
+     '\n[[viewpoint]]\nname = "entrance"\nposition = [3.000000, 0.000000, 2.000000]  # the floor under the eyes\n'
+     'yaw_deg = -25.000000\n# --pose 3.000000,1.600000,2.000000,-25.000000,0.000000,0.000000\n')
+VIEWPOINT = ["run", "--xr", "headless", "--frames", "1", "--mirror", "off", "--viewpoint"]
+case("viewpoints/far-position.toml", None, None,
+     '[[viewpoint]]\nname = "far"\nposition = [1e300, 0.0, 0.0]\nyaw_deg = 0.0\n')
+cli("viewpoints/far-position.toml", VIEWPOINT + ["{dir}/viewpoints/far-position.toml"],
+    ["--viewpoint", "far-position.toml", "out of range"])
+case("viewpoints/short-position.toml", None, None, '[[viewpoint]]\nname = "x"\nposition = [0.0, 0.0]\n')
+cli("viewpoints/short-position.toml", VIEWPOINT + ["{dir}/viewpoints/short-position.toml"],
+    ["--viewpoint", "short-position.toml"])
+case("viewpoints/empty.toml", None, None, "# no entries\n")
+cli("viewpoints/empty.toml", VIEWPOINT + ["{dir}/viewpoints/empty.toml"], ["--viewpoint", "0 viewpoints"])
+cli("viewpoint-not-a-pose", VIEWPOINT + ["1,2"], ["--viewpoint", "expected 4 numbers"])
+
+# run --rehearse scripts: refused when read, naming the file, the step and
+# the key, before any runtime is reached.
+REHEARSE = ["run", "--xr", "openxr", "--frames", "1", "--mirror", "off", "--rehearse"]
+def rehearse(name, text, expect):
+    case(f"rehearse/{name}.toml", None, None, text)
+    cli(f"rehearse-{name}", REHEARSE + [f"{{dir}}/rehearse/{name}.toml"], [f"{name}.toml"] + expect)
+rehearse("not-toml", "[[[\n", ["--rehearse"])
+rehearse("no-steps", "# nothing\n", ["needs 1 to 10000 [[step]] tables, found 0"])
+rehearse("hold-nan", "[[step]]\nhold_s = nan\n", ["step[0].hold_s", "0.001 <= seconds <= 600"])
+rehearse("hold-tiny", "[[step]]\nhold_s = 1e-46\n", ["step[0].hold_s", "0.001 <= seconds <= 600"])
+rehearse("trigger-big", "[[step]]\nhold_s = 1\n[step.right]\ntrigger = 3\n", ["step[0].right.trigger", "0 to 1"])
+rehearse("stick-big", "[[step]]\nhold_s = 1\n[step.left]\nstick = [0, -9]\n", ["step[0].left.stick", "-1 to 1"])
+rehearse("head-far", "[[step]]\nhold_s = 1\nhead = { position = [0, 1e300, 0] }\n", ["step[0].head.position"])
+rehearse("panel-unknown", "[[step]]\nhold_s = 1\npanel = \"tool:fly\"\n", ["step[0].panel", "unknown panel button 'tool:fly'"])
+rehearse("too-long", "[[step]]\nhold_s = 600\n" * 7, ["step[6].hold_s", "runs past 3600 s"])
+rehearse("unknown-key", "[[step]]\nhold_s = 1\nwarp = 2\n", ["unknown field `warp`"])
+rehearse("name-escape", "[[step]]\nhold_s = 1\nname = \"a\\u001b[2J\"\n", ["step[0].name", "printable"])
+cli("rehearse-missing", REHEARSE + ["{dir}/rehearse/nothing-here.toml"], ["--rehearse", "nothing-here.toml"])
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:
     f.write("# Malformed inputs and the error each must give (tests/bad_inputs.rs runs\n"

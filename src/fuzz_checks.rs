@@ -239,3 +239,34 @@ pub fn viewpoints(data: &[u8]) {
         assert!(pose.position.abs().max_element() <= crate::cli::MAX_DISTANCE_M);
     }
 }
+
+/// Bytes → the rehearsal script parser (`run --rehearse FILE`): an
+/// accepted script has 1 to [`crate::targets::rehearse::MAX_STEPS`] steps,
+/// each held for a positive time, at most
+/// [`crate::targets::rehearse::MAX_TOTAL_S`] in all, with finite poses,
+/// unit quaternions and inputs within their ranges.
+pub fn rehearse(data: &[u8]) {
+    use crate::targets::rehearse::{Script, MAX_STEPS, MAX_TOTAL_S};
+    let Ok(text) = std::str::from_utf8(data) else {
+        return;
+    };
+    let Ok(s) = Script::parse(text, std::path::Path::new("fuzz.toml")) else {
+        return;
+    };
+    assert!((1..=MAX_STEPS).contains(&s.steps.len()));
+    let total: f64 = s.steps.iter().map(|st| st.hold.as_secs_f64()).sum();
+    assert!(total <= MAX_TOTAL_S + 1e-6);
+    for st in &s.steps {
+        assert!(!st.hold.is_zero());
+        let poses = std::iter::once(&st.head).chain(st.hands.iter().map(|h| &h.pose));
+        for p in poses {
+            assert!(p.position.iter().all(|v| v.is_finite()));
+            let n: f32 = p.orientation.iter().map(|v| v * v).sum();
+            assert!((n - 1.0).abs() < 1e-3, "unit quaternion: {n}");
+        }
+        for h in &st.hands {
+            assert!((0.0..=1.0).contains(&h.trigger) && (0.0..=1.0).contains(&h.squeeze));
+            assert!(h.thumbstick.iter().all(|v| (-1.0..=1.0).contains(v)));
+        }
+    }
+}

@@ -351,8 +351,9 @@ struct RunCli {
     stats_out: Option<PathBuf>,
     #[command(flatten)]
     frame: FrameOpts,
-    /// Write the last frame (needs --frames) as DIR/left.png, DIR/right.png
-    /// and DIR/rig.json (the views it was rendered with).
+    /// Write the last frame (frame N of --frames N, or the frame a
+    /// --rehearse script ends on) as DIR/left.png, DIR/right.png and
+    /// DIR/rig.json (the views it was rendered with).
     #[arg(long)]
     capture: Option<PathBuf>,
     /// When the OpenXR runtime goes away mid-run, retry every second until
@@ -429,6 +430,13 @@ struct RunCli {
     /// yourself overrides both).
     #[arg(long)]
     runtime_log: bool,
+    /// Rehearse a visit without a headset: play this script of timed head
+    /// and controller states (TOML, see manifests/rehearse/visit.toml)
+    /// into Monado's remote driver from the session's first focus, and end
+    /// the run when it ends. Needs --xr openxr with monado-service started
+    /// with P_OVERRIDE_ACTIVE_CONFIG=remote.
+    #[arg(long)]
+    rehearse: Option<PathBuf>,
 }
 
 #[derive(clap::Args)]
@@ -640,7 +648,14 @@ fn run_command(a: RunCli) -> anyhow::Result<()> {
             .transpose()?;
         config.resolve_lens(profile.as_ref())?;
     }
+    let rehearse = a
+        .rehearse
+        .as_deref()
+        .map(vergence::targets::rehearse::Script::load)
+        .transpose()?
+        .map(std::sync::Arc::new);
     let args = RunArgs {
+        rehearse,
         scene,
         hmd_fallback: a.hmd_fallback,
         xr: a.xr,

@@ -341,6 +341,19 @@ fn kiosk_files() {
 
 #[test]
 #[ignore]
+fn rehearsal_scripts() {
+    let mut seeds = files("manifests/rehearse", &["toml"]);
+    seeds.extend(files("tests/bad_inputs/rehearse", &["toml"]));
+    fuzz(
+        "rehearsal_scripts",
+        6,
+        seeds,
+        vergence::fuzz_checks::rehearse,
+    );
+}
+
+#[test]
+#[ignore]
 fn viewpoint_files() {
     let seeds = files("tests/bad_inputs/viewpoints", &["toml"]);
     fuzz(

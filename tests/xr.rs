@@ -5,9 +5,7 @@
 //! Monado.
 
 mod common;
-#[path = "common/monado_remote.rs"]
-#[allow(dead_code)]
-mod monado_remote;
+use vergence::xr::remote as monado_remote;
 
 use monado_remote::{RemoteHead, RemotePose};
 use serde_json::Value;

@@ -6,9 +6,7 @@
 //! the Debian 13 root like tests/xr.rs; fails, not skips, without Monado.
 
 mod common;
-#[path = "common/monado_remote.rs"]
-#[allow(dead_code)]
-mod monado_remote;
+use vergence::xr::remote as monado_remote;
 
 use monado_remote::{RemoteController, RemoteHead, RemotePose};
 use serde_json::Value;

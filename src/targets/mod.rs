@@ -11,6 +11,7 @@ pub mod keep_pose;
 pub mod kiosk;
 pub mod mirror;
 pub mod panel;
+pub mod rehearse;
 pub mod run;
 pub mod session;
 pub mod toggles;

@@ -80,6 +80,8 @@ pub struct RunArgs {
     pub kiosk: Option<crate::targets::kiosk::Kiosk>,
     /// `--overlay`: whether the mirror starts with the overlay shown.
     pub overlay: bool,
+    /// `--rehearse FILE`: the script played into Monado's remote driver.
+    pub rehearse: Option<std::sync::Arc<super::rehearse::Script>>,
 }
 
 impl RunArgs {
@@ -103,6 +105,12 @@ impl RunArgs {
                 ));
             }
         }
+        if self.rehearse.is_some() && self.xr != XrMode::Openxr {
+            return Err(Error::config(
+                "--rehearse",
+                "plays into an OpenXR runtime's controllers: it needs --xr openxr (Monado with its remote driver)",
+            ));
+        }
         if self.frames == Some(0) {
             return Err(Error::config("--frames", "must be at least 1"));
         }
@@ -116,10 +124,10 @@ impl RunArgs {
         if let Some(p) = &self.screenshot {
             crate::fsio::prepare_output(p)?;
         }
-        if self.capture.is_some() && self.frames.is_none() {
+        if self.capture.is_some() && self.frames.is_none() && self.rehearse.is_none() {
             return Err(Error::config(
                 "--capture",
-                "needs --frames N (the last frame, N, is captured)",
+                "needs --frames N (the last frame, N, is captured) or --rehearse (the frame the script ends on)",
             ));
         }
         Ok(())

@@ -342,6 +342,8 @@ impl<'a> LoopState<'a> {
             last_times: None,
             panel_drawn: false,
             last_shown: None,
+            rehearsal: None,
+            captured: false,
         })
     }
 }
@@ -501,6 +503,10 @@ struct LoopState<'a> {
     panel_drawn: bool,
     /// The last recorded frame's world rig and scene time (F4 measures it).
     last_shown: Option<(StereoRig, f64)>,
+    /// `--rehearse`: the script playing since the first focus.
+    rehearsal: Option<super::rehearse::Player>,
+    /// `--capture` has written its frame.
+    captured: bool,
 }
 
 impl LoopState<'_> {
@@ -557,7 +563,9 @@ fn run_frames(
     let mut index = 0u64;
     loop {
         desk_work(live, stats, st, &session, index)?;
+        let rehearsed = rehearsal(st, machine.was_focused())?;
         let quit = crate::quit::requested()
+            || rehearsed
             || st.desk.closed
             || st.desk.next_scene
             || st.args.limit_reached(stats.frames_submitted, started);
@@ -589,6 +597,26 @@ fn run_frames(
         };
         protocol::one_frame(&mut live.rt, &live.watchdog, &mut app, index)?;
         index += 1;
+    }
+}
+
+/// `--rehearse`: the script starts playing at the session's first focus.
+/// Returns whether it has played out (the run then ends); an error when it
+/// stopped early.
+fn rehearsal(st: &mut LoopState, focused: bool) -> Result<bool> {
+    let Some(script) = &st.args.rehearse else {
+        return Ok(false);
+    };
+    let player = match &st.rehearsal {
+        Some(p) => p,
+        None if focused => st
+            .rehearsal
+            .insert(super::rehearse::Player::start(script.clone())),
+        None => return Ok(false),
+    };
+    match player.take_error() {
+        Some(e) => Err(e),
+        None => Ok(player.finished()),
     }
 }
 

@@ -8,6 +8,7 @@
 
 pub mod actions;
 pub mod instance;
+pub mod remote;
 pub mod state;
 pub mod vulkan;
 pub mod watchdog;

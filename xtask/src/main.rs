@@ -5,15 +5,20 @@
 //!   `target/xr-root` (Mesa 25 lavapipe, Vulkan validation layers, Monado).
 //! - `demo`: runs the built-in factory scene: in a headset when an OpenXR
 //!   runtime is active, else under Monado's simulated HMD, else headless;
-//!   the last frame and the statistics land in `demo-output/`.
+//!   the last frame and the statistics land in `demo-output/`. `demo
+//!   --rehearse [SCRIPT]` plays a scripted visit through Monado's remote
+//!   driver instead.
 //! - `xr -- ARGS`: runs `vergence ARGS` against Monado's simulated HMD
 //!   (started before, stopped after; the exit code passes through).
-//! - `test`: the whole suite (fmt, clippy, a `cargo check` of the binary
-//!   for Windows when that target can be had, tests inside the root, then
-//!   `tests/host_driver.rs` once more on the host).
+//! - `test`: the whole suite (fmt, clippy, the bad-input corpus against its
+//!   generator, a build of the binary for Windows when that target can be
+//!   had, tests inside the root, then `tests/host_driver.rs` once more on
+//!   the host).
+//! - `corpus`: only the corpus check (see [`corpus`]).
 //! - `gpu-bench [PLAN]`: prepares `target/gpu-bench/` for a GPU machine
 //!   without Rust or a Vulkan loader (see [`gpu_bench`]).
 
+mod corpus;
 mod gpu_bench;
 
 use std::path::{Path, PathBuf};
@@ -363,6 +368,7 @@ fn test(args: &[String]) -> Result<(), String> {
         "-D",
         "warnings",
     ]))?;
+    corpus::check(&r)?;
     let windows = build_windows(&r)?;
     let mut cmd = cargo();
     if let Some(exe) = &windows {
@@ -426,6 +432,12 @@ fn build_release() -> Result<PathBuf, String> {
 
 /// `scripts/with-monado [--remote] BIN`, inside the root when needed.
 fn monado_command(how: &Monado, bin: &Path) -> Command {
+    monado_command_with(how, &[], bin)
+}
+
+/// `bin` under Monado as [`monado_command`], with `with-monado`'s own
+/// options (`--remote`) first.
+fn monado_command_with(how: &Monado, options: &[&str], bin: &Path) -> Command {
     let r = repo();
     let mut cmd = match how {
         Monado::Native => Command::new(r.join("scripts/with-monado")),
@@ -436,7 +448,7 @@ fn monado_command(how: &Monado, bin: &Path) -> Command {
             c
         }
     };
-    cmd.current_dir(&r).arg(bin);
+    cmd.current_dir(&r).args(options).arg(bin);
     cmd
 }
 
@@ -514,6 +526,9 @@ fn demo(args: &[String]) -> Result<(), String> {
         v.extend(args.iter().map(Into::into));
         v
     };
+    if args.first().map(String::as_str) == Some("--rehearse") {
+        return demo_rehearsal(&r, &args[1..]);
+    }
     match setup_monado() {
         Ok(how) => {
             let bin = build_release()?;
@@ -542,6 +557,60 @@ fn demo(args: &[String]) -> Result<(), String> {
     Ok(())
 }
 
+/// `cargo xtask demo --rehearse [SCRIPT]`: a scripted visit of the factory
+/// (the shipped `manifests/rehearse/visit.toml` by default) played through
+/// Monado's remote driver; the frame it ends on and the per-frame records
+/// (its events) go to demo-output/.
+fn demo_rehearsal(r: &Path, args: &[String]) -> Result<(), String> {
+    let how = setup_monado().map_err(|why| format!("a rehearsal needs Monado: {why}"))?;
+    let bin = build_release()?;
+    let out = r.join("demo-output");
+    let script = args
+        .first()
+        .map_or_else(|| r.join("manifests/rehearse/visit.toml"), PathBuf::from);
+    let (stats, capture) = (out.join("visit-stats.json"), out.join("visit-end"));
+    eprintln!(
+        "xtask: demo: rehearsing {} under Monado's remote driver",
+        script.display()
+    );
+    let mut cmd = monado_command_with(&how, &["--remote"], &bin);
+    let mut all: Vec<std::ffi::OsString> = Vec::new();
+    all.extend(
+        [
+            "run",
+            "--xr",
+            "openxr",
+            "--scene",
+            "factory:2000",
+            "--spawn",
+            "1,0,-1,-90",
+            "--move-speed",
+            "1.5",
+            "--snap-turn",
+            "45",
+            "--mirror",
+            "off",
+        ]
+        .iter()
+        .map(Into::into),
+    );
+    for (flag, path) in [
+        ("--rehearse", &script),
+        ("--stats-out", &stats),
+        ("--capture", &capture),
+    ] {
+        all.push(flag.into());
+        all.push(path.clone().into());
+    }
+    run(cmd.args(all))?;
+    eprintln!(
+        "xtask: demo: the visit's events are in {} (frames[].events), the frame it ended on in {}",
+        stats.display(),
+        capture.display()
+    );
+    Ok(())
+}
+
 fn main() -> ExitCode {
     let args: Vec<String> = std::env::args().skip(1).collect();
     let (cmd, rest) = match args.split_first() {
@@ -551,6 +620,7 @@ fn main() -> ExitCode {
     let rest: Vec<String> = rest.into_iter().filter(|a| a != "--").collect();
     let result = match cmd {
         "setup" => setup(),
+        "corpus" => corpus::check(&repo()),
         "test" => test(&rest),
         "demo" => demo(&rest),
         "gpu-bench" => gpu_bench::gpu_bench(&rest),
@@ -559,7 +629,7 @@ fn main() -> ExitCode {
             Err(e) => Err(e),
         },
         _ => {
-            eprintln!("usage: cargo xtask <setup|demo|test|xr|gpu-bench> [-- ARGS]");
+            eprintln!("usage: cargo xtask <setup|demo|test|xr|gpu-bench|corpus> [-- ARGS]");
             return ExitCode::from(2);
         }
     };

@@ -109,7 +109,14 @@ impl FrameApp for SessionApp<'_, '_> {
         let rig = &p.rig;
         let args = st.args;
         let driver = driver.as_mut().expect("set");
-        let capture = args.capture.is_some() && args.frames == Some(stats.frames_submitted + 1);
+        // The last frame: frame N of --frames N, else the first frame
+        // after a rehearsal played out.
+        let last = match args.frames {
+            Some(n) => n == stats.frames_submitted + 1,
+            None => !st.captured && st.rehearsal.as_ref().is_some_and(|p| p.finished()),
+        };
+        let capture = args.capture.is_some() && last;
+        st.captured |= capture;
         driver.submit(Some(out), capture)?;
         if let Some(m) = mirror.as_mut() {
             // Before the release: the runtime owns the images after it.

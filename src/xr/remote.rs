@@ -1,5 +1,5 @@
 //! Client for Monado's remote driver (`P_OVERRIDE_ACTIVE_CONFIG=remote`):
-//! one TCP connection on loopback port 4242; each packet is the whole
+//! one TCP connection on loopback port [`PORT`]; each packet is the whole
 //! `struct r_remote_data` of Monado's `drivers/remote/r_interface.h`
 //! (header "mndrmt3\0"), 376 bytes, little endian, and the last packet
 //! stays in effect. Layout (byte offsets):
@@ -23,6 +23,9 @@ use std::io::{Read, Write};
 use std::net::TcpStream;
 use std::time::{Duration, Instant};
 
+/// The remote driver's TCP port on loopback.
+pub const PORT: u16 = 4242;
+
 /// Size of `struct r_remote_data`.
 pub const PACKET_SIZE: usize = 376;
 const HEAD_AT: usize = 8;
@@ -41,8 +44,7 @@ const B_CLICK: usize = 6;
 const TRIGGER_CLICK: usize = 8;
 const THUMBSTICK_CLICK: usize = 10;
 
-/// One controller's state as the test sets it (an Index controller to
-/// the runtime).
+/// One controller's state (an Index controller to the runtime).
 #[derive(Clone, Copy, Debug)]
 pub struct RemoteController {
     /// Pose in the tracking space.
@@ -109,7 +111,7 @@ pub struct RemotePose {
     pub position: [f32; 3],
 }
 
-/// What the test sets: the head (centre) pose, and per eye the FOV
+/// The head (centre) pose, and per eye the FOV
 /// (left, right, up, down in radians) and the pose relative to the head.
 #[derive(Clone, Copy, Debug)]
 pub struct RemoteHead {
@@ -152,7 +154,7 @@ pub fn encode(head: &RemoteHead) -> [u8; PACKET_SIZE] {
 pub fn connect(timeout: Duration) -> std::io::Result<TcpStream> {
     let start = Instant::now();
     loop {
-        match TcpStream::connect(("127.0.0.1", 4242)) {
+        match TcpStream::connect(("127.0.0.1", PORT)) {
             Ok(s) => {
                 s.set_read_timeout(Some(Duration::from_millis(200)))?;
                 return Ok(s);
@@ -179,78 +181,83 @@ pub fn send_packet(stream: &mut TcpStream, packet: &[u8; PACKET_SIZE]) -> std::i
     stream.write_all(packet)
 }
 
-#[test]
-fn packet_layout_matches_r_remote_data() {
-    let head = RemoteHead {
-        center: RemotePose {
-            orientation: [0.0, 0.0, 0.0, 1.0],
-            position: [1.0, 2.0, 3.0],
-        },
-        views: [
-            (
-                [-0.9, 0.6, 0.7, -0.8],
-                RemotePose {
-                    orientation: [0.0, 0.0, 0.0, 1.0],
-                    position: [-0.032, 0.0, 0.0],
-                },
-            ),
-            (
-                [-0.6, 0.9, 0.75, -0.85],
-                RemotePose {
-                    orientation: [0.0, 0.0, 0.0, 1.0],
-                    position: [0.032, 0.0, 0.0],
-                },
-            ),
-        ],
-    };
-    let b = encode(&head);
-    let f = |at: usize| f32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
-    assert_eq!(&b[..8], b"mndrmt3\0");
-    assert_eq!(f(8), -0.9, "view 0 angle_left");
-    assert_eq!(f(8 + 48 + 4), 0.9, "view 1 angle_right");
-    assert_eq!(f(8 + 16 + 16), -0.032, "view 0 position x");
-    assert_eq!(f(104 + 16), 1.0, "centre position x");
-    assert_eq!(b[132], 1, "per_view_data_valid");
-    assert_eq!(f(136 + 12), 1.0, "left controller orientation w");
-    assert_eq!(f(256 + 12), 1.0, "right controller orientation w");
-}
+#[cfg(test)]
+mod tests {
+    use super::*;
 
-#[test]
-fn controller_fields_sit_at_r_remote_controller_data_offsets() {
-    let head = RemoteHead {
-        center: RemotePose {
-            orientation: [0.0, 0.0, 0.0, 1.0],
-            position: [0.0, 1.6, 0.0],
-        },
-        views: [(
-            [-0.7, 0.7, 0.7, -0.7],
-            RemotePose {
+    #[test]
+    fn packet_layout_matches_r_remote_data() {
+        let head = RemoteHead {
+            center: RemotePose {
                 orientation: [0.0, 0.0, 0.0, 1.0],
-                position: [0.0; 3],
+                position: [1.0, 2.0, 3.0],
             },
-        ); 2],
-    };
-    let right = RemoteController {
-        trigger: 0.75,
-        squeeze: 0.25,
-        thumbstick: [0.5, -1.0],
-        thumbstick_click: true,
-        b_click: true,
-        ..RemoteController::at(RemotePose {
-            orientation: [0.0, 0.0, 0.0, 1.0],
-            position: [0.3, 1.1, -0.4],
-        })
-    };
-    let b = encode_with(&head, [None, Some(right)]);
-    let f = |at: usize| f32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
-    assert_eq!(f(256 + 16), 0.3, "right position x");
-    assert_eq!(f(256 + 72), 0.75, "trigger_value");
-    assert_eq!(f(256 + 76), 0.25, "squeeze_value");
-    assert_eq!((f(256 + 84), f(256 + 88)), (0.5, -1.0), "thumbstick");
-    assert_eq!(b[256 + 105], 1, "active");
-    assert_eq!(b[256 + 110], 1, "b_click");
-    assert_eq!(b[256 + 112], 1, "trigger_click");
-    assert_eq!(b[256 + 114], 1, "thumbstick_click");
-    assert_eq!(b[136 + 105], 0, "left inactive");
-    assert_eq!(b.len(), 376);
+            views: [
+                (
+                    [-0.9, 0.6, 0.7, -0.8],
+                    RemotePose {
+                        orientation: [0.0, 0.0, 0.0, 1.0],
+                        position: [-0.032, 0.0, 0.0],
+                    },
+                ),
+                (
+                    [-0.6, 0.9, 0.75, -0.85],
+                    RemotePose {
+                        orientation: [0.0, 0.0, 0.0, 1.0],
+                        position: [0.032, 0.0, 0.0],
+                    },
+                ),
+            ],
+        };
+        let b = encode(&head);
+        let f = |at: usize| f32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+        assert_eq!(&b[..8], b"mndrmt3\0");
+        assert_eq!(f(8), -0.9, "view 0 angle_left");
+        assert_eq!(f(8 + 48 + 4), 0.9, "view 1 angle_right");
+        assert_eq!(f(8 + 16 + 16), -0.032, "view 0 position x");
+        assert_eq!(f(104 + 16), 1.0, "centre position x");
+        assert_eq!(b[132], 1, "per_view_data_valid");
+        assert_eq!(f(136 + 12), 1.0, "left controller orientation w");
+        assert_eq!(f(256 + 12), 1.0, "right controller orientation w");
+    }
+
+    #[test]
+    fn controller_fields_sit_at_r_remote_controller_data_offsets() {
+        let head = RemoteHead {
+            center: RemotePose {
+                orientation: [0.0, 0.0, 0.0, 1.0],
+                position: [0.0, 1.6, 0.0],
+            },
+            views: [(
+                [-0.7, 0.7, 0.7, -0.7],
+                RemotePose {
+                    orientation: [0.0, 0.0, 0.0, 1.0],
+                    position: [0.0; 3],
+                },
+            ); 2],
+        };
+        let right = RemoteController {
+            trigger: 0.75,
+            squeeze: 0.25,
+            thumbstick: [0.5, -1.0],
+            thumbstick_click: true,
+            b_click: true,
+            ..RemoteController::at(RemotePose {
+                orientation: [0.0, 0.0, 0.0, 1.0],
+                position: [0.3, 1.1, -0.4],
+            })
+        };
+        let b = encode_with(&head, [None, Some(right)]);
+        let f = |at: usize| f32::from_le_bytes([b[at], b[at + 1], b[at + 2], b[at + 3]]);
+        assert_eq!(f(256 + 16), 0.3, "right position x");
+        assert_eq!(f(256 + 72), 0.75, "trigger_value");
+        assert_eq!(f(256 + 76), 0.25, "squeeze_value");
+        assert_eq!((f(256 + 84), f(256 + 88)), (0.5, -1.0), "thumbstick");
+        assert_eq!(b[256 + 105], 1, "active");
+        assert_eq!(b[256 + 110], 1, "b_click");
+        assert_eq!(b[256 + 112], 1, "trigger_click");
+        assert_eq!(b[256 + 114], 1, "thumbstick_click");
+        assert_eq!(b[136 + 105], 0, "left inactive");
+        assert_eq!(b.len(), 376);
+    }
 }
