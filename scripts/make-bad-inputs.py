@@ -904,6 +904,8 @@ rehearse("panel-unknown", "[[step]]\nhold_s = 1\npanel = \"tool:fly\"\n", ["step
 rehearse("too-long", "[[step]]\nhold_s = 600\n" * 7, ["step[6].hold_s", "runs past 3600 s"])
 rehearse("unknown-key", "[[step]]\nhold_s = 1\nwarp = 2\n", ["unknown field `warp`"])
 rehearse("name-escape", "[[step]]\nhold_s = 1\nname = \"a\\u001b[2J\"\n", ["step[0].name", "printable"])
+cli("desk-controllers-headless", ["run", "--xr", "headless", "--frames", "1", "--desk-controllers"],
+    ["--desk-controllers", "--xr openxr", "mirror window"])
 cli("rehearse-missing", REHEARSE + ["{dir}/rehearse/nothing-here.toml"], ["--rehearse", "nothing-here.toml"])
 
 with open(os.path.join(OUT, "cases.toml"), "w") as f:

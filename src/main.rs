@@ -437,6 +437,13 @@ struct RunCli {
     /// with P_OVERRIDE_ACTIVE_CONFIG=remote.
     #[arg(long)]
     rehearse: Option<PathBuf>,
+    /// Drive Monado's remote driver's controllers from the mirror window's
+    /// keys (W A S D walk, J L turn, I aims a teleport, Space is the
+    /// trigger, G the grip, M the menu, C the stick click, the arrow keys
+    /// turn the right hand). Needs --xr openxr, a mirror window and
+    /// monado-service started with P_OVERRIDE_ACTIVE_CONFIG=remote.
+    #[arg(long, conflicts_with = "rehearse")]
+    desk_controllers: bool,
 }
 
 #[derive(clap::Args)]
@@ -656,6 +663,7 @@ fn run_command(a: RunCli) -> anyhow::Result<()> {
         .map(std::sync::Arc::new);
     let args = RunArgs {
         rehearse,
+        desk_controllers: a.desk_controllers,
         scene,
         hmd_fallback: a.hmd_fallback,
         xr: a.xr,
@@ -685,6 +693,11 @@ fn run_command(a: RunCli) -> anyhow::Result<()> {
         overlay: a.overlay == vergence::targets::hud::OverlayMode::On,
     };
     let stats = vergence::targets::run::run(&args)?;
+    report_run(&stats)
+}
+
+/// The run's one-line summary; an error when validation spoke.
+fn report_run(stats: &vergence::targets::session::RunStats) -> anyhow::Result<()> {
     tracing::info!(
         "ran {} {}: {} frames submitted; {}",
         stats.scene.as_ref().map_or("?", |s| s.name.as_str()),

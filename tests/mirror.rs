@@ -787,6 +787,93 @@ fn under_monado_a_stereo_switch_and_closing_the_window_end_in_order() {
 }
 
 #[test]
+fn desk_keys_drive_the_remote_controllers() {
+    let _g = lock();
+    let Some(x) = Xvfb::start("desk_controllers") else {
+        return;
+    };
+    if !on_path("xdotool") {
+        println!("skipping desk_controllers: xdotool is not installed (apt-get install xdotool)");
+        return;
+    }
+    let dir = common::scratch("mirror", "desk-controllers");
+    let s_path = dir.join("stats.json");
+    let mut cmd = Command::new(common::root().join("scripts/with-monado"));
+    cmd.arg("--remote")
+        .arg(bin())
+        .env("DISPLAY", &x.display)
+        .env_remove("WAYLAND_DISPLAY")
+        .env("VERGENCE_XR_RUNDIR", dir.join("run"));
+    let mut run = Running(Some(
+        cmd.args(["run", "--xr", "openxr", "--seconds", "120"])
+            .args([
+                "--scene",
+                "factory:2000",
+                "--mirror",
+                "left",
+                "--width",
+                "160",
+            ])
+            .args([
+                "--height",
+                "120",
+                "--spawn",
+                "1,0,-1,-90",
+                "--desk-controllers",
+            ])
+            .arg("--stats-out")
+            .arg(&s_path)
+            .stdout(Stdio::piped())
+            .stderr(Stdio::piped())
+            .spawn()
+            .expect("with-monado starts"),
+    ));
+    let Some(id) = x.window("vergence run: .* \\[multiview", run.child()) else {
+        panic!(
+            "vergence ended first: {}",
+            text(&run.wait(Duration::from_secs(10)))
+        );
+    };
+    // The session reaches FOCUSED (input flows) a moment after the first
+    // frames are shown.
+    std::thread::sleep(Duration::from_secs(3));
+    // W walks forward; the down arrow turns the right hand to the floor;
+    // Space pulls the trigger there (select).
+    x.hold(id, "w", Duration::from_millis(3000));
+    x.hold(id, "Down", Duration::from_millis(1500));
+    std::thread::sleep(Duration::from_millis(500));
+    x.hold(id, "space", Duration::from_millis(600));
+    std::thread::sleep(Duration::from_millis(800));
+    x.key(id, "Escape");
+    let o = run.wait(Duration::from_secs(60));
+    assert!(o.status.success(), "{}", text(&o));
+    let s = stats(&s_path);
+    assert_eq!(s["validation_messages"], 0, "{}", text(&o));
+    assert_eq!(s["xr_validation_messages"], 0, "{}", text(&o));
+    let frames: Vec<&Value> = s["frames"]
+        .as_array()
+        .unwrap()
+        .iter()
+        .filter(|f| f["head_world"].is_object())
+        .collect();
+    let x_at = |f: &Value| f["head_world"]["position"][0].as_f64().unwrap();
+    let walked = x_at(frames.last().unwrap()) - x_at(frames[0]);
+    // Facing +X (the spawn's yaw −90°), at the default 2 m/s for about
+    // 3 s. Each frame moves at most 0.1 s worth, and lavapipe's frames
+    // with the mirror take longer, so 1.8 to 2.4 m were seen; nothing but
+    // the key moves the head at all.
+    eprintln!("walked {walked:.2} m along +X");
+    assert!(walked > 0.5, "walked {walked} m along +X");
+    let selects: Vec<&Value> = frames
+        .iter()
+        .flat_map(|f| f["events"].as_array().into_iter().flatten())
+        .filter(|e| e["kind"] == "select")
+        .collect();
+    assert_eq!(selects.len(), 1, "{selects:?}");
+    assert_eq!(selects[0]["mesh"], "floor", "{}", selects[0]);
+}
+
+#[test]
 fn without_a_display_the_mirror_is_off_with_one_line() {
     let _g = lock();
     let dir = common::scratch("mirror", "no-display");

@@ -871,6 +871,8 @@ pub struct Desk {
     keep: bool,
     /// Poses kept so far (they are named `run 1`, `run 2`, ...).
     kept: u32,
+    /// The keys held in the window at the last [`Desk::handle`].
+    pub held: std::collections::HashSet<winit::keyboard::KeyCode>,
 }
 
 impl Desk {
@@ -899,6 +901,7 @@ impl Desk {
             measure: false,
             keep: false,
             kept: 0,
+            held: Default::default(),
             closed: false,
             scenes: 1,
             next_scene: false,
@@ -994,6 +997,7 @@ impl Desk {
             self.closed = true;
         }
         let pressed = std::mem::take(&mut input.pressed);
+        self.held.clone_from(&input.held);
         if pressed.contains(&crate::targets::hud::KEY) {
             mirror.hud.visible = !mirror.hud.visible;
             self.overlay = mirror.hud.visible;

@@ -2,6 +2,7 @@
 //! (`run`: an OpenXR session, or headless on an HMD profile), and the
 //! desktop window (`view`: the preview with a fly camera).
 
+pub mod desk_controllers;
 pub mod downsample;
 pub mod error_probe;
 pub mod framing;

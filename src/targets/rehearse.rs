@@ -245,7 +245,7 @@ fn controller(f: &FileHand, rest: [f64; 3], what: &str) -> Result<RemoteControll
 
 /// A pose at `p` turned `yaw` degrees about +Y (positive: to the left)
 /// then `pitch` about its +X (positive: up).
-fn pose(p: [f64; 3], yaw_deg: f64, pitch_deg: f64) -> RemotePose {
+pub(crate) fn pose(p: [f64; 3], yaw_deg: f64, pitch_deg: f64) -> RemotePose {
     let q = DQuat::from_rotation_y(yaw_deg.to_radians())
         * DQuat::from_rotation_x(pitch_deg.to_radians());
     RemotePose {
@@ -288,7 +288,7 @@ fn panel_target(name: &str, head: &RemotePose) -> std::result::Result<DVec3, Str
 
 /// The eyes the rehearsal's head carries: 64 mm apart, a headset's field
 /// of view (about 85° by 90°).
-fn head_of(center: RemotePose) -> RemoteHead {
+pub(crate) fn head_of(center: RemotePose) -> RemoteHead {
     let eye = |x: f32| {
         let pose = RemotePose {
             orientation: [0.0, 0.0, 0.0, 1.0],

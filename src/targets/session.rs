@@ -82,6 +82,9 @@ pub struct RunArgs {
     pub overlay: bool,
     /// `--rehearse FILE`: the script played into Monado's remote driver.
     pub rehearse: Option<std::sync::Arc<super::rehearse::Script>>,
+    /// `--desk-controllers`: the mirror window's keys drive the remote
+    /// driver's controllers.
+    pub desk_controllers: bool,
 }
 
 impl RunArgs {
@@ -109,6 +112,15 @@ impl RunArgs {
             return Err(Error::config(
                 "--rehearse",
                 "plays into an OpenXR runtime's controllers: it needs --xr openxr (Monado with its remote driver)",
+            ));
+        }
+        if self.desk_controllers
+            && (self.xr != XrMode::Openxr
+                || self.mirror == Some(crate::targets::mirror::MirrorMode::Off))
+        {
+            return Err(Error::config(
+                "--desk-controllers",
+                "drives an OpenXR runtime's controllers from the mirror window's keys: it needs --xr openxr and a mirror window (not --mirror off)",
             ));
         }
         if self.frames == Some(0) {

@@ -344,6 +344,9 @@ impl<'a> LoopState<'a> {
             last_shown: None,
             rehearsal: None,
             captured: false,
+            desk_controllers: args
+                .desk_controllers
+                .then(super::desk_controllers::DeskControllers::new),
         })
     }
 }
@@ -507,6 +510,8 @@ struct LoopState<'a> {
     rehearsal: Option<super::rehearse::Player>,
     /// `--capture` has written its frame.
     captured: bool,
+    /// `--desk-controllers`: the mirror's keys sent to the remote driver.
+    desk_controllers: Option<super::desk_controllers::DeskControllers>,
 }
 
 impl LoopState<'_> {
@@ -630,8 +635,17 @@ fn desk_work(
     session: &xr::Session<xr::Vulkan>,
     index: u64,
 ) -> Result<()> {
+    if st.desk_controllers.is_some() && live.mirror.is_none() {
+        return Err(Error::config(
+            "--desk-controllers",
+            "no mirror window opened (is there a display?): the keys are read in it",
+        ));
+    }
     if let Some(m) = live.mirror.as_mut() {
         let switched = st.desk.handle(m, index);
+        if let Some(d) = st.desk_controllers.as_mut() {
+            d.step(&st.desk.held)?;
+        }
         if let Some(d) = live.driver.as_ref() {
             let section = st
                 .interaction

@@ -140,6 +140,22 @@ impl Xvfb {
         );
     }
 
+    /// Holds `key` down in window `id` for `hold`, then lets it go.
+    pub fn hold(&self, id: u32, key: &str, hold: Duration) {
+        let id = id.to_string();
+        self.xdotool(&["windowfocus", &id]);
+        self.xdotool(&["mousemove", "--window", &id, "20", "20"]);
+        assert!(
+            self.xdotool(&["keydown", key]).status.success(),
+            "xdotool keydown {key}"
+        );
+        std::thread::sleep(hold);
+        assert!(
+            self.xdotool(&["keyup", key]).status.success(),
+            "xdotool keyup {key}"
+        );
+    }
+
     /// Asks window `id` to close as a window manager does: a
     /// WM_PROTOCOLS client message carrying WM_DELETE_WINDOW.
     pub fn close(&self, id: u32) {
