@@ -218,6 +218,7 @@ fn md_group(s: &mut String, g: &Group) {
     let (head, rows) = group_rows(g);
     let head: Vec<String> = head.iter().map(|h| h.to_string()).collect();
     md_table(s, &head, &rows);
+    md_sample_notes(s, g);
     let (passes, rows) = pass_rows(g);
     let _ = writeln!(s, "\nGPU ms per pass (p50):\n");
     let head: Vec<String> = std::iter::once("config".to_string())
@@ -245,6 +246,39 @@ fn md_group(s: &mut String, g: &Group) {
         let _ = writeln!(s, "\nFoveation paths:\n");
         for r in paths {
             let _ = writeln!(s, "- {}: {}", r.name, r.renderer.foveation);
+        }
+    }
+}
+
+/// Under the main table: how many frames the figures rest on (with the
+/// spread where they are few), and the configurations whose technique did
+/// not run here (never ranked).
+fn md_sample_notes(s: &mut String, g: &Group) {
+    let mut counts: Vec<usize> = g.results.iter().map(|r| r.gpu_frame_ms.n).collect();
+    counts.sort_unstable();
+    counts.dedup();
+    let counts: Vec<String> = counts.iter().map(usize::to_string).collect();
+    let few = g
+        .results
+        .iter()
+        .any(|r| r.gpu_frame_ms.n < super::runner::FEW_FRAMES);
+    let _ = writeln!(
+        s,
+        "\nGPU and frame times are over {} measured frames per configuration{}.",
+        counts.join(" or "),
+        if few {
+            "; with so few, a time differs from run to run by about its standard deviation (sd), shown beside it, and a speed-up near 1 is no evidence either way"
+        } else {
+            ""
+        }
+    );
+    for r in &g.results {
+        if let Some(why) = r.not_applied() {
+            let _ = writeln!(
+                s,
+                "\nNot applied: {} — {why}. Its figures are those of the configuration without it; it is not ranked.",
+                r.name
+            );
         }
     }
 }
@@ -377,6 +411,58 @@ fn md_moving(s: &mut String, g: &Group) {
 #[cfg(test)]
 mod tests {
     use super::*;
+
+    fn result(name: &str, opt: &str, n: usize, foveation: &str) -> ConfigResult {
+        let mut r = ConfigResult {
+            name: name.into(),
+            opt: opt.into(),
+            ..ConfigResult::default()
+        };
+        r.gpu_frame_ms.n = n;
+        r.gpu_frame_ms.p50 = 4.0;
+        r.gpu_frame_ms.std = 0.25;
+        r.renderer.foveation = foveation.into();
+        r
+    }
+
+    #[test]
+    fn few_frames_show_their_spread_and_a_fallback_is_marked() {
+        let off = "off: lavapipe offers no VK_KHR_fragment_shading_rate attachment";
+        let g = Group {
+            baseline: "base".into(),
+            results: vec![
+                result("base", "multiview", 3, "off"),
+                result("foveation-medium", "multiview,foveation", 3, off),
+            ],
+            ..Group::default()
+        };
+        let mut s = String::new();
+        md_group(&mut s, &g);
+        assert!(s.contains("4.000 (n=3, sd 0.250)"), "{s}");
+        assert!(
+            s.contains("over 3 measured frames per configuration; with so few"),
+            "{s}"
+        );
+        assert!(
+            s.contains("foveation-medium (`multiview,foveation`) — not applied"),
+            "{s}"
+        );
+        assert!(
+            s.contains("Not applied: foveation-medium — foveation fell back"),
+            "{s}"
+        );
+        assert!(!s.contains("Not applied: base"), "{s}");
+        // With enough frames: the plain time, no caveat.
+        let g = Group {
+            baseline: "base".into(),
+            results: vec![result("base", "multiview", 30, "off")],
+            ..Group::default()
+        };
+        let mut s = String::new();
+        md_group(&mut s, &g);
+        assert!(s.contains("| 4.000 |"), "{s}");
+        assert!(!s.contains("with so few"), "{s}");
+    }
 
     #[test]
     fn csv_quotes_opt_lists() {

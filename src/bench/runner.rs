@@ -244,6 +244,36 @@ pub struct ConfigResult {
     pub aq: Option<AqSummary>,
 }
 
+/// Below this many measured frames a GPU time is shown with its sample
+/// size and spread.
+pub const FEW_FRAMES: usize = 10;
+
+impl ConfigResult {
+    /// Why a technique this configuration asks for did not run on this
+    /// device (foveation without a shading-rate attachment falls back to
+    /// off): such a configuration is marked "not applied" in the reports
+    /// and is never ranked or chosen. None when everything it asks for ran.
+    pub fn not_applied(&self) -> Option<String> {
+        let asks_foveation = self
+            .opt
+            .split(',')
+            .any(|o| o.trim().starts_with("foveation") && o.trim() != "foveation=off");
+        (asks_foveation && self.renderer.foveation.starts_with("off"))
+            .then(|| format!("foveation fell back ({})", self.renderer.foveation))
+    }
+
+    /// The GPU frame time p50 for a table: with the sample size and the
+    /// standard deviation when it rests on few frames.
+    pub fn gpu_p50_text(&self) -> String {
+        let g = &self.gpu_frame_ms;
+        if g.n < FEW_FRAMES {
+            format!("{:.3} (n={}, sd {:.3})", g.p50, g.n, g.std)
+        } else {
+            format!("{:.3}", g.p50)
+        }
+    }
+}
+
 /// The flicker of one region of the eye image.
 #[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
 pub struct RegionFlicker {

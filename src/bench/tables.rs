@@ -56,8 +56,11 @@ pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
         .map(|r| {
             let e = r.error.as_ref();
             vec![
-                format!("{} (`{}`)", r.name, r.opt),
-                format!("{:.3}", r.gpu_frame_ms.p50),
+                match r.not_applied() {
+                    Some(_) => format!("{} (`{}`) — not applied", r.name, r.opt),
+                    None => format!("{} (`{}`)", r.name, r.opt),
+                },
+                r.gpu_p50_text(),
                 r.gpu_speedup.map_or("–".into(), |s| format!("{s:.2}×")),
                 format!(
                     "{:.3} / {:.3} ({} in flight)",
@@ -159,6 +162,7 @@ pub fn target_lines(g: &Group) -> Vec<String> {
     if let Some(cap) = base.flicker {
         let qualifies = |r: &&ConfigResult| {
             r.name != g.baseline
+                && r.not_applied().is_none()
                 && r.error.is_some_and(|e| e.flip_mean <= 0.01)
                 && r.flicker.is_some_and(|f| f <= cap)
         };

@@ -306,9 +306,10 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
             if fits(r) { "within" } else { "over  " },
             goal.budget_ms,
             flip_text(r),
-            match (flip(r), goal.max_flip) {
-                (None, _) => ", so it is left out".to_string(),
-                (Some(f), Some(m)) if f > m => format!(" over the cap {m}"),
+            match (r.not_applied(), flip(r), goal.max_flip) {
+                (Some(why), ..) => format!(" — not applied here: {why}, so it is left out"),
+                (None, None, _) => ", so it is left out".to_string(),
+                (None, Some(f), Some(m)) if f > m => format!(" over the cap {m}"),
                 _ => String::new(),
             } + &match (r.flicker, max_flicker) {
                 (_, None) => String::new(),
@@ -324,7 +325,7 @@ pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     let ok: Vec<(&ConfigResult, f64)> = cands
         .iter()
         .copied()
-        .filter(|r| fits(r))
+        .filter(|r| fits(r) && r.not_applied().is_none())
         .filter_map(|r| Some((r, flip(r)?)))
         .filter(|&(_, f)| goal.max_flip.is_none_or(|m| f <= m))
         .filter(|&(r, _)| max_flicker.is_none_or(|m| r.flicker.is_some_and(|f| f <= m)))
@@ -470,6 +471,33 @@ mod tests {
             max_flip,
             max_flicker: None,
         }
+    }
+
+    #[test]
+    fn a_technique_that_fell_back_is_never_chosen() {
+        // Foveation asked for, but the device had no shading-rate
+        // attachment: it rendered as the baseline, with its error, and
+        // would otherwise win on least error within the budget.
+        let mut fell = result("foveation-medium", 4.0, Some(0.0));
+        fell.opt = "multiview,foveation=medium".into();
+        fell.renderer.foveation =
+            "off: lavapipe offers no VK_KHR_fragment_shading_rate attachment".into();
+        let r = with(vec![fell.clone()]);
+        let c = choose(&r, &goal(10.0, None)).unwrap();
+        assert_eq!(c.chosen.name, "mid");
+        let line = c
+            .why
+            .iter()
+            .find(|l| l.starts_with("foveation-medium"))
+            .unwrap();
+        assert!(
+            line.contains("not applied here: foveation fell back"),
+            "{line}"
+        );
+        // Where foveation ran it is a candidate like any other.
+        fell.renderer.foveation = "vk-khr-fragment-shading-rate (16x16 texels)".into();
+        let c = choose(&with(vec![fell]), &goal(10.0, None)).unwrap();
+        assert_eq!(c.chosen.name, "foveation-medium");
     }
 
     #[test]
