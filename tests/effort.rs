@@ -685,3 +685,32 @@ fn mffr_depth_split_draws_less_and_changes_no_pixel() {
     }
     assert_eq!(ctx.validation_messages(), 0, "{:?}", ctx.validation_log());
 }
+
+#[test]
+fn a_fallback_is_said_once() {
+    let dir = common::scratch("effort", "said-once");
+    let out = std::process::Command::new(env!("CARGO_BIN_EXE_vergence"))
+        .args([
+            "render",
+            "--scene",
+            "factory:50",
+            "--width",
+            "48",
+            "--height",
+            "40",
+        ])
+        .args(["--opt", "foveation=high", "--out"])
+        .arg(&dir)
+        .env("NO_COLOR", "1")
+        .output()
+        .expect("vergence runs");
+    assert!(out.status.success());
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    let said = stderr
+        .lines()
+        .filter(|l| l.contains("foveation High"))
+        .count();
+    let ctx = common::context();
+    let expected = usize::from(ctx.caps.shading_rate_texel.is_none());
+    assert_eq!(said, expected, "{stderr}");
+}

@@ -62,7 +62,6 @@ impl ShadingRate {
                     " nor VK_EXT_fragment_density_map"
                 }
             );
-            tracing::warn!("foveation {level:?} requested; {path}");
             eprintln!("warning: foveation {level:?} falls back to {path}");
             return Ok((None, path));
         };
