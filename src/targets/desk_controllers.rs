@@ -98,15 +98,23 @@ impl DeskControllers {
         self.aim = turned(self.aim, held, dt);
         let stream = match &mut self.stream {
             Some(s) => s,
-            None => self.stream.insert(remote::connect(Duration::from_secs(10)).map_err(|e| {
-                Error::config(
-                    "--desk-controllers",
-                    format!(
-                        "cannot reach Monado's remote driver on 127.0.0.1:{} ({e}); start monado-service with P_OVERRIDE_ACTIVE_CONFIG=remote",
-                        remote::PORT
-                    ),
-                )
-            })?),
+            None => {
+                let unreachable = |e: std::io::Error| {
+                    Error::config(
+                        "--desk-controllers",
+                        format!(
+                            "cannot reach Monado's remote driver on 127.0.0.1:{} ({e}); start monado-service with P_OVERRIDE_ACTIVE_CONFIG=remote",
+                            remote::PORT
+                        ),
+                    )
+                };
+                let s = remote::connect(Duration::from_secs(10)).map_err(unreachable)?;
+                // Sent from the frame loop: draining what the driver sent
+                // must not wait (a blocking read waits out its 200 ms
+                // timeout every frame).
+                s.set_nonblocking(true).map_err(unreachable)?;
+                self.stream.insert(s)
+            }
         };
         let head = head_of(pose([0.0, 1.6, 0.0], 0.0, 0.0));
         let packet = remote::encode_with(&head, hands(held, self.aim).map(Some));
