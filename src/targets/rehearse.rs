@@ -349,6 +349,11 @@ fn play(script: &Script) -> std::result::Result<(), String> {
             remote::PORT
         )
     })?;
+    // Draining what the driver sent must not wait out the read timeout
+    // (200 ms) before each packet: steps would start late.
+    stream
+        .set_nonblocking(true)
+        .map_err(|e| format!("the remote driver's connection: {e}"))?;
     for step in &script.steps {
         tracing::info!("rehearse: {}", step.name);
         let packet = remote::encode_with(&head_of(step.head), step.hands.map(Some));
