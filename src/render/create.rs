@@ -179,19 +179,12 @@ impl Renderer {
             (Some(path), _) => tracing::info!("inset: {path}"),
             _ => {}
         }
-        r.passes = Passes::new(&r.pipeline_setup(), config, extent, slots)?;
-        if let Some(cloud) = scene.points.as_ref() {
-            config.refuse_for_points()?;
-            r.passes.points = Some(passes::points::PointsPass::new(
-                &r.pipeline_setup(),
-                cloud,
-                extent,
-                &r.ubos(),
-                config.point_size as f32,
-                config.points_pipeline,
-                config.edl,
-            )?);
-        }
+        let ubos = r.ubos();
+        let points = scene
+            .points
+            .as_deref()
+            .map(|cloud| (cloud, ubos.as_slice()));
+        r.passes = Passes::new(&r.pipeline_setup(), config, (extent, slots), points)?;
         Ok(())
     }
 

@@ -96,12 +96,13 @@ impl Renderer {
         self.per_slot[slot]
             .ubo
             .write(0, as_bytes(std::slice::from_ref(&data)))?;
-        if let Some(mask) = self.passes.stencil_mask.as_mut() {
-            mask.upload(slot, rig)?;
-        }
-        if let Some(p) = self.passes.points.as_mut() {
-            let budget = self.config.points_budget;
-            stats.points_selected = Some(p.select(slot, rig, self.config.near, budget)?);
+        let prepare = passes::technique::Prepare {
+            slot,
+            rig,
+            config: &self.config,
+        };
+        for t in &mut self.passes.techniques {
+            t.prepare(&prepare, &mut stats)?;
         }
         let t1 = Instant::now();
         stats.cpu_ms.batch = ms(t0, t1);
@@ -581,12 +582,22 @@ impl Renderer {
             let eye = scopes[chunk.scope].1;
             let mut calls = 0;
             if chunk.first {
-                if let Some(mask) = &passes.stencil_mask {
-                    calls += mask.record(&rec, slot, eye);
-                }
-                if let Some(rdm) = &passes.rdm {
-                    calls += rdm.record(&rec, extent, eye);
-                }
+                let hook = passes::technique::ScopeHook {
+                    rec: &rec,
+                    slot,
+                    eye,
+                    extent,
+                    checkerboard: true,
+                    quadrants: 1,
+                    lms: None,
+                    twins: None,
+                    floor: false,
+                };
+                calls += passes
+                    .techniques
+                    .iter()
+                    .map(|t| t.in_scope(&hook))
+                    .sum::<u64>();
             }
             let run = chunk.run.clone();
             calls += passes
@@ -694,24 +705,22 @@ impl Renderer {
             (None, Some(v)) => v,
             (None, None) => return,
         };
-        let contents = SetContents {
+        let mut contents = SetContents {
             frame: &self.per_slot[slot].ubo,
             scene: self.scene(),
             visible,
-            hidden: self.passes.stencil_mask.as_ref().map(|m| m.buffer(slot)),
-            filled: self
-                .passes
-                .rdm
-                .as_ref()
-                .zip(self.targets.as_ref())
-                .and_then(|(rdm, targets)| rdm.filled_images(targets)),
+            hidden: None,
+            filled: None,
             far_field: self.passes.far.as_ref().map(FarField::images).or(self
                 .passes
                 .lms
                 .as_ref()
                 .and_then(|l| l.images())),
-            points: self.passes.points.as_ref().map(|p| p.keys(slot)),
+            points: None,
         };
+        for t in &self.passes.techniques {
+            t.bind(slot, self.targets.as_ref(), &mut contents);
+        }
         self.descriptors.write(&self.ctx, slot, &contents);
     }
 

@@ -497,7 +497,7 @@ impl Renderer {
 
     /// Points in the scene's cloud (None: no cloud).
     pub fn points_total(&self) -> Option<u64> {
-        self.passes.points.as_ref().map(|p| p.total())
+        self.report().points_total
     }
 
     /// Whether the transient attachments use lazily allocated memory.

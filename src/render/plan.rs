@@ -11,6 +11,7 @@
 //! `add_to_graph`) and kajiya (`world_render_passes.rs`): a list of steps
 //! decided first, recorded second.
 
+pub use super::passes::technique::AfterResolve;
 use crate::view::inset::PixelRect;
 
 /// Which part of the frame's drawing a scope holds.
@@ -115,8 +116,9 @@ pub struct ScopeStep {
 pub enum Step {
     /// The GPU cull (its early phase with occlusion).
     GpuCull,
-    /// The points' compute rasterization.
-    PointsRaster,
+    /// The hooked techniques' work before the scopes (the points'
+    /// compute rasterization).
+    BeforeScopes,
     /// The attachments' layout barriers at the frame's start.
     BeginBarriers,
     /// The pipeline-statistics query opens.
@@ -127,10 +129,10 @@ pub enum Step {
     LateCull,
     /// A rendering scope.
     Scope(ScopeStep),
-    /// The sky behind the resolved colour (`resolved-sky`).
-    ResolvedSky,
-    /// RDM's fill of the checkerboard's holes.
-    RdmFill,
+    /// The hooked techniques' work after the scopes, at `AfterResolve`
+    /// (the sky behind the resolved colour, RDM's fill of the
+    /// checkerboard's holes).
+    AfterResolve(AfterResolve),
     /// LMS's resample into the eye images.
     LmsResample,
     /// The inset's composite of the wide and inset views.
@@ -208,7 +210,7 @@ pub fn frame(input: &PlanInput) -> Vec<Step> {
         steps.push(Step::GpuCull);
     }
     if input.points && input.points_compute && !input.floor {
-        steps.push(Step::PointsRaster);
+        steps.push(Step::BeforeScopes);
     }
     steps.push(Step::BeginBarriers);
     steps.push(Step::BeginStats);
@@ -231,16 +233,13 @@ pub fn frame(input: &PlanInput) -> Vec<Step> {
     // holds premultiplied colour and coverage, which the resample's
     // bilinear reads keep: "under" is linear in them).
     let sky = input.resolved_sky && !input.floor;
-    if sky && input.lms.is_none() {
-        steps.push(Step::ResolvedSky);
-    }
-    if input.rdm {
-        steps.push(Step::RdmFill);
+    if (sky && input.lms.is_none()) || input.rdm {
+        steps.push(Step::AfterResolve(AfterResolve::Resolved));
     }
     if input.lms.is_some() {
         steps.push(Step::LmsResample);
         if sky {
-            steps.push(Step::ResolvedSky);
+            steps.push(Step::AfterResolve(AfterResolve::Resampled));
         }
     }
     if input.inset.is_some_and(|i| !i.quad) && !input.floor {

@@ -3,6 +3,7 @@
 //! geometry, then walks it, each step handed to the pass that does it.
 
 use super::batches::Batches;
+use super::passes::technique::{FrameHook, ScopeHook};
 use super::passes::{Recorder, Scope};
 use super::plan::{self, Draws, InsetInput, PlanInput, ScopePart, ScopeStep, Step, Target};
 use super::{attachments, pixel_area, FloorKind, Renderer};
@@ -50,24 +51,43 @@ impl Renderer {
             jitter: i.jitter(),
             quad: self.quad,
         });
-        PlanInput {
+        let mut input = PlanInput {
             two_pass: self.config.stereo == StereoMode::TwoPass,
             extent: size(self.extent),
             floor,
             gpu_cull: p.gpu_cull.is_some(),
             occlusion: p.gpu_cull.as_ref().is_some_and(|g| g.occlusion()),
             gpu_inset_lists: p.gpu_cull.as_ref().is_some_and(|g| g.inset_lists()),
-            points: p.points.is_some(),
-            points_compute: p.points.as_ref().is_some_and(|pt| pt.computes()),
+            points: false,
+            points_compute: false,
             far: p.far.as_ref().is_some_and(|f| f.frame().is_some()),
             far_pass: p.far.is_some(),
             inset,
             lms: p.lms.as_ref().map(|l| size(l.size())),
-            resolved_sky: p.resolved_sky.is_some(),
-            rdm: p.rdm.is_some(),
-            stencil_mask: p.stencil_mask.is_some(),
+            resolved_sky: false,
+            rdm: false,
+            stencil_mask: false,
             mask_in_depth: self.mask_in_depth,
             parallel: self.parallel.is_some(),
+        };
+        for t in &p.techniques {
+            t.plan(&mut input);
+        }
+        input
+    }
+
+    /// What the hooks outside the scopes see of frame `f`.
+    fn frame_hook<'a>(&'a self, f: &'a Frame) -> FrameHook<'a> {
+        FrameHook {
+            rec: &f.rec,
+            slot: self.slot,
+            extent: self.extent,
+            view_mask: self.view_mask(),
+            targets: self.targets(),
+            inset: self.passes.inset.as_ref(),
+            lms: self.passes.lms.as_ref(),
+            quad: self.quad,
+            floor: f.floor.is_some(),
         }
     }
 
@@ -83,9 +103,10 @@ impl Renderer {
                 }
                 0
             }
-            Step::PointsRaster => {
-                if let Some(pt) = &p.points {
-                    pt.record_raster(ctx, cmd, q, (self.slot, 2));
+            Step::BeforeScopes => {
+                let hook = self.frame_hook(f);
+                for t in &p.techniques {
+                    t.before_scopes(&hook, q);
                 }
                 0
             }
@@ -118,35 +139,11 @@ impl Renderer {
                 0
             }
             Step::Scope(s) => self.record_scope(f, q, s),
-            Step::ResolvedSky => p.resolved_sky.as_ref().map_or(0, |s| {
-                let mask = self.view_mask();
-                let wide = p.inset.as_ref().map_or(0, |i| {
-                    let jitter = if self.quad { [0.0; 2] } else { i.jitter() };
-                    let area = (i.wide_extent(self.extent), mask, jitter);
-                    s.record(&f.rec, q, &i.wide.sets, area)
-                });
-                let (sets, extent) = (&targets.sets, self.extent);
-                wide + match p.lms {
-                    // Under the resample's output.
-                    Some(_) => s.record_composed(&f.rec, q, sets, extent, mask),
-                    None => s.record(&f.rec, q, sets, (extent, mask, [0.0; 2])),
-                }
-            }),
-            Step::RdmFill => match (&p.rdm_in_place, &p.inset, &p.lms) {
-                // In the images the later passes read: a dispatch, not a
-                // draw.
-                (Some(fill), Some(inset), _) => {
-                    fill.record(&f.rec, q, &inset.wide.sets, inset.wide_extent(self.extent));
-                    0
-                }
-                (Some(fill), None, Some(lms)) => {
-                    fill.record(&f.rec, q, &lms.targets.sets, lms.size());
-                    0
-                }
-                _ => p.rdm.as_ref().map_or(0, |r| {
-                    r.record_fill(&f.rec, q, targets, self.extent, self.view_mask())
-                }),
-            },
+            Step::AfterResolve(when) => {
+                let hook = self.frame_hook(f);
+                let hooks = p.techniques.iter();
+                hooks.map(|t| t.after_resolve(&hook, q, *when)).sum()
+            }
             Step::LmsResample => p.lms.as_ref().map_or(0, |l| {
                 l.record_resample(&f.rec, q, targets, self.extent, self.view_mask())
             }),
@@ -236,8 +233,8 @@ impl Renderer {
         draw_calls
     }
 
-    /// What a scope draws before its list: the stencil mask, RDM's
-    /// checkerboard and the points' composite.
+    /// What a scope draws before its list: the hooked techniques' draws
+    /// (the stencil mask, RDM's checkerboard, the points' composite).
     fn scope_masks(
         &self,
         f: &Frame,
@@ -247,38 +244,25 @@ impl Renderer {
         if !s.masks {
             return 0;
         }
-        let (p, rec, eye) = (&self.passes, &f.rec, s.eye);
-        let mut draw_calls = 0;
-        if let Some(mask) = &p.stencil_mask {
-            // Through each LMS quadrant's w scaling, as the scene is drawn.
-            for k in 0..s.quadrants {
-                if let Some(l) = p.lms.as_ref().filter(|_| s.quadrants > 1) {
-                    l.set_quadrant(rec, Some(k));
-                }
-                draw_calls += match twins.and_then(|w| w.hidden) {
-                    Some(pipeline) => mask.record_using(rec, pipeline, self.slot, eye),
-                    None => mask.record(rec, self.slot, eye),
-                };
-            }
-            if let Some(l) = p.lms.as_ref().filter(|_| s.quadrants > 1) {
-                l.set_quadrant(rec, None);
-            }
-        }
-        if let Some(rdm) = p.rdm.as_ref().filter(|_| s.checkerboard) {
-            let extent = vk::Extent2D {
+        let hook = ScopeHook {
+            rec: &f.rec,
+            slot: self.slot,
+            eye: s.eye,
+            extent: vk::Extent2D {
                 width: s.extent[0],
                 height: s.extent[1],
-            };
-            draw_calls += rdm.record(rec, extent, eye);
-        }
-        if let Some(points) = p.points.as_ref().filter(|_| f.floor.is_none()) {
-            let extent = vk::Extent2D {
-                width: s.extent[0],
-                height: s.extent[1],
-            };
-            draw_calls += points.record_in_scope(rec, eye, extent);
-        }
-        draw_calls
+            },
+            checkerboard: s.checkerboard,
+            quadrants: s.quadrants,
+            lms: self.passes.lms.as_ref(),
+            twins,
+            floor: f.floor.is_some(),
+        };
+        self.passes
+            .techniques
+            .iter()
+            .map(|t| t.in_scope(&hook))
+            .sum()
     }
 
     /// A scope's list (once per LMS quadrant) and its overlay.

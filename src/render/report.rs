@@ -30,6 +30,10 @@ pub struct RendererReport {
     /// max)", or the point-list pipeline and why (absent without a cloud).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub points_path: Option<String>,
+    /// Points in the scene's cloud (None: no cloud); stats.json gives it
+    /// its own key.
+    #[serde(skip)]
+    pub points_total: Option<u64>,
     /// Per-view render areas: offered by the device or not, and why
     /// vergence does not use them.
     #[serde(default)]
@@ -40,17 +44,22 @@ impl Renderer {
     /// The per-technique choices of this renderer, as the reports embed
     /// them.
     pub fn report(&self) -> RendererReport {
-        RendererReport {
+        let mut r = RendererReport {
             foveation: self.foveation_path.clone(),
             inset_path: self.inset_path.clone(),
             lms: self.passes.lms.as_ref().map(|l| l.report()),
             lod: self.lod.clone(),
-            points_path: self.passes.points.as_ref().map(|p| p.path().to_string()),
+            points_path: None,
+            points_total: None,
             per_view_render_areas: per_view_render_areas(
                 self.ctx.caps.per_view_render_areas,
                 &self.ctx.device_name,
             ),
+        };
+        for t in &self.passes.techniques {
+            t.report(&mut r);
         }
+        r
     }
 }
 

@@ -141,8 +141,8 @@ impl Renderer {
             stats.triangles += drawn.triangles;
             stats.gpu_cull = Some(drawn.cull);
         }
-        if let Some(p) = self.passes.points.as_mut() {
-            stats.points_drawn = Some(p.read(slot)?);
+        for t in &mut self.passes.techniques {
+            t.collect(slot, &mut stats)?;
         }
         self.completed.push_back(stats);
         Ok(())

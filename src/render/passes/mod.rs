@@ -23,6 +23,7 @@ pub mod rdm_in_place;
 pub mod resolved_sky;
 pub mod sampled;
 pub mod stencil_mask;
+pub mod technique;
 
 use super::attachments::{AttachmentSet, Attachments, TargetViews, COLOR_FORMAT};
 use super::batches::{Draw, PipelineKey};
@@ -31,20 +32,20 @@ use super::submission::DrawBinding;
 use crate::config::{PerDraw, RenderConfig};
 use crate::error::Result;
 use crate::gpu::barrier::{self, Use};
-use crate::gpu::memory::{as_bytes, Image};
+use crate::gpu::memory::{as_bytes, Buffer, Image};
 use crate::gpu::pipeline::{Blend, GraphicsPipelineDesc};
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
+use crate::scene::points::PointCloud;
 use ash::vk;
 use far_field::FarField;
 use floor::Floor;
 use forward::Forward;
 use gpu_cull::GpuCull;
 use overlay::Overlay;
-use rdm::Rdm;
 use std::collections::HashMap;
-use stencil_mask::StencilMask;
+use technique::Technique;
 
 /// The passes a renderer records, each built only when its configuration
 /// asks for it.
@@ -56,12 +57,6 @@ pub struct Passes {
     pub floor: Floor,
     /// Controllers, rays, arcs, markers and labels.
     pub overlay: Overlay,
-    /// HMD stencil mask (`stencil-mask`).
-    pub stencil_mask: Option<StencilMask>,
-    /// Radial density masking (`rdm`).
-    pub rdm: Option<Rdm>,
-    /// RDM's fill in place in the inset's wide views or LMS's image.
-    pub rdm_in_place: Option<rdm_in_place::RdmInPlace>,
     /// Monoscopic far field (`mffr`).
     pub far: Option<FarField>,
     /// GPU-driven culling (`gpu-cull`; built by the renderer, which has the
@@ -74,24 +69,36 @@ pub struct Passes {
     pub inset_wide: Option<inset_wide::WidePipelines>,
     /// Lens-matched shading (`lms`): the LMS targets and the resample.
     pub lms: Option<lms::LmsPass>,
-    /// The scene's point cloud (built by the renderer, which has the
-    /// scene and the frame uniform buffers).
-    pub points: Option<points::PointsPass>,
-    /// The sky drawn under the resolved image (`resolved-sky`).
-    pub resolved_sky: Option<resolved_sky::ResolvedSky>,
+    /// The hooked techniques the configuration asks for (stencil mask,
+    /// sky after the resolve, RDM, point cloud), in
+    /// [`technique::REGISTRY`]'s order.
+    pub techniques: Vec<Box<dyn Technique>>,
 }
 
 impl Passes {
     /// Builds the passes `config` enables for eyes of `extent` with `slots`
-    /// frame slots; on failure, destroys what it built.
+    /// frame slots (and the pass of the scene's point cloud, drawn with the
+    /// frame slots' uniform buffers); on failure, destroys what it built.
     pub fn new(
         setup: &PipelineSetup,
         config: &RenderConfig,
-        extent: vk::Extent2D,
-        slots: usize,
+        (extent, slots): (vk::Extent2D, usize),
+        points: Option<(&PointCloud, &[&Buffer])>,
     ) -> Result<Passes> {
         let mut p = Passes::default();
-        match p.build(setup, config, extent, slots) {
+        let built = p.build(setup, config, extent).and_then(|()| {
+            p.techniques = technique::build_all(&technique::Build {
+                setup,
+                config,
+                extent,
+                slots,
+                inset: p.inset.as_ref(),
+                lms: p.lms.as_ref(),
+                points,
+            })?;
+            Ok(())
+        });
+        match built {
             Ok(()) => Ok(p),
             Err(e) => {
                 p.destroy(setup.ctx);
@@ -100,25 +107,17 @@ impl Passes {
         }
     }
 
+    /// The passes that shape the frame's scopes (the hooked techniques
+    /// come after: RDM's fill goes into the inset's or LMS's images).
     fn build(
         &mut self,
         setup: &PipelineSetup,
         config: &RenderConfig,
         extent: vk::Extent2D,
-        slots: usize,
     ) -> Result<()> {
         self.forward = Forward::new(setup)?;
         self.floor = Floor::new(setup)?;
         self.overlay = Overlay::new(setup)?;
-        if config.stencil_mask {
-            self.stencil_mask = Some(StencilMask::new(setup, slots)?);
-        }
-        if config.resolved_sky {
-            self.resolved_sky = Some(resolved_sky::ResolvedSky::new(setup)?);
-        }
-        if let Some(radius) = config.rdm {
-            self.rdm = Some(Rdm::new(setup, radius, config.rdm_fill)?);
-        }
         if let Some(m) = config.mffr {
             self.far = Some(FarField::new(setup, m, extent, config.resolved_sky)?);
         }
@@ -182,16 +181,6 @@ impl Passes {
                 (path, config.rdm.is_some() && config.rdm_fill),
             )?);
         }
-        if let (Some(radius), true) = (config.rdm, config.rdm_fill) {
-            let sets = match (&self.inset, &self.lms) {
-                (Some(i), _) => Some(&i.wide.sets),
-                (_, Some(l)) => Some(&l.targets.sets),
-                _ => None,
-            };
-            if let Some(sets) = sets.filter(|s| !s.is_empty()) {
-                self.rdm_in_place = Some(rdm_in_place::RdmInPlace::new(setup.ctx, sets, radius)?);
-            }
-        }
         Ok(())
     }
 
@@ -200,14 +189,8 @@ impl Passes {
         self.forward.destroy(ctx);
         self.floor.destroy(ctx);
         self.overlay.destroy(ctx);
-        if let Some(p) = self.stencil_mask {
-            p.destroy(ctx);
-        }
-        if let Some(p) = self.rdm {
-            p.destroy(ctx);
-        }
-        if let Some(p) = self.rdm_in_place {
-            p.destroy(ctx);
+        for t in self.techniques {
+            t.destroy(ctx);
         }
         if let Some(p) = self.far {
             p.destroy(ctx);
@@ -222,12 +205,6 @@ impl Passes {
             p.destroy(ctx);
         }
         if let Some(p) = self.lms {
-            p.destroy(ctx);
-        }
-        if let Some(p) = self.points {
-            p.destroy(ctx);
-        }
-        if let Some(p) = self.resolved_sky {
             p.destroy(ctx);
         }
     }

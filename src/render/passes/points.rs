@@ -11,6 +11,7 @@
 //! the CPU, then f32) comes as a push constant, so a survey-coordinate
 //! cloud renders without jitter.
 
+use super::technique::{self, FrameHook, ScopeHook, Technique};
 use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::{Error, Result, VkContext};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
@@ -18,6 +19,11 @@ use crate::gpu::pipeline::{compute_pipeline, DescriptorSets, GraphicsPipelineDes
 use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
+use crate::render::attachments::Attachments;
+use crate::render::descriptors::SetContents;
+use crate::render::plan::PlanInput;
+use crate::render::report::RendererReport;
+use crate::render::FrameStats;
 use crate::scene::points::PointCloud;
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -732,5 +738,73 @@ fn upload_part(ctx: &Context, cloud: &PointCloud, from: usize, len: usize) -> Re
             dst.destroy(ctx);
             Err(e)
         }
+    }
+}
+
+/// Builds the pass for a scene with a point cloud (refused with the
+/// techniques that do not draw one, [`crate::config::RenderConfig::refuse_for_points`]).
+pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
+    let Some((cloud, frames)) = b.points else {
+        return Ok(None);
+    };
+    b.config.refuse_for_points()?;
+    let c = b.config;
+    let pass = PointsPass::new(
+        b.setup,
+        cloud,
+        b.extent,
+        frames,
+        c.point_size as f32,
+        c.points_pipeline,
+        c.edl,
+    )?;
+    Ok(Some(Box::new(pass)))
+}
+
+impl Technique for PointsPass {
+    fn name(&self) -> &'static str {
+        "points"
+    }
+
+    fn plan(&self, input: &mut PlanInput) {
+        input.points = true;
+        input.points_compute = self.computes();
+    }
+
+    fn prepare(&mut self, p: &technique::Prepare, stats: &mut FrameStats) -> Result<()> {
+        let c = p.config;
+        stats.points_selected = Some(self.select(p.slot, p.rig, c.near, c.points_budget)?);
+        Ok(())
+    }
+
+    fn bind(&self, slot: usize, _: Option<&Attachments>, set: &mut SetContents) {
+        set.points = Some(self.keys(slot));
+    }
+
+    fn before_scopes(&self, f: &FrameHook, q: &mut Queries) {
+        if self.computes() && !f.floor {
+            self.record_raster(f.rec.ctx, f.rec.cmd, q, (f.slot, 2));
+        }
+    }
+
+    fn in_scope(&self, s: &ScopeHook) -> u64 {
+        if s.floor {
+            return 0;
+        }
+        self.record_in_scope(s.rec, s.eye, s.extent)
+    }
+
+    fn collect(&mut self, slot: usize, stats: &mut FrameStats) -> Result<()> {
+        stats.points_drawn = Some(self.read(slot)?);
+        Ok(())
+    }
+
+    fn report(&self, r: &mut RendererReport) {
+        r.points_path = Some(self.path().to_string());
+        r.points_total = Some(self.total());
+    }
+
+    fn destroy(self: Box<Self>, ctx: &Context) {
+        PointsPass::destroy(*self, ctx);
     }
 }

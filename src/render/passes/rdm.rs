@@ -12,6 +12,8 @@
 //! the rendered pixels into a separate image that becomes the frame's
 //! output.
 
+use super::rdm_in_place::RdmInPlace;
+use super::technique::{self, AfterResolve, FrameHook, ScopeHook, Technique};
 use super::{destroy_pipelines, stencil_write, PipelineSetup, Recorder};
 use crate::error::{Result, VkContext};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
@@ -19,6 +21,8 @@ use crate::gpu::query::Queries;
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::render::attachments::Attachments;
+use crate::render::descriptors::SetContents;
+use crate::render::plan::PlanInput;
 use ash::vk;
 
 /// The reconstruction's pipeline and the sampler it reads the frame with.
@@ -32,6 +36,9 @@ pub struct Rdm {
     radius: f32,
     mask: vk::Pipeline,
     fill: Option<Fill>,
+    /// The fill in place, in the inset's wide views or LMS's image (which
+    /// the later passes read) instead of into the eye images.
+    in_place: Option<RdmInPlace>,
 }
 
 impl Rdm {
@@ -52,6 +59,7 @@ impl Rdm {
             radius,
             mask: mask.build(ctx)?,
             fill: None,
+            in_place: None,
         };
         if fill {
             let info = vk::SamplerCreateInfo::default()
@@ -133,10 +141,81 @@ impl Rdm {
     /// Destroys the pipelines and the sampler; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
         destroy_pipelines(ctx, [&self.mask]);
+        if let Some(p) = self.in_place {
+            p.destroy(ctx);
+        }
         if let Some(fill) = self.fill {
             destroy_pipelines(ctx, [&fill.pipeline]);
             // SAFETY: the device is idle; the sampler belongs to `self`.
             unsafe { ctx.device.destroy_sampler(fill.sampler, None) };
         }
+    }
+}
+
+/// Builds RDM with `rdm` (after the inset and LMS: with the fill, in their
+/// images when they have them).
+pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
+    let Some(radius) = b.config.rdm else {
+        return Ok(None);
+    };
+    let mut rdm = Rdm::new(b.setup, radius, b.config.rdm_fill)?;
+    let sets = match (b.inset, b.lms) {
+        (Some(i), _) => Some(&i.wide.sets),
+        (_, Some(l)) => Some(&l.targets.sets),
+        _ => None,
+    };
+    if let Some(sets) = sets.filter(|s| b.config.rdm_fill && !s.is_empty()) {
+        match RdmInPlace::new(b.setup.ctx, sets, radius) {
+            Ok(p) => rdm.in_place = Some(p),
+            Err(e) => {
+                rdm.destroy(b.setup.ctx);
+                return Err(e);
+            }
+        }
+    }
+    Ok(Some(Box::new(rdm)))
+}
+
+impl Technique for Rdm {
+    fn name(&self) -> &'static str {
+        "rdm"
+    }
+
+    fn plan(&self, input: &mut PlanInput) {
+        input.rdm = true;
+    }
+
+    fn bind(&self, _: usize, targets: Option<&Attachments>, set: &mut SetContents) {
+        set.filled = targets.and_then(|t| self.filled_images(t));
+    }
+
+    fn in_scope(&self, s: &ScopeHook) -> u64 {
+        if !s.checkerboard {
+            return 0;
+        }
+        self.record(s.rec, s.extent, s.eye)
+    }
+
+    /// The fill: in place in the images the later passes read (a
+    /// dispatch, not a draw), else into the eye images' `filled` ones.
+    fn after_resolve(&self, f: &FrameHook, q: &mut Queries, when: AfterResolve) -> u64 {
+        if when != AfterResolve::Resolved {
+            return 0;
+        }
+        match (&self.in_place, f.inset, f.lms) {
+            (Some(fill), Some(inset), _) => {
+                fill.record(f.rec, q, &inset.wide.sets, inset.wide_extent(f.extent));
+                0
+            }
+            (Some(fill), None, Some(lms)) => {
+                fill.record(f.rec, q, &lms.targets.sets, lms.size());
+                0
+            }
+            _ => self.record_fill(f.rec, q, f.targets, f.extent, f.view_mask),
+        }
+    }
+
+    fn destroy(self: Box<Self>, ctx: &Context) {
+        Rdm::destroy(*self, ctx);
     }
 }

@@ -28,6 +28,7 @@
 //! The stencil mask marks its hidden area covered (it writes alpha 1 there,
 //! colour untouched), so the area stays black as with the sky in the scope.
 
+use super::technique::{self, AfterResolve, FrameHook, Technique};
 use super::{destroy_pipelines, PipelineSetup, Recorder};
 use crate::error::Result;
 use crate::gpu::pipeline::{Blend, GraphicsPipelineDesc};
@@ -36,6 +37,7 @@ use crate::gpu::rendering::Load;
 use crate::gpu::shaders;
 use crate::gpu::Context;
 use crate::render::attachments::{self, AttachmentSet};
+use crate::render::plan::PlanInput;
 use ash::vk;
 
 /// The forward scope's colour clear with `resolved-sky`: transparent black,
@@ -123,5 +125,50 @@ impl ResolvedSky {
     /// Destroys the pipeline; the device must be idle.
     pub fn destroy(self, ctx: &Context) {
         destroy_pipelines(ctx, [&self.pipeline]);
+    }
+}
+
+/// Builds the pass with `resolved-sky`.
+pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
+    if !b.config.resolved_sky {
+        return Ok(None);
+    }
+    Ok(Some(Box::new(ResolvedSky::new(b.setup)?)))
+}
+
+impl Technique for ResolvedSky {
+    fn name(&self) -> &'static str {
+        "resolved-sky"
+    }
+
+    fn plan(&self, input: &mut PlanInput) {
+        input.resolved_sky = true;
+    }
+
+    /// Under the resolved wide views and eye images; with LMS under the
+    /// resample's output instead.
+    fn after_resolve(&self, f: &FrameHook, q: &mut Queries, when: AfterResolve) -> u64 {
+        let under = if f.lms.is_some() {
+            AfterResolve::Resampled
+        } else {
+            AfterResolve::Resolved
+        };
+        if f.floor || when != under {
+            return 0;
+        }
+        let wide = f.inset.map_or(0, |i| {
+            let jitter = if f.quad { [0.0; 2] } else { i.jitter() };
+            let area = (i.wide_extent(f.extent), f.view_mask, jitter);
+            self.record(f.rec, q, &i.wide.sets, area)
+        });
+        let sets = &f.targets.sets;
+        wide + match f.lms {
+            Some(_) => self.record_composed(f.rec, q, sets, f.extent, f.view_mask),
+            None => self.record(f.rec, q, sets, (f.extent, f.view_mask, [0.0; 2])),
+        }
+    }
+
+    fn destroy(self: Box<Self>, ctx: &Context) {
+        ResolvedSky::destroy(*self, ctx);
     }
 }

@@ -26,12 +26,17 @@
 //! Each frame slot has its own vertex buffer, rewritten only when the rig's
 //! meshes change (a runtime may send new ones).
 
+use super::technique::{self, ScopeHook, Technique};
 use super::{destroy_pipelines, stencil_write, PipelineSetup, Recorder};
 use crate::error::{Error, Result};
 use crate::gpu::memory::{as_bytes, Buffer, BufferDesc};
 use crate::gpu::pipeline::GraphicsPipelineDesc;
 use crate::gpu::shaders;
 use crate::gpu::Context;
+use crate::render::attachments::Attachments;
+use crate::render::descriptors::SetContents;
+use crate::render::plan::PlanInput;
+use crate::render::FrameStats;
 use crate::view::{HiddenArea, StereoRig};
 use ash::vk;
 use gpu_allocator::MemoryLocation;
@@ -216,5 +221,54 @@ impl StencilMask {
         for s in self.slots {
             s.buffer.destroy(ctx);
         }
+    }
+}
+
+/// Builds the mask with `stencil-mask`.
+pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
+    if !b.config.stencil_mask {
+        return Ok(None);
+    }
+    Ok(Some(Box::new(StencilMask::new(b.setup, b.slots)?)))
+}
+
+impl Technique for StencilMask {
+    fn name(&self) -> &'static str {
+        "stencil-mask"
+    }
+
+    fn plan(&self, input: &mut PlanInput) {
+        input.stencil_mask = true;
+    }
+
+    fn prepare(&mut self, p: &technique::Prepare, _: &mut FrameStats) -> Result<()> {
+        self.upload(p.slot, p.rig)
+    }
+
+    fn bind(&self, slot: usize, _: Option<&Attachments>, set: &mut SetContents) {
+        set.hidden = Some(self.buffer(slot));
+    }
+
+    /// Through each LMS quadrant's w scaling, as the scene is drawn.
+    fn in_scope(&self, s: &ScopeHook) -> u64 {
+        let lms = s.lms.filter(|_| s.quadrants > 1);
+        let mut draw_calls = 0;
+        for k in 0..s.quadrants {
+            if let Some(l) = lms {
+                l.set_quadrant(s.rec, Some(k));
+            }
+            draw_calls += match s.twins.and_then(|w| w.hidden) {
+                Some(pipeline) => self.record_using(s.rec, pipeline, s.slot, s.eye),
+                None => self.record(s.rec, s.slot, s.eye),
+            };
+        }
+        if let Some(l) = lms {
+            l.set_quadrant(s.rec, None);
+        }
+        draw_calls
+    }
+
+    fn destroy(self: Box<Self>, ctx: &Context) {
+        StencilMask::destroy(*self, ctx);
     }
 }

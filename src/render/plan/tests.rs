@@ -197,7 +197,7 @@ fn rdm_checkers_the_periphery_the_wide_views_or_the_eye_and_fills_it_before_the_
         assert!(scopes(&steps).iter().all(|s| s.checkerboard));
         let at = |want: Step| steps.iter().position(|s| *s == want);
         if lms.is_some() {
-            assert!(at(Step::RdmFill) < at(Step::LmsResample));
+            assert!(at(Step::AfterResolve(AfterResolve::Resolved)) < at(Step::LmsResample));
         }
     }
     let steps = frame(&PlanInput {
@@ -222,7 +222,7 @@ fn rdm_checkers_the_periphery_the_wide_views_or_the_eye_and_fills_it_before_the_
         ]
     );
     let at = |want: Step| steps.iter().position(|s| *s == want).unwrap();
-    assert!(at(Step::RdmFill) < at(Step::InsetComposite));
+    assert!(at(Step::AfterResolve(AfterResolve::Resolved)) < at(Step::InsetComposite));
 }
 
 #[test]
@@ -268,9 +268,9 @@ fn a_floor_frame_draws_the_floor_without_culling_sky_or_composites() {
     });
     for absent in [
         Step::GpuCull,
-        Step::PointsRaster,
+        Step::BeforeScopes,
         Step::LateCull,
-        Step::ResolvedSky,
+        Step::AfterResolve(AfterResolve::Resolved),
         Step::InsetComposite,
     ] {
         assert!(!steps.contains(&absent), "{absent:?} in {steps:?}");
@@ -306,7 +306,10 @@ fn with_lms_the_resolved_sky_goes_under_the_resampled_image() {
         ..base()
     });
     let at = |want: Step| steps.iter().position(|s| *s == want).unwrap();
-    assert_eq!(at(Step::ResolvedSky), at(Step::LmsResample) + 1);
+    assert_eq!(
+        at(Step::AfterResolve(AfterResolve::Resampled)),
+        at(Step::LmsResample) + 1
+    );
     assert!(scopes(&steps).iter().all(|s| s.sky_after_resolve));
 }
 
@@ -355,7 +358,7 @@ fn colour_is_covered_only_without_stencil_kept_draws_or_a_later_sky() {
         resolved_sky: true,
         ..base()
     });
-    assert!(sky.contains(&Step::ResolvedSky));
+    assert!(sky.contains(&Step::AfterResolve(AfterResolve::Resolved)));
     assert!(scopes(&sky)[0].sky_after_resolve);
     assert_eq!(
         scopes(&sky)[0].draws,
