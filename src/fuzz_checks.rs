@@ -33,7 +33,7 @@ pub fn cli_values(data: &[u8]) {
     }
     let mut c = crate::config::RenderConfig::default();
     if c.apply_opts(s, &crate::config::cull_names()).is_ok() {
-        if let Some(m) = c.mffr.and_then(|m| m.split) {
+        if let Some(m) = c.effort.mffr.and_then(|m| m.split) {
             assert!(m >= crate::config::MIN_MFFR_SPLIT_M);
         }
     }
@@ -65,9 +65,13 @@ pub fn rig_plan(data: &[u8]) {
         // A configuration's own keys reach its renderer settings.
         for c in &plan.configs {
             if let Ok(config) = plan.config_for(c) {
-                assert_eq!(config.record_threads, c.record_threads, "{}", c.name);
                 assert_eq!(
-                    config.per_draw,
+                    config.submission.record_threads, c.record_threads,
+                    "{}",
+                    c.name
+                );
+                assert_eq!(
+                    config.submission.per_draw,
                     c.per_draw.unwrap_or_default(),
                     "{}",
                     c.name

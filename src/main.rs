@@ -305,13 +305,21 @@ impl FrameOpts {
     /// The renderer configuration these options describe.
     fn config(&self) -> anyhow::Result<RenderConfig> {
         let mut config = RenderConfig {
-            stereo: self.stereo,
-            msaa: self.msaa,
-            frames_in_flight: self.frames_in_flight,
-            section: self.section,
-            record_threads: self.record_threads,
-            per_draw: self.per_draw,
-            budget_ms: self.budget_ms,
+            frame: vergence::config::FrameConfig {
+                stereo: self.stereo,
+                msaa: self.msaa,
+                section: self.section,
+                ..Default::default()
+            },
+            effort: vergence::config::EffortConfig {
+                budget_ms: self.budget_ms,
+                ..Default::default()
+            },
+            submission: vergence::config::SubmissionConfig {
+                frames_in_flight: self.frames_in_flight,
+                record_threads: self.record_threads,
+                per_draw: self.per_draw,
+            },
             ..RenderConfig::default()
         };
         if let Some(path) = &self.config {
@@ -553,11 +561,11 @@ fn render_command(a: RenderArgs) -> anyhow::Result<()> {
         distorted: a.preview.map(|PreviewMode::Distorted| a.distortion),
         head_turn_deg_s: a.head_turn,
     };
-    if job.config.timewarp.is_some() {
+    if job.config.simulator.timewarp.is_some() {
         vergence::bench::timewarp::check(&job)?;
     }
     let (mut stats, loaded, mut outputs) = headless::render_to_dir_keeping(&job)?;
-    if job.config.timewarp.is_some() {
+    if job.config.simulator.timewarp.is_some() {
         let t = vergence::bench::timewarp::measure(&job, &loaded, &mut outputs)?;
         println!(
             "timewarp={} ({:?}) at {} deg/s: {} frames warped, FLIP mean {:.4} (worst {:.4}), holes {:.3} %, border {:.3} %, warp {:.3} ms GPU vs render {:.3} ms",
@@ -584,8 +592,8 @@ fn render_command(a: RenderArgs) -> anyhow::Result<()> {
         stats.scene.name,
         stats.resolution[0],
         stats.resolution[1],
-        stats.config.stereo.name(),
-        stats.config.msaa,
+        stats.config.frame.stereo.name(),
+        stats.config.frame.msaa,
         stats.draw_calls,
         stats.instances_drawn,
         stats.triangles,
@@ -647,7 +655,9 @@ fn run_command(a: RunCli) -> anyhow::Result<()> {
             vergence::targets::kiosk::start_log(log)?;
         }
     }
-    if config.rdm_auto || config.foveation == vergence::view::foveation::Level::Lens(0) {
+    if config.effort.rdm_auto
+        || config.effort.foveation == vergence::view::foveation::Level::Lens(0)
+    {
         // Only the headless fallback profile has a lens; a
         // runtime's views carry none.
         let profile = (a.xr == XrMode::Headless)

@@ -41,9 +41,18 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
     // factory's on any machine's lavapipe (without culling a clean-clone CI
     // run measured 114 ms against 254, too close).
     let base = RenderConfig {
-        msaa: 4,
-        frames_in_flight: 1,
-        cull: vergence::config::Culling::Strategy(vergence::cull::Strategy::Superfrustum),
+        frame: vergence::config::FrameConfig {
+            msaa: 4,
+            ..Default::default()
+        },
+        culling: vergence::config::CullingConfig {
+            cull: vergence::config::Culling::Strategy(vergence::cull::Strategy::Superfrustum),
+            ..Default::default()
+        },
+        submission: vergence::config::SubmissionConfig {
+            frames_in_flight: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     // The two views' GPU cost at scale 1, without aq.
@@ -69,10 +78,11 @@ fn the_scale_drops_where_the_path_gets_expensive_and_recovers_without_allocating
         1.3 * t_sky < 0.7 * budget,
         "the views' costs ({t_sky:.2} and {t_dense:.2} ms) are too close for this test"
     );
-    let config = RenderConfig {
-        aq: true,
-        budget_ms: Some(budget),
-        ..base.clone()
+    let config = {
+        let mut rc = base.clone();
+        rc.effort.aq = true;
+        rc.effort.budget_ms = Some(budget);
+        rc
     };
     let before = ctx.validation_messages();
     let r = Renderer::new(ctx.clone(), &scene, &config, extent).unwrap();
@@ -176,19 +186,28 @@ fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool)
         height: SIZE,
     };
     let config = RenderConfig {
-        msaa: 4,
-        frames_in_flight: 1,
-        aq: true,
-        // No frame meets a microsecond.
-        budget_ms: Some(0.001),
-        inset: Some(vergence::config::Inset {
-            wide_scale: 0.5,
-            half_angle_deg: 20.0,
-            fov_given: true,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
             ..Default::default()
-        }),
-        stereo,
-        stencil_mask,
+        },
+        effort: vergence::config::EffortConfig {
+            aq: true,
+            // No frame meets a microsecond.
+            budget_ms: Some(0.001),
+            inset: Some(vergence::config::Inset {
+                wide_scale: 0.5,
+                half_angle_deg: 20.0,
+                fov_given: true,
+                ..Default::default()
+            }),
+            stencil_mask,
+            ..Default::default()
+        },
+        submission: vergence::config::SubmissionConfig {
+            frames_in_flight: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     // With aq-scale-only the controller stops at the lowest scale.
@@ -203,9 +222,10 @@ fn walk_down_the_rungs(stereo: vergence::config::StereoMode, stencil_mask: bool)
             })
             .collect::<Vec<_>>()
     };
-    let scale_only = frames_of(&RenderConfig {
-        aq_scale_only: true,
-        ..config.clone()
+    let scale_only = frames_of(&{
+        let mut rc = config.clone();
+        rc.effort.aq_scale_only = true;
+        rc
     });
     let last = scale_only.last().unwrap();
     assert_eq!((last.level, last.scale), (0, MIN_SCALE));
@@ -279,7 +299,7 @@ fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
         let mut c = RenderConfig::default();
         c.apply_opts(&format!("superfrustum,{opts}"), &cull_names())
             .unwrap();
-        c.frames_in_flight = 1;
+        c.submission.frames_in_flight = 1;
         c.validate().unwrap();
         c
     };
@@ -298,10 +318,11 @@ fn each_frame_equals_the_technique_at_the_size_it_was_drawn() {
         "lms",
         "lms=0.3,stencil-mask,two-pass",
     ] {
-        let adaptive = RenderConfig {
-            aq: true,
-            budget_ms: Some(0.001),
-            ..config(opts)
+        let adaptive = {
+            let mut rc = config(opts);
+            rc.effort.aq = true;
+            rc.effort.budget_ms = Some(0.001);
+            rc
         };
         let (results, images) = common::frame_by_frame(&ctx, &scene, &adaptive, &rigs, SIZE);
         let last = results.last().unwrap().aq.unwrap();

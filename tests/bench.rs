@@ -354,9 +354,9 @@ fn tune_writes_a_config_run_accepts() {
     let stats: serde_json::Value =
         serde_json::from_str(&std::fs::read_to_string(out.join("stats.json")).unwrap()).unwrap();
     let want = vergence::bench::plan::config_from_opt(&chosen.opt).unwrap();
-    assert_eq!(stats["config"]["stereo"], want.stereo.name());
-    assert_eq!(stats["config"]["cull"], want.cull.name());
-    assert_eq!(stats["config"]["msaa"], want.msaa);
+    assert_eq!(stats["config"]["stereo"], want.frame.stereo.name());
+    assert_eq!(stats["config"]["cull"], want.culling.cull.name());
+    assert_eq!(stats["config"]["msaa"], want.frame.msaa);
 }
 
 fn fails(args: &[&str], expect: &str) {

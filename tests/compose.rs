@@ -107,9 +107,10 @@ fn every_accepted_pair_renders() {
         let Ok(config) = pair_config(a, b) else {
             continue;
         };
-        let config = RenderConfig {
-            frames_in_flight: 1,
-            ..config
+        let config = {
+            let mut rc = config;
+            rc.submission.frames_in_flight = 1;
+            rc
         };
         let (results, images) = common::frame_by_frame(&ctx, &scene, &config, &rigs, 64);
         assert_eq!(results.len(), 3, "{a} with {b}");

@@ -68,8 +68,11 @@ fn the_four_methods_agree_on_a_rendered_scene() {
         let p = HmdProfile::load(name).unwrap();
         let pose = common::framing_pose(&scene, &p);
         let config = RenderConfig {
-            stereo: StereoMode::Multiview,
-            msaa: 4,
+            frame: vergence::config::FrameConfig {
+                stereo: StereoMode::Multiview,
+                msaa: 4,
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         let [w, h] = p.views[0].resolution.map(|v| v / 4);

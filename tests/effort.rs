@@ -15,9 +15,15 @@ const H: u32 = 120;
 
 fn config(stereo: StereoMode, stencil_mask: bool) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 1,
-        stencil_mask,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 1,
+            ..Default::default()
+        },
+        effort: vergence::config::EffortConfig {
+            stencil_mask,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     }
 }
@@ -150,9 +156,10 @@ fn foveation_uses_the_shading_rate_attachment_or_falls_back_to_off() {
     let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
     let up = Pose::from_euler_deg(DVec3::new(0.0, 5000.0, 0.0), 0.0, 89.0, 0.0);
     let (w, h) = (320, 240);
-    let make = |level| RenderConfig {
-        foveation: level,
-        ..config(StereoMode::Multiview, false)
+    let make = |level| {
+        let mut rc = config(StereoMode::Multiview, false);
+        rc.effort.foveation = level;
+        rc
     };
     let extent = ash::vk::Extent2D {
         width: w,
@@ -212,7 +219,10 @@ fn stats_name_the_paths_that_ran() {
     use vergence::targets::headless::{render_to_dir, RenderJob};
     let out = common::root().join("target/effort-stats");
     let mut config = RenderConfig {
-        msaa: 1,
+        frame: vergence::config::FrameConfig {
+            msaa: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     config
@@ -401,7 +411,7 @@ fn rdm_in_the_wide_views_and_the_lms_image_fills_before_they_are_composited() {
     let pose = Pose::from_euler_deg(DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
     let render = |stereo, opts: &str| {
         let mut c = config(stereo, false);
-        c.msaa = 4;
+        c.frame.msaa = 4;
         c.apply_opts(opts, &["none"]).unwrap();
         c.validate().unwrap();
         common::render_config(&ctx, &scene, &profile, pose, &c, W, H)
@@ -501,7 +511,10 @@ fn mffr_composites_the_far_field_into_the_wide_views_and_the_inset() {
     let (w, h) = (320, 240);
     let render = |stereo, opts: &str| {
         let mut c = RenderConfig {
-            stereo,
+            frame: vergence::config::FrameConfig {
+                stereo,
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         c.apply_opts(opts, &cull_names()).unwrap();
@@ -555,7 +568,10 @@ fn mffr_composites_one_far_field_into_both_eyes() {
     let (w, h) = (320, 240);
     let cfg = |stereo, opts: &str| {
         let mut c = RenderConfig {
-            stereo,
+            frame: vergence::config::FrameConfig {
+                stereo,
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         c.apply_opts(opts, &["none"]).unwrap();
@@ -654,7 +670,10 @@ fn mffr_depth_split_draws_less_and_changes_no_pixel() {
         (StereoMode::Multiview, "mffr=8,mffr-alternate-eye"),
     ] {
         let mut c = RenderConfig {
-            stereo,
+            frame: vergence::config::FrameConfig {
+                stereo,
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         c.apply_opts(opts, &["none"]).unwrap();

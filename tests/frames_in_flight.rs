@@ -35,9 +35,18 @@ fn at_most_n_frames_are_in_flight_and_results_come_in_order() {
     let path = rigs(&profile, framing_pose(&scene, &profile));
     for n in 1..=3u32 {
         let config = RenderConfig {
-            frames_in_flight: n,
-            cull: Culling::Strategy(Strategy::Superfrustum),
-            msaa: 1,
+            frame: vergence::config::FrameConfig {
+                msaa: 1,
+                ..Default::default()
+            },
+            culling: vergence::config::CullingConfig {
+                cull: Culling::Strategy(Strategy::Superfrustum),
+                ..Default::default()
+            },
+            submission: vergence::config::SubmissionConfig {
+                frames_in_flight: n,
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         let extent = ash::vk::Extent2D {
@@ -88,9 +97,10 @@ fn last_frame(config: &RenderConfig, n: u32) -> [image::RgbaImage; 2] {
     let profile = HmdProfile::load("monado-sim").unwrap();
     let scene = load("factory:300");
     let path = rigs(&profile, framing_pose(&scene, &profile));
-    let config = RenderConfig {
-        frames_in_flight: n,
-        ..config.clone()
+    let config = {
+        let mut rc = config.clone();
+        rc.submission.frames_in_flight = n;
+        rc
     };
     let extent = ash::vk::Extent2D {
         width: W,
@@ -110,7 +120,10 @@ fn last_frame(config: &RenderConfig, n: u32) -> [image::RgbaImage; 2] {
 #[test]
 fn pixels_do_not_depend_on_frames_in_flight() {
     let mut stack = RenderConfig {
-        msaa: 4,
+        frame: vergence::config::FrameConfig {
+            msaa: 4,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     stack
@@ -120,8 +133,11 @@ fn pixels_do_not_depend_on_frames_in_flight() {
         )
         .unwrap();
     let two_pass = RenderConfig {
-        stereo: StereoMode::TwoPass,
-        msaa: 1,
+        frame: vergence::config::FrameConfig {
+            stereo: StereoMode::TwoPass,
+            msaa: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     for config in [stack, two_pass] {
@@ -132,8 +148,8 @@ fn pixels_do_not_depend_on_frames_in_flight() {
                 assert!(
                     one[eye] == other[eye],
                     "{:?} {} eye {eye}: {n} in flight differs from 1",
-                    config.stereo,
-                    config.cull
+                    config.frame.stereo,
+                    config.culling.cull
                 );
             }
         }

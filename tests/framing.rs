@@ -26,7 +26,10 @@ fn coverage(scene: &Scene, moved_away: &Scene, framing: Framing) -> f64 {
     let profile = HmdProfile::load("valve-index").unwrap();
     let pose = head_pose(scene, &profile, framing);
     let config = RenderConfig {
-        msaa: 1,
+        frame: vergence::config::FrameConfig {
+            msaa: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     let with = render_config(&ctx, scene, &profile, pose, &config, SIZE, SIZE);

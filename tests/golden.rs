@@ -31,10 +31,11 @@ fn check_with(name: &str, spec: &str, pose: Option<Pose>, config: &RenderConfig)
     let profile = HmdProfile::load("monado-sim").unwrap();
     let scene = load(spec);
     let pose = pose.unwrap_or_else(|| framing_pose(&scene, &profile));
-    let mode = |stereo| RenderConfig {
-        stereo,
-        msaa: 4,
-        ..config.clone()
+    let mode = |stereo| {
+        let mut rc = config.clone();
+        rc.frame.stereo = stereo;
+        rc.frame.msaa = 4;
+        rc
     };
     let mv = render_config(
         &ctx,
@@ -177,7 +178,10 @@ fn factory() {
 fn factory_stencil_mask() {
     let pose = Pose::from_euler_deg(glam::DVec3::new(3.0, 1.7, 2.0), -25.0, -5.0, 0.0);
     let config = RenderConfig {
-        stencil_mask: true,
+        effort: vergence::config::EffortConfig {
+            stencil_mask: true,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     check_with("factory-stencil-mask", "factory:3000", Some(pose), &config);

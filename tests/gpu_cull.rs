@@ -78,7 +78,7 @@ fn config(opts: &str) -> RenderConfig {
         None => (opts.to_string(), 2),
     };
     c.apply_opts(&opts, &cull_names()).unwrap();
-    c.frames_in_flight = slots;
+    c.submission.frames_in_flight = slots;
     c
 }
 
@@ -189,8 +189,14 @@ fn impossible_gpu_cull_combinations_are_one_clear_error() {
     let e = c.validate().unwrap_err().to_string();
     assert!(e.contains("gpu-cull needs a culling strategy"), "{e}");
     let mut c = RenderConfig {
-        cull: Culling::Strategy(Strategy::PerEye),
-        stereo: StereoMode::Multiview,
+        frame: vergence::config::FrameConfig {
+            stereo: StereoMode::Multiview,
+            ..Default::default()
+        },
+        culling: vergence::config::CullingConfig {
+            cull: Culling::Strategy(Strategy::PerEye),
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     c.apply_opts("gpu-cull,occlusion,mffr", &cull_names())

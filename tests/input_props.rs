@@ -73,7 +73,7 @@ proptest! {
     ], 0..6)) {
         let mut c = vergence::config::RenderConfig::default();
         if c.apply_opts(&items.join(","), &vergence::bench::plan::cull_names()).is_ok() {
-            if let Some(d) = c.mffr.and_then(|m| m.split) {
+            if let Some(d) = c.effort.mffr.and_then(|m| m.split) {
                 prop_assert!((vergence::config::MIN_MFFR_SPLIT_M..=vergence::config::MAX_MFFR_SPLIT_M).contains(&d));
             }
         }

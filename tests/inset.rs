@@ -100,10 +100,16 @@ fn catmull_rom(img: &image::RgbaImage, x: u32, y: u32, w: u32, h: u32, ch: usize
 
 fn config(stereo: StereoMode, inset: Option<Inset>, gaze: [f32; 2]) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 4,
-        inset,
-        gaze,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
+        effort: vergence::config::EffortConfig {
+            inset,
+            gaze,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     }
 }
@@ -394,9 +400,10 @@ fn four_views_in_one_scope_equal_the_two_scope_path() {
             &scene,
             &profile,
             pose,
-            &RenderConfig {
-                stencil_mask: true,
-                ..config(StereoMode::Multiview, Some(inset), [0.0; 2])
+            &{
+                let mut rc = config(StereoMode::Multiview, Some(inset), [0.0; 2]);
+                rc.effort.stencil_mask = true;
+                rc
             },
             W,
             H,
@@ -438,9 +445,10 @@ fn with_aq_the_inset_follows_the_render_scale() {
             four_views,
             ..SETTINGS
         };
-        let config = RenderConfig {
-            aq: true,
-            ..config(StereoMode::Multiview, Some(inset), [0.2, -0.1])
+        let config = {
+            let mut rc = config(StereoMode::Multiview, Some(inset), [0.2, -0.1]);
+            rc.effort.aq = true;
+            rc
         };
         let before = ctx.validation_messages();
         let extent = ash::vk::Extent2D {
@@ -496,9 +504,10 @@ fn with_aq_the_inset_follows_the_render_scale() {
             &scene,
             &profile,
             pose,
-            &RenderConfig {
-                msaa: 1,
-                ..config_without_aq(None, [0.2, -0.1])
+            &{
+                let mut rc = config_without_aq(None, [0.2, -0.1]);
+                rc.frame.msaa = 1;
+                rc
             },
             w / 2,
             h / 2,
@@ -564,10 +573,11 @@ fn wide_views_at_one_sample_keep_the_inset_at_4x() {
         (StereoMode::Multiview, true),
     ] {
         let with = |inset: Option<Inset>, msaa: u32, w: u32, h: u32| {
-            let c = RenderConfig {
-                msaa,
-                stencil_mask,
-                ..config(stereo, inset, gaze)
+            let c = {
+                let mut rc = config(stereo, inset, gaze);
+                rc.frame.msaa = msaa;
+                rc.effort.stencil_mask = stencil_mask;
+                rc
             };
             render_config(&ctx, &scene, &profile, pose, &c, w, h)
         };
@@ -872,9 +882,10 @@ fn a_quad_output_gives_the_wide_views_and_the_insets_as_they_are() {
         &scene,
         &profile,
         pose,
-        &RenderConfig {
-            msaa: 1,
-            ..config(StereoMode::Multiview, None, [0.0; 2])
+        &{
+            let mut rc = config(StereoMode::Multiview, None, [0.0; 2]);
+            rc.frame.msaa = 1;
+            rc
         },
         W / 2,
         H / 2,

@@ -19,12 +19,18 @@ const H: u32 = 160;
 
 fn config(stereo: StereoMode, lms: Option<f64>) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 4,
-        lms: lms.map(|k| Lms {
-            coefficient: Some(k),
-            ..Lms::default()
-        }),
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
+        effort: vergence::config::EffortConfig {
+            lms: lms.map(|k| Lms {
+                coefficient: Some(k),
+                ..Lms::default()
+            }),
+            ..Default::default()
+        },
         ..RenderConfig::default()
     }
 }
@@ -348,9 +354,10 @@ fn the_stencil_mask_lands_where_the_lens_hides_the_eye() {
     let profile = HmdProfile::load("valve-index").unwrap();
     let pose = framing_pose(&scene, &profile);
     let render = |lms: Option<f64>, stereo: StereoMode, mask: bool| {
-        let c = RenderConfig {
-            stencil_mask: mask,
-            ..config(stereo, lms)
+        let c = {
+            let mut rc = config(stereo, lms);
+            rc.effort.stencil_mask = mask;
+            rc
         };
         render_config(&ctx, &scene, &profile, pose, &c, W, H)
     };

@@ -478,11 +478,12 @@ fn occlusion_composes_with_the_inset() {
 /// the controller lowers the render scale (and with the inset its wide
 /// rungs) frame by frame, the same way in every run.
 fn over_budget(opts: &str) -> RenderConfig {
-    RenderConfig {
-        aq: true,
-        budget_ms: Some(0.001),
-        frames_in_flight: 1,
-        ..config(opts)
+    {
+        let mut rc = config(opts);
+        rc.effort.aq = true;
+        rc.effort.budget_ms = Some(0.001);
+        rc.submission.frames_in_flight = 1;
+        rc
     }
 }
 

@@ -39,7 +39,10 @@ fn inside(button: Button) -> (u32, u32) {
 fn the_panel_shows_each_button_state_the_hover_and_the_pointer() {
     let ctx = common::context();
     let config = RenderConfig {
-        stencil_mask: true,
+        effort: vergence::config::EffortConfig {
+            stencil_mask: true,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     let allowed: Vec<Toggle> = Toggle::ALL

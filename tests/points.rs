@@ -80,8 +80,11 @@ fn points_scene(cloud: PointCloud) -> vergence::scene::Scene {
 
 fn config(stereo: StereoMode) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 4,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     }
 }
@@ -96,9 +99,9 @@ fn cpu_keys(
 ) -> Vec<Option<(f32, [u8; 3])>> {
     let u = vergence::render::uniforms::FrameUniforms::new(
         rig,
-        RenderConfig::default().near,
+        RenderConfig::default().frame.near,
         [None, None],
-        RenderConfig::default().near,
+        RenderConfig::default().frame.near,
     );
     let d = cloud.origin - rig.head.position;
     let offset = glam::Vec3::new(d.x as f32, d.y as f32, d.z as f32);
@@ -234,9 +237,10 @@ fn eye_dome_lighting_shades_points_behind_nearer_ones() {
     let profile = HmdProfile::load("valve-index").unwrap();
     let scene = points_scene(cloud.clone());
     let strength = 0.4;
-    let lit_config = |stereo| RenderConfig {
-        edl: Some(strength),
-        ..config(stereo)
+    let lit_config = |stereo| {
+        let mut rc = config(stereo);
+        rc.points.edl = Some(strength);
+        rc
     };
     let plain = render_config(
         &ctx,
@@ -318,7 +322,7 @@ fn eye_dome_lighting_shades_points_behind_nearer_ones() {
         );
     }
     let mut both = lit_config(StereoMode::Multiview);
-    both.points_pipeline = true;
+    both.points.points_pipeline = true;
     let err = both.validate().unwrap_err().to_string();
     assert!(err.contains("points-pipeline"), "{err}");
 }
@@ -332,9 +336,10 @@ fn points_and_meshes_composite_by_depth() {
     let pose = common::framing_pose(&scene, &profile);
     // One sample per pixel: a mesh edge's pixel is the mesh's or the
     // wall's, not a blend of both.
-    let one = RenderConfig {
-        msaa: 1,
-        ..config(StereoMode::Multiview)
+    let one = {
+        let mut rc = config(StereoMode::Multiview);
+        rc.frame.msaa = 1;
+        rc
     };
     let plain = render_config(&ctx, &scene, &profile, pose, &one, W, H);
     // A dense wall of pure red points across the view: first between the
@@ -665,9 +670,10 @@ fn the_octree_draws_the_whole_cloud_or_keeps_the_budget() {
         H,
     );
     let lod_scene = points_scene(cloud.clone());
-    let unlimited = RenderConfig {
-        points_budget: vergence::scene::points::MAX_POINTS,
-        ..config(StereoMode::Multiview)
+    let unlimited = {
+        let mut rc = config(StereoMode::Multiview);
+        rc.points.points_budget = vergence::scene::points::MAX_POINTS;
+        rc
     };
     let all = render_config(&ctx, &lod_scene, &profile, pose, &unlimited, W, H);
     for eye in 0..2 {
@@ -679,9 +685,10 @@ fn the_octree_draws_the_whole_cloud_or_keeps_the_budget() {
     }
     assert_eq!(all.stats.points_drawn, plain.stats.points_drawn);
     let budget = cloud.len() as u64 / 5;
-    let limited = RenderConfig {
-        points_budget: budget,
-        ..config(StereoMode::Multiview)
+    let limited = {
+        let mut rc = config(StereoMode::Multiview);
+        rc.points.points_budget = budget;
+        rc
     };
     let some = render_config(&ctx, &lod_scene, &profile, pose, &limited, W, H);
     let chosen = some.stats.points_selected.unwrap();
@@ -747,9 +754,10 @@ fn inside_the_cloud_the_octree_draws_every_visible_point() {
     let mut whole = cloud.clone();
     whole.octree = None;
     let (whole, lod) = (points_scene(whole), points_scene(cloud));
-    let unlimited = RenderConfig {
-        points_budget: vergence::scene::points::MAX_POINTS,
-        ..config(StereoMode::Multiview)
+    let unlimited = {
+        let mut rc = config(StereoMode::Multiview);
+        rc.points.points_budget = vergence::scene::points::MAX_POINTS;
+        rc
     };
     for f in [0u64, 200, 400] {
         let pose = vergence::bench::cull::head_path(f, 1, lo, hi);
@@ -916,10 +924,11 @@ fn point_size_grows_near_points_and_keeps_far_ones_single() {
         }
     }
     let scene = points_scene(c);
-    let sized = |px: f64| RenderConfig {
-        point_size: px,
-        msaa: 1,
-        ..config(StereoMode::Multiview)
+    let sized = |px: f64| {
+        let mut rc = config(StereoMode::Multiview);
+        rc.points.point_size = px;
+        rc.frame.msaa = 1;
+        rc
     };
     let one = render_config(&ctx, &scene, &profile, pose, &sized(1.0), W, H);
     let five = render_config(&ctx, &scene, &profile, pose, &sized(5.0), W, H);
@@ -973,14 +982,16 @@ fn the_point_list_fallback_matches_the_compute_path() {
         (StereoMode::Multiview, 4),
         (StereoMode::TwoPass, 4),
     ] {
-        let base = RenderConfig {
-            msaa,
-            ..config(stereo)
+        let base = {
+            let mut rc = config(stereo);
+            rc.frame.msaa = msaa;
+            rc
         };
         let compute = render_config(&ctx, &scene, &profile, pose, &base, W, H);
-        let list = RenderConfig {
-            points_pipeline: true,
-            ..base.clone()
+        let list = {
+            let mut rc = base.clone();
+            rc.points.points_pipeline = true;
+            rc
         };
         let fallback = render_config(&ctx, &scene, &profile, pose, &list, W, H);
         for eye in 0..2 {

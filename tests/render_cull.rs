@@ -12,7 +12,10 @@ use vergence::view::Pose;
 fn job(cull: &str, name: &str) -> (RenderStats, [image::RgbaImage; 2]) {
     let out = std::env::temp_dir().join(format!("vergence-cull-{}-{name}", std::process::id()));
     let config = RenderConfig {
-        cull: cull.parse().expect("a culling name"),
+        culling: vergence::config::CullingConfig {
+            cull: cull.parse().expect("a culling name"),
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     let job = RenderJob {

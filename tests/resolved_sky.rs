@@ -17,8 +17,11 @@ use vergence::view::profile::HmdProfile;
 
 fn config(stereo: StereoMode, opt: &str) -> RenderConfig {
     let mut c = RenderConfig {
-        stereo,
-        msaa: 4,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     c.apply_opts(opt, &cull_names()).unwrap();

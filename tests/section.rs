@@ -208,8 +208,14 @@ fn a_plane_set_and_cleared_between_frames_cuts_exactly_those_frames() {
     ] {
         let config = |section: Option<[f64; 4]>| {
             let mut c = RenderConfig {
-                per_draw,
-                section,
+                frame: vergence::config::FrameConfig {
+                    section,
+                    ..Default::default()
+                },
+                submission: vergence::config::SubmissionConfig {
+                    per_draw,
+                    ..Default::default()
+                },
                 ..RenderConfig::default()
             };
             c.apply_opts(opts, &cull_names()).unwrap();

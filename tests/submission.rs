@@ -14,9 +14,15 @@ use vergence::view::profile::HmdProfile;
 
 fn config(stereo: StereoMode, opt: &str, threads: Option<u32>, per_draw: PerDraw) -> RenderConfig {
     let mut c = RenderConfig {
-        stereo,
-        record_threads: threads,
-        per_draw,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            ..Default::default()
+        },
+        submission: vergence::config::SubmissionConfig {
+            record_threads: threads,
+            per_draw,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     c.apply_opts(opt, &vergence::config::cull_names()).unwrap();
@@ -167,7 +173,7 @@ fn frames_with_changing_draw_lists_match_on_every_path() {
     };
     let frames = |threads: Option<u32>, per_draw: PerDraw| {
         let mut c = config(StereoMode::TwoPass, "rdm", threads, per_draw);
-        c.frames_in_flight = 2;
+        c.submission.frames_in_flight = 2;
         let before = ctx.validation_messages();
         let mut r = Renderer::new(ctx.clone(), &scene, &c, extent).unwrap();
         let mut out = Vec::new();

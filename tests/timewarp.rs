@@ -28,12 +28,17 @@ struct Frame {
 
 fn config(stereo: StereoMode) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 4,
-        timewarp: Some(Settings {
-            k: 2,
-            variant: TimewarpVariant::Depth,
-        }),
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
+        simulator: vergence::config::SimulatorConfig {
+            timewarp: Some(Settings {
+                k: 2,
+                variant: TimewarpVariant::Depth,
+            }),
+        },
         ..RenderConfig::default()
     }
 }

@@ -123,7 +123,7 @@ fn default_error_frames() -> u32 {
     2
 }
 fn default_frames_in_flight() -> u32 {
-    RenderConfig::default().frames_in_flight
+    RenderConfig::default().submission.frames_in_flight
 }
 fn default_reference() -> String {
     "two-pass".into()
@@ -369,7 +369,7 @@ impl Plan {
         let reference = self
             .reference_config()
             .map_err(|e| format!("reference: {e}"))?;
-        if self.reference_supersample > 1 && reference.aq {
+        if self.reference_supersample > 1 && reference.effort.aq {
             return Err(format!(
                 "reference_supersample = {} renders the reference at a fixed size, which aq in the reference would change: leave aq out of it",
                 self.reference_supersample
@@ -384,7 +384,7 @@ impl Plan {
         // CPU visible list, which a gpu-cull renderer does not take.
         let base = self.baseline_name();
         if let Some(c) = self.configs.iter().find(|c| c.name == base) {
-            if self.config_for(c).is_ok_and(|r| r.gpu_cull) {
+            if self.config_for(c).is_ok_and(|r| r.culling.gpu_cull) {
                 return Err(format!(
                     "baseline '{base}' culls on the GPU (gpu-cull), but the bench draws its empty-frame floor with the baseline's CPU visible list: make a CPU-culled config the baseline"
                 ));
@@ -399,7 +399,10 @@ impl Plan {
         let config = self
             .config_for(c)
             .map_err(|e| format!("config '{}': {e}", c.name))?;
-        let (Some(tw), Some(&first)) = (config.timewarp, self.error_frame_indices().first()) else {
+        let (Some(tw), Some(&first)) = (
+            config.simulator.timewarp,
+            self.error_frame_indices().first(),
+        ) else {
             return Ok(());
         };
         if self.warmup + first >= tw.k - 1 {
@@ -471,8 +474,8 @@ impl Plan {
     /// defaults, with its frames in flight (or the plan's).
     pub fn config_for(&self, c: &PlanConfig) -> Result<RenderConfig> {
         let mut config = self.with_frames_in_flight(&c.opt, c.frames_in_flight)?;
-        config.record_threads = c.record_threads;
-        config.per_draw = c.per_draw.unwrap_or_default();
+        config.submission.record_threads = c.record_threads;
+        config.submission.per_draw = c.per_draw.unwrap_or_default();
         config.validate()?;
         Ok(config)
     }
@@ -488,7 +491,7 @@ impl Plan {
     fn with_frames_in_flight(&self, opt: &str, own: Option<u32>) -> Result<RenderConfig> {
         let mut c = RenderConfig::default();
         c.apply_opts(opt, &cull_names())?;
-        c.frames_in_flight = own.unwrap_or(self.frames_in_flight);
+        c.submission.frames_in_flight = own.unwrap_or(self.frames_in_flight);
         c.validate()?;
         Ok(c)
     }

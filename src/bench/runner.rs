@@ -702,7 +702,7 @@ impl GroupRun<'_> {
             .filter_map(|c| {
                 let mut config = plan.config_for(c).ok()?;
                 config.resolve_lens(Some(self.profile)).ok()?;
-                config.inset.is_some().then_some(config)
+                config.effort.inset.is_some().then_some(config)
             })
             .next();
         Ok(Some(reference))
@@ -741,7 +741,7 @@ impl GroupRun<'_> {
             return Ok(None);
         };
         r.image = Some(save_left(self.out, &self.group_dir, &c.name, &images)?);
-        if !self.reference_sequence.is_empty() && config.timewarp.is_none() {
+        if !self.reference_sequence.is_empty() && config.simulator.timewarp.is_none() {
             self.flicker(&config, &c.name, &mut r)?;
         }
         if let (Some(last), Some(reference)) = (images.last(), self.reference_images.last()) {
@@ -783,7 +783,7 @@ impl GroupRun<'_> {
         )?;
         r.flicker = Some(f.mean);
         r.flicker_regions = f.regions;
-        if let Some(i) = config.inset {
+        if let Some(i) = config.effort.inset {
             r.flicker_floor = Some(self.flicker_floor(&i, inset.as_ref())?);
         }
         let rel = format!("{}/{}.flicker.png", self.group_dir, sanitize(name));
@@ -1147,7 +1147,7 @@ fn measure(
         usage: device.map(|b| b.usage),
         budget: device.map(|b| b.budget),
     };
-    if let (Some(images), Some(tw)) = (images.as_deref_mut(), config.timewarp) {
+    if let (Some(images), Some(tw)) = (images.as_deref_mut(), config.simulator.timewarp) {
         let (errors, result_tw) =
             warped_errors(ctx, &mut driver, plan, rigs, extent, tw, images, compare)?;
         let gpu = result.gpu_frame_ms.p50;
@@ -1204,7 +1204,7 @@ fn warped_errors(
     images: &mut RefImages,
     compare: Option<&Comparison>,
 ) -> Result<(Vec<ImageError>, TimewarpResult)> {
-    let near = driver.renderer().config.near;
+    let near = driver.renderer().config.frame.near;
     let config = driver.renderer().config.clone();
     let mut warp = crate::render::timewarp::Timewarp::new(ctx, extent, tw.variant)?;
     let (mut errors, mut own, mut warp_ms) = (Vec::new(), Vec::new(), Vec::new());
@@ -1342,15 +1342,15 @@ fn config_inset_rect(
     rig: &StereoRig,
     extent: vk::Extent2D,
 ) -> Option<PixelRect> {
-    let config = match config.inset {
+    let config = match config.effort.inset {
         Some(_) => config,
         None => fallback?,
     };
-    let i = config.inset?;
+    let i = config.effort.inset?;
     let fovs: Vec<_> = rig.views.iter().take(2).map(|v| v.fov).collect();
     Some(inset_rect(
         &fovs,
-        config.gaze,
+        config.effort.gaze,
         i.half_angle_deg,
         extent.width,
         extent.height,
@@ -1412,9 +1412,9 @@ fn summarize(
     ConfigResult {
         name: name.to_string(),
         opt: opt.to_string(),
-        stereo: config.stereo.name().to_string(),
-        msaa: config.msaa,
-        cull: config.cull.name().to_string(),
+        stereo: config.frame.stereo.name().to_string(),
+        msaa: config.frame.msaa,
+        cull: config.culling.cull.name().to_string(),
         renderer: renderer.report(),
         frames: frames.len() as u32,
         cpu_ms: PhaseMs {
@@ -1424,10 +1424,12 @@ fn summarize(
             submit: median(&|f| f.stats.cpu_ms.submit),
             record_threads_sum: renderer
                 .config
+                .submission
                 .record_threads
                 .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().sum)),
             record_threads_slowest: renderer
                 .config
+                .submission
                 .record_threads
                 .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().slowest)),
             motion: moving.then(|| median(&|f| f.motion_ms)),

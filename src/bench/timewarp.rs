@@ -19,6 +19,7 @@ pub fn check(job: &RenderJob) -> Result<crate::config::Timewarp> {
     job.config.validate()?;
     let settings = job
         .config
+        .simulator
         .timewarp
         .ok_or_else(|| Error::config("--opt", "the timewarp measurement needs timewarp=K"))?;
     let k = settings.k;
@@ -71,7 +72,7 @@ pub fn measure(
     let mut config = job.config.clone();
     config.resolve_lens(Some(profile))?;
     let renderer = headless::new_renderer(ctx, scene, &config, extent)?;
-    let near = renderer.config.near;
+    let near = renderer.config.frame.near;
     let mut driver = FrameDriver::new(renderer, scene)?;
     let head = match (&job.camera, job.pose) {
         (Some(name), _) => headless::scene_camera(scene, name)?,

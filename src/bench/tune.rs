@@ -220,7 +220,9 @@ pub fn plan(
         reference: "two-pass,msaa4".into(),
         reference_supersample,
         baseline: Some("baseline".into()),
-        frames_in_flight: crate::config::RenderConfig::default().frames_in_flight,
+        frames_in_flight: crate::config::RenderConfig::default()
+            .submission
+            .frames_in_flight,
         configs: CANDIDATES
             .iter()
             .map(|(n, o)| PlanConfig {

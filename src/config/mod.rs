@@ -89,48 +89,65 @@ impl serde::Serialize for Culling {
     }
 }
 
-/// Everything that changes how a frame is rendered.
-#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+/// Everything that changes how a frame is rendered, grouped by the part
+/// of the renderer that reads it; each group's keys stay at the top level
+/// of the JSON reports.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
 pub struct RenderConfig {
+    /// The frame: stereo mode, samples, near plane and section plane.
+    #[serde(flatten)]
+    pub frame: FrameConfig,
+    /// Culling: the strategy, draw distance, GPU culling, occlusion and level of detail.
+    #[serde(flatten)]
+    pub culling: CullingConfig,
+    /// Where the frame spends less: the masks, foveation, the far field, the inset, lens-matched shading, the sky after the resolve and adaptive quality.
+    #[serde(flatten)]
+    pub effort: EffortConfig,
+    /// Point clouds: the budget, the point size, the pipeline and eye-dome lighting.
+    #[serde(flatten)]
+    pub points: PointsConfig,
+    /// Submission: frames in flight, recording threads and per-draw data.
+    #[serde(flatten)]
+    pub submission: SubmissionConfig,
+    /// The simulator: timewarp measured against rendered frames.
+    #[serde(flatten)]
+    pub simulator: SimulatorConfig,
+}
+
+/// The frame: stereo mode, samples, near plane and section plane.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct FrameConfig {
     /// Stereo mode.
     pub stereo: StereoMode,
     /// MSAA samples (1 or 4).
     pub msaa: u32,
     /// Near plane in metres (reverse-Z, infinite far plane).
     pub near: f64,
+    /// A section plane `n · x + d = 0` as (n.x, n.y, n.z, d) with a unit
+    /// normal `n` (`--section`): geometry on its positive side is clipped
+    /// by the scene shaders and culling skips instances wholly beyond it.
+    /// In a headset the section tool replaces it at run time.
+    pub section: Option<[f64; 4]>,
+}
+
+impl Default for FrameConfig {
+    fn default() -> Self {
+        FrameConfig {
+            stereo: StereoMode::Multiview,
+            msaa: 4,
+            near: 0.05,
+            section: None,
+        }
+    }
+}
+
+/// Culling: the strategy, draw distance, GPU culling, occlusion and level of detail.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct CullingConfig {
     /// Culling (`none` draws every instance).
     pub cull: Culling,
     /// Draw distance in metres for distance culling (None: unlimited).
     pub draw_distance: Option<f64>,
-    /// HMD stencil mask: the hidden-area mesh is written to stencil first and
-    /// every later draw is stencil-tested (`stencil-mask`).
-    pub stencil_mask: bool,
-    /// Foveated rendering level (`foveation=off|low|medium|high`).
-    pub foveation: crate::view::foveation::Level,
-    /// Gaze centre for foveation in NDC (`gaze=X:Y`, +y down; default the
-    /// image centre).
-    pub gaze: [f32; 2],
-    /// Radial density masking: NDC radius beyond which every other 2×2
-    /// quad is skipped (`rdm`, `rdm=R`; None: off).
-    pub rdm: Option<f32>,
-    /// Reconstruct the skipped quads (`rdm-nofill` turns it off, to measure
-    /// the fill's cost).
-    pub rdm_fill: bool,
-    /// Monoscopic far-field rendering (`mffr`, `mffr=D`, `mffr-depth-shift`).
-    pub mffr: Option<Mffr>,
-    /// Multi-resolution foveated rendering (`inset`, `inset=F`,
-    /// `inset-fov=DEG`): each eye as a wide view over its FOV at scale F
-    /// per axis and a full-density inset around the gaze, composited.
-    #[serde(default)]
-    pub inset: Option<Inset>,
-    /// Lens-matched shading (`lms`, `lms=K`, `lms-emulated`): each eye
-    /// drawn per quadrant with clip-space w scaling into a smaller image,
-    /// resampled to the eye image.
-    #[serde(default)]
-    pub lms: Option<Lms>,
-    /// Frames the CPU may prepare while the GPU still renders earlier ones
-    /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
-    pub frames_in_flight: u32,
     /// GPU-driven culling (`gpu-cull`): a compute pass tests every instance
     /// against the strategy's volumes and writes the visible lists and the
     /// indirect draws; the CPU records the same commands whatever the
@@ -150,21 +167,54 @@ pub struct RenderConfig {
     /// matches (`lod-cache`).
     #[serde(default)]
     pub lod_cache: bool,
-    /// The most points of a point cloud drawn per frame
-    /// (`points-budget=N`): its octree's nodes fill it nearest-first.
-    pub points_budget: u64,
-    /// A point's side in pixels at 2 m (`point-size=PX`, 1 to 16; farther
-    /// points shrink as 1 / distance, to one pixel).
-    pub point_size: f64,
-    /// Draw a point cloud as one-pixel point primitives (the fallback for
-    /// devices without 64-bit atomics) even where the compute rasterizer
-    /// runs (`points-pipeline`).
-    pub points_pipeline: bool,
-    /// Eye-dome lighting of a point cloud's pixels (`edl[=S]`, strength S
-    /// from 0.01 to 10, default [`DEFAULT_EDL_STRENGTH`]): each darkens by
-    /// how far its neighbours lie in front of it
-    /// (`shaders/points_composite.frag`); needs the compute rasterizer.
-    pub edl: Option<f64>,
+}
+
+impl Default for CullingConfig {
+    fn default() -> Self {
+        CullingConfig {
+            cull: Culling::None,
+            draw_distance: None,
+            gpu_cull: false,
+            occlusion: false,
+            lod: None,
+            lod_cache: false,
+        }
+    }
+}
+
+/// Where the frame spends less: the masks, foveation, the far field, the inset, lens-matched shading, the sky after the resolve and adaptive quality.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct EffortConfig {
+    /// HMD stencil mask: the hidden-area mesh is written to stencil first and
+    /// every later draw is stencil-tested (`stencil-mask`).
+    pub stencil_mask: bool,
+    /// Foveated rendering level (`foveation=off|low|medium|high`).
+    pub foveation: crate::view::foveation::Level,
+    /// Gaze centre for foveation in NDC (`gaze=X:Y`, +y down; default the
+    /// image centre).
+    pub gaze: [f32; 2],
+    /// Radial density masking: NDC radius beyond which every other 2×2
+    /// quad is skipped (`rdm`, `rdm=R`; None: off).
+    pub rdm: Option<f32>,
+    /// Reconstruct the skipped quads (`rdm-nofill` turns it off, to measure
+    /// the fill's cost).
+    pub rdm_fill: bool,
+    /// `rdm=auto`: the RDM radius is still to be derived from the HMD
+    /// profile's lens ([`RenderConfig::resolve_lens`]); a renderer refuses
+    /// a configuration where it is not.
+    pub rdm_auto: bool,
+    /// Monoscopic far-field rendering (`mffr`, `mffr=D`, `mffr-depth-shift`).
+    pub mffr: Option<Mffr>,
+    /// Multi-resolution foveated rendering (`inset`, `inset=F`,
+    /// `inset-fov=DEG`): each eye as a wide view over its FOV at scale F
+    /// per axis and a full-density inset around the gaze, composited.
+    #[serde(default)]
+    pub inset: Option<Inset>,
+    /// Lens-matched shading (`lms`, `lms=K`, `lms-emulated`): each eye
+    /// drawn per quadrant with clip-space w scaling into a smaller image,
+    /// resampled to the eye image.
+    #[serde(default)]
+    pub lms: Option<Lms>,
     /// Draw the sky once per pixel after the MSAA resolve instead of at
     /// every sample inside the forward scope (`resolved-sky`; the same
     /// image up to rounding, see `render::passes::resolved_sky`).
@@ -185,20 +235,65 @@ pub struct RenderConfig {
     /// runtime's display period, or the HMD profile's refresh rate).
     #[serde(default)]
     pub budget_ms: Option<f64>,
-    /// A section plane `n · x + d = 0` as (n.x, n.y, n.z, d) with a unit
-    /// normal `n` (`--section`): geometry on its positive side is clipped
-    /// by the scene shaders and culling skips instances wholly beyond it.
-    /// In a headset the section tool replaces it at run time.
-    pub section: Option<[f64; 4]>,
-    /// The timewarp simulation (`timewarp=K`, `timewarp-rotation`,
-    /// `timewarp-fill`; `render --frames` and bench plans): every K-th frame is the
-    /// source that the frames between are reprojected from, and each
-    /// reprojection is compared with the frame truly rendered there.
-    pub timewarp: Option<Timewarp>,
-    /// `rdm=auto`: the RDM radius is still to be derived from the HMD
-    /// profile's lens ([`RenderConfig::resolve_lens`]); a renderer refuses
-    /// a configuration where it is not.
-    pub rdm_auto: bool,
+}
+
+impl Default for EffortConfig {
+    fn default() -> Self {
+        EffortConfig {
+            stencil_mask: false,
+            foveation: crate::view::foveation::Level::Off,
+            gaze: [0.0, 0.0],
+            rdm: None,
+            rdm_fill: true,
+            rdm_auto: false,
+            mffr: None,
+            inset: None,
+            lms: None,
+            resolved_sky: false,
+            aq: false,
+            aq_scale_only: false,
+            budget_ms: None,
+        }
+    }
+}
+
+/// Point clouds: the budget, the point size, the pipeline and eye-dome lighting.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct PointsConfig {
+    /// The most points of a point cloud drawn per frame
+    /// (`points-budget=N`): its octree's nodes fill it nearest-first.
+    pub points_budget: u64,
+    /// A point's side in pixels at 2 m (`point-size=PX`, 1 to 16; farther
+    /// points shrink as 1 / distance, to one pixel).
+    pub point_size: f64,
+    /// Draw a point cloud as one-pixel point primitives (the fallback for
+    /// devices without 64-bit atomics) even where the compute rasterizer
+    /// runs (`points-pipeline`).
+    pub points_pipeline: bool,
+    /// Eye-dome lighting of a point cloud's pixels (`edl[=S]`, strength S
+    /// from 0.01 to 10, default [`DEFAULT_EDL_STRENGTH`]): each darkens by
+    /// how far its neighbours lie in front of it
+    /// (`shaders/points_composite.frag`); needs the compute rasterizer.
+    pub edl: Option<f64>,
+}
+
+impl Default for PointsConfig {
+    fn default() -> Self {
+        PointsConfig {
+            points_budget: DEFAULT_POINTS_BUDGET,
+            point_size: 1.0,
+            points_pipeline: false,
+            edl: None,
+        }
+    }
+}
+
+/// Submission: frames in flight, recording threads and per-draw data.
+#[derive(Clone, Debug, PartialEq, serde::Serialize)]
+pub struct SubmissionConfig {
+    /// Frames the CPU may prepare while the GPU still renders earlier ones
+    /// (`--frames-in-flight`, 1..=3; 1 waits for each frame before the next).
+    pub frames_in_flight: u32,
     /// Record the forward views' draws into this many secondary command
     /// buffers, in parallel on as many threads, and execute them from the
     /// frame's primary one (`--record-threads N`; None: draws go straight
@@ -208,6 +303,27 @@ pub struct RenderConfig {
     /// in the visible list) reaches the shaders (`--per-draw`).
     pub per_draw: PerDraw,
 }
+
+impl Default for SubmissionConfig {
+    fn default() -> Self {
+        SubmissionConfig {
+            frames_in_flight: 2,
+            record_threads: None,
+            per_draw: PerDraw::Push,
+        }
+    }
+}
+
+/// The simulator: timewarp measured against rendered frames.
+#[derive(Clone, Debug, Default, PartialEq, serde::Serialize)]
+pub struct SimulatorConfig {
+    /// The timewarp simulation (`timewarp=K`, `timewarp-rotation`,
+    /// `timewarp-fill`; `render --frames` and bench plans): every K-th frame is the
+    /// source that the frames between are reprojected from, and each
+    /// reprojection is compared with the frame truly rendered there.
+    pub timewarp: Option<Timewarp>,
+}
+
 
 /// How per-draw data reaches the scene shaders (`--per-draw`).
 #[derive(
@@ -527,64 +643,26 @@ pub const MAX_LOD_BOUND_PX: f64 = 64.0;
 /// Default radial-density-masking radius (NDC).
 pub const DEFAULT_RDM_RADIUS: f32 = 0.55;
 
-impl Default for RenderConfig {
-    fn default() -> Self {
-        RenderConfig {
-            stereo: StereoMode::Multiview,
-            msaa: 4,
-            near: 0.05,
-            cull: Culling::None,
-            draw_distance: None,
-            stencil_mask: false,
-            foveation: crate::view::foveation::Level::Off,
-            gaze: [0.0, 0.0],
-            rdm: None,
-            rdm_fill: true,
-            mffr: None,
-            inset: None,
-            lms: None,
-            frames_in_flight: 2,
-            gpu_cull: false,
-            occlusion: false,
-            lod_cache: false,
-            points_budget: DEFAULT_POINTS_BUDGET,
-            point_size: 1.0,
-            points_pipeline: false,
-            edl: None,
-            resolved_sky: false,
-            lod: None,
-            aq: false,
-            aq_scale_only: false,
-            budget_ms: None,
-            section: None,
-            timewarp: None,
-            rdm_auto: false,
-            record_threads: None,
-            per_draw: PerDraw::Push,
-        }
-    }
-}
-
 impl RenderConfig {
     /// Validates value ranges.
     pub fn validate(&self) -> Result<()> {
-        if !matches!(self.msaa, 1 | 4) {
+        if !matches!(self.frame.msaa, 1 | 4) {
             return Err(Error::config(
                 "--msaa",
-                format!("{} (supported: 1, 4)", self.msaa),
+                format!("{} (supported: 1, 4)", self.frame.msaa),
             ));
         }
-        if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&self.frames_in_flight) {
+        if !(1..=MAX_FRAMES_IN_FLIGHT).contains(&self.submission.frames_in_flight) {
             return Err(Error::config(
                 "--frames-in-flight",
                 format!(
                     "{} (supported: 1 to {MAX_FRAMES_IN_FLIGHT})",
-                    self.frames_in_flight
+                    self.submission.frames_in_flight
                 ),
             ));
         }
         options::check_rules(self)?;
-        if let Some(b) = self.budget_ms {
+        if let Some(b) = self.effort.budget_ms {
             if !(b.is_finite() && b > 0.0 && b <= 1000.0) {
                 return Err(Error::config(
                     "--budget-ms",
@@ -592,7 +670,7 @@ impl RenderConfig {
                 ));
             }
         }
-        if let Some(n) = self.record_threads {
+        if let Some(n) = self.submission.record_threads {
             if !(1..=MAX_RECORD_THREADS).contains(&n) {
                 return Err(Error::config(
                     "--record-threads",
@@ -600,14 +678,15 @@ impl RenderConfig {
                 ));
             }
         }
-        let submission = self.record_threads.is_some() || self.per_draw != PerDraw::Push;
-        if submission && (self.gpu_cull || self.mffr.is_some()) {
+        let submission =
+            self.submission.record_threads.is_some() || self.submission.per_draw != PerDraw::Push;
+        if submission && (self.culling.gpu_cull || self.effort.mffr.is_some()) {
             return Err(Error::config(
                 "--record-threads/--per-draw",
                 "parallel recording and per-draw ubo/ssbo data apply to CPU-culled forward draws: they cannot be combined with gpu-cull or mffr",
             ));
         }
-        if let Some(p) = self.section {
+        if let Some(p) = self.frame.section {
             let n = glam::DVec3::new(p[0], p[1], p[2]);
             if !(p.iter().all(|v| v.is_finite()) && (n.length() - 1.0).abs() < 1e-6) {
                 return Err(Error::config(
@@ -616,10 +695,10 @@ impl RenderConfig {
                 ));
             }
         }
-        if !(self.near.is_finite() && self.near > 0.0) {
+        if !(self.frame.near.is_finite() && self.frame.near > 0.0) {
             return Err(Error::config(
                 "near plane",
-                format!("{} must be a positive number", self.near),
+                format!("{} must be a positive number", self.frame.near),
             ));
         }
         Ok(())
@@ -670,13 +749,13 @@ impl RenderConfig {
         profile: Option<&crate::view::profile::HmdProfile>,
     ) -> Result<()> {
         use crate::view::foveation::Level;
-        let foveation_auto = self.foveation == Level::Lens(0);
+        let foveation_auto = self.effort.foveation == Level::Lens(0);
         self.resolve_lms(profile);
         self.resolve_inset(profile);
-        if !self.rdm_auto && !foveation_auto {
+        if !self.effort.rdm_auto && !foveation_auto {
             return Ok(());
         }
-        let what = if self.rdm_auto {
+        let what = if self.effort.rdm_auto {
             "rdm=auto"
         } else {
             "foveation=auto"
@@ -692,7 +771,7 @@ impl RenderConfig {
         for v in &profile.views {
             let lens = v.lens.as_ref().ok_or_else(|| no_lens(&profile.name))?;
             let d = crate::view::distortion::density::density(lens, &v.fov, v.resolution, 4);
-            if self.rdm_auto {
+            if self.effort.rdm_auto {
                 let r = d.rdm_radius.ok_or_else(|| {
                     Error::config(
                         "--opt",
@@ -711,12 +790,12 @@ impl RenderConfig {
                 coarse = coarse.max(r);
             }
         }
-        if self.rdm_auto {
-            self.rdm = Some(rdm as f32);
-            self.rdm_auto = false;
+        if self.effort.rdm_auto {
+            self.effort.rdm = Some(rdm as f32);
+            self.effort.rdm_auto = false;
         }
         if foveation_auto {
-            self.foveation = Level::Lens(((coarse * 1000.0).round() as u16).max(1));
+            self.effort.foveation = Level::Lens(((coarse * 1000.0).round() as u16).max(1));
         }
         Ok(())
     }
@@ -727,7 +806,7 @@ impl RenderConfig {
     /// at the wide view's scale, within 1–80°. Otherwise the constant
     /// default ([`crate::view::inset::DEFAULT_HALF_ANGLE_DEG`]) stays.
     fn resolve_inset(&mut self, profile: Option<&crate::view::profile::HmdProfile>) {
-        let (Some(inset), Some(profile)) = (self.inset.as_mut(), profile) else {
+        let (Some(inset), Some(profile)) = (self.effort.inset.as_mut(), profile) else {
             return;
         };
         if inset.fov_given || profile.views.iter().any(|v| v.lens.is_none()) {
@@ -755,7 +834,7 @@ impl RenderConfig {
     /// has one, else the default.
     fn resolve_lms(&mut self, profile: Option<&crate::view::profile::HmdProfile>) {
         use crate::view::lms;
-        let Some(l) = self.lms.as_mut() else {
+        let Some(l) = self.effort.lms.as_mut() else {
             return;
         };
         let lenses: Option<Vec<_>> = profile.map(|p| {
@@ -780,7 +859,7 @@ impl RenderConfig {
     /// [`crate::view::taa::SETTLE_FRAMES`], else 0 (every frame stands
     /// alone).
     pub fn settle_frames(&self) -> usize {
-        match self.inset.and_then(|i| i.taa) {
+        match self.effort.inset.and_then(|i| i.taa) {
             Some(_) => crate::view::taa::SETTLE_FRAMES,
             None => 0,
         }
@@ -793,12 +872,12 @@ impl RenderConfig {
         refuse_with(
             "a scene with a point cloud rasterizes its points into the full-size eye images; {} is not built for points yet: leave it out",
             &[
-                (self.lms.is_some(), "lms"),
-                (self.inset.is_some(), "inset"),
-                (self.mffr.is_some(), "mffr"),
-                (self.aq, "aq"),
-                (self.timewarp.is_some(), "timewarp"),
-                (self.record_threads.is_some(), "--record-threads"),
+                (self.effort.lms.is_some(), "lms"),
+                (self.effort.inset.is_some(), "inset"),
+                (self.effort.mffr.is_some(), "mffr"),
+                (self.effort.aq, "aq"),
+                (self.simulator.timewarp.is_some(), "timewarp"),
+                (self.submission.record_threads.is_some(), "--record-threads"),
             ],
         )
     }
@@ -806,7 +885,7 @@ impl RenderConfig {
     /// One error when `timewarp` is set for `command`, which does not
     /// measure it (only `render --frames` does).
     pub fn refuse_timewarp(&self, command: &str) -> Result<()> {
-        match self.timewarp {
+        match self.simulator.timewarp {
             Some(_) => Err(Error::config(
                 "--opt",
                 format!("timewarp is measured by `vergence render --frames N --opt timewarp=K` and by bench plan configurations; `{command}` does not run it"),
@@ -923,25 +1002,25 @@ mod tests {
             c
         };
         let c = resolved("inset,lms", &vive);
-        let deg = c.inset.unwrap().half_angle_deg;
+        let deg = c.effort.inset.unwrap().half_angle_deg;
         assert!(deg > 1.0 && deg <= 80.0 && deg != crate::view::inset::DEFAULT_HALF_ANGLE_DEG);
-        let k = c.lms.unwrap().coefficients();
+        let k = c.effort.lms.unwrap().coefficients();
         assert!(k.left > 0.0 && k.left < crate::view::lms::DEFAULT_COEFFICIENT);
         // The opt string does not freeze derived values.
         assert_eq!(c.opt_string(), "multiview,msaa4,none,inset,lms");
         let c = resolved("inset,inset-fov=15,lms=0.2", &vive);
-        assert_eq!(c.inset.unwrap().half_angle_deg, 15.0);
+        assert_eq!(c.effort.inset.unwrap().half_angle_deg, 15.0);
         assert_eq!(
-            c.lms.unwrap().coefficients(),
+            c.effort.lms.unwrap().coefficients(),
             crate::view::lms::Coefficients::uniform(0.2)
         );
         let c = resolved("inset,lms", &index);
         assert_eq!(
-            c.inset.unwrap().half_angle_deg,
+            c.effort.inset.unwrap().half_angle_deg,
             crate::view::inset::DEFAULT_HALF_ANGLE_DEG
         );
         assert_eq!(
-            c.lms.unwrap().coefficients(),
+            c.effort.lms.unwrap().coefficients(),
             crate::view::lms::Coefficients::uniform(crate::view::lms::DEFAULT_COEFFICIENT)
         );
     }
@@ -951,11 +1030,11 @@ mod tests {
         let mut c = RenderConfig::default();
         c.apply_opts("stencil-mask,foveation=high,gaze=0.25:-0.5", &["none"])
             .unwrap();
-        assert!(c.stencil_mask);
-        assert_eq!(c.foveation, Level::High);
-        assert_eq!(c.gaze, [0.25, -0.5]);
+        assert!(c.effort.stencil_mask);
+        assert_eq!(c.effort.foveation, Level::High);
+        assert_eq!(c.effort.gaze, [0.25, -0.5]);
         c.apply_opts("rdm=0.4,rdm-nofill", &["none"]).unwrap();
-        assert_eq!((c.rdm, c.rdm_fill), (Some(0.4), false));
+        assert_eq!((c.effort.rdm, c.effort.rdm_fill), (Some(0.4), false));
         for (list, says) in [
             (
                 "multiview,two-pass",
@@ -979,11 +1058,15 @@ mod tests {
         )
         .unwrap();
         assert_eq!(
-            (c.foveation, c.msaa, c.stereo),
+            (c.effort.foveation, c.frame.msaa, c.frame.stereo),
             (Level::Medium, 4, StereoMode::TwoPass)
         );
         c.apply_opts("multiview", &["none"]).unwrap();
-        assert_eq!(c.stereo, StereoMode::Multiview, "a later list overrides");
+        assert_eq!(
+            c.frame.stereo,
+            StereoMode::Multiview,
+            "a later list overrides"
+        );
         for bad in [
             "mffr=1e-46",
             "foveation=extreme",
@@ -1017,7 +1100,7 @@ mod tests {
         let vive = HmdProfile::load("vive").unwrap();
         let mut c = auto();
         c.resolve_lens(Some(&vive)).unwrap();
-        assert!(!c.rdm_auto);
+        assert!(!c.effort.rdm_auto);
         // The largest of the views' radii, each from the density figures.
         let largest = |p: &HmdProfile, pick: fn(&Density) -> Option<f64>| {
             p.views
@@ -1026,7 +1109,7 @@ mod tests {
                 .fold(0.0, f64::max)
         };
         let expect = largest(&vive, |d| d.rdm_radius);
-        assert_eq!(c.rdm, Some(expect as f32));
+        assert_eq!(c.effort.rdm, Some(expect as f32));
         assert!((0.6..0.9).contains(&expect), "{expect}");
         let e = auto()
             .resolve_lens(Some(&HmdProfile::load("valve-index").unwrap()))
@@ -1045,24 +1128,31 @@ mod tests {
             c.apply_opts("foveation=auto", &cull_names()).unwrap();
             c
         };
-        assert_eq!(fov_auto().foveation, Level::Lens(0));
+        assert_eq!(fov_auto().effort.foveation, Level::Lens(0));
         assert!(fov_auto().opt_string().contains("foveation=auto"));
         let dk1 = HmdProfile::load("rift-dk1").unwrap();
         let mut c = fov_auto();
         c.resolve_lens(Some(&dk1)).unwrap();
         let expect = largest(&dk1, |d| d.coarse_radius);
-        assert_eq!(c.foveation, Level::Lens((expect * 1000.0).round() as u16));
-        assert_eq!(c.foveation.size_at(0.0), 1);
-        assert_eq!(c.foveation.size_at(expect as f32 + 0.01), 2);
+        assert_eq!(
+            c.effort.foveation,
+            Level::Lens((expect * 1000.0).round() as u16)
+        );
+        assert_eq!(c.effort.foveation.size_at(0.0), 1);
+        assert_eq!(c.effort.foveation.size_at(expect as f32 + 0.01), 2);
         // Coarser shading needs more density than masking: the Vive's
         // 2×2 ring starts beyond its RDM radius.
         let mut c = fov_auto();
         c.apply_opts("rdm=auto", &cull_names()).unwrap();
         c.resolve_lens(Some(&vive)).unwrap();
-        let Level::Lens(r) = c.foveation else {
-            panic!("{:?}", c.foveation)
+        let Level::Lens(r) = c.effort.foveation else {
+            panic!("{:?}", c.effort.foveation)
         };
-        assert!(f32::from(r) / 1000.0 >= c.rdm.unwrap(), "{r} {:?}", c.rdm);
+        assert!(
+            f32::from(r) / 1000.0 >= c.effort.rdm.unwrap(),
+            "{r} {:?}",
+            c.effort.rdm
+        );
         // A lens that reads one eye pixel per panel pixel: no 2×2 ring.
         let flat = HmdProfile::parse(
             "flat",
@@ -1081,7 +1171,7 @@ mod tests {
         let mut c = RenderConfig::default();
         c.apply_opts("rdm=auto", &cull_names()).unwrap();
         c.apply_opts("rdm=0.4", &cull_names()).unwrap();
-        assert!(!c.rdm_auto && c.rdm == Some(0.4));
+        assert!(!c.effort.rdm_auto && c.effort.rdm == Some(0.4));
         c.resolve_lens(None).unwrap();
     }
 }

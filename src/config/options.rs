@@ -111,22 +111,22 @@ pub fn check_rules(c: &RenderConfig) -> crate::error::Result<()> {
 
 /// Radial density masking is on (with a radius or `auto`).
 fn rdm_on(c: &RenderConfig) -> bool {
-    c.rdm.is_some() || c.rdm_auto
+    c.effort.rdm.is_some() || c.effort.rdm_auto
 }
 
 /// VRS foveation is on.
 fn foveation_on(c: &RenderConfig) -> bool {
-    c.foveation != crate::view::foveation::Level::Off
+    c.effort.foveation != crate::view::foveation::Level::Off
 }
 
 /// The inset draws its four views in one scope.
 fn four_views(c: &RenderConfig) -> bool {
-    c.inset.is_some_and(|i| i.four_views)
+    c.effort.inset.is_some_and(|i| i.four_views)
 }
 
 /// Parallel recording or per-draw data other than push constants.
 fn submission_on(c: &RenderConfig) -> bool {
-    c.record_threads.is_some() || c.per_draw != super::PerDraw::Push
+    c.submission.record_threads.is_some() || c.submission.per_draw != super::PerDraw::Push
 }
 
 const fn flag(name: &'static str) -> Opt {

@@ -40,6 +40,7 @@ impl GpuBlended {
             return Ok(None);
         }
         let strategy = config
+            .culling
             .cull
             .strategy()
             .ok_or_else(|| Error::config("--opt", "gpu-cull needs a culling strategy"))?;

@@ -24,11 +24,11 @@ impl Renderer {
         output: Option<OutputSpec>,
     ) -> Result<Renderer> {
         check_request(config, extent, output.as_ref())?;
-        let samples = config.msaa.min(ctx.caps.max_samples);
-        let slots = config.frames_in_flight as usize;
+        let samples = config.frame.msaa.min(ctx.caps.max_samples);
+        let slots = config.submission.frames_in_flight as usize;
         // With aq every target is made once for the largest scale.
         let nominal = extent;
-        let allocated = if config.aq {
+        let allocated = if config.effort.aq {
             scaled(extent, crate::adaptive::MAX_SCALE)
         } else {
             extent
@@ -44,8 +44,13 @@ impl Renderer {
             _ => ctx.caps.depth_format,
         };
         let quad = output.is_some_and(|o| o.quad);
-        let inset_choice = config.inset.map(|i| {
-            let (four, path) = inset_path(i, config.stereo, ctx.caps.max_multiview_views, samples);
+        let inset_choice = config.effort.inset.map(|i| {
+            let (four, path) = inset_path(
+                i,
+                config.frame.stereo,
+                ctx.caps.max_multiview_views,
+                samples,
+            );
             let path = if quad {
                 format!("{path}, submitted as four views")
             } else {
@@ -56,9 +61,10 @@ impl Renderer {
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
-            config: RenderConfig {
-                msaa: samples,
-                ..config.clone()
+            config: {
+                let mut rc = config.clone();
+                rc.frame.msaa = samples;
+                rc
             },
             extent: nominal,
             nominal,
@@ -85,7 +91,7 @@ impl Renderer {
             blended: None,
             sun: scene.sun,
             extras: uniforms::FrameExtras {
-                section: config.section.map(culling::plane_of),
+                section: config.frame.section.map(culling::plane_of),
                 overlay: Vec::new(),
             },
             batches: Batches::default(),
@@ -96,7 +102,7 @@ impl Renderer {
             readback: Readback::new(),
             frame_index: 0,
             mffr_fallbacks: 0,
-            mffr_partition: !config.mffr.is_some_and(|m| m.no_split),
+            mffr_partition: !config.effort.mffr.is_some_and(|m| m.no_split),
             foveation_path: "off".into(),
             four_view: inset_choice.as_ref().is_some_and(|c| c.0),
             inset_path: inset_choice.map(|c| c.1),
@@ -135,7 +141,7 @@ impl Renderer {
             )?;
             // Secondary command buffers may run inside the frame's
             // statistics query only with inheritedQueries.
-            let stats = config.record_threads.is_none() || ctx.caps.inherited_queries;
+            let stats = config.submission.record_threads.is_none() || ctx.caps.inherited_queries;
             let queries = Queries::new(&ctx, 32, stats);
             // The buffer joins the renderer before the queries' result is
             // looked at, so a failure drops (and destroys) it with the rest.
@@ -148,7 +154,7 @@ impl Renderer {
             r.per_slot[i].queries = Some(queries?);
         }
         r.ring = Some(FrameRing::new(&ctx, slots)?);
-        if let Some(n) = config.record_threads {
+        if let Some(n) = config.submission.record_threads {
             r.parallel = Some(ParallelRecording::new(&ctx, n as usize, slots)?);
         }
         Ok(())
@@ -168,11 +174,11 @@ impl Renderer {
         // Pipelines depend on the shading-rate attachment: foveation first.
         let (rates, path) = ShadingRate::new(&ctx, &r.config, extent)?;
         if rates.is_none() {
-            r.config.foveation = Level::Off;
+            r.config.effort.foveation = Level::Off;
         }
         r.shading_rate = rates;
         r.foveation_path = path;
-        match (&r.inset_path, config.inset) {
+        match (&r.inset_path, config.effort.inset) {
             (Some(path), Some(i)) if i.four_views && !r.four_view => {
                 tracing::warn!("inset-views=4 falls back: {path}")
             }
@@ -203,24 +209,25 @@ impl Renderer {
             &ctx,
             extent,
             samples,
-            config.stereo == StereoMode::Multiview,
+            config.frame.stereo == StereoMode::Multiview,
             SetOptions {
                 depth_format,
                 // The depth variants of the timewarp read the frame's depth;
                 // the rotation-only one does not.
                 keep_depth: output.is_some_and(|o| o.depth)
                     || config
+                        .simulator
                         .timewarp
                         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation),
                 // With a quad output the runtime composites the inset: no
                 // composed image.
-                composed: (config.rdm.is_some() && config.rdm_fill)
-                    || (config.inset.is_some() && !r.quad)
-                    || config.lms.is_some(),
+                composed: (config.effort.rdm.is_some() && config.effort.rdm_fill)
+                    || (config.effort.inset.is_some() && !r.quad)
+                    || config.effort.lms.is_some(),
                 sampled: false,
-                storage_output: config.inset.is_some() && !r.quad,
+                storage_output: config.effort.inset.is_some() && !r.quad,
                 storage_resolve: false,
-                occlusion: config.occlusion,
+                occlusion: config.culling.occlusion,
                 multiview_layers: if r.four_view { 4 } else { 2 },
                 one_sample_depth: false,
             },
@@ -243,10 +250,10 @@ impl Renderer {
         slots: usize,
     ) -> Result<()> {
         let r = self;
-        if config.gpu_cull {
+        if config.culling.gpu_cull {
             let order = r.batcher.order().to_vec();
             r.blended = blended::GpuBlended::new(config, scene, &r.batcher)?;
-            if r.blended.is_some() && config.mffr.is_some() {
+            if r.blended.is_some() && config.effort.mffr.is_some() {
                 return Err(Error::config(
                     "--opt",
                     format!(
@@ -255,22 +262,25 @@ impl Renderer {
                     ),
                 ));
             }
-            let occlusion = config.occlusion.then(|| r.occlusion_targets(samples));
+            let occlusion = config
+                .culling
+                .occlusion
+                .then(|| r.occlusion_targets(samples));
             // With occlusion the inset scope draws the same two sets as the
             // wide one (early, late), with mffr the same near set: no lists
             // of its own.
-            let inset_lists = config.inset.is_some()
+            let inset_lists = config.effort.inset.is_some()
                 && !r.four_view
-                && !config.occlusion
-                && config.mffr.is_none();
+                && !config.culling.occlusion
+                && config.effort.mffr.is_none();
             let gpu = GpuCull::new(
                 &r.pipeline_setup(),
                 scene,
                 &order,
                 &r.ubos(),
                 occlusion,
-                config.lod.is_some(),
-                (config.mffr.is_some(), inset_lists),
+                config.culling.lod.is_some(),
+                (config.effort.mffr.is_some(), inset_lists),
                 r.blended.as_ref().map_or(0, |b| b.capacity()),
             )?;
             r.passes.gpu_cull = Some(gpu);
@@ -281,7 +291,7 @@ impl Renderer {
         // per mesh the first frames do not grow it (more primitives grow it
         // once, to what is visible: sizing for every primitive of every
         // instance would reserve far more than a view sees on large scenes).
-        let lists = if config.inset.is_some() { 2 } else { 1 };
+        let lists = if config.effort.inset.is_some() { 2 } else { 1 };
         let ids = scene.instances.len().max(1) * lists;
         for i in 0..slots {
             if r.passes.gpu_cull.is_some() {
@@ -298,7 +308,7 @@ impl Renderer {
     /// with the eye's projection (the inset scope covers only its
     /// rectangle); else the eyes' targets (`samples` per pixel).
     fn occlusion_targets(&self, samples: u32) -> passes::gpu_cull::OcclusionTargets<'_> {
-        let near = self.config.near as f32;
+        let near = self.config.frame.near as f32;
         match self.passes.inset.as_ref().filter(|i| !i.four_view()) {
             Some(inset) => passes::gpu_cull::OcclusionTargets {
                 sets: &inset.wide.sets,
@@ -328,7 +338,7 @@ fn check_request(
     output: Option<&OutputSpec>,
 ) -> Result<()> {
     config.validate()?;
-    if config.rdm_auto || config.foveation == crate::view::foveation::Level::Lens(0) {
+    if config.effort.rdm_auto || config.effort.foveation == crate::view::foveation::Level::Lens(0) {
         return Err(Error::config(
                 "--opt",
                 "rdm=auto and foveation=auto need an HMD profile with a lens to derive their radii from (this path does not resolve them); give rdm=R or a foveation level",
@@ -343,7 +353,7 @@ fn check_request(
             ),
         ));
     }
-    if output.is_some_and(|o| o.quad) && config.inset.is_none() {
+    if output.is_some_and(|o| o.quad) && config.effort.inset.is_none() {
         return Err(Error::config(
                 "output",
                 "four views go out only with --opt inset (the runtime's view configuration is quad views)",
@@ -366,9 +376,9 @@ fn upload_scene(
     Descriptors,
     Option<LodReport>,
 )> {
-    let (chains, cache) = match (config.lod, &scene.source) {
+    let (chains, cache) = match (config.culling.lod, &scene.source) {
         (None, _) => (None, None),
-        (Some(_), Some(source)) if config.lod_cache => {
+        (Some(_), Some(source)) if config.culling.lod_cache => {
             let (c, used) = crate::scene::lod_cache::load_or_build(scene, source);
             (Some(c), Some(used))
         }
@@ -382,7 +392,7 @@ fn upload_scene(
     });
     let scene_gpu = SceneGpu::new(ctx, scene, chains.as_ref())?;
     drop(chains);
-    let draw_records = match DrawRecords::new(ctx, config.per_draw, slots) {
+    let draw_records = match DrawRecords::new(ctx, config.submission.per_draw, slots) {
         Ok(r) => r,
         Err(e) => {
             scene_gpu.destroy(ctx);

@@ -28,17 +28,17 @@ pub struct CullState {
 impl CullState {
     /// The culling `config` asks for over `scene` (None: `cull = "none"`).
     pub fn new(config: &RenderConfig, scene: &Scene) -> Result<Option<CullState>> {
-        let Some(strategy) = config.cull.strategy() else {
+        let Some(strategy) = config.culling.cull.strategy() else {
             return Ok(None);
         };
         // With gpu-cull the renderer's compute pass culls every frame.
-        if config.gpu_cull {
+        if config.culling.gpu_cull {
             return Ok(None);
         }
         let made = Self::over_boxes(strategy, config, &scene.world_aabbs())
             .map_err(|e| Error::scene(&scene.name, e))?;
         Ok(Some(CullState {
-            section: config.section.map(plane_of),
+            section: config.frame.section.map(plane_of),
             ..made
         }))
     }
@@ -55,8 +55,8 @@ impl CullState {
         let bvh = Bvh::build(bounds, DEFAULT_LEAF_SIZE).map_err(|e| e.to_string())?;
         let build_ms = t.elapsed().as_secs_f64() * 1e3;
         let params = CullParams {
-            near: config.near,
-            draw_distance: config.draw_distance,
+            near: config.frame.near,
+            draw_distance: config.culling.draw_distance,
             ..CullParams::default()
         };
         Ok(CullState {
@@ -169,7 +169,10 @@ mod tests {
     fn instances_wholly_beyond_the_section_plane_are_culled() {
         let scene = row();
         let config = RenderConfig {
-            cull: "per-eye".parse().unwrap(),
+            culling: crate::config::CullingConfig {
+                cull: "per-eye".parse().unwrap(),
+                ..Default::default()
+            },
             ..RenderConfig::default()
         };
         let mut state = CullState::new(&config, &scene)

@@ -370,7 +370,7 @@ impl FrameDriver {
     /// The frame budget of `aq` from the runtime's display period (or the
     /// profile's refresh rate), unless `--budget-ms` set one.
     pub fn set_display_budget(&mut self, ms: f64) {
-        if self.renderer.config.budget_ms.is_none() && ms.is_finite() && ms > 0.0 {
+        if self.renderer.config.effort.budget_ms.is_none() && ms.is_finite() && ms > 0.0 {
             if let Some(a) = self.aq.as_mut() {
                 a.set_budget_ms(ms);
             }
@@ -403,12 +403,12 @@ fn aq_controller(renderer: &Renderer) -> Option<crate::adaptive::AdaptiveQuality
     use crate::adaptive::{
         levels, wide_rung_factors, AdaptiveQuality, MAX_SCALE, MIN_SCALE, MIN_WIDE_FACTOR, STEP_PCT,
     };
-    if !config.aq {
+    if !config.effort.aq {
         return None;
     }
-    let budget = config.budget_ms.unwrap_or(DEFAULT_BUDGET_MS);
+    let budget = config.effort.budget_ms.unwrap_or(DEFAULT_BUDGET_MS);
     let aq = AdaptiveQuality::new(budget, levels(MIN_SCALE, MAX_SCALE, STEP_PCT)?)?;
-    if config.inset.is_none() || config.aq_scale_only {
+    if config.effort.inset.is_none() || config.effort.aq_scale_only {
         return Some(aq);
     }
     let factors = wide_rung_factors(MIN_WIDE_FACTOR, STEP_PCT)?;

@@ -191,7 +191,7 @@ impl Renderer {
     /// Places the inset for this frame's views and starts the wide views'
     /// frame (their accumulation's reprojection).
     fn place_inset(&mut self, rig: &StereoRig) {
-        if let Some(i) = self.config.inset {
+        if let Some(i) = self.config.effort.inset {
             // Two views (checked above): no allocation in the frame.
             let fovs = [rig.views[0].fov, rig.views[1].fov];
             self.inset_rect = match &self.focus {
@@ -203,7 +203,7 @@ impl Renderer {
                 ),
                 None => crate::view::inset::inset_rect(
                     &fovs,
-                    self.config.gaze,
+                    self.config.effort.gaze,
                     i.half_angle_deg,
                     self.extent.width,
                     self.extent.height,
@@ -211,7 +211,11 @@ impl Renderer {
             };
             if let Some(pass) = self.passes.inset.as_mut() {
                 self.wide_region = pass.wide_region(&self.inset_rect, self.extent);
-                pass.begin_frame([rig.views[0], rig.views[1]], self.config.near, self.extent);
+                pass.begin_frame(
+                    [rig.views[0], rig.views[1]],
+                    self.config.frame.near,
+                    self.extent,
+                );
             }
         }
     }
@@ -368,12 +372,13 @@ impl Renderer {
         if let Some(gpu) = self.passes.gpu_cull.as_mut() {
             let strategy = self
                 .config
+                .culling
                 .cull
                 .strategy()
                 .ok_or_else(|| Error::config("--opt", "gpu-cull needs a culling strategy"))?;
             let params = crate::cull::CullParams {
-                near: self.config.near,
-                draw_distance: self.config.draw_distance,
+                near: self.config.frame.near,
+                draw_distance: self.config.culling.draw_distance,
                 ..crate::cull::CullParams::default()
             };
             // The volumes relative to the frame uniform's render origin.
@@ -385,7 +390,7 @@ impl Renderer {
                 rig.head.position,
             )
             .map_err(|e| Error::config("view for culling", e.to_string()))?;
-            let lod = match self.config.lod {
+            let lod = match self.config.culling.lod {
                 Some(bound) => {
                     let e = (self.extent.width, self.extent.height);
                     let eyes: Vec<_> = rig.views.iter().map(|v| (v.fov, e)).collect();
@@ -544,7 +549,7 @@ impl Renderer {
         space: Option<submission::RecordSpace>,
     ) -> Result<(u64, submission::ThreadTimes)> {
         // (view mask, eye) per scope.
-        let scopes: &[(u32, u32)] = match self.config.stereo {
+        let scopes: &[(u32, u32)] = match self.config.frame.stereo {
             StereoMode::Multiview => &[(0b11, 0)],
             StereoMode::TwoPass => &[(0, 0), (0, 1)],
         };
@@ -552,7 +557,7 @@ impl Renderer {
             view_mask,
             color: attachments::COLOR_FORMAT,
             depth: self.depth_format,
-            samples: self.config.msaa,
+            samples: self.config.frame.msaa,
             stats,
         };
         let formats: Vec<ScopeFormat> = scopes.iter().map(format).collect();
@@ -730,7 +735,7 @@ impl Renderer {
         // With inset's four views they are the wide views: the eyes' poses
         // with the FOVs that put each eye on its region of the layer.
         let (far_views, far_near) = match (&self.passes.far, self.four_view_region()) {
-            (Some(f), _) => f.cameras(self.config.near),
+            (Some(f), _) => f.cameras(self.config.frame.near),
             (None, Some(region)) => {
                 let wide = |v: &crate::view::View| crate::view::View {
                     fov: crate::view::inset::layer_fov(
@@ -743,11 +748,14 @@ impl Renderer {
                 };
                 let left = &rig.views[0];
                 let right = rig.views.get(1).unwrap_or(left);
-                ([Some(wide(left)), Some(wide(right))], self.config.near)
+                (
+                    [Some(wide(left)), Some(wide(right))],
+                    self.config.frame.near,
+                )
             }
-            (None, None) => ([None, None], self.config.near),
+            (None, None) => ([None, None], self.config.frame.near),
         };
-        let mut u = FrameUniforms::new(rig, self.config.near, far_views, far_near);
+        let mut u = FrameUniforms::new(rig, self.config.frame.near, far_views, far_near);
         if let Some(sun) = &self.sun {
             u.sun_dir = sun.direction.as_vec3().extend(0.0);
             u.sun_color = glam::Vec3::from_array(sun.color).extend(0.0);
@@ -770,13 +778,13 @@ impl Renderer {
     /// [`crate::view::inset_hole`]). The CPU batcher tests spheres against
     /// them, `gpu-cull` boxes.
     pub(super) fn inset_volumes(&self, rig: &StereoRig) -> Option<InsetVolumes> {
-        let inset = self.config.inset?;
+        let inset = self.config.effort.inset?;
         // Four views share one scope and so one list.
         if self.four_view {
             return None;
         }
         let (w, h) = (self.extent.width, self.extent.height);
-        let (near, far) = (self.config.near, self.config.draw_distance);
+        let (near, far) = (self.config.frame.near, self.config.culling.draw_distance);
         let volume = |v: &crate::view::View| {
             let t = crate::view::inset::rect_tangents(&v.fov, &self.inset_rect, w, h);
             crate::view::frustum::Frustum::from_tangents(&v.pose, t, near, far).ok()

@@ -262,11 +262,12 @@ pub struct Renderer {
 /// (`bench/results/2026-12-03-h200-raster-floors.md`).
 fn mask_in_depth(config: &RenderConfig, depth_out: bool) -> bool {
     let timewarp_depth = config
+        .simulator
         .timewarp
         .is_some_and(|t| t.variant != crate::config::TimewarpVariant::Rotation);
-    config.stencil_mask
-        && config.rdm.is_none()
-        && config.mffr.is_none()
+    config.effort.stencil_mask
+        && config.effort.rdm.is_none()
+        && config.effort.mffr.is_none()
         && !depth_out
         && !timewarp_depth
 }
@@ -274,7 +275,7 @@ fn mask_in_depth(config: &RenderConfig, depth_out: bool) -> bool {
 /// Whether the frame's draws test stencil (RDM's checkerboard, or the
 /// stencil mask where it is not marked in depth, writes it).
 fn tests_stencil(config: &RenderConfig, mask_in_depth: bool) -> bool {
-    (config.stencil_mask && !mask_in_depth) || config.rdm.is_some()
+    (config.effort.stencil_mask && !mask_in_depth) || config.effort.rdm.is_some()
 }
 
 /// The render area of pixel rectangle `r`.
@@ -392,7 +393,7 @@ impl Renderer {
     }
 
     fn view_mask(&self) -> u32 {
-        match self.config.stereo {
+        match self.config.frame.stereo {
             StereoMode::Multiview if self.four_view => 0b1111,
             StereoMode::Multiview => 0b11,
             StereoMode::TwoPass => 0,
@@ -412,7 +413,7 @@ impl Renderer {
         PipelineSetup {
             ctx: &self.ctx,
             layout: self.descriptors.layout,
-            samples: self.config.msaa,
+            samples: self.config.frame.msaa,
             view_mask: self.view_mask(),
             stencil_test: tests_stencil(&self.config, self.mask_in_depth),
             mask_in_depth: self.mask_in_depth,
@@ -420,13 +421,14 @@ impl Renderer {
             shading_rate: self.shading_rate.is_some(),
             scene: self.scene(),
             keys: &self.batcher.keys,
-            per_draw: self.config.per_draw,
+            per_draw: self.config.submission.per_draw,
             w_scaling: self
                 .config
+                .effort
                 .lms
                 .is_some_and(|l| !l.emulated && self.ctx.caps.clip_space_w_scaling),
-            lms: self.config.lms.is_some(),
-            resolved_sky: self.config.resolved_sky,
+            lms: self.config.effort.lms.is_some(),
+            resolved_sky: self.config.effort.resolved_sky,
             set_layout: self.descriptors.set_layout,
         }
     }

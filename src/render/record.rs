@@ -52,7 +52,7 @@ impl Renderer {
             quad: self.quad,
         });
         let mut input = PlanInput {
-            two_pass: self.config.stereo == StereoMode::TwoPass,
+            two_pass: self.config.frame.stereo == StereoMode::TwoPass,
             extent: size(self.extent),
             floor,
             gpu_cull: p.gpu_cull.is_some(),
@@ -191,7 +191,7 @@ impl Renderer {
         // With a monoscopic far field, the near field's depth starts at the
         // split plane (reverse-Z: near / D), so only geometry nearer than D
         // passes the depth test.
-        let depth_clear = far.map_or(0.0, |fa| fa.depth_clear(self.config.near));
+        let depth_clear = far.map_or(0.0, |fa| fa.depth_clear(self.config.frame.near));
         let twins = p.inset_wide.as_ref().filter(|_| s.one_sample_twins);
         q.begin_pass(ctx, cmd, s.name);
         f.rec.begin_scope(&Scope {

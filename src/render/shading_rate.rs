@@ -48,7 +48,7 @@ impl ShadingRate {
         config: &RenderConfig,
         extent: vk::Extent2D,
     ) -> Result<(Option<ShadingRate>, String)> {
-        let level = config.foveation;
+        let level = config.effort.foveation;
         if level == Level::Off {
             return Ok((None, "off".into()));
         }
@@ -65,12 +65,12 @@ impl ShadingRate {
             eprintln!("warning: foveation {level:?} falls back to {path}");
             return Ok((None, path));
         };
-        let multiview = config.stereo == StereoMode::Multiview;
+        let multiview = config.frame.stereo == StereoMode::Multiview;
         let mut rates = ShadingRate {
             sizes: Vec::new(),
             texel,
             level,
-            gaze: config.gaze,
+            gaze: config.effort.gaze,
             layers: if multiview { 2 } else { 1 },
             sets: if multiview { 1 } else { 2 },
         };
@@ -80,7 +80,7 @@ impl ShadingRate {
             "vk-khr-fragment-shading-rate ({}x{} texels, {:.0} % of full-rate shading)",
             texel.0,
             texel.1,
-            100.0 * foveation::shaded_fraction(level, config.gaze, w, h, texel)
+            100.0 * foveation::shaded_fraction(level, config.effort.gaze, w, h, texel)
         );
         Ok((Some(rates), path))
     }

@@ -131,7 +131,7 @@ impl Renderer {
         stats.pipeline = pipeline;
         if let Some(gpu) = self.passes.gpu_cull.as_mut() {
             let drawn = gpu.read(slot)?;
-            let view_sets = match self.config.stereo {
+            let view_sets = match self.config.frame.stereo {
                 StereoMode::Multiview => 1,
                 StereoMode::TwoPass => 2,
             };

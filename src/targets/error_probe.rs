@@ -28,9 +28,15 @@ pub struct ErrorReport {
 /// nothing else on), with `config`'s near plane and section plane.
 pub fn reference_of(config: &RenderConfig) -> RenderConfig {
     let mut r = RenderConfig {
-        near: config.near,
-        section: config.section,
-        frames_in_flight: 1,
+        frame: crate::config::FrameConfig {
+            near: config.frame.near,
+            section: config.frame.section,
+            ..Default::default()
+        },
+        submission: crate::config::SubmissionConfig {
+            frames_in_flight: 1,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     r.apply_opts("two-pass,msaa4", &crate::config::cull_names())

@@ -388,13 +388,13 @@ pub fn new_renderer(
         if !memory {
             return e;
         }
-        let per_pixel = 8 * config.msaa as u64 + 4;
+        let per_pixel = 8 * config.frame.msaa as u64 + 4;
         let need = extent.width as u64 * extent.height as u64 * 2 * per_pixel;
         Error::Gpu(format!(
             "out of GPU memory making the renderer for {}x{} px per eye at {}x MSAA (its colour, depth and resolve images take about {:.1} MiB for 2 views, besides the scene): {e}; try a smaller --width/--height or --msaa 1",
             extent.width,
             extent.height,
-            config.msaa,
+            config.frame.msaa,
             need as f64 / (1u64 << 20) as f64
         ))
     })

@@ -1059,9 +1059,10 @@ impl Desk {
             eprintln!("vergence: image error not measured: no frame shown yet");
             return;
         };
-        let config = crate::config::RenderConfig {
-            section,
-            ..self.live.config.clone()
+        let config = {
+            let mut rc = self.live.config.clone();
+            rc.frame.section = section;
+            rc
         };
         match crate::targets::error_probe::measure(ctx, scene, &config, shown, extent) {
             Ok(report) => {

@@ -210,7 +210,7 @@ fn run_headless(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result
                     opt = desk.live.config.opt_string();
                     m.set_title(&format!("vergence run: {} [{opt}]", scene.name));
                 }
-                let section = frames.driver.renderer().config.section;
+                let section = frames.driver.renderer().config.frame.section;
                 let shown = last_shown.as_ref().map(|(r, t)| (r, *t));
                 desk.measure_error(m, &ctx, &scene, shown, extent, section);
                 desk.keep_pose(last_shown.as_ref().map(|(r, _)| r));
@@ -379,7 +379,7 @@ impl HeadlessFrames {
         // With aq the eye images hold the largest scale's frames.
         let held = driver.renderer().allocated_extent();
         let eyes = if with_eyes {
-            Some(EyeImages::new(ctx, config.stereo, held, 1)?)
+            Some(EyeImages::new(ctx, config.frame.stereo, held, 1)?)
         } else {
             None
         };
@@ -423,7 +423,7 @@ impl HeadlessFrames {
         self.driver = FrameDriver::new(renderer, scene)?;
         if with_eyes {
             let held = self.driver.renderer().allocated_extent();
-            self.eyes = Some(EyeImages::new(ctx, config.stereo, held, 1)?);
+            self.eyes = Some(EyeImages::new(ctx, config.frame.stereo, held, 1)?);
         }
         Ok(())
     }

@@ -127,29 +127,32 @@ impl Toggle {
     pub fn state(self, c: &RenderConfig) -> (String, bool) {
         match self {
             Toggle::Stereo => (
-                c.stereo.name().to_string(),
-                c.stereo == StereoMode::Multiview,
+                c.frame.stereo.name().to_string(),
+                c.frame.stereo == StereoMode::Multiview,
             ),
-            Toggle::Cull => (format!("cull: {}", c.cull.name()), c.cull != Culling::None),
-            Toggle::StencilMask => ("stencil mask".into(), c.stencil_mask),
+            Toggle::Cull => (
+                format!("cull: {}", c.culling.cull.name()),
+                c.culling.cull != Culling::None,
+            ),
+            Toggle::StencilMask => ("stencil mask".into(), c.effort.stencil_mask),
             Toggle::Foveation => (
-                match c.foveation {
+                match c.effort.foveation {
                     Level::Off => "foveation".to_string(),
                     Level::Low => "fov: low".into(),
                     Level::Medium => "fov: medium".into(),
                     Level::High => "fov: high".into(),
                     Level::Lens(_) => "fov: lens".into(),
                 },
-                c.foveation != Level::Off,
+                c.effort.foveation != Level::Off,
             ),
-            Toggle::Rdm => ("RDM".into(), c.rdm.is_some()),
-            Toggle::Mffr => ("MFFR".into(), c.mffr.is_some()),
-            Toggle::Msaa => (format!("MSAA {}x", c.msaa), c.msaa > 1),
-            Toggle::GpuCull => ("GPU cull".into(), c.gpu_cull),
-            Toggle::Occlusion => ("occlusion".into(), c.occlusion),
-            Toggle::Lod => ("LOD".into(), c.lod.is_some()),
-            Toggle::Inset => ("inset".into(), c.inset.is_some()),
-            Toggle::Aq => ("AQ".into(), c.aq),
+            Toggle::Rdm => ("RDM".into(), c.effort.rdm.is_some()),
+            Toggle::Mffr => ("MFFR".into(), c.effort.mffr.is_some()),
+            Toggle::Msaa => (format!("MSAA {}x", c.frame.msaa), c.frame.msaa > 1),
+            Toggle::GpuCull => ("GPU cull".into(), c.culling.gpu_cull),
+            Toggle::Occlusion => ("occlusion".into(), c.culling.occlusion),
+            Toggle::Lod => ("LOD".into(), c.culling.lod.is_some()),
+            Toggle::Inset => ("inset".into(), c.effort.inset.is_some()),
+            Toggle::Aq => ("AQ".into(), c.effort.aq),
         }
     }
 
@@ -158,7 +161,7 @@ impl Toggle {
         let mut c = config.clone();
         match self {
             Toggle::Stereo => {
-                c.stereo = match c.stereo {
+                c.frame.stereo = match c.frame.stereo {
                     StereoMode::Multiview => StereoMode::TwoPass,
                     StereoMode::TwoPass => StereoMode::Multiview,
                 }
@@ -167,20 +170,20 @@ impl Toggle {
                 let order: Vec<Culling> = std::iter::once(Culling::None)
                     .chain(Strategy::ALL.iter().map(|s| Culling::Strategy(*s)))
                     .collect();
-                let at = order.iter().position(|x| *x == c.cull).unwrap_or(0);
-                c.cull = order[(at + 1) % order.len()];
-                if c.cull == Culling::None {
+                let at = order.iter().position(|x| *x == c.culling.cull).unwrap_or(0);
+                c.culling.cull = order[(at + 1) % order.len()];
+                if c.culling.cull == Culling::None {
                     // GPU culling runs a strategy: it goes off with culling,
                     // and what runs inside it too.
-                    c.gpu_cull = false;
-                    c.occlusion = false;
-                    c.lod = None;
-                    c.lod_cache = false;
+                    c.culling.gpu_cull = false;
+                    c.culling.occlusion = false;
+                    c.culling.lod = None;
+                    c.culling.lod_cache = false;
                 }
             }
-            Toggle::StencilMask => c.stencil_mask = !c.stencil_mask,
+            Toggle::StencilMask => c.effort.stencil_mask = !c.effort.stencil_mask,
             Toggle::Foveation => {
-                c.foveation = match c.foveation {
+                c.effort.foveation = match c.effort.foveation {
                     Level::Off => Level::Low,
                     Level::Low => Level::Medium,
                     Level::Medium => Level::High,
@@ -188,42 +191,42 @@ impl Toggle {
                 }
             }
             Toggle::Rdm => {
-                c.rdm = match c.rdm {
+                c.effort.rdm = match c.effort.rdm {
                     Some(_) => None,
                     None => Some(crate::config::DEFAULT_RDM_RADIUS),
                 }
             }
             Toggle::Mffr => {
-                c.mffr = match c.mffr {
+                c.effort.mffr = match c.effort.mffr {
                     Some(_) => None,
                     None => Some(Mffr::default()),
                 }
             }
-            Toggle::Msaa => c.msaa = if c.msaa == 1 { 4 } else { 1 },
+            Toggle::Msaa => c.frame.msaa = if c.frame.msaa == 1 { 4 } else { 1 },
             Toggle::GpuCull => {
-                c.gpu_cull = !c.gpu_cull;
-                if !c.gpu_cull {
+                c.culling.gpu_cull = !c.culling.gpu_cull;
+                if !c.culling.gpu_cull {
                     // Both run inside GPU culling: they go off with it.
-                    c.occlusion = false;
-                    c.lod = None;
-                    c.lod_cache = false;
+                    c.culling.occlusion = false;
+                    c.culling.lod = None;
+                    c.culling.lod_cache = false;
                 }
             }
-            Toggle::Occlusion => c.occlusion = !c.occlusion,
+            Toggle::Occlusion => c.culling.occlusion = !c.culling.occlusion,
             Toggle::Lod => {
-                c.lod = match c.lod {
+                c.culling.lod = match c.culling.lod {
                     Some(_) => None,
                     None => Some(crate::view::lod::DEFAULT_BOUND_PX),
                 };
-                c.lod_cache = c.lod.is_some() && c.lod_cache;
+                c.culling.lod_cache = c.culling.lod.is_some() && c.culling.lod_cache;
             }
             Toggle::Inset => {
-                c.inset = match c.inset {
+                c.effort.inset = match c.effort.inset {
                     Some(_) => None,
                     None => Some(crate::config::Inset::default()),
                 }
             }
-            Toggle::Aq => c.aq = !c.aq,
+            Toggle::Aq => c.effort.aq = !c.effort.aq,
         }
         c
     }
@@ -506,7 +509,7 @@ mod tests {
         // GPU culling without a strategy is invalid: refused.
         assert_eq!(live.handle(&[KeyCode::Digit8], 5), None);
         let c = live.handle(&[KeyCode::Digit3], 7).expect("changed");
-        assert!(c.stencil_mask);
+        assert!(c.effort.stencil_mask);
         assert_eq!(
             live.events,
             vec![ToggleEvent {
@@ -546,13 +549,13 @@ mod tests {
         live.handle(&[KeyCode::Digit2], 1).expect("a strategy");
         live.handle(&[KeyCode::Digit8], 2).expect("GPU culling");
         let c = live.handle(&[KeyCode::Digit9], 3).expect("occlusion");
-        assert!(c.occlusion);
+        assert!(c.culling.occlusion);
         let c = live.handle(&[KeyCode::Digit0], 4).expect("LOD");
-        assert_eq!(c.lod, Some(crate::view::lod::DEFAULT_BOUND_PX));
+        assert_eq!(c.culling.lod, Some(crate::view::lod::DEFAULT_BOUND_PX));
         assert!(c.opt_string().contains("occlusion") && c.opt_string().contains("lod"));
-        assert_eq!(Toggle::Lod.apply(&c).lod, None, "LOD flips back");
+        assert_eq!(Toggle::Lod.apply(&c).culling.lod, None, "LOD flips back");
         let off = live.handle(&[KeyCode::Digit8], 5).expect("GPU culling off");
-        assert!(!off.gpu_cull && !off.occlusion && off.lod.is_none());
+        assert!(!off.culling.gpu_cull && !off.culling.occlusion && off.culling.lod.is_none());
         assert!(help(&Toggle::ALL, &live.save_to).contains("  0        level of detail"));
         assert!(help(&Toggle::ALL, &live.save_to).contains("  F7       adaptive quality"));
         assert_eq!(Toggle::Inset.key(), KeyCode::F6);

@@ -158,7 +158,7 @@ impl EyeImages {
 /// Runs the desktop preview until the window closes (or `args.frames`
 /// frames were presented).
 pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
-    if args.config.aq {
+    if args.config.effort.aq {
         return Err(crate::error::Error::config(
             "--opt",
             "aq adapts a headset's frames to its display period (run, render --frames, bench); view shows the window at its own size: leave aq out",
@@ -187,7 +187,7 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
     )?);
     let (display, handle) = window.handles()?;
     let mut presenter = Presenter::new(&ctx, display, handle, window.size(), Pacing::Vsync)?;
-    let slots = config.frames_in_flight.max(1) as usize;
+    let slots = config.submission.frames_in_flight.max(1) as usize;
     let mut live = LiveConfig::new(config.clone(), args.save_config.clone());
     // aq adapts a headset's frames; the window's images have the eye size.
     live.allowed.retain(|t| *t != super::toggles::Toggle::Aq);
@@ -197,7 +197,7 @@ pub fn view(args: &ViewArgs) -> Result<ViewSummary> {
         profile.name,
         live.config.opt_string()
     ));
-    let result = EyeImages::new(&ctx, config.stereo, extent, slots).and_then(|images| {
+    let result = EyeImages::new(&ctx, config.frame.stereo, extent, slots).and_then(|images| {
         let mut images = Some(images);
         let r = view_loop(
             args,
@@ -244,8 +244,8 @@ fn make_driver(
         quad: false,
     };
     if images.is_none() {
-        let slots = config.frames_in_flight.max(1) as usize;
-        *images = Some(EyeImages::new(ctx, config.stereo, extent, slots)?);
+        let slots = config.submission.frames_in_flight.max(1) as usize;
+        *images = Some(EyeImages::new(ctx, config.frame.stereo, extent, slots)?);
     }
     let renderer = Renderer::with_output(ctx.clone(), scene, config, extent, Some(spec))?;
     FrameDriver::new(renderer, scene)
@@ -469,7 +469,7 @@ impl ViewState<'_> {
         // SAFETY: waiting for the device on this thread.
         unsafe { self.ctx.device.device_wait_idle() }.vk("waiting before a live switch")?;
         let remake = |c: &RenderConfig, images: &mut Option<EyeImages>| {
-            let multiview = c.stereo == StereoMode::Multiview;
+            let multiview = c.frame.stereo == StereoMode::Multiview;
             if images.as_ref().is_some_and(|i| i.multiview != multiview) {
                 if let Some(i) = images.take() {
                     i.destroy(self.ctx);

@@ -97,7 +97,7 @@ impl Drop for Live {
 /// filled as the session goes. No runtime or headset is
 /// [`Error::XrUnavailable`].
 pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Result<()> {
-    let inset_out = desk.live.config.inset.is_some_and(|i| !i.composite);
+    let inset_out = desk.live.config.effort.inset.is_some_and(|i| !i.composite);
     let mut conn = connect(inset_out)?;
     setup::record_runtime(&conn, stats);
     let views = setup::choose_views(&conn, inset_out, stats)?;
@@ -142,7 +142,7 @@ pub fn run_session(args: &RunArgs, stats: &mut RunStats, desk: &mut Desk) -> Res
         max: setup::max_extent(&views.config),
         quad: views.quad,
     };
-    chains.extent = chains.images_for(desk.live.config.aq)?;
+    chains.extent = chains.images_for(desk.live.config.effort.aq)?;
     let config = desk.live.config.clone();
     chains.create(&session, &mut live, &config)?;
     live.rt.space = Some(space);
@@ -307,7 +307,11 @@ impl<'a> LoopState<'a> {
         let places = super::viewpoints::plan(args, scene, &Fov::symmetric(0.8, 0.8))?;
         stats.viewpoints = places.iter().map(|v| v.name.clone()).collect();
         let mut interaction = super::viewpoints::interaction(&places, args.interact);
-        interaction.section = stats.config.section.map(crate::render::culling::plane_of);
+        interaction.section = stats
+            .config
+            .frame
+            .section
+            .map(crate::render::culling::plane_of);
         let px = |v: &xr::ViewConfigurationView| {
             (
                 v.recommended_image_rect_width,
@@ -414,12 +418,12 @@ impl ChainSpec {
         live: &mut Live,
         config: &crate::config::RenderConfig,
     ) -> Result<()> {
-        let multiview = config.stereo == crate::config::StereoMode::Multiview;
+        let multiview = config.frame.stereo == crate::config::StereoMode::Multiview;
         let (sets, layers) = if multiview { (1, 2) } else { (2, 1) };
         let color_usage = xr::SwapchainUsageFlags::COLOR_ATTACHMENT
             | xr::SwapchainUsageFlags::TRANSFER_DST
             | xr::SwapchainUsageFlags::TRANSFER_SRC;
-        let wide = match (self.quad, config.inset) {
+        let wide = match (self.quad, config.effort.inset) {
             (true, Some(i)) => crate::render::scaled(self.extent, i.wide_scale),
             (true, None) => {
                 return Err(Error::config(
@@ -853,16 +857,16 @@ fn switch_config(
                 chains: &mut ChainSpec,
                 c: &crate::config::RenderConfig|
      -> Result<FrameDriver> {
-        if chains.quad && c.inset.is_some_and(|i| i.composite) {
+        if chains.quad && c.effort.inset.is_some_and(|i| i.composite) {
             return Err(Error::config(
                 "--opt inset-composite",
                 "this session submits the four views (its view configuration is fixed): inset-composite applies from the next session",
             ));
         }
-        let images = chains.images_for(c.aq)?;
-        let wide_changed =
-            chains.quad && c.inset.map(|i| i.wide_scale) != old.inset.map(|i| i.wide_scale);
-        if c.stereo != old.stereo
+        let images = chains.images_for(c.effort.aq)?;
+        let wide_changed = chains.quad
+            && c.effort.inset.map(|i| i.wide_scale) != old.effort.inset.map(|i| i.wide_scale);
+        if c.frame.stereo != old.frame.stereo
             || images != chains.extent
             || live.rt.color.is_empty()
             || wide_changed
@@ -954,7 +958,7 @@ fn resize_eyes(
     };
     let config = st.desk.live.config.clone();
     st.chains.nominal = nominal;
-    st.chains.extent = st.chains.images_for(config.aq)?;
+    st.chains.extent = st.chains.images_for(config.effort.aq)?;
     st.chains.create(session, live, &config)?;
     let r = Renderer::with_output(ctx, st.scene, &config, nominal, Some(st.chains.output()))?;
     live.driver = Some(FrameDriver::new(r, st.scene)?);

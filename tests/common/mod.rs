@@ -119,8 +119,11 @@ pub fn render(
     size: u32,
 ) -> Frame {
     let config = RenderConfig {
-        stereo,
-        msaa,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     };
     render_config(ctx, scene, profile, pose, &config, size, size)

@@ -21,9 +21,15 @@ pub const H: u32 = 160;
 /// `stereo` at 4× MSAA with `inset`.
 pub fn config(stereo: StereoMode, inset: Option<Inset>) -> RenderConfig {
     RenderConfig {
-        stereo,
-        msaa: 4,
-        inset,
+        frame: vergence::config::FrameConfig {
+            stereo,
+            msaa: 4,
+            ..Default::default()
+        },
+        effort: vergence::config::EffortConfig {
+            inset,
+            ..Default::default()
+        },
         ..RenderConfig::default()
     }
 }

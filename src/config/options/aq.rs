@@ -15,12 +15,12 @@ pub const TECHNIQUE: Technique = Technique {
     print,
     rules: &[
         Rule {
-            when: |c| c.aq,
-            with: &[("timewarp", |c| c.timewarp.is_some())],
+            when: |c| c.effort.aq,
+            with: &[("timewarp", |c| c.simulator.timewarp.is_some())],
             message: "aq changes the rendered size every frame; {} sizes its images once for the full size: leave it out with aq",
         },
         Rule::always(
-            |c| c.aq_scale_only && !(c.aq && c.inset.is_some()),
+            |c| c.effort.aq_scale_only && !(c.effort.aq && c.effort.inset.is_some()),
             "aq-scale-only leaves out aq's inset rung, which only aq with inset has: give aq and inset with it, or leave it out",
         ),
     ],
@@ -28,17 +28,17 @@ pub const TECHNIQUE: Technique = Technique {
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
     match e.name {
-        "aq" => c.aq = true,
-        _ => c.aq_scale_only = true,
+        "aq" => c.effort.aq = true,
+        _ => c.effort.aq_scale_only = true,
     }
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    if c.aq {
+    if c.effort.aq {
         out.push("aq".into());
     }
-    if c.aq_scale_only {
+    if c.effort.aq_scale_only {
         out.push("aq-scale-only".into());
     }
 }

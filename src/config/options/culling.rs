@@ -17,7 +17,7 @@ pub const TECHNIQUE: Technique = Technique {
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    c.cull = e
+    c.culling.cull = e
         .item
         .parse()
         .map_err(|m| Error::config("--opt", format!("{m}")))?;
@@ -25,5 +25,5 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    out.push(c.cull.name().into());
+    out.push(c.culling.cull.name().into());
 }

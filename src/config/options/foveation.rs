@@ -22,11 +22,11 @@ pub const TECHNIQUE: Technique = Technique {
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
     match (e.name, e.value) {
-        ("foveation", None) => c.foveation = Level::Medium,
+        ("foveation", None) => c.effort.foveation = Level::Medium,
         ("foveation", Some(v)) => {
-            c.foveation = v.parse().map_err(|m: String| Error::config("--opt", m))?
+            c.effort.foveation = v.parse().map_err(|m: String| Error::config("--opt", m))?
         }
-        (_, v) => c.gaze = gaze(e.item, v.unwrap_or_default())?,
+        (_, v) => c.effort.gaze = gaze(e.item, v.unwrap_or_default())?,
     }
     Ok(())
 }
@@ -53,7 +53,7 @@ fn gaze(item: &str, v: &str) -> Result<[f32; 2]> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    let level = match c.foveation {
+    let level = match c.effort.foveation {
         Level::Off => None,
         Level::Low => Some("low"),
         Level::Medium => Some("medium"),
@@ -63,7 +63,7 @@ fn print(c: &RenderConfig, out: &mut Vec<String>) {
     if let Some(l) = level {
         out.push(format!("foveation={l}"));
     }
-    if c.gaze != [0.0, 0.0] {
-        out.push(format!("gaze={}:{}", c.gaze[0], c.gaze[1]));
+    if c.effort.gaze != [0.0, 0.0] {
+        out.push(format!("gaze={}:{}", c.effort.gaze[0], c.effort.gaze[1]));
     }
 }

@@ -20,23 +20,23 @@ pub const TECHNIQUE: Technique = Technique {
     print,
     rules: &[
         Rule::always(
-            |c| c.gpu_cull && c.cull == Culling::None,
+            |c| c.culling.gpu_cull && c.culling.cull == Culling::None,
             "gpu-cull needs a culling strategy (per-eye, superfrustum, conical, conical-superfrustum, round-robin, round-robin-conical)",
         ),
         Rule::always(
-            |c| c.occlusion && !c.gpu_cull,
+            |c| c.culling.occlusion && !c.culling.gpu_cull,
             "occlusion runs inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,occlusion)",
         ),
         Rule::always(
-            |c| c.lod_cache && c.lod.is_none(),
+            |c| c.culling.lod_cache && c.culling.lod.is_none(),
             "lod-cache keeps the chains lod builds: add lod (e.g. multiview,superfrustum,gpu-cull,lod,lod-cache)",
         ),
         Rule::always(
-            |c| c.lod.is_some() && !c.gpu_cull,
+            |c| c.culling.lod.is_some() && !c.culling.gpu_cull,
             "lod selects levels inside the GPU cull: add gpu-cull (e.g. multiview,superfrustum,gpu-cull,lod)",
         ),
         Rule::always(
-            |c| c.occlusion && c.mffr.is_some(),
+            |c| c.culling.occlusion && c.effort.mffr.is_some(),
             "occlusion and mffr cannot be combined: the depth pyramid would see only the near field's depth (gpu-cull alone splits near from far)",
         ),
     ],
@@ -44,12 +44,12 @@ pub const TECHNIQUE: Technique = Technique {
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
     match (e.name, e.value) {
-        ("gpu-cull", _) => c.gpu_cull = true,
-        ("occlusion", _) => c.occlusion = true,
-        ("lod-cache", _) => c.lod_cache = true,
-        (_, None) => c.lod = Some(c.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX)),
+        ("gpu-cull", _) => c.culling.gpu_cull = true,
+        ("occlusion", _) => c.culling.occlusion = true,
+        ("lod-cache", _) => c.culling.lod_cache = true,
+        (_, None) => c.culling.lod = Some(c.culling.lod.unwrap_or(crate::view::lod::DEFAULT_BOUND_PX)),
         (_, Some(v)) => match v.parse::<f64>() {
-            Ok(px) if px.is_finite() && px > 0.0 && px <= MAX_LOD_BOUND_PX => c.lod = Some(px),
+            Ok(px) if px.is_finite() && px > 0.0 && px <= MAX_LOD_BOUND_PX => c.culling.lod = Some(px),
             _ => {
                 return Err(Error::config(
                     "--opt",
@@ -65,16 +65,16 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    if c.gpu_cull {
+    if c.culling.gpu_cull {
         out.push("gpu-cull".into());
     }
-    if c.occlusion {
+    if c.culling.occlusion {
         out.push("occlusion".into());
     }
-    if let Some(px) = c.lod {
+    if let Some(px) = c.culling.lod {
         out.push(format!("lod={px}"));
     }
-    if c.lod_cache {
+    if c.culling.lod_cache {
         out.push("lod-cache".into());
     }
 }

@@ -33,9 +33,9 @@ pub const TECHNIQUE: Technique = Technique {
     print,
     rules: &[
         Rule {
-            when: |c| c.inset.is_some(),
+            when: |c| c.effort.inset.is_some(),
             with: &[
-                ("timewarp", |c| c.timewarp.is_some()),
+                ("timewarp", |c| c.simulator.timewarp.is_some()),
                 ("--record-threads/--per-draw", submission_on),
             ],
             message: "inset renders each eye as a wide and an inset view and composites them; {} works on one full-size view: leave it out with inset",
@@ -45,11 +45,11 @@ pub const TECHNIQUE: Technique = Technique {
             "foveation's rate image has the eyes' two layers; inset-views=4 draws four views in one scope: leave one out (the inset's two scopes take foveation)",
         ),
         Rule::always(
-            |c| four_views(c) && c.mffr.is_some(),
+            |c| four_views(c) && c.effort.mffr.is_some(),
             "mffr's far cameras take the views inset-views=4 gives the wide views: leave one out (the inset's two scopes take mffr)",
         ),
         Rule::always(
-            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa > 1 && c.mffr.is_some(),
+            |c| c.effort.inset.is_some_and(|i| i.wide_1x) && c.frame.msaa > 1 && c.effort.mffr.is_some(),
             "inset-wide-1x draws the wide views at one sample with their own pipelines; mffr's composite is made for the frame's samples: leave one out",
         ),
         Rule::always(
@@ -57,35 +57,35 @@ pub const TECHNIQUE: Technique = Technique {
             "rdm puts its checkerboard in the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
         ),
         Rule::always(
-            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa > 1 && rdm_on(c),
+            |c| c.effort.inset.is_some_and(|i| i.wide_1x) && c.frame.msaa > 1 && rdm_on(c),
             "inset-wide-1x draws the wide views at one sample with their own pipelines; rdm's checkerboard is made for the frame's samples: leave one out",
         ),
         Rule::always(
-            |c| four_views(c) && c.occlusion,
+            |c| four_views(c) && c.culling.occlusion,
             "occlusion builds its depth pyramid from the inset's wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
         ),
         Rule::always(
-            |c| four_views(c) && c.inset.is_some_and(|i| i.wide_1x),
+            |c| four_views(c) && c.effort.inset.is_some_and(|i| i.wide_1x),
             "inset-wide-1x draws the wide views in their own scope at one sample; inset-views=4 draws them in the eyes' scope at the eyes' samples: leave one out",
         ),
         Rule::always(
-            |c| four_views(c) && c.inset.is_some_and(|i| i.taa.is_some()),
+            |c| four_views(c) && c.effort.inset.is_some_and(|i| i.taa.is_some()),
             "inset-taa jitters and accumulates the wide views drawn in their own scope; inset-views=4 draws them in the eyes' scope: leave one out",
         ),
         Rule::always(
-            |c| c.inset.is_some_and(|i| i.taau && i.catmull_rom),
+            |c| c.effort.inset.is_some_and(|i| i.taau && i.catmull_rom),
             "inset-taau accumulates the wide views at the eye's resolution and the composite reads them pixel for pixel; inset-catmull-rom chooses the composite's upsampling filter, which it then no longer uses: leave one out",
         ),
         Rule::always(
-            |c| c.inset.is_some_and(|i| i.wide_1x) && c.msaa == 1,
+            |c| c.effort.inset.is_some_and(|i| i.wide_1x) && c.frame.msaa == 1,
             "inset-wide-1x draws the wide views at one sample while the insets keep the frame's MSAA; with no-msaa (--msaa 1) every view is at one sample already: leave one out",
         ),
     ],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    let i = c.inset.unwrap_or_default();
-    c.inset = Some(match e.name {
+    let i = c.effort.inset.unwrap_or_default();
+    c.effort.inset = Some(match e.name {
         "inset-fov" => Inset {
             half_angle_deg: e.number((1.0, 80.0), "DEG", "the inset's half-angle")?,
             fov_given: true,
@@ -180,7 +180,7 @@ fn upsample(i: Inset, e: &Entry) -> Result<Inset> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    let Some(i) = c.inset else { return };
+    let Some(i) = c.effort.inset else { return };
     out.push(if i.wide_scale == crate::view::inset::DEFAULT_WIDE_SCALE {
         "inset".into()
     } else {

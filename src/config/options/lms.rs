@@ -14,20 +14,20 @@ pub const TECHNIQUE: Technique = Technique {
     parse,
     print,
     rules: &[Rule {
-        when: |c| c.lms.is_some(),
+        when: |c| c.effort.lms.is_some(),
         with: &[
-            ("mffr", |c| c.mffr.is_some()),
-            ("occlusion", |c| c.occlusion),
-            ("inset", |c| c.inset.is_some()),
-            ("timewarp", |c| c.timewarp.is_some()),
-            ("--record-threads", |c| c.record_threads.is_some()),
+            ("mffr", |c| c.effort.mffr.is_some()),
+            ("occlusion", |c| c.culling.occlusion),
+            ("inset", |c| c.effort.inset.is_some()),
+            ("timewarp", |c| c.simulator.timewarp.is_some()),
+            ("--record-threads", |c| c.submission.record_threads.is_some()),
         ],
         message: "lms draws each eye per quadrant into a smaller, non-rectilinear image and resamples it; {} works on the rectilinear eye image: leave it out with lms",
     }],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    let mut l = c.lms.unwrap_or_default();
+    let mut l = c.effort.lms.unwrap_or_default();
     if e.name == "lms-emulated" {
         l.emulated = true;
     } else if e.value.is_some() {
@@ -35,12 +35,12 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
         let what = "the clip-space w scaling coefficient of every side";
         l.coefficient = Some(e.number(range, "K", what)?);
     }
-    c.lms = Some(l);
+    c.effort.lms = Some(l);
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    let Some(l) = c.lms else { return };
+    let Some(l) = c.effort.lms else { return };
     out.push(match l.coefficient {
         Some(k) => format!("lms={k}"),
         None => "lms".into(),

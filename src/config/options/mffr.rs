@@ -31,7 +31,7 @@ fn flags(m: &mut Mffr) -> [(&'static str, &mut bool); 3] {
 }
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    let m = c.mffr.get_or_insert_with(Mffr::default);
+    let m = c.effort.mffr.get_or_insert_with(Mffr::default);
     if let Some(v) = e.value {
         match v.parse::<f64>() {
             Ok(d) if d.is_finite() && (MIN_MFFR_SPLIT_M..=MAX_MFFR_SPLIT_M).contains(&d) => {
@@ -55,7 +55,7 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    let Some(mut m) = c.mffr else { return };
+    let Some(mut m) = c.effort.mffr else { return };
     out.push(match m.split {
         Some(d) => format!("mffr={d}"),
         None => "mffr".into(),

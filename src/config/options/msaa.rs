@@ -17,10 +17,17 @@ pub const TECHNIQUE: Technique = Technique {
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    c.msaa = if e.name == "no-msaa" { 1 } else { 4 };
+    c.frame.msaa = if e.name == "no-msaa" { 1 } else { 4 };
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    out.push(if c.msaa == 1 { "no-msaa" } else { "msaa4" }.into());
+    out.push(
+        if c.frame.msaa == 1 {
+            "no-msaa"
+        } else {
+            "msaa4"
+        }
+        .into(),
+    );
 }

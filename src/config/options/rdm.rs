@@ -19,18 +19,18 @@ pub const TECHNIQUE: Technique = Technique {
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
     match (e.name, e.value) {
         ("rdm-nofill", _) => {
-            c.rdm = Some(c.rdm.unwrap_or(DEFAULT_RDM_RADIUS));
-            c.rdm_fill = false;
+            c.effort.rdm = Some(c.effort.rdm.unwrap_or(DEFAULT_RDM_RADIUS));
+            c.effort.rdm_fill = false;
         }
-        (_, None) => c.rdm = Some(c.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
+        (_, None) => c.effort.rdm = Some(c.effort.rdm.unwrap_or(DEFAULT_RDM_RADIUS)),
         (_, Some("auto")) => {
-            c.rdm = Some(DEFAULT_RDM_RADIUS);
-            c.rdm_auto = true;
+            c.effort.rdm = Some(DEFAULT_RDM_RADIUS);
+            c.effort.rdm_auto = true;
         }
         (_, Some(v)) => match v.parse::<f32>() {
             Ok(r) if r.is_finite() && r > 0.0 && r < 1.5 => {
-                c.rdm = Some(r);
-                c.rdm_auto = false;
+                c.effort.rdm = Some(r);
+                c.effort.rdm_auto = false;
             }
             _ => {
                 return Err(Error::config(
@@ -47,12 +47,12 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    match (c.rdm_auto, c.rdm) {
+    match (c.effort.rdm_auto, c.effort.rdm) {
         (true, _) => out.push("rdm=auto".into()),
         (false, Some(r)) => out.push(format!("rdm={r}")),
         (false, None) => return,
     }
-    if !c.rdm_fill {
+    if !c.effort.rdm_fill {
         out.push("rdm-nofill".into());
     }
 }

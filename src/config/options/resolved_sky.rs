@@ -15,19 +15,19 @@ pub const TECHNIQUE: Technique = Technique {
     print,
     rules: &[
         Rule::always(
-            |c| c.resolved_sky && c.msaa == 1,
+            |c| c.effort.resolved_sky && c.frame.msaa == 1,
             "resolved-sky draws the sky after the MSAA resolve: it needs msaa4 (leave out no-msaa)",
         ),
         Rule {
-            when: |c| c.resolved_sky,
+            when: |c| c.effort.resolved_sky,
             with: &[("inset-views=4", four_views)],
             message: "resolved-sky draws the sky under the forward views' resolved image; {} composites that image its own way: leave it out with resolved-sky",
         },
         Rule {
-            when: |c| c.resolved_sky,
+            when: |c| c.effort.resolved_sky,
             with: &[
-                ("timewarp", |c| c.timewarp.is_some()),
-                ("--record-threads", |c| c.record_threads.is_some()),
+                ("timewarp", |c| c.simulator.timewarp.is_some()),
+                ("--record-threads", |c| c.submission.record_threads.is_some()),
             ],
             message: "resolved-sky is measured on its own and with the culling and masking passes; {} is not combined with it (timewarp reprojects the frame, --record-threads records the sky inside its secondaries): leave it out with resolved-sky",
         },
@@ -35,12 +35,12 @@ pub const TECHNIQUE: Technique = Technique {
 };
 
 fn parse(c: &mut RenderConfig, _: &Entry) -> Result<()> {
-    c.resolved_sky = true;
+    c.effort.resolved_sky = true;
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    if c.resolved_sky {
+    if c.effort.resolved_sky {
         out.push("resolved-sky".into());
     }
 }

@@ -17,12 +17,12 @@ pub const TECHNIQUE: Technique = Technique {
 };
 
 fn parse(c: &mut RenderConfig, _: &Entry) -> Result<()> {
-    c.stencil_mask = true;
+    c.effort.stencil_mask = true;
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    if c.stencil_mask {
+    if c.effort.stencil_mask {
         out.push("stencil-mask".into());
     }
 }

@@ -17,7 +17,7 @@ pub const TECHNIQUE: Technique = Technique {
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    c.stereo = match e.name {
+    c.frame.stereo = match e.name {
         "two-pass" => StereoMode::TwoPass,
         _ => StereoMode::Multiview,
     };
@@ -25,5 +25,5 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    out.push(c.stereo.name().into());
+    out.push(c.frame.stereo.name().into());
 }

@@ -18,13 +18,13 @@ pub const TECHNIQUE: Technique = Technique {
     parse,
     print,
     rules: &[Rule::always(
-        |c| c.timewarp.is_some() && (c.occlusion || c.mffr.is_some()),
+        |c| c.simulator.timewarp.is_some() && (c.culling.occlusion || c.effort.mffr.is_some()),
         "timewarp cannot be combined with occlusion or mffr (both use the frame's depth images for their own passes)",
     )],
 };
 
 fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
-    let mut t = c.timewarp.unwrap_or(Timewarp {
+    let mut t = c.simulator.timewarp.unwrap_or(Timewarp {
         k: 2,
         variant: TimewarpVariant::Depth,
     });
@@ -44,12 +44,14 @@ fn parse(c: &mut RenderConfig, e: &Entry) -> Result<()> {
             }
         },
     }
-    c.timewarp = Some(t);
+    c.simulator.timewarp = Some(t);
     Ok(())
 }
 
 fn print(c: &RenderConfig, out: &mut Vec<String>) {
-    let Some(t) = c.timewarp else { return };
+    let Some(t) = c.simulator.timewarp else {
+        return;
+    };
     out.push(format!("timewarp={}", t.k));
     match t.variant {
         TimewarpVariant::Rotation => out.push("timewarp-rotation".into()),

@@ -118,10 +118,10 @@ impl Passes {
         self.forward = Forward::new(setup)?;
         self.floor = Floor::new(setup)?;
         self.overlay = Overlay::new(setup)?;
-        if let Some(m) = config.mffr {
-            self.far = Some(FarField::new(setup, m, extent, config.resolved_sky)?);
+        if let Some(m) = config.effort.mffr {
+            self.far = Some(FarField::new(setup, m, extent, config.effort.resolved_sky)?);
         }
-        if let Some(i) = config.inset {
+        if let Some(i) = config.effort.inset {
             // With inset-wide-1x over MSAA the wide views have one sample
             // and their own pipelines.
             let wide_1x = i.wide_1x && setup.samples > 1;
@@ -129,11 +129,11 @@ impl Passes {
             // one sample, frame by frame (two scopes, over MSAA, and the
             // inset's rungs not left out; not with occlusion, whose depth
             // pyramid reads the wide views' multisampled depth).
-            let msaa_rung = config.aq
-                && !config.aq_scale_only
-                && !config.occlusion
-                && config.rdm.is_none()
-                && config.mffr.is_none()
+            let msaa_rung = config.effort.aq
+                && !config.effort.aq_scale_only
+                && !config.culling.occlusion
+                && config.effort.rdm.is_none()
+                && config.effort.mffr.is_none()
                 && !wide_1x
                 && setup.samples > 1
                 && setup.view_mask != 0b1111;
@@ -144,10 +144,10 @@ impl Passes {
                 inset::WideOptions {
                     samples: if wide_1x { 1 } else { setup.samples },
                     msaa_rung,
-                    occlusion: config.occlusion,
-                    rdm: config.rdm.is_some() && config.rdm_fill,
+                    occlusion: config.culling.occlusion,
+                    rdm: config.effort.rdm.is_some() && config.effort.rdm_fill,
                 },
-                config.stereo == crate::config::StereoMode::Multiview,
+                config.frame.stereo == crate::config::StereoMode::Multiview,
                 i.taa.map(|alpha| inset_taa::TaaSettings {
                     alpha,
                     jitter: i.taa_jitter,
@@ -159,10 +159,13 @@ impl Passes {
             pass.sharpen = i.sharpen.unwrap_or(0.0) as f32;
             self.inset = Some(pass);
             if wide_1x || msaa_rung {
-                self.inset_wide = Some(inset_wide::WidePipelines::new(setup, config.stencil_mask)?);
+                self.inset_wide = Some(inset_wide::WidePipelines::new(
+                    setup,
+                    config.effort.stencil_mask,
+                )?);
             }
         }
-        if let Some(l) = config.lms {
+        if let Some(l) = config.effort.lms {
             let path = if setup.w_scaling {
                 "nv-clip-space-w-scaling".to_string()
             } else if l.emulated {
@@ -176,9 +179,9 @@ impl Passes {
                 setup,
                 extent,
                 setup.samples,
-                config.stereo == crate::config::StereoMode::Multiview,
+                config.frame.stereo == crate::config::StereoMode::Multiview,
                 l.coefficients(),
-                (path, config.rdm.is_some() && config.rdm_fill),
+                (path, config.effort.rdm.is_some() && config.effort.rdm_fill),
             )?);
         }
         Ok(())

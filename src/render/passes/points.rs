@@ -754,9 +754,9 @@ pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
         cloud,
         b.extent,
         frames,
-        c.point_size as f32,
-        c.points_pipeline,
-        c.edl,
+        c.points.point_size as f32,
+        c.points.points_pipeline,
+        c.points.edl,
     )?;
     Ok(Some(Box::new(pass)))
 }
@@ -773,7 +773,8 @@ impl Technique for PointsPass {
 
     fn prepare(&mut self, p: &technique::Prepare, stats: &mut FrameStats) -> Result<()> {
         let c = p.config;
-        stats.points_selected = Some(self.select(p.slot, p.rig, c.near, c.points_budget)?);
+        stats.points_selected =
+            Some(self.select(p.slot, p.rig, c.frame.near, c.points.points_budget)?);
         Ok(())
     }
 

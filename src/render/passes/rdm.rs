@@ -155,16 +155,16 @@ impl Rdm {
 /// Builds RDM with `rdm` (after the inset and LMS: with the fill, in their
 /// images when they have them).
 pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
-    let Some(radius) = b.config.rdm else {
+    let Some(radius) = b.config.effort.rdm else {
         return Ok(None);
     };
-    let mut rdm = Rdm::new(b.setup, radius, b.config.rdm_fill)?;
+    let mut rdm = Rdm::new(b.setup, radius, b.config.effort.rdm_fill)?;
     let sets = match (b.inset, b.lms) {
         (Some(i), _) => Some(&i.wide.sets),
         (_, Some(l)) => Some(&l.targets.sets),
         _ => None,
     };
-    if let Some(sets) = sets.filter(|s| b.config.rdm_fill && !s.is_empty()) {
+    if let Some(sets) = sets.filter(|s| b.config.effort.rdm_fill && !s.is_empty()) {
         match RdmInPlace::new(b.setup.ctx, sets, radius) {
             Ok(p) => rdm.in_place = Some(p),
             Err(e) => {

@@ -130,7 +130,7 @@ impl ResolvedSky {
 
 /// Builds the pass with `resolved-sky`.
 pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
-    if !b.config.resolved_sky {
+    if !b.config.effort.resolved_sky {
         return Ok(None);
     }
     Ok(Some(Box::new(ResolvedSky::new(b.setup)?)))

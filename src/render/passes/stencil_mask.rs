@@ -226,7 +226,7 @@ impl StencilMask {
 
 /// Builds the mask with `stencil-mask`.
 pub fn build(b: &technique::Build) -> Result<Option<Box<dyn Technique>>> {
-    if !b.config.stencil_mask {
+    if !b.config.effort.stencil_mask {
         return Ok(None);
     }
     Ok(Some(Box::new(StencilMask::new(b.setup, b.slots)?)))

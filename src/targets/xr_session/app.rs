@@ -173,7 +173,8 @@ impl FrameApp for SessionApp<'_, '_> {
 
     fn layers(&self) -> Layers<'_> {
         let renderer = self.driver.as_ref().map(|d| d.renderer());
-        let flat = renderer.is_none_or(|r| r.config.inset.is_none() && r.config.lms.is_none());
+        let flat = renderer
+            .is_none_or(|r| r.config.effort.inset.is_none() && r.config.effort.lms.is_none());
         let panel = match (
             self.st.panel_drawn,
             self.panel.as_ref(),
@@ -186,7 +187,7 @@ impl FrameApp for SessionApp<'_, '_> {
             main: renderer.map(|r| r.output_extent()).unwrap_or_default(),
             inset: renderer.map(|r| r.inset_extent()).unwrap_or_default(),
             inset_place: renderer.map(|r| (r.extent(), r.inset_rect())),
-            depth_near: flat.then_some(self.st.args.config.near as f32),
+            depth_near: flat.then_some(self.st.args.config.frame.near as f32),
             panel,
         }
     }
