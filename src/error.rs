@@ -8,7 +8,7 @@ use std::path::PathBuf;
 #[derive(Debug, thiserror::Error)]
 pub enum Error {
     /// A file could not be read.
-    #[error("{path}: cannot read file: {source}")]
+    #[error("{path}: cannot read file: {}", plain(source))]
     Io {
         /// The file that failed.
         path: PathBuf,
@@ -193,4 +193,103 @@ pub fn one_safe_line(text: &str) -> String {
         }
     }
     out
+}
+
+/// An I/O error as a reader can act on it: the operating system's reason in
+/// plain words, without its error number (an error vergence made itself
+/// keeps its message) (the path and the operation are
+/// the caller's to name). The reasons a file layer meets get a sentence
+/// that says what to change; others keep the system's own text.
+pub fn plain(e: &std::io::Error) -> String {
+    use std::io::ErrorKind as K;
+    // vergence's own errors (a device or FIFO refused) say it already.
+    if e.raw_os_error().is_none() {
+        return e.to_string();
+    }
+    #[cfg(unix)]
+    if e.raw_os_error() == Some(libc::ELOOP) {
+        return "a link, which vergence does not follow".into();
+    }
+    let text = match e.kind() {
+        K::InvalidInput => "the file system refused this name or operation (a character it does not allow in a name, or an operation it cannot do)",
+        K::AlreadyExists => "something is already there under that name",
+        K::NotFound => "no such file or folder",
+        K::PermissionDenied => "permission denied",
+        K::IsADirectory => "is a folder, not a file",
+        K::NotADirectory => "a part of the path is a file, not a folder",
+        K::ReadOnlyFilesystem => "the file system is read-only",
+        K::StorageFull => "no space left on the device",
+        K::QuotaExceeded => "the disk quota is used up",
+        K::InvalidFilename => "the name is too long or not allowed by the file system",
+        K::CrossesDevices => "it cannot be moved across file systems",
+        K::FileTooLarge => "the file is too large for the file system",
+        _ => return without_os_error_numbers(&e.to_string()),
+    };
+    text.to_string()
+}
+
+/// `text` with every " (os error N)" taken out (the numbers mean nothing
+/// to a reader; the words before them stay).
+pub fn without_os_error_numbers(text: &str) -> String {
+    const MARK: &str = " (os error ";
+    let mut out = String::with_capacity(text.len());
+    let mut rest = text;
+    while let Some(i) = rest.find(MARK) {
+        let after = &rest[i + MARK.len()..];
+        let digits = after.bytes().take_while(u8::is_ascii_digit).count();
+        if digits > 0 && after[digits..].starts_with(')') {
+            out.push_str(&rest[..i]);
+            rest = &after[digits + 1..];
+        } else {
+            out.push_str(&rest[..i + MARK.len()]);
+            rest = after;
+        }
+    }
+    out.push_str(rest);
+    out
+}
+
+#[cfg(test)]
+mod plain_tests {
+    use super::*;
+    use std::io;
+
+    #[test]
+    fn os_errors_read_without_their_numbers() {
+        for code in [
+            libc::EINVAL,
+            libc::EEXIST,
+            libc::ENOENT,
+            libc::EIO,
+            libc::EBUSY,
+        ] {
+            let e = io::Error::from_raw_os_error(code);
+            let text = plain(&e);
+            assert!(!text.contains("os error"), "{code}: {text}");
+            assert!(!text.is_empty());
+        }
+        let invalid = plain(&io::Error::from_raw_os_error(libc::EINVAL));
+        assert!(invalid.contains("name"), "{invalid}");
+        assert_eq!(plain(&io::Error::other("short read")), "short read");
+        let own = io::Error::new(io::ErrorKind::InvalidInput, "a FIFO, not a regular file");
+        assert_eq!(plain(&own), "a FIFO, not a regular file");
+        assert_eq!(
+            without_os_error_numbers("a: Bad (os error 5): b (os error x) (os error 17)"),
+            "a: Bad: b (os error x)"
+        );
+    }
+
+    #[test]
+    fn a_read_error_names_the_file_and_a_plain_reason() {
+        let e = Error::Io {
+            path: "/data/scan.las".into(),
+            source: io::Error::from_raw_os_error(libc::EINVAL),
+        };
+        let text = e.to_string();
+        assert!(
+            text.starts_with("/data/scan.las: cannot read file: "),
+            "{text}"
+        );
+        assert!(!text.contains("os error"), "{text}");
+    }
 }

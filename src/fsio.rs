@@ -363,7 +363,7 @@ pub fn prepare_output(path: &Path) -> Result<()> {
         }
         std::fs::create_dir_all(dir).map_err(|e| Error::Output {
             path: dir.to_path_buf(),
-            message: e.to_string(),
+            message: crate::error::plain(&e),
         })?;
     }
     Ok(())
@@ -380,7 +380,7 @@ pub fn write_output(
     let tmp = filled_temp(path, write)?;
     tmp.persist(path).map_err(|e| Error::Output {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        message: crate::error::plain(&e),
     })
 }
 
@@ -391,7 +391,7 @@ fn filled_temp(
 ) -> Result<TempFile> {
     let out = |e: io::Error| Error::Output {
         path: path.to_path_buf(),
-        message: e.to_string(),
+        message: crate::error::plain(&e),
     };
     prepare_output(path)?;
     let tmp = TempFile::beside(path).map_err(out)?;
@@ -430,7 +430,7 @@ impl OutputSet {
         for (path, tmp) in self.pending {
             tmp.persist(&path).map_err(|e| Error::Output {
                 path: path.clone(),
-                message: e.to_string(),
+                message: crate::error::plain(&e),
             })?;
         }
         Ok(())
@@ -464,10 +464,10 @@ pub fn open_append(path: &Path) -> Result<File> {
         out(if is_link(path) {
             "is a symbolic link; vergence does not write through one".into()
         } else {
-            e.to_string()
+            crate::error::plain(&e)
         })
     })?;
-    let meta = file.metadata().map_err(|e| out(e.to_string()))?;
+    let meta = file.metadata().map_err(|e| out(crate::error::plain(&e)))?;
     if !meta.is_file() {
         return Err(out(not_regular(&meta)));
     }

@@ -1361,16 +1361,25 @@ impl RootChain for anyhow::Error {
     /// whose message includes its source: "Is a directory (os error 21)"
     /// once, not twice). Line breaks become spaces: one error, one line;
     /// other control characters (from a file's text or a path) are
-    /// escaped, so an error cannot drive the terminal.
+    /// escaped, so an error cannot drive the terminal. I/O errors read as
+    /// [`vergence::error::plain`] words, without error numbers.
     fn root_cause_chain(&self) -> String {
         let mut parts: Vec<String> = Vec::new();
         for e in self.chain().skip(1) {
-            let text = e.to_string();
-            if parts.last().is_some_and(|p| p.ends_with(&text)) {
+            let raw = e.to_string();
+            let text = match e.downcast_ref::<std::io::Error>() {
+                Some(io) => vergence::error::plain(io),
+                None => raw.clone(),
+            };
+            if parts
+                .last()
+                .is_some_and(|p| p.ends_with(&raw) || p.ends_with(&text))
+            {
                 continue;
             }
             parts.push(text);
         }
-        vergence::error::one_safe_line(&parts.join(": "))
+        let line = vergence::error::without_os_error_numbers(&parts.join(": "));
+        vergence::error::one_safe_line(&line)
     }
 }

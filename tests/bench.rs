@@ -95,6 +95,26 @@ fn smoke_plan_measures_and_reports() {
     let mut want = vec!["reference"];
     want.extend(plan.configs.iter().map(|c| c.name.as_str()));
     assert_eq!(names, want);
+    // Repeated runs: each configuration's medians per run, and the
+    // speed-up's range over them holds the first run's speed-up.
+    assert!(plan.repeats > 1);
+    for r in g.results.iter().filter(|r| r.name != "reference") {
+        assert_eq!(r.runs.len(), plan.repeats as usize, "{}", r.name);
+        assert_eq!(r.runs[0].gpu_p50, r.gpu_frame_ms.p50, "{}", r.name);
+        assert!(r.runs.iter().all(|run| run.gpu_p50 > 0.0), "{}", r.name);
+        let [lo, hi] = r.gpu_speedup_range.expect("a speed-up range");
+        let s = r.gpu_speedup.unwrap();
+        assert!(
+            lo <= s + 1e-12 && s <= hi + 1e-12,
+            "{}: {s} not in {lo}..{hi}",
+            r.name
+        );
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains(&format!("over {} runs", plan.repeats)),
+        "{report}"
+    );
     for r in &g.results {
         assert_eq!(r.frames, plan.frames, "{}", r.name);
         assert_eq!(r.frame_times_ms.len(), plan.frames as usize);

@@ -100,9 +100,19 @@ pub struct Plan {
     /// (1 to 3; `bench --frames-in-flight` overrides it).
     #[serde(default = "default_frames_in_flight")]
     pub frames_in_flight: u32,
+    /// Times each configuration's frames are timed (1 to 10, default 1):
+    /// with more, the reports give each median's and speed-up's range over
+    /// the runs (each run's speed-up against the baseline's run of the
+    /// same number), the run-to-run spread a single run cannot show. Images
+    /// and errors come from the first run.
+    #[serde(default = "one")]
+    pub repeats: u32,
     /// The optimization sets.
     pub configs: Vec<PlanConfig>,
 }
+
+/// Most runs `repeats` asks for.
+pub const MAX_REPEATS: u32 = 10;
 
 fn one_scale() -> Vec<f64> {
     vec![1.0]
@@ -320,6 +330,12 @@ impl Plan {
             return Err(format!(
                 "reference_supersample = {} must be 1 to 4",
                 self.reference_supersample
+            ));
+        }
+        if !(1..=MAX_REPEATS).contains(&self.repeats) {
+            return Err(format!(
+                "repeats = {} must be 1 to {MAX_REPEATS}",
+                self.repeats
             ));
         }
         if self.flicker_frames == 1 || self.flicker_frames > 120 {

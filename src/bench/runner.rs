@@ -205,6 +205,14 @@ pub struct ConfigResult {
     pub gpu_speedup: Option<f64>,
     /// Baseline frame-time p50 over this configuration's.
     pub frame_speedup: Option<f64>,
+    /// With the plan's `repeats` above 1: each run's GPU and wall-clock
+    /// frame medians, the first run (this result's own figures) first.
+    #[serde(default, skip_serializing_if = "Vec::is_empty")]
+    pub runs: Vec<RunMedians>,
+    /// With `runs`: the least and greatest GPU speed-up over the runs,
+    /// each run against the baseline's run of the same number.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub gpu_speedup_range: Option<[f64; 2]>,
     /// Left-eye image of the last compared frame, relative to the output
     /// folder.
     pub image: Option<String>,
@@ -263,15 +271,48 @@ impl ConfigResult {
     }
 
     /// The GPU frame time p50 for a table: with the sample size and the
-    /// standard deviation when it rests on few frames.
+    /// standard deviation when it rests on few frames, and its range over
+    /// the runs when the plan repeated them.
     pub fn gpu_p50_text(&self) -> String {
         let g = &self.gpu_frame_ms;
-        if g.n < FEW_FRAMES {
+        let mut text = if g.n < FEW_FRAMES {
             format!("{:.3} (n={}, sd {:.3})", g.p50, g.n, g.std)
         } else {
             format!("{:.3}", g.p50)
+        };
+        if let Some([lo, hi]) = range(self.runs.iter().map(|r| r.gpu_p50)) {
+            text += &format!(" [{lo:.3}–{hi:.3} over {} runs]", self.runs.len());
+        }
+        text
+    }
+
+    /// The GPU speed-up for a table, with its range over the runs.
+    pub fn gpu_speedup_text(&self) -> String {
+        match (self.gpu_speedup, self.gpu_speedup_range) {
+            (Some(s), Some([lo, hi])) => format!("{s:.2}× [{lo:.2}–{hi:.2}×]"),
+            (Some(s), None) => format!("{s:.2}×"),
+            _ => "–".into(),
         }
     }
+}
+
+/// One run's medians of a configuration measured `repeats` times.
+#[derive(Clone, Copy, Debug, Default, PartialEq, serde::Serialize, serde::Deserialize)]
+pub struct RunMedians {
+    /// GPU frame time p50, ms.
+    pub gpu_p50: f64,
+    /// Wall-clock frame interval p50, ms.
+    pub wall_p50: f64,
+}
+
+/// The least and greatest of `values` (None with fewer than two).
+fn range(values: impl Iterator<Item = f64>) -> Option<[f64; 2]> {
+    let v: Vec<f64> = values.collect();
+    (v.len() > 1).then(|| {
+        let lo = v.iter().copied().fold(f64::INFINITY, f64::min);
+        let hi = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+        [lo, hi]
+    })
 }
 
 /// The flicker of one region of the eye image.
@@ -740,6 +781,9 @@ impl GroupRun<'_> {
         else {
             return Ok(None);
         };
+        if !self.repeat(c, &config, &mut r)? {
+            return Ok(None);
+        }
         r.image = Some(save_left(self.out, &self.group_dir, &c.name, &images)?);
         if !self.reference_sequence.is_empty() && config.simulator.timewarp.is_none() {
             self.flicker(&config, &c.name, &mut r)?;
@@ -751,6 +795,44 @@ impl GroupRun<'_> {
             r.heatmap = Some(rel);
         }
         Ok(Some(r))
+    }
+
+    /// With the plan's `repeats` above 1: times configuration `c` again
+    /// that many times less one (no images or errors) and keeps each run's
+    /// medians in `r.runs`. False when the run was cut short.
+    fn repeat(
+        &self,
+        c: &super::plan::PlanConfig,
+        config: &RenderConfig,
+        r: &mut ConfigResult,
+    ) -> Result<bool> {
+        if self.plan.repeats < 2 {
+            return Ok(true);
+        }
+        let medians = |r: &ConfigResult| RunMedians {
+            gpu_p50: r.gpu_frame_ms.p50,
+            wall_p50: r.wall_frame_ms.p50,
+        };
+        r.runs = vec![medians(r)];
+        for _ in 1..self.plan.repeats {
+            let Some(again) = measure(
+                self.ctx,
+                self.plan,
+                self.scene,
+                &self.rigs,
+                (self.extent, 1),
+                (&c.name, &c.opt, config),
+                self.plan.refresh_hz(self.profile),
+                None,
+                None,
+                None,
+            )?
+            else {
+                return Ok(false);
+            };
+            r.runs.push(medians(&again));
+        }
+        Ok(true)
     }
 
     /// The configuration's flicker along the sequence, by region with an
@@ -934,10 +1016,23 @@ fn fill_speedups(group: &mut Group) {
         .iter()
         .find(|r| r.name == group.baseline)
         .map(|b| (b.gpu_frame_ms.p50, b.wall_frame_ms.p50));
+    let base_runs: Vec<f64> = group
+        .results
+        .iter()
+        .find(|r| r.name == group.baseline)
+        .map(|b| b.runs.iter().map(|r| r.gpu_p50).collect())
+        .unwrap_or_default();
     if let Some((gpu, frame)) = base {
         for r in &mut group.results {
             r.gpu_speedup = (r.gpu_frame_ms.p50 > 0.0).then(|| gpu / r.gpu_frame_ms.p50);
             r.frame_speedup = (r.wall_frame_ms.p50 > 0.0).then(|| frame / r.wall_frame_ms.p50);
+            let pairs = base_runs.iter().zip(&r.runs);
+            let ratios = pairs
+                .filter(|(_, c)| c.gpu_p50 > 0.0)
+                .map(|(b, c)| b / c.gpu_p50);
+            r.gpu_speedup_range = (r.runs.len() == base_runs.len())
+                .then(|| range(ratios))
+                .flatten();
         }
     }
 }

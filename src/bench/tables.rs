@@ -61,7 +61,7 @@ pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
                     None => format!("{} (`{}`)", r.name, r.opt),
                 },
                 r.gpu_p50_text(),
-                r.gpu_speedup.map_or("–".into(), |s| format!("{s:.2}×")),
+                r.gpu_speedup_text(),
                 format!(
                     "{:.3} / {:.3} ({} in flight)",
                     r.wall_frame_ms.p50, r.wall_frame_ms.p99, r.frames_in_flight

@@ -223,6 +223,7 @@ pub fn plan(
         frames_in_flight: crate::config::RenderConfig::default()
             .submission
             .frames_in_flight,
+        repeats: 1,
         configs: CANDIDATES
             .iter()
             .map(|(n, o)| PlanConfig {

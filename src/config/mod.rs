@@ -324,7 +324,6 @@ pub struct SimulatorConfig {
     pub timewarp: Option<Timewarp>,
 }
 
-
 /// How per-draw data reaches the scene shaders (`--per-draw`).
 #[derive(
     Clone,
