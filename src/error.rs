@@ -173,6 +173,18 @@ impl<T> VkContext<T> for std::result::Result<T, ash::vk::Result> {
     }
 }
 
+/// Prints `warning: {text}` on stderr the first time this process meets
+/// `text`: a renderer built again for the same configuration (each bench
+/// run, a kiosk scene switch) does not say the same thing twice.
+pub fn warn_once(text: &str) {
+    static SEEN: std::sync::Mutex<Vec<String>> = std::sync::Mutex::new(Vec::new());
+    let mut seen = SEEN.lock().unwrap_or_else(|e| e.into_inner());
+    if !seen.iter().any(|s| s == text) {
+        seen.push(text.to_string());
+        eprintln!("warning: {}", one_safe_line(text));
+    }
+}
+
 /// Unicode's bidirectional embedding, override and isolate controls
 /// (U+202A–U+202E, U+2066–U+2069), which reorder what a terminal shows.
 fn is_bidi_control(c: char) -> bool {

@@ -975,9 +975,17 @@ fn run_bench(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
     );
+    // Without a terminal (a log, CI) the bar draws nothing: one line per
+    // finished step instead.
+    let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
+    let started = std::time::Instant::now();
     let results = vergence::bench::runner::run_plan(&ctx, plan, out, &mut |done, _, label| {
         bar.set_position(done as u64);
         bar.set_message(label.to_string());
+        if plain {
+            let s = started.elapsed().as_secs();
+            eprintln!("bench: {done}/{total} {label} ({s} s)");
+        }
     });
     bar.finish_and_clear();
     let results = results?;
@@ -1044,11 +1052,14 @@ fn bench(
         println!("{}", vergence::bench::tables::group_title(g));
         for r in &g.results {
             println!(
-                "  {:28} GPU {:8.3} ms{}  FLIP {}",
+                "  {:28} GPU {:8.3} ms{}{}  FLIP {}",
                 r.name,
                 r.gpu_frame_ms.p50,
                 r.gpu_speedup
                     .map(|s| format!(" ({s:.2}x)"))
+                    .unwrap_or_default(),
+                r.gpu_speedup_range
+                    .map(|[lo, hi]| format!(" [{lo:.2}-{hi:.2}x over {} runs]", r.runs.len()))
                     .unwrap_or_default(),
                 r.error
                     .map_or("ref".into(), |e| format!("{:.4}", e.flip_mean))

@@ -71,7 +71,18 @@ fn get<'a>(results: &'a BenchResults, name: &str) -> &'a ConfigResult {
 #[test]
 fn smoke_plan_measures_and_reports() {
     let out = common::scratch("bench", "smoke");
-    let stdout = ok(&["bench", "--plan", "smoke", "--out", out.to_str().unwrap()]);
+    let run = vergence(&["bench", "--plan", "smoke", "--out", out.to_str().unwrap()]);
+    assert!(run.status.success(), "{:?}", run);
+    let stdout = String::from_utf8_lossy(&run.stdout).into_owned();
+    let stderr = String::from_utf8_lossy(&run.stderr).into_owned();
+    // Without a terminal: one progress line per finished step, and a
+    // fallback warning once however many renderers meet it.
+    let plan_steps = Plan::resolve("smoke").unwrap().configs.len() + 1;
+    let progress = stderr.lines().filter(|l| l.starts_with("bench: ")).count();
+    assert_eq!(progress, plan_steps, "{stderr}");
+    for line in stderr.lines().filter(|l| l.starts_with("warning: ")) {
+        assert_eq!(stderr.matches(line).count(), 1, "{stderr}");
+    }
     let checks = std::fs::read_to_string(out.join("checks.md")).unwrap();
     assert!(checks.contains("Target (full stack"), "{checks}");
     for report in ["report.md", "report.html"] {

@@ -62,7 +62,7 @@ impl ShadingRate {
                     " nor VK_EXT_fragment_density_map"
                 }
             );
-            eprintln!("warning: foveation {level:?} falls back to {path}");
+            crate::error::warn_once(&format!("foveation {level:?} falls back to {path}"));
             return Ok((None, path));
         };
         let multiview = config.frame.stereo == StereoMode::Multiview;

@@ -172,7 +172,7 @@ impl Passes {
                 "vertex-shader (lms-emulated)".to_string()
             } else {
                 let p = "vertex-shader (VK_NV_clip_space_w_scaling not offered)".to_string();
-                eprintln!("warning: lms falls back to {p}");
+                crate::error::warn_once(&format!("lms falls back to {p}"));
                 p
             };
             self.lms = Some(lms::LmsPass::new(

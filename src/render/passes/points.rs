@@ -104,13 +104,15 @@ impl PointsPass {
         let ctx = setup.ctx;
         let list = force_list || !ctx.caps.atomic_int64;
         if edl.is_some() && list {
-            eprintln!("warning: eye-dome lighting needs the compute path; the points are drawn without it");
+            crate::error::warn_once(
+                "eye-dome lighting needs the compute path; the points are drawn without it",
+            );
         }
         let path = if force_list {
             "point-list pipeline (points-pipeline)".to_string()
         } else if !ctx.caps.atomic_int64 {
             let p = "point-list pipeline (64-bit buffer atomics not offered)".to_string();
-            eprintln!("warning: point clouds fall back to the {p}");
+            crate::error::warn_once(&format!("point clouds fall back to the {p}"));
             p
         } else {
             "compute (64-bit atomic max)".to_string()
