@@ -247,6 +247,14 @@ impl Hud {
                         .inner_margin(8.0)
                         .corner_radius(4.0)
                         .show(ui, |ui| {
+                            if compact(size) {
+                                compact_panel(ui, &history, info, size);
+                                if let Some((mean, ..)) = &error {
+                                    let text = format!("F4: FLIP {mean:.4}");
+                                    ui.label(egui::RichText::new(text).small());
+                                }
+                                return;
+                            }
                             panel(ui, &history, last.as_ref(), info);
                             if let Some((mean, opt, id, size)) = &error {
                                 ui.label(format!(
@@ -271,6 +279,42 @@ impl Hud {
     }
 }
 
+/// Windows below this width or height get the compact overlay: the full
+/// panel (about 360 × 400 pixels) would hide most of the eye image.
+const COMPACT_BELOW: [u32; 2] = [800, 600];
+
+/// Whether a window of `size` pixels gets the compact overlay.
+fn compact(size: [u32; 2]) -> bool {
+    size[0] < COMPACT_BELOW[0] || size[1] < COMPACT_BELOW[1]
+}
+
+/// The mean CPU, GPU and wait times over `history`.
+fn means(history: &[Times]) -> [f64; 3] {
+    let n = history.len().max(1) as f64;
+    let mean = |f: fn(&Times) -> f64| history.iter().map(f).sum::<f64>() / n;
+    [mean(|t| t.cpu), mean(|t| t.gpu), mean(|t| t.wait)]
+}
+
+/// The overlay of a small window: the options and the times on two small
+/// lines, at most half the window wide (F3 still hides it).
+fn compact_panel(ui: &mut egui::Ui, history: &[Times], info: &HudInfo, size: [u32; 2]) {
+    ui.set_max_width(size[0] as f32 * 0.5);
+    ui.visuals_mut().override_text_color = Some(egui::Color32::from_gray(235));
+    ui.label(
+        egui::RichText::new(info.opt)
+            .small()
+            .color(egui::Color32::WHITE),
+    );
+    let [cpu, gpu, wait] = means(history);
+    ui.label(
+        egui::RichText::new(format!(
+            "CPU {cpu:.2} GPU {gpu:.2} wait {wait:.2} / {:.2} ms",
+            info.budget_ms
+        ))
+        .small(),
+    );
+}
+
 fn panel(ui: &mut egui::Ui, history: &[Times], last: Option<&FrameResult>, info: &HudInfo) {
     ui.set_max_width(360.0);
     ui.visuals_mut().override_text_color = Some(egui::Color32::from_gray(235));
@@ -279,15 +323,9 @@ fn panel(ui: &mut egui::Ui, history: &[Times], last: Option<&FrameResult>, info:
             .strong()
             .color(egui::Color32::WHITE),
     );
-    let mean = |f: fn(&Times) -> f64| {
-        let n = history.len().max(1) as f64;
-        history.iter().map(f).sum::<f64>() / n
-    };
+    let [cpu, gpu, wait] = means(history);
     ui.label(format!(
-        "CPU {:.2}  GPU {:.2}  wait {:.2} ms   budget {:.2} ms",
-        mean(|t| t.cpu),
-        mean(|t| t.gpu),
-        mean(|t| t.wait),
+        "CPU {cpu:.2}  GPU {gpu:.2}  wait {wait:.2} ms   budget {:.2} ms",
         info.budget_ms
     ));
     graph(ui, history, info.budget_ms);
@@ -382,6 +420,42 @@ mod tests {
         for p in &f.primitives {
             assert!(p.clip_rect.min.x >= 0.0 && p.clip_rect.min.y >= 0.0);
         }
+    }
+
+    /// The area the overlay's triangles cover (their bounding box), as a
+    /// share of a window of `size` pixels.
+    fn covered_share(hud: &mut Hud, size: [u32; 2], info: &HudInfo) -> f32 {
+        hud.frame(size, info);
+        let f = hud.frame(size, info).expect("shown");
+        let mut min = egui::pos2(f32::MAX, f32::MAX);
+        let mut max = egui::pos2(f32::MIN, f32::MIN);
+        for p in &f.primitives {
+            if let egui::epaint::Primitive::Mesh(m) = &p.primitive {
+                for v in &m.vertices {
+                    min = min.min(v.pos);
+                    max = max.max(v.pos);
+                }
+            }
+        }
+        let area = (max.x - min.x).max(0.0) * (max.y - min.y).max(0.0);
+        area / (size[0] * size[1]) as f32
+    }
+
+    #[test]
+    fn a_small_window_keeps_most_of_its_image() {
+        let info = HudInfo {
+            opt: "multiview,superfrustum,stencil-mask,foveation=high,msaa4",
+            budget_ms: 11.1,
+            keys: "F3 overlay  F4 error  F8 keep viewpoint  Esc quit",
+        };
+        let mut hud = Hud::new(true);
+        for size in [[320, 240], [640, 360], [799, 700]] {
+            let share = covered_share(&mut hud, size, &info);
+            assert!(share > 0.0 && share <= 0.15, "{size:?}: {share}");
+        }
+        // A large window has the whole panel: graph and all.
+        let large = covered_share(&mut hud, [1920, 1080], &info);
+        assert!(large * 1920.0 * 1080.0 > 340.0 * 90.0, "{large}");
     }
 
     #[test]
