@@ -1488,6 +1488,7 @@ fn summarize(
         (!frames.is_empty() && frames.iter().all(|f| f.stats.gpu_cull.is_some()))
             .then(|| median(&|f| f.stats.gpu_cull.map_or(0.0, |c| get(&c) as f64)))
     };
+    let threads = renderer.config.submission.record_threads;
     let cpu = series(&FrameResult::cpu_ms);
     let gpu = series(&FrameResult::gpu_ms);
     let moving = !frames.is_empty() && frames.iter().any(|f| f.stats.motion.is_some());
@@ -1517,15 +1518,9 @@ fn summarize(
             batch: median(&|f| f.stats.cpu_ms.batch),
             record: median(&|f| f.stats.cpu_ms.record),
             submit: median(&|f| f.stats.cpu_ms.submit),
-            record_threads_sum: renderer
-                .config
-                .submission
-                .record_threads
+            record_threads_sum: threads
                 .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().sum)),
-            record_threads_slowest: renderer
-                .config
-                .submission
-                .record_threads
+            record_threads_slowest: threads
                 .map(|_| median(&|f| f.stats.cpu_ms.record_threads.unwrap_or_default().slowest)),
             motion: moving.then(|| median(&|f| f.motion_ms)),
         },

@@ -44,28 +44,11 @@ impl Renderer {
             _ => ctx.caps.depth_format,
         };
         let quad = output.is_some_and(|o| o.quad);
-        let inset_choice = config.effort.inset.map(|i| {
-            let (four, path) = inset_path(
-                i,
-                config.frame.stereo,
-                ctx.caps.max_multiview_views,
-                samples,
-            );
-            let path = if quad {
-                format!("{path}, submitted as four views")
-            } else {
-                path
-            };
-            (four, path)
-        });
+        let inset_choice = inset_choice(config, ctx.caps.max_multiview_views, samples, quad);
         let mut r = Renderer {
             ctx: ctx.clone(),
             depth_format,
-            config: {
-                let mut rc = config.clone();
-                rc.frame.msaa = samples;
-                rc
-            },
+            config: with_samples(config, samples),
             extent: nominal,
             nominal,
             allocated,
@@ -412,4 +395,29 @@ fn upload_scene(
         }
     };
     Ok((scene_gpu, draw_records, descriptors, lod_report))
+}
+
+/// `config` with the MSAA samples the device gives.
+fn with_samples(config: &RenderConfig, samples: u32) -> RenderConfig {
+    let mut c = config.clone();
+    c.frame.msaa = samples;
+    c
+}
+
+/// With `inset`: whether its four views go in one scope, and the path's
+/// description (`quad`: the output takes the four views as drawn).
+fn inset_choice(
+    config: &RenderConfig,
+    max_views: u32,
+    samples: u32,
+    quad: bool,
+) -> Option<(bool, String)> {
+    config.effort.inset.map(|i| {
+        let (four, path) = inset_path(i, config.frame.stereo, max_views, samples);
+        if quad {
+            (four, format!("{path}, submitted as four views"))
+        } else {
+            (four, path)
+        }
+    })
 }
