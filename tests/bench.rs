@@ -126,6 +126,26 @@ fn smoke_plan_measures_and_reports() {
         report.contains(&format!("over {} runs", plan.repeats)),
         "{report}"
     );
+    // The foveated error beside the uniform one, never above it.
+    assert!(report.contains("FLIP foveated"), "{report}");
+    for r in g.results.iter().filter(|r| r.name != "reference") {
+        let e = r.error.as_ref().expect("an error");
+        let foveated = e.flip_foveated_mean.expect("a foveated FLIP");
+        assert!(
+            foveated <= e.flip_mean + 1e-9,
+            "{}: {foveated} > {}",
+            r.name,
+            e.flip_mean
+        );
+        if let (Some(f), Some(ff)) = (r.flicker, r.flicker_foveated) {
+            assert!(ff <= f + 1e-9, "{}: {ff} > {f}", r.name);
+        }
+    }
+    let mut lossy = g.results.iter().filter_map(|r| r.error.as_ref());
+    assert!(
+        lossy.any(|e| e.flip_mean > 0.0 && e.flip_foveated_mean.unwrap() < e.flip_mean),
+        "some configuration's periphery error is discounted"
+    );
     for r in &g.results {
         assert_eq!(r.frames, plan.frames, "{}", r.name);
         assert_eq!(r.frame_times_ms.len(), plan.frames as usize);

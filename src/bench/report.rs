@@ -62,7 +62,8 @@ pub const CSV_HEADER: &str = "scene,instances,hmd,scale,width,height,config,opt,
 gpu_p50_ms,gpu_p95_ms,gpu_p99_ms,gpu_max_ms,gpu_std_ms,frames_in_flight,wall_frame_p50_ms,wall_frame_p95_ms,wall_frame_p99_ms,wall_frame_max_ms,wall_frame_std_ms,\
 model_frame_p50_ms,cpu_cull_ms,cpu_batch_ms,cpu_record_ms,cpu_submit_ms,cpu_frame_p50_ms,frames,frames_over_budget,frames_over_2x_budget,\
 draw_calls,instances_drawn,triangles,fragment_invocations,gpu_allocated_bytes,gpu_usage_bytes,gpu_budget_bytes,rss_bytes,\
-flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup,flip_inset_mean";
+flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup,flip_inset_mean,\
+flip_foveated_mean,flicker,flicker_foveated";
 
 fn quote(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -134,6 +135,9 @@ pub fn csv(results: &BenchResults) -> String {
                 opt_num(r.gpu_speedup),
                 opt_num(r.frame_speedup),
                 opt_num(e.and_then(|e| e.flip_inset_mean)),
+                opt_num(e.and_then(|e| e.flip_foveated_mean)),
+                opt_num(r.flicker),
+                opt_num(r.flicker_foveated),
             ];
             s.push_str(&fields.join(","));
             s.push('\n');
@@ -297,6 +301,8 @@ fn md_flicker(s: &mut String, g: &Group) {
             let mut row = vec![
                 r.name.clone(),
                 format!("{:.5}", r.flicker?),
+                r.flicker_foveated
+                    .map_or(String::new(), |v| format!("{v:.5}")),
                 r.error
                     .as_ref()
                     .map_or(String::new(), |e| format!("{:.4}", e.flip_mean)),
@@ -318,7 +324,7 @@ fn md_flicker(s: &mut String, g: &Group) {
         s,
         "\nTemporal error (flicker: mean per-pixel frame-to-frame luma change beyond the reference's, along the first view turning a third of a pixel a frame; 0 = as stable as the reference):\n"
     );
-    let mut head: Vec<String> = ["config", "flicker", "FLIP mean"]
+    let mut head: Vec<String> = ["config", "flicker", "flicker foveated", "FLIP mean"]
         .map(String::from)
         .to_vec();
     if split {

@@ -39,6 +39,12 @@ pub struct ImageError {
     /// plan has no inset.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flip_inset_mean: Option<f64>,
+    /// FLIP as the eye sees it looking at the image centre
+    /// ([`super::foveated`]: each pixel low-passed to what the eye
+    /// resolves at its eccentricity), over visible pixels, averaged over
+    /// eyes and compared frames; never above `flip_mean`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flip_foveated_mean: Option<f64>,
     /// 99th percentile of per-pixel FLIP over one eye's visible pixels,
     /// averaged over eyes and compared frames.
     pub flip_p99: f64,
@@ -223,6 +229,11 @@ pub struct ConfigResult {
     /// the reference itself and for timewarp configurations).
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flicker: Option<f64>,
+    /// The flicker as the eye sees it looking at the image centre
+    /// ([`super::foveated`]: each frame low-passed to what the eye resolves
+    /// at each pixel's eccentricity); never above `flicker`.
+    #[serde(default, skip_serializing_if = "Option::is_none")]
+    pub flicker_foveated: Option<f64>,
     /// With a flicker sequence and `inset` in this configuration or, over
     /// the same pixels, in another of the plan: the flicker split by where
     /// the composite takes each pixel from (inside the inset, the
@@ -624,6 +635,7 @@ fn run_group(
     };
     let fov = profile.views[0].fov;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
+    let levels = foveation_levels(&rigs[0], extent, ppd);
     let group_dir = format!(
         "images/{}-{}-{}",
         sanitize(&group.scene),
@@ -638,6 +650,7 @@ fn run_group(
         rigs,
         extent,
         masks,
+        levels,
         ppd,
         out,
         group_dir,
@@ -680,6 +693,8 @@ struct GroupRun<'a> {
     extent: vk::Extent2D,
     /// Per eye: pixels the lens shows.
     masks: [Vec<bool>; 2],
+    /// Per eye: each pixel's foveation level.
+    levels: [Vec<f32>; 2],
     ppd: f64,
     out: &'a Path,
     group_dir: String,
@@ -762,6 +777,7 @@ impl GroupRun<'_> {
         let compare = Comparison {
             reference: &self.reference_images,
             masks: &self.masks,
+            levels: &self.levels,
             ppd: self.ppd,
             inset_config: self.inset_config.as_ref(),
         };
@@ -859,11 +875,12 @@ impl GroupRun<'_> {
         let f = sequence_flicker(
             &test,
             &self.reference_sequence,
-            &self.masks,
+            (&self.masks, Some(&self.levels)),
             inset.as_ref(),
             extent,
         )?;
         r.flicker = Some(f.mean);
+        r.flicker_foveated = f.foveated;
         r.flicker_regions = f.regions;
         if let Some(i) = config.effort.inset {
             r.flicker_floor = Some(self.flicker_floor(&i, inset.as_ref())?);
@@ -905,7 +922,7 @@ impl GroupRun<'_> {
         let v = sequence_flicker(
             &through,
             &self.reference_sequence,
-            &self.masks,
+            (&self.masks, None),
             None,
             self.extent,
         )?
@@ -949,6 +966,8 @@ fn flicker_rigs(
 /// inset, and the left eye's per-pixel map.
 struct SequenceFlicker {
     mean: f64,
+    /// With foveation levels: the foveated flicker.
+    foveated: Option<f64>,
     regions: Option<FlickerRegions>,
     left_map: Vec<f32>,
 }
@@ -959,7 +978,7 @@ struct SequenceFlicker {
 fn sequence_flicker(
     test: &[[image::RgbaImage; 2]],
     reference: &[[image::RgbaImage; 2]],
-    masks: &[Vec<bool>; 2],
+    (masks, levels): (&[Vec<bool>; 2], Option<&[Vec<f32>; 2]>),
     inset: Option<&PixelRect>,
     extent: vk::Extent2D,
 ) -> Result<SequenceFlicker> {
@@ -979,6 +998,7 @@ fn sequence_flicker(
     let in_periphery = |i: usize| weight(i) <= 0.0;
     let mut out = SequenceFlicker {
         mean: 0.0,
+        foveated: levels.map(|_| 0.0),
         regions: inset.map(|_| FlickerRegions::default()),
         left_map: Vec::new(),
     };
@@ -988,6 +1008,10 @@ fn sequence_flicker(
         let map = per_pixel(&t, &r)?;
         let hidden = &masks[eye];
         out.mean += masked_mean(&map, hidden, |_| true) / 2.0;
+        if let (Some(sum), Some(levels)) = (out.foveated.as_mut(), levels) {
+            let foveated = super::foveated::flicker_map(&t, &r, &levels[eye], hidden)?;
+            *sum += masked_mean(&foveated, hidden, |_| true) / 2.0;
+        }
         if let Some(regions) = out.regions.as_mut() {
             let shown = |i: usize| !hidden.get(i).copied().unwrap_or(false);
             let total = (0..map.len()).filter(|&i| shown(i)).count().max(1) as f64;
@@ -1042,6 +1066,8 @@ struct Comparison<'a> {
     reference: &'a RefImages,
     /// Per eye: pixels the lens hides (excluded from the error).
     masks: &'a [Vec<bool>; 2],
+    /// Per eye: each pixel's foveation level (the foveated error).
+    levels: &'a [Vec<f32>; 2],
     ppd: f64,
     /// The plan's first configuration with `inset` (lens resolved): a
     /// configuration without one has its error and flicker measured over
@@ -1049,16 +1075,26 @@ struct Comparison<'a> {
     inset_config: Option<&'a RenderConfig>,
 }
 
+/// A stereo pair's error as the overlay's F4 shows it.
+pub struct StereoError {
+    /// FLIP mean of both eyes.
+    pub flip_mean: f64,
+    /// Foveated FLIP mean of both eyes (looking at the image centre).
+    pub flip_foveated_mean: f64,
+    /// The left eye's FLIP heat map.
+    pub heatmap: image::RgbaImage,
+}
+
 /// The error of `test` against `reference` (both rendered for `rig`) as
 /// the bench measures it: hidden pixels blacked out in both and left out,
 /// FLIP at the left view's pixels per degree (at least
-/// [`MIN_FLIP_PPD`]). Returns the FLIP mean of both eyes and the left
-/// eye's heat map (what the desk overlay shows on demand).
+/// [`MIN_FLIP_PPD`]), uniform and foveated, with the left eye's heat map
+/// (what the desk overlay shows on demand).
 pub fn stereo_error(
     reference: &[image::RgbaImage; 2],
     test: &[image::RgbaImage; 2],
     rig: &StereoRig,
-) -> Result<(f64, image::RgbaImage)> {
+) -> Result<StereoError> {
     let extent = vk::Extent2D {
         width: reference[0].width(),
         height: reference[0].height(),
@@ -1072,9 +1108,38 @@ pub fn stereo_error(
         .map(|v| v.fov)
         .ok_or_else(|| crate::error::Error::config("image error", "the rig has no views"))?;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
-    let (left, flip) = eye_error(&reference[0], &test[0], &masks[0], ppd, None)?;
-    let (right, _) = eye_error(&reference[1], &test[1], &masks[1], ppd, None)?;
-    Ok(((left.flip_mean + right.flip_mean) / 2.0, flip.heatmap()))
+    let levels = foveation_levels(rig, extent, ppd);
+    let [left, right] = [0usize, 1].map(|eye| {
+        let view = EyeView {
+            mask: &masks[eye],
+            levels: Some(&levels[eye]),
+            ppd,
+        };
+        eye_error(&reference[eye], &test[eye], &view, None)
+    });
+    let ((left, flip), (right, _)) = (left?, right?);
+    let foveated =
+        (left.flip_foveated_mean.unwrap_or(0.0) + right.flip_foveated_mean.unwrap_or(0.0)) / 2.0;
+    Ok(StereoError {
+        flip_mean: (left.flip_mean + right.flip_mean) / 2.0,
+        flip_foveated_mean: foveated,
+        heatmap: flip.heatmap(),
+    })
+}
+
+/// Per eye and pixel of eye images of `extent`, the foveated error's
+/// pyramid level ([`super::foveated::level`]) with the eye looking at the
+/// image centre, at `ppd` pixels per degree.
+fn foveation_levels(rig: &StereoRig, extent: vk::Extent2D, ppd: f64) -> [Vec<f32>; 2] {
+    [0usize, 1].map(|eye| {
+        let fov = rig.views.get(eye).or(rig.views.first()).map(|v| v.fov);
+        let e = fov.map_or_else(Vec::new, |fov| {
+            super::foveated::eccentricity(extent.width, extent.height, &fov, [0.0, 0.0])
+        });
+        e.iter()
+            .map(|&d| super::foveated::level(d as f64, ppd))
+            .collect()
+    })
 }
 
 /// Per eye, which pixels the lens hides (the profile's hidden area, or its
@@ -1270,9 +1335,11 @@ fn average_errors(errors: &[ImageError]) -> Option<ImageError> {
     let avg = |get: fn(&ImageError) -> f64| errors.iter().map(get).sum::<f64>() / n;
     // The inset's mean where every compared frame has one.
     let inset: Option<f64> = errors.iter().map(|e| e.flip_inset_mean).sum();
+    let foveated: Option<f64> = errors.iter().map(|e| e.flip_foveated_mean).sum();
     Some(ImageError {
         flip_mean: avg(|e| e.flip_mean),
         flip_inset_mean: inset.map(|s| s / n),
+        flip_foveated_mean: foveated.map(|s| s / n),
         flip_p99: avg(|e| e.flip_p99),
         psnr_db: avg(|e| e.psnr_db),
         ssim: avg(|e| e.ssim),
@@ -1371,11 +1438,21 @@ fn image_error(
     cmp: &Comparison,
     inset: Option<&PixelRect>,
 ) -> Result<ImageError> {
-    let [l, r] = [0usize, 1]
-        .map(|eye| eye_error(&reference[eye], &test[eye], &cmp.masks[eye], cmp.ppd, inset));
+    let [l, r] = [0usize, 1].map(|eye| {
+        let view = EyeView {
+            mask: &cmp.masks[eye],
+            levels: Some(&cmp.levels[eye]),
+            ppd: cmp.ppd,
+        };
+        eye_error(&reference[eye], &test[eye], &view, inset)
+    });
     let ((l, _), (r, _)) = (l?, r?);
     Ok(ImageError {
         flip_mean: (l.flip_mean + r.flip_mean) / 2.0,
+        flip_foveated_mean: l
+            .flip_foveated_mean
+            .zip(r.flip_foveated_mean)
+            .map(|(a, b)| (a + b) / 2.0),
         flip_inset_mean: l
             .flip_inset_mean
             .zip(r.flip_inset_mean)
@@ -1388,23 +1465,42 @@ fn image_error(
     })
 }
 
-/// One eye's error against its reference over the pixels `mask` does not
+/// How one eye's images are compared: the pixels the lens hides, each
+/// pixel's foveation level ([`super::foveated::level`]; None: no foveated
+/// error) and FLIP's pixels per degree.
+struct EyeView<'a> {
+    mask: &'a [bool],
+    levels: Option<&'a [f32]>,
+    ppd: f64,
+}
+
+/// One eye's error against its reference over the pixels `v.mask` does not
 /// hide (blacked out in both images first and left out of the FLIP
 /// statistics), with the FLIP result itself (for its heat map). With
-/// `inset`, also the FLIP mean over the visible pixels inside it.
+/// `inset`, also the FLIP mean over the visible pixels inside it; with
+/// `v.levels`, the foveated FLIP mean.
 fn eye_error(
     reference: &image::RgbaImage,
     test: &image::RgbaImage,
-    mask: &[bool],
-    ppd: f64,
+    v: &EyeView,
     inset: Option<&PixelRect>,
 ) -> Result<(ImageError, metrics::FlipResult)> {
+    let (mask, ppd) = (v.mask, v.ppd);
     let (a, b) = (blackout(reference, mask), blackout(test, mask));
     let f = metrics::flip(&a, &b, ppd as f32)?;
     let (mean, p99) = masked_stats(&f.errors, mask);
+    let foveated = match v.levels {
+        Some(levels) => {
+            let view = (ppd as f32, levels, mask);
+            let map = super::foveated::flip_map(&a, &b, view, Some(&f.errors))?;
+            Some(masked_stats(&map, mask).0)
+        }
+        None => None,
+    };
     Ok((
         ImageError {
             flip_mean: mean,
+            flip_foveated_mean: foveated,
             flip_inset_mean: inset.map(|r| rect_mean(&f.errors, a.width(), r, mask)),
             flip_p99: p99,
             psnr_db: metrics::psnr(&a, &b).min(100.0),

@@ -40,6 +40,7 @@ pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
         "triangles",
         "fragments (vs baseline)",
         "FLIP mean",
+        "FLIP foveated",
         "FLIP p99",
         "PSNR dB",
         "SSIM",
@@ -79,6 +80,10 @@ pub fn group_rows(g: &Group) -> (Vec<&'static str>, Vec<Vec<String>>) {
                     _ => "n/a".into(),
                 },
                 e.map_or("ref".into(), |e| format!("{:.4}", e.flip_mean)),
+                e.map_or("ref".into(), |e| {
+                    e.flip_foveated_mean
+                        .map_or("–".into(), |v| format!("{v:.4}"))
+                }),
                 e.map_or("ref".into(), |e| format!("{:.4}", e.flip_p99)),
                 e.map_or("ref".into(), |e| {
                     if e.psnr_db >= 100.0 {

@@ -18,6 +18,9 @@ use std::sync::Arc;
 pub struct ErrorReport {
     /// FLIP mean of both eyes against the reference.
     pub flip_mean: f64,
+    /// The foveated FLIP mean of both eyes (looking at the image centre;
+    /// `bench::foveated`).
+    pub flip_foveated_mean: f64,
     /// The left eye's FLIP heat map.
     pub heatmap: image::RgbaImage,
     /// The `--opt` list measured.
@@ -77,10 +80,11 @@ pub fn measure(
 ) -> Result<ErrorReport> {
     let reference = render(ctx, scene, &reference_of(config), (rig, time), extent)?;
     let test = render(ctx, scene, config, (rig, time), extent)?;
-    let (flip_mean, heatmap) = crate::bench::runner::stereo_error(&reference, &test, rig)?;
+    let e = crate::bench::runner::stereo_error(&reference, &test, rig)?;
     Ok(ErrorReport {
-        flip_mean,
-        heatmap,
+        flip_mean: e.flip_mean,
+        flip_foveated_mean: e.flip_foveated_mean,
+        heatmap: e.heatmap,
         opt: config.opt_string(),
     })
 }

@@ -233,10 +233,10 @@ impl Hud {
         };
         let history: Vec<Times> = self.history.iter().copied().collect();
         let last = self.last.clone();
-        let error = self
-            .error
-            .as_ref()
-            .map(|(r, t)| (r.flip_mean, r.opt.clone(), t.id(), t.size_vec2()));
+        let error = self.error.as_ref().map(|(r, t)| {
+            let means = (r.flip_mean, r.flip_foveated_mean);
+            (means, r.opt.clone(), t.id(), t.size_vec2())
+        });
         let heat = self.show_heatmap;
         let output = self.ctx.run(input, |ctx| {
             egui::Area::new(egui::Id::new("vergence-hud"))
@@ -249,16 +249,16 @@ impl Hud {
                         .show(ui, |ui| {
                             if compact(size) {
                                 compact_panel(ui, &history, info, size);
-                                if let Some((mean, ..)) = &error {
-                                    let text = format!("F4: FLIP {mean:.4}");
+                                if let Some(((mean, foveated), ..)) = &error {
+                                    let text = format!("F4: FLIP {mean:.4} ({foveated:.4} foveated)");
                                     ui.label(egui::RichText::new(text).small());
                                 }
                                 return;
                             }
                             panel(ui, &history, last.as_ref(), info);
-                            if let Some((mean, opt, id, size)) = &error {
+                            if let Some(((mean, foveated), opt, id, size)) = &error {
                                 ui.label(format!(
-                                    "image error (F4): FLIP mean {mean:.4} vs two-pass 4x, for {opt}"
+                                    "image error (F4): FLIP mean {mean:.4} ({foveated:.4} foveated) vs two-pass 4x, for {opt}"
                                 ));
                                 if heat {
                                     let w = 300.0f32.min(size.x);
@@ -404,6 +404,7 @@ mod tests {
         // 2048-pixel texture limit) is shown from a 512-pixel copy.
         hud.set_error(crate::targets::error_probe::ErrorReport {
             flip_mean: 0.01,
+            flip_foveated_mean: 0.005,
             heatmap: image::RgbaImage::new(2016, 2240),
             opt: "multiview".into(),
         });
