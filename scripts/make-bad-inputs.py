@@ -406,6 +406,12 @@ case("plans/reference-supersample-5.toml", "plan", ["reference_supersample = 5",
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nreference_supersample = 5\n", 1))
 case("plans/reference-supersample-aq.toml", "plan", ["reference_supersample = 2", "leave aq out"],
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nreference_supersample = 2\nreference = \"multiview,aq\"\n", 1))
+case("plans/path-seeds-repeated.toml", "plan", ["path_seeds repeats a seed"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\npath_seeds = [3, 3]\n", 1))
+case("plans/path-seeds-nine.toml", "plan", ["path_seeds has 9 seeds", "at most 8"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\npath_seeds = [1, 2, 3, 4, 5, 6, 7, 8, 9]\n", 1))
+case("plans/repeats-zero.toml", "plan", ["repeats = 0", "1 to 10"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nrepeats = 0\n", 1))
 case("plans/duplicate-names.toml", "plan", ["appears twice"],
      PLAN.format(frames=2, opt="two-pass") + '[[configs]]\nname = "a"\nopt = "multiview"\n')
 case("configs/unknown-key.toml", "config", ["colour"], 'opt = "multiview"\ncolour = 3\n')
@@ -507,7 +513,7 @@ case("hmd/narrow.toml", None, None, hmd(l="-0.005").replace("right = 0.8", "righ
 case("plans/narrow-fov.toml", "plan", ["HMD profile", "narrow.toml", "pixels per degree", "2^34"],
      PLAN.format(frames=2, opt="two-pass").replace('hmds = ["monado-sim"]', 'hmds = ["tests/bad_inputs/hmd/narrow.toml"]'))
 # Class 12, the whole plan and every output name checked up front.
-case("plans/second-scene-missing.toml", "plan", ["scene no-such-scene.glb", "No such file"],
+case("plans/second-scene-missing.toml", "plan", ["scene no-such-scene.glb", "no such file"],
      PLAN.format(frames=2, opt="two-pass").replace('scenes = ["factory:10"]', 'scenes = ["factory:10", "no-such-scene.glb"]'))
 case("plans/tiny-scale.toml", "plan", ["scale 0.000000001 gives 0x0 px per eye"],
      PLAN.format(frames=2, opt="two-pass") .replace("frames = 2\n", "frames = 2\nscales = [1.0, 1e-9]\n"))

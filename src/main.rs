@@ -98,6 +98,11 @@ enum Command {
         /// Measured frames per candidate.
         #[arg(long, default_value_t = 60, value_parser = clap::value_parser!(u32).range(1..=100_000))]
         frames: u32,
+        /// Head paths to measure along, as seeds (e.g. `1,5,9`; at most 8):
+        /// a candidate qualifies only if it meets the budget and caps on
+        /// every one. Default: one path, seed 1.
+        #[arg(long, value_delimiter = ',')]
+        path_seeds: Vec<u64>,
         /// Where to write the chosen configuration.
         #[arg(long, default_value = "vergence-tuned.toml")]
         out: PathBuf,
@@ -849,6 +854,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             hmd,
             scale,
             frames,
+            path_seeds,
             out,
         } => tune(
             vergence::bench::tune::TuneGoal {
@@ -859,7 +865,7 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             &scene,
             &hmd,
             (scale, reference_supersample),
-            frames,
+            (frames, path_seeds),
             &out,
         )?,
         Command::Compare {
@@ -1078,11 +1084,12 @@ fn tune(
     scene: &str,
     hmd: &str,
     scale: (f64, u32),
-    frames: u32,
+    (frames, path_seeds): (u32, Vec<u64>),
     out: &std::path::Path,
 ) -> anyhow::Result<()> {
     use vergence::bench::tune;
-    let plan = tune::plan(scene, hmd, scale, frames, Some(goal.budget_ms));
+    let mut plan = tune::plan(scene, hmd, scale, frames, Some(goal.budget_ms));
+    plan.path_seeds = path_seeds;
     plan.validate()
         .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
     plan.check_inputs()

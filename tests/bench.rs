@@ -974,3 +974,44 @@ fn shipped_plans_work_by_name_from_any_folder() {
     }
     assert!(away.join("smoke/report.md").is_file());
 }
+
+/// A plan with several head paths: one group per seed, each along its
+/// own path (different frames, so different times), and the reports'
+/// spread over them.
+#[test]
+fn several_head_paths_give_a_group_each_and_their_spread() {
+    let dir = common::scratch("bench", "seeds");
+    let plan = dir.join("seeds.toml");
+    let text = "name = \"seeds\"\nscenes = [\"factory:500\"]\nhmds = [\"monado-sim\"]\nscales = [0.25]\nwarmup = 1\nframes = 3\nerror_frames = 1\nflicker_frames = 0\npath_seeds = [3, 4]\nbaseline = \"two-pass\"\n[[configs]]\nname = \"two-pass\"\nopt = \"two-pass,per-eye\"\n[[configs]]\nname = \"no-msaa\"\nopt = \"multiview,no-msaa\"\n";
+    std::fs::write(&plan, text).unwrap();
+    let out = dir.join("out");
+    let results = run_plan(&plan, &out);
+    let seeds: Vec<u64> = results.groups.iter().map(|g| g.path_seed).collect();
+    assert_eq!(seeds, [3, 4]);
+    for g in &results.groups {
+        assert_eq!(g.results.len(), 3, "reference and two configurations");
+        let img = out.join(g.results[1].image.as_ref().unwrap());
+        assert!(img
+            .to_str()
+            .unwrap()
+            .contains(&format!("-seed{}", g.path_seed)));
+        assert!(img.is_file(), "{}", img.display());
+    }
+    let report = std::fs::read_to_string(out.join("report.md")).unwrap();
+    assert!(
+        report.contains(
+            "Across head paths: factory:500 · monado-sim · scale 0.25 over head path seeds 3, 4"
+        ),
+        "{report}"
+    );
+    assert!(report.contains("| no-msaa | 2/2 |"), "{report}");
+    assert!(report.contains("head path seed 4"), "{report}");
+    // Duplicate seeds are refused before anything runs.
+    std::fs::write(&plan, text.replace("[3, 4]", "[3, 3]")).unwrap();
+    let out = vergence(&["bench", "--plan", plan.to_str().unwrap(), "--check"]);
+    let stderr = String::from_utf8_lossy(&out.stderr);
+    assert!(
+        !out.status.success() && stderr.contains("path_seeds repeats a seed"),
+        "{stderr}"
+    );
+}

@@ -366,6 +366,22 @@ fn viewpoint_files() {
 
 #[test]
 #[ignore]
+fn image_decoding() {
+    // The vendored textures under 200 kB (PNG, JPEG, WebP) and the corpus's
+    // crafted images.
+    let mut seeds = files("assets", &["png", "jpg", "jpeg", "webp"]);
+    seeds.extend(files("tests/bad_inputs", &["png", "jpg", "jpeg", "webp"]));
+    seeds.retain(|s| s.len() < 200_000);
+    fuzz("image_decoding", 11, seeds, |data| {
+        use vergence::scene::image_decode::{decode_rgba8, MAX_TEXTURE_SIDE};
+        if let Ok(img) = decode_rgba8(data) {
+            assert!(img.width() <= MAX_TEXTURE_SIDE && img.height() <= MAX_TEXTURE_SIDE);
+        }
+    });
+}
+
+#[test]
+#[ignore]
 fn draco_and_basis_decoders() {
     use vergence::scene::draco::{decode, DracoExt, Expected};
     let mut seeds = Vec::new();

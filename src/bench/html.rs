@@ -366,6 +366,11 @@ pub fn html(results: &BenchResults) -> String {
     if let Some(c) = &results.choice {
         html_choice(&mut s, c);
     }
+    for (title, rows) in super::tables::spread_rows(results) {
+        let _ = write!(s, "<h2>Across head paths: {}</h2>", esc(&title));
+        let head: Vec<String> = super::tables::SPREAD_HEAD.map(String::from).to_vec();
+        table(&mut s, &head, &rows);
+    }
     for g in &results.groups {
         html_group(&mut s, g, results.choice.as_ref().map(|c| c.name.as_str()));
     }

@@ -76,6 +76,12 @@ pub struct Plan {
     /// Seed of the head path.
     #[serde(default)]
     pub path_seed: u64,
+    /// Several head paths (at most 8 distinct seeds): every scene, profile
+    /// and scale is measured along each, one group per seed, and the
+    /// reports give each figure's spread over them. Empty (the default):
+    /// `path_seed` alone.
+    #[serde(default)]
+    pub path_seeds: Vec<u64>,
     /// The head path: `walk` (default) walks through the scene at standing
     /// height; `orbit` circles outside its bounds looking at its centre
     /// (the whole scene in view).
@@ -113,6 +119,9 @@ pub struct Plan {
 
 /// Most runs `repeats` asks for.
 pub const MAX_REPEATS: u32 = 10;
+
+/// Most head paths `path_seeds` names.
+pub const MAX_PATH_SEEDS: usize = 8;
 
 fn one_scale() -> Vec<f64> {
     vec![1.0]
@@ -207,6 +216,15 @@ pub enum PathKind {
 }
 
 impl Plan {
+    /// The head paths' seeds: `path_seeds`, or `path_seed` alone.
+    pub fn seeds(&self) -> Vec<u64> {
+        if self.path_seeds.is_empty() {
+            vec![self.path_seed]
+        } else {
+            self.path_seeds.clone()
+        }
+    }
+
     /// The refresh rate frames are budgeted at: `budget_ms`'s, else the
     /// profile's.
     pub fn refresh_hz(&self, profile: &crate::view::profile::HmdProfile) -> f64 {
@@ -331,6 +349,18 @@ impl Plan {
                 "reference_supersample = {} must be 1 to 4",
                 self.reference_supersample
             ));
+        }
+        if self.path_seeds.len() > MAX_PATH_SEEDS {
+            return Err(format!(
+                "path_seeds has {} seeds; at most {MAX_PATH_SEEDS}",
+                self.path_seeds.len()
+            ));
+        }
+        let mut seeds = self.path_seeds.clone();
+        seeds.sort_unstable();
+        seeds.dedup();
+        if seeds.len() != self.path_seeds.len() {
+            return Err("path_seeds repeats a seed".into());
         }
         if !(1..=MAX_REPEATS).contains(&self.repeats) {
             return Err(format!(

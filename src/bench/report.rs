@@ -202,10 +202,23 @@ pub fn markdown(results: &BenchResults) -> String {
          (per image, averaged) leave them out, PSNR and SSIM run over the whole image. FLIP at \
          the profile's pixels per degree (at least 10).\n",
     );
+    md_spread(&mut s, results);
     for g in &results.groups {
         md_group(&mut s, g);
     }
     s
+}
+
+/// The figures' spread over head paths, where the plan measured several.
+fn md_spread(s: &mut String, results: &BenchResults) {
+    for (title, rows) in super::tables::spread_rows(results) {
+        let _ = writeln!(
+            s,
+            "\n## Across head paths: {title}\n\nEach configuration's GPU speed-up range and its worst error and flicker over the paths (a choice that holds must hold on every one).\n"
+        );
+        let head: Vec<String> = super::tables::SPREAD_HEAD.map(String::from).to_vec();
+        md_table(s, &head, &rows);
+    }
 }
 
 /// One group's section of `report.md`: its floors, results and per-pass

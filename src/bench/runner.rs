@@ -428,6 +428,9 @@ pub struct Group {
     pub refresh_hz: f64,
     /// Name of the baseline configuration.
     pub baseline: String,
+    /// The head path's seed.
+    #[serde(default)]
+    pub path_seed: u64,
     /// Floors.
     pub floors: Option<Floors>,
     /// The reference first, then the plan's configurations in order.
@@ -537,7 +540,11 @@ pub fn run_plan(
         complete: false,
         ..BenchResults::default()
     };
-    let total = plan.scenes.len() * plan.hmds.len() * plan.scales.len() * (plan.configs.len() + 1);
+    let total = plan.scenes.len()
+        * plan.hmds.len()
+        * plan.scales.len()
+        * plan.seeds().len()
+        * (plan.configs.len() + 1);
     let profiles = plan
         .hmds
         .iter()
@@ -564,11 +571,20 @@ fn run_groups(
     results: &mut BenchResults,
 ) -> std::result::Result<bool, String> {
     let mut done = 0;
+    let several = plan.seeds().len() > 1;
     for scene_spec in &plan.scenes {
         let (scene, _) = load_scene(&plan.input_path(scene_spec))
             .map_err(|e| format!("scene {scene_spec}: {e}"))?;
         for profile in profiles {
-            for &scale in &plan.scales {
+            for (&scale, seed) in plan
+                .scales
+                .iter()
+                .flat_map(|s| plan.seeds().into_iter().map(move |seed| (s, seed)))
+            {
+                let seeded = Plan {
+                    path_seed: seed,
+                    ..plan.clone()
+                };
                 let mut group = Group {
                     scene: scene_spec.clone(),
                     instances: scene.instances.len(),
@@ -581,11 +597,12 @@ fn run_groups(
                     },
                     refresh_hz: plan.refresh_hz(profile),
                     baseline: plan.baseline_name().to_string(),
+                    path_seed: seed,
                     ..Group::default()
                 };
                 let finished = run_group(
                     ctx,
-                    plan,
+                    &seeded,
                     &scene,
                     profile,
                     scale,
@@ -597,8 +614,13 @@ fn run_groups(
                     },
                 );
                 let label = format!(
-                    "scene {scene_spec}, HMD profile {}, scale {scale}",
-                    profile.name
+                    "scene {scene_spec}, HMD profile {}, scale {scale}{}",
+                    profile.name,
+                    if several {
+                        format!(", path seed {seed}")
+                    } else {
+                        String::new()
+                    }
                 );
                 // A group cut short is reported with the configurations
                 // it finished.
@@ -637,10 +659,15 @@ fn run_group(
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
     let levels = foveation_levels(&rigs[0], extent, ppd);
     let group_dir = format!(
-        "images/{}-{}-{}",
+        "images/{}-{}-{}{}",
         sanitize(&group.scene),
         sanitize(&group.hmd),
-        scale
+        scale,
+        if plan.path_seeds.is_empty() {
+            String::new()
+        } else {
+            format!("-seed{}", plan.path_seed)
+        }
     );
     let mut run = GroupRun {
         ctx,

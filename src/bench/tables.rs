@@ -7,7 +7,7 @@ use super::runner::{BenchResults, ConfigResult, Group};
 /// Title line of a group.
 pub fn group_title(g: &Group) -> String {
     format!(
-        "{} ({} instances) · {} · scale {} ({}×{} per eye, {:.2} ms budget at {} Hz)",
+        "{} ({} instances) · {} · scale {} ({}×{} per eye, {:.2} ms budget at {} Hz) · head path seed {}",
         g.scene,
         g.instances,
         g.hmd,
@@ -15,8 +15,98 @@ pub fn group_title(g: &Group) -> String {
         g.resolution[0],
         g.resolution[1],
         1000.0 / g.refresh_hz,
-        g.refresh_hz
+        g.refresh_hz,
+        g.path_seed
     )
+}
+
+/// Across head paths: per scene, profile and scale measured along several
+/// path seeds, each configuration's GPU speed-up range and its worst
+/// (largest) error and flicker over the paths, uniform and foveated. Empty
+/// when no group has siblings on other paths.
+pub fn spread_rows(results: &BenchResults) -> Vec<(String, Vec<Vec<String>>)> {
+    let key = |g: &Group| (g.scene.clone(), g.hmd.clone(), g.scale.to_bits());
+    let mut keys = Vec::new();
+    for g in &results.groups {
+        if !keys.contains(&key(g)) {
+            keys.push(key(g));
+        }
+    }
+    let mut out = Vec::new();
+    for k in keys {
+        let groups: Vec<&Group> = results.groups.iter().filter(|g| key(g) == k).collect();
+        if groups.len() < 2 {
+            continue;
+        }
+        let seeds: Vec<String> = groups.iter().map(|g| g.path_seed.to_string()).collect();
+        let title = format!(
+            "{} · {} · scale {} over head path seeds {}",
+            k.0,
+            k.1,
+            groups[0].scale,
+            seeds.join(", ")
+        );
+        let rows = groups[0]
+            .results
+            .iter()
+            .filter(|r| r.name != "reference")
+            .map(|r| {
+                let on: Vec<&ConfigResult> = groups
+                    .iter()
+                    .filter_map(|g| g.results.iter().find(|x| x.name == r.name))
+                    .collect();
+                spread_row(&r.name, &on, groups.len())
+            })
+            .collect();
+        out.push((title, rows));
+    }
+    out
+}
+
+/// Header of [`spread_rows`]' tables.
+pub const SPREAD_HEAD: [&str; 7] = [
+    "config",
+    "paths",
+    "GPU speed-up (least–most)",
+    "FLIP mean (worst)",
+    "FLIP foveated (worst)",
+    "flicker (worst)",
+    "flicker foveated (worst)",
+];
+
+/// One configuration's row of [`spread_rows`] from its results `on` the
+/// paths (of `paths` measured).
+fn spread_row(name: &str, on: &[&ConfigResult], paths: usize) -> Vec<String> {
+    let worst = |get: &dyn Fn(&ConfigResult) -> Option<f64>| -> String {
+        let v: Vec<f64> = on.iter().filter_map(|r| get(r)).collect();
+        if v.is_empty() {
+            "–".into()
+        } else {
+            let m = v.iter().copied().fold(f64::NEG_INFINITY, f64::max);
+            if m < 0.01 {
+                format!("{m:.6}")
+            } else {
+                format!("{m:.4}")
+            }
+        }
+    };
+    let speedups: Vec<f64> = on.iter().filter_map(|r| r.gpu_speedup).collect();
+    let speed = match (
+        speedups.iter().copied().reduce(f64::min),
+        speedups.iter().copied().reduce(f64::max),
+    ) {
+        (Some(lo), Some(hi)) => format!("{lo:.2}–{hi:.2}×"),
+        _ => "–".into(),
+    };
+    vec![
+        name.to_string(),
+        format!("{}/{paths}", on.len()),
+        speed,
+        worst(&|r| r.error.as_ref().map(|e| e.flip_mean)),
+        worst(&|r| r.error.as_ref().and_then(|e| e.flip_foveated_mean)),
+        worst(&|r| r.flicker),
+        worst(&|r| r.flicker_foveated),
+    ]
 }
 
 fn pct_change(v: f64, base: f64) -> String {
