@@ -410,6 +410,10 @@ case("plans/path-seeds-repeated.toml", "plan", ["path_seeds repeats a seed"],
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\npath_seeds = [3, 3]\n", 1))
 case("plans/path-seeds-nine.toml", "plan", ["path_seeds has 9 seeds", "at most 8"],
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\npath_seeds = [1, 2, 3, 4, 5, 6, 7, 8, 9]\n", 1))
+case("plans/gaze-unknown.toml", "plan", ["gaze", "saccades"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\ngaze = \"wander\"\n", 1))
+case("plans/gaze-latency-huge.toml", "plan", ["gaze_latency_ms = 900", "0 to 500"],
+     PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\ngaze_latency_ms = 900\n", 1))
 case("plans/repeats-zero.toml", "plan", ["repeats = 0", "1 to 10"],
      PLAN.format(frames=2, opt="two-pass").replace("frames = 2\n", "frames = 2\nrepeats = 0\n", 1))
 case("plans/duplicate-names.toml", "plan", ["appears twice"],

@@ -1015,3 +1015,43 @@ fn several_head_paths_give_a_group_each_and_their_spread() {
         "{stderr}"
     );
 }
+
+/// A plan whose gaze moves: the inset follows the tracker's report
+/// (50 ms late), so its images differ from the centred plan's, and the
+/// foveated error is measured at the true gaze.
+#[test]
+fn the_inset_follows_a_scripted_gaze() {
+    let dir = common::scratch("bench", "gaze");
+    let plan = dir.join("gaze.toml");
+    let text = "name = \"gaze\"\nscenes = [\"factory:500\"]\nhmds = [\"monado-sim\"]\nscales = [0.25]\nwarmup = 30\nframes = 3\nerror_frames = 1\nflicker_frames = 0\npath_seed = 2\nGAZE\nbaseline = \"two-pass\"\n[[configs]]\nname = \"two-pass\"\nopt = \"two-pass,per-eye\"\n[[configs]]\nname = \"inset\"\nopt = \"multiview,inset=0.5,inset-fov=12\"\n";
+    let run = |gaze: &str, name: &str| {
+        std::fs::write(&plan, text.replace("GAZE", gaze)).unwrap();
+        let out = dir.join(name);
+        let results = run_plan(&plan, &out);
+        let inset = results.groups[0].results[2].clone();
+        let image = image::open(out.join(inset.image.as_ref().unwrap()))
+            .unwrap()
+            .to_rgba8();
+        (results, inset, image)
+    };
+    let (_, centred, centred_image) = run("gaze = \"centre\"", "centre");
+    let (results, moving, moving_image) =
+        run("gaze = \"saccades\"\ngaze_latency_ms = 50", "saccades");
+    let p = results.plan.as_ref().unwrap();
+    assert_eq!(p.gaze, vergence::bench::plan::GazeKind::Saccades);
+    assert_eq!(p.gaze_latency_ms, 50.0);
+    assert_ne!(centred_image, moving_image, "the inset moved with the gaze");
+    let (c, m) = (centred.error.unwrap(), moving.error.unwrap());
+    assert!(m.flip_foveated_mean.unwrap() <= m.flip_mean + 1e-9);
+    assert_ne!(c.flip_foveated_mean, m.flip_foveated_mean);
+    // An unknown gaze path and an impossible latency are refused.
+    for (bad, says) in [
+        ("gaze = \"left\"", "gaze"),
+        ("gaze_latency_ms = 900", "gaze_latency_ms = 900"),
+    ] {
+        std::fs::write(&plan, text.replace("GAZE", bad)).unwrap();
+        let out = vergence(&["bench", "--plan", plan.to_str().unwrap(), "--check"]);
+        let stderr = String::from_utf8_lossy(&out.stderr);
+        assert!(!out.status.success() && stderr.contains(says), "{stderr}");
+    }
+}

@@ -5,6 +5,7 @@ pub mod cull;
 pub mod flicker;
 pub mod flicker_floor;
 pub mod foveated;
+pub mod gaze;
 pub mod html;
 pub mod lens;
 pub mod metrics;

@@ -82,6 +82,18 @@ pub struct Plan {
     /// `path_seed` alone.
     #[serde(default)]
     pub path_seeds: Vec<u64>,
+    /// Where the eye looks: `centre` (the default: the techniques keep
+    /// their configured centre, the foveated error looks at the image
+    /// centre) or `saccades` (scripted fixations and saccades,
+    /// [`crate::view::gaze_path`]: the inset follows the gaze as reported
+    /// `gaze_latency_ms` earlier, and the foveated error is measured where
+    /// the eye truly looks).
+    #[serde(default)]
+    pub gaze: GazeKind,
+    /// The eye tracker's latency in ms (0 to 500, default 0): how old the
+    /// gaze the techniques follow is.
+    #[serde(default)]
+    pub gaze_latency_ms: f64,
     /// The head path: `walk` (default) walks through the scene at standing
     /// height; `orbit` circles outside its bounds looking at its centre
     /// (the whole scene in view).
@@ -119,6 +131,17 @@ pub struct Plan {
 
 /// Most runs `repeats` asks for.
 pub const MAX_REPEATS: u32 = 10;
+
+/// A plan's gaze path.
+#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[serde(rename_all = "lowercase")]
+pub enum GazeKind {
+    /// The gaze on the image centre.
+    #[default]
+    Centre,
+    /// Scripted fixations and saccades.
+    Saccades,
+}
 
 /// Most head paths `path_seeds` names.
 pub const MAX_PATH_SEEDS: usize = 8;
@@ -361,6 +384,12 @@ impl Plan {
         seeds.dedup();
         if seeds.len() != self.path_seeds.len() {
             return Err("path_seeds repeats a seed".into());
+        }
+        if !(self.gaze_latency_ms.is_finite() && (0.0..=500.0).contains(&self.gaze_latency_ms)) {
+            return Err(format!(
+                "gaze_latency_ms = {} must be 0 to 500",
+                self.gaze_latency_ms
+            ));
         }
         if !(1..=MAX_REPEATS).contains(&self.repeats) {
             return Err(format!(

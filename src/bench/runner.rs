@@ -657,7 +657,12 @@ fn run_group(
     };
     let fov = profile.views[0].fov;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
-    let levels = foveation_levels(&rigs[0], extent, ppd);
+    let levels = foveation_levels(&rigs[0], extent, ppd, [[0.0; 2]; 2]);
+    let fovs = [
+        rigs[0].views[0].fov,
+        rigs[0].views[1 % rigs[0].views.len()].fov,
+    ];
+    let gaze = super::gaze::BenchGaze::new(plan, fovs, rigs.len(), plan.refresh_hz(profile));
     let group_dir = format!(
         "images/{}-{}-{}{}",
         sanitize(&group.scene),
@@ -678,6 +683,7 @@ fn run_group(
         extent,
         masks,
         levels,
+        gaze,
         ppd,
         out,
         group_dir,
@@ -722,6 +728,8 @@ struct GroupRun<'a> {
     masks: [Vec<bool>; 2],
     /// Per eye: each pixel's foveation level.
     levels: [Vec<f32>; 2],
+    /// The plan's moving gaze (None: the image centre).
+    gaze: Option<super::gaze::BenchGaze>,
     ppd: f64,
     out: &'a Path,
     group_dir: String,
@@ -805,6 +813,7 @@ impl GroupRun<'_> {
             reference: &self.reference_images,
             masks: &self.masks,
             levels: &self.levels,
+            gaze: self.gaze.as_ref(),
             ppd: self.ppd,
             inset_config: self.inset_config.as_ref(),
         };
@@ -1093,8 +1102,12 @@ struct Comparison<'a> {
     reference: &'a RefImages,
     /// Per eye: pixels the lens hides (excluded from the error).
     masks: &'a [Vec<bool>; 2],
-    /// Per eye: each pixel's foveation level (the foveated error).
+    /// Per eye: each pixel's foveation level (the foveated error) with
+    /// the eye on the image centre.
     levels: &'a [Vec<f32>; 2],
+    /// The plan's moving gaze: the techniques follow its reports and the
+    /// foveated error is measured at its true position per frame.
+    gaze: Option<&'a super::gaze::BenchGaze>,
     ppd: f64,
     /// The plan's first configuration with `inset` (lens resolved): a
     /// configuration without one has its error and flicker measured over
@@ -1135,7 +1148,7 @@ pub fn stereo_error(
         .map(|v| v.fov)
         .ok_or_else(|| crate::error::Error::config("image error", "the rig has no views"))?;
     let ppd = (metrics::headset_ppd(extent.width, fov.left, fov.right) as f64).max(MIN_FLIP_PPD);
-    let levels = foveation_levels(rig, extent, ppd);
+    let levels = foveation_levels(rig, extent, ppd, [[0.0; 2]; 2]);
     let [left, right] = [0usize, 1].map(|eye| {
         let view = EyeView {
             mask: &masks[eye],
@@ -1155,13 +1168,19 @@ pub fn stereo_error(
 }
 
 /// Per eye and pixel of eye images of `extent`, the foveated error's
-/// pyramid level ([`super::foveated::level`]) with the eye looking at the
-/// image centre, at `ppd` pixels per degree.
-fn foveation_levels(rig: &StereoRig, extent: vk::Extent2D, ppd: f64) -> [Vec<f32>; 2] {
+/// pyramid level ([`super::foveated::level`]) with each eye looking at
+/// `gaze` (NDC, +y down; the image centre is [0, 0]), at `ppd` pixels per
+/// degree.
+fn foveation_levels(
+    rig: &StereoRig,
+    extent: vk::Extent2D,
+    ppd: f64,
+    gaze: [[f64; 2]; 2],
+) -> [Vec<f32>; 2] {
     [0usize, 1].map(|eye| {
         let fov = rig.views.get(eye).or(rig.views.first()).map(|v| v.fov);
         let e = fov.map_or_else(Vec::new, |fov| {
-            super::foveated::eccentricity(extent.width, extent.height, &fov, [0.0, 0.0])
+            super::foveated::eccentricity(extent.width, extent.height, &fov, gaze[eye])
         });
         e.iter()
             .map(|&d| super::foveated::level(d as f64, ppd))
@@ -1249,6 +1268,7 @@ fn compared_frames(
         let i = (plan.warmup + k) as usize;
         let first = i.saturating_sub(lead);
         for (j, rig) in rigs.iter().enumerate().take(i + 1).skip(first) {
+            follow_gaze(driver, compare, j);
             driver.frame(rig, j as u64, j == i)?;
         }
         let pair = driver
@@ -1257,12 +1277,31 @@ fn compared_frames(
         if let Some(cmp) = compare {
             if let Some(reference) = cmp.reference.get(images.len()) {
                 let inset = config_inset_rect(config, cmp.inset_config, &rigs[i], extent);
-                errors.push(image_error(reference, &pair, cmp, inset.as_ref())?);
+                // Where the eye truly looks on this frame.
+                let moved = cmp.gaze.map(|g| {
+                    let gaze = [0, 1].map(|eye| g.true_ndc(i, eye));
+                    foveation_levels(&rigs[i], extent, cmp.ppd, gaze)
+                });
+                let levels = moved.as_ref().unwrap_or(cmp.levels);
+                errors.push(image_error(
+                    (reference, &pair),
+                    cmp,
+                    levels,
+                    inset.as_ref(),
+                )?);
             }
         }
         images.push(pair);
     }
     Ok(errors)
+}
+
+/// With the plan's moving gaze: frame `frame`'s techniques follow the
+/// gaze the tracker reported for it.
+fn follow_gaze(driver: &mut FrameDriver, compare: Option<&Comparison>, frame: usize) {
+    if let Some(g) = compare.and_then(|c| c.gaze) {
+        driver.renderer_mut().set_gaze(g.reported_ndc(frame));
+    }
 }
 
 /// Renders `config` along `rigs`: warm-up, measured frames, then the
@@ -1298,11 +1337,13 @@ fn measure(
         }
     };
     if let Some(first) = rigs.first() {
+        follow_gaze(&mut driver, compare, 0);
         if !spin_up(&mut driver, plan, first)? {
             return Ok(None);
         }
     }
     for (i, rig) in rigs.iter().enumerate() {
+        follow_gaze(&mut driver, compare, i);
         driver.frame(rig, i as u64, false)?;
         while let Some(r) = driver.take_completed() {
             keep(r, &mut frames);
@@ -1432,10 +1473,16 @@ fn warped_errors(
                 // pixels the lens shows (as the error against the
                 // reference).
                 let inset = config_inset_rect(&config, cmp.inset_config, new, extent);
-                let own_error = image_error(&truth, &out.images, cmp, inset.as_ref())?;
+                let own_error =
+                    image_error((&truth, &out.images), cmp, cmp.levels, inset.as_ref())?;
                 own.push(own_error.flip_mean);
                 if let Some(reference) = cmp.reference.get(n) {
-                    errors.push(image_error(reference, &out.images, cmp, inset.as_ref())?);
+                    errors.push(image_error(
+                        (reference, &out.images),
+                        cmp,
+                        cmp.levels,
+                        inset.as_ref(),
+                    )?);
                 }
             }
             if oldest.is_none() {
@@ -1460,15 +1507,15 @@ fn warped_errors(
 /// FLIP statistics.
 /// With `inset`, also the FLIP mean inside that rectangle.
 fn image_error(
-    reference: &[image::RgbaImage; 2],
-    test: &[image::RgbaImage; 2],
+    (reference, test): (&[image::RgbaImage; 2], &[image::RgbaImage; 2]),
     cmp: &Comparison,
+    levels: &[Vec<f32>; 2],
     inset: Option<&PixelRect>,
 ) -> Result<ImageError> {
     let [l, r] = [0usize, 1].map(|eye| {
         let view = EyeView {
             mask: &cmp.masks[eye],
-            levels: Some(&cmp.levels[eye]),
+            levels: Some(&levels[eye]),
             ppd: cmp.ppd,
         };
         eye_error(&reference[eye], &test[eye], &view, inset)

@@ -217,6 +217,8 @@ pub fn plan(
         error_frames: frames.min(2),
         path_seed: 1,
         path_seeds: Vec::new(),
+        gaze: super::plan::GazeKind::Centre,
+        gaze_latency_ms: 0.0,
         path: super::plan::PathKind::Walk,
         reference: "two-pass,msaa4".into(),
         reference_supersample,

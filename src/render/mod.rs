@@ -467,6 +467,14 @@ impl Renderer {
         self.inset_rect
     }
 
+    /// Moves the gaze the inset is centred on (NDC, +y down, both eyes)
+    /// from the next frame on: a gaze that moves during a run (the bench's
+    /// gaze paths). Foveation's shading-rate images keep the gaze they were
+    /// made with.
+    pub fn set_gaze(&mut self, ndc: [f32; 2]) {
+        self.config.effort.gaze = ndc;
+    }
+
     /// Places the following frames' inset on the runtime's focus views
     /// (their FOVs, left and right, in the eyes' poses;
     /// [`crate::view::inset::focus_rect`]) instead of around the gaze, or

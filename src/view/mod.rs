@@ -7,6 +7,7 @@ pub mod cone;
 pub mod distortion;
 pub mod foveation;
 pub mod frustum;
+pub mod gaze_path;
 pub mod inset;
 pub mod inset_hole;
 pub mod lanczos;
