@@ -103,6 +103,17 @@ enum Command {
         /// every one. Default: one path, seed 1.
         #[arg(long, value_delimiter = ',')]
         path_seeds: Vec<u64>,
+        /// Judge the candidates where the eye looks: the caps and the
+        /// ranking use the foveated FLIP and flicker.
+        #[arg(long)]
+        foveated: bool,
+        /// Where the eye looks while measuring: `centre` or `saccades`
+        /// (scripted fixations and saccades the inset follows).
+        #[arg(long, value_enum, default_value = "centre")]
+        gaze: vergence::bench::plan::GazeKind,
+        /// The eye tracker's latency with `--gaze saccades`, ms (0 to 500).
+        #[arg(long, default_value_t = 0.0)]
+        gaze_latency_ms: f64,
         /// Where to write the chosen configuration.
         #[arg(long, default_value = "vergence-tuned.toml")]
         out: PathBuf,
@@ -855,17 +866,21 @@ fn run(cli: Cli) -> anyhow::Result<()> {
             scale,
             frames,
             path_seeds,
+            foveated,
+            gaze,
+            gaze_latency_ms,
             out,
         } => tune(
             vergence::bench::tune::TuneGoal {
                 budget_ms,
                 max_flip,
                 max_flicker,
+                foveated,
             },
             &scene,
             &hmd,
             (scale, reference_supersample),
-            (frames, path_seeds),
+            (frames, path_seeds, (gaze, gaze_latency_ms)),
             &out,
         )?,
         Command::Compare {
@@ -1084,12 +1099,13 @@ fn tune(
     scene: &str,
     hmd: &str,
     scale: (f64, u32),
-    (frames, path_seeds): (u32, Vec<u64>),
+    (frames, path_seeds, gaze): (u32, Vec<u64>, (vergence::bench::plan::GazeKind, f64)),
     out: &std::path::Path,
 ) -> anyhow::Result<()> {
     use vergence::bench::tune;
     let mut plan = tune::plan(scene, hmd, scale, frames, Some(goal.budget_ms));
     plan.path_seeds = path_seeds;
+    (plan.gaze, plan.gaze_latency_ms) = gaze;
     plan.validate()
         .map_err(|m| anyhow::anyhow!("invalid tune settings: {m}"))?;
     plan.check_inputs()

@@ -352,6 +352,7 @@ fn tune_writes_a_config_run_accepts() {
         budget_ms: 10000.0,
         max_flip: Some(0.2),
         max_flicker: None,
+        foveated: false,
     };
     let chosen = tune::choose(&results, &goal).unwrap().chosen;
     assert_eq!(results.groups[0].results.len(), 1 + tune::CANDIDATES.len());

@@ -133,7 +133,17 @@ pub struct Plan {
 pub const MAX_REPEATS: u32 = 10;
 
 /// A plan's gaze path.
-#[derive(Clone, Copy, Debug, Default, PartialEq, Eq, serde::Serialize, serde::Deserialize)]
+#[derive(
+    Clone,
+    Copy,
+    Debug,
+    Default,
+    PartialEq,
+    Eq,
+    serde::Serialize,
+    serde::Deserialize,
+    clap::ValueEnum,
+)]
 #[serde(rename_all = "lowercase")]
 pub enum GazeKind {
     /// The gaze on the image centre.

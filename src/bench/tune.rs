@@ -145,6 +145,10 @@ pub struct TuneGoal {
     /// Temporal error cap (`--max-flicker`): a candidate whose flicker
     /// (`bench::flicker`) exceeds it, or was not measured, is left out.
     pub max_flicker: Option<FlickerCap>,
+    /// `--foveated`: the caps and the ranking use the foveated error and
+    /// flicker (`flip_foveated_mean`, `flicker_foveated`) instead of the
+    /// uniform ones.
+    pub foveated: bool,
 }
 
 /// A temporal error cap: a number, or whatever the `baseline` candidate
@@ -284,6 +288,40 @@ fn flip_text(r: &ConfigResult) -> String {
 /// the fastest. Candidates without a measured error are left out and say
 /// so. Errors when none qualifies, naming the fastest.
 pub fn choose(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
+    if goal.foveated {
+        let mut choice = choose_in(&foveated_view(results), goal)?;
+        // The chosen candidate's own figures, uniform and foveated.
+        if let Some(own) = results.groups.iter().flat_map(|g| &g.results).find(|r| {
+            r.name == choice.chosen.name && r.wall_frame_ms == choice.chosen.wall_frame_ms
+        }) {
+            choice.chosen = own.clone();
+        }
+        choice
+            .why
+            .insert(0, "errors judged where the eye looks: FLIP and flicker below are the foveated ones (flip_foveated_mean, flicker_foveated)".into());
+        return Ok(choice);
+    }
+    choose_in(results, goal)
+}
+
+/// `results` with each candidate's FLIP mean and flicker replaced by their
+/// foveated values (absent where those were not measured).
+fn foveated_view(results: &BenchResults) -> BenchResults {
+    let mut view = results.clone();
+    for r in view.groups.iter_mut().flat_map(|g| g.results.iter_mut()) {
+        r.error = r.error.and_then(|e| {
+            Some(super::runner::ImageError {
+                flip_mean: e.flip_foveated_mean?,
+                ..e
+            })
+        });
+        r.flicker = r.flicker_foveated;
+    }
+    view
+}
+
+/// [`choose`] on the figures as given.
+fn choose_in(results: &BenchResults, goal: &TuneGoal) -> Result<Choice> {
     let groups = &results.groups;
     if groups.is_empty() {
         return Err(Error::config("tune", "nothing was measured"));
@@ -525,6 +563,32 @@ mod tests {
     }
 
     #[test]
+    fn foveated_caps_judge_the_error_where_the_eye_looks() {
+        let mut r = results();
+        // "fast" is over a 0.02 cap uniformly (0.04) but under it foveated.
+        for c in &mut r.groups[0].results {
+            if let Some(e) = c.error.as_mut() {
+                e.flip_foveated_mean = Some(e.flip_mean / 4.0);
+            }
+        }
+        let mut g = goal(10.0, Some(0.02));
+        assert_eq!(choose(&r, &g).unwrap().chosen.name, "mid");
+        g.foveated = true;
+        let c = choose(&r, &g).unwrap();
+        assert_eq!(c.chosen.name, "fast");
+        // The chosen candidate keeps its own uniform figure.
+        assert_eq!(c.chosen.error.unwrap().flip_mean, 0.04);
+        assert!(c.why[0].contains("foveated"));
+        // Without a foveated error a candidate is left out.
+        for c in &mut r.groups[0].results {
+            if let Some(e) = c.error.as_mut() {
+                e.flip_foveated_mean = None;
+            }
+        }
+        assert!(choose(&r, &g).is_err());
+    }
+
+    #[test]
     fn on_several_paths_a_candidate_must_qualify_on_each_and_is_judged_by_its_worst() {
         let mut r = results();
         let mut second = r.groups[0].clone();
@@ -564,6 +628,7 @@ mod tests {
             budget_ms: 10.0,
             max_flip: None,
             max_flicker: None,
+            foveated: false,
         };
         assert_eq!(choose(&results(), &goal).unwrap().chosen.name, "mid");
     }
@@ -574,6 +639,7 @@ mod tests {
             budget_ms: 10.0,
             max_flip: Some(0.05),
             max_flicker: None,
+            foveated: false,
         };
         let c = choose(&results(), &goal).unwrap();
         assert_eq!(c.chosen.name, "fast");
@@ -591,6 +657,7 @@ mod tests {
             budget_ms,
             max_flip,
             max_flicker: None,
+            foveated: false,
         }
     }
 
@@ -693,6 +760,7 @@ mod tests {
             budget_ms: 10.0,
             max_flip: Some(0.05),
             max_flicker: Some(FlickerCap::Value(0.01)),
+            foveated: false,
         };
         let c = choose(&r, &goal).unwrap();
         assert_eq!(c.chosen.name, "mid");
@@ -703,6 +771,7 @@ mod tests {
         );
         let capped = TuneGoal {
             max_flicker: Some(FlickerCap::Value(0.001)),
+            foveated: false,
             ..goal
         };
         let e = choose(&r, &capped).unwrap_err().to_string();
@@ -730,6 +799,7 @@ mod tests {
             budget_ms: 10.0,
             max_flip: Some(0.05),
             max_flicker: Some(FlickerCap::Baseline),
+            foveated: false,
         };
         let c = choose(&r, &goal).unwrap();
         assert_eq!(c.chosen.name, "mid");
@@ -767,6 +837,7 @@ mod tests {
             budget_ms: 1.0,
             max_flip: None,
             max_flicker: None,
+            foveated: false,
         };
         let e = choose(&results(), &goal).unwrap_err().to_string();
         assert!(
