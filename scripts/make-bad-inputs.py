@@ -313,6 +313,20 @@ ktx2_case("ktx2-etc1s-wrong-size.ktx2", ["KTX2"],
           etc1s[:20] + struct.pack("<II", 4096, 4096) + etc1s[28:])
 ktx2_case("ktx2-short-level.ktx2", ["KTX2 level 0 holds 16 bytes, but 4x4 RGBA8 needs 64"],
           ktx2(w=4, h=4, texels=4))
+# Found by mutation fuzzing (tests/fuzz_mutate.rs): the transcoder walks
+# the key/value entries with unchecked arithmetic, and an entry whose
+# padding runs past the data's end underflowed it. kvdByteOffset and
+# kvdByteLength are at bytes 56..64: the data made one byte shorter and its
+# first entry as long as the rest less one byte.
+def kvd_padding_past_end(data):
+    start, length = struct.unpack("<II", data[56:64])
+    length -= 1
+    entry = length - 4 - 1
+    out = bytearray(data)
+    out[56:64] = struct.pack("<II", start, length)
+    out[start:start + 4] = struct.pack("<I", entry)
+    return bytes(out)
+ktx2_case("ktx2-kvd-padding-past-end.ktx2", ["padding runs past the data's end"], kvd_padding_past_end(etc1s))
 # Found by mutation fuzzing (tests/fuzz_mutate.rs): the transcoder
 # allocated a level's declared uncompressed length (here 32 GiB) before
 # inflating it. Level 0's uncompressedByteLength is at bytes 96..104.

@@ -383,7 +383,29 @@ fn image_decoding() {
 #[test]
 #[ignore]
 fn draco_and_basis_decoders() {
-    use vergence::scene::draco::{decode, DracoExt, Expected};
+    let seeds = draco_and_basis_seeds();
+    fuzz("draco_and_basis_decoders", 3, seeds, draco_and_basis);
+}
+
+/// Replays the inputs the draco/basis target saved (under
+/// `target/fuzz-mutate/`), each outside the harness so its panic shows.
+#[test]
+#[ignore]
+fn replay_draco_and_basis() {
+    let dir = common::root().join("target/fuzz-mutate");
+    for e in std::fs::read_dir(&dir).unwrap().flatten() {
+        if e.file_name()
+            .to_string_lossy()
+            .starts_with("draco_and_basis_decoders-")
+        {
+            eprintln!("replaying {}", e.path().display());
+            draco_and_basis(&std::fs::read(e.path()).unwrap());
+        }
+    }
+}
+
+/// The Draco stream of `Box.draco.glb` and the vendored KTX2 textures.
+fn draco_and_basis_seeds() -> Vec<Vec<u8>> {
     let mut seeds = Vec::new();
     let glb = std::fs::read(common::root().join("assets/Box/Box.draco.glb")).unwrap();
     // Box.draco.glb's Draco stream: bufferView 0, 118 bytes at the start
@@ -395,23 +417,27 @@ fn draco_and_basis_decoders() {
     for f in ["CesiumLogoFlat.etc1s.ktx2", "CesiumLogoFlat.uastc.ktx2"] {
         seeds.push(std::fs::read(common::root().join("assets/BoxTextured").join(f)).unwrap());
     }
+    seeds
+}
+
+/// One input through the KTX2/Basis transcoder and the Draco decoder.
+fn draco_and_basis(data: &[u8]) {
+    use vergence::scene::draco::{decode, DracoExt, Expected};
     let ext = DracoExt {
         view: 0,
         attributes: vec![("NORMAL".into(), 0), ("POSITION".into(), 1)],
     };
-    fuzz("draco_and_basis_decoders", 3, seeds, |data| {
-        let _ = vergence::scene::image_decode::decode_ktx2_rgba8(data);
-        let expected = Expected {
-            vertices: 24,
-            indices: Some(36),
-            max_bytes: 64 << 20,
-        };
-        if let Ok(d) = decode(data, &ext, expected) {
-            assert!(d.indices.iter().all(|&i| i < 24));
-            let p = d.floats::<3>("POSITION", false).unwrap();
-            assert!(p.is_ok_and(|p| p.len() == 24));
-        }
-    });
+    let _ = vergence::scene::image_decode::decode_ktx2_rgba8(data);
+    let expected = Expected {
+        vertices: 24,
+        indices: Some(36),
+        max_bytes: 64 << 20,
+    };
+    if let Ok(d) = decode(data, &ext, expected) {
+        assert!(d.indices.iter().all(|&i| i < 24));
+        let p = d.floats::<3>("POSITION", false).unwrap();
+        assert!(p.is_ok_and(|p| p.len() == 24));
+    }
 }
 
 #[test]

@@ -113,6 +113,7 @@ pub const KTX2_MAGIC: [u8; 12] = [
 /// `R8G8B8A8_SRGB` data without supercompression is decoded.
 pub fn decode_ktx2_rgba8(bytes: &[u8]) -> Result<image::RgbaImage, String> {
     check_dfd_block_dimensions(bytes)?;
+    check_key_values(bytes)?;
     let r = ktx2::Reader::new(bytes).map_err(|e| format!("invalid KTX2 container: {e}"))?;
     let h = r.header();
     let (w, ht) = (h.pixel_width, h.pixel_height.max(1));
@@ -217,6 +218,48 @@ fn check_dfd_block_dimensions(bytes: &[u8]) -> Result<(), String> {
 }
 
 /// Builds a minimal KTX2 file (one level, no supercompression) holding
+/// The key/value data of a KTX2 file (KTX 2.0 §3.11: entries of a `u32`
+/// length and `key\0value`, each padded to 4 bytes, padding included in
+/// `kvdByteLength`): every entry and its padding within the data. The Basis
+/// transcoder walks these entries with unchecked arithmetic, so an entry
+/// whose padding runs past the end is refused here first.
+fn check_key_values(bytes: &[u8]) -> Result<(), String> {
+    let word = |at: usize| -> Option<usize> {
+        let b = bytes.get(at..at + 4)?;
+        Some(u32::from_le_bytes([b[0], b[1], b[2], b[3]]) as usize)
+    };
+    let (Some(start), Some(length)) = (word(56), word(60)) else {
+        return Ok(());
+    };
+    if length == 0 {
+        return Ok(());
+    }
+    let end = start
+        .checked_add(length)
+        .filter(|&e| e <= bytes.len())
+        .ok_or("KTX2 key/value data runs past the end of the file")?;
+    let mut p = start;
+    while end - p > 4 {
+        let l = word(p).ok_or("KTX2 key/value data is cut short")?;
+        p += 4;
+        if l > end - p {
+            return Err(format!(
+                "KTX2 key/value entry at byte {} is {l} bytes long, past the data's end",
+                p - 4
+            ));
+        }
+        p += l;
+        let padded = p + ((4 - (p & 3)) & 3);
+        if padded > end {
+            return Err(format!(
+                "KTX2 key/value entry ending at byte {p}: its padding runs past the data's end ({end})"
+            ));
+        }
+        p = padded;
+    }
+    Ok(())
+}
+
 /// `rgba` as `R8G8B8A8_UNORM`, with the basic data format descriptor the
 /// KTX 2.0 specification (§4 and Khronos Data Format 1.3 §5.6) requires.
 /// For tests and the bad-input generator.
