@@ -220,7 +220,7 @@ pub fn plain(e: &std::io::Error) -> String {
     }
     #[cfg(unix)]
     if e.raw_os_error() == Some(libc::ELOOP) {
-        return "a link, which vergence does not follow".into();
+        return "too many levels of links (a link loop, or a link where none is followed)".into();
     }
     let text = match e.kind() {
         K::InvalidInput => "the file system refused this name or operation (a character it does not allow in a name, or an operation it cannot do)",

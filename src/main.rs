@@ -990,8 +990,7 @@ fn run_bench(
     let ctx = Arc::new(vergence::gpu::Context::new_headless(
         vergence::gpu::Validation::from_env(),
     )?);
-    let total = plan.scenes.len() * plan.hmds.len() * plan.scales.len() * (plan.configs.len() + 1);
-    let bar = indicatif::ProgressBar::new(total as u64);
+    let bar = indicatif::ProgressBar::new(0);
     bar.set_style(
         indicatif::ProgressStyle::with_template("{bar:30} {pos}/{len} {elapsed} {msg}")
             .unwrap_or_else(|_| indicatif::ProgressStyle::default_bar()),
@@ -1000,7 +999,8 @@ fn run_bench(
     // finished step instead.
     let plain = !std::io::IsTerminal::is_terminal(&std::io::stderr());
     let started = std::time::Instant::now();
-    let results = vergence::bench::runner::run_plan(&ctx, plan, out, &mut |done, _, label| {
+    let results = vergence::bench::runner::run_plan(&ctx, plan, out, &mut |done, total, label| {
+        bar.set_length(total as u64);
         bar.set_position(done as u64);
         bar.set_message(label.to_string());
         if plain {

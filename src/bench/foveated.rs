@@ -179,6 +179,15 @@ fn pyramid(img: &image::RgbaImage, top: usize) -> Vec<image::RgbaImage> {
     levels
 }
 
+/// `img` with the pixels `hidden` marks opaque black.
+fn blacked_out(img: &image::RgbaImage, hidden: &[bool]) -> image::RgbaImage {
+    let mut out = img.clone();
+    for (p, _) in out.pixels_mut().zip(hidden).filter(|(_, &h)| h) {
+        *p = image::Rgba([0, 0, 0, 255]);
+    }
+    out
+}
+
 /// The highest level any pixel `hidden` does not mark needs.
 fn top_level(levels: &[f32], hidden: &[bool]) -> usize {
     let visible = levels
@@ -238,7 +247,10 @@ pub fn flip_map(
 }
 
 /// The foveated temporal error per pixel ([`flicker::per_pixel`] of each
-/// level's sequences, blended as [`flip_map`] blends).
+/// level's sequences, blended as [`flip_map`] blends). The pixels `hidden`
+/// marks are blacked out in every frame first, so the blur of the coarse
+/// levels carries nothing from where the lens shows nothing into what it
+/// shows.
 pub fn flicker_map(
     test: &[image::RgbaImage],
     reference: &[image::RgbaImage],
@@ -247,7 +259,10 @@ pub fn flicker_map(
 ) -> Result<Vec<f32>> {
     let top = top_level(levels, hidden);
     let per_level = |frames: &[image::RgbaImage]| -> Vec<Vec<image::RgbaImage>> {
-        let pyramids: Vec<_> = frames.iter().map(|f| pyramid(f, top)).collect();
+        let pyramids: Vec<_> = frames
+            .iter()
+            .map(|f| pyramid(&blacked_out(f, hidden), top))
+            .collect();
         (0..=top)
             .map(|k| pyramids.iter().map(|p| p[k].clone()).collect())
             .collect()

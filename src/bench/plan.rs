@@ -120,8 +120,9 @@ pub struct Plan {
     pub frames_in_flight: u32,
     /// Times each configuration's frames are timed (1 to 10, default 1):
     /// with more, the reports give each median's and speed-up's range over
-    /// the runs (each run's speed-up against the baseline's run of the
-    /// same number), the run-to-run spread a single run cannot show. Images
+    /// the runs (the speed-up from the baseline's fastest run over the
+    /// configuration's slowest to its slowest over the fastest), the
+    /// run-to-run spread a single run cannot show. Images
     /// and errors come from the first run.
     #[serde(default = "one")]
     pub repeats: u32,

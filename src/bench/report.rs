@@ -63,7 +63,7 @@ gpu_p50_ms,gpu_p95_ms,gpu_p99_ms,gpu_max_ms,gpu_std_ms,frames_in_flight,wall_fra
 model_frame_p50_ms,cpu_cull_ms,cpu_batch_ms,cpu_record_ms,cpu_submit_ms,cpu_frame_p50_ms,frames,frames_over_budget,frames_over_2x_budget,\
 draw_calls,instances_drawn,triangles,fragment_invocations,gpu_allocated_bytes,gpu_usage_bytes,gpu_budget_bytes,rss_bytes,\
 flip_mean,flip_p99,psnr_db,ssim,cull_false_positives,cull_false_negatives,gpu_speedup,frame_speedup,flip_inset_mean,\
-flip_foveated_mean,flicker,flicker_foveated";
+flip_foveated_mean,flicker,flicker_foveated,path_seed,gpu_speedup_low,gpu_speedup_high";
 
 fn quote(s: &str) -> String {
     if s.contains([',', '"', '\n']) {
@@ -138,6 +138,9 @@ pub fn csv(results: &BenchResults) -> String {
                 opt_num(e.and_then(|e| e.flip_foveated_mean)),
                 opt_num(r.flicker),
                 opt_num(r.flicker_foveated),
+                g.path_seed.to_string(),
+                opt_num(r.gpu_speedup_range.map(|[lo, _]| lo)),
+                opt_num(r.gpu_speedup_range.map(|[_, hi]| hi)),
             ];
             s.push_str(&fields.join(","));
             s.push('\n');

@@ -39,8 +39,9 @@ pub struct ImageError {
     /// plan has no inset.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub flip_inset_mean: Option<f64>,
-    /// FLIP as the eye sees it looking at the image centre
-    /// ([`super::foveated`]: each pixel low-passed to what the eye
+    /// FLIP as the eye sees it, looking at the image centre or, with the
+    /// plan's `gaze = "saccades"`, where it truly looks on each compared
+    /// frame ([`super::foveated`]: each pixel low-passed to what the eye
     /// resolves at its eccentricity), over visible pixels, averaged over
     /// eyes and compared frames; never above `flip_mean`.
     #[serde(default, skip_serializing_if = "Option::is_none")]
@@ -215,8 +216,9 @@ pub struct ConfigResult {
     /// frame medians, the first run (this result's own figures) first.
     #[serde(default, skip_serializing_if = "Vec::is_empty")]
     pub runs: Vec<RunMedians>,
-    /// With `runs`: the least and greatest GPU speed-up over the runs,
-    /// each run against the baseline's run of the same number.
+    /// With `runs`: the GPU speed-up's range over the runs: the baseline's
+    /// fastest run over this configuration's slowest to the baseline's
+    /// slowest over its fastest.
     #[serde(default, skip_serializing_if = "Option::is_none")]
     pub gpu_speedup_range: Option<[f64; 2]>,
     /// Left-eye image of the last compared frame, relative to the output
@@ -833,7 +835,7 @@ impl GroupRun<'_> {
         else {
             return Ok(None);
         };
-        if !self.repeat(c, &config, &mut r)? {
+        if !self.repeat(c, (&config, &compare), &mut r)? {
             return Ok(None);
         }
         r.image = Some(save_left(self.out, &self.group_dir, &c.name, &images)?);
@@ -855,7 +857,7 @@ impl GroupRun<'_> {
     fn repeat(
         &self,
         c: &super::plan::PlanConfig,
-        config: &RenderConfig,
+        (config, compare): (&RenderConfig, &Comparison),
         r: &mut ConfigResult,
     ) -> Result<bool> {
         if self.plan.repeats < 2 {
@@ -876,7 +878,8 @@ impl GroupRun<'_> {
                 (&c.name, &c.opt, config),
                 self.plan.refresh_hz(self.profile),
                 None,
-                None,
+                // No images: only the gaze is taken from it.
+                Some(compare),
                 None,
             )?
             else {
@@ -1086,13 +1089,17 @@ fn fill_speedups(group: &mut Group) {
         for r in &mut group.results {
             r.gpu_speedup = (r.gpu_frame_ms.p50 > 0.0).then(|| gpu / r.gpu_frame_ms.p50);
             r.frame_speedup = (r.wall_frame_ms.p50 > 0.0).then(|| frame / r.wall_frame_ms.p50);
-            let pairs = base_runs.iter().zip(&r.runs);
-            let ratios = pairs
-                .filter(|(_, c)| c.gpu_p50 > 0.0)
-                .map(|(b, c)| b / c.gpu_p50);
-            r.gpu_speedup_range = (r.runs.len() == base_runs.len())
-                .then(|| range(ratios))
-                .flatten();
+            // The runs of one configuration come one after the other, so
+            // a baseline run has no partner: the range spans the fastest
+            // baseline over the slowest run to the slowest over the fastest.
+            let base = range(base_runs.iter().copied());
+            let own = range(r.runs.iter().map(|x| x.gpu_p50));
+            r.gpu_speedup_range = match (base, own) {
+                (Some([b_lo, b_hi]), Some([c_lo, c_hi])) if c_lo > 0.0 => {
+                    Some([b_lo / c_hi, b_hi / c_lo])
+                }
+                _ => None,
+            };
         }
     }
 }

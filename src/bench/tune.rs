@@ -255,11 +255,15 @@ pub fn summary(choice: &Choice, goal: &TuneGoal) -> super::runner::TuneChoice {
             FlickerCap::Value(v) => v.to_string(),
             FlickerCap::Baseline => "the baseline's".to_string(),
         }),
-        rule: if goal.max_flip.is_some() {
-            "the fastest within the budget and the caps".to_string()
-        } else {
-            "the least FLIP error within the budget".to_string()
-        },
+        rule: match (goal.max_flip.is_some(), goal.foveated) {
+            (true, false) => "the fastest within the budget and the caps",
+            (true, true) => {
+                "the fastest within the budget and the caps on the foveated FLIP and flicker"
+            }
+            (false, false) => "the least FLIP error within the budget",
+            (false, true) => "the least foveated FLIP error within the budget",
+        }
+        .to_string(),
         why: choice.why.clone(),
     }
 }
@@ -505,17 +509,22 @@ pub fn config_file(choice: &Choice, goal: &TuneGoal, results: &BenchResults) -> 
     let c = &choice.chosen;
     let mut s = String::new();
     let _ = writeln!(s, "# Written by vergence tune on {}.", results.device);
+    let foveated = c.error.and_then(|e| e.flip_foveated_mean);
     let _ = writeln!(
         s,
-        "# Budget {:.3} ms{}; chosen '{}': wall-clock frame p95 {:.3} ms, GPU p50 {:.3} ms, FLIP mean {}.",
+        "# Budget {:.3} ms{}; chosen '{}': wall-clock frame p95 {:.3} ms, GPU p50 {:.3} ms, FLIP mean {}{}.",
         goal.budget_ms,
         goal.max_flip
-            .map(|m| format!(", FLIP cap {m}"))
+            .map(|m| format!(", {}FLIP cap {m}", if goal.foveated { "foveated " } else { "" }))
             .unwrap_or_default(),
         c.name,
         c.wall_frame_ms.p95,
         c.gpu_frame_ms.p50,
-        flip_text(c)
+        flip_text(c),
+        foveated
+            .filter(|_| goal.foveated)
+            .map(|f| format!(", foveated FLIP mean {f:.4}"))
+            .unwrap_or_default()
     );
     let _ = writeln!(s, "# Use: vergence run --config THIS_FILE");
     let _ = writeln!(s, "opt = {:?}", c.opt);

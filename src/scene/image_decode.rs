@@ -217,7 +217,6 @@ fn check_dfd_block_dimensions(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
-/// Builds a minimal KTX2 file (one level, no supercompression) holding
 /// The key/value data of a KTX2 file (KTX 2.0 §3.11: entries of a `u32`
 /// length and `key\0value`, each padded to 4 bytes, padding included in
 /// `kvdByteLength`): every entry and its padding within the data. The Basis
@@ -260,6 +259,7 @@ fn check_key_values(bytes: &[u8]) -> Result<(), String> {
     Ok(())
 }
 
+/// Builds a minimal KTX2 file (one level, no supercompression) holding
 /// `rgba` as `R8G8B8A8_UNORM`, with the basic data format descriptor the
 /// KTX 2.0 specification (§4 and Khronos Data Format 1.3 §5.6) requires.
 /// For tests and the bad-input generator.

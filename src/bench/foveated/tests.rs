@@ -129,3 +129,28 @@ fn the_foveated_flicker_is_the_flicker_at_the_fovea_and_less_far_out() {
     assert!(out.iter().zip(&plain).all(|(f, p)| f <= p));
     assert!(out.iter().sum::<f32>() < 0.5 * plain.iter().sum::<f32>());
 }
+
+#[test]
+fn what_the_lens_hides_does_not_leak_into_the_foveated_flicker() {
+    // The test changes only in the hidden left half; the reference is
+    // still. The visible half must score no flicker at any level.
+    let (w, h) = (32u32, 16u32);
+    let hidden: Vec<bool> = (0..w * h).map(|i| i % w < w / 2).collect();
+    let still = image::RgbaImage::from_pixel(w, h, image::Rgba([90, 90, 90, 255]));
+    let test: Vec<_> = (0..3u8)
+        .map(|k| {
+            image::RgbaImage::from_fn(w, h, |x, _| {
+                let v = if x < w / 2 { 60 * k } else { 90 };
+                image::Rgba([v, v, v, 255])
+            })
+        })
+        .collect();
+    let reference = vec![still.clone(), still.clone(), still];
+    let far = vec![level(60.0, 14.0); (w * h) as usize];
+    let map = flicker_map(&test, &reference, &far, &hidden).unwrap();
+    for (i, v) in map.iter().enumerate() {
+        if !hidden[i] {
+            assert_eq!(*v, 0.0, "pixel {i}");
+        }
+    }
+}

@@ -5,7 +5,9 @@
 //! ([`super::Passes::techniques`]) that it iterates at each point of the
 //! frame: per-slot data before recording, work before the scopes, draws
 //! inside each scope, work after the resolve, the frame's stats and the
-//! report. A new one lives in its own file plus one line in [`REGISTRY`].
+//! report. A new one lives in its own file plus one line in [`REGISTRY`]
+//! (and, where the plan must change for it, a flag in
+//! [`crate::render::plan::PlanInput`] that its `plan` hook sets).
 //!
 //! Techniques that shape the scopes themselves (the inset, lens-matched
 //! shading, the far field, occlusion) extend the frame plan
